@@ -1,0 +1,170 @@
+//! Frames and attitude: direction cosine matrices, rotation vectors and quaternions.
+//!
+//! Conventions (see `docs/conventions.md`):
+//! - a DCM is named by its two frames, `c_a_to_b`, and maps a vector's coordinates in frame `a`
+//!   into frame `b`: `v_b = c_a_to_b * v_a`;
+//! - [`skew`] is the ordinary cross-product matrix, `skew(a) * b = a x b`. The paper's hat operator
+//!   is its negative, [`paper_hat`]`(w) v = v x w`;
+//! - [`rot_x`], [`rot_y`], [`rot_z`] are *active* rotations (right-hand rule, positive angle turns a
+//!   vector counter-clockwise when seen from the tip of the axis). The DCM of a frame `b` obtained by
+//!   turning frame `a` through angle `t` about axis `k` is `c_b_to_a = rot_k(t)`.
+
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+
+/// Ordinary cross-product matrix: `skew(a) * b == a.cross(&b)`.
+pub fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
+}
+
+/// The paper's hat operator: `paper_hat(w) * v == v.cross(&w)`, i.e. `-skew(w)`.
+pub fn paper_hat(w: &Vector3<f64>) -> Matrix3<f64> {
+    -skew(w)
+}
+
+/// Active rotation about the first axis.
+pub fn rot_x(angle: f64) -> Matrix3<f64> {
+    let (s, c) = angle.sin_cos();
+    Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+}
+
+/// Active rotation about the second axis.
+pub fn rot_y(angle: f64) -> Matrix3<f64> {
+    let (s, c) = angle.sin_cos();
+    Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
+}
+
+/// Active rotation about the third axis.
+pub fn rot_z(angle: f64) -> Matrix3<f64> {
+    let (s, c) = angle.sin_cos();
+    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+}
+
+/// Rotation matrix of the rotation vector `phi` (Rodrigues): `exp(skew(phi))`.
+pub fn exp_so3(phi: &Vector3<f64>) -> Matrix3<f64> {
+    let t2 = phi.norm_squared();
+    let k = skew(phi);
+    // Series for small angles keeps full precision near zero.
+    let (a, b) = if t2 < 1e-8 {
+        (1.0 - t2 / 6.0 + t2 * t2 / 120.0, 0.5 - t2 / 24.0 + t2 * t2 / 720.0)
+    } else {
+        let t = t2.sqrt();
+        (t.sin() / t, (1.0 - t.cos()) / t2)
+    };
+    Matrix3::identity() + k * a + k * k * b
+}
+
+/// Rotation vector of a rotation matrix (inverse of [`exp_so3`] for angles below pi).
+pub fn log_so3(c: &Matrix3<f64>) -> Vector3<f64> {
+    // sin(t) * axis from the antisymmetric part, cos(t) from the trace; atan2 keeps precision
+    // for tiny angles, where acos of the trace would not.
+    let v = 0.5 * Vector3::new(c[(2, 1)] - c[(1, 2)], c[(0, 2)] - c[(2, 0)], c[(1, 0)] - c[(0, 1)]);
+    let s = v.norm();
+    let co = 0.5 * (c.trace() - 1.0);
+    let t = s.atan2(co);
+    if t < 3.0 {
+        if s < 1e-300 {
+            return v;
+        }
+        v * (t / s)
+    } else {
+        // Near pi the antisymmetric part vanishes; use the symmetric part instead.
+        Rotation3::from_matrix_unchecked(*c).scaled_axis()
+    }
+}
+
+/// Re-orthonormalise a nearly orthogonal matrix (nearest rotation, via the quaternion).
+pub fn orthonormalize(c: &Matrix3<f64>) -> Matrix3<f64> {
+    let q = UnitQuaternion::from_matrix_eps(c, 1e-15, 50, UnitQuaternion::identity());
+    q.to_rotation_matrix().into_inner()
+}
+
+/// Quaternion of a DCM (`q` rotates frame-`a` coordinates into frame `b` like `c_a_to_b`).
+pub fn dcm_to_quat(c: &Matrix3<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*c))
+}
+
+/// DCM of a quaternion.
+pub fn quat_to_dcm(q: &UnitQuaternion<f64>) -> Matrix3<f64> {
+    q.to_rotation_matrix().into_inner()
+}
+
+/// The paper's orientation matrix `L = C_x->z` from the body-to-ENU DCM: `L = c_body_to_enu^T`.
+pub fn paper_l(c_body_to_enu: &Matrix3<f64>) -> Matrix3<f64> {
+    c_body_to_enu.transpose()
+}
+
+/// Small-angle attitude error `beta` (x frame) between a computed and a true body-to-ENU DCM,
+/// with the paper's sign: the computed DCM is `exp(-skew(beta)) * c_true`, so that the computed
+/// specific force in ENU is `f_x + f_x x beta` to first order.
+pub fn attitude_error(c_computed: &Matrix3<f64>, c_true: &Matrix3<f64>) -> Vector3<f64> {
+    -log_so3(&(c_computed * c_true.transpose()))
+}
+
+/// Apply an attitude error: the computed DCM `exp(-skew(beta)) * c_true`.
+pub fn apply_attitude_error(beta: &Vector3<f64>, c_true: &Matrix3<f64>) -> Matrix3<f64> {
+    exp_so3(&(-beta)) * c_true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn skew_is_the_cross_product_and_paper_hat_its_negative() {
+        let a = Vector3::new(0.3, -1.2, 2.0);
+        let b = Vector3::new(-0.7, 0.4, 1.1);
+        assert!((skew(&a) * b - a.cross(&b)).norm() < 1e-15);
+        assert!((paper_hat(&a) * b - b.cross(&a)).norm() < 1e-15);
+        // The paper writes hat(w) with rows (0, w3, -w2), (-w3, 0, w1), (w2, -w1, 0).
+        let h = paper_hat(&a);
+        assert_eq!(h[(0, 1)], a.z);
+        assert_eq!(h[(0, 2)], -a.y);
+        assert_eq!(h[(1, 2)], a.x);
+    }
+
+    #[test]
+    fn elementary_rotations_are_active_and_match_exp() {
+        let t = 0.4;
+        assert!((rot_x(t) - exp_so3(&Vector3::new(t, 0.0, 0.0))).norm() < 1e-15);
+        assert!((rot_y(t) - exp_so3(&Vector3::new(0.0, t, 0.0))).norm() < 1e-15);
+        assert!((rot_z(t) - exp_so3(&Vector3::new(0.0, 0.0, t))).norm() < 1e-15);
+        // Active: x turns towards y under a positive rotation about z.
+        let v = rot_z(std::f64::consts::FRAC_PI_2) * Vector3::x();
+        assert!((v - Vector3::y()).norm() < 1e-15);
+    }
+
+    #[test]
+    fn exp_log_round_trip_including_tiny_angles() {
+        for phi in [
+            Vector3::new(0.1, -0.2, 0.3),
+            Vector3::new(1e-9, 2e-9, -1e-9),
+            Vector3::new(2.0, 1.0, -0.5),
+        ] {
+            let c = exp_so3(&phi);
+            assert!((c * c.transpose() - Matrix3::identity()).norm() < 1e-14);
+            assert!((log_so3(&c) - phi).norm() < 1e-12 * (1.0 + phi.norm()));
+        }
+    }
+
+    #[test]
+    fn quaternion_round_trip() {
+        let c = exp_so3(&Vector3::new(0.5, -0.3, 1.2));
+        let q = dcm_to_quat(&c);
+        assert!((quat_to_dcm(&q) - c).norm() < 1e-14);
+        let v = Vector3::new(1.0, 2.0, 3.0);
+        assert!((q * v - c * v).norm() < 1e-14);
+    }
+
+    #[test]
+    fn attitude_error_round_trip_and_sign() {
+        let c = exp_so3(&Vector3::new(0.2, 0.9, -0.4));
+        let beta = Vector3::new(1e-3, -2e-3, 5e-4);
+        let cc = apply_attitude_error(&beta, &c);
+        assert!((attitude_error(&cc, &c) - beta).norm() < 1e-12);
+        // The computed specific force in ENU is f_x + f_x x beta to first order (paper's w).
+        let f_body = c.transpose() * Vector3::new(0.0, 0.0, 9.8);
+        let w = cc * f_body - c * f_body;
+        let lin = Vector3::new(0.0, 0.0, 9.8).cross(&beta);
+        assert!((w - lin).norm() < 9.8 * beta.norm_squared());
+    }
+}
