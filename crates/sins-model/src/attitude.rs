@@ -45,7 +45,10 @@ pub fn exp_so3(phi: &Vector3<f64>) -> Matrix3<f64> {
     let k = skew(phi);
     // Series for small angles keeps full precision near zero.
     let (a, b) = if t2 < 1e-8 {
-        (1.0 - t2 / 6.0 + t2 * t2 / 120.0, 0.5 - t2 / 24.0 + t2 * t2 / 720.0)
+        (
+            1.0 - t2 / 6.0 + t2 * t2 / 120.0,
+            0.5 - t2 / 24.0 + t2 * t2 / 720.0,
+        )
     } else {
         let t = t2.sqrt();
         (t.sin() / t, (1.0 - t.cos()) / t2)
@@ -57,7 +60,12 @@ pub fn exp_so3(phi: &Vector3<f64>) -> Matrix3<f64> {
 pub fn log_so3(c: &Matrix3<f64>) -> Vector3<f64> {
     // sin(t) * axis from the antisymmetric part, cos(t) from the trace; atan2 keeps precision
     // for tiny angles, where acos of the trace would not.
-    let v = 0.5 * Vector3::new(c[(2, 1)] - c[(1, 2)], c[(0, 2)] - c[(2, 0)], c[(1, 0)] - c[(0, 1)]);
+    let v = 0.5
+        * Vector3::new(
+            c[(2, 1)] - c[(1, 2)],
+            c[(0, 2)] - c[(2, 0)],
+            c[(1, 0)] - c[(0, 1)],
+        );
     let s = v.norm();
     let co = 0.5 * (c.trace() - 1.0);
     let t = s.atan2(co);

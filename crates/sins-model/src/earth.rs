@@ -104,8 +104,12 @@ mod tests {
     #[test]
     fn normal_gravity_matches_published_values() {
         // WGS-84 normal gravity on the ellipsoid: 9.7803253359 at the equator, 9.8321849378 at the pole.
-        assert!((Site::from_degrees(0.0, 0.0, 0.0).normal_gravity() - 9.780_325_335_9).abs() < 1e-9);
-        assert!((Site::from_degrees(90.0, 0.0, 0.0).normal_gravity() - 9.832_184_937_8).abs() < 1e-8);
+        assert!(
+            (Site::from_degrees(0.0, 0.0, 0.0).normal_gravity() - 9.780_325_335_9).abs() < 1e-9
+        );
+        assert!(
+            (Site::from_degrees(90.0, 0.0, 0.0).normal_gravity() - 9.832_184_937_8).abs() < 1e-8
+        );
         // Free-air gradient is about -3.086e-6 s^-2.
         let g0 = Site::from_degrees(45.0, 0.0, 0.0).normal_gravity();
         let g1 = Site::from_degrees(45.0, 0.0, 1000.0).normal_gravity();

@@ -18,3 +18,5 @@
 
 pub mod attitude;
 pub mod earth;
+pub mod errors;
+pub mod terms;

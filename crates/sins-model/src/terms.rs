@@ -1,0 +1,513 @@
+//! Instrument errors as composable terms.
+//!
+//! A term owns a group of parameters (names, units, prior sigma), says how they change a sensor's
+//! output (used by the truth simulator) and gives the Jacobian of that change with respect to its
+//! parameters (used by the filter). The paper's model is four terms: [`GyroBias`], [`GyroMatrix`]
+//! (full 3x3 `Theta`), [`AccelBias`] and [`AccelLowerTriangular`] (`Gamma`). Further effects are
+//! more terms, implemented against the same trait and added to an [`ErrorModel`] without touching
+//! the filter.
+//!
+//! Sign conventions (paper, design notes): the gyro output is `w' = w - nu`, the accelerometer
+//! output `f' = f + df`; a gyro term contributes to `nu`, an accelerometer term to `df`.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+use std::fmt::Debug;
+
+/// Which sensor triad a term corrupts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Sensor {
+    /// Gyros: the term contributes to `nu` in `w' = w - nu`.
+    Gyro,
+    /// Accelerometers: the term contributes to `df` in `f' = f + df`.
+    Accel,
+}
+
+/// Physical unit of a parameter together with the unit it is reported in.
+///
+/// Values are SI inside; `report_factor` converts an SI value into the report unit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Unit {
+    /// rad/s, reported in deg/h.
+    RadPerSecond,
+    /// m/s^2, reported in m/s^2.
+    MeterPerSecond2,
+    /// Dimensionless scale-factor error, reported as is.
+    Ratio,
+    /// Small angle (rad) such as a misalignment, reported in arcmin.
+    SmallAngle,
+    /// Angle (rad), reported in degrees.
+    Angle,
+    /// Time (s), reported in s.
+    Second,
+}
+
+impl Unit {
+    /// SI unit name as written in result files.
+    pub fn si_name(self) -> &'static str {
+        match self {
+            Unit::RadPerSecond => "rad/s",
+            Unit::MeterPerSecond2 => "m/s^2",
+            Unit::Ratio => "1",
+            Unit::SmallAngle | Unit::Angle => "rad",
+            Unit::Second => "s",
+        }
+    }
+    /// Report (paper) unit name.
+    pub fn report_name(self) -> &'static str {
+        match self {
+            Unit::RadPerSecond => "deg/h",
+            Unit::MeterPerSecond2 => "m/s^2",
+            Unit::Ratio => "-",
+            Unit::SmallAngle => "arcmin",
+            Unit::Angle => "deg",
+            Unit::Second => "s",
+        }
+    }
+    /// Multiply an SI value by this to get it in the report unit.
+    pub fn report_factor(self) -> f64 {
+        match self {
+            Unit::RadPerSecond => 180.0 / std::f64::consts::PI * 3600.0,
+            Unit::MeterPerSecond2 | Unit::Ratio | Unit::Second => 1.0,
+            Unit::SmallAngle => 180.0 / std::f64::consts::PI * 60.0,
+            Unit::Angle => 180.0 / std::f64::consts::PI,
+        }
+    }
+}
+
+/// One scalar parameter of a term.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamSpec {
+    /// Documented dotted name, e.g. `gyro.theta.xy`.
+    pub name: String,
+    /// Unit (SI inside, report unit for humans).
+    pub unit: Unit,
+    /// Prior standard deviation in SI units.
+    pub prior_sigma: f64,
+}
+
+impl ParamSpec {
+    /// A parameter spec.
+    pub fn new(name: impl Into<String>, unit: Unit, prior_sigma: f64) -> Self {
+        Self {
+            name: name.into(),
+            unit,
+            prior_sigma,
+        }
+    }
+}
+
+/// What a sensor is exposed to at one instant, in the instrument (body) frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SensorInput {
+    /// True angular rate of the body relative to inertial space [rad/s].
+    pub omega_body: Vector3<f64>,
+    /// True specific force [m/s^2].
+    pub f_body: Vector3<f64>,
+}
+
+/// An instrument error term.
+pub trait ErrorTerm: Debug + Send + Sync {
+    /// The triad this term corrupts.
+    fn sensor(&self) -> Sensor;
+    /// The term's parameters, in the order used by [`ErrorTerm::error`] and the Jacobian.
+    fn params(&self) -> &[ParamSpec];
+    /// The term's contribution to the sensor error (`nu` or `df`) for parameter values `p`.
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64>;
+    /// Jacobian of [`ErrorTerm::error`] with respect to `p`, one column per parameter, written
+    /// into `out` (length = number of parameters).
+    fn jacobian(&self, p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]);
+}
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// Gyro bias `nu0` (3 parameters, rad/s): `nu += nu0`.
+#[derive(Clone, Debug)]
+pub struct GyroBias {
+    params: Vec<ParamSpec>,
+}
+
+impl GyroBias {
+    /// With prior sigma [rad/s] on each axis.
+    pub fn new(prior_sigma: f64) -> Self {
+        Self {
+            params: AXES
+                .iter()
+                .map(|a| ParamSpec::new(format!("gyro.bias.{a}"), Unit::RadPerSecond, prior_sigma))
+                .collect(),
+        }
+    }
+}
+
+impl ErrorTerm for GyroBias {
+    fn sensor(&self) -> Sensor {
+        Sensor::Gyro
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], _input: &SensorInput) -> Vector3<f64> {
+        Vector3::new(p[0], p[1], p[2])
+    }
+    fn jacobian(&self, _p: &[f64], _input: &SensorInput, out: &mut [Vector3<f64>]) {
+        out[0] = Vector3::x();
+        out[1] = Vector3::y();
+        out[2] = Vector3::z();
+    }
+}
+
+/// Accelerometer bias `df0` (3 parameters, m/s^2): `df += df0`.
+#[derive(Clone, Debug)]
+pub struct AccelBias {
+    params: Vec<ParamSpec>,
+}
+
+impl AccelBias {
+    /// With prior sigma [m/s^2] on each axis.
+    pub fn new(prior_sigma: f64) -> Self {
+        Self {
+            params: AXES
+                .iter()
+                .map(|a| {
+                    ParamSpec::new(
+                        format!("accel.bias.{a}"),
+                        Unit::MeterPerSecond2,
+                        prior_sigma,
+                    )
+                })
+                .collect(),
+        }
+    }
+}
+
+impl ErrorTerm for AccelBias {
+    fn sensor(&self) -> Sensor {
+        Sensor::Accel
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], _input: &SensorInput) -> Vector3<f64> {
+        Vector3::new(p[0], p[1], p[2])
+    }
+    fn jacobian(&self, _p: &[f64], _input: &SensorInput, out: &mut [Vector3<f64>]) {
+        out[0] = Vector3::x();
+        out[1] = Vector3::y();
+        out[2] = Vector3::z();
+    }
+}
+
+/// Gyro scale-factor and misalignment matrix `Theta` (full 3x3, row-major parameters
+/// `gyro.theta.xx, .xy, .xz, .yx, ...`): `nu += Theta * omega_body`.
+///
+/// Diagonal elements are scale-factor errors (reported as ratios), off-diagonal elements are
+/// misalignments (small angles, reported in arcmin).
+#[derive(Clone, Debug)]
+pub struct GyroMatrix {
+    params: Vec<ParamSpec>,
+}
+
+impl GyroMatrix {
+    /// With prior sigma on the diagonal (ratio) and off the diagonal (rad).
+    pub fn new(sigma_diagonal: f64, sigma_off_diagonal: f64) -> Self {
+        let mut params = Vec::with_capacity(9);
+        for (i, a) in AXES.iter().enumerate() {
+            for (j, b) in AXES.iter().enumerate() {
+                params.push(if i == j {
+                    ParamSpec::new(format!("gyro.theta.{a}{b}"), Unit::Ratio, sigma_diagonal)
+                } else {
+                    ParamSpec::new(
+                        format!("gyro.theta.{a}{b}"),
+                        Unit::SmallAngle,
+                        sigma_off_diagonal,
+                    )
+                });
+            }
+        }
+        Self { params }
+    }
+}
+
+impl ErrorTerm for GyroMatrix {
+    fn sensor(&self) -> Sensor {
+        Sensor::Gyro
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        let w = input.omega_body;
+        Vector3::new(
+            p[0] * w.x + p[1] * w.y + p[2] * w.z,
+            p[3] * w.x + p[4] * w.y + p[5] * w.z,
+            p[6] * w.x + p[7] * w.y + p[8] * w.z,
+        )
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        let w = input.omega_body;
+        for i in 0..3 {
+            for j in 0..3 {
+                let mut col = Vector3::zeros();
+                col[i] = w[j];
+                out[3 * i + j] = col;
+            }
+        }
+    }
+}
+
+/// Accelerometer lower-triangular matrix `Gamma` (6 parameters `accel.gamma.xx, .yx, .yy, .zx,
+/// .zy, .zz`): `df += Gamma * f_body`.
+///
+/// Lower-triangular because the instrument frame is *defined* by the accelerometers (x along the
+/// first, y in the plane of the first two): the three upper elements would only rotate the frame.
+#[derive(Clone, Debug)]
+pub struct AccelLowerTriangular {
+    params: Vec<ParamSpec>,
+}
+
+/// (row, column) of each `Gamma` parameter, in parameter order.
+pub const GAMMA_INDEX: [(usize, usize); 6] = [(0, 0), (1, 0), (1, 1), (2, 0), (2, 1), (2, 2)];
+
+impl AccelLowerTriangular {
+    /// With prior sigma on the diagonal (ratio) and off the diagonal (rad).
+    pub fn new(sigma_diagonal: f64, sigma_off_diagonal: f64) -> Self {
+        let params = GAMMA_INDEX
+            .iter()
+            .map(|&(i, j)| {
+                let name = format!("accel.gamma.{}{}", AXES[i], AXES[j]);
+                if i == j {
+                    ParamSpec::new(name, Unit::Ratio, sigma_diagonal)
+                } else {
+                    ParamSpec::new(name, Unit::SmallAngle, sigma_off_diagonal)
+                }
+            })
+            .collect();
+        Self { params }
+    }
+}
+
+impl ErrorTerm for AccelLowerTriangular {
+    fn sensor(&self) -> Sensor {
+        Sensor::Accel
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        let f = input.f_body;
+        let mut df = Vector3::zeros();
+        for (k, &(i, j)) in GAMMA_INDEX.iter().enumerate() {
+            df[i] += p[k] * f[j];
+        }
+        df
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        let f = input.f_body;
+        for (k, &(i, j)) in GAMMA_INDEX.iter().enumerate() {
+            let mut col = Vector3::zeros();
+            col[i] = f[j];
+            out[k] = col;
+        }
+    }
+}
+
+/// Prior standard deviations of the paper's four-term model, in SI units.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperPriors {
+    /// Gyro bias [rad/s].
+    pub gyro_bias: f64,
+    /// Gyro scale-factor errors (Theta diagonal) [-].
+    pub gyro_scale: f64,
+    /// Gyro misalignments (Theta off-diagonal) [rad].
+    pub gyro_misalignment: f64,
+    /// Accelerometer bias [m/s^2].
+    pub accel_bias: f64,
+    /// Accelerometer scale-factor errors (Gamma diagonal) [-].
+    pub accel_scale: f64,
+    /// Accelerometer non-orthogonality (Gamma off-diagonal) [rad].
+    pub accel_misalignment: f64,
+}
+
+impl PaperPriors {
+    /// The a priori values of the paper's covariance analysis: 0.5 deg/h, 0.02 m/s^2, 1e-3, 3 arcmin.
+    pub fn paper() -> Self {
+        let arcmin = (1.0f64 / 60.0).to_radians();
+        Self {
+            gyro_bias: 0.5f64.to_radians() / 3600.0,
+            gyro_scale: 1e-3,
+            gyro_misalignment: 3.0 * arcmin,
+            accel_bias: 0.02,
+            accel_scale: 1e-3,
+            accel_misalignment: 3.0 * arcmin,
+        }
+    }
+}
+
+/// A set of terms with their parameters laid out one after the other.
+#[derive(Debug, Default)]
+pub struct ErrorModel {
+    terms: Vec<Box<dyn ErrorTerm>>,
+    offsets: Vec<usize>,
+    n_params: usize,
+}
+
+impl ErrorModel {
+    /// An empty model (no instrument errors).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The paper's four-term model with the given priors.
+    pub fn paper(priors: &PaperPriors) -> Self {
+        let mut m = Self::new();
+        m.push(Box::new(GyroBias::new(priors.gyro_bias)));
+        m.push(Box::new(GyroMatrix::new(
+            priors.gyro_scale,
+            priors.gyro_misalignment,
+        )));
+        m.push(Box::new(AccelBias::new(priors.accel_bias)));
+        m.push(Box::new(AccelLowerTriangular::new(
+            priors.accel_scale,
+            priors.accel_misalignment,
+        )));
+        m
+    }
+
+    /// Append a term; its parameters follow those already present.
+    pub fn push(&mut self, term: Box<dyn ErrorTerm>) {
+        self.offsets.push(self.n_params);
+        self.n_params += term.params().len();
+        self.terms.push(term);
+    }
+
+    /// Total number of parameters.
+    pub fn n_params(&self) -> usize {
+        self.n_params
+    }
+
+    /// The terms in order.
+    pub fn terms(&self) -> &[Box<dyn ErrorTerm>] {
+        &self.terms
+    }
+
+    /// Offset of term `k`'s first parameter in the model's parameter vector.
+    pub fn offset(&self, k: usize) -> usize {
+        self.offsets[k]
+    }
+
+    /// All parameter specs in order.
+    pub fn params(&self) -> Vec<ParamSpec> {
+        self.terms
+            .iter()
+            .flat_map(|t| t.params().iter().cloned())
+            .collect()
+    }
+
+    /// Total error of one triad (`nu` for [`Sensor::Gyro`], `df` for [`Sensor::Accel`]).
+    pub fn error(&self, sensor: Sensor, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        let mut e = Vector3::zeros();
+        for (t, &o) in self.terms.iter().zip(&self.offsets) {
+            if t.sensor() == sensor {
+                e += t.error(&p[o..o + t.params().len()], input);
+            }
+        }
+        e
+    }
+
+    /// Jacobian of one triad's error with respect to all parameters (zero columns for the other
+    /// triad's parameters). `out` has length [`ErrorModel::n_params`].
+    pub fn jacobian(
+        &self,
+        sensor: Sensor,
+        p: &[f64],
+        input: &SensorInput,
+        out: &mut [Vector3<f64>],
+    ) {
+        for (t, &o) in self.terms.iter().zip(&self.offsets) {
+            let n = t.params().len();
+            if t.sensor() == sensor {
+                t.jacobian(&p[o..o + n], input, &mut out[o..o + n]);
+            } else {
+                out[o..o + n].fill(Vector3::zeros());
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn input() -> SensorInput {
+        SensorInput {
+            omega_body: Vector3::new(0.17, -0.02, 0.05),
+            f_body: Vector3::new(1.2, -3.4, 8.9),
+        }
+    }
+
+    /// Every term's Jacobian equals central finite differences of its effect.
+    #[test]
+    fn jacobians_match_finite_differences() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let n = m.n_params();
+        let p: Vec<f64> = (0..n).map(|i| 1e-3 * ((i as f64) * 0.7).sin()).collect();
+        let inp = input();
+        for sensor in [Sensor::Gyro, Sensor::Accel] {
+            let mut jac = vec![Vector3::zeros(); n];
+            m.jacobian(sensor, &p, &inp, &mut jac);
+            for k in 0..n {
+                let h = 1e-4;
+                let mut pp = p.clone();
+                pp[k] += h;
+                let mut pm = p.clone();
+                pm[k] -= h;
+                let fd = (m.error(sensor, &pp, &inp) - m.error(sensor, &pm, &inp)) / (2.0 * h);
+                assert!(
+                    (fd - jac[k]).norm() < 1e-9,
+                    "{sensor:?} parameter {k}: fd {fd:?} vs jacobian {:?}",
+                    jac[k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn paper_model_has_21_parameters_with_documented_names() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let names: Vec<String> = m.params().into_iter().map(|p| p.name).collect();
+        assert_eq!(names.len(), 21);
+        assert_eq!(names[0], "gyro.bias.x");
+        assert_eq!(names[4], "gyro.theta.xy");
+        assert_eq!(names[11], "gyro.theta.zz");
+        assert_eq!(names[14], "accel.bias.z");
+        assert_eq!(names[16], "accel.gamma.yx");
+        assert_eq!(names[20], "accel.gamma.zz");
+    }
+
+    #[test]
+    fn effects_are_the_paper_formulas() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let mut p = vec![0.0; 21];
+        p[1] = 2e-6; // gyro bias y
+        p[3 + 1] = 1e-3; // Theta_xy
+        p[15 + 1] = 5e-4; // Gamma_yx
+        let inp = input();
+        let nu = m.error(Sensor::Gyro, &p, &inp);
+        assert!((nu - Vector3::new(1e-3 * inp.omega_body.y, 2e-6, 0.0)).norm() < 1e-18);
+        let df = m.error(Sensor::Accel, &p, &inp);
+        assert!((df - Vector3::new(0.0, 5e-4 * inp.f_body.x, 0.0)).norm() < 1e-18);
+    }
+
+    #[test]
+    fn report_units() {
+        assert!(
+            (Unit::RadPerSecond.report_factor() * PaperPriors::paper().gyro_bias - 0.5).abs()
+                < 1e-12
+        );
+        assert!(
+            (Unit::SmallAngle.report_factor() * PaperPriors::paper().accel_misalignment - 3.0)
+                .abs()
+                < 1e-12
+        );
+    }
+}
