@@ -1,0 +1,365 @@
+//! Rotation programs: what the turntable's three gimbals do, read from TOML.
+//!
+//! A program is a start position and a list of segments; each segment gives the gimbals constant
+//! rates for a while, so the gimbal angles are piecewise linear in time and every derived
+//! quantity (attitude, body rate) is known in closed form.
+//!
+//! ```toml
+//! name = "one turn about the bank axis"
+//! start_deg = [0.0, 0.0, 0.0]
+//! [[segment]]
+//! kind = "rotate"        # one gimbal at a constant rate
+//! gimbal = 2             # 1 = heading, 2 = bank, 3 = pitch
+//! rate_deg_s = 10.0
+//! duration_s = 36.0
+//! [[segment]]
+//! kind = "dwell"         # all gimbals still
+//! duration_s = 10.0
+//! [[segment]]
+//! kind = "move"          # to target angles, one gimbal after another, at rate_deg_s
+//! target_deg = [-90.0, 0.0, 0.0]
+//! rate_deg_s = 10.0
+//! ```
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The paper's three-cycle program, embedded.
+pub const PAPER_PROGRAM_TOML: &str = include_str!("../programs/paper.toml");
+
+/// Errors reading a program.
+#[derive(Debug, thiserror::Error)]
+pub enum ProgramError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        /// File path.
+        path: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The TOML does not describe a program.
+    #[error("{origin}: {message}")]
+    Parse {
+        /// File path or "<embedded>".
+        origin: String,
+        /// What toml/serde said, with line and column.
+        message: String,
+    },
+    /// A segment is not physically meaningful.
+    #[error("{origin}: segment {index} ({kind}): {message}")]
+    Segment {
+        /// File path or "<embedded>".
+        origin: String,
+        /// 1-based segment index.
+        index: usize,
+        /// Segment kind.
+        kind: &'static str,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+}
+
+/// One segment of a program, as written in TOML.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Segment {
+    /// One gimbal turns at a constant rate.
+    Rotate {
+        /// Gimbal number: 1 = heading (outer), 2 = bank (middle), 3 = pitch (inner).
+        gimbal: u8,
+        /// Rate [deg/s] (signed).
+        rate_deg_s: f64,
+        /// Duration [s].
+        duration_s: f64,
+    },
+    /// All gimbals still.
+    Dwell {
+        /// Duration [s].
+        duration_s: f64,
+    },
+    /// Move to target angles, one gimbal after another (heading, bank, pitch), each at the given
+    /// rate magnitude; gimbals already at their target do not move.
+    Move {
+        /// Target angles [deg].
+        target_deg: [f64; 3],
+        /// Rate magnitude [deg/s].
+        rate_deg_s: f64,
+    },
+}
+
+impl Segment {
+    fn kind(&self) -> &'static str {
+        match self {
+            Segment::Rotate { .. } => "rotate",
+            Segment::Dwell { .. } => "dwell",
+            Segment::Move { .. } => "move",
+        }
+    }
+}
+
+/// A rotation program as written in TOML.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProgramSpec {
+    /// Human-readable name.
+    pub name: String,
+    /// Gimbal angles at t = 0 [deg].
+    pub start_deg: [f64; 3],
+    /// Segments in order.
+    #[serde(rename = "segment")]
+    pub segments: Vec<Segment>,
+}
+
+/// A piece of constant gimbal rates: angles `k0 + rate * (t - t0)` for `t0 <= t <= t1` (SI).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Piece {
+    /// Start time [s].
+    pub t0: f64,
+    /// End time [s].
+    pub t1: f64,
+    /// Gimbal angles at `t0` [rad].
+    pub k0: [f64; 3],
+    /// Gimbal rates [rad/s].
+    pub rate: [f64; 3],
+}
+
+/// A compiled program: piecewise-linear gimbal angles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Program {
+    /// Name from the spec.
+    pub name: String,
+    pieces: Vec<Piece>,
+    start: [f64; 3],
+}
+
+impl Program {
+    /// The paper's program (embedded default).
+    pub fn paper() -> Self {
+        Self::from_toml_str(PAPER_PROGRAM_TOML, "<embedded paper program>")
+            .expect("the embedded program is valid")
+    }
+
+    /// Read a program from a TOML file.
+    pub fn from_file(path: &Path) -> Result<Self, ProgramError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ProgramError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// Parse a program; `origin` names the source in error messages.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, ProgramError> {
+        let spec: ProgramSpec = toml::from_str(text).map_err(|e| ProgramError::Parse {
+            origin: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        Self::compile(&spec, origin)
+    }
+
+    /// Compile a spec into pieces, checking every segment.
+    pub fn compile(spec: &ProgramSpec, origin: &str) -> Result<Self, ProgramError> {
+        let err = |index: usize, seg: &Segment, message: String| ProgramError::Segment {
+            origin: origin.to_string(),
+            index: index + 1,
+            kind: seg.kind(),
+            message,
+        };
+        if spec.start_deg.iter().any(|a| !a.is_finite()) {
+            return Err(ProgramError::Parse {
+                origin: origin.to_string(),
+                message: "start_deg must be three finite angles in degrees".into(),
+            });
+        }
+        let mut k = spec.start_deg.map(f64::to_radians);
+        let mut t = 0.0;
+        let mut pieces = Vec::new();
+        for (i, seg) in spec.segments.iter().enumerate() {
+            match *seg {
+                Segment::Rotate {
+                    gimbal,
+                    rate_deg_s,
+                    duration_s,
+                } => {
+                    if !(1..=3).contains(&gimbal) {
+                        return Err(err(
+                            i,
+                            seg,
+                            format!("gimbal must be 1, 2 or 3, got {gimbal}"),
+                        ));
+                    }
+                    if !rate_deg_s.is_finite() {
+                        return Err(err(i, seg, "rate_deg_s must be finite".into()));
+                    }
+                    if !(duration_s.is_finite() && duration_s > 0.0) {
+                        return Err(err(
+                            i,
+                            seg,
+                            format!("duration_s must be > 0, got {duration_s}"),
+                        ));
+                    }
+                    let mut rate = [0.0; 3];
+                    rate[gimbal as usize - 1] = rate_deg_s.to_radians();
+                    pieces.push(Piece {
+                        t0: t,
+                        t1: t + duration_s,
+                        k0: k,
+                        rate,
+                    });
+                    k[gimbal as usize - 1] += rate[gimbal as usize - 1] * duration_s;
+                    t += duration_s;
+                }
+                Segment::Dwell { duration_s } => {
+                    if !(duration_s.is_finite() && duration_s > 0.0) {
+                        return Err(err(
+                            i,
+                            seg,
+                            format!("duration_s must be > 0, got {duration_s}"),
+                        ));
+                    }
+                    pieces.push(Piece {
+                        t0: t,
+                        t1: t + duration_s,
+                        k0: k,
+                        rate: [0.0; 3],
+                    });
+                    t += duration_s;
+                }
+                Segment::Move {
+                    target_deg,
+                    rate_deg_s,
+                } => {
+                    if !(rate_deg_s.is_finite() && rate_deg_s > 0.0) {
+                        return Err(err(
+                            i,
+                            seg,
+                            format!("rate_deg_s must be > 0, got {rate_deg_s}"),
+                        ));
+                    }
+                    if target_deg.iter().any(|a| !a.is_finite()) {
+                        return Err(err(i, seg, "target_deg must be three finite angles".into()));
+                    }
+                    for g in 0..3 {
+                        let delta = target_deg[g].to_radians() - k[g];
+                        if delta.abs() < 1e-12 {
+                            continue;
+                        }
+                        let w = rate_deg_s.to_radians() * delta.signum();
+                        let d = delta / w;
+                        let mut rate = [0.0; 3];
+                        rate[g] = w;
+                        pieces.push(Piece {
+                            t0: t,
+                            t1: t + d,
+                            k0: k,
+                            rate,
+                        });
+                        k[g] = target_deg[g].to_radians();
+                        t += d;
+                    }
+                }
+            }
+        }
+        if pieces.is_empty() {
+            return Err(ProgramError::Parse {
+                origin: origin.to_string(),
+                message: "a program needs at least one [[segment]]".into(),
+            });
+        }
+        Ok(Self {
+            name: spec.name.clone(),
+            pieces,
+            start: spec.start_deg.map(f64::to_radians),
+        })
+    }
+
+    /// The pieces in time order.
+    pub fn pieces(&self) -> &[Piece] {
+        &self.pieces
+    }
+
+    /// Total duration [s].
+    pub fn duration(&self) -> f64 {
+        self.pieces.last().map_or(0.0, |p| p.t1)
+    }
+
+    /// Index of the piece holding time `t` (clamped to the program).
+    pub fn piece_index(&self, t: f64) -> usize {
+        match self.pieces.binary_search_by(|p| {
+            if t < p.t0 {
+                std::cmp::Ordering::Greater
+            } else if t >= p.t1 {
+                std::cmp::Ordering::Less
+            } else {
+                std::cmp::Ordering::Equal
+            }
+        }) {
+            Ok(i) => i,
+            Err(i) => i.min(self.pieces.len() - 1),
+        }
+    }
+
+    /// Gimbal angles [rad] and rates [rad/s] at time `t`; before the start the program holds its
+    /// start position, after the end its end position (rates zero outside).
+    pub fn state(&self, t: f64) -> ([f64; 3], [f64; 3]) {
+        if t <= 0.0 {
+            return (self.start, [0.0; 3]);
+        }
+        let p = &self.pieces[self.piece_index(t)];
+        if t > p.t1 {
+            let d = p.t1 - p.t0;
+            return (std::array::from_fn(|g| p.k0[g] + p.rate[g] * d), [0.0; 3]);
+        }
+        let d = t - p.t0;
+        (std::array::from_fn(|g| p.k0[g] + p.rate[g] * d), p.rate)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_program_has_three_cycles_of_15_min() {
+        let p = Program::paper();
+        // 3 x 900 s of rotation plus three 9 s re-orientations (90 deg at 10 deg/s each).
+        assert!(
+            (p.duration() - (2700.0 + 3.0 * 9.0)).abs() < 1e-9,
+            "{}",
+            p.duration()
+        );
+        let (k, w) = p.state(100.0);
+        assert!((k[1] - 1000f64.to_radians()).abs() < 1e-9);
+        assert!((w[1] - 10f64.to_radians()).abs() < 1e-15);
+        // Each cycle returns to its start.
+        let (k_end1, _) = p.state(900.0);
+        assert!(k_end1[1].abs() < 1e-9);
+        let (k_end, _) = p.state(p.duration());
+        assert!((k_end[2] - 90f64.to_radians()).abs() < 1e-9);
+        assert!(k_end[1].abs() < 1e-9 && k_end[0].abs() < 1e-9);
+    }
+
+    #[test]
+    fn bad_segments_are_refused_with_their_index() {
+        let text = "name = \"x\"\nstart_deg = [0.0, 0.0, 0.0]\n[[segment]]\nkind = \"dwell\"\nduration_s = 1.0\n[[segment]]\nkind = \"rotate\"\ngimbal = 4\nrate_deg_s = 1.0\nduration_s = 1.0\n";
+        let e = Program::from_toml_str(text, "prog.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("prog.toml") && e.contains("segment 2") && e.contains("gimbal"),
+            "{e}"
+        );
+        let e = Program::from_toml_str("name = \"x\"\nstart_deg = [0.0, 0.0]\n", "p.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("p.toml") && e.contains("line"), "{e}");
+        let e = Program::from_toml_str(
+            "name = \"x\"\nstart_deg = [0.0, 0.0, 0.0]\n[[segment]]\nkind = \"spin\"\n",
+            "q.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("q.toml") && e.contains("spin"), "{e}");
+    }
+}
