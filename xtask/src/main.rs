@@ -1,1 +1,309 @@
-fn main() {}
+//! Project automation: `cargo xtask paper-check` reproduces the paper's tables.
+
+use calib::config::{NoiseReading, RunConfig};
+use calib::covariance::{Posterior, covariance_analysis};
+use calib::report::{COLUMNS, PaperTable};
+use clap::{Parser, Subcommand};
+use serde_json::{Map, Value, json};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "xtask",
+    about = "Project automation for the SINS turntable-calibration toolkit"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Reproduce the paper's two covariance tables (IMU only; with turntable angles) with the
+    /// literal and the reconciled configuration, and check every reconciled entry is within 0.5 to
+    /// 2 times the paper's value. Exits non-zero otherwise.
+    PaperCheck {
+        /// Also write the tables as JSON to this path.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Configuration checked against the paper: `paper-reconciled` (embedded default),
+        /// `paper` (literal reading) or a path to a run TOML.
+        #[arg(long, default_value = "paper-reconciled")]
+        config: String,
+    },
+    /// Print the sensitivity sweeps behind docs/paper-check.md: which assumption moves which entry.
+    PaperSweep,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::PaperCheck { json, config } => paper_check(json, &config),
+        Command::PaperSweep => {
+            paper_sweep();
+            ExitCode::SUCCESS
+        }
+    }
+}
+
+/// Both tables (IMU only, with turntable) for a configuration, run in parallel.
+fn both_tables(config: &RunConfig) -> Result<(Posterior, Posterior), String> {
+    std::thread::scope(|s| {
+        let a = s.spawn(|| covariance_analysis(config, false));
+        let b = s.spawn(|| covariance_analysis(config, true));
+        let a = a
+            .join()
+            .map_err(|_| "analysis thread panicked".to_string())?;
+        let b = b
+            .join()
+            .map_err(|_| "analysis thread panicked".to_string())?;
+        Ok((a.map_err(|e| e.to_string())?, b.map_err(|e| e.to_string())?))
+    })
+}
+
+fn table_json(t: &PaperTable, p: &Posterior, literal: &PaperTable) -> Value {
+    let mut m = Map::new();
+    for ((name, _), v) in COLUMNS.iter().zip(t.values()) {
+        m.insert(name.to_string(), json!(v));
+    }
+    let mut lit = Map::new();
+    for ((name, _), v) in COLUMNS.iter().zip(literal.values()) {
+        lit.insert(name.to_string(), json!(v));
+    }
+    m.insert("literal".into(), Value::Object(lit));
+    let mut per = Map::new();
+    for (i, name) in p.names.iter().enumerate() {
+        per.insert(
+            name.clone(),
+            json!({"sigma_si": p.cov[(i, i)].max(0.0).sqrt(), "unit_si": p.units[i].si_name()}),
+        );
+    }
+    m.insert("per_parameter".into(), Value::Object(per));
+    Value::Object(m)
+}
+
+fn paper_check(json_path: Option<PathBuf>, config_name: &str) -> ExitCode {
+    let checked = match calib::paper::named_or_file(config_name) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let literal = calib::paper::literal();
+    let t0 = std::time::Instant::now();
+    let (Ok(lit), Ok(rec)) = (both_tables(&literal), both_tables(&checked)) else {
+        eprintln!("error: covariance analysis failed");
+        return ExitCode::FAILURE;
+    };
+    let elapsed = t0.elapsed().as_secs_f64();
+    let mut ok = true;
+    let mut out = Map::new();
+    for (key, title, paper, lit_p, rec_p) in [
+        (
+            "imu_only",
+            "Without the turntable angles (24 states)",
+            PaperTable::PAPER_IMU_ONLY,
+            &lit.0,
+            &rec.0,
+        ),
+        (
+            "with_turntable",
+            "With the turntable angles (28 states)",
+            PaperTable::PAPER_WITH_TURNTABLE,
+            &lit.1,
+            &rec.1,
+        ),
+    ] {
+        let tl = PaperTable::from_posterior(lit_p);
+        let tr = PaperTable::from_posterior(rec_p);
+        println!("\n{title}: largest posterior sigma of each group");
+        println!(
+            "{:<17} {:>7} {:>10} | {:>10} {:>6} | {:>10} {:>6}",
+            "entry", "unit", "paper", "literal", "ratio", config_name, "ratio"
+        );
+        for (((name, unit), p), (l, r)) in COLUMNS
+            .iter()
+            .zip(paper.values())
+            .zip(tl.values().into_iter().zip(tr.values()))
+        {
+            let ratio = r / p;
+            let pass = (0.5..=2.0).contains(&ratio);
+            ok &= pass;
+            println!(
+                "{name:<17} {unit:>7} {p:>10.3e} | {l:>10.3e} {:>6.2} | {r:>10.3e} {ratio:>6.2} {}",
+                l / p,
+                if pass { "ok" } else { "OUT OF [0.5, 2]" }
+            );
+        }
+        if let (Some(d), Some(tau)) = (rec_p.sigma("install.delta.x"), rec_p.sigma("turntable.tau"))
+        {
+            let dmax = ["x", "y", "z"]
+                .iter()
+                .filter_map(|a| rec_p.sigma(&format!("install.delta.{a}")))
+                .fold(d, f64::max);
+            println!(
+                "  also estimated: installation misalignment delta_z {:.3} arcsec, delay tau {:.2e} s",
+                dmax.to_degrees() * 3600.0,
+                tau
+            );
+        }
+        out.insert(key.into(), table_json(&tr, rec_p, &tl));
+    }
+    // The paper's qualitative conclusions.
+    let (a, b) = (
+        PaperTable::from_posterior(&rec.0),
+        PaperTable::from_posterior(&rec.1),
+    );
+    let conclusions = [
+        (
+            "turntable angles improve the gyro bias",
+            b.nu0_deg_h < 0.9 * a.nu0_deg_h,
+        ),
+        (
+            "turntable angles improve the gyro scale factors",
+            b.theta_ii < 0.9 * a.theta_ii,
+        ),
+        (
+            "turntable angles improve the gyro cross-axis terms",
+            b.theta_ij_arcmin < 0.9 * a.theta_ij_arcmin,
+        ),
+        (
+            "accelerometer scale factors stay where they are",
+            (b.gamma_ii / a.gamma_ii - 1.0).abs() < 0.05,
+        ),
+    ];
+    println!("\nThe paper's conclusions, with {config_name}:");
+    for (what, holds) in conclusions {
+        ok &= holds;
+        println!("  {} {what}", if holds { "yes:" } else { "NO: " });
+    }
+    println!(
+        "\nliteral = configs/paper.toml, {config_name} = {}; see docs/paper-check.md ({elapsed:.1} s)",
+        if config_name == "paper-reconciled" {
+            "configs/paper-reconciled.toml (crates/calib)"
+        } else {
+            config_name
+        }
+    );
+    if let Some(path) = json_path {
+        let doc = json!({ "tables": Value::Object(out) });
+        if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap() + "\n") {
+            eprintln!("error: {}: cannot write: {e}", path.display());
+            return ExitCode::FAILURE;
+        }
+        println!("wrote {}", path.display());
+    }
+    if ok {
+        println!("paper-check: PASS");
+        ExitCode::SUCCESS
+    } else {
+        println!("paper-check: FAIL");
+        ExitCode::FAILURE
+    }
+}
+
+/// One sweep row: ratios ours/paper of both tables.
+fn sweep_row(label: &str, config: &RunConfig) {
+    match both_tables(config) {
+        Ok((a, b)) => {
+            let ra = PaperTable::from_posterior(&a).values();
+            let rb = PaperTable::from_posterior(&b).values();
+            let pa = PaperTable::PAPER_IMU_ONLY.values();
+            let pb = PaperTable::PAPER_WITH_TURNTABLE.values();
+            print!("| {label:<34} |");
+            for i in 0..6 {
+                print!(" {:.2}", ra[i] / pa[i]);
+            }
+            print!(" |");
+            for i in 0..6 {
+                print!(" {:.2}", rb[i] / pb[i]);
+            }
+            println!(" |");
+        }
+        Err(e) => println!("| {label} | error: {e} |"),
+    }
+}
+
+fn paper_sweep() {
+    let header = || {
+        println!(
+            "| assumption | IMU only: nu0 Tii Tij df0 Gii Gij | with turntable: nu0 Tii Tij df0 Gii Gij |"
+        );
+        println!("|---|---|---|");
+    };
+    let lit = calib::paper::literal();
+    let rec = calib::paper::reconciled();
+    println!(
+        "Ratios ours/paper. literal = configs/paper.toml, reconciled = configs/paper-reconciled.toml.\n"
+    );
+    println!("### 1. Initial heading prior (literal otherwise)\n");
+    header();
+    for h_arcmin in [60.0, 30.0, 12.0, 6.0, 3.0, 1.0] {
+        let mut c = lit.clone();
+        c.priors.initial_heading_deg = h_arcmin / 60.0;
+        sweep_row(&format!("heading sigma {h_arcmin} arcmin"), &c);
+    }
+    println!(
+        "\n### 2. Specific-force measurement: one 1-Hz sample every T s (reconciled otherwise)\n"
+    );
+    header();
+    for t in [1.0, 4.0, 8.0, 16.0, 20.0, 32.0] {
+        let mut c = rec.clone();
+        c.noise.reading = NoiseReading::Sample;
+        c.filter.accel_rate_hz = 1.0 / t;
+        sweep_row(&format!("sample every {t} s"), &c);
+    }
+    println!(
+        "\n### 3. The same information as a noise level: averaged reading at 1 Hz (reconciled heading)\n"
+    );
+    header();
+    for k in [1.0, 2.0, 4.0, 8.0] {
+        let mut c = rec.clone();
+        c.noise.reading = NoiseReading::Average;
+        c.filter.accel_rate_hz = 1.0;
+        c.noise.accel_m_s2 = 0.001 * k;
+        sweep_row(&format!("accel noise {} m/s^2 at 1 Hz", 0.001 * k), &c);
+    }
+    println!(
+        "\n### 4. Averaged reading: the measurement rate does not matter (literal otherwise)\n"
+    );
+    header();
+    for r in [0.1, 1.0, 10.0] {
+        let mut c = lit.clone();
+        c.filter.accel_rate_hz = r;
+        c.filter.turntable_rate_hz = r;
+        sweep_row(&format!("accel and turntable at {r} Hz"), &c);
+    }
+    println!("\n### 5. Other assumptions, each alone on the reconciled configuration\n");
+    header();
+    sweep_row("reconciled", &rec);
+    let mut c = rec.clone();
+    c.priors.initial_tilt_deg = 0.05;
+    sweep_row("tilt sigma 3 arcmin (1 deg)", &c);
+    let mut c = rec.clone();
+    c.site.latitude_deg = 0.0;
+    sweep_row("latitude 0 deg (55.7)", &c);
+    let mut c = rec.clone();
+    c.site.latitude_deg = 70.0;
+    sweep_row("latitude 70 deg (55.7)", &c);
+    let mut c = rec.clone();
+    c.noise.angle_arcsec = 30.0;
+    sweep_row("angle noise 30 arcsec (15)", &c);
+    let mut c = rec.clone();
+    c.filter.turntable_rate_hz = 0.0625;
+    sweep_row("turntable sample every 16 s (1 s)", &c);
+    let mut c = rec.clone();
+    c.filter.imu_rate_hz = 20.0;
+    sweep_row("IMU sub-steps at 20 Hz (100)", &c);
+    let mut c = rec.clone();
+    c.priors.install_misalignment_deg = 0.1;
+    sweep_row("delta_z prior 0.1 deg (1)", &c);
+    let mut c = rec.clone();
+    c.priors.tau_s = 0.005;
+    sweep_row("tau prior 5 ms (50)", &c);
+    let mut c = rec.clone();
+    c.filter.estimate_base_misalignment = true;
+    sweep_row("estimate gamma_p, 10 arcsec prior", &c);
+}

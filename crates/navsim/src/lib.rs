@@ -1,1 +1,77 @@
-//! placeholder
+//! # navsim
+//!
+//! Judges a SINS calibration by what it does to autonomous navigation, as the paper does: the
+//! instrument-error covariance a calibration leaves is pushed through the standard SINS error
+//! equations along a one-hour "snake" flight (parallel legs joined by alternating 180-degree
+//! coordinated turns), starting from a stationary self-alignment whose errors follow from the
+//! same instrument errors, and the figure of merit
+//! `rho = a sqrt(sigma^2(dlambda cos phi) + sigma^2(dphi))` is reported over time, with an error
+//! budget per group of instrument errors.
+//!
+//! - [`config`]: the flight in TOML ([`SnakeConfig`], default embedded from
+//!   `config/snake_default.toml`);
+//! - [`trajectory`]: the true motion (snake, or at rest), body rate and specific force;
+//! - [`instruments`]: the calibration's parameters by name and their covariance
+//!   ([`InstrumentCovariance`]);
+//! - [`model`]: the error model in ENU axes and the alignment map;
+//! - [`mod@propagate`]: covariance propagation, [`RhoSeries`], [`error_budget`].
+//!
+//! Frames and units: ENU navigation frame, body = instrument frame x1 right wing, x2 forward,
+//! x3 up; SI inside. See `docs/navsim.md` for the equations and the numbers.
+//!
+//! ```
+//! use navsim::{InstrumentCovariance, NavOptions, SnakeConfig, SnakeTrajectory, rho_series};
+//!
+//! // The default one-hour snake and the paper's result table with the turntable angles.
+//! let flight = SnakeTrajectory::new(&SnakeConfig::default_config()).unwrap();
+//! let calib = InstrumentCovariance::diagonal_from_paper_table(0.003, 9.7e-8, 0.05, 7.7e-5, 1.36e-5, 0.05);
+//! let rho = rho_series(&flight, &calib, &NavOptions::default()).unwrap();
+//! let after_one_hour = rho.final_rho_m();
+//! assert_eq!(rho.t.last(), Some(&3600.0));
+//! assert!(after_one_hour > 100.0 && after_one_hour < 5000.0);
+//! ```
+
+pub mod config;
+pub mod instruments;
+pub mod model;
+pub mod propagate;
+pub mod trajectory;
+
+pub use config::{ConfigError, DEFAULT_SNAKE_TOML, SnakeConfig, TurnDirection};
+pub use instruments::{INSTRUMENT_NAMES, InstrumentCovariance, NamePolicy};
+pub use propagate::{
+    BudgetEntry, BudgetGroup, ErrorBudget, InitialAttitude, NavOptions, NavSnapshot, RhoSeries,
+    error_budget, initial_covariance, propagate, rho_series, state_names,
+};
+pub use trajectory::{SnakeTrajectory, StaticTrajectory, Trajectory, TrajectoryPoint};
+
+use thiserror::Error;
+
+/// Errors of the navigation-error analysis.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum NavError {
+    /// The calibration result lacks parameters navigation needs (names listed); allow with
+    /// [`NamePolicy::allow_missing`] to treat them as perfectly known.
+    #[error("instrument parameters missing from the calibration result: {0:?}")]
+    MissingParameters(Vec<String>),
+    /// The calibration result has parameters navigation does not model (names listed).
+    #[error("instrument parameters unknown to navigation: {0:?}")]
+    UnknownParameters(Vec<String>),
+    /// The covariance matrix is malformed.
+    #[error("instrument covariance: {0}")]
+    BadCovariance(String),
+    /// Gyrocompassing cannot work (no horizontal Earth rate).
+    #[error("alignment impossible: {0}")]
+    AlignmentImpossible(String),
+    /// An option is out of range.
+    #[error("navigation option `{field}`: {reason}")]
+    InvalidOption {
+        /// Option name.
+        field: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The flight configuration is invalid.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+}

@@ -1,0 +1,133 @@
+//! The Kalman engine in normalised coordinates.
+//!
+//! States are divided by their prior sigma before they reach [`kalman::KalmanFilter`]: the
+//! parameters span 1e-9 rad/s to 0.05 s, and an unscaled covariance matrix would lose the small
+//! ones to rounding. Everything outside this module is in SI units.
+
+use crate::model::LinearModel;
+use faer::Mat;
+use kalman::{KalmanError, KalmanFilter, UpdateInfo};
+use nalgebra::{DMatrix, Matrix3, Vector3};
+
+/// A Kalman filter whose public face is in SI units and whose inside is normalised.
+#[derive(Debug, Clone)]
+pub struct NormalisedFilter {
+    kf: KalmanFilter,
+    sigma: Vec<f64>,
+    phi: Mat<f64>,
+    q: Mat<f64>,
+    h: Mat<f64>,
+    r: Mat<f64>,
+}
+
+impl NormalisedFilter {
+    /// Zero initial state, diagonal prior with standard deviations `sigma` (SI).
+    pub fn new(sigma: &[f64]) -> Result<Self, KalmanError> {
+        let n = sigma.len();
+        Ok(Self {
+            kf: KalmanFilter::from_diagonal(&vec![0.0; n], &vec![1.0; n], 3)?,
+            sigma: sigma.to_vec(),
+            phi: Mat::zeros(3, n),
+            q: Mat::zeros(3, 3),
+            h: Mat::zeros(3, n),
+            r: Mat::zeros(3, 3),
+        })
+    }
+
+    /// Number of states.
+    pub fn dim(&self) -> usize {
+        self.sigma.len()
+    }
+
+    /// Propagate with the transition accumulated in `model` (then reset it).
+    pub fn predict(
+        &mut self,
+        model: &mut LinearModel,
+        covariance_only: bool,
+    ) -> Result<(), KalmanError> {
+        let phi = model.phi_top();
+        let q = model.q_top();
+        let s = &self.sigma;
+        for j in 0..self.dim() {
+            for i in 0..3 {
+                self.phi[(i, j)] = phi[(i, j)] * s[j] / s[i];
+            }
+        }
+        for i in 0..3 {
+            for j in 0..3 {
+                self.q[(i, j)] = q[(i, j)] / (s[i] * s[j]);
+            }
+        }
+        model.reset_transition();
+        if covariance_only {
+            self.kf
+                .predict_structured_covariance(self.phi.as_ref(), self.q.as_ref())
+        } else {
+            self.kf
+                .predict_structured(self.phi.as_ref(), self.q.as_ref())
+        }
+    }
+
+    fn load(&mut self, h: &DMatrix<f64>, r: &Matrix3<f64>) {
+        for j in 0..self.dim() {
+            for i in 0..3 {
+                self.h[(i, j)] = h[(i, j)] * self.sigma[j];
+            }
+        }
+        for i in 0..3 {
+            for j in 0..3 {
+                self.r[(i, j)] = r[(i, j)];
+            }
+        }
+    }
+
+    /// Covariance-only update with a 3-component measurement (SI `h`, `r`).
+    pub fn update_covariance(
+        &mut self,
+        h: &DMatrix<f64>,
+        r: &Matrix3<f64>,
+    ) -> Result<(), KalmanError> {
+        self.load(h, r);
+        self.kf.update_covariance(self.h.as_ref(), self.r.as_ref())
+    }
+
+    /// Full update with measurement `z` (SI).
+    pub fn update(
+        &mut self,
+        z: &Vector3<f64>,
+        h: &DMatrix<f64>,
+        r: &Matrix3<f64>,
+    ) -> Result<UpdateInfo, KalmanError> {
+        self.load(h, r);
+        self.kf
+            .update(z.as_slice(), self.h.as_ref(), self.r.as_ref())
+    }
+
+    /// State estimate (SI).
+    pub fn state(&self) -> Vec<f64> {
+        self.kf
+            .state()
+            .iter()
+            .zip(&self.sigma)
+            .map(|(x, s)| x * s)
+            .collect()
+    }
+
+    /// Set state component `i` (SI), e.g. to zero the attitude error after feedback.
+    pub fn set_state(&mut self, i: usize, value: f64) {
+        self.kf.state_mut()[i] = value / self.sigma[i];
+    }
+
+    /// Standard deviation of state `i` (SI).
+    pub fn sigma(&self, i: usize) -> f64 {
+        self.kf.covariance()[(i, i)].max(0.0).sqrt() * self.sigma[i]
+    }
+
+    /// Covariance (SI).
+    pub fn covariance(&self) -> DMatrix<f64> {
+        let p = self.kf.covariance();
+        DMatrix::from_fn(self.dim(), self.dim(), |i, j| {
+            p[(i, j)] * self.sigma[i] * self.sigma[j]
+        })
+    }
+}

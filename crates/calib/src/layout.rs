@@ -1,0 +1,141 @@
+//! The filter's state vector, assembled from the error terms.
+//!
+//! Order: attitude error `beta` (3), the instrument terms' parameters in the order of the
+//! [`ErrorModel`], then the turntable terms when the turntable angles are used: installation
+//! misalignment `delta_z` (3), delay `tau` (1) and, optionally, base misalignment `gamma_p` (3).
+//! With the paper's four terms that is 24 states without and 28 with the turntable angles.
+
+use sins_model::terms::{ErrorModel, PaperPriors, ParamSpec, Unit};
+
+/// Which states the filter carries.
+#[derive(Debug)]
+pub struct StateLayout {
+    entries: Vec<ParamSpec>,
+    /// The instrument error model; its parameters start at [`StateLayout::INSTRUMENT`].
+    pub model: ErrorModel,
+    /// Index of `delta_z` (3 states), when the turntable angles are used.
+    pub install: Option<usize>,
+    /// Index of `tau`, when the turntable angles are used.
+    pub tau: Option<usize>,
+    /// Index of `gamma_p` (3 states), when estimated.
+    pub base: Option<usize>,
+}
+
+/// Prior sigmas of the states that are not instrument errors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NonInstrumentPriors {
+    /// Initial attitude error [rad] about East, North, Up.
+    pub attitude: [f64; 3],
+    /// Installation misalignment [rad].
+    pub install: f64,
+    /// Delay [s].
+    pub tau: f64,
+    /// Base misalignment [rad].
+    pub base: f64,
+}
+
+impl StateLayout {
+    /// Index of the first attitude-error state.
+    pub const BETA: usize = 0;
+    /// Index of the first instrument-error parameter.
+    pub const INSTRUMENT: usize = 3;
+
+    /// Layout of an instrument model, with or without the turntable states.
+    pub fn new(
+        model: ErrorModel,
+        priors: &NonInstrumentPriors,
+        with_turntable: bool,
+        with_base: bool,
+    ) -> Self {
+        let mut entries: Vec<ParamSpec> = ["x", "y", "z"]
+            .iter()
+            .zip(priors.attitude)
+            .map(|(a, s)| ParamSpec::new(format!("attitude.beta.{a}"), Unit::SmallAngle, s))
+            .collect();
+        entries.extend(model.params());
+        let (mut install, mut tau, mut base) = (None, None, None);
+        if with_turntable {
+            install = Some(entries.len());
+            for a in ["x", "y", "z"] {
+                entries.push(ParamSpec::new(
+                    format!("install.delta.{a}"),
+                    Unit::SmallAngle,
+                    priors.install,
+                ));
+            }
+            tau = Some(entries.len());
+            entries.push(ParamSpec::new("turntable.tau", Unit::Second, priors.tau));
+            if with_base {
+                base = Some(entries.len());
+                for a in ["x", "y", "z"] {
+                    entries.push(ParamSpec::new(
+                        format!("base.gamma.{a}"),
+                        Unit::SmallAngle,
+                        priors.base,
+                    ));
+                }
+            }
+        }
+        Self {
+            entries,
+            model,
+            install,
+            tau,
+            base,
+        }
+    }
+
+    /// The paper's 24-state (IMU only) or 28-state (with turntable angles) layout.
+    pub fn paper(priors: &PaperPriors, other: &NonInstrumentPriors, with_turntable: bool) -> Self {
+        Self::new(ErrorModel::paper(priors), other, with_turntable, false)
+    }
+
+    /// Number of states.
+    pub fn dim(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Number of instrument-error parameters.
+    pub fn n_instrument(&self) -> usize {
+        self.model.n_params()
+    }
+
+    /// All states in order.
+    pub fn entries(&self) -> &[ParamSpec] {
+        &self.entries
+    }
+
+    /// Prior sigma of every state (SI).
+    pub fn prior_sigma(&self) -> Vec<f64> {
+        self.entries.iter().map(|e| e.prior_sigma).collect()
+    }
+
+    /// Index of a state by name.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.entries.iter().position(|e| e.name == name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_layouts_have_24_and_28_states() {
+        let o = NonInstrumentPriors {
+            attitude: [0.01; 3],
+            install: 0.01,
+            tau: 0.05,
+            base: 1e-5,
+        };
+        let p = PaperPriors::paper();
+        let a = StateLayout::paper(&p, &o, false);
+        let b = StateLayout::paper(&p, &o, true);
+        assert_eq!(a.dim(), 24);
+        assert_eq!(b.dim(), 28);
+        assert_eq!(b.index("install.delta.x"), Some(24));
+        assert_eq!(b.index("turntable.tau"), Some(27));
+        assert_eq!(a.index("gyro.bias.x"), Some(3));
+        assert_eq!(a.index("accel.gamma.zz"), Some(23));
+    }
+}

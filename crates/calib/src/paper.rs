@@ -1,0 +1,27 @@
+//! The paper's covariance analysis in two configurations: the literal reading of the paper and the
+//! reconciled one (see `docs/paper-check.md`).
+
+use crate::config::{ConfigError, RunConfig};
+
+/// The reconciled configuration of the paper's covariance analysis, embedded.
+pub const PAPER_RECONCILED_TOML: &str = include_str!("../configs/paper-reconciled.toml");
+
+/// The literal reading of the paper (`configs/paper.toml`).
+pub fn literal() -> RunConfig {
+    RunConfig::paper()
+}
+
+/// The reconciled configuration (`configs/paper-reconciled.toml`).
+pub fn reconciled() -> RunConfig {
+    RunConfig::from_toml_str(PAPER_RECONCILED_TOML, "<embedded paper-reconciled config>")
+        .expect("embedded configuration is valid")
+}
+
+/// Read a configuration by name (`paper`, `paper-reconciled`) or path.
+pub fn named_or_file(name: &str) -> Result<RunConfig, ConfigError> {
+    match name {
+        "paper" => Ok(literal()),
+        "paper-reconciled" => Ok(reconciled()),
+        path => RunConfig::from_file(std::path::Path::new(path)),
+    }
+}

@@ -1,0 +1,144 @@
+//! The paper's tables: each entry is the largest posterior sigma over the axes or elements of a
+//! group, in the paper's units.
+
+use crate::covariance::Posterior;
+use serde::{Deserialize, Serialize};
+use sins_model::terms::GAMMA_INDEX;
+
+/// One row of the paper's tables.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperTable {
+    /// Gyro bias [deg/h].
+    pub nu0_deg_h: f64,
+    /// Gyro scale factors [-].
+    pub theta_ii: f64,
+    /// Gyro misalignments [arcmin].
+    pub theta_ij_arcmin: f64,
+    /// Accelerometer biases [m/s^2].
+    pub df0_m_s2: f64,
+    /// Accelerometer scale factors [-].
+    pub gamma_ii: f64,
+    /// Accelerometer non-orthogonality [arcmin].
+    pub gamma_ij_arcmin: f64,
+}
+
+/// The column names, in order, with units.
+pub const COLUMNS: [(&str, &str); 6] = [
+    ("nu0_deg_h", "deg/h"),
+    ("theta_ii", "-"),
+    ("theta_ij_arcmin", "arcmin"),
+    ("df0_m_s2", "m/s^2"),
+    ("gamma_ii", "-"),
+    ("gamma_ij_arcmin", "arcmin"),
+];
+
+impl PaperTable {
+    /// The paper's table without the turntable angles.
+    pub const PAPER_IMU_ONLY: PaperTable = PaperTable {
+        nu0_deg_h: 0.01,
+        theta_ii: 5.1e-7,
+        theta_ij_arcmin: 0.1,
+        df0_m_s2: 9e-5,
+        gamma_ii: 1.36e-5,
+        gamma_ij_arcmin: 0.1,
+    };
+    /// The paper's table with the turntable angles.
+    pub const PAPER_WITH_TURNTABLE: PaperTable = PaperTable {
+        nu0_deg_h: 0.003,
+        theta_ii: 9.7e-8,
+        theta_ij_arcmin: 0.05,
+        df0_m_s2: 7.7e-5,
+        gamma_ii: 1.36e-5,
+        gamma_ij_arcmin: 0.05,
+    };
+
+    /// The entries in [`COLUMNS`] order.
+    pub fn values(&self) -> [f64; 6] {
+        [
+            self.nu0_deg_h,
+            self.theta_ii,
+            self.theta_ij_arcmin,
+            self.df0_m_s2,
+            self.gamma_ii,
+            self.gamma_ij_arcmin,
+        ]
+    }
+
+    /// Largest posterior sigma per group, in the paper's units.
+    pub fn from_posterior(p: &Posterior) -> Self {
+        let max_of = |names: &[String]| {
+            names
+                .iter()
+                .map(|n| p.sigma(n).unwrap_or(f64::NAN))
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        let groups = Groups::new();
+        let deg_h = 180.0 / std::f64::consts::PI * 3600.0;
+        let arcmin = 180.0 / std::f64::consts::PI * 60.0;
+        PaperTable {
+            nu0_deg_h: max_of(&groups.nu0) * deg_h,
+            theta_ii: max_of(&groups.theta_ii),
+            theta_ij_arcmin: max_of(&groups.theta_ij) * arcmin,
+            df0_m_s2: max_of(&groups.df0),
+            gamma_ii: max_of(&groups.gamma_ii),
+            gamma_ij_arcmin: max_of(&groups.gamma_ij) * arcmin,
+        }
+    }
+}
+
+/// The parameter names of each table group.
+#[derive(Clone, Debug)]
+pub struct Groups {
+    /// Gyro biases.
+    pub nu0: Vec<String>,
+    /// Theta diagonal.
+    pub theta_ii: Vec<String>,
+    /// Theta off-diagonal.
+    pub theta_ij: Vec<String>,
+    /// Accelerometer biases.
+    pub df0: Vec<String>,
+    /// Gamma diagonal.
+    pub gamma_ii: Vec<String>,
+    /// Gamma off-diagonal.
+    pub gamma_ij: Vec<String>,
+}
+
+impl Groups {
+    /// The paper's grouping of the 21 instrument parameters.
+    pub fn new() -> Self {
+        let ax = ["x", "y", "z"];
+        let mut g = Groups {
+            nu0: ax.iter().map(|a| format!("gyro.bias.{a}")).collect(),
+            theta_ii: vec![],
+            theta_ij: vec![],
+            df0: ax.iter().map(|a| format!("accel.bias.{a}")).collect(),
+            gamma_ii: vec![],
+            gamma_ij: vec![],
+        };
+        for i in 0..3 {
+            for j in 0..3 {
+                let name = format!("gyro.theta.{}{}", ax[i], ax[j]);
+                if i == j {
+                    g.theta_ii.push(name)
+                } else {
+                    g.theta_ij.push(name)
+                }
+            }
+        }
+        for &(i, j) in &GAMMA_INDEX {
+            let name = format!("accel.gamma.{}{}", ax[i], ax[j]);
+            if i == j {
+                g.gamma_ii.push(name)
+            } else {
+                g.gamma_ij.push(name)
+            }
+        }
+        g
+    }
+}
+
+impl Default for Groups {
+    fn default() -> Self {
+        Self::new()
+    }
+}

@@ -1,0 +1,196 @@
+//! Shared test helpers: a small deterministic random generator and matrix builders.
+#![allow(dead_code)]
+
+use faer::Mat;
+
+/// SplitMix64 with Box-Muller normals: deterministic, dependency-free.
+pub struct Rng {
+    state: u64,
+    spare: Option<f64>,
+}
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self {
+            state: seed,
+            spare: None,
+        }
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in (0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+
+    pub fn normal(&mut self) -> f64 {
+        if let Some(s) = self.spare.take() {
+            return s;
+        }
+        let u1 = self.uniform();
+        let u2 = self.uniform();
+        let rad = (-2.0 * u1.ln()).sqrt();
+        let (s, c) = (2.0 * std::f64::consts::PI * u2).sin_cos();
+        self.spare = Some(rad * s);
+        rad * c
+    }
+
+    pub fn mat(&mut self, r: usize, c: usize) -> Mat<f64> {
+        Mat::from_fn(r, c, |_, _| self.normal())
+    }
+
+    pub fn vec(&mut self, n: usize) -> Vec<f64> {
+        (0..n).map(|_| self.normal()).collect()
+    }
+
+    /// Random SPD matrix A A^T / n + eps I, well conditioned.
+    pub fn spd(&mut self, n: usize) -> Mat<f64> {
+        let a = self.mat(n, n);
+        let mut p = &a * a.transpose() * (1.0 / n as f64);
+        for i in 0..n {
+            p[(i, i)] += 0.1;
+        }
+        sym(p)
+    }
+}
+
+pub fn sym(p: Mat<f64>) -> Mat<f64> {
+    let n = p.nrows();
+    Mat::from_fn(n, n, |i, j| 0.5 * (p[(i, j)] + p[(j, i)]))
+}
+
+pub fn to_row_major(m: &Mat<f64>) -> Vec<f64> {
+    let mut v = Vec::with_capacity(m.nrows() * m.ncols());
+    for i in 0..m.nrows() {
+        for j in 0..m.ncols() {
+            v.push(m[(i, j)]);
+        }
+    }
+    v
+}
+
+pub fn from_row_major(v: &[f64], r: usize, c: usize) -> Mat<f64> {
+    assert_eq!(v.len(), r * c);
+    Mat::from_fn(r, c, |i, j| v[i * c + j])
+}
+
+pub fn max_abs(m: &Mat<f64>) -> f64 {
+    let mut a = 0.0f64;
+    for j in 0..m.ncols() {
+        for i in 0..m.nrows() {
+            a = a.max(m[(i, j)].abs());
+        }
+    }
+    a
+}
+
+/// max |a - b| / max |b|
+pub fn rel_diff(a: &Mat<f64>, b: &Mat<f64>) -> f64 {
+    assert_eq!((a.nrows(), a.ncols()), (b.nrows(), b.ncols()));
+    let d = a - b;
+    max_abs(&d) / max_abs(b).max(f64::MIN_POSITIVE)
+}
+
+pub fn rel_diff_vec(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let d = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    d / scale.max(f64::MIN_POSITIVE)
+}
+
+/// The structured system used by several tests: k dynamic states driven by
+/// phi_top = [I + dt A | dt G] and q_top = dt * Qc.
+pub struct Structured {
+    pub phi_top: Mat<f64>,
+    pub q_top: Mat<f64>,
+}
+
+impl Structured {
+    pub fn random(rng: &mut Rng, k: usize, n: usize, dt: f64) -> Self {
+        let phi_top = Mat::from_fn(k, n, |i, j| {
+            let id = if i == j { 1.0 } else { 0.0 };
+            id + dt * rng.normal()
+        });
+        let b = rng.mat(k, k);
+        let q_top = sym(&b * b.transpose() * dt);
+        Self { phi_top, q_top }
+    }
+
+    /// The equivalent full Phi (n x n) and Q (n x n).
+    pub fn full(&self, n: usize) -> (Mat<f64>, Mat<f64>) {
+        let k = self.phi_top.nrows();
+        let phi = Mat::from_fn(n, n, |i, j| {
+            if i < k {
+                self.phi_top[(i, j)]
+            } else if i == j {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        let q = Mat::from_fn(n, n, |i, j| {
+            if i < k && j < k {
+                self.q_top[(i, j)]
+            } else {
+                0.0
+            }
+        });
+        (phi, q)
+    }
+}
+
+/// Lower Cholesky factor (naive), panics if not PD.
+pub fn cholesky(p: &Mat<f64>) -> Mat<f64> {
+    let n = p.nrows();
+    let mut l = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let mut d = p[(j, j)];
+        for k in 0..j {
+            d -= l[(j, k)] * l[(j, k)];
+        }
+        assert!(d > 0.0, "not PD at pivot {j}: {d}");
+        l[(j, j)] = d.sqrt();
+        for i in (j + 1)..n {
+            let mut v = p[(i, j)];
+            for k in 0..j {
+                v -= l[(i, k)] * l[(j, k)];
+            }
+            l[(i, j)] = v / l[(j, j)];
+        }
+    }
+    l
+}
+
+/// Whether a symmetric matrix is positive definite (Cholesky succeeds).
+pub fn is_pd(p: &Mat<f64>) -> bool {
+    let n = p.nrows();
+    let mut l = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let mut d = p[(j, j)];
+        for k in 0..j {
+            d -= l[(j, k)] * l[(j, k)];
+        }
+        if !(d > 0.0) {
+            return false;
+        }
+        l[(j, j)] = d.sqrt();
+        for i in (j + 1)..n {
+            let mut v = p[(i, j)];
+            for k in 0..j {
+                v -= l[(i, k)] * l[(j, k)];
+            }
+            l[(i, j)] = v / l[(j, j)];
+        }
+    }
+    true
+}

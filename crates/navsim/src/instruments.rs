@@ -1,0 +1,340 @@
+//! The instrument-error parameters navigation carries over from a calibration, and their
+//! covariance.
+//!
+//! Sensor models (design.md): gyro `w' = w - nu`, `nu = nu0 + Theta w + white`; accelerometer
+//! `f' = f + df`, `df = df0 + Gamma f + white`, Theta full 3x3, Gamma lower-triangular. The
+//! calibration's body (instrument) frame is the aircraft's, so the parameters apply directly.
+//!
+//! Navigation's instrument state is the 21 parameters in [`INSTRUMENT_NAMES`] order, all SI:
+//! `gyro.bias.{x,y,z}` [rad/s], `gyro.theta.<i><j>` (row-major, i, j in x, y, z) [-],
+//! `accel.bias.{x,y,z}` [m/s^2], `accel.gamma.{xx,yx,yy,zx,zy,zz}` [-].
+
+use nalgebra::{DMatrix, SMatrix};
+
+use crate::NavError;
+
+/// Number of instrument parameters navigation propagates.
+pub const INSTRUMENT_DIM: usize = 21;
+
+/// Names of the instrument parameters in navigation's state order.
+pub const INSTRUMENT_NAMES: [&str; INSTRUMENT_DIM] = [
+    "gyro.bias.x",
+    "gyro.bias.y",
+    "gyro.bias.z",
+    "gyro.theta.xx",
+    "gyro.theta.xy",
+    "gyro.theta.xz",
+    "gyro.theta.yx",
+    "gyro.theta.yy",
+    "gyro.theta.yz",
+    "gyro.theta.zx",
+    "gyro.theta.zy",
+    "gyro.theta.zz",
+    "accel.bias.x",
+    "accel.bias.y",
+    "accel.bias.z",
+    "accel.gamma.xx",
+    "accel.gamma.yx",
+    "accel.gamma.yy",
+    "accel.gamma.zx",
+    "accel.gamma.zy",
+    "accel.gamma.zz",
+];
+
+/// Index of the first gyro bias in the instrument state.
+pub const GYRO_BIAS: usize = 0;
+/// Index of the first Theta element (row-major) in the instrument state.
+pub const GYRO_THETA: usize = 3;
+/// Index of the first accelerometer bias in the instrument state.
+pub const ACCEL_BIAS: usize = 12;
+/// Index of the first Gamma element (xx, yx, yy, zx, zy, zz) in the instrument state.
+pub const ACCEL_GAMMA: usize = 15;
+
+/// Name prefixes of calibration parameters that navigation ignores without complaint
+/// (installation misalignment on the turntable, turntable data delay).
+pub const IGNORED_PREFIXES: [&str; 2] = ["install.", "turntable."];
+
+/// One arc minute in radians.
+pub const ARCMIN: f64 = std::f64::consts::PI / (180.0 * 60.0);
+/// One degree per hour in rad/s.
+pub const DEG_PER_HOUR: f64 = std::f64::consts::PI / (180.0 * 3600.0);
+
+/// 21x21 covariance of the instrument parameters in [`INSTRUMENT_NAMES`] order.
+pub type InstrumentMatrix = SMatrix<f64, INSTRUMENT_DIM, INSTRUMENT_DIM>;
+
+/// How to treat instrument parameters missing from, or unknown to, a calibration result.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NamePolicy {
+    /// Treat parameters absent from the calibration as perfectly known (zero variance) instead of
+    /// failing. Off by default: a missing name is usually a mistake, and zero variance would
+    /// flatter the calibration.
+    pub allow_missing: bool,
+    /// Ignore names navigation does not know instead of failing (names under
+    /// [`IGNORED_PREFIXES`] are always ignored).
+    pub ignore_unknown: bool,
+}
+
+/// Covariance of the instrument-error parameters left by a calibration, with names (SI units).
+#[derive(Clone, Debug, PartialEq)]
+pub struct InstrumentCovariance {
+    /// Parameter names (see the module doc), one per row/column of `cov`.
+    pub names: Vec<String>,
+    /// Covariance matrix, SI units.
+    pub cov: DMatrix<f64>,
+}
+
+impl InstrumentCovariance {
+    /// A checked covariance: square, matching the names, finite, symmetric, non-negative
+    /// diagonal, no duplicate names.
+    pub fn new(names: Vec<String>, cov: DMatrix<f64>) -> Result<Self, NavError> {
+        let c = Self { names, cov };
+        c.check()?;
+        Ok(c)
+    }
+
+    /// A diagonal covariance from per-parameter standard deviations.
+    pub fn from_sigmas(names_and_sigmas: &[(&str, f64)]) -> Self {
+        let names = names_and_sigmas
+            .iter()
+            .map(|(n, _)| n.to_string())
+            .collect();
+        let d = nalgebra::DVector::from_iterator(
+            names_and_sigmas.len(),
+            names_and_sigmas.iter().map(|(_, s)| s * s),
+        );
+        Self {
+            names,
+            cov: DMatrix::from_diagonal(&d),
+        }
+    }
+
+    /// All 21 navigation parameters with zero covariance (an error-free IMU).
+    pub fn zeros() -> Self {
+        Self::from_sigmas(&INSTRUMENT_NAMES.map(|n| (n, 0.0)))
+    }
+
+    /// The diagonal covariance of one row of the paper's result tables, in the paper's units,
+    /// every value taken as the standard deviation of each parameter of its kind:
+    /// `nu0_deg_h` gyro bias [deg/h], `theta_ii` gyro scale-factor errors [-], `theta_ij_arcmin`
+    /// gyro off-diagonal terms \[arcmin\], `df0_m_s2` accelerometer bias [m/s^2], `gamma_ii`
+    /// accelerometer scale-factor errors [-], `gamma_ij_arcmin` accelerometer off-diagonal terms
+    /// \[arcmin\] (the three below the diagonal).
+    ///
+    /// Paper, without turntable angles: `(0.01, 5.1e-7, 0.1, 9e-5, 1.36e-5, 0.1)`; with them:
+    /// `(0.003, 9.7e-8, 0.05, 7.7e-5, 1.36e-5, 0.05)`.
+    pub fn diagonal_from_paper_table(
+        nu0_deg_h: f64,
+        theta_ii: f64,
+        theta_ij_arcmin: f64,
+        df0_m_s2: f64,
+        gamma_ii: f64,
+        gamma_ij_arcmin: f64,
+    ) -> Self {
+        let sig: Vec<(&str, f64)> = INSTRUMENT_NAMES
+            .iter()
+            .map(|&n| {
+                let s = match n {
+                    _ if n.starts_with("gyro.bias.") => nu0_deg_h * DEG_PER_HOUR,
+                    "gyro.theta.xx" | "gyro.theta.yy" | "gyro.theta.zz" => theta_ii,
+                    _ if n.starts_with("gyro.theta.") => theta_ij_arcmin * ARCMIN,
+                    _ if n.starts_with("accel.bias.") => df0_m_s2,
+                    "accel.gamma.xx" | "accel.gamma.yy" | "accel.gamma.zz" => gamma_ii,
+                    _ => gamma_ij_arcmin * ARCMIN,
+                };
+                (n, s)
+            })
+            .collect();
+        Self::from_sigmas(&sig)
+    }
+
+    /// The paper's result table without the turntable angles (diagonal).
+    pub fn paper_without_turntable() -> Self {
+        Self::diagonal_from_paper_table(0.01, 5.1e-7, 0.1, 9e-5, 1.36e-5, 0.1)
+    }
+
+    /// The paper's result table with the turntable angles (diagonal).
+    pub fn paper_with_turntable() -> Self {
+        Self::diagonal_from_paper_table(0.003, 9.7e-8, 0.05, 7.7e-5, 1.36e-5, 0.05)
+    }
+
+    /// Standard deviation of a named parameter, if present.
+    pub fn sigma(&self, name: &str) -> Option<f64> {
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .map(|i| self.cov[(i, i)].max(0.0).sqrt())
+    }
+
+    fn check(&self) -> Result<(), NavError> {
+        let n = self.names.len();
+        if self.cov.nrows() != n || self.cov.ncols() != n {
+            return Err(NavError::BadCovariance(format!(
+                "{} names but a {}x{} matrix",
+                n,
+                self.cov.nrows(),
+                self.cov.ncols()
+            )));
+        }
+        for (i, a) in self.names.iter().enumerate() {
+            if self.names[..i].contains(a) {
+                return Err(NavError::BadCovariance(format!(
+                    "parameter `{a}` appears twice"
+                )));
+            }
+        }
+        for i in 0..n {
+            let d = self.cov[(i, i)];
+            if !d.is_finite() || d < 0.0 {
+                return Err(NavError::BadCovariance(format!(
+                    "variance of `{}` is {d}",
+                    self.names[i]
+                )));
+            }
+            for j in 0..i {
+                let (a, b) = (self.cov[(i, j)], self.cov[(j, i)]);
+                if !a.is_finite() || !b.is_finite() {
+                    return Err(NavError::BadCovariance(format!(
+                        "covariance of `{}` and `{}` is not finite",
+                        self.names[i], self.names[j]
+                    )));
+                }
+                let scale = (d * self.cov[(j, j)]).sqrt();
+                if (a - b).abs() > 1e-9 * scale.max(f64::MIN_POSITIVE) && (a - b).abs() > 0.0 {
+                    return Err(NavError::BadCovariance(format!(
+                        "not symmetric at `{}`, `{}`: {a} vs {b}",
+                        self.names[i], self.names[j]
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The 21x21 covariance in [`INSTRUMENT_NAMES`] order (symmetrised). Parameters under
+    /// [`IGNORED_PREFIXES`] are dropped; missing and unknown names are errors unless `policy`
+    /// allows them (a missing parameter then gets zero variance and no correlation).
+    pub fn to_navigation_order(&self, policy: NamePolicy) -> Result<InstrumentMatrix, NavError> {
+        self.check()?;
+        let mut idx = [None; INSTRUMENT_DIM];
+        let mut unknown = Vec::new();
+        for (i, name) in self.names.iter().enumerate() {
+            if let Some(k) = INSTRUMENT_NAMES.iter().position(|n| n == name) {
+                idx[k] = Some(i);
+            } else if !IGNORED_PREFIXES.iter().any(|p| name.starts_with(p)) {
+                unknown.push(name.clone());
+            }
+        }
+        if !unknown.is_empty() && !policy.ignore_unknown {
+            return Err(NavError::UnknownParameters(unknown));
+        }
+        let missing: Vec<String> = INSTRUMENT_NAMES
+            .iter()
+            .zip(idx.iter())
+            .filter(|(_, i)| i.is_none())
+            .map(|(n, _)| n.to_string())
+            .collect();
+        if !missing.is_empty() && !policy.allow_missing {
+            return Err(NavError::MissingParameters(missing));
+        }
+        let mut p = InstrumentMatrix::zeros();
+        for a in 0..INSTRUMENT_DIM {
+            for b in 0..INSTRUMENT_DIM {
+                if let (Some(i), Some(j)) = (idx[a], idx[b]) {
+                    p[(a, b)] = 0.5 * (self.cov[(i, j)] + self.cov[(j, i)]);
+                }
+            }
+        }
+        Ok(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_rows_convert_to_si() {
+        let c = InstrumentCovariance::paper_without_turntable();
+        assert_eq!(c.names.len(), 21);
+        assert!((c.sigma("gyro.bias.y").unwrap() - 0.01 * DEG_PER_HOUR).abs() < 1e-20);
+        assert!((c.sigma("gyro.theta.yy").unwrap() - 5.1e-7).abs() < 1e-20);
+        assert!(
+            (c.sigma("gyro.theta.zx").unwrap() - 0.1 / 60.0 * std::f64::consts::PI / 180.0).abs()
+                < 1e-18
+        );
+        assert!((c.sigma("accel.bias.z").unwrap() - 9e-5).abs() < 1e-18);
+        assert!((c.sigma("accel.gamma.zz").unwrap() - 1.36e-5).abs() < 1e-18);
+        assert!((c.sigma("accel.gamma.zy").unwrap() - 0.1 * ARCMIN).abs() < 1e-18);
+        let p = c.to_navigation_order(NamePolicy::default()).unwrap();
+        assert!((p - InstrumentMatrix::from_diagonal(&p.diagonal())).norm() == 0.0);
+    }
+
+    #[test]
+    fn names_are_matched_reordered_and_checked() {
+        // Shuffled order with an installation parameter and a correlation.
+        let mut names: Vec<String> = INSTRUMENT_NAMES
+            .iter()
+            .rev()
+            .map(|s| s.to_string())
+            .collect();
+        names.push("install.delta.x".into());
+        names.push("turntable.tau".into());
+        let n = names.len();
+        let mut cov = DMatrix::<f64>::identity(n, n) * 4.0;
+        // correlate gyro.bias.x (index 20 here) with accel.gamma.xx (index 5 here)
+        cov[(20, 5)] = 1.5;
+        cov[(5, 20)] = 1.5;
+        let ic = InstrumentCovariance::new(names.clone(), cov.clone()).unwrap();
+        let p = ic.to_navigation_order(NamePolicy::default()).unwrap();
+        assert_eq!(p[(0, 0)], 4.0);
+        assert_eq!(p[(GYRO_BIAS, ACCEL_GAMMA)], 1.5);
+        assert_eq!(p[(ACCEL_GAMMA, GYRO_BIAS)], 1.5);
+        assert_eq!(p.iter().filter(|&&x| x != 0.0).count(), 21 + 2);
+
+        // Missing parameter.
+        let ic = InstrumentCovariance::new(
+            names[1..].to_vec(),
+            cov.view((1, 1), (n - 1, n - 1)).into_owned(),
+        )
+        .unwrap();
+        assert!(
+            matches!(ic.to_navigation_order(NamePolicy::default()), Err(NavError::MissingParameters(m)) if m == vec!["accel.gamma.zz".to_string()])
+        );
+        let p = ic
+            .to_navigation_order(NamePolicy {
+                allow_missing: true,
+                ..Default::default()
+            })
+            .unwrap();
+        assert_eq!(p[(20, 20)], 0.0);
+        assert_eq!(p[(19, 19)], 4.0);
+
+        // Unknown parameter.
+        let mut names2 = names.clone();
+        names2[0] = "gyro.gsens.xy".into();
+        let ic = InstrumentCovariance::new(names2, cov.clone()).unwrap();
+        assert!(matches!(
+            ic.to_navigation_order(NamePolicy {
+                allow_missing: true,
+                ..Default::default()
+            }),
+            Err(NavError::UnknownParameters(_))
+        ));
+        assert!(
+            ic.to_navigation_order(NamePolicy {
+                allow_missing: true,
+                ignore_unknown: true
+            })
+            .is_ok()
+        );
+
+        // Malformed matrices.
+        let mut bad = cov.clone();
+        bad[(1, 2)] = 1.0;
+        assert!(InstrumentCovariance::new(names.clone(), bad).is_err());
+        let mut dup = names.clone();
+        dup[1] = dup[0].clone();
+        assert!(InstrumentCovariance::new(dup, cov.clone()).is_err());
+        assert!(InstrumentCovariance::new(names[1..].to_vec(), cov).is_err());
+    }
+}
