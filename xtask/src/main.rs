@@ -5,8 +5,14 @@ use calib::covariance::{Posterior, covariance_analysis};
 use calib::report::{COLUMNS, PaperTable};
 use clap::{Parser, Subcommand};
 use serde_json::{Map, Value, json};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+
+mod plot;
+
+/// The paper's navigation figures after 1 h of the snake flight [m].
+const PAPER_RHO_IMU_ONLY_M: f64 = 1900.0;
+const PAPER_RHO_WITH_TURNTABLE_M: f64 = 1100.0;
 
 #[derive(Parser)]
 #[command(
@@ -27,6 +33,9 @@ enum Command {
         /// Also write the tables as JSON to this path.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Where to write the plot of rho(t) for both calibrations.
+        #[arg(long, default_value = "target/paper-check/rho.png")]
+        plot: PathBuf,
         /// Configuration checked against the paper: `paper-reconciled` (embedded default),
         /// `paper` (literal reading) or a path to a run TOML.
         #[arg(long, default_value = "paper-reconciled")]
@@ -34,16 +43,26 @@ enum Command {
     },
     /// Print the sensitivity sweeps behind docs/paper-check.md: which assumption moves which entry.
     PaperSweep,
+    /// Print the navigation error budget of both calibrations and the sweeps behind
+    /// docs/navsim.md (correlations kept or dropped, the paper's diagonal tables, sensor noise).
+    NavBudget,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::PaperCheck { json, config } => paper_check(json, &config),
+        Command::PaperCheck { json, config, plot } => paper_check(json, &config, &plot),
         Command::PaperSweep => {
             paper_sweep();
             ExitCode::SUCCESS
         }
+        Command::NavBudget => match nav_budget() {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
     }
 }
 
@@ -83,7 +102,72 @@ fn table_json(t: &PaperTable, p: &Posterior, literal: &PaperTable) -> Value {
     Value::Object(m)
 }
 
-fn paper_check(json_path: Option<PathBuf>, config_name: &str) -> ExitCode {
+/// The instrument block (gyro.*, accel.*) of a calibration posterior, for navigation.
+fn instrument_covariance(p: &Posterior) -> Result<navsim::InstrumentCovariance, String> {
+    let idx: Vec<usize> = (0..p.names.len())
+        .filter(|&i| p.names[i].starts_with("gyro.") || p.names[i].starts_with("accel."))
+        .collect();
+    let names = idx.iter().map(|&i| p.names[i].clone()).collect();
+    let cov = nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| p.cov[(idx[a], idx[b])]);
+    navsim::InstrumentCovariance::new(names, cov).map_err(|e| e.to_string())
+}
+
+/// rho(t) over the default snake flight for an instrument covariance.
+fn navigation(cov: &navsim::InstrumentCovariance) -> Result<navsim::RhoSeries, String> {
+    let traj = navsim::SnakeTrajectory::new(&navsim::SnakeConfig::default_config())
+        .map_err(|e| e.to_string())?;
+    navsim::rho_series(&traj, cov, &navsim::NavOptions::default()).map_err(|e| e.to_string())
+}
+
+/// The navigation check: rho after 1 h for both calibrations; returns (pass, json).
+fn navigation_check(rec: &(Posterior, Posterior), plot_path: &Path) -> (bool, Value) {
+    let runs = [&rec.0, &rec.1].map(|p| instrument_covariance(p).and_then(|c| navigation(&c)));
+    let paper_rows = [
+        navsim::InstrumentCovariance::paper_without_turntable(),
+        navsim::InstrumentCovariance::paper_with_turntable(),
+    ]
+    .map(|c| navigation(&c));
+    let (a, b) = match runs {
+        [Ok(a), Ok(b)] => (a, b),
+        [a, b] => {
+            let e = a.err().or(b.err()).unwrap_or_default();
+            println!("navigation: error: {e}");
+            return (false, Value::Null);
+        }
+    };
+    let (ra, rb) = (a.final_rho_m(), b.final_rho_m());
+    println!("\nNavigation after 1 h of the snake flight (docs/navsim.md): rho = a sqrt(s2(dLambda cos phi) + s2(dPhi))");
+    println!("{:<32} {:>8} {:>10} {:>7} {:>22}", "calibration", "paper m", "ours m", "ratio", "paper's table rows, m");
+    let pr: Vec<f64> = paper_rows.iter().map(|r| r.as_ref().map_or(f64::NAN, |r| r.final_rho_m())).collect();
+    println!("{:<32} {:>8.0} {:>10.0} {:>7.2} {:>22.0}", "without turntable angles", PAPER_RHO_IMU_ONLY_M, ra, ra / PAPER_RHO_IMU_ONLY_M, pr[0]);
+    println!("{:<32} {:>8.0} {:>10.0} {:>7.2} {:>22.0}", "with turntable angles", PAPER_RHO_WITH_TURNTABLE_M, rb, rb / PAPER_RHO_WITH_TURNTABLE_M, pr[1]);
+    let improvement = ra / rb;
+    println!(
+        "improvement: ours {improvement:.2} times, paper {:.2} times",
+        PAPER_RHO_IMU_ONLY_M / PAPER_RHO_WITH_TURNTABLE_M
+    );
+    let within = (ra / PAPER_RHO_IMU_ONLY_M - 1.0).abs() <= 0.35;
+    let improves = improvement >= 1.3;
+    println!("  {} IMU-only figure within 35% of 1900 m", if within { "yes:" } else { "NO: " });
+    println!("  {} turntable angles improve it at least 1.3 times", if improves { "yes:" } else { "NO: " });
+    if let Some(dir) = plot_path.parent() {
+        let _ = std::fs::create_dir_all(dir);
+    }
+    match plot::plot_rho_png(
+        plot_path,
+        "Navigation error after calibration (snake flight)",
+        &[
+            ("without turntable angles", &a.t, &a.rho_m),
+            ("with turntable angles", &b.t, &b.rho_m),
+        ],
+    ) {
+        Ok(()) => println!("plot of rho(t): {}", plot_path.display()),
+        Err(e) => println!("plot of rho(t) not written: {e}"),
+    }
+    (within && improves, json!({"imu_only_m": ra, "with_turntable_m": rb}))
+}
+
+fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) -> ExitCode {
     let checked = match calib::paper::named_or_file(config_name) {
         Ok(c) => c,
         Err(e) => {
@@ -179,6 +263,8 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str) -> ExitCode {
         ok &= holds;
         println!("  {} {what}", if holds { "yes:" } else { "NO: " });
     }
+    let (nav_ok, nav_json) = navigation_check(&rec, plot_path);
+    ok &= nav_ok;
     println!(
         "\nliteral = configs/paper.toml, {config_name} = {}; see docs/paper-check.md ({elapsed:.1} s)",
         if config_name == "paper-reconciled" {
@@ -188,7 +274,7 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str) -> ExitCode {
         }
     );
     if let Some(path) = json_path {
-        let doc = json!({ "tables": Value::Object(out) });
+        let doc = json!({ "tables": Value::Object(out), "navigation": nav_json });
         if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap() + "\n") {
             eprintln!("error: {}: cannot write: {e}", path.display());
             return ExitCode::FAILURE;
@@ -306,4 +392,80 @@ fn paper_sweep() {
     let mut c = rec.clone();
     c.filter.estimate_base_misalignment = true;
     sweep_row("estimate gamma_p, 10 arcsec prior", &c);
+}
+
+/// The covariance with its off-diagonal elements dropped.
+fn diagonal_only(c: &navsim::InstrumentCovariance) -> navsim::InstrumentCovariance {
+    let d = nalgebra::DMatrix::from_diagonal(&c.cov.diagonal());
+    navsim::InstrumentCovariance::new(c.names.clone(), d).expect("a diagonal covariance is valid")
+}
+
+/// Every parameter of a group at the group's largest sigma (how the paper's tables read).
+fn group_max_diagonal(c: &navsim::InstrumentCovariance) -> navsim::InstrumentCovariance {
+    let g = calib::report::Groups::new();
+    let mut d = nalgebra::DMatrix::zeros(c.names.len(), c.names.len());
+    for group in [&g.nu0, &g.theta_ii, &g.theta_ij, &g.df0, &g.gamma_ii, &g.gamma_ij] {
+        let idx: Vec<usize> = group
+            .iter()
+            .filter_map(|n| c.names.iter().position(|m| m == n))
+            .collect();
+        let v = idx.iter().map(|&i| c.cov[(i, i)]).fold(0.0, f64::max);
+        for i in idx {
+            d[(i, i)] = v;
+        }
+    }
+    navsim::InstrumentCovariance::new(c.names.clone(), d).expect("a diagonal covariance is valid")
+}
+
+fn nav_budget() -> Result<(), String> {
+    let rec = both_tables(&calib::paper::reconciled())?;
+    let lit = both_tables(&calib::paper::literal())?;
+    let traj = navsim::SnakeTrajectory::new(&navsim::SnakeConfig::default_config())
+        .map_err(|e| e.to_string())?;
+    let quiet = navsim::NavOptions {
+        gyro_noise_density: 0.0,
+        accel_noise_density: 0.0,
+        ..navsim::NavOptions::default()
+    };
+    let rho = |c: &navsim::InstrumentCovariance, o: &navsim::NavOptions| {
+        navsim::rho_series(&traj, c, o).map(|r| r.final_rho_m()).map_err(|e| e.to_string())
+    };
+    println!("rho after 1 h of the default snake flight [m]; ratio = without / with turntable angles\n");
+    println!("| instrument covariance | flight noise | without | with | ratio |");
+    println!("|---|---|---|---|---|");
+    let rows: Vec<(&str, navsim::InstrumentCovariance, navsim::InstrumentCovariance)> = vec![
+        ("reconciled posterior, full (paper-check)", instrument_covariance(&rec.0)?, instrument_covariance(&rec.1)?),
+        ("reconciled posterior, correlations dropped", diagonal_only(&instrument_covariance(&rec.0)?), diagonal_only(&instrument_covariance(&rec.1)?)),
+        ("reconciled posterior, group maxima, diagonal", group_max_diagonal(&instrument_covariance(&rec.0)?), group_max_diagonal(&instrument_covariance(&rec.1)?)),
+        ("paper's tables, diagonal", navsim::InstrumentCovariance::paper_without_turntable(), navsim::InstrumentCovariance::paper_with_turntable()),
+        ("literal posterior, full", instrument_covariance(&lit.0)?, instrument_covariance(&lit.1)?),
+    ];
+    for (label, a, b) in &rows {
+        for (nl, o) in [("on", navsim::NavOptions::default()), ("off", quiet.clone())] {
+            let (ra, rb) = (rho(a, &o)?, rho(b, &o)?);
+            println!("| {label} | {nl} | {ra:.0} | {rb:.0} | {:.2} |", ra / rb);
+        }
+    }
+    println!("\nIMU-only calibration with other initial-heading priors (reconciled otherwise), correlations dropped\n");
+    println!("| heading prior | nu0 entry deg/h | rho without [m] | ratio to with-turntable (correlations dropped) |");
+    println!("|---|---|---|---|");
+    let with_diag = rho(&rows[1].2, &navsim::NavOptions::default())?;
+    for h_arcmin in [6.0, 3.0, 1.5, 0.75] {
+        let mut c = calib::paper::reconciled();
+        c.priors.initial_heading_deg = h_arcmin / 60.0;
+        let p = covariance_analysis(&c, false).map_err(|e| e.to_string())?;
+        let nu0 = PaperTable::from_posterior(&p).nu0_deg_h;
+        let r = rho(&diagonal_only(&instrument_covariance(&p)?), &navsim::NavOptions::default())?;
+        println!("| {h_arcmin} arcmin | {nu0:.4} | {r:.0} | {:.2} |", r / with_diag);
+    }
+    println!("\nError budget of the reconciled posterior (each group alone, correlations within it kept) [m]\n");
+    println!("| group | without | with |");
+    println!("|---|---|---|");
+    let ba = navsim::error_budget(&traj, &rows[0].1, &navsim::NavOptions::default()).map_err(|e| e.to_string())?;
+    let bb = navsim::error_budget(&traj, &rows[0].2, &navsim::NavOptions::default()).map_err(|e| e.to_string())?;
+    for (ea, eb) in ba.entries.iter().zip(&bb.entries) {
+        println!("| {:?} | {:.0} | {:.0} |", ea.group, ea.rho_m, eb.rho_m);
+    }
+    println!("| total | {:.0} | {:.0} |", ba.total_m, bb.total_m);
+    Ok(())
 }
