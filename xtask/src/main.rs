@@ -136,11 +136,33 @@ fn navigation_check(rec: &(Posterior, Posterior), plot_path: &Path) -> (bool, Va
         }
     };
     let (ra, rb) = (a.final_rho_m(), b.final_rho_m());
-    println!("\nNavigation after 1 h of the snake flight (docs/navsim.md): rho = a sqrt(s2(dLambda cos phi) + s2(dPhi))");
-    println!("{:<32} {:>8} {:>10} {:>7} {:>22}", "calibration", "paper m", "ours m", "ratio", "paper's table rows, m");
-    let pr: Vec<f64> = paper_rows.iter().map(|r| r.as_ref().map_or(f64::NAN, |r| r.final_rho_m())).collect();
-    println!("{:<32} {:>8.0} {:>10.0} {:>7.2} {:>22.0}", "without turntable angles", PAPER_RHO_IMU_ONLY_M, ra, ra / PAPER_RHO_IMU_ONLY_M, pr[0]);
-    println!("{:<32} {:>8.0} {:>10.0} {:>7.2} {:>22.0}", "with turntable angles", PAPER_RHO_WITH_TURNTABLE_M, rb, rb / PAPER_RHO_WITH_TURNTABLE_M, pr[1]);
+    println!(
+        "\nNavigation after 1 h of the snake flight (docs/navsim.md): rho = a sqrt(s2(dLambda cos phi) + s2(dPhi))"
+    );
+    println!(
+        "{:<32} {:>8} {:>10} {:>7} {:>22}",
+        "calibration", "paper m", "ours m", "ratio", "paper's table rows, m"
+    );
+    let pr: Vec<f64> = paper_rows
+        .iter()
+        .map(|r| r.as_ref().map_or(f64::NAN, |r| r.final_rho_m()))
+        .collect();
+    println!(
+        "{:<32} {:>8.0} {:>10.0} {:>7.2} {:>22.0}",
+        "without turntable angles",
+        PAPER_RHO_IMU_ONLY_M,
+        ra,
+        ra / PAPER_RHO_IMU_ONLY_M,
+        pr[0]
+    );
+    println!(
+        "{:<32} {:>8.0} {:>10.0} {:>7.2} {:>22.0}",
+        "with turntable angles",
+        PAPER_RHO_WITH_TURNTABLE_M,
+        rb,
+        rb / PAPER_RHO_WITH_TURNTABLE_M,
+        pr[1]
+    );
     let improvement = ra / rb;
     println!(
         "improvement: ours {improvement:.2} times, paper {:.2} times",
@@ -148,8 +170,14 @@ fn navigation_check(rec: &(Posterior, Posterior), plot_path: &Path) -> (bool, Va
     );
     let within = (ra / PAPER_RHO_IMU_ONLY_M - 1.0).abs() <= 0.35;
     let improves = improvement >= 1.3;
-    println!("  {} IMU-only figure within 35% of 1900 m", if within { "yes:" } else { "NO: " });
-    println!("  {} turntable angles improve it at least 1.3 times", if improves { "yes:" } else { "NO: " });
+    println!(
+        "  {} IMU-only figure within 35% of 1900 m",
+        if within { "yes:" } else { "NO: " }
+    );
+    println!(
+        "  {} turntable angles improve it at least 1.3 times",
+        if improves { "yes:" } else { "NO: " }
+    );
     if let Some(dir) = plot_path.parent() {
         let _ = std::fs::create_dir_all(dir);
     }
@@ -164,7 +192,10 @@ fn navigation_check(rec: &(Posterior, Posterior), plot_path: &Path) -> (bool, Va
         Ok(()) => println!("plot of rho(t): {}", plot_path.display()),
         Err(e) => println!("plot of rho(t) not written: {e}"),
     }
-    (within && improves, json!({"imu_only_m": ra, "with_turntable_m": rb}))
+    (
+        within && improves,
+        json!({"imu_only_m": ra, "with_turntable_m": rb}),
+    )
 }
 
 fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) -> ExitCode {
@@ -404,7 +435,14 @@ fn diagonal_only(c: &navsim::InstrumentCovariance) -> navsim::InstrumentCovarian
 fn group_max_diagonal(c: &navsim::InstrumentCovariance) -> navsim::InstrumentCovariance {
     let g = calib::report::Groups::new();
     let mut d = nalgebra::DMatrix::zeros(c.names.len(), c.names.len());
-    for group in [&g.nu0, &g.theta_ii, &g.theta_ij, &g.df0, &g.gamma_ii, &g.gamma_ij] {
+    for group in [
+        &g.nu0,
+        &g.theta_ii,
+        &g.theta_ij,
+        &g.df0,
+        &g.gamma_ii,
+        &g.gamma_ij,
+    ] {
         let idx: Vec<usize> = group
             .iter()
             .filter_map(|n| c.names.iter().position(|m| m == n))
@@ -428,26 +466,61 @@ fn nav_budget() -> Result<(), String> {
         ..navsim::NavOptions::default()
     };
     let rho = |c: &navsim::InstrumentCovariance, o: &navsim::NavOptions| {
-        navsim::rho_series(&traj, c, o).map(|r| r.final_rho_m()).map_err(|e| e.to_string())
+        navsim::rho_series(&traj, c, o)
+            .map(|r| r.final_rho_m())
+            .map_err(|e| e.to_string())
     };
-    println!("rho after 1 h of the default snake flight [m]; ratio = without / with turntable angles\n");
+    println!(
+        "rho after 1 h of the default snake flight [m]; ratio = without / with turntable angles\n"
+    );
     println!("| instrument covariance | flight noise | without | with | ratio |");
     println!("|---|---|---|---|---|");
-    let rows: Vec<(&str, navsim::InstrumentCovariance, navsim::InstrumentCovariance)> = vec![
-        ("reconciled posterior, full (paper-check)", instrument_covariance(&rec.0)?, instrument_covariance(&rec.1)?),
-        ("reconciled posterior, correlations dropped", diagonal_only(&instrument_covariance(&rec.0)?), diagonal_only(&instrument_covariance(&rec.1)?)),
-        ("reconciled posterior, group maxima, diagonal", group_max_diagonal(&instrument_covariance(&rec.0)?), group_max_diagonal(&instrument_covariance(&rec.1)?)),
-        ("paper's tables, diagonal", navsim::InstrumentCovariance::paper_without_turntable(), navsim::InstrumentCovariance::paper_with_turntable()),
-        ("literal posterior, full", instrument_covariance(&lit.0)?, instrument_covariance(&lit.1)?),
+    let rows: Vec<(
+        &str,
+        navsim::InstrumentCovariance,
+        navsim::InstrumentCovariance,
+    )> = vec![
+        (
+            "reconciled posterior, full (paper-check)",
+            instrument_covariance(&rec.0)?,
+            instrument_covariance(&rec.1)?,
+        ),
+        (
+            "reconciled posterior, correlations dropped",
+            diagonal_only(&instrument_covariance(&rec.0)?),
+            diagonal_only(&instrument_covariance(&rec.1)?),
+        ),
+        (
+            "reconciled posterior, group maxima, diagonal",
+            group_max_diagonal(&instrument_covariance(&rec.0)?),
+            group_max_diagonal(&instrument_covariance(&rec.1)?),
+        ),
+        (
+            "paper's tables, diagonal",
+            navsim::InstrumentCovariance::paper_without_turntable(),
+            navsim::InstrumentCovariance::paper_with_turntable(),
+        ),
+        (
+            "literal posterior, full",
+            instrument_covariance(&lit.0)?,
+            instrument_covariance(&lit.1)?,
+        ),
     ];
     for (label, a, b) in &rows {
-        for (nl, o) in [("on", navsim::NavOptions::default()), ("off", quiet.clone())] {
+        for (nl, o) in [
+            ("on", navsim::NavOptions::default()),
+            ("off", quiet.clone()),
+        ] {
             let (ra, rb) = (rho(a, &o)?, rho(b, &o)?);
             println!("| {label} | {nl} | {ra:.0} | {rb:.0} | {:.2} |", ra / rb);
         }
     }
-    println!("\nIMU-only calibration with other initial-heading priors (reconciled otherwise), correlations dropped\n");
-    println!("| heading prior | nu0 entry deg/h | rho without [m] | ratio to with-turntable (correlations dropped) |");
+    println!(
+        "\nIMU-only calibration with other initial-heading priors (reconciled otherwise), correlations dropped\n"
+    );
+    println!(
+        "| heading prior | nu0 entry deg/h | rho without [m] | ratio to with-turntable (correlations dropped) |"
+    );
     println!("|---|---|---|---|");
     let with_diag = rho(&rows[1].2, &navsim::NavOptions::default())?;
     for h_arcmin in [6.0, 3.0, 1.5, 0.75] {
@@ -455,14 +528,24 @@ fn nav_budget() -> Result<(), String> {
         c.priors.initial_heading_deg = h_arcmin / 60.0;
         let p = covariance_analysis(&c, false).map_err(|e| e.to_string())?;
         let nu0 = PaperTable::from_posterior(&p).nu0_deg_h;
-        let r = rho(&diagonal_only(&instrument_covariance(&p)?), &navsim::NavOptions::default())?;
-        println!("| {h_arcmin} arcmin | {nu0:.4} | {r:.0} | {:.2} |", r / with_diag);
+        let r = rho(
+            &diagonal_only(&instrument_covariance(&p)?),
+            &navsim::NavOptions::default(),
+        )?;
+        println!(
+            "| {h_arcmin} arcmin | {nu0:.4} | {r:.0} | {:.2} |",
+            r / with_diag
+        );
     }
-    println!("\nError budget of the reconciled posterior (each group alone, correlations within it kept) [m]\n");
+    println!(
+        "\nError budget of the reconciled posterior (each group alone, correlations within it kept) [m]\n"
+    );
     println!("| group | without | with |");
     println!("|---|---|---|");
-    let ba = navsim::error_budget(&traj, &rows[0].1, &navsim::NavOptions::default()).map_err(|e| e.to_string())?;
-    let bb = navsim::error_budget(&traj, &rows[0].2, &navsim::NavOptions::default()).map_err(|e| e.to_string())?;
+    let ba = navsim::error_budget(&traj, &rows[0].1, &navsim::NavOptions::default())
+        .map_err(|e| e.to_string())?;
+    let bb = navsim::error_budget(&traj, &rows[0].2, &navsim::NavOptions::default())
+        .map_err(|e| e.to_string())?;
     for (ea, eb) in ba.entries.iter().zip(&bb.entries) {
         println!("| {:?} | {:.0} | {:.0} |", ea.group, ea.rho_m, eb.rho_m);
     }

@@ -28,6 +28,7 @@
 pub mod config;
 pub mod covariance;
 pub mod filter;
+pub mod io;
 pub mod layout;
 pub mod model;
 pub mod paper;

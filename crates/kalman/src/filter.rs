@@ -10,8 +10,8 @@ use crate::predict::{
     predict_state_structured, predict_structured, predict_structured_scratch,
 };
 use crate::update::{
-    cholesky_in_place, gain_from_cholesky, innovation_covariance, joseph_covariance,
-    joseph_covariance_scratch, state_update, state_update_scratch,
+    cholesky_in_place, gain_from_cholesky, gain_from_cholesky_scratch, innovation_covariance,
+    joseph_covariance, joseph_covariance_scratch, state_update, state_update_scratch,
 };
 
 /// Diagnostics of one measurement update.
@@ -97,6 +97,7 @@ impl KalmanFilter {
             predict_state_dense_scratch(n),
             predict_structured_scratch(n, n),
             joseph_covariance_scratch(n, m_max),
+            gain_from_cholesky_scratch(m_max),
             state_update_scratch(m_max),
         ]);
         Ok(Self {
@@ -277,7 +278,7 @@ impl KalmanFilter {
         innovation_covariance(b.rb_mut(), s.rb_mut(), self.p.as_ref(), h, r, Par::Seq)?;
         // From here on the diagnostics describe this update, also if it fails.
         self.m_last = m;
-        l.copy_from(s.rb());
+        crate::small::copy(l.rb_mut(), s.rb());
         let log_det = match cholesky_in_place(l.rb_mut()) {
             Ok(v) => v,
             Err(e) => {
@@ -286,7 +287,13 @@ impl KalmanFilter {
                 return Err(e);
             }
         };
-        gain_from_cholesky(k.rb_mut(), b.rb(), l.rb())?;
+        gain_from_cholesky(
+            k.rb_mut(),
+            b.rb(),
+            l.rb(),
+            Par::Seq,
+            MemStack::new(&mut self.work),
+        )?;
         joseph_covariance(
             self.p.as_mut(),
             k.rb(),

@@ -42,9 +42,11 @@
 
 mod error;
 mod filter;
+mod gemm;
 pub mod predict;
 pub mod reference;
 mod scaling;
+mod small;
 mod symmetric;
 pub mod update;
 

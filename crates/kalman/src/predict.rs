@@ -4,13 +4,14 @@
 //! whose size the matching `*_scratch` function returns, and allocate nothing.
 
 use faer::dyn_stack::{MemStack, StackReq};
-use faer::linalg::matmul::matmul;
 use faer::linalg::{temp_mat_scratch, temp_mat_zeroed};
 use faer::mat::AsMatMut;
 use faer::prelude::*;
 use faer::{Accum, ColMut, MatMut, MatRef, Par};
 
-use crate::error::{KalmanError, check_finite_mat, check_shape};
+use crate::error::{KalmanError, check_shape};
+use crate::gemm::matmul;
+use crate::small::{all_finite, axpy, copy};
 use crate::symmetric::symmetrise;
 
 /// Scratch needed by [`predict_dense`] for state dimension `n`.
@@ -27,6 +28,14 @@ pub fn predict_state_dense_scratch(n: usize) -> StackReq {
 /// states out of `n`.
 pub fn predict_structured_scratch(k: usize, n: usize) -> StackReq {
     temp_mat_scratch::<f64>(k, n)
+}
+
+fn check_finite(what: &'static str, m: MatRef<'_, f64>) -> Result<(), KalmanError> {
+    if all_finite(m) {
+        Ok(())
+    } else {
+        Err(KalmanError::NonFinite { what })
+    }
 }
 
 fn check_p(p: MatRef<'_, f64>) -> Result<usize, KalmanError> {
@@ -49,13 +58,13 @@ pub fn predict_dense(
     let n = check_p(p.rb())?;
     check_shape("Phi", (phi.nrows(), phi.ncols()), (n, n))?;
     check_shape("Q", (q.nrows(), q.ncols()), (n, n))?;
-    check_finite_mat("Phi", phi)?;
-    check_finite_mat("Q", q)?;
+    check_finite("Phi", phi)?;
+    check_finite("Q", q)?;
     let (mut t, _) = temp_mat_zeroed::<f64, _, _>(n, n, stack);
     let mut t = t.as_mat_mut();
     // T = Phi P, P = Q + T Phi^T
     matmul(t.rb_mut(), Accum::Replace, phi, p.rb(), 1.0, par);
-    p.copy_from(q);
+    copy(p.rb_mut(), q);
     matmul(p.rb_mut(), Accum::Add, t.rb(), phi.transpose(), 1.0, par);
     symmetrise(p);
     Ok(())
@@ -63,18 +72,21 @@ pub fn predict_dense(
 
 /// Dense state time update `x <- Phi x`.
 pub fn predict_state_dense(
-    mut x: ColMut<'_, f64>,
+    x: ColMut<'_, f64>,
     phi: MatRef<'_, f64>,
     par: Par,
     stack: &mut MemStack,
 ) -> Result<(), KalmanError> {
     let n = x.nrows();
     check_shape("Phi", (phi.nrows(), phi.ncols()), (n, n))?;
-    check_finite_mat("Phi", phi)?;
+    check_finite("Phi", phi)?;
+    let _ = par;
     let (mut t, _) = temp_mat_zeroed::<f64, _, _>(n, 1, stack);
     let mut t = t.as_mat_mut();
-    matmul(t.rb_mut(), Accum::Replace, phi, x.rb().as_mat(), 1.0, par);
-    x.copy_from(t.rb().col(0));
+    for j in 0..n {
+        axpy(t.rb_mut().col_mut(0), x[j], phi.col(j));
+    }
+    copy(x.as_mat_mut(), t.rb());
     Ok(())
 }
 
@@ -104,8 +116,8 @@ pub fn predict_structured(
     let k = phi_top.nrows();
     check_shape("phi_top", (k, phi_top.ncols()), (k.min(n), n))?;
     check_shape("q_top", (q_top.nrows(), q_top.ncols()), (k, k))?;
-    check_finite_mat("phi_top", phi_top)?;
-    check_finite_mat("q_top", q_top)?;
+    check_finite("phi_top", phi_top)?;
+    check_finite("q_top", q_top)?;
     if k == 0 {
         return Ok(());
     }
@@ -114,12 +126,13 @@ pub fn predict_structured(
     matmul(t.rb_mut(), Accum::Replace, phi_top, p.rb(), 1.0, par);
     let t = t.rb();
     let t_right = t.subcols(k, n - k);
-    p.rb_mut().submatrix_mut(0, k, k, n - k).copy_from(t_right);
-    p.rb_mut()
-        .submatrix_mut(k, 0, n - k, k)
-        .copy_from(t_right.transpose());
+    copy(p.rb_mut().submatrix_mut(0, k, k, n - k), t_right);
+    copy(
+        p.rb_mut().submatrix_mut(k, 0, n - k, k),
+        t_right.transpose(),
+    );
     let mut p11 = p.rb_mut().submatrix_mut(0, 0, k, k);
-    p11.copy_from(q_top);
+    copy(p11.rb_mut(), q_top);
     matmul(p11.rb_mut(), Accum::Add, t, phi_top.transpose(), 1.0, par);
     symmetrise(p11);
     Ok(())
@@ -136,7 +149,7 @@ pub fn predict_state_structured(
     let n = x.nrows();
     let k = phi_top.nrows();
     check_shape("phi_top", (k, phi_top.ncols()), (k.min(n), n))?;
-    check_finite_mat("phi_top", phi_top)?;
+    check_finite("phi_top", phi_top)?;
     if k == 0 {
         return Ok(());
     }

@@ -1,23 +1,26 @@
 //! Measurement update kernels: innovation covariance, a small Cholesky factorisation, the gain,
 //! the Joseph-form covariance update and the state update with its innovation diagnostics.
 //!
-//! For `n` states and an `m`-dimensional measurement the covariance work is `O(n^2 m)`; the
-//! `m x m` work (Cholesky, triangular solves) is done by plain loops, because faer's general
-//! kernels carry a fixed overhead that dominates at the sizes used here (`m` of a few units).
+//! For `n` states and an `m`-dimensional measurement the covariance work is `O(n^2 m)` and goes
+//! through faer's matrix product; the `O(m^3)` and `O(n m)` parts (Cholesky, inverse of `S`,
+//! matrix-vector products, copies) are plain loops, because faer's general kernels carry a fixed
+//! per-call cost that is larger than that work at the sizes used here (`m` of a few units).
 
 use faer::dyn_stack::{MemStack, StackReq};
-use faer::linalg::matmul::matmul;
 use faer::linalg::{temp_mat_scratch, temp_mat_zeroed};
 use faer::mat::AsMatMut;
 use faer::prelude::*;
-use faer::{Accum, ColMut, ColRef, MatMut, MatRef, Par, unzip, zip};
+use faer::{Accum, ColMut, ColRef, MatMut, MatRef, Par};
 
-use crate::error::{KalmanError, check_finite_mat, check_shape};
+use crate::error::{KalmanError, check_shape};
+use crate::gemm::matmul;
+use crate::small::{all_finite, axpy, copy, spd_inverse_from_cholesky};
 
 /// Computes `B = P H^T` (`n x m`) and the innovation covariance `S = H B + R` (`m x m`,
 /// symmetrised). Costs `n^2 m + n m^2`.
 ///
-/// `h` and `r` are checked for shape and finiteness. `b` and `s` are outputs.
+/// `h` and `r` are checked for shape and finiteness before anything is written; `b` and `s` are
+/// outputs.
 pub fn innovation_covariance(
     mut b: MatMut<'_, f64>,
     mut s: MatMut<'_, f64>,
@@ -33,10 +36,14 @@ pub fn innovation_covariance(
     check_shape("R", (r.nrows(), r.ncols()), (m, m))?;
     check_shape("B", (b.nrows(), b.ncols()), (n, m))?;
     check_shape("S", (s.nrows(), s.ncols()), (m, m))?;
-    check_finite_mat("H", h)?;
-    check_finite_mat("R", r)?;
+    if !all_finite(h) {
+        return Err(KalmanError::NonFinite { what: "H" });
+    }
+    if !all_finite(r) {
+        return Err(KalmanError::NonFinite { what: "R" });
+    }
     matmul(b.rb_mut(), Accum::Replace, p, h.transpose(), 1.0, par);
-    s.copy_from(r);
+    copy(s.rb_mut(), r);
     matmul(s.rb_mut(), Accum::Add, h, b.rb(), 1.0, par);
     crate::symmetrise(s);
     Ok(())
@@ -62,7 +69,7 @@ pub fn cholesky_in_place(mut a: MatMut<'_, f64>) -> Result<f64, KalmanError> {
             d -= a[(j, l)] * a[(j, l)];
         }
         // `!(d > ..)` also rejects NaN.
-        if !(d > tol * diag.abs()) || !d.is_finite() {
+        if !d.is_finite() || d <= tol * diag.abs() {
             return Err(KalmanError::NotPositiveDefinite {
                 m,
                 pivot: j,
@@ -89,44 +96,29 @@ pub fn cholesky_in_place(mut a: MatMut<'_, f64>) -> Result<f64, KalmanError> {
     Ok(log_det)
 }
 
-/// `y <- y - c x` on two columns.
-#[inline]
-fn axpy(y: ColMut<'_, f64>, c: f64, x: ColRef<'_, f64>) {
-    zip!(y, x).for_each(|unzip!(y, x)| *y -= c * *x);
+/// Scratch needed by [`gain_from_cholesky`] for an `m`-dimensional measurement.
+pub fn gain_from_cholesky_scratch(m: usize) -> StackReq {
+    temp_mat_scratch::<f64>(m, m)
 }
 
-/// Computes the gain `K = B S^{-1}` (`n x m`) from `B` (`n x m`) and the lower Cholesky factor
-/// `L` of `S` (`m x m`, as left by [`cholesky_in_place`]). Costs `n m^2`.
+/// Computes the gain `K = B S^{-1}` (`n x m`) from `B = P H^T` (`n x m`) and the lower Cholesky
+/// factor `L` of `S` (`m x m`, as left by [`cholesky_in_place`]): `S^{-1}` by substitution
+/// (`m^3`), then one `n x m x m` product.
 pub fn gain_from_cholesky(
-    mut k: MatMut<'_, f64>,
+    k: MatMut<'_, f64>,
     b: MatRef<'_, f64>,
     l: MatRef<'_, f64>,
+    par: Par,
+    stack: &mut MemStack,
 ) -> Result<(), KalmanError> {
     let n = b.nrows();
     let m = b.ncols();
     check_shape("L", (l.nrows(), l.ncols()), (m, m))?;
     check_shape("K", (k.nrows(), k.ncols()), (n, m))?;
-    k.copy_from(b);
-    // Y L^T = B, column by column (forward).
-    for j in 0..m {
-        for c in 0..j {
-            let coef = l[(j, c)];
-            let (yj, yc) = k.rb_mut().two_cols_mut(j, c);
-            axpy(yj, coef, yc.rb());
-        }
-        let inv = 1.0 / l[(j, j)];
-        zip!(k.rb_mut().col_mut(j)).for_each(|unzip!(v)| *v *= inv);
-    }
-    // K L = Y, column by column (backward).
-    for j in (0..m).rev() {
-        for c in (j + 1)..m {
-            let coef = l[(c, j)];
-            let (kj, kc) = k.rb_mut().two_cols_mut(j, c);
-            axpy(kj, coef, kc.rb());
-        }
-        let inv = 1.0 / l[(j, j)];
-        zip!(k.rb_mut().col_mut(j)).for_each(|unzip!(v)| *v *= inv);
-    }
+    let (mut sinv, _) = temp_mat_zeroed::<f64, _, _>(m, m, stack);
+    let mut sinv = sinv.as_mat_mut();
+    spd_inverse_from_cholesky(sinv.rb_mut(), l);
+    matmul(k, Accum::Replace, b, sinv.rb(), 1.0, par);
     Ok(())
 }
 
@@ -169,11 +161,11 @@ pub fn joseph_covariance(
     let (mut w, _) = temp_mat_zeroed::<f64, _, _>(n, 3 * m, stack);
     let mut w = w.as_mat_mut();
     // W = [K | C | K] with C = B - K S / 2.
-    w.rb_mut().subcols_mut(0, m).copy_from(k);
-    w.rb_mut().subcols_mut(2 * m, m).copy_from(k);
+    copy(w.rb_mut().subcols_mut(0, m), k);
+    copy(w.rb_mut().subcols_mut(2 * m, m), k);
     {
         let mut c = w.rb_mut().subcols_mut(m, m);
-        c.copy_from(b);
+        copy(c.rb_mut(), b);
         matmul(c.rb_mut(), Accum::Add, k, s, -0.5, par);
     }
     let w = w.rb();
@@ -198,7 +190,8 @@ pub fn state_update_scratch(m: usize) -> StackReq {
 /// innovation squared `NIS = nu^T S^{-1} nu` (computed as `|L^{-1} nu|^2`).
 ///
 /// Call it with the *prior* state and the gain and Cholesky factor of this update (the
-/// covariance kernels do not touch `x`). `innovation` (`m`) receives `nu`.
+/// covariance kernels do not touch `x`). `innovation` (`m`) receives `nu`. `z` is checked for
+/// shape and finiteness before anything is written.
 pub fn state_update(
     mut x: ColMut<'_, f64>,
     mut innovation: ColMut<'_, f64>,
@@ -214,14 +207,15 @@ pub fn state_update(
     check_shape("K", (k.nrows(), k.ncols()), (n, m))?;
     check_shape("L", (l.nrows(), l.ncols()), (m, m))?;
     check_shape("innovation", (innovation.nrows(), 1), (m, 1))?;
-    if !z.is_all_finite() {
+    if !all_finite(z.as_mat()) {
         return Err(KalmanError::NonFinite { what: "z" });
     }
-    innovation.copy_from(z);
+    // nu = z - H x, column by column of H.
+    copy(innovation.rb_mut().as_mat_mut(), z.as_mat());
     for j in 0..n {
-        let xj = x[j];
-        zip!(innovation.rb_mut(), h.col(j)).for_each(|unzip!(v, hij)| *v -= *hij * xj);
+        axpy(innovation.rb_mut(), -x[j], h.col(j));
     }
+    // NIS = |w|^2 with L w = nu.
     let (mut w, _) = temp_mat_zeroed::<f64, _, _>(m, 1, stack);
     let mut w = w.as_mat_mut();
     let mut nis = 0.0;
@@ -234,8 +228,9 @@ pub fn state_update(
         w[(i, 0)] = v;
         nis += v * v;
     }
+    // x += K nu
     for c in 0..m {
-        axpy(x.rb_mut(), -innovation[c], k.col(c));
+        axpy(x.rb_mut(), innovation[c], k.col(c));
     }
     Ok(nis)
 }
@@ -245,7 +240,10 @@ pub fn joseph_update_scratch(n: usize, m: usize) -> StackReq {
     StackReq::all_of(&[
         temp_mat_scratch::<f64>(n, m),
         temp_mat_scratch::<f64>(m, m),
-        joseph_covariance_scratch(n, m),
+        StackReq::any_of(&[
+            gain_from_cholesky_scratch(m),
+            joseph_covariance_scratch(n, m),
+        ]),
     ])
 }
 
@@ -254,8 +252,7 @@ pub fn joseph_update_scratch(n: usize, m: usize) -> StackReq {
 ///
 /// On success `p` holds the posterior covariance, `gain` (`n x m`) the gain `K` and `s_chol`
 /// (`m x m`) the lower Cholesky factor of `S`, ready for [`state_update`]; returns `ln det S`.
-/// On error `p` is unchanged. Costs about `2 n^2 m` multiply-adds with the symmetric
-/// rank-`2m` update counted in full.
+/// On error `p` is unchanged. Costs about `3 n^2 m` multiply-adds.
 pub fn joseph_update(
     p: MatMut<'_, f64>,
     h: MatRef<'_, f64>,
@@ -267,15 +264,16 @@ pub fn joseph_update(
 ) -> Result<f64, KalmanError> {
     let n = p.nrows();
     let m = h.nrows();
+    check_shape("gain", (gain.nrows(), gain.ncols()), (n, m))?;
+    check_shape("s_chol", (s_chol.nrows(), s_chol.ncols()), (m, m))?;
     let (mut b, stack) = temp_mat_zeroed::<f64, _, _>(n, m, stack);
     let mut b = b.as_mat_mut();
     let (mut s, stack) = temp_mat_zeroed::<f64, _, _>(m, m, stack);
     let mut s = s.as_mat_mut();
     innovation_covariance(b.rb_mut(), s.rb_mut(), p.rb(), h, r, par)?;
-    check_shape("s_chol", (s_chol.nrows(), s_chol.ncols()), (m, m))?;
-    s_chol.copy_from(s.rb());
+    copy(s_chol.rb_mut(), s.rb());
     let log_det = cholesky_in_place(s_chol.rb_mut())?;
-    gain_from_cholesky(gain.rb_mut(), b.rb(), s_chol.rb())?;
+    gain_from_cholesky(gain.rb_mut(), b.rb(), s_chol.rb(), par, stack)?;
     joseph_covariance(p, gain.rb(), b.rb(), s.rb(), par, stack)?;
     Ok(log_det)
 }

@@ -24,3 +24,4 @@ pub mod gimbal;
 pub mod kinematics;
 pub mod program;
 pub mod sensor;
+pub mod simulate;

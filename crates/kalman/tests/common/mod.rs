@@ -180,7 +180,7 @@ pub fn is_pd(p: &Mat<f64>) -> bool {
         for k in 0..j {
             d -= l[(j, k)] * l[(j, k)];
         }
-        if !(d > 0.0) {
+        if d.is_nan() || d <= 0.0 {
             return false;
         }
         l[(j, j)] = d.sqrt();

@@ -1,0 +1,597 @@
+//! The interchange formats (`docs`/design notes): `imu.csv`, `turntable.csv` and result JSON.
+//!
+//! - `imu.csv`: a header row, then `t,dthx,dthy,dthz,dvx,dvy,dvz` (increments over the interval
+//!   ending at `t`, rad and m/s) or `t,wx,wy,wz,fx,fy,fz` (rates, rad/s and m/s^2), with an
+//!   optional `temp` column (deg C). Columns may come in any order; `t` is on the IMU clock.
+//! - `turntable.csv`: a header row, then `t,k1,k2,k3` (turntable clock, gimbal angles in degrees,
+//!   heading-bank-pitch).
+//! - results: `{"parameters": [{"name", "value", "sigma", "unit"}...]}`, SI units; `sigma` is
+//!   left out for a truth file.
+//!
+//! Bad input is refused with an [`IoError`] naming the file, the 1-based line (the header is
+//! line 1) and what was expected; nothing is dropped silently. Writers use the shortest text that
+//! reads back to the identical `f64`.
+
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::Path;
+use turntable::simulate::{ImuSample, Truth, TurntableSample};
+
+/// Errors reading or writing interchange files.
+#[derive(Debug, thiserror::Error)]
+pub enum IoError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {source}")]
+    Read {
+        /// File name.
+        file: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The file could not be written.
+    #[error("{file}: cannot write: {source}")]
+    Write {
+        /// File name.
+        file: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// A line does not have the expected form.
+    #[error("{file}: line {line}: {message}")]
+    Line {
+        /// File name.
+        file: String,
+        /// 1-based line number (header = 1).
+        line: usize,
+        /// What was found and what was expected.
+        message: String,
+    },
+    /// The file as a whole is unusable (e.g. it does not overlap the IMU data in time).
+    #[error("{file}: {message}")]
+    File {
+        /// File name.
+        file: String,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// JSON that is not a result file.
+    #[error("{file}: not a result file: {source}")]
+    Json {
+        /// File name.
+        file: String,
+        /// Cause (with line and column).
+        source: serde_json::Error,
+    },
+}
+
+/// What the IMU file holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ImuKind {
+    /// `dthx..dvz`: angle increments [rad] and velocity increments [m/s] over the interval ending
+    /// at `t`.
+    Increments,
+    /// `wx..fz`: angular rate [rad/s] and specific force [m/s^2] at `t`.
+    Rates,
+}
+
+impl ImuKind {
+    /// The six data columns, gyro triad first.
+    pub fn columns(self) -> [&'static str; 6] {
+        match self {
+            ImuKind::Increments => ["dthx", "dthy", "dthz", "dvx", "dvy", "dvz"],
+            ImuKind::Rates => ["wx", "wy", "wz", "fx", "fy", "fz"],
+        }
+    }
+}
+
+/// One IMU row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuRecord {
+    /// Time on the IMU clock [s] (end of the interval for increments).
+    pub t: f64,
+    /// `dth` [rad] or `w` [rad/s], body axes.
+    pub gyro: [f64; 3],
+    /// `dv` [m/s] or `f` [m/s^2], body axes.
+    pub accel: [f64; 3],
+    /// Temperature [deg C], when the file has a `temp` column.
+    pub temp: Option<f64>,
+}
+
+/// The contents of an `imu.csv`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImuData {
+    /// Increments or rates.
+    pub kind: ImuKind,
+    /// Rows in time order (strictly increasing `t`).
+    pub records: Vec<ImuRecord>,
+}
+
+impl ImuData {
+    /// Increments from the truth simulator.
+    pub fn from_samples(samples: &[ImuSample]) -> Self {
+        Self {
+            kind: ImuKind::Increments,
+            records: samples
+                .iter()
+                .map(|s| ImuRecord {
+                    t: s.t,
+                    gyro: [s.dtheta.x, s.dtheta.y, s.dtheta.z],
+                    accel: [s.dv.x, s.dv.y, s.dv.z],
+                    temp: None,
+                })
+                .collect(),
+        }
+    }
+
+    /// First and last time stamp, `None` without records.
+    pub fn span(&self) -> Option<(f64, f64)> {
+        Some((self.records.first()?.t, self.records.last()?.t))
+    }
+}
+
+/// One turntable row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TurntableRecord {
+    /// Time on the turntable clock [s].
+    pub t: f64,
+    /// Gimbal angles (heading, bank, pitch) [deg].
+    pub k_deg: [f64; 3],
+}
+
+/// The contents of a `turntable.csv`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TurntableData {
+    /// Rows in time order (strictly increasing `t`).
+    pub records: Vec<TurntableRecord>,
+}
+
+impl TurntableData {
+    /// Records from the truth simulator.
+    pub fn from_samples(samples: &[TurntableSample]) -> Self {
+        Self {
+            records: samples
+                .iter()
+                .map(|s| TurntableRecord {
+                    t: s.t_tt,
+                    k_deg: s.k_deg,
+                })
+                .collect(),
+        }
+    }
+
+    /// First and last time stamp (turntable clock), `None` without records.
+    pub fn span(&self) -> Option<(f64, f64)> {
+        Some((self.records.first()?.t, self.records.last()?.t))
+    }
+}
+
+/// Turntable columns.
+pub const TURNTABLE_COLUMNS: [&str; 4] = ["t", "k1", "k2", "k3"];
+
+fn line_error(file: &str, line: usize, message: String) -> IoError {
+    IoError::Line {
+        file: file.to_string(),
+        line,
+        message,
+    }
+}
+
+fn read_text(path: &Path) -> Result<String, IoError> {
+    std::fs::read_to_string(path).map_err(|source| IoError::Read {
+        file: path.display().to_string(),
+        source,
+    })
+}
+
+fn write_text(path: &Path, text: &str) -> Result<(), IoError> {
+    std::fs::write(path, text).map_err(|source| IoError::Write {
+        file: path.display().to_string(),
+        source,
+    })
+}
+
+/// Split into numbered lines (1-based); trailing blank lines at the end of the file are fine,
+/// blank lines before data are not.
+fn numbered_lines(text: &str) -> Vec<(usize, &str)> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut lines: Vec<(usize, &str)> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
+        .collect();
+    while lines.last().is_some_and(|(_, l)| l.trim().is_empty()) {
+        lines.pop();
+    }
+    lines
+}
+
+/// Parse one data row into `n` finite numbers.
+fn parse_row(file: &str, line: usize, text: &str, names: &[String]) -> Result<Vec<f64>, IoError> {
+    let fields: Vec<&str> = text.split(',').map(str::trim).collect();
+    if fields.len() != names.len() {
+        return Err(line_error(
+            file,
+            line,
+            format!(
+                "expected {} comma-separated fields ({}), found {}",
+                names.len(),
+                names.join(","),
+                if text.trim().is_empty() {
+                    "an empty line".to_string()
+                } else {
+                    format!("{}", fields.len())
+                }
+            ),
+        ));
+    }
+    fields
+        .iter()
+        .zip(names)
+        .map(|(f, name)| match f.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            Ok(_) => Err(line_error(
+                file,
+                line,
+                format!("column `{name}`: expected a finite number, found `{f}`"),
+            )),
+            Err(_) => Err(line_error(
+                file,
+                line,
+                format!("column `{name}`: expected a number, found `{f}`"),
+            )),
+        })
+        .collect()
+}
+
+/// Header names, trimmed; refuses duplicates and empty names.
+fn header(file: &str, lines: &[(usize, &str)], expected: &str) -> Result<Vec<String>, IoError> {
+    let Some(&(n, text)) = lines.first() else {
+        return Err(line_error(
+            file,
+            1,
+            format!("empty file: expected a header row `{expected}` and data rows"),
+        ));
+    };
+    let names: Vec<String> = text.split(',').map(|s| s.trim().to_string()).collect();
+    for (i, name) in names.iter().enumerate() {
+        if name.is_empty() {
+            return Err(line_error(
+                file,
+                n,
+                format!(
+                    "header column {} is empty: expected a header row `{expected}`",
+                    i + 1
+                ),
+            ));
+        }
+        if names[..i].contains(name) {
+            return Err(line_error(
+                file,
+                n,
+                format!("header names column `{name}` twice: expected `{expected}`"),
+            ));
+        }
+    }
+    Ok(names)
+}
+
+fn check_time(file: &str, line: usize, t: f64, previous: Option<f64>) -> Result<(), IoError> {
+    if let Some(p) = previous
+        && t <= p
+    {
+        return Err(line_error(
+            file,
+            line,
+            format!(
+                "time t = {t} is not after the previous row's t = {p}: expected strictly \
+                 increasing time"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn no_data(file: &str, lines: &[(usize, &str)]) -> Result<(), IoError> {
+    if lines.len() < 2 {
+        return Err(line_error(
+            file,
+            2,
+            "expected at least one data row after the header, found none".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Parse the text of an `imu.csv`; `file` names it in errors.
+pub fn parse_imu_csv(text: &str, file: &str) -> Result<ImuData, IoError> {
+    let lines = numbered_lines(text);
+    let expected = "t,dthx,dthy,dthz,dvx,dvy,dvz[,temp] or t,wx,wy,wz,fx,fy,fz[,temp]";
+    let names = header(file, &lines, expected)?;
+    let hline = lines[0].0;
+    let known = |kind: ImuKind, n: &str| kind.columns().contains(&n);
+    let mut kinds = Vec::new();
+    for n in &names {
+        let kind = if known(ImuKind::Increments, n) {
+            ImuKind::Increments
+        } else if known(ImuKind::Rates, n) {
+            ImuKind::Rates
+        } else if n == "t" || n == "temp" {
+            continue;
+        } else {
+            return Err(line_error(
+                file,
+                hline,
+                format!("unknown column `{n}` in the header: expected {expected}"),
+            ));
+        };
+        if !kinds.contains(&kind) {
+            kinds.push(kind);
+        }
+    }
+    let kind = match kinds.as_slice() {
+        [k] => *k,
+        [] => {
+            return Err(line_error(
+                file,
+                hline,
+                format!("header has no sensor columns: expected {expected}"),
+            ));
+        }
+        _ => {
+            return Err(line_error(
+                file,
+                hline,
+                format!("header mixes increments and rates: expected {expected}"),
+            ));
+        }
+    };
+    let index = |n: &str| names.iter().position(|x| x == n);
+    let mut cols = [0usize; 7];
+    for (slot, n) in cols
+        .iter_mut()
+        .zip(std::iter::once("t").chain(kind.columns()))
+    {
+        *slot = index(n).ok_or_else(|| {
+            line_error(
+                file,
+                hline,
+                format!(
+                    "missing column `{n}` in the header: expected t,{}[,temp]",
+                    kind.columns().join(",")
+                ),
+            )
+        })?;
+    }
+    let temp = index("temp");
+    no_data(file, &lines)?;
+    let mut records = Vec::with_capacity(lines.len() - 1);
+    let mut previous = None;
+    for &(n, text) in &lines[1..] {
+        let v = parse_row(file, n, text, &names)?;
+        let t = v[cols[0]];
+        check_time(file, n, t, previous)?;
+        previous = Some(t);
+        records.push(ImuRecord {
+            t,
+            gyro: [v[cols[1]], v[cols[2]], v[cols[3]]],
+            accel: [v[cols[4]], v[cols[5]], v[cols[6]]],
+            temp: temp.map(|i| v[i]),
+        });
+    }
+    Ok(ImuData { kind, records })
+}
+
+/// Read an `imu.csv`.
+pub fn read_imu_csv(path: &Path) -> Result<ImuData, IoError> {
+    parse_imu_csv(&read_text(path)?, &path.display().to_string())
+}
+
+/// Parse the text of a `turntable.csv`; `file` names it in errors.
+pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoError> {
+    let lines = numbered_lines(text);
+    let expected = TURNTABLE_COLUMNS.join(",");
+    let names = header(file, &lines, &expected)?;
+    let hline = lines[0].0;
+    if let Some(n) = names
+        .iter()
+        .find(|n| !TURNTABLE_COLUMNS.contains(&n.as_str()))
+    {
+        return Err(line_error(
+            file,
+            hline,
+            format!("unknown column `{n}` in the header: expected {expected}"),
+        ));
+    }
+    let mut cols = [0usize; 4];
+    for (slot, n) in cols.iter_mut().zip(TURNTABLE_COLUMNS) {
+        *slot = names.iter().position(|x| x == n).ok_or_else(|| {
+            line_error(
+                file,
+                hline,
+                format!("missing column `{n}` in the header: expected {expected}"),
+            )
+        })?;
+    }
+    no_data(file, &lines)?;
+    let mut records = Vec::with_capacity(lines.len() - 1);
+    let mut previous = None;
+    for &(n, text) in &lines[1..] {
+        let v = parse_row(file, n, text, &names)?;
+        let t = v[cols[0]];
+        check_time(file, n, t, previous)?;
+        previous = Some(t);
+        records.push(TurntableRecord {
+            t,
+            k_deg: [v[cols[1]], v[cols[2]], v[cols[3]]],
+        });
+    }
+    Ok(TurntableData { records })
+}
+
+/// Read a `turntable.csv`.
+pub fn read_turntable_csv(path: &Path) -> Result<TurntableData, IoError> {
+    parse_turntable_csv(&read_text(path)?, &path.display().to_string())
+}
+
+/// Shortest text that parses back to the identical `f64` (plain or exponent form).
+pub fn format_f64(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || (1e-4..1e15).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// The text of an `imu.csv`. A `temp` column is written when any record has a temperature; then
+/// every record must have one (else an error naming `file`).
+pub fn format_imu_csv(data: &ImuData, file: &str) -> Result<String, IoError> {
+    let has_temp = data.records.iter().any(|r| r.temp.is_some());
+    let mut s = String::from("t,");
+    s += &data.kind.columns().join(",");
+    if has_temp {
+        s += ",temp";
+    }
+    s.push('\n');
+    for (i, r) in data.records.iter().enumerate() {
+        s += &format_f64(r.t);
+        for v in r.gyro.iter().chain(&r.accel) {
+            s.push(',');
+            s += &format_f64(*v);
+        }
+        if has_temp {
+            let Some(temp) = r.temp else {
+                return Err(IoError::File {
+                    file: file.to_string(),
+                    message: format!(
+                        "record {} has no temperature while others have: cannot write a \
+                         `temp` column",
+                        i + 1
+                    ),
+                });
+            };
+            s.push(',');
+            s += &format_f64(temp);
+        }
+        s.push('\n');
+    }
+    Ok(s)
+}
+
+/// Write an `imu.csv`.
+pub fn write_imu_csv(path: &Path, data: &ImuData) -> Result<(), IoError> {
+    let text = format_imu_csv(data, &path.display().to_string())?;
+    write_text(path, &text)
+}
+
+/// The text of a `turntable.csv`.
+pub fn format_turntable_csv(data: &TurntableData) -> String {
+    let mut s = TURNTABLE_COLUMNS.join(",");
+    s.push('\n');
+    for r in &data.records {
+        let _ = write!(
+            s,
+            "{},{},{},{}",
+            format_f64(r.t),
+            format_f64(r.k_deg[0]),
+            format_f64(r.k_deg[1]),
+            format_f64(r.k_deg[2])
+        );
+        s.push('\n');
+    }
+    s
+}
+
+/// Write a `turntable.csv`.
+pub fn write_turntable_csv(path: &Path, data: &TurntableData) -> Result<(), IoError> {
+    write_text(path, &format_turntable_csv(data))
+}
+
+/// Refuse a turntable file that does not overlap the IMU file in time. `imu_span` is the IMU
+/// file's first and last stamp, `turntable_span_on_imu_clock` the turntable file's span mapped to
+/// the IMU clock by the caller; `file` names the turntable file.
+pub fn check_overlap(
+    imu_span: (f64, f64),
+    turntable_span_on_imu_clock: (f64, f64),
+    file: &str,
+) -> Result<(), IoError> {
+    let (a0, a1) = imu_span;
+    let (b0, b1) = turntable_span_on_imu_clock;
+    if !(b0 <= a1 && b1 >= a0 && b0 <= b1 && a0 <= a1) {
+        return Err(IoError::File {
+            file: file.to_string(),
+            message: format!(
+                "the turntable data span {b0} s to {b1} s on the IMU clock and do not overlap \
+                 the IMU data ({a0} s to {a1} s): expected turntable records during the IMU run \
+                 (check the clock offset and the files)"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// One parameter of a result or truth file (SI units).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResultParameter {
+    /// Documented name, e.g. `gyro.theta.xy`.
+    pub name: String,
+    /// Value [SI].
+    pub value: f64,
+    /// Standard deviation [SI]; absent in a truth file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<f64>,
+    /// SI unit name.
+    pub unit: String,
+}
+
+/// A result (or truth) file: `{"parameters": [...]}`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ResultFile {
+    /// Parameters in state order.
+    pub parameters: Vec<ResultParameter>,
+}
+
+impl ResultFile {
+    /// Value and sigma of a parameter by name.
+    pub fn get(&self, name: &str) -> Option<&ResultParameter> {
+        self.parameters.iter().find(|p| p.name == name)
+    }
+}
+
+impl From<&Truth> for ResultFile {
+    fn from(truth: &Truth) -> Self {
+        Self {
+            parameters: truth
+                .parameters
+                .iter()
+                .map(|p| ResultParameter {
+                    name: p.name.clone(),
+                    value: p.value,
+                    sigma: None,
+                    unit: p.unit.clone(),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Write a result file as pretty JSON.
+pub fn write_result_json(path: &Path, result: &ResultFile) -> Result<(), IoError> {
+    let text = serde_json::to_string_pretty(result).expect("plain data serialises");
+    write_text(path, &(text + "\n"))
+}
+
+/// Write the truth of a simulated run (no sigma).
+pub fn write_truth_json(path: &Path, truth: &Truth) -> Result<(), IoError> {
+    write_result_json(path, &ResultFile::from(truth))
+}
+
+/// Read a result or truth file.
+pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
+    let text = read_text(path)?;
+    serde_json::from_str(&text).map_err(|source| IoError::Json {
+        file: path.display().to_string(),
+        source,
+    })
+}

@@ -1,0 +1,488 @@
+//! Truth simulation of a calibration run: what the IMU and the turntable's angle sensors record.
+//!
+//! - IMU records on the IMU clock: increments `dtheta`, `dv` over `[t - dt, t]` (`t` the end of
+//!   the interval), the exact integrals of the measured rate `w' = w - nu(p; w, f)` and specific
+//!   force `f' = f + df(p; w, f)` in body axes (coning and sculling included), plus white noise
+//!   with variance `PSD * dt` per axis. The integrals use Gauss-Legendre quadrature on each
+//!   sub-interval between program piece boundaries, where the integrand is analytic.
+//! - Turntable records on the turntable clock ([`AngleSensor`]): stamps on a regular grid of the
+//!   turntable clock covering the IMU run; the record stamped `t_tt` holds the true gimbal angles
+//!   at IMU time [`AngleSensor::true_time_of_record`] (late by `tau`) plus white noise, in degrees.
+//! - [`Truth`]: the true parameter values, for checking an estimate.
+
+use crate::kinematics::Kinematics;
+use crate::sensor::AngleSensor;
+use nalgebra::Vector3;
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+use sins_model::terms::{ErrorModel, Sensor, SensorInput, Unit};
+
+/// One IMU record: increments over `[t - dt, t]`, body axes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuSample {
+    /// End of the interval on the IMU clock [s].
+    pub t: f64,
+    /// Angle increment [rad].
+    pub dtheta: Vector3<f64>,
+    /// Velocity increment [m/s].
+    pub dv: Vector3<f64>,
+}
+
+/// One turntable record.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TurntableSample {
+    /// Stamp on the turntable clock [s].
+    pub t_tt: f64,
+    /// Gimbal angles (heading, bank, pitch) as read by the angle sensors [deg].
+    pub k_deg: [f64; 3],
+}
+
+/// Settings of the IMU part of a simulation (serde, so a run configuration can hold it).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    /// IMU output rate [Hz].
+    pub imu_rate_hz: f64,
+    /// Gyro white-noise PSD [rad^2/s]: an angle increment gets noise of variance `psd * dt`.
+    pub gyro_psd: f64,
+    /// Accelerometer white-noise PSD [(m/s^2)^2 s]: a velocity increment gets `psd * dt`.
+    pub accel_psd: f64,
+    /// Gauss-Legendre points per smooth sub-interval (1..=64).
+    pub quadrature_points: usize,
+    /// Length of the IMU run [s]; `None` = the program's duration.
+    pub duration_s: Option<f64>,
+    /// Seed of the random generator (noise).
+    pub seed: u64,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            imu_rate_hz: 100.0,
+            gyro_psd: 0.0,
+            accel_psd: 0.0,
+            quadrature_points: 6,
+            duration_s: None,
+            seed: 0,
+        }
+    }
+}
+
+/// Errors of the simulator (bad settings, never user data).
+#[derive(Debug, thiserror::Error)]
+pub enum SimulateError {
+    /// `p_true` does not match the error model.
+    #[error("true parameter vector has {got} values, the error model has {expected} parameters")]
+    ParameterCount {
+        /// Parameters of the model.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+    /// A setting is out of range.
+    #[error("invalid simulation setting: {0}")]
+    Invalid(String),
+}
+
+/// One true parameter value.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TruthParameter {
+    /// Documented name, e.g. `gyro.bias.x`.
+    pub name: String,
+    /// Value in SI units.
+    pub value: f64,
+    /// SI unit name ([`Unit::si_name`]).
+    pub unit: String,
+}
+
+/// True values of everything the simulation was built from; JSON `{"parameters": [...]}`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    /// Parameters in order: the error model's, then `install.delta.*`, `turntable.tau`,
+    /// `base.gamma.*`, `turntable.clock.offset`, `turntable.clock.rate_error`.
+    pub parameters: Vec<TruthParameter>,
+}
+
+impl Truth {
+    /// Collect the truth of a run. `p_true` must match `model` (checked by [`simulate`]).
+    pub fn new(model: &ErrorModel, p_true: &[f64], kin: &Kinematics, sensor: &AngleSensor) -> Self {
+        let mut parameters: Vec<TruthParameter> = model
+            .params()
+            .into_iter()
+            .zip(p_true)
+            .map(|(spec, &value)| TruthParameter {
+                name: spec.name,
+                value,
+                unit: spec.unit.si_name().to_string(),
+            })
+            .collect();
+        let mut push = |name: String, value: f64, unit: Unit| {
+            parameters.push(TruthParameter {
+                name,
+                value,
+                unit: unit.si_name().to_string(),
+            })
+        };
+        let axes = ["x", "y", "z"];
+        for (i, a) in axes.iter().enumerate() {
+            push(
+                format!("install.delta.{a}"),
+                kin.mounting.delta_z[i],
+                Unit::SmallAngle,
+            );
+        }
+        push("turntable.tau".into(), sensor.tau, Unit::Second);
+        for (i, a) in axes.iter().enumerate() {
+            push(
+                format!("base.gamma.{a}"),
+                kin.mounting.gamma_p[i],
+                Unit::SmallAngle,
+            );
+        }
+        push(
+            "turntable.clock.offset".into(),
+            sensor.clock_offset,
+            Unit::Second,
+        );
+        push(
+            "turntable.clock.rate_error".into(),
+            sensor.clock_rate_error,
+            Unit::Ratio,
+        );
+        Self { parameters }
+    }
+
+    /// Value of a parameter by name.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.parameters
+            .iter()
+            .find(|p| p.name == name)
+            .map(|p| p.value)
+    }
+
+    /// Pretty JSON `{"parameters": [{"name", "value", "unit"}...]}`.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("truth is plain data")
+    }
+}
+
+/// A simulated run.
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    /// IMU records.
+    pub imu: Vec<ImuSample>,
+    /// Turntable records.
+    pub turntable: Vec<TurntableSample>,
+    /// True values.
+    pub truth: Truth,
+}
+
+/// The random generator used by the simulator (portable: same seed, same numbers everywhere).
+pub type SimRng = Xoshiro256PlusPlus;
+
+/// Draw true parameters from the priors: `Normal(0, prior_sigma)` for each parameter.
+pub fn draw_parameters<R: Rng + ?Sized>(model: &ErrorModel, rng: &mut R) -> Vec<f64> {
+    model
+        .params()
+        .iter()
+        .map(|spec| {
+            let n: f64 = StandardNormal.sample(rng);
+            spec.prior_sigma * n
+        })
+        .collect()
+}
+
+/// Gauss-Legendre rule on `[-1, 1]`: `n` nodes and weights (Newton on the Legendre polynomial).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GaussLegendre {
+    nodes: Vec<f64>,
+    weights: Vec<f64>,
+}
+
+impl GaussLegendre {
+    /// The `n`-point rule, `1 <= n <= 64`.
+    pub fn new(n: usize) -> Result<Self, SimulateError> {
+        if !(1..=64).contains(&n) {
+            return Err(SimulateError::Invalid(format!(
+                "quadrature_points must be in 1..=64, got {n}"
+            )));
+        }
+        let mut nodes = Vec::with_capacity(n);
+        let mut weights = Vec::with_capacity(n);
+        let nf = n as f64;
+        for i in 0..n {
+            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (nf + 0.5)).cos();
+            let mut dp = 1.0;
+            for _ in 0..100 {
+                let (p, d) = legendre(n, x);
+                dp = d;
+                let dx = p / d;
+                x -= dx;
+                if dx.abs() < 1e-16 {
+                    break;
+                }
+            }
+            let (_, d) = legendre(n, x);
+            if d.is_finite() {
+                dp = d;
+            }
+            nodes.push(x);
+            weights.push(2.0 / ((1.0 - x * x) * dp * dp));
+        }
+        Ok(Self { nodes, weights })
+    }
+
+    /// Integrate `f` over `[a, b]`, accumulating into a pair of vectors.
+    fn integrate2<F>(&self, a: f64, b: f64, mut f: F) -> (Vector3<f64>, Vector3<f64>)
+    where
+        F: FnMut(f64) -> (Vector3<f64>, Vector3<f64>),
+    {
+        let h = 0.5 * (b - a);
+        let m = 0.5 * (a + b);
+        let mut s1 = Vector3::zeros();
+        let mut s2 = Vector3::zeros();
+        for (&x, &w) in self.nodes.iter().zip(&self.weights) {
+            let (v1, v2) = f(m + h * x);
+            s1 += v1 * w;
+            s2 += v2 * w;
+        }
+        (s1 * h, s2 * h)
+    }
+}
+
+/// Legendre polynomial `P_n(x)` and its derivative.
+fn legendre(n: usize, x: f64) -> (f64, f64) {
+    let (mut p0, mut p1) = (1.0, x);
+    for k in 2..=n {
+        let kf = k as f64;
+        let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
+        p0 = p1;
+        p1 = p2;
+    }
+    let nf = n as f64;
+    (p1, nf * (x * p1 - p0) / (x * x - 1.0))
+}
+
+/// Exact (to quadrature precision) noise-free increments over `[a, b]`: the integrals of the
+/// measured body rate `w - nu(p)` and specific force `f + df(p)`. The interval is split at program
+/// piece boundaries (and at `t = 0`, before which the program holds its start).
+pub fn increments(
+    kin: &Kinematics,
+    model: &ErrorModel,
+    p_true: &[f64],
+    rule: &GaussLegendre,
+    a: f64,
+    b: f64,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let integrand = |t: f64| {
+        let s = kin.sample(t);
+        let input = SensorInput {
+            omega_body: s.omega_body,
+            f_body: s.f_body,
+        };
+        (
+            s.omega_body - model.error(Sensor::Gyro, p_true, &input),
+            s.f_body + model.error(Sensor::Accel, p_true, &input),
+        )
+    };
+    let mut breaks = vec![a];
+    if a < 0.0 && b > 0.0 {
+        breaks.push(0.0);
+    }
+    let pieces = kin.program.pieces();
+    if !pieces.is_empty() {
+        let mut i = kin.program.piece_index(a.max(0.0));
+        while i < pieces.len() && pieces[i].t1 < b {
+            if pieces[i].t1 > a {
+                breaks.push(pieces[i].t1);
+            }
+            i += 1;
+        }
+    }
+    breaks.push(b);
+    let mut dtheta = Vector3::zeros();
+    let mut dv = Vector3::zeros();
+    for w in breaks.windows(2) {
+        if w[1] > w[0] {
+            let (x, y) = rule.integrate2(w[0], w[1], integrand);
+            dtheta += x;
+            dv += y;
+        }
+    }
+    (dtheta, dv)
+}
+
+fn check(
+    model: &ErrorModel,
+    p_true: &[f64],
+    config: &SimConfig,
+) -> Result<(GaussLegendre, f64), SimulateError> {
+    if p_true.len() != model.n_params() {
+        return Err(SimulateError::ParameterCount {
+            expected: model.n_params(),
+            got: p_true.len(),
+        });
+    }
+    if p_true.iter().any(|v| !v.is_finite()) {
+        return Err(SimulateError::Invalid(
+            "true parameter values must be finite".into(),
+        ));
+    }
+    if !(config.imu_rate_hz.is_finite() && config.imu_rate_hz > 0.0) {
+        return Err(SimulateError::Invalid(format!(
+            "imu_rate_hz must be > 0, got {}",
+            config.imu_rate_hz
+        )));
+    }
+    for (name, v) in [
+        ("gyro_psd", config.gyro_psd),
+        ("accel_psd", config.accel_psd),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(SimulateError::Invalid(format!(
+                "{name} must be >= 0, got {v}"
+            )));
+        }
+    }
+    let dt = 1.0 / config.imu_rate_hz;
+    let rule = GaussLegendre::new(config.quadrature_points)?;
+    Ok((rule, dt))
+}
+
+/// Length of the IMU run for a configuration.
+pub fn run_duration(kin: &Kinematics, config: &SimConfig) -> f64 {
+    config.duration_s.unwrap_or_else(|| kin.program.duration())
+}
+
+/// The IMU records of a run: `n = floor(duration * rate)` intervals ending at `i * dt`.
+pub fn simulate_imu<R: Rng + ?Sized>(
+    kin: &Kinematics,
+    model: &ErrorModel,
+    p_true: &[f64],
+    config: &SimConfig,
+    rng: &mut R,
+) -> Result<Vec<ImuSample>, SimulateError> {
+    let (rule, dt) = check(model, p_true, config)?;
+    let duration = run_duration(kin, config);
+    if !(duration.is_finite() && duration > 0.0) {
+        return Err(SimulateError::Invalid(format!(
+            "run duration must be > 0, got {duration}"
+        )));
+    }
+    let n = (duration * config.imu_rate_hz * (1.0 + 1e-12)).floor() as usize;
+    let sg = (config.gyro_psd * dt).sqrt();
+    let sa = (config.accel_psd * dt).sqrt();
+    let mut out = Vec::with_capacity(n);
+    for i in 1..=n {
+        let t = i as f64 * dt;
+        let (mut dtheta, mut dv) = increments(kin, model, p_true, &rule, (i - 1) as f64 * dt, t);
+        if sg > 0.0 {
+            dtheta += normal3(rng) * sg;
+        }
+        if sa > 0.0 {
+            dv += normal3(rng) * sa;
+        }
+        out.push(ImuSample { t, dtheta, dv });
+    }
+    Ok(out)
+}
+
+fn normal3<R: Rng + ?Sized>(rng: &mut R) -> Vector3<f64> {
+    let mut v = Vector3::zeros();
+    for i in 0..3 {
+        v[i] = StandardNormal.sample(rng);
+    }
+    v
+}
+
+/// The turntable records covering the IMU run `[0, imu_duration]`: stamps `j / rate_hz` on the
+/// turntable clock for every `j` with the stamp within the run's span on that clock, angles = the
+/// true gimbal angles at IMU time `sensor.true_time_of_record(t_tt)` plus white noise of
+/// `sensor.sigma` (rad, per sample), written in degrees.
+pub fn simulate_turntable<R: Rng + ?Sized>(
+    kin: &Kinematics,
+    sensor: &AngleSensor,
+    imu_duration: f64,
+    rng: &mut R,
+) -> Result<Vec<TurntableSample>, SimulateError> {
+    if !(sensor.rate_hz.is_finite() && sensor.rate_hz > 0.0) {
+        return Err(SimulateError::Invalid(format!(
+            "angle sensor rate_hz must be > 0, got {}",
+            sensor.rate_hz
+        )));
+    }
+    let valid = sensor.sigma.iter().all(|s| s.is_finite() && *s >= 0.0)
+        && sensor.tau.is_finite()
+        && sensor.clock_offset.is_finite()
+        && sensor.clock_rate_error.is_finite()
+        && sensor.clock_rate_error > -1.0;
+    if !valid {
+        return Err(SimulateError::Invalid(
+            "angle sensor sigma must be >= 0, tau and clock finite, clock rate error > -1".into(),
+        ));
+    }
+    let t0 = sensor.turntable_time(0.0);
+    let t1 = sensor.turntable_time(imu_duration);
+    let j0 = (t0 * sensor.rate_hz).ceil() as i64;
+    let j1 = (t1 * sensor.rate_hz).floor() as i64;
+    let mut out = Vec::with_capacity((j1 - j0 + 1).max(0) as usize);
+    for j in j0..=j1 {
+        let t_tt = j as f64 / sensor.rate_hz;
+        if t_tt < t0 || t_tt > t1 {
+            continue;
+        }
+        let (k, _) = kin.program.state(sensor.true_time_of_record(t_tt));
+        let k_deg = std::array::from_fn(|g| {
+            let noise = if sensor.sigma[g] > 0.0 {
+                let n: f64 = StandardNormal.sample(rng);
+                sensor.sigma[g] * n
+            } else {
+                0.0
+            };
+            (k[g] + noise).to_degrees()
+        });
+        out.push(TurntableSample { t_tt, k_deg });
+    }
+    Ok(out)
+}
+
+/// Simulate a whole run with the seed of `config`: IMU records, turntable records and the truth.
+pub fn simulate(
+    kin: &Kinematics,
+    model: &ErrorModel,
+    p_true: &[f64],
+    sensor: &AngleSensor,
+    config: &SimConfig,
+) -> Result<Simulation, SimulateError> {
+    let mut rng = SimRng::seed_from_u64(config.seed);
+    let imu = simulate_imu(kin, model, p_true, config, &mut rng)?;
+    let duration = imu.last().map_or(0.0, |s| s.t);
+    let turntable = simulate_turntable(kin, sensor, duration, &mut rng)?;
+    Ok(Simulation {
+        imu,
+        turntable,
+        truth: Truth::new(model, p_true, kin, sensor),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials_exactly() {
+        for n in [1usize, 2, 5, 7, 12, 30] {
+            let r = GaussLegendre::new(n).unwrap();
+            for deg in 0..(2 * n) {
+                let (s, _) = r.integrate2(0.0, 2.0, |t| {
+                    (Vector3::repeat(t.powi(deg as i32)), Vector3::zeros())
+                });
+                let exact = 2f64.powi(deg as i32 + 1) / (deg as f64 + 1.0);
+                assert!((s.x - exact).abs() < 1e-13 * exact, "n {n} deg {deg}");
+            }
+        }
+        assert!(GaussLegendre::new(0).is_err());
+    }
+}
