@@ -5,7 +5,8 @@
 //!   calibration runs),
 //! - `dense`: the plain dense faer baseline, `predict` with the equivalent full Phi and Q + the
 //!   same update,
-//! - `naive`: the triple-loop reference of `kalman::reference` doing the same step.
+//! - `naive`: the triple-loop reference of `kalman::reference` doing the same step,
+//! - `predict_structured` / `predict_dense`: the time update alone.
 //!
 //! No benchmark loop allocates (all scratch is allocated before `iter`).
 //!
@@ -33,32 +34,40 @@ fn step(c: &mut Criterion) {
         let (phi, q) = sys.full(n);
         let h = rng.mat(M, n);
         let r = rng.spd(M);
-        let z = rng.vec(M);
+        // Measurements vary from step to step (a fixed z would drive the innovation to zero
+        // and the benchmark into subnormal arithmetic).
+        let zs: Vec<Vec<f64>> = (0..256).map(|_| rng.vec(M)).collect();
 
         let mut group = c.benchmark_group(format!("step_n{n}_m{M}"));
 
         let mut kf = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
+        let mut i = 0usize;
         group.bench_function("structured", |b| {
             b.iter(|| {
+                i = (i + 1) % zs.len();
+                let z = &zs[i];
                 kf.predict_structured(
                     black_box(sys.phi_top.as_ref()),
                     black_box(sys.q_top.as_ref()),
                 )
                 .unwrap();
                 black_box(
-                    kf.update(black_box(&z), black_box(h.as_ref()), black_box(r.as_ref()))
+                    kf.update(black_box(z), black_box(h.as_ref()), black_box(r.as_ref()))
                         .unwrap(),
                 )
             })
         });
 
         let mut kf = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
+        let mut i = 0usize;
         group.bench_function("dense", |b| {
             b.iter(|| {
+                i = (i + 1) % zs.len();
+                let z = &zs[i];
                 kf.predict(black_box(phi.as_ref()), black_box(q.as_ref()))
                     .unwrap();
                 black_box(
-                    kf.update(black_box(&z), black_box(h.as_ref()), black_box(r.as_ref()))
+                    kf.update(black_box(z), black_box(h.as_ref()), black_box(r.as_ref()))
                         .unwrap(),
                 )
             })
@@ -71,14 +80,47 @@ fn step(c: &mut Criterion) {
             to_row_major(&r),
         );
         let mut naive = NaiveFilter::new(&x0, &to_row_major(&p0), M);
+        let mut i = 0usize;
         group.bench_function("naive", |b| {
             b.iter(|| {
+                i = (i + 1) % zs.len();
+                let z = &zs[i];
                 naive.predict(black_box(&phi_rm), black_box(&q_rm));
                 black_box(
                     naive
-                        .update(black_box(&z), black_box(&h_rm), black_box(&r_rm))
+                        .update(black_box(z), black_box(&h_rm), black_box(&r_rm))
                         .unwrap(),
                 )
+            })
+        });
+
+        // The time update alone (state and covariance), where the structure is exploited. The
+        // covariance is reset every 1024 steps so that it stays bounded without updates.
+        let mut kf = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
+        let mut i = 0usize;
+        group.bench_function("predict_structured", |b| {
+            b.iter(|| {
+                i += 1;
+                if i.is_multiple_of(1024) {
+                    kf.covariance_mut().copy_from(&p0);
+                }
+                kf.predict_structured(
+                    black_box(sys.phi_top.as_ref()),
+                    black_box(sys.q_top.as_ref()),
+                )
+                .unwrap();
+            })
+        });
+        let mut kf = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
+        let mut i = 0usize;
+        group.bench_function("predict_dense", |b| {
+            b.iter(|| {
+                i += 1;
+                if i.is_multiple_of(1024) {
+                    kf.covariance_mut().copy_from(&p0);
+                }
+                kf.predict(black_box(phi.as_ref()), black_box(q.as_ref()))
+                    .unwrap();
             })
         });
 

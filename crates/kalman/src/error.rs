@@ -77,7 +77,7 @@ pub(crate) fn check_finite_mat(
     what: &'static str,
     m: faer::MatRef<'_, f64>,
 ) -> Result<(), KalmanError> {
-    if m.is_all_finite() {
+    if crate::small::all_finite(m) {
         Ok(())
     } else {
         Err(KalmanError::NonFinite { what })

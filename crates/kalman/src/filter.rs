@@ -10,8 +10,9 @@ use crate::predict::{
     predict_state_structured, predict_structured, predict_structured_scratch,
 };
 use crate::update::{
-    cholesky_in_place, gain_from_cholesky, gain_from_cholesky_scratch, innovation_covariance,
-    joseph_covariance, joseph_covariance_scratch, state_update, state_update_scratch,
+    cholesky_in_place, cholesky_in_place_scratch, gain_from_cholesky, gain_from_cholesky_scratch,
+    innovation_covariance, joseph_covariance, joseph_covariance_scratch, state_update,
+    state_update_scratch,
 };
 
 /// Diagnostics of one measurement update.
@@ -98,6 +99,7 @@ impl KalmanFilter {
             predict_structured_scratch(n, n),
             joseph_covariance_scratch(n, m_max),
             gain_from_cholesky_scratch(m_max),
+            cholesky_in_place_scratch(m_max),
             state_update_scratch(m_max),
         ]);
         Ok(Self {
@@ -279,7 +281,7 @@ impl KalmanFilter {
         // From here on the diagnostics describe this update, also if it fails.
         self.m_last = m;
         crate::small::copy(l.rb_mut(), s.rb());
-        let log_det = match cholesky_in_place(l.rb_mut()) {
+        let log_det = match cholesky_in_place(l.rb_mut(), MemStack::new(&mut self.work)) {
             Ok(v) => v,
             Err(e) => {
                 k.fill(f64::NAN);

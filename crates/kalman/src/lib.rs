@@ -14,12 +14,15 @@
 //!   [`KalmanFilter::predict_structured_covariance`], [`KalmanFilter::update_covariance`]) for
 //!   covariance analysis without data.
 //! - **Normalisation by prior sigma** ([`Scaling`]), so that states of very different magnitudes
-//!   (`1e-9 rad/s` next to `0.05 s`) keep their precision.
+//!   (`1e-9 rad/s` next to `0.05 s`) stay well conditioned for everything around the filter.
 //!
 //! The building blocks are also available as free functions on faer matrix views, in faer's
-//! style (views in, a [`Par`](faer::Par) setting and a scratch [`MemStack`](faer::dyn_stack::MemStack)
-//! whose size a `*_scratch` function gives): see [`predict`] and [`update`]. [`reference`] holds a
-//! naive loop implementation used as the ground truth by the tests.
+//! style (views in, a [`Par`](faer::Par) setting and a scratch
+//! [`MemStack`](faer::dyn_stack::MemStack) whose size a `*_scratch` function gives): see
+//! [`predict`] and [`update`]. [`reference`](mod@reference) holds a naive loop implementation
+//! used as the ground truth by the tests.
+//!
+//! Performance figures and what they depend on are in `docs/performance.md` of the repository.
 //!
 //! # Example: estimating a constant from noisy measurements
 //!
@@ -39,6 +42,8 @@
 //! assert!((kf.state()[0] - 5.02).abs() < 0.05);
 //! # Ok::<(), kalman::KalmanError>(())
 //! ```
+
+#![deny(missing_docs)]
 
 mod error;
 mod filter;

@@ -9,9 +9,9 @@ use faer::mat::AsMatMut;
 use faer::prelude::*;
 use faer::{Accum, ColMut, MatMut, MatRef, Par};
 
-use crate::error::{KalmanError, check_shape};
+use crate::error::{KalmanError, check_finite_mat, check_shape};
 use crate::gemm::matmul;
-use crate::small::{all_finite, axpy, copy};
+use crate::small::{copy, gemv};
 use crate::symmetric::symmetrise;
 
 /// Scratch needed by [`predict_dense`] for state dimension `n`.
@@ -27,15 +27,7 @@ pub fn predict_state_dense_scratch(n: usize) -> StackReq {
 /// Scratch needed by [`predict_structured`] and [`predict_state_structured`] for `k` dynamic
 /// states out of `n`.
 pub fn predict_structured_scratch(k: usize, n: usize) -> StackReq {
-    temp_mat_scratch::<f64>(k, n)
-}
-
-fn check_finite(what: &'static str, m: MatRef<'_, f64>) -> Result<(), KalmanError> {
-    if all_finite(m) {
-        Ok(())
-    } else {
-        Err(KalmanError::NonFinite { what })
-    }
+    temp_mat_scratch::<f64>(n, k)
 }
 
 fn check_p(p: MatRef<'_, f64>) -> Result<usize, KalmanError> {
@@ -58,8 +50,8 @@ pub fn predict_dense(
     let n = check_p(p.rb())?;
     check_shape("Phi", (phi.nrows(), phi.ncols()), (n, n))?;
     check_shape("Q", (q.nrows(), q.ncols()), (n, n))?;
-    check_finite("Phi", phi)?;
-    check_finite("Q", q)?;
+    check_finite_mat("Phi", phi)?;
+    check_finite_mat("Q", q)?;
     let (mut t, _) = temp_mat_zeroed::<f64, _, _>(n, n, stack);
     let mut t = t.as_mat_mut();
     // T = Phi P, P = Q + T Phi^T
@@ -79,13 +71,11 @@ pub fn predict_state_dense(
 ) -> Result<(), KalmanError> {
     let n = x.nrows();
     check_shape("Phi", (phi.nrows(), phi.ncols()), (n, n))?;
-    check_finite("Phi", phi)?;
+    check_finite_mat("Phi", phi)?;
     let _ = par;
     let (mut t, _) = temp_mat_zeroed::<f64, _, _>(n, 1, stack);
     let mut t = t.as_mat_mut();
-    for j in 0..n {
-        axpy(t.rb_mut().col_mut(0), x[j], phi.col(j));
-    }
+    gemv(t.rb_mut().col_mut(0), 1.0, phi, x.rb());
     copy(x.as_mat_mut(), t.rb());
     Ok(())
 }
@@ -104,7 +94,9 @@ pub fn predict_state_dense(
 /// P'[k..n, k..n] = P[k..n, k..n]       (unchanged)
 /// ```
 ///
-/// which is exactly `Phi P Phi^T + Q` at a cost of `O(k n^2)` instead of `O(n^3)`.
+/// which is exactly `Phi P Phi^T + Q` at a cost of `O(k n^2)` instead of `O(n^3)`. The kernel
+/// forms `T^T = P phi_top^T` (`P` is symmetric), a tall `n x k` product: faer's product is
+/// an order of magnitude slower for the wide `k x n` shape at `n = 60`.
 pub fn predict_structured(
     mut p: MatMut<'_, f64>,
     phi_top: MatRef<'_, f64>,
@@ -116,24 +108,32 @@ pub fn predict_structured(
     let k = phi_top.nrows();
     check_shape("phi_top", (k, phi_top.ncols()), (k.min(n), n))?;
     check_shape("q_top", (q_top.nrows(), q_top.ncols()), (k, k))?;
-    check_finite("phi_top", phi_top)?;
-    check_finite("q_top", q_top)?;
+    check_finite_mat("phi_top", phi_top)?;
+    check_finite_mat("q_top", q_top)?;
     if k == 0 {
         return Ok(());
     }
-    let (mut t, _) = temp_mat_zeroed::<f64, _, _>(k, n, stack);
-    let mut t = t.as_mat_mut();
-    matmul(t.rb_mut(), Accum::Replace, phi_top, p.rb(), 1.0, par);
-    let t = t.rb();
-    let t_right = t.subcols(k, n - k);
-    copy(p.rb_mut().submatrix_mut(0, k, k, n - k), t_right);
+    // tt = T^T = P phi_top^T (n x k)
+    let (mut tt, _) = temp_mat_zeroed::<f64, _, _>(n, k, stack);
+    let mut tt = tt.as_mat_mut();
+    matmul(
+        tt.rb_mut(),
+        Accum::Replace,
+        p.rb(),
+        phi_top.transpose(),
+        1.0,
+        par,
+    );
+    let tt = tt.rb();
+    let tt_bottom = tt.subrows(k, n - k);
+    copy(p.rb_mut().submatrix_mut(k, 0, n - k, k), tt_bottom);
     copy(
-        p.rb_mut().submatrix_mut(k, 0, n - k, k),
-        t_right.transpose(),
+        p.rb_mut().submatrix_mut(0, k, k, n - k),
+        tt_bottom.transpose(),
     );
     let mut p11 = p.rb_mut().submatrix_mut(0, 0, k, k);
     copy(p11.rb_mut(), q_top);
-    matmul(p11.rb_mut(), Accum::Add, t, phi_top.transpose(), 1.0, par);
+    matmul(p11.rb_mut(), Accum::Add, phi_top, tt, 1.0, par);
     symmetrise(p11);
     Ok(())
 }
@@ -149,20 +149,14 @@ pub fn predict_state_structured(
     let n = x.nrows();
     let k = phi_top.nrows();
     check_shape("phi_top", (k, phi_top.ncols()), (k.min(n), n))?;
-    check_finite("phi_top", phi_top)?;
+    check_finite_mat("phi_top", phi_top)?;
     if k == 0 {
         return Ok(());
     }
+    let _ = par;
     let (mut t, _) = temp_mat_zeroed::<f64, _, _>(k, 1, stack);
     let mut t = t.as_mat_mut();
-    matmul(
-        t.rb_mut(),
-        Accum::Replace,
-        phi_top,
-        x.rb().as_mat(),
-        1.0,
-        par,
-    );
-    x.subrows_mut(0, k).copy_from(t.rb().col(0));
+    gemv(t.rb_mut().col_mut(0), 1.0, phi_top, x.rb());
+    copy(x.subrows_mut(0, k).as_mat_mut(), t.rb());
     Ok(())
 }

@@ -10,12 +10,20 @@ use crate::error::{KalmanError, check_shape};
 /// # Why
 /// The states of a turntable calibration span many orders of magnitude: gyro biases of
 /// `1e-9 rad/s`, scale factors of `1e-5`, a turntable-data delay of `0.05 s`. In physical units
-/// the covariance matrix holds variances from `1e-18` to `1e-3`, and the sums and differences
-/// of the update lose the small ones to rounding (a double has 16 significant digits, the ratio
-/// here is 15 orders of magnitude): the covariance stops being positive definite and the gain of
-/// the small parameters becomes noise. In normalised coordinates all variances start at 1, the
-/// rounding is relative to quantities of comparable size, and the filter is exactly the same
-/// filter in exact arithmetic.
+/// the covariance holds variances from `1e-18` to `1e-3`, a condition number of about `1e15`:
+/// anything that compares entries of different states additively — an eigen-decomposition, a
+/// pivot or rank test relative to the largest entry, a regularisation `P + eps I`, a "relative"
+/// tolerance on the whole matrix — sees the small parameters as rounding noise and loses them.
+/// In normalised coordinates all variances start at 1, so those operations see a
+/// well-conditioned matrix and the entries of `P` read directly as variance ratios and
+/// correlations.
+///
+/// The filter algebra itself (products, the Joseph update, the per-pivot Cholesky of `S`) is
+/// covariant under a diagonal change of variables, so with this crate's kernels a filter run in
+/// physical units and one run in normalised units agree to rounding (the tests check both); the
+/// normalisation is what keeps everything *around* the filter — diagnostics, covariance
+/// analysis, reports — safe, and it costs nothing in the step loop when the model is built in
+/// normalised units once.
 ///
 /// # The transformation
 /// With `D = diag(sigma)`:

@@ -12,9 +12,9 @@ use faer::mat::AsMatMut;
 use faer::prelude::*;
 use faer::{Accum, ColMut, ColRef, MatMut, MatRef, Par};
 
-use crate::error::{KalmanError, check_shape};
+use crate::error::{KalmanError, check_finite_mat, check_shape};
 use crate::gemm::matmul;
-use crate::small::{all_finite, axpy, copy, spd_inverse_from_cholesky};
+use crate::small::{self, copy, gemv, load, store};
 
 /// Computes `B = P H^T` (`n x m`) and the innovation covariance `S = H B + R` (`m x m`,
 /// symmetrised). Costs `n^2 m + n m^2`.
@@ -36,12 +36,8 @@ pub fn innovation_covariance(
     check_shape("R", (r.nrows(), r.ncols()), (m, m))?;
     check_shape("B", (b.nrows(), b.ncols()), (n, m))?;
     check_shape("S", (s.nrows(), s.ncols()), (m, m))?;
-    if !all_finite(h) {
-        return Err(KalmanError::NonFinite { what: "H" });
-    }
-    if !all_finite(r) {
-        return Err(KalmanError::NonFinite { what: "R" });
-    }
+    check_finite_mat("H", h)?;
+    check_finite_mat("R", r)?;
     matmul(b.rb_mut(), Accum::Replace, p, h.transpose(), 1.0, par);
     copy(s.rb_mut(), r);
     matmul(s.rb_mut(), Accum::Add, h, b.rb(), 1.0, par);
@@ -49,61 +45,39 @@ pub fn innovation_covariance(
     Ok(())
 }
 
+/// Scratch needed by [`cholesky_in_place`] for an `m x m` matrix.
+pub fn cholesky_in_place_scratch(m: usize) -> StackReq {
+    StackReq::new::<f64>(m * m)
+}
+
 /// In-place Cholesky factorisation `A = L L^T` of a small symmetric positive definite matrix.
 ///
 /// Reads the lower triangle of `a`; on success the lower triangle holds `L`, the strict upper
 /// triangle is zeroed, and the return value is `ln det A`. A pivot that is not larger than
 /// `m * eps` times its diagonal entry (so zero, negative, NaN, or lost to rounding) is reported as
-/// [`KalmanError::NotPositiveDefinite`]; `a` is then partially overwritten.
+/// [`KalmanError::NotPositiveDefinite`], and `a` is then left unchanged.
 ///
-/// Meant for the `m x m` innovation covariance (`m` small): plain loops, `m^3 / 6` operations.
-pub fn cholesky_in_place(mut a: MatMut<'_, f64>) -> Result<f64, KalmanError> {
+/// Meant for the `m x m` innovation covariance (`m` small): plain loops on a contiguous copy,
+/// `m^3 / 6` operations.
+pub fn cholesky_in_place(a: MatMut<'_, f64>, stack: &mut MemStack) -> Result<f64, KalmanError> {
     let m = a.nrows();
     check_shape("S", (a.nrows(), a.ncols()), (m, m))?;
-    let tol = m as f64 * f64::EPSILON;
-    let mut log_det = 0.0;
-    for j in 0..m {
-        let diag = a[(j, j)];
-        let mut d = diag;
-        for l in 0..j {
-            d -= a[(j, l)] * a[(j, l)];
-        }
-        // `!(d > ..)` also rejects NaN.
-        if !d.is_finite() || d <= tol * diag.abs() {
-            return Err(KalmanError::NotPositiveDefinite {
-                m,
-                pivot: j,
-                value: d,
-            });
-        }
-        let ljj = d.sqrt();
-        a[(j, j)] = ljj;
-        log_det += 2.0 * ljj.ln();
-        let inv = 1.0 / ljj;
-        for i in (j + 1)..m {
-            let mut v = a[(i, j)];
-            for l in 0..j {
-                v -= a[(i, l)] * a[(j, l)];
-            }
-            a[(i, j)] = v * inv;
-        }
-    }
-    for j in 1..m {
-        for i in 0..j {
-            a[(i, j)] = 0.0;
-        }
-    }
+    let (mut buf, _) = stack.make_with::<f64>(m * m, |_| 0.0);
+    load(&mut buf, a.rb());
+    let log_det = small::cholesky(&mut buf, m)
+        .map_err(|(pivot, value)| KalmanError::NotPositiveDefinite { m, pivot, value })?;
+    store(a, &buf);
     Ok(log_det)
 }
 
 /// Scratch needed by [`gain_from_cholesky`] for an `m`-dimensional measurement.
 pub fn gain_from_cholesky_scratch(m: usize) -> StackReq {
-    temp_mat_scratch::<f64>(m, m)
+    StackReq::new::<f64>(3 * m * m)
 }
 
 /// Computes the gain `K = B S^{-1}` (`n x m`) from `B = P H^T` (`n x m`) and the lower Cholesky
-/// factor `L` of `S` (`m x m`, as left by [`cholesky_in_place`]): `S^{-1}` by substitution
-/// (`m^3`), then one `n x m x m` product.
+/// factor `L` of `S` (`m x m`, as left by [`cholesky_in_place`]): `S^{-1} = L^{-T} L^{-1}`
+/// (`m^3 / 2`), then one `n x m x m` product.
 pub fn gain_from_cholesky(
     k: MatMut<'_, f64>,
     b: MatRef<'_, f64>,
@@ -115,32 +89,45 @@ pub fn gain_from_cholesky(
     let m = b.ncols();
     check_shape("L", (l.nrows(), l.ncols()), (m, m))?;
     check_shape("K", (k.nrows(), k.ncols()), (n, m))?;
-    let (mut sinv, _) = temp_mat_zeroed::<f64, _, _>(m, m, stack);
-    let mut sinv = sinv.as_mat_mut();
-    spd_inverse_from_cholesky(sinv.rb_mut(), l);
-    matmul(k, Accum::Replace, b, sinv.rb(), 1.0, par);
+    let (mut buf, _) = stack.make_with::<f64>(3 * m * m, |_| 0.0);
+    let (lbuf, rest) = buf.split_at_mut(m * m);
+    let (w, sinv) = rest.split_at_mut(m * m);
+    load(lbuf, l);
+    small::spd_inverse_from_cholesky(sinv, w, lbuf, m);
+    matmul(
+        k,
+        Accum::Replace,
+        b,
+        MatRef::from_column_major_slice(sinv, m, m),
+        1.0,
+        par,
+    );
     Ok(())
 }
 
 /// Scratch needed by [`joseph_covariance`] for `n` states and an `m`-dimensional measurement.
 pub fn joseph_covariance_scratch(n: usize, m: usize) -> StackReq {
-    temp_mat_scratch::<f64>(n, 3 * m)
+    temp_mat_scratch::<f64>(n, m)
 }
 
 /// Joseph-form covariance update `P <- (I - K H) P (I - K H)^T + K R K^T` for any gain `K`.
 ///
 /// Takes `B = P H^T` and `S = H P H^T + R` (from [`innovation_covariance`]) rather than `H` and
-/// `R`: expanding the Joseph form gives `P - K B^T - B K^T + K S K^T`, which with
-/// `C = B - K S / 2` is the symmetric rank-`2m` update
+/// `R`. Expanding the Joseph form gives `P - K B^T - B K^T + K S K^T`, that is, with
+/// `C = B - K S / 2`,
 ///
 /// ```text
-/// P <- P - [K C] [C K]^T
+/// P' = P - K C^T - C K^T = (A + A^T) / 2   where   A = P - 2 K C^T
 /// ```
 ///
-/// one `n x n x 2m` product instead of the four `n x n x m` products of the literal form. It is
-/// algebraically the Joseph form for *any* `K` (not only the optimal one), so it keeps the Joseph
-/// form's first-order insensitivity to errors in the gain; for the optimal gain `K S = B` and it
-/// reduces to the textbook `P - K B^T`. The result is symmetrised.
+/// (for symmetric `P`). So the kernel forms `C` (`n m^2`), subtracts `2 K C^T` from `P` with one
+/// `n x n x m` product, and symmetrises, which it would do anyway: the whole Joseph update costs
+/// one product more than `B` (`2 n^2 m` multiply-adds in all), like the textbook `P - K B^T`,
+/// and its result is exactly symmetric. It is algebraically the Joseph form for *any* `K` (not
+/// only the optimal one), so it keeps the Joseph form's first-order insensitivity to errors in
+/// the gain; for the optimal gain `K S = B` and it reduces to `P - K B^T`.
+///
+/// `p` must be symmetric on entry (its symmetric part is what is updated).
 pub fn joseph_covariance(
     mut p: MatMut<'_, f64>,
     k: MatRef<'_, f64>,
@@ -158,32 +145,18 @@ pub fn joseph_covariance(
     if m == 0 {
         return Ok(());
     }
-    let (mut w, _) = temp_mat_zeroed::<f64, _, _>(n, 3 * m, stack);
-    let mut w = w.as_mat_mut();
-    // W = [K | C | K] with C = B - K S / 2.
-    copy(w.rb_mut().subcols_mut(0, m), k);
-    copy(w.rb_mut().subcols_mut(2 * m, m), k);
-    {
-        let mut c = w.rb_mut().subcols_mut(m, m);
-        copy(c.rb_mut(), b);
-        matmul(c.rb_mut(), Accum::Add, k, s, -0.5, par);
-    }
-    let w = w.rb();
-    matmul(
-        p.rb_mut(),
-        Accum::Add,
-        w.subcols(0, 2 * m),
-        w.subcols(m, 2 * m).transpose(),
-        -1.0,
-        par,
-    );
+    let (mut c, _) = temp_mat_zeroed::<f64, _, _>(n, m, stack);
+    let mut c = c.as_mat_mut();
+    copy(c.rb_mut(), b);
+    matmul(c.rb_mut(), Accum::Add, k, s, -0.5, par);
+    matmul(p.rb_mut(), Accum::Add, k, c.rb().transpose(), -2.0, par);
     crate::symmetrise(p);
     Ok(())
 }
 
 /// Scratch needed by [`state_update`] for an `m`-dimensional measurement.
 pub fn state_update_scratch(m: usize) -> StackReq {
-    temp_mat_scratch::<f64>(m, 1)
+    StackReq::new::<f64>(m * m + m)
 }
 
 /// State update with diagnostics: `nu = z - H x`, `x <- x + K nu`, and returns the normalised
@@ -193,7 +166,7 @@ pub fn state_update_scratch(m: usize) -> StackReq {
 /// covariance kernels do not touch `x`). `innovation` (`m`) receives `nu`. `z` is checked for
 /// shape and finiteness before anything is written.
 pub fn state_update(
-    mut x: ColMut<'_, f64>,
+    x: ColMut<'_, f64>,
     mut innovation: ColMut<'_, f64>,
     z: ColRef<'_, f64>,
     h: MatRef<'_, f64>,
@@ -207,31 +180,17 @@ pub fn state_update(
     check_shape("K", (k.nrows(), k.ncols()), (n, m))?;
     check_shape("L", (l.nrows(), l.ncols()), (m, m))?;
     check_shape("innovation", (innovation.nrows(), 1), (m, 1))?;
-    if !all_finite(z.as_mat()) {
-        return Err(KalmanError::NonFinite { what: "z" });
-    }
-    // nu = z - H x, column by column of H.
+    check_finite_mat("z", z.as_mat())?;
+    // nu = z - H x
     copy(innovation.rb_mut().as_mat_mut(), z.as_mat());
-    for j in 0..n {
-        axpy(innovation.rb_mut(), -x[j], h.col(j));
-    }
+    gemv(innovation.rb_mut(), -1.0, h, x.rb());
     // NIS = |w|^2 with L w = nu.
-    let (mut w, _) = temp_mat_zeroed::<f64, _, _>(m, 1, stack);
-    let mut w = w.as_mat_mut();
-    let mut nis = 0.0;
-    for i in 0..m {
-        let mut v = innovation[i];
-        for c in 0..i {
-            v -= l[(i, c)] * w[(c, 0)];
-        }
-        v /= l[(i, i)];
-        w[(i, 0)] = v;
-        nis += v * v;
-    }
+    let (mut buf, _) = stack.make_with::<f64>(m * m + m, |_| 0.0);
+    let (lbuf, w) = buf.split_at_mut(m * m);
+    load(lbuf, l);
+    let nis = small::whitened_norm2(lbuf, innovation.rb(), w, m);
     // x += K nu
-    for c in 0..m {
-        axpy(x.rb_mut(), innovation[c], k.col(c));
-    }
+    gemv(x, 1.0, k, innovation.rb());
     Ok(nis)
 }
 
@@ -241,6 +200,7 @@ pub fn joseph_update_scratch(n: usize, m: usize) -> StackReq {
         temp_mat_scratch::<f64>(n, m),
         temp_mat_scratch::<f64>(m, m),
         StackReq::any_of(&[
+            cholesky_in_place_scratch(m),
             gain_from_cholesky_scratch(m),
             joseph_covariance_scratch(n, m),
         ]),
@@ -252,7 +212,7 @@ pub fn joseph_update_scratch(n: usize, m: usize) -> StackReq {
 ///
 /// On success `p` holds the posterior covariance, `gain` (`n x m`) the gain `K` and `s_chol`
 /// (`m x m`) the lower Cholesky factor of `S`, ready for [`state_update`]; returns `ln det S`.
-/// On error `p` is unchanged. Costs about `3 n^2 m` multiply-adds.
+/// On error `p` is unchanged. Costs about `2 n^2 m` multiply-adds.
 pub fn joseph_update(
     p: MatMut<'_, f64>,
     h: MatRef<'_, f64>,
@@ -272,7 +232,7 @@ pub fn joseph_update(
     let mut s = s.as_mat_mut();
     innovation_covariance(b.rb_mut(), s.rb_mut(), p.rb(), h, r, par)?;
     copy(s_chol.rb_mut(), s.rb());
-    let log_det = cholesky_in_place(s_chol.rb_mut())?;
+    let log_det = cholesky_in_place(s_chol.rb_mut(), stack)?;
     gain_from_cholesky(gain.rb_mut(), b.rb(), s_chol.rb(), par, stack)?;
     joseph_covariance(p, gain.rb(), b.rb(), s.rb(), par, stack)?;
     Ok(log_det)

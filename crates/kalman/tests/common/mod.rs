@@ -194,3 +194,12 @@ pub fn is_pd(p: &Mat<f64>) -> bool {
     }
     true
 }
+
+/// Inverse by the naive Gauss-Jordan of the reference module.
+pub fn inv(a: &Mat<f64>) -> Mat<f64> {
+    let n = a.nrows();
+    let mut work = to_row_major(a);
+    let mut out = vec![0.0; n * n];
+    kalman::reference::invert(&mut work, &mut out, n).expect("singular");
+    from_row_major(&out, n, n)
+}

@@ -1,0 +1,76 @@
+//! The step loop allocates nothing: a counting global allocator watches predict and update
+//! (structured, dense, covariance-only) after construction. This file holds a single test so
+//! that no other test thread allocates while it counts.
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use common::*;
+use kalman::KalmanFilter;
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn predict_and_update_do_not_allocate() {
+    for n in [4usize, 28, 60] {
+        let m = 6.min(n);
+        let mut rng = Rng::new(n as u64);
+        let sys = Structured::random(&mut rng, 3, n, 0.01);
+        let (phi, q) = sys.full(n);
+        let h = rng.mat(m, n);
+        let h_small = rng.mat(m - 1, n);
+        let r = rng.spd(m);
+        let r_small = rng.spd(m - 1);
+        let z = rng.vec(m);
+        let mut kf = KalmanFilter::new(&rng.vec(n), rng.spd(n).as_ref(), m).unwrap();
+        // one warm-up round (thread-locals of the product kernels may initialise once)
+        kf.predict(phi.as_ref(), q.as_ref()).unwrap();
+        kf.predict_structured(sys.phi_top.as_ref(), sys.q_top.as_ref())
+            .unwrap();
+        kf.update(&z, h.as_ref(), r.as_ref()).unwrap();
+
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        for _ in 0..50 {
+            kf.predict_structured(sys.phi_top.as_ref(), sys.q_top.as_ref())
+                .unwrap();
+            let info = kf.update(&z, h.as_ref(), r.as_ref()).unwrap();
+            std::hint::black_box(info);
+            kf.predict(phi.as_ref(), q.as_ref()).unwrap();
+            kf.update(&z[..m - 1], h_small.as_ref(), r_small.as_ref())
+                .unwrap();
+            kf.predict_covariance(phi.as_ref(), q.as_ref()).unwrap();
+            kf.predict_structured_covariance(sys.phi_top.as_ref(), sys.q_top.as_ref())
+                .unwrap();
+            kf.update_covariance(h.as_ref(), r.as_ref()).unwrap();
+            std::hint::black_box(kf.innovation());
+        }
+        let after = ALLOCATIONS.load(Ordering::SeqCst);
+        assert_eq!(
+            after - before,
+            0,
+            "n = {n}: {} allocations in the step loop",
+            after - before
+        );
+    }
+}
