@@ -252,6 +252,14 @@ impl InstrumentCovariance {
 mod tests {
     use super::*;
 
+    /// The hand-written name list is the instrument model's own parameter list, in its order.
+    #[test]
+    fn names_are_the_instrument_models() {
+        let model = sins_model::terms::ErrorModel::paper(&sins_model::terms::PaperPriors::paper());
+        let names: Vec<String> = model.params().into_iter().map(|p| p.name).collect();
+        assert_eq!(names, INSTRUMENT_NAMES.map(String::from).to_vec());
+    }
+
     #[test]
     fn paper_rows_convert_to_si() {
         let c = InstrumentCovariance::paper_without_turntable();

@@ -2,8 +2,8 @@
 //!
 //! A term owns a group of parameters (names, units, prior sigma), says how they change a sensor's
 //! output (used by the truth simulator) and gives the Jacobian of that change with respect to its
-//! parameters (used by the filter). The paper's model is four terms: [`GyroBias`], [`GyroMatrix`]
-//! (full 3x3 `Theta`), [`AccelBias`] and [`AccelLowerTriangular`] (`Gamma`). Further effects are
+//! parameters (used by the filter). The paper's model is four terms: the gyro [`Bias`], [`GyroMatrix`]
+//! (full 3x3 `Theta`), the accelerometer [`Bias`] and [`AccelLowerTriangular`] (`Gamma`). Further effects are
 //! more terms, implemented against the same trait and added to an [`ErrorModel`] without touching
 //! the filter.
 //!
@@ -121,68 +121,37 @@ pub trait ErrorTerm: Debug + Send + Sync {
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
-/// Gyro bias `nu0` (3 parameters, rad/s): `nu += nu0`.
+/// A constant bias of one triad (3 parameters): the gyro bias `nu0` (`gyro.bias.*`, rad/s,
+/// `nu += nu0`) or the accelerometer bias `df0` (`accel.bias.*`, m/s^2, `df += df0`).
 #[derive(Clone, Debug)]
-pub struct GyroBias {
+pub struct Bias {
+    sensor: Sensor,
     params: Vec<ParamSpec>,
 }
 
-impl GyroBias {
-    /// With prior sigma [rad/s] on each axis.
-    pub fn new(prior_sigma: f64) -> Self {
-        Self {
-            params: AXES
-                .iter()
-                .map(|a| ParamSpec::new(format!("gyro.bias.{a}"), Unit::RadPerSecond, prior_sigma))
-                .collect(),
-        }
+impl Bias {
+    /// Gyro bias with prior sigma [rad/s] on each axis.
+    pub fn gyro(prior_sigma: f64) -> Self {
+        Self::new(Sensor::Gyro, "gyro", Unit::RadPerSecond, prior_sigma)
+    }
+
+    /// Accelerometer bias with prior sigma [m/s^2] on each axis.
+    pub fn accel(prior_sigma: f64) -> Self {
+        Self::new(Sensor::Accel, "accel", Unit::MeterPerSecond2, prior_sigma)
+    }
+
+    fn new(sensor: Sensor, prefix: &str, unit: Unit, prior_sigma: f64) -> Self {
+        let params = AXES
+            .iter()
+            .map(|a| ParamSpec::new(format!("{prefix}.bias.{a}"), unit, prior_sigma))
+            .collect();
+        Self { sensor, params }
     }
 }
 
-impl ErrorTerm for GyroBias {
+impl ErrorTerm for Bias {
     fn sensor(&self) -> Sensor {
-        Sensor::Gyro
-    }
-    fn params(&self) -> &[ParamSpec] {
-        &self.params
-    }
-    fn error(&self, p: &[f64], _input: &SensorInput) -> Vector3<f64> {
-        Vector3::new(p[0], p[1], p[2])
-    }
-    fn jacobian(&self, _p: &[f64], _input: &SensorInput, out: &mut [Vector3<f64>]) {
-        out[0] = Vector3::x();
-        out[1] = Vector3::y();
-        out[2] = Vector3::z();
-    }
-}
-
-/// Accelerometer bias `df0` (3 parameters, m/s^2): `df += df0`.
-#[derive(Clone, Debug)]
-pub struct AccelBias {
-    params: Vec<ParamSpec>,
-}
-
-impl AccelBias {
-    /// With prior sigma [m/s^2] on each axis.
-    pub fn new(prior_sigma: f64) -> Self {
-        Self {
-            params: AXES
-                .iter()
-                .map(|a| {
-                    ParamSpec::new(
-                        format!("accel.bias.{a}"),
-                        Unit::MeterPerSecond2,
-                        prior_sigma,
-                    )
-                })
-                .collect(),
-        }
-    }
-}
-
-impl ErrorTerm for AccelBias {
-    fn sensor(&self) -> Sensor {
-        Sensor::Accel
+        self.sensor
     }
     fn params(&self) -> &[ParamSpec] {
         &self.params
@@ -360,12 +329,12 @@ impl ErrorModel {
     /// The paper's four-term model with the given priors.
     pub fn paper(priors: &PaperPriors) -> Self {
         let mut m = Self::new();
-        m.push(Box::new(GyroBias::new(priors.gyro_bias)));
+        m.push(Box::new(Bias::gyro(priors.gyro_bias)));
         m.push(Box::new(GyroMatrix::new(
             priors.gyro_scale,
             priors.gyro_misalignment,
         )));
-        m.push(Box::new(AccelBias::new(priors.accel_bias)));
+        m.push(Box::new(Bias::accel(priors.accel_bias)));
         m.push(Box::new(AccelLowerTriangular::new(
             priors.accel_scale,
             priors.accel_misalignment,
