@@ -106,6 +106,21 @@ pub struct NoiseConfig {
     pub angle_arcsec: f64,
 }
 
+/// How the prior of the initial attitude error is formed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AttitudePrior {
+    /// The paper's covariance analysis: `beta_0` independent of everything, with the
+    /// `initial_tilt_deg` / `initial_heading_deg` sigmas.
+    Independent,
+    /// What estimation does: the start attitude is computed from the program's start angles with
+    /// the nominal mounting, so its error is the installation misalignment seen in ENU,
+    /// `beta_0 = C_0 delta_z + eps`, correlated with `delta_z`; `eps` (independent) has the
+    /// `initial_tilt_deg` / `initial_heading_deg` sigmas.
+    #[default]
+    Installation,
+}
+
 /// Filter settings.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -118,6 +133,67 @@ pub struct FilterConfig {
     pub turntable_rate_hz: f64,
     /// Estimate the base misalignment gamma_p (3 more states).
     pub estimate_base_misalignment: bool,
+    /// Prior of the initial attitude error (absent: `installation`).
+    #[serde(default)]
+    pub attitude_prior: AttitudePrior,
+}
+
+/// How the turntable clock relates to the IMU clock: `t_tt = offset_s + (1 + rate_error) * t_imu`,
+/// as the laboratory's synchronisation knows it. The filter estimates the remaining delay `tau`
+/// of the turntable data relative to this relation; a constant clock offset and `tau` act alike,
+/// so only their sum can be learnt from data.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ClockConfig {
+    /// Turntable clock reading at IMU time zero [s].
+    pub turntable_offset_s: f64,
+    /// Relative rate error of the turntable clock against the IMU clock (dimensionless).
+    pub turntable_rate_error: f64,
+}
+
+impl ClockConfig {
+    /// Turntable clock reading at IMU time `t_imu`.
+    pub fn turntable_time(&self, t_imu: f64) -> f64 {
+        self.turntable_offset_s + (1.0 + self.turntable_rate_error) * t_imu
+    }
+    /// IMU time at turntable clock reading `t_tt`.
+    pub fn imu_time(&self, t_tt: f64) -> f64 {
+        (t_tt - self.turntable_offset_s) / (1.0 + self.turntable_rate_error)
+    }
+}
+
+/// The truth of a simulated run (`sins-calib simulate`): rates, seed and true values.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TruthConfig {
+    /// Seed of the random generator (parameter draws and noise).
+    pub seed: u64,
+    /// IMU output rate [Hz].
+    pub imu_rate_hz: f64,
+    /// Turntable angle-sensor output rate [Hz] (its own clock).
+    pub turntable_rate_hz: f64,
+    /// Length of the run [s]; absent = the program's duration.
+    pub duration_s: Option<f64>,
+    /// Draw every parameter that `values` does not set from its prior (instrument errors,
+    /// installation misalignment, delay, and the base misalignment when it is estimated);
+    /// otherwise such parameters are zero.
+    pub draw_from_priors: bool,
+    /// True values in SI units by documented name (`gyro.bias.x`, `install.delta.z`,
+    /// `turntable.tau`, `base.gamma.x`, ...), overriding the draws.
+    pub values: std::collections::BTreeMap<String, f64>,
+}
+
+impl Default for TruthConfig {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            imu_rate_hz: 100.0,
+            turntable_rate_hz: 100.0,
+            duration_s: None,
+            draw_from_priors: true,
+            values: Default::default(),
+        }
+    }
 }
 
 /// A whole run configuration.
@@ -134,6 +210,12 @@ pub struct RunConfig {
     pub noise: NoiseConfig,
     /// Filter settings.
     pub filter: FilterConfig,
+    /// Turntable clock relation (absent: the same clock as the IMU).
+    #[serde(default)]
+    pub clock: ClockConfig,
+    /// Truth of a simulated run (only `simulate` reads it; absent: defaults).
+    #[serde(default)]
+    pub truth: TruthConfig,
     /// Directory the configuration was read from (for relative program paths).
     #[serde(skip)]
     pub base_dir: Option<PathBuf>,
@@ -226,7 +308,57 @@ impl RunConfig {
                 });
             }
         }
+        let c = &self.clock;
+        if !(c.turntable_offset_s.is_finite()
+            && c.turntable_rate_error.is_finite()
+            && c.turntable_rate_error.abs() < 0.1)
+        {
+            return Err(ConfigError::Invalid {
+                origin: origin.to_string(),
+                message: "clock.turntable_offset_s must be finite and clock.turntable_rate_error \
+                          a finite number between -0.1 and 0.1"
+                    .into(),
+            });
+        }
+        let t = &self.truth;
+        for (name, v) in [
+            ("truth.imu_rate_hz", t.imu_rate_hz),
+            ("truth.turntable_rate_hz", t.turntable_rate_hz),
+            ("truth.duration_s", t.duration_s.unwrap_or(1.0)),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(name));
+            }
+        }
+        if let Some((name, v)) = t.values.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(ConfigError::Invalid {
+                origin: origin.to_string(),
+                message: format!("truth.values.\"{name}\" = {v} must be a finite number"),
+            });
+        }
         Ok(())
+    }
+
+    /// Length of a measurement window in IMU steps for a measurement every `n_interval` steps:
+    /// the whole interval when the noise is read as an average, else the last second of it.
+    pub fn window_steps(&self, n_interval: usize) -> usize {
+        match self.noise.reading {
+            NoiseReading::Average => n_interval,
+            NoiseReading::Sample => {
+                let one_second = (self.filter.imu_rate_hz.round() as usize).max(1);
+                one_second.min(n_interval)
+            }
+        }
+    }
+
+    /// IMU steps between specific-force measurements.
+    pub fn accel_interval_steps(&self) -> usize {
+        (self.filter.imu_rate_hz / self.filter.accel_rate_hz).round() as usize
+    }
+
+    /// IMU steps between turntable-angle measurements.
+    pub fn turntable_interval_steps(&self) -> usize {
+        (self.filter.imu_rate_hz / self.filter.turntable_rate_hz).round() as usize
     }
 
     /// The site.

@@ -3,11 +3,14 @@
 //! The program's true kinematics drive the same [`LinearModel`] and [`NormalisedFilter`] that
 //! estimation uses, in covariance-only mode.
 
-use crate::config::{ConfigError, RunConfig};
+use crate::config::{AttitudePrior, ConfigError, RunConfig};
+use crate::engine::{
+    MeasurementNoise, Schedule, angle_sample_guard, angle_sample_usable, measurement_instant,
+};
 use crate::filter::NormalisedFilter;
 use crate::layout::{NonInstrumentPriors, StateLayout};
-use crate::model::LinearModel;
-use nalgebra::DMatrix;
+use crate::model::{AngleSample, LinearModel};
+use nalgebra::{DMatrix, Vector3};
 use sins_model::terms::{ErrorModel, SensorInput, Unit};
 use turntable::gimbal::gimbal_jacobian;
 use turntable::kinematics::{Kinematics, Mounting};
@@ -78,6 +81,42 @@ pub fn covariance_analysis(
     covariance_analysis_with(config, &layout, &Mounting::default())
 }
 
+/// The prior covariance of all states (SI). `c0_body_to_enu` is the start attitude computed from
+/// the program's start angles with the nominal mounting; with [`AttitudePrior::Installation`] the
+/// attitude error is `beta_0 = C_0 delta_z + eps`, correlated with `delta_z` when that is a state
+/// and carrying its variance when it is not (the installation misalignment is real either way).
+pub fn initial_covariance(
+    config: &RunConfig,
+    layout: &StateLayout,
+    c0_body_to_enu: &nalgebra::Matrix3<f64>,
+) -> DMatrix<f64> {
+    let sigma = layout.prior_sigma();
+    let mut p = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+        sigma.len(),
+        sigma.iter().map(|s| s * s),
+    ));
+    if config.filter.attitude_prior == AttitudePrior::Installation {
+        let var_d = config.install_sigma().powi(2);
+        let c = c0_body_to_enu;
+        let cc = c * c.transpose() * var_d;
+        for i in 0..3 {
+            for j in 0..3 {
+                p[(i, j)] += cc[(i, j)];
+            }
+        }
+        if let Some(k) = layout.install {
+            // cov(beta_0, delta_z) = C_0 P_delta.
+            for i in 0..3 {
+                for j in 0..3 {
+                    p[(i, k + j)] = c[(i, j)] * var_d;
+                    p[(k + j, i)] = c[(i, j)] * var_d;
+                }
+            }
+        }
+    }
+    p
+}
+
 /// Run the covariance analysis for any layout and (nominal) mounting.
 pub fn covariance_analysis_with(
     config: &RunConfig,
@@ -89,51 +128,69 @@ pub fn covariance_analysis_with(
     let kin = Kinematics::new(program, *mounting, site);
     let f = &config.filter;
     let dt = 1.0 / f.imu_rate_hz;
-    let n_acc = (f.imu_rate_hz / f.accel_rate_hz).round() as usize;
-    let n_tt = (f.imu_rate_hz / f.turntable_rate_hz).round() as usize;
+    let schedule = Schedule::new(config);
     let n_steps = (kin.program.duration() * f.imu_rate_hz).floor() as usize;
     let mut model = LinearModel::new(layout, dt, &kin.earth_rate_enu(), config.gyro_psd());
-    let mut filter = NormalisedFilter::new(&layout.prior_sigma())
+    let c0 = kin.sample(0.0).c_body_to_enu;
+    let mut filter = NormalisedFilter::with_covariance(&initial_covariance(config, layout, &c0))
         .map_err(|source| AnalysisError::Filter { t: 0.0, source })?;
     let p0 = vec![0.0; layout.n_instrument()];
     let f_enu = kin.specific_force_enu();
-    let r_acc = nalgebra::Matrix3::identity()
-        * config.measurement_variance(config.accel_psd(), f.accel_rate_hz);
-    let var_angle = config.measurement_variance(config.angle_psd(), f.turntable_rate_hz);
-    // A sampled (not averaged) reading sees the specific force of the last IMU step only.
-    let sample_reading = config.noise.reading == crate::config::NoiseReading::Sample;
     let use_tt = layout.install.is_some();
-    let mut pending;
+    // Angle records are taken to come at the IMU rate, one per step, so that a window of N steps
+    // averages N records: the variance of one record is the PSD times the record rate.
+    let noise = MeasurementNoise {
+        accel_psd: config.accel_psd(),
+        angle_var_per_record: use_tt.then(|| config.angle_psd() * f.imu_rate_hz),
+    };
+    let zero = Vector3::zeros();
     for j in 1..=n_steps {
-        let t_mid = (j as f64 - 0.5) * dt;
-        let s = kin.sample(t_mid);
+        let s = kin.sample((j as f64 - 0.5) * dt);
         let input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
         };
-        if sample_reading && j % n_acc == 0 {
-            model.reset_accel();
-        }
-        model.substep(layout, &s.c_body_to_enu, &input, &p0);
-        pending = true;
+        let in_acc = schedule.in_accel_window(j).then_some(&zero);
+        model.substep(layout, &s.c_body_to_enu, &input, &p0, in_acc);
         let t = j as f64 * dt;
-        let err = |source| AnalysisError::Filter { t, source };
-        if j % n_acc == 0 {
-            filter.predict(&mut model, true).map_err(err)?;
-            pending = false;
-            let h = model.accel_h(&f_enu);
-            filter.update_covariance(&h, &r_acc).map_err(err)?;
-            model.reset_accel();
-        }
-        if use_tt && j % n_tt == 0 {
-            if pending {
-                filter.predict(&mut model, true).map_err(err)?;
-            }
+        if use_tt && schedule.in_turntable_window(j) {
             let s = kin.sample(t);
-            let h = LinearModel::turntable_h(layout, &s.c_body_to_enu, &s.platform_rate_enu);
-            let r = LinearModel::turntable_r(&gimbal_jacobian(&s.k), var_angle);
-            filter.update_covariance(&h, &r).map_err(err)?;
+            let (guard, threshold) = angle_sample_guard(
+                filter.sigma(layout.tau.expect("turntable layout")),
+                dt,
+                dt,
+                config.angle_psd(),
+                schedule.turntable_window as f64 * dt,
+            );
+            let usable = angle_sample_usable(
+                &kin.sample(t - guard).omega_body,
+                &s.omega_body,
+                &kin.sample(t + guard).omega_body,
+                guard,
+                threshold,
+            );
+            if usable {
+                model.add_angle_sample(&AngleSample {
+                    y: zero,
+                    c_body_to_enu: s.c_body_to_enu,
+                    platform_rate_enu: s.platform_rate_enu,
+                    gimbal_jacobian: gimbal_jacobian(&s.k),
+                    records: &[(j, 1.0)],
+                });
+            }
         }
+        measurement_instant(
+            &mut filter,
+            &mut model,
+            layout,
+            &schedule,
+            j,
+            &f_enu,
+            &noise,
+            true,
+            false,
+        )
+        .map_err(|source| AnalysisError::Filter { t, source })?;
     }
     Ok(Posterior {
         names: layout.entries().iter().map(|e| e.name.clone()).collect(),

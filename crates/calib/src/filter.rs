@@ -34,6 +34,22 @@ impl NormalisedFilter {
         })
     }
 
+    /// Zero initial state, prior covariance `p0` (SI), normalised by the square roots of its
+    /// diagonal.
+    pub fn with_covariance(p0: &DMatrix<f64>) -> Result<Self, KalmanError> {
+        let n = p0.nrows();
+        let sigma: Vec<f64> = (0..n).map(|i| p0[(i, i)].max(0.0).sqrt()).collect();
+        let pn = Mat::from_fn(n, n, |i, j| p0[(i, j)] / (sigma[i] * sigma[j]));
+        Ok(Self {
+            kf: KalmanFilter::new(&vec![0.0; n], pn.as_ref(), 3)?,
+            sigma,
+            phi: Mat::zeros(3, n),
+            q: Mat::zeros(3, 3),
+            h: Mat::zeros(3, n),
+            r: Mat::zeros(3, 3),
+        })
+    }
+
     /// Number of states.
     pub fn dim(&self) -> usize {
         self.sigma.len()
@@ -116,6 +132,11 @@ impl NormalisedFilter {
     /// Set state component `i` (SI), e.g. to zero the attitude error after feedback.
     pub fn set_state(&mut self, i: usize, value: f64) {
         self.kf.state_mut()[i] = value / self.sigma[i];
+    }
+
+    /// Zero the whole state (after its estimate has been fed back).
+    pub fn reset_state(&mut self) {
+        self.kf.state_mut().fill(0.0);
     }
 
     /// Standard deviation of state `i` (SI).

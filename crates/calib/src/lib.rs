@@ -27,9 +27,12 @@
 
 pub mod config;
 pub mod covariance;
+pub mod engine;
+pub mod estimate;
 pub mod filter;
 pub mod io;
 pub mod layout;
 pub mod model;
 pub mod paper;
 pub mod report;
+pub mod simulate;

@@ -4,19 +4,99 @@
 //! every other state is constant. [`LinearModel::substep`] integrates this over one IMU interval
 //! (midpoint rule for `C nu`, exact rotation for `beta x u`) into the first three rows of the
 //! transition matrix, `phi_top = [Phi_bb | Phi_bp]`, and the attitude process noise `q_top`.
-//! The same sub-steps accumulate the interval average of `C * d(df)/dp` for the specific-force
-//! measurement.
 //!
-//! Measurements (x = ENU frame):
-//! - specific force, averaged over the measurement interval `T`:
-//!   `z = mean(f'_x) - f_x = f_x x beta + mean(C df)`, noise variance `psd_a / T` per axis;
+//! Measurements (x = ENU frame) average their window of IMU steps, and `beta` moves within a
+//! window (a 1e-3 scale error at 10 deg/s moves it by 1.7e-4 rad/s, as much as the noise of a
+//! one-second measurement), so every measurement matrix carries the window mean of `beta`,
+//! expressed in the state at the measurement instant through the transition of each sample
+//! ([`PhiMean`]):
+//! - specific force: `z = mean(f'_x) - f_x = f_x x mean(beta) + mean(C df)`, noise variance
+//!   `psd_a / T` per axis for a window of length `T`;
 //! - turntable angles, as the small rotation `y` with `C_imu * C_tt^T = exp(-skew(y))`:
-//!   `y = beta - gamma_p - C delta_z - Omega_x tau + J rho`, with `J` the gimbal Jacobian.
+//!   `y = beta - gamma_p - C delta_z - Omega_x tau + J rho` at each sample, averaged over the
+//!   window; `J` is the gimbal Jacobian and `rho` the angle-sensor noise, which reaches a sample
+//!   through the interpolation weights of the records it was interpolated from.
 
 use crate::layout::StateLayout;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{exp_so3, skew};
 use sins_model::terms::{Sensor, SensorInput};
+
+/// Weighted sum of `phi_top` over the sample instants of a measurement window, kept relative to
+/// the last filter instant and re-expressed at every predict ([`PhiMean::rebase`]).
+#[derive(Clone, Debug)]
+pub struct PhiMean {
+    sum: Vec<Vector3<f64>>,
+    weight: f64,
+}
+
+impl PhiMean {
+    fn new(n: usize) -> Self {
+        Self {
+            sum: vec![Vector3::zeros(); n],
+            weight: 0.0,
+        }
+    }
+
+    fn clear(&mut self) {
+        self.sum.fill(Vector3::zeros());
+        self.weight = 0.0;
+    }
+
+    fn add(&mut self, phi: &[Vector3<f64>], w: f64) {
+        for (s, p) in self.sum.iter_mut().zip(phi) {
+            *s += p * w;
+        }
+        self.weight += w;
+    }
+
+    /// The sum in terms of the state at the end of `phi_end` (the transition from the last
+    /// filter instant): with `phi_end = [A | B]` and `x_0 = [A^T (beta_end - B p); p]`,
+    /// `sum [A_i | B_i] x_0 = [S_A A^T | S_B - S_A A^T B] x_end` (A is a rotation).
+    fn expressed_at(&self, phi_end: &[Vector3<f64>], out: &mut [Vector3<f64>]) {
+        let a = Matrix3::from_columns(&phi_end[..3]);
+        let s_a = Matrix3::from_columns(&self.sum[..3]);
+        let m = s_a * a.transpose();
+        for i in 0..3 {
+            out[i] = m.column(i).into_owned();
+        }
+        for j in 3..self.sum.len() {
+            out[j] = self.sum[j] - m * phi_end[j];
+        }
+    }
+
+    /// Re-express the sum in the state at the end of `phi_end` (called before a predict).
+    fn rebase(&mut self, phi_end: &[Vector3<f64>]) {
+        let mut out = vec![Vector3::zeros(); self.sum.len()];
+        self.expressed_at(phi_end, &mut out);
+        self.sum = out;
+    }
+}
+
+/// Accumulators of the specific-force measurement window.
+#[derive(Clone, Debug)]
+struct AccelWindow {
+    beta: PhiMean,
+    /// `sum C dDf/dp dt` over the window (instrument parameters).
+    c_jac: Vec<Vector3<f64>>,
+    /// `sum C f' dt`: the measured velocity increment in ENU (estimation only).
+    dv_enu: Vector3<f64>,
+    /// Window length [s].
+    t: f64,
+}
+
+/// Accumulators of the turntable-angle measurement window.
+#[derive(Clone, Debug)]
+struct TurntableWindow {
+    beta: PhiMean,
+    c_sum: Matrix3<f64>,
+    omega_sum: Vector3<f64>,
+    y_sum: Vector3<f64>,
+    count: usize,
+    /// Noise map of each angle record the window's samples were interpolated from:
+    /// `(record index, sum of weight * J)`.
+    records: Vec<(usize, Matrix3<f64>)>,
+}
 
 /// Accumulates the transition and measurement matrices of one filter interval.
 #[derive(Debug)]
@@ -29,10 +109,39 @@ pub struct LinearModel {
     psd_gyro: f64,
     phi_top: Vec<Vector3<f64>>,
     q_top: Matrix3<f64>,
-    hacc: Vec<Vector3<f64>>,
-    t_acc: f64,
     jac: Vec<Vector3<f64>>,
     dt: f64,
+    acc: AccelWindow,
+    tt: TurntableWindow,
+    scratch: Vec<Vector3<f64>>,
+}
+
+/// One averaged measurement, ready for the filter: `z = H x + v`, `v ~ N(0, R)`.
+#[derive(Clone, Debug)]
+pub struct Measurement {
+    /// Measured value (zero in a covariance analysis).
+    pub z: Vector3<f64>,
+    /// Measurement matrix (3 x n) in terms of the state at the measurement instant.
+    pub h: DMatrix<f64>,
+    /// Noise covariance.
+    pub r: Matrix3<f64>,
+    /// Number of IMU steps (specific force) or angle samples (turntable) averaged.
+    pub samples: usize,
+}
+
+/// One turntable-angle sample at the end of an IMU step.
+#[derive(Clone, Copy, Debug)]
+pub struct AngleSample<'a> {
+    /// `y` with `C_imu * C_tt^T = exp(-skew(y))` (zero in a covariance analysis).
+    pub y: Vector3<f64>,
+    /// Attitude used for the linearisation.
+    pub c_body_to_enu: Matrix3<f64>,
+    /// Platform rate relative to the base, ENU [rad/s].
+    pub platform_rate_enu: Vector3<f64>,
+    /// Gimbal Jacobian at the sample's angles.
+    pub gimbal_jacobian: Matrix3<f64>,
+    /// The angle records the sample was interpolated from, with their weights.
+    pub records: &'a [(usize, f64)],
 }
 
 impl LinearModel {
@@ -47,17 +156,42 @@ impl LinearModel {
             psd_gyro,
             phi_top: vec![Vector3::zeros(); n],
             q_top: Matrix3::zeros(),
-            hacc: vec![Vector3::zeros(); n_instr],
-            t_acc: 0.0,
             jac: vec![Vector3::zeros(); n_instr],
             dt,
+            acc: AccelWindow {
+                beta: PhiMean::new(n),
+                c_jac: vec![Vector3::zeros(); n_instr],
+                dv_enu: Vector3::zeros(),
+                t: 0.0,
+            },
+            tt: TurntableWindow {
+                beta: PhiMean::new(n),
+                c_sum: Matrix3::zeros(),
+                omega_sum: Vector3::zeros(),
+                y_sum: Vector3::zeros(),
+                count: 0,
+                records: Vec::with_capacity(64),
+            },
+            scratch: vec![Vector3::zeros(); n],
         };
         m.reset_transition();
         m
     }
 
-    /// Start a new transition interval: `phi_top = [I 0]`, `q_top = 0`.
+    /// IMU step [s].
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// Start a new transition interval: `phi_top = [I 0]`, `q_top = 0`. Open measurement windows
+    /// are re-expressed in the state at this instant first.
     pub fn reset_transition(&mut self) {
+        if self.acc.beta.weight > 0.0 {
+            self.acc.beta.rebase(&self.phi_top);
+        }
+        if self.tt.beta.weight > 0.0 {
+            self.tt.beta.rebase(&self.phi_top);
+        }
         self.phi_top.fill(Vector3::zeros());
         for i in 0..3 {
             self.phi_top[i][i] = 1.0;
@@ -65,22 +199,53 @@ impl LinearModel {
         self.q_top = Matrix3::zeros();
     }
 
-    /// Start a new specific-force averaging interval.
+    /// Start a new specific-force window.
     pub fn reset_accel(&mut self) {
-        self.hacc.fill(Vector3::zeros());
-        self.t_acc = 0.0;
+        self.acc.beta.clear();
+        self.acc.c_jac.fill(Vector3::zeros());
+        self.acc.dv_enu = Vector3::zeros();
+        self.acc.t = 0.0;
+    }
+
+    /// Start a new turntable-angle window.
+    pub fn reset_turntable(&mut self) {
+        let w = &mut self.tt;
+        w.beta.clear();
+        w.c_sum = Matrix3::zeros();
+        w.omega_sum = Vector3::zeros();
+        w.y_sum = Vector3::zeros();
+        w.count = 0;
+        w.records.clear();
+    }
+
+    /// Whether a specific-force window holds data.
+    pub fn accel_open(&self) -> bool {
+        self.acc.t > 0.0
+    }
+
+    /// Whether a turntable window holds samples.
+    pub fn turntable_open(&self) -> bool {
+        self.tt.count > 0
     }
 
     /// Integrate one IMU step with the attitude `c_body_to_enu`, body rate and specific force at
-    /// its midpoint, and the current parameter estimate `p` (instrument part).
+    /// its midpoint, and the current parameter estimate `p` (instrument part). When
+    /// `accel_dv_enu` is given the step belongs to the specific-force window, with that
+    /// measured velocity increment in ENU (zero in a covariance analysis).
     pub fn substep(
         &mut self,
         layout: &StateLayout,
         c_body_to_enu: &Matrix3<f64>,
         input: &SensorInput,
         p: &[f64],
+        accel_dv_enu: Option<&Vector3<f64>>,
     ) {
         let dt = self.dt;
+        let in_acc = accel_dv_enu.is_some();
+        if in_acc {
+            // Midpoint rule for the window mean of beta: half weight before, half after.
+            self.acc.beta.add(&self.phi_top, 0.5 * dt);
+        }
         let a = self.a_step;
         for col in self.phi_top.iter_mut() {
             *col = a * *col;
@@ -93,15 +258,35 @@ impl LinearModel {
             }
         }
         self.q_top = a * self.q_top * a.transpose() + Matrix3::identity() * (self.psd_gyro * dt);
-        layout
-            .model
-            .jacobian(Sensor::Accel, p, input, &mut self.jac);
-        for (i, j) in self.jac.iter().enumerate() {
-            if *j != Vector3::zeros() {
-                self.hacc[i] += c_body_to_enu * j * dt;
+        if let Some(dv) = accel_dv_enu {
+            self.acc.beta.add(&self.phi_top, 0.5 * dt);
+            layout
+                .model
+                .jacobian(Sensor::Accel, p, input, &mut self.jac);
+            for (i, j) in self.jac.iter().enumerate() {
+                if *j != Vector3::zeros() {
+                    self.acc.c_jac[i] += c_body_to_enu * j * dt;
+                }
+            }
+            self.acc.dv_enu += dv;
+            self.acc.t += dt;
+        }
+    }
+
+    /// Add a turntable-angle sample at the end of the last [`Self::substep`].
+    pub fn add_angle_sample(&mut self, s: &AngleSample) {
+        let w = &mut self.tt;
+        w.beta.add(&self.phi_top, 1.0);
+        w.c_sum += s.c_body_to_enu;
+        w.omega_sum += s.platform_rate_enu;
+        w.y_sum += s.y;
+        w.count += 1;
+        for &(k, weight) in s.records {
+            match w.records.iter_mut().rev().find(|(i, _)| *i == k) {
+                Some((_, m)) => *m += s.gimbal_jacobian * weight,
+                None => w.records.push((k, s.gimbal_jacobian * weight)),
             }
         }
-        self.t_acc += dt;
     }
 
     /// The accumulated `phi_top` as a dense 3 x n matrix.
@@ -114,26 +299,91 @@ impl LinearModel {
         self.q_top
     }
 
-    /// Length of the current specific-force averaging interval [s].
+    /// Length of the current specific-force window [s].
     pub fn accel_interval(&self) -> f64 {
-        self.t_acc
+        self.acc.t
     }
 
-    /// Specific-force measurement matrix (3 x n) for the interval since [`Self::reset_accel`]:
-    /// `[skew(f_x) | mean(C dDf/dp) | 0]`.
-    pub fn accel_h(&self, f_enu: &Vector3<f64>) -> DMatrix<f64> {
+    /// The specific-force measurement of the window, in terms of the state now (end of the last
+    /// sub-step): `z = mean(f'_x) - f_x`, `H = [skew(f_x) mean(beta) | mean(C dDf/dp) | 0]`,
+    /// `R = psd / T`. `None` for an empty window.
+    pub fn accel_measurement(
+        &mut self,
+        f_enu: &Vector3<f64>,
+        psd_accel: f64,
+    ) -> Option<Measurement> {
+        let t = self.acc.t;
+        if t <= 0.0 {
+            return None;
+        }
         let mut h = DMatrix::zeros(3, self.n);
-        h.fixed_view_mut::<3, 3>(0, 0).copy_from(&skew(f_enu));
-        let inv = 1.0 / self.t_acc;
-        for i in 0..self.n_instr {
+        self.acc.beta.expressed_at(&self.phi_top, &mut self.scratch);
+        let sf = skew(f_enu) / self.acc.beta.weight;
+        for (j, col) in self.scratch.iter().enumerate() {
+            let v = sf * col;
             for r in 0..3 {
-                h[(r, StateLayout::INSTRUMENT + i)] = self.hacc[i][r] * inv;
+                h[(r, j)] = v[r];
             }
         }
-        h
+        for i in 0..self.n_instr {
+            for r in 0..3 {
+                h[(r, StateLayout::INSTRUMENT + i)] += self.acc.c_jac[i][r] / t;
+            }
+        }
+        Some(Measurement {
+            z: self.acc.dv_enu / t - f_enu,
+            h,
+            r: Matrix3::identity() * (psd_accel / t),
+            samples: (t / self.dt).round() as usize,
+        })
     }
 
-    /// Turntable-angle measurement matrix (3 x n) at one instant:
+    /// The turntable-angle measurement of the window, in terms of the state now: the mean of the
+    /// samples' `y`, `H = [mean(beta) | -mean(C) | -mean(Omega_x) | -I]` (`beta` columns,
+    /// `delta_z`, `tau`, `gamma_p`) and `R = sum_k M_k diag(var) M_k^T / N^2` over the angle
+    /// records (`var` per record and gimbal), with a floor of 1e-6 `var / N` so that `R` stays
+    /// invertible at gimbal lock. `None` for an empty window.
+    pub fn turntable_measurement(
+        &mut self,
+        layout: &StateLayout,
+        var_per_record: f64,
+    ) -> Option<Measurement> {
+        let w = &self.tt;
+        if w.count == 0 {
+            return None;
+        }
+        let nf = w.count as f64;
+        let mut h = DMatrix::zeros(3, self.n);
+        w.beta.expressed_at(&self.phi_top, &mut self.scratch);
+        for (j, col) in self.scratch.iter().enumerate() {
+            for r in 0..3 {
+                h[(r, j)] = col[r] / w.beta.weight;
+            }
+        }
+        if let Some(i) = layout.install {
+            h.fixed_view_mut::<3, 3>(0, i).copy_from(&(-w.c_sum / nf));
+        }
+        if let Some(i) = layout.tau {
+            h.fixed_view_mut::<3, 1>(0, i)
+                .copy_from(&(-w.omega_sum / nf));
+        }
+        if let Some(i) = layout.base {
+            h.fixed_view_mut::<3, 3>(0, i)
+                .copy_from(&(-Matrix3::identity()));
+        }
+        let mut r = Matrix3::identity() * (1e-6 * var_per_record / nf);
+        for (_, m) in &w.records {
+            r += m * m.transpose() * (var_per_record / (nf * nf));
+        }
+        Some(Measurement {
+            z: w.y_sum / nf,
+            h,
+            r,
+            samples: w.count,
+        })
+    }
+
+    /// Turntable-angle measurement matrix (3 x n) of a single sample, `beta` taken at the sample:
     /// `[I | 0 | -C | -Omega_x | -I]` for `beta`, instrument errors, `delta_z`, `tau`, `gamma_p`.
     pub fn turntable_h(
         layout: &StateLayout,
@@ -155,13 +405,5 @@ impl LinearModel {
                 .copy_from(&(-Matrix3::identity()));
         }
         h
-    }
-
-    /// Covariance of the turntable measurement noise: `J diag(var) J^T`, plus a floor of 1e-6 of
-    /// the mean variance so that `S` stays invertible at gimbal lock, where `J` loses rank and the
-    /// first-order model would claim an exact reading about one axis.
-    pub fn turntable_r(gimbal_jacobian: &Matrix3<f64>, var_per_gimbal: f64) -> Matrix3<f64> {
-        gimbal_jacobian * gimbal_jacobian.transpose() * var_per_gimbal
-            + Matrix3::identity() * (1e-6 * var_per_gimbal)
     }
 }

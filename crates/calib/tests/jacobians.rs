@@ -4,11 +4,11 @@
 use calib::config::RunConfig;
 use calib::covariance::layout_for;
 use calib::layout::StateLayout;
-use calib::model::LinearModel;
-use nalgebra::{Matrix3, Vector3};
+use calib::model::{AngleSample, LinearModel};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{apply_attitude_error, attitude_error, exp_so3, log_so3};
 use sins_model::terms::{Sensor, SensorInput};
-use turntable::gimbal::c_platform_to_base;
+use turntable::gimbal::{c_platform_to_base, gimbal_jacobian};
 use turntable::kinematics::{Kinematics, Mounting};
 
 fn setup(with_base: bool) -> (RunConfig, StateLayout, Kinematics) {
@@ -78,7 +78,7 @@ fn transition_matches_finite_differences_of_strapdown() {
                 omega_body: s.omega_body,
                 f_body: s.f_body,
             };
-            model.substep(&layout, &s.c_body_to_enu, &input, &p);
+            model.substep(&layout, &s.c_body_to_enu, &input, &p, None);
         }
         let phi = model.phi_top();
         // Each Jacobian is checked at its linearisation point (zero attitude error); away from it
@@ -120,79 +120,149 @@ fn transition_matches_finite_differences_of_strapdown() {
     }
 }
 
-/// Nonlinear specific-force measurement averaged over [t0, t1] with constant beta.
-fn nonlinear_accel(
+/// Nonlinear window measurements over [t0, t1] from the state at t0: the computed attitude is
+/// integrated from the erroneous gyro (start error `beta0`); returns the mean specific-force
+/// residual `mean(C' f') - f_x` and the mean turntable residual `y` over the IMU step ends, with
+/// the turntable late by `tau` and the mounting `delta`.
+fn nonlinear_window(
     kin: &Kinematics,
     layout: &StateLayout,
-    t0: f64,
-    t1: f64,
-    beta: &Vector3<f64>,
+    (t0, t1): (f64, f64),
+    beta0: &Vector3<f64>,
     p: &[f64],
-) -> Vector3<f64> {
-    let n = 100;
-    let dt = (t1 - t0) / n as f64;
-    let mut sum = Vector3::zeros();
-    for k in 0..n {
-        let s = kin.sample(t0 + (k as f64 + 0.5) * dt);
+    delta: &Vector3<f64>,
+    tau: f64,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let imu_steps = 100;
+    let sub = 20;
+    let dt = (t1 - t0) / (imu_steps * sub) as f64;
+    let u = kin.earth_rate_enu();
+    let e = exp_so3(&(-u * dt));
+    let truth = Kinematics::new(
+        kin.program.clone(),
+        Mounting {
+            delta_z: *delta,
+            gamma_p: Vector3::zeros(),
+        },
+        kin.site,
+    );
+    let mut cc = apply_attitude_error(beta0, &truth.sample(t0).c_body_to_enu);
+    let (mut acc, mut y) = (Vector3::zeros(), Vector3::zeros());
+    for k in 0..imu_steps * sub {
+        let s = truth.sample(t0 + (k as f64 + 0.5) * dt);
         let input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
         };
+        let nu = layout.model.error(Sensor::Gyro, p, &input);
         let f_meas = s.f_body + layout.model.error(Sensor::Accel, p, &input);
-        sum += apply_attitude_error(beta, &s.c_body_to_enu) * f_meas * dt;
+        let half = exp_so3(&((s.omega_body - nu) * dt * 0.5));
+        let c_mid = exp_so3(&(-u * dt * 0.5)) * cc * half;
+        acc += c_mid * f_meas * dt;
+        cc = e * cc * half * half;
+        if (k + 1) % sub == 0 {
+            // The turntable reports the angles of t - tau and assumes a perfect mounting.
+            let t = t0 + (k + 1) as f64 * dt;
+            let (k_late, _) = kin.program.state(t - tau);
+            let c_tt: Matrix3<f64> = c_platform_to_base(&k_late);
+            y += -log_so3(&(cc * c_tt.transpose()));
+        }
     }
-    sum / (t1 - t0) - kin.specific_force_enu()
+    (
+        acc / (t1 - t0) - kin.specific_force_enu(),
+        y / imu_steps as f64,
+    )
 }
 
 #[test]
-fn accel_measurement_matches_finite_differences() {
+fn window_measurements_match_finite_differences() {
     let (_, layout, kin) = setup(false);
     let p = nominal_params(&layout);
-    let (t0, t1) = (1000.0, 1001.0);
-    let mut model = LinearModel::new(&layout, 0.01, &kin.earth_rate_enu(), 0.0);
-    for k in 0..100 {
-        let s = kin.sample(t0 + (k as f64 + 0.5) * 0.01);
-        let input = SensorInput {
-            omega_body: s.omega_body,
-            f_body: s.f_body,
+    let zero = Vector3::zeros();
+    // Spinning about East with the window mean of beta moving, across a reversal, and in a
+    // re-orientation.
+    for (t0, t1) in [(1000.0, 1001.0), (100.0, 101.0), (902.0, 903.0)] {
+        let imu_dt = (t1 - t0) / 100.0;
+        let mut model = LinearModel::new(&layout, imu_dt, &kin.earth_rate_enu(), 0.0);
+        for k in 0..100 {
+            let s = kin.sample(t0 + (k as f64 + 0.5) * imu_dt);
+            let input = SensorInput {
+                omega_body: s.omega_body,
+                f_body: s.f_body,
+            };
+            model.substep(&layout, &s.c_body_to_enu, &input, &p, Some(&zero));
+            let s = kin.sample(t0 + (k + 1) as f64 * imu_dt);
+            model.add_angle_sample(&AngleSample {
+                y: zero,
+                c_body_to_enu: s.c_body_to_enu,
+                platform_rate_enu: s.platform_rate_enu,
+                gimbal_jacobian: gimbal_jacobian(&s.k),
+                records: &[(k, 1.0)],
+            });
+        }
+        // In terms of the state at t0: H_end * Phi.
+        let n = layout.dim();
+        let mut phi = DMatrix::<f64>::identity(n, n);
+        let top = model.phi_top();
+        for i in 0..3 {
+            for j in 0..n {
+                phi[(i, j)] = top[(i, j)];
+            }
+        }
+        let ha = model
+            .accel_measurement(&kin.specific_force_enu(), 1e-6)
+            .unwrap()
+            .h
+            * &phi;
+        let ht = model.turntable_measurement(&layout, 1e-10).unwrap().h * &phi;
+        let p0 = vec![0.0; p.len()];
+        let f = |beta: &Vector3<f64>, pp: &[f64], d: &Vector3<f64>, tau: f64| {
+            nonlinear_window(&kin, &layout, (t0, t1), beta, pp, d, tau)
         };
-        model.substep(&layout, &s.c_body_to_enu, &input, &p);
-    }
-    // Linearisation point: zero attitude error, parameters p; the beta block then uses the
-    // measured (erroneous) specific force in ENU, as estimation does.
-    let beta = Vector3::zeros();
-    let f_meas_enu = nonlinear_accel(&kin, &layout, t0, t1, &beta, &p) + kin.specific_force_enu();
-    let h = model.accel_h(&f_meas_enu);
-    for j in 0..StateLayout::INSTRUMENT + layout.n_instrument() {
-        let (fd, eps) = if j < 3 {
+        let check = |j: usize,
+                     plus: (Vector3<f64>, Vector3<f64>),
+                     minus: (Vector3<f64>, Vector3<f64>),
+                     h: f64| {
+            let fa = (plus.0 - minus.0) / (2.0 * h);
+            let ft = (plus.1 - minus.1) / (2.0 * h);
+            let ca = Vector3::new(ha[(0, j)], ha[(1, j)], ha[(2, j)]);
+            let ct = Vector3::new(ht[(0, j)], ht[(1, j)], ht[(2, j)]);
+            let name = &layout.entries()[j].name;
+            assert!(
+                // Absolute part: rounding of the 2000-sub-step sums of g-sized terms.
+                (fa - ca).norm() <= 1e-4 * fa.norm().max(ca.norm()) + 1e-5,
+                "t0 {t0}: specific force, {name}: fd {fa:?} vs {ca:?}"
+            );
+            assert!(
+                (ft - ct).norm() <= 1e-4 * ft.norm().max(ct.norm()) + 1e-9,
+                "t0 {t0}: turntable, {name}: fd {ft:?} vs {ct:?}"
+            );
+        };
+        for j in 0..3 {
             let mut e = Vector3::zeros();
             e[j] = 1e-6;
-            (
-                (nonlinear_accel(&kin, &layout, t0, t1, &(beta + e), &p)
-                    - nonlinear_accel(&kin, &layout, t0, t1, &(beta - e), &p))
-                    / 2e-6,
-                1e-6,
-            )
-        } else {
-            let i = j - 3;
-            let e = layout.entries()[j].prior_sigma;
-            let mut pp = p.clone();
-            pp[i] += e;
-            let mut pm = p.clone();
-            pm[i] -= e;
-            (
-                (nonlinear_accel(&kin, &layout, t0, t1, &beta, &pp)
-                    - nonlinear_accel(&kin, &layout, t0, t1, &beta, &pm))
-                    / (2.0 * e),
-                e,
-            )
-        };
-        let col = Vector3::new(h[(0, j)], h[(1, j)], h[(2, j)]);
-        let tol = 1e-6 * fd.norm().max(col.norm()) + 1e-9;
-        assert!(
-            (fd - col).norm() < tol,
-            "{} (eps {eps}): fd {fd:?} vs {col:?}",
-            layout.entries()[j].name
+            check(j, f(&e, &p0, &zero, 0.0), f(&-e, &p0, &zero, 0.0), 1e-6);
+        }
+        for i in 0..layout.n_instrument() {
+            let j = StateLayout::INSTRUMENT + i;
+            let h = layout.entries()[j].prior_sigma * 1e-2;
+            let (mut pp, mut pm) = (p0.clone(), p0.clone());
+            pp[i] += h;
+            pm[i] -= h;
+            check(j, f(&zero, &pp, &zero, 0.0), f(&zero, &pm, &zero, 0.0), h);
+        }
+        let k = layout.install.unwrap();
+        for a in 0..3 {
+            let mut e = Vector3::zeros();
+            e[a] = 1e-7;
+            check(k + a, f(&zero, &p0, &e, 0.0), f(&zero, &p0, &-e, 0.0), 1e-7);
+        }
+        let k = layout.tau.unwrap();
+        check(
+            k,
+            f(&zero, &p0, &zero, 1e-5),
+            f(&zero, &p0, &zero, -1e-5),
+            1e-5,
         );
     }
 }
