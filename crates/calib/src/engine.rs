@@ -48,12 +48,12 @@ impl Schedule {
 
     /// A specific-force measurement is taken at the end of step `j`.
     pub fn accel_due(&self, j: usize) -> bool {
-        j % self.accel_interval == 0
+        j.is_multiple_of(self.accel_interval)
     }
 
     /// A turntable-angle measurement is taken at the end of step `j`.
     pub fn turntable_due(&self, j: usize) -> bool {
-        j % self.turntable_interval == 0
+        j.is_multiple_of(self.turntable_interval)
     }
 }
 

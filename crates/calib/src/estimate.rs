@@ -137,6 +137,9 @@ fn wrap_deg(d: f64) -> f64 {
     if w > 180.0 { w - 360.0 } else { w }
 }
 
+/// Interpolated gimbal angles [rad] and the two records with their weights.
+type Interpolated = ([f64; 3], [(usize, f64); 2]);
+
 /// Interpolates the turntable records on the IMU time line.
 struct AngleInterpolator<'a> {
     data: &'a TurntableData,
@@ -158,7 +161,7 @@ impl<'a> AngleInterpolator<'a> {
     /// Angles [rad] at turntable-clock time `t_tt` and the two records with their weights;
     /// `None` outside the records or across a gap. Queries must not go back in time by more
     /// than a record or two (they advance with the IMU).
-    fn at(&mut self, t_tt: f64) -> Option<([f64; 3], [(usize, f64); 2])> {
+    fn at(&mut self, t_tt: f64) -> Option<Interpolated> {
         let r = &self.data.records;
         if r.len() < 2 || t_tt < r[0].t || t_tt > r[r.len() - 1].t {
             return None;
@@ -453,10 +456,7 @@ pub fn estimate_with(
 
     // Whatever the last windows left in the state (they were still open at the end).
     let x = filter.state();
-    let mut values = vec![0.0; layout.dim()];
-    for k in 0..layout.dim() {
-        values[k] = x[k];
-    }
+    let mut values = x.clone();
     c = exp_so3(&Vector3::new(x[0], x[1], x[2])) * c;
     values[..3].fill(0.0);
     for (k, p) in p_hat.iter().enumerate() {

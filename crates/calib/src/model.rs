@@ -57,8 +57,8 @@ impl PhiMean {
         let a = Matrix3::from_columns(&phi_end[..3]);
         let s_a = Matrix3::from_columns(&self.sum[..3]);
         let m = s_a * a.transpose();
-        for i in 0..3 {
-            out[i] = m.column(i).into_owned();
+        for (i, o) in out.iter_mut().take(3).enumerate() {
+            *o = m.column(i).into_owned();
         }
         for j in 3..self.sum.len() {
             out[j] = self.sum[j] - m * phi_end[j];

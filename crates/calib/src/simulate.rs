@@ -43,7 +43,7 @@ pub fn true_values(
     with_base.filter.estimate_base_misalignment = true;
     let layout = layout_for(&with_base, true);
     // A stream of its own, so that changing the noise settings does not change the draws.
-    let mut rng = SimRng::seed_from_u64(config.truth.seed ^ 0x5eed_7a1e_0f_ca1b);
+    let mut rng = SimRng::seed_from_u64(config.truth.seed ^ 0x005e_ed7a_1e0f_ca1b);
     let mut values = Vec::new();
     for e in &layout.entries()[3..] {
         let z: f64 = StandardNormal.sample(&mut rng);
