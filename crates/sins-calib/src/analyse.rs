@@ -1,0 +1,104 @@
+//! `sins-calib analyse`: covariance analysis of a run configuration.
+
+use crate::table::{self, Align, Table};
+use crate::{Error, load_config, print};
+use calib::covariance::covariance_analysis;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Arguments of `analyse`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Run configuration: a TOML file (docs/formats.md), or `paper` / `paper-reconciled` for the
+    /// embedded configurations of the paper's covariance analysis (the literal reading and the
+    /// reconciled one, docs/paper-check.md). Its program, [priors], [noise] and [filter] are used.
+    #[arg(long, value_name = "FILE|NAME")]
+    pub config: String,
+    /// Analyse the IMU data alone (24 states) instead of IMU and turntable angles (28 states).
+    #[arg(long)]
+    pub imu_only: bool,
+    /// Also write the result to this JSON file: every parameter's name, SI unit, prior sigma
+    /// and posterior sigma in SI units (docs/formats.md).
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct AnalysisJson {
+    with_turntable: bool,
+    parameters: Vec<AnalysisParameter>,
+}
+
+#[derive(Serialize)]
+struct AnalysisParameter {
+    name: String,
+    unit: &'static str,
+    prior_sigma: f64,
+    sigma: f64,
+}
+
+/// Run `analyse`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let (config, origin) = load_config(&args.config)?;
+    let program = config.program()?;
+    let with_turntable = !args.imu_only;
+    let post = covariance_analysis(&config, with_turntable)?;
+
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "sins-calib analyse: covariance analysis of {origin}, program \"{}\" ({} s), {} states \
+         ({})",
+        program.name,
+        table::compact(program.duration()),
+        post.names.len(),
+        if with_turntable {
+            "IMU and turntable angles"
+        } else {
+            "IMU data alone"
+        }
+    );
+    s.push('\n');
+    let mut t = Table::new(&[
+        ("parameter", Align::Left),
+        ("prior sigma", Align::Right),
+        ("posterior sigma", Align::Right),
+        ("unit", Align::Left),
+        ("prior/posterior", Align::Right),
+    ]);
+    let mut parameters = Vec::new();
+    for (title, members) in table::grouped(&post.names) {
+        t.section(title);
+        for i in members {
+            let unit = post.units[i];
+            let f = unit.report_factor();
+            let prior = post.prior_sigma[i];
+            let sigma = post.cov[(i, i)].max(0.0).sqrt();
+            t.row(vec![
+                format!("  {}", post.names[i]),
+                table::significant(prior * f, 3),
+                table::significant(sigma * f, 3),
+                unit.report_name().to_string(),
+                table::significant(prior / sigma, 3),
+            ]);
+            parameters.push(AnalysisParameter {
+                name: post.names[i].clone(),
+                unit: unit.si_name(),
+                prior_sigma: prior,
+                sigma,
+            });
+        }
+    }
+    s += &t.render();
+    if let Some(path) = &args.json {
+        let json = AnalysisJson {
+            with_turntable,
+            parameters,
+        };
+        let text = serde_json::to_string_pretty(&json)? + "\n";
+        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        let _ = writeln!(s, "\nwrote {}", path.display());
+    }
+    print(&s)
+}

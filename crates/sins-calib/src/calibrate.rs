@@ -1,0 +1,409 @@
+//! `sins-calib calibrate`: estimation from recorded data, with a report in the paper's units.
+
+use crate::table::{self, Align, Table};
+use crate::{Error, load_config, print};
+use calib::estimate::{Estimate, FitStatistics, RunData, estimate};
+use calib::io::{
+    ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json, read_turntable_csv,
+};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use nalgebra::DMatrix;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::io::IsTerminal as _;
+use std::path::{Path, PathBuf};
+
+/// IMU records above which a progress bar is shown (about a second of work).
+const PROGRESS_ABOVE_RECORDS: usize = 100_000;
+
+/// Arguments of `calibrate`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// IMU records: a CSV with the header `t,dthx,dthy,dthz,dvx,dvy,dvz` (increments, rad and m/s)
+    /// or `t,wx,wy,wz,fx,fy,fz` (rad/s and m/s^2), an optional `temp` column; t in s on the IMU
+    /// clock, the rotation program starting at t = 0, records at filter.imu_rate_hz
+    /// (docs/formats.md).
+    #[arg(long, value_name = "FILE")]
+    pub imu: PathBuf,
+    /// Turntable angle records: a CSV with the header `t,k1,k2,k3` (t in s on the turntable
+    /// clock, related to the IMU clock by the configuration's [clock]; heading, bank and pitch in
+    /// degrees). Adds the installation misalignment and the delay to the estimated parameters
+    /// (28 states); without it the IMU data alone are used (24 states).
+    #[arg(long, value_name = "FILE")]
+    pub turntable: Option<PathBuf>,
+    /// Run configuration: a TOML file (docs/formats.md), or `paper` / `paper-reconciled` for the
+    /// embedded configurations. Its program must be the one the turntable ran; [priors], [noise],
+    /// [filter] and [clock] set up the filter ([truth] is not read).
+    #[arg(long, value_name = "FILE|NAME")]
+    pub config: String,
+    /// Write the result to this JSON file: every parameter's name, value, sigma and unit in SI
+    /// units, and the fit statistics (docs/formats.md).
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// True values (the truth.json of `simulate`, or any result file): also print each
+    /// parameter's true value, its error in sigmas and the normalised estimation error squared
+    /// (NEES) of all parameters.
+    #[arg(long, value_name = "FILE")]
+    pub truth: Option<PathBuf>,
+}
+
+/// The JSON result: the parameters as `calib::io::ResultFile` writes them, plus the fit
+/// statistics (readers of `ResultFile` ignore the extra field).
+#[derive(Serialize)]
+struct ResultJson<'a> {
+    parameters: &'a [ResultParameter],
+    fit: FitJson,
+}
+
+/// Fit statistics in the JSON result.
+#[derive(Serialize)]
+struct FitJson {
+    states: usize,
+    imu_records: usize,
+    final_time_s: f64,
+    accel_updates: usize,
+    accel_mean_nis: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    turntable: Option<TurntableFitJson>,
+}
+
+#[derive(Serialize)]
+struct TurntableFitJson {
+    updates: usize,
+    mean_nis: f64,
+    samples_used: usize,
+    samples_near_rate_changes: usize,
+    samples_without_data: usize,
+    record_rate_hz: f64,
+}
+
+fn fit_json(est: &Estimate, with_turntable: bool) -> FitJson {
+    let s = &est.stats;
+    FitJson {
+        states: est.names.len(),
+        imu_records: s.imu_steps,
+        final_time_s: est.final_time,
+        accel_updates: s.accel_updates,
+        accel_mean_nis: s.accel_mean_nis,
+        turntable: with_turntable.then_some(TurntableFitJson {
+            updates: s.turntable_updates,
+            mean_nis: s.turntable_mean_nis,
+            samples_used: s.turntable_samples,
+            samples_near_rate_changes: s.turntable_samples_near_rate_changes,
+            samples_without_data: s.turntable_samples_missing,
+            record_rate_hz: s.turntable_record_rate_hz,
+        }),
+    }
+}
+
+fn progress_bar(records: usize) -> ProgressBar {
+    if records <= PROGRESS_ABOVE_RECORDS || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    // The length is set from the library's (done, total) reports.
+    let bar = ProgressBar::with_draw_target(Some(records as u64), ProgressDrawTarget::stderr());
+    if let Ok(style) =
+        ProgressStyle::with_template("calibrating [{bar:30}] {percent:>3}% {elapsed}, eta {eta}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+/// Run `calibrate`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let (config, origin) = load_config(&args.config)?;
+    let program = config.program()?;
+    // Read the truth first: a wrong path should not cost a whole run.
+    let truth = args.truth.as_deref().map(read_result_json).transpose()?;
+    let imu_file = args.imu.display().to_string();
+    let imu = read_imu_csv(&args.imu)?;
+    let tt_file = args.turntable.as_ref().map(|p| p.display().to_string());
+    let tt = args
+        .turntable
+        .as_deref()
+        .map(read_turntable_csv)
+        .transpose()?;
+    let turntable = match (&tt, &tt_file) {
+        (Some(d), Some(f)) => Some((d, f.as_str())),
+        _ => None,
+    };
+    let data = RunData {
+        imu: &imu,
+        imu_file: &imu_file,
+        turntable,
+    };
+
+    let bar = progress_bar(imu.records.len());
+    let result = estimate(&config, &data, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    });
+    bar.finish_and_clear();
+    let est = result?;
+
+    let mut s = String::new();
+    let _ = writeln!(s, "sins-calib calibrate");
+    let _ = writeln!(
+        s,
+        "  configuration   {origin}: program \"{}\" ({} s)",
+        program.name,
+        table::compact(program.duration())
+    );
+    let (t0, t1) = imu.span().unwrap_or((0.0, 0.0));
+    let _ = writeln!(
+        s,
+        "  IMU data        {imu_file}: {} records of {}, t = {} .. {} s",
+        imu.records.len(),
+        match imu.kind {
+            ImuKind::Increments => "increments",
+            ImuKind::Rates => "rates",
+        },
+        table::compact(t0),
+        table::compact(t1),
+    );
+    if let (Some(tt), Some(f)) = (&tt, &tt_file) {
+        let (a, b) = tt.span().unwrap_or((0.0, 0.0));
+        let _ = writeln!(
+            s,
+            "  turntable data  {f}: {} records, t = {} .. {} s on its clock ({} .. {} s on the \
+             IMU clock)",
+            tt.records.len(),
+            table::compact(a),
+            table::compact(b),
+            table::compact(config.clock.imu_time(a)),
+            table::compact(config.clock.imu_time(b)),
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  model           {} states ({} parameters and the attitude error)",
+        est.names.len(),
+        est.names.len() - 3
+    );
+    if t0 * config.filter.imu_rate_hz > 50.0 {
+        let _ = writeln!(
+            s,
+            "  note: the IMU data start at t = {t0} s; calibrate takes the program to start at \
+             IMU time 0"
+        );
+    }
+    s.push('\n');
+    s += &parameter_report(&est, truth.as_ref());
+    s.push('\n');
+    s += &fit_report(&est.stats, turntable.is_some());
+    if let (Some(truth), Some(path)) = (&truth, &args.truth) {
+        s.push('\n');
+        s += &truth_report(&est, truth, path, &config.clock);
+    }
+    if let Some(path) = &args.json {
+        let result = est.to_result_file();
+        let json = ResultJson {
+            parameters: &result.parameters,
+            fit: fit_json(&est, turntable.is_some()),
+        };
+        let text = serde_json::to_string_pretty(&json)? + "\n";
+        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        let _ = writeln!(s, "\nwrote {}", path.display());
+    }
+    print(&s)
+}
+
+/// The estimates by group in the paper's units; with a truth also the true value and the error
+/// in sigmas.
+fn parameter_report(est: &Estimate, truth: Option<&ResultFile>) -> String {
+    let mut columns = vec![
+        ("parameter", Align::Left),
+        ("value", Align::Right),
+        ("sigma", Align::Right),
+        ("unit", Align::Left),
+    ];
+    if truth.is_some() {
+        columns.extend([("truth", Align::Right), ("error/sigma", Align::Right)]);
+    }
+    let mut t = Table::new(&columns);
+    for (title, members) in table::grouped(&est.names) {
+        t.section(title);
+        for i in members {
+            let unit = est.units[i];
+            let f = unit.report_factor();
+            let sigma = est.cov[(i, i)].max(0.0).sqrt();
+            let (v, sg) = (est.values[i] * f, sigma * f);
+            let mut cells = vec![
+                format!("  {}", est.names[i]),
+                table::with_precision_of(v, sg),
+                table::sigma(sg),
+                unit.report_name().to_string(),
+            ];
+            if let Some(truth) = truth {
+                match truth.get(&est.names[i]) {
+                    Some(p) => {
+                        cells.push(table::with_precision_of(p.value * f, sg));
+                        cells.push(format!("{:+.2}", (est.values[i] - p.value) / sigma));
+                    }
+                    None => cells.extend(["-".to_string(), "-".to_string()]),
+                }
+            }
+            t.row(cells);
+        }
+    }
+    t.render()
+}
+
+/// One line on a mean NIS: is it consistent with 3?
+fn nis_verdict(mean: f64, n: usize) -> String {
+    if n == 0 {
+        return "no updates".into();
+    }
+    // The mean of n independent chi-square(3) values: 3 +- sqrt(6 / n); three of those either way.
+    let band = 3.0 * (6.0 / n as f64).sqrt();
+    let head = format!("mean NIS {mean:.3} over {n} updates");
+    let band_text = format!("3 +- {}", table::significant(band, 2));
+    if (mean - 3.0).abs() <= band {
+        format!("{head}: consistent with 3 (expected {band_text})")
+    } else if mean > 3.0 {
+        format!(
+            "{head}: larger than expected ({band_text}); the data scatter more than the \
+             configured noise and priors allow (noise levels too low, or errors the model lacks)"
+        )
+    } else {
+        format!(
+            "{head}: smaller than expected ({band_text}); the configured noise levels are larger \
+             than the data's"
+        )
+    }
+}
+
+fn fit_report(stats: &FitStatistics, with_turntable: bool) -> String {
+    let mut s = String::from("Fit\n");
+    let _ = writeln!(
+        s,
+        "  specific force    {}",
+        nis_verdict(stats.accel_mean_nis, stats.accel_updates)
+    );
+    if with_turntable {
+        let _ = writeln!(
+            s,
+            "  turntable angles  {}",
+            nis_verdict(stats.turntable_mean_nis, stats.turntable_updates)
+        );
+    }
+    let _ = writeln!(s, "  IMU records       {} integrated", stats.imu_steps);
+    if with_turntable {
+        let _ = writeln!(
+            s,
+            "  turntable samples {} used, {} left out near rate changes, {} without turntable \
+             data; records at {} Hz on the IMU clock",
+            stats.turntable_samples,
+            stats.turntable_samples_near_rate_changes,
+            stats.turntable_samples_missing,
+            table::compact(stats.turntable_record_rate_hz)
+        );
+    }
+    s
+}
+
+/// NEES over the parameters that the truth knows, with the full covariance.
+fn truth_report(
+    est: &Estimate,
+    truth: &ResultFile,
+    path: &Path,
+    clock: &calib::config::ClockConfig,
+) -> String {
+    let mut s = String::new();
+    let idx: Vec<usize> = (0..est.names.len())
+        .filter(|&i| !est.names[i].starts_with("attitude.") && truth.get(&est.names[i]).is_some())
+        .collect();
+    let n = idx.len();
+    let _ = writeln!(s, "Against the truth in {}", path.display());
+    if n == 0 {
+        let _ = writeln!(s, "  no estimated parameter is named in the truth file");
+        return s;
+    }
+    let sig: Vec<f64> = idx
+        .iter()
+        .map(|&i| est.cov[(i, i)].max(0.0).sqrt())
+        .collect();
+    let z: Vec<f64> = idx
+        .iter()
+        .zip(&sig)
+        .map(|(&i, sg)| {
+            let t = truth.get(&est.names[i]).map_or(f64::NAN, |p| p.value);
+            (est.values[i] - t) / sg
+        })
+        .collect();
+    let (worst, worst_z) = z
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .map_or((0, f64::NAN), |(k, v)| (idx[k], *v));
+    let diagonal: f64 = z.iter().map(|v| v * v).sum();
+    // Full NEES on the correlation matrix (the parameters span many orders of magnitude).
+    let corr = DMatrix::from_fn(n, n, |a, b| est.cov[(idx[a], idx[b])] / (sig[a] * sig[b]));
+    let full = corr.cholesky().map(|c| {
+        let zv = nalgebra::DVector::from_column_slice(&z);
+        zv.dot(&c.solve(&zv))
+    });
+    let expected = format!(
+        "a consistent filter gives {n} on average, standard deviation {}",
+        table::significant((2.0 * n as f64).sqrt(), 2)
+    );
+    match full {
+        Some(nees) if nees.is_finite() => {
+            let _ = writeln!(
+                s,
+                "  NEES {nees:.1} over {n} parameters ({expected}); sum of squared errors in \
+                 sigmas {diagonal:.1}"
+            );
+        }
+        _ => {
+            let _ = writeln!(
+                s,
+                "  NEES: the covariance is not positive definite; sum of squared errors in sigmas \
+                 {diagonal:.1} over {n} parameters ({expected})"
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "  largest error {worst_z:+.2} sigma ({})",
+        est.names[worst]
+    );
+    for (name, configured, what) in [
+        (
+            "turntable.clock.offset",
+            clock.turntable_offset_s,
+            "clock.turntable_offset_s",
+        ),
+        (
+            "turntable.clock.rate_error",
+            clock.turntable_rate_error,
+            "clock.turntable_rate_error",
+        ),
+    ] {
+        if let Some(p) = truth.get(name)
+            && (p.value - configured).abs() > 1e-12 * (1.0 + configured.abs())
+        {
+            let _ = writeln!(
+                s,
+                "  note: the truth's {name} = {} differs from the configuration's {what} = \
+                 {configured}: the estimated delay absorbs the difference",
+                p.value
+            );
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn verdicts() {
+        assert!(nis_verdict(3.05, 2727).contains("consistent"));
+        assert!(nis_verdict(3.5, 2727).contains("larger"));
+        assert!(nis_verdict(2.5, 2727).contains("smaller"));
+        assert!(nis_verdict(3.5, 30).contains("consistent"));
+    }
+}

@@ -1,0 +1,106 @@
+//! `sins-calib`: the command-line program of the toolkit.
+//!
+//! - `simulate`: a simulated run (IMU and turntable records, true values) from a run configuration;
+//! - `calibrate`: estimate the instrument errors from recorded data, with a report in the paper's
+//!   units, fit statistics and, against a truth file, the errors in sigmas;
+//! - `analyse`: covariance analysis of a run configuration, without data.
+//!
+//! The work is done by the `calib` library; this crate only reads arguments, reports and exits.
+//! File formats: `docs/formats.md`.
+
+mod analyse;
+mod calibrate;
+mod simulate;
+mod table;
+
+use calib::config::RunConfig;
+use clap::{Parser, Subcommand};
+use std::io::Write as _;
+use std::process::ExitCode;
+
+/// Errors end the program with their message (which names file and line where there is one).
+pub type Error = Box<dyn std::error::Error>;
+
+/// Calibration of strapdown inertial systems on turntables (after Vavilova, Golovan, Parusnikov,
+/// Vasineva).
+///
+/// Simulate a calibration run, calibrate an IMU from recorded data, or analyse how well a rotation
+/// program calibrates before booking the turntable. File formats: docs/formats.md. Values in files
+/// are SI; reports are in the paper's units (deg/h, arcmin, m/s^2).
+#[derive(Debug, Parser)]
+#[command(name = "sins-calib", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Simulate a run: write DIR/imu.csv, DIR/turntable.csv and DIR/truth.json.
+    ///
+    /// The configuration's [truth] section sets the seed, the record rates, the duration and the
+    /// true values; [noise] the sensor noises; [clock] the turntable clock against the IMU clock.
+    Simulate(simulate::Args),
+    /// Calibrate from recorded data and print the estimates in the paper's units.
+    ///
+    /// Without --turntable the 24-state model runs on the IMU data alone (attitude error, gyro
+    /// biases, gyro matrix Theta, accelerometer biases, lower-triangular accelerometer matrix
+    /// Gamma); with it the 28-state model adds the installation misalignment of the instrument on
+    /// the platform and the delay of the turntable data (and the base misalignment when the
+    /// configuration's filter.estimate_base_misalignment is true).
+    Calibrate(calibrate::Args),
+    /// Covariance analysis: the prior and posterior sigma of every parameter, without data.
+    ///
+    /// Runs the configuration's filter along the ideal motion of its rotation program and
+    /// reports what a calibration with that program, noise and priors can achieve.
+    Analyse(analyse::Args),
+}
+
+/// Read a run configuration by name (`paper`, `paper-reconciled`) or path; returns it with the
+/// name to use for it in messages.
+pub fn load_config(name: &str) -> Result<(RunConfig, String), Error> {
+    let config = calib::paper::named_or_file(name)?;
+    let origin = match name {
+        "paper" | "paper-reconciled" => format!("<embedded {name} config>"),
+        path => path.to_string(),
+    };
+    Ok((config, origin))
+}
+
+/// Write a report to stdout; a closed pipe (e.g. `| head`) is not an error.
+pub fn print(text: &str) -> Result<(), Error> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(format!("cannot write to standard output: {e}").into())
+        }
+        _ => Ok(()),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate(args) => simulate::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
+        Command::Analyse(args) => analyse::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_definition_is_consistent() {
+        Cli::command().debug_assert();
+    }
+}

@@ -1,0 +1,101 @@
+//! `sins-calib simulate`: a simulated run written as interchange files.
+
+use crate::{Error, load_config, print};
+use calib::io::{ImuData, TurntableData, write_imu_csv, write_truth_json, write_turntable_csv};
+use calib::simulate::simulate_run;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Arguments of `simulate`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Run configuration: a TOML file (docs/formats.md), or `paper` / `paper-reconciled` for the
+    /// embedded configurations of the paper's covariance analysis. Its [truth] section sets the
+    /// seed, the IMU and turntable record rates, the duration and the true values (drawn from
+    /// [priors] unless given); [noise] the sensor noises; [clock] the turntable clock.
+    #[arg(long, value_name = "FILE|NAME")]
+    pub config: String,
+    /// Directory to write imu.csv, turntable.csv and truth.json into; created when missing,
+    /// files already there are overwritten.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Seed of the random generator (parameter draws and noise), instead of the configuration's
+    /// truth.seed.
+    #[arg(long, value_name = "N")]
+    pub seed: Option<u64>,
+}
+
+/// Run `simulate`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let (mut config, origin) = load_config(&args.config)?;
+    if let Some(seed) = args.seed {
+        config.truth.seed = seed;
+    }
+    let program = config.program()?;
+    let sim = simulate_run(&config, &origin)?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| format!("{}: cannot create the directory: {e}", args.out.display()))?;
+
+    let imu_path = args.out.join("imu.csv");
+    let tt_path = args.out.join("turntable.csv");
+    let truth_path = args.out.join("truth.json");
+    let imu = ImuData::from_samples(&sim.imu);
+    let tt = TurntableData::from_samples(&sim.turntable);
+    write_imu_csv(&imu_path, &imu)?;
+    write_turntable_csv(&tt_path, &tt)?;
+    write_truth_json(&truth_path, &sim.truth)?;
+
+    let t = &config.truth;
+    let mut s = String::new();
+    let duration = imu.span().map_or(0.0, |(_, t1)| t1);
+    let _ = writeln!(
+        s,
+        "simulated {} s of program \"{}\" ({} s long) with seed {}, configuration {origin}",
+        crate::table::compact(duration),
+        program.name,
+        crate::table::compact(program.duration()),
+        t.seed
+    );
+    let span = |sp: Option<(f64, f64)>| match sp {
+        Some((a, b)) => format!(
+            "t = {} .. {} s",
+            crate::table::compact(a),
+            crate::table::compact(b)
+        ),
+        None => "no records".into(),
+    };
+    let _ = writeln!(
+        s,
+        "  wrote {}: {} records at {} Hz, angle and velocity increments, {} (IMU clock)",
+        imu_path.display(),
+        imu.records.len(),
+        t.imu_rate_hz,
+        span(imu.span())
+    );
+    let _ = writeln!(
+        s,
+        "  wrote {}: {} records at {} Hz, gimbal angles, {} (turntable clock: offset {} s, \
+         rate error {})",
+        tt_path.display(),
+        tt.records.len(),
+        t.turntable_rate_hz,
+        span(tt.span()),
+        config.clock.turntable_offset_s,
+        config.clock.turntable_rate_error
+    );
+    let _ = writeln!(
+        s,
+        "  wrote {}: {} true values (SI)",
+        truth_path.display(),
+        sim.truth.parameters.len()
+    );
+    if (t.imu_rate_hz - config.filter.imu_rate_hz).abs() > 1e-9 * t.imu_rate_hz {
+        let _ = writeln!(
+            s,
+            "note: truth.imu_rate_hz = {} differs from filter.imu_rate_hz = {}: calibrate with \
+             this configuration will refuse these data",
+            t.imu_rate_hz, config.filter.imu_rate_hz
+        );
+    }
+    print(&s)
+}
