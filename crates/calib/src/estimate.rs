@@ -262,7 +262,9 @@ fn correct_increments(
 }
 
 /// Calibrate from recorded data with the configuration's model and settings. `progress` is
-/// called with (steps done, total steps) about a hundred times.
+/// called with (steps done, total steps) about a hundred times per pass; the total counts both
+/// passes of [`estimate_with`], twice the IMU records. The program is taken to start at IMU
+/// time zero (shift the time stamps of a recording that does not).
 pub fn estimate(
     config: &RunConfig,
     data: &RunData,
