@@ -9,13 +9,19 @@
 //! fastest batch of each (the machine's uncontended speed), the medians, and the median of the
 //! per-round ratios (both sides of each ratio ran within milliseconds of each other).
 //!
+//! The structured engine is [`KalmanFilter`] (`predict_structured` + `update`), the dense one the
+//! plain dense faer baseline [`DenseFilter`] (`predict` with the equivalent full Phi and Q +
+//! `update`).
+//!
 //! Run with `cargo bench -p kalman --bench interleaved -- 28` (or `-- 60`; no number: both sizes
-//! in one process).
+//! in one process). A kernel set among the arguments (`avx512`, `avx2`, `portable`) makes the
+//! structured engine use it instead of the default one.
 
 use std::hint::black_box;
 use std::time::Instant;
 
 use kalman::KalmanFilter;
+use kalman::dense::DenseFilter;
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -64,8 +70,21 @@ fn pair(label: &str, n: usize, mut a: impl FnMut(), mut b: impl FnMut()) {
 }
 
 fn main() {
-    // `cargo bench` passes `--bench`; a number among the other arguments selects that `n` only.
+    // `cargo bench` passes `--bench`; a number among the other arguments selects that `n` only,
+    // a kernel set name the structured engine's kernels.
     let only: Option<usize> = std::env::args().skip(1).find_map(|a| a.parse().ok());
+    let kernels: Option<String> = std::env::args()
+        .skip(1)
+        .find(|a| ["avx512", "avx2", "portable"].contains(&a.as_str()));
+    let select = |kf: &mut KalmanFilter| {
+        if let Some(k) = &kernels {
+            assert!(
+                kf.select_kernel_set(k),
+                "this CPU cannot run the {k} kernels"
+            );
+        }
+        kf.kernel_set()
+    };
     println!(
         "| case | n | structured best (us) | dense best (us) | structured median (us) | \
          dense median (us) | median per-round ratio |"
@@ -86,10 +105,11 @@ fn main() {
 
         // predict + Joseph update
         let mut structured = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
-        let mut dense = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
+        let set = select(&mut structured);
+        let mut dense = DenseFilter::new(&x0, p0.as_ref(), M);
         let (mut i, mut j) = (0usize, 0usize);
         pair(
-            "step",
+            &format!("step ({set})"),
             n,
             || {
                 i = (i + 1) % zs.len();
@@ -120,10 +140,11 @@ fn main() {
 
         // the time update alone (covariance reset every 1024 steps to stay bounded)
         let mut structured = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
-        let mut dense = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
+        let set = select(&mut structured);
+        let mut dense = DenseFilter::new(&x0, p0.as_ref(), M);
         let (mut i, mut j) = (0usize, 0usize);
         pair(
-            "predict",
+            &format!("predict ({set})"),
             n,
             || {
                 i += 1;

@@ -1,7 +1,10 @@
-//! Time update (predict) kernels: dense and structured.
+//! Time update (predict) kernels on faer matrix views: dense and structured.
 //!
 //! All kernels work in place on matrix views, take the parallelism setting and a scratch stack
 //! whose size the matching `*_scratch` function returns, and allocate nothing.
+//! [`KalmanFilter::predict`](crate::KalmanFilter::predict) uses [`predict_dense`];
+//! [`KalmanFilter::predict_structured`](crate::KalmanFilter::predict_structured) runs the algebra
+//! of [`predict_structured`] on its own kernels and storage.
 
 use faer::dyn_stack::{MemStack, StackReq};
 use faer::linalg::{temp_mat_scratch, temp_mat_zeroed};

@@ -98,6 +98,7 @@ pub struct NaiveFilter {
     nn3: Vec<f64>,
     nm1: Vec<f64>,
     nm2: Vec<f64>,
+    nm3: Vec<f64>,
     mn: Vec<f64>,
     mm1: Vec<f64>,
     mm2: Vec<f64>,
@@ -122,6 +123,7 @@ impl NaiveFilter {
             nn3: vec![0.0; n * n],
             nm1: vec![0.0; n * m_max],
             nm2: vec![0.0; n * m_max],
+            nm3: vec![0.0; n * m_max],
             mn: vec![0.0; n * m_max],
             mm1: vec![0.0; m_max * m_max],
             mm2: vec![0.0; m_max * m_max],
@@ -167,11 +169,11 @@ impl NaiveFilter {
             *s += r;
         }
         invert(&mut self.mm1[..m * m], &mut self.mm2[..m * m], m)?;
-        // K = (P H^T) S^-1; nn1 holds P H^T (n x m)
-        matmul(&mut self.nn1[..n * m], &self.p, &self.nm1[..n * m], n, n, m);
+        // K = (P H^T) S^-1; nm3 holds P H^T (n x m)
+        matmul(&mut self.nm3[..n * m], &self.p, &self.nm1[..n * m], n, n, m);
         matmul(
             &mut self.nm2[..n * m],
-            &self.nn1[..n * m],
+            &self.nm3[..n * m],
             &self.mm2[..m * m],
             n,
             m,
