@@ -1,5 +1,25 @@
 //! Helpers shared by the workspace-level tests.
 
+use calib::config::{AttitudePrior, RunConfig};
+
+/// The run the calibration tests simulate: the paper's program, priors and noises, the start
+/// attitude from the installation (its extra error 0.01 deg: none in the simulation), the
+/// turntable clock 12.5 s ahead and 2e-4 fast, angles at 50 Hz against the IMU's 100 Hz, every
+/// parameter drawn from its prior (seed 1).
+pub fn simulated_run_config() -> RunConfig {
+    let mut c = RunConfig::paper();
+    c.filter.attitude_prior = AttitudePrior::Installation;
+    c.priors.initial_tilt_deg = 0.01;
+    c.priors.initial_heading_deg = 0.01;
+    c.clock.turntable_offset_s = 12.5;
+    c.clock.turntable_rate_error = 2e-4;
+    c.truth.imu_rate_hz = 100.0;
+    c.truth.turntable_rate_hz = 50.0;
+    c.truth.draw_from_priors = true;
+    c.truth.seed = 1;
+    c
+}
+
 /// Quantile of the chi-square distribution with `dof` degrees of freedom (Wilson-Hilferty;
 /// relative error below 1e-3 for `dof >= 20`, which is all the tests use).
 pub fn chi_square_quantile(p: f64, dof: f64) -> f64 {

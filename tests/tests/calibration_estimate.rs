@@ -1,7 +1,6 @@
 //! Calibration from raw data, one simulated run: recovery of the turntable terms, agreement of
 //! the reported sigma with the covariance analysis, the IMU-only case, refused input.
 
-use calib::config::{AttitudePrior, RunConfig};
 use calib::covariance::{covariance_analysis_with, layout_for};
 use calib::estimate::{RunData, estimate};
 use calib::io::{ImuData, TurntableData};
@@ -9,18 +8,7 @@ use calib::simulate::simulate_run;
 use nalgebra::Vector3;
 use turntable::kinematics::Mounting;
 use turntable::simulate::Simulation;
-
-fn config() -> RunConfig {
-    let mut c = RunConfig::paper();
-    c.filter.attitude_prior = AttitudePrior::Installation;
-    c.priors.initial_tilt_deg = 0.01;
-    c.priors.initial_heading_deg = 0.01;
-    c.clock.turntable_offset_s = 12.5;
-    c.clock.turntable_rate_error = 2e-4;
-    c.truth.turntable_rate_hz = 50.0;
-    c.truth.seed = 1;
-    c
-}
+use workspace_tests::simulated_run_config;
 
 fn mounting(sim: &Simulation) -> Mounting {
     let d = |a: &str| sim.truth.get(&format!("install.delta.{a}")).unwrap();
@@ -32,7 +20,7 @@ fn mounting(sim: &Simulation) -> Mounting {
 
 #[test]
 fn delay_and_installation_are_recovered_and_sigma_matches_the_covariance_analysis() {
-    let config = config();
+    let config = simulated_run_config();
     let sim = simulate_run(&config, "test").unwrap();
     let imu = ImuData::from_samples(&sim.imu);
     let tt = TurntableData::from_samples(&sim.turntable);
@@ -95,7 +83,7 @@ fn delay_and_installation_are_recovered_and_sigma_matches_the_covariance_analysi
 
 #[test]
 fn a_turntable_file_outside_the_imu_run_is_refused_by_name() {
-    let mut config = config();
+    let mut config = simulated_run_config();
     config.truth.duration_s = Some(20.0);
     let sim = simulate_run(&config, "test").unwrap();
     let imu = ImuData::from_samples(&sim.imu);
@@ -118,7 +106,7 @@ fn a_turntable_file_outside_the_imu_run_is_refused_by_name() {
 
 #[test]
 fn imu_records_at_another_rate_are_refused_with_the_line() {
-    let mut config = config();
+    let mut config = simulated_run_config();
     config.truth.duration_s = Some(5.0);
     let sim = simulate_run(&config, "test").unwrap();
     let mut imu = ImuData::from_samples(&sim.imu);

@@ -11,7 +11,7 @@
 //! mean normalised error beyond 3 standard errors of the mean (3 / sqrt(runs)). The 24-state
 //! (IMU-only) model is checked more loosely, see [`check_imu_only`].
 
-use calib::config::{AttitudePrior, RunConfig};
+use calib::config::RunConfig;
 use calib::estimate::{Estimate, RunData, estimate};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;
@@ -19,22 +19,7 @@ use nalgebra::{DVector, Vector3};
 use sins_model::attitude::attitude_error;
 use turntable::kinematics::{Kinematics, Mounting};
 use turntable::simulate::Simulation;
-use workspace_tests::chi_square_quantile;
-
-/// The paper's program, priors and noises, with the clocks and rates of a real setup.
-pub fn mc_config() -> RunConfig {
-    let mut c = RunConfig::paper();
-    c.filter.attitude_prior = AttitudePrior::Installation;
-    // The attitude error on top of the installation misalignment: none in the simulation.
-    c.priors.initial_tilt_deg = 0.01;
-    c.priors.initial_heading_deg = 0.01;
-    c.clock.turntable_offset_s = 12.5;
-    c.clock.turntable_rate_error = 2e-4;
-    c.truth.imu_rate_hz = 100.0;
-    c.truth.turntable_rate_hz = 50.0;
-    c.truth.draw_from_priors = true;
-    c
-}
+use workspace_tests::{chi_square_quantile, simulated_run_config};
 
 /// Estimation error of every state (estimate minus truth) and the run's NEES.
 fn errors(config: &RunConfig, sim: &Simulation, est: &Estimate) -> (Vec<f64>, f64) {
@@ -80,7 +65,7 @@ fn run(seeds: std::ops::Range<u64>, with_turntable: bool) -> Summary {
         z: vec![],
     };
     for seed in seeds {
-        let mut config = mc_config();
+        let mut config = simulated_run_config();
         config.truth.seed = seed;
         let sim = simulate_run(&config, "mc").unwrap();
         let imu = ImuData::from_samples(&sim.imu);
