@@ -7,8 +7,10 @@ use crate::config::RunConfig;
 use crate::filter::NormalisedFilter;
 use crate::layout::StateLayout;
 use crate::model::{LinearModel, Measurement};
+use faer::Mat;
 use kalman::KalmanError;
 use nalgebra::Vector3;
+use turntable::program::Program;
 
 /// Measurement instants and windows, in IMU steps (step `j` ends at `j * dt`, `j >= 1`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,49 +59,56 @@ impl Schedule {
     }
 }
 
-/// Whether a turntable-angle sample lies far enough from changes of the platform rate for the
-/// linear delay model `-Omega_x tau` to hold.
+/// The instants at which the platform rate changes (segment boundaries of the program where
+/// the gimbal rates differ on the two sides), in program time.
 ///
-/// A sample compares IMU attitude at `t` with turntable angles of `t + tau_hat - tau`,
-/// interpolated between records. Within `guard` (three sigma of the delay estimate plus the record
-/// spacing and the IMU step) of a change of the rate, such as the reversals of the paper's
-/// program, the angles are not `k(t) - k_dot tau`: the error is the change of rate times the time
-/// offset. The sample is used when that is below `threshold` [rad] both ways: `omega_*` are the
-/// body rates at `t - guard`, `t` and `t + guard`.
-pub fn angle_sample_usable(
-    omega_before: &Vector3<f64>,
-    omega_now: &Vector3<f64>,
-    omega_after: &Vector3<f64>,
-    guard: f64,
-    threshold: f64,
-) -> bool {
-    let change = (omega_before - omega_now)
-        .norm()
-        .max((omega_after - omega_now).norm());
-    change * guard <= threshold
+/// A turntable-angle sample compares the IMU attitude at `t` with the angles interpolated
+/// between two records at `t + tau_hat`. Within one program piece the gimbal angles are linear in
+/// time, so the linear interpolation is exact and the delay acts as `-Omega_x tau`. A sample is
+/// left out only when the span it depends on (the IMU time `t`, the two records it is
+/// interpolated from, and three sigma of the delay about `t + tau_hat`) contains a rate change:
+/// there the angles are not `k(t) - k_dot tau`, and the error is the change of rate times the
+/// time offset (with an unknown 0.044 s delay, 1e-2 rad at a reversal of the paper's program).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RateChanges {
+    /// Program times of the rate changes, increasing.
+    times: Vec<f64>,
 }
 
-/// The time guard and threshold of [`angle_sample_usable`]: `guard = 3 sigma_tau + record
-/// spacing + IMU step`, `threshold` a tenth of the noise of one turntable measurement.
-pub fn angle_sample_guard(
-    sigma_tau: f64,
-    record_spacing: f64,
-    dt: f64,
-    angle_psd: f64,
-    window_s: f64,
-) -> (f64, f64) {
-    (
-        3.0 * sigma_tau + record_spacing + dt,
-        0.1 * (angle_psd / window_s).sqrt(),
-    )
+impl RateChanges {
+    /// The rate changes of `program`, including its start and end when it moves there (the
+    /// platform is taken to rest at the start angles before the program and at the end angles
+    /// after it).
+    pub fn new(program: &Program) -> Self {
+        let mut times = Vec::new();
+        let mut rate_before = [0.0; 3];
+        let mut t_end = 0.0;
+        for piece in program.pieces() {
+            if piece.rate != rate_before {
+                times.push(piece.t0);
+            }
+            rate_before = piece.rate;
+            t_end = piece.t1;
+        }
+        if rate_before != [0.0; 3] {
+            times.push(t_end);
+        }
+        Self { times }
+    }
+
+    /// Whether the open program-time interval `(t0, t1)` is free of rate changes.
+    pub fn clear(&self, t0: f64, t1: f64) -> bool {
+        let k = self.times.partition_point(|&c| c <= t0);
+        self.times.get(k).is_none_or(|&c| c >= t1)
+    }
 }
 
 /// Noise levels of the measurements.
 #[derive(Clone, Copy, Debug)]
 pub struct MeasurementNoise {
-    /// Accelerometer PSD [(m/s^2)^2 s].
+    /// Accelerometer PSD ((m/s^2)^2 s).
     pub accel_psd: f64,
-    /// Variance of one angle record, each gimbal [rad^2]; `None` without turntable angles.
+    /// Variance of one angle record, each gimbal (rad^2); `None` without turntable angles.
     pub angle_var_per_record: Option<f64>,
 }
 
@@ -112,59 +121,115 @@ pub struct InstantReport {
     pub turntable_nis: Option<f64>,
 }
 
-/// At the end of step `j`: if a measurement is due, close its window, predict to now and update.
-/// `f_enu` is the true specific force in ENU. With `covariance_only` the residuals are ignored.
-/// With `close_all` (the last step of the data) every open window is closed and used.
-#[allow(clippy::too_many_arguments)]
-pub fn measurement_instant(
-    filter: &mut NormalisedFilter,
-    model: &mut LinearModel,
-    layout: &StateLayout,
-    schedule: &Schedule,
-    j: usize,
-    f_enu: &Vector3<f64>,
-    noise: &MeasurementNoise,
-    covariance_only: bool,
-    close_all: bool,
-) -> Result<InstantReport, KalmanError> {
-    let accel_due = schedule.accel_due(j) || (close_all && model.accel_open());
-    let tt_due = noise.angle_var_per_record.is_some()
-        && (schedule.turntable_due(j) || (close_all && model.turntable_open()));
-    let mut report = InstantReport::default();
-    if !accel_due && !tt_due {
-        return Ok(report);
+impl InstantReport {
+    /// Whether any update was made.
+    pub fn updated(&self) -> bool {
+        self.accel_nis.is_some() || self.turntable_nis.is_some()
     }
-    let acc = if accel_due {
-        let m = model.accel_measurement(f_enu, noise.accel_psd);
-        model.reset_accel();
-        m
-    } else {
-        None
-    };
-    let tt = match (tt_due, noise.angle_var_per_record) {
-        (true, Some(var)) => {
-            let m = model.turntable_measurement(layout, var);
-            model.reset_turntable();
-            m
+}
+
+/// The filter and the linear model between its instants: what the covariance analysis and the
+/// estimation run alike. The caller integrates IMU steps into [`Engine::model`] and calls
+/// [`Engine::measurement_instant`] at the end of every step.
+#[derive(Debug)]
+pub struct Engine {
+    /// The Kalman filter (normalised inside, SI outside).
+    pub filter: NormalisedFilter,
+    /// Transition and measurement windows since the last filter instant.
+    pub model: LinearModel,
+    /// When measurements are taken.
+    pub schedule: Schedule,
+    /// Their noise.
+    pub noise: MeasurementNoise,
+    /// Residuals ignored (covariance analysis).
+    covariance_only: bool,
+    /// Scratch for the measurement noise as a faer matrix.
+    r: Mat<f64>,
+}
+
+impl Engine {
+    /// An engine with prior covariance `p0` (SI, zero mean).
+    pub fn new(
+        filter: NormalisedFilter,
+        model: LinearModel,
+        schedule: Schedule,
+        noise: MeasurementNoise,
+        covariance_only: bool,
+    ) -> Self {
+        Self {
+            filter,
+            model,
+            schedule,
+            noise,
+            covariance_only,
+            r: Mat::zeros(3, 3),
         }
-        _ => None,
-    };
-    filter.predict(model, covariance_only)?;
-    let mut apply = |m: &Measurement| -> Result<Option<f64>, KalmanError> {
-        if covariance_only {
-            filter.update_covariance(&m.h, &m.r)?;
+    }
+
+    /// At the end of step `j`: if a measurement is due, close its window, predict to now and
+    /// update. `f_enu` is the true specific force in ENU. With `close_all` (the last step of the
+    /// data) every open window is closed and used.
+    pub fn measurement_instant(
+        &mut self,
+        layout: &StateLayout,
+        j: usize,
+        f_enu: &Vector3<f64>,
+        close_all: bool,
+    ) -> Result<InstantReport, KalmanError> {
+        let (schedule, model) = (&self.schedule, &mut self.model);
+        let accel_due = schedule.accel_due(j) || (close_all && model.accel_open());
+        let tt_due = self.noise.angle_var_per_record.is_some()
+            && (schedule.turntable_due(j) || (close_all && model.turntable_open()));
+        let mut report = InstantReport::default();
+        if !accel_due && !tt_due {
+            return Ok(report);
+        }
+        let acc = if accel_due {
+            let m = model.accel_measurement(f_enu, self.noise.accel_psd);
+            model.reset_accel();
+            m
+        } else {
+            None
+        };
+        let tt = match (tt_due, self.noise.angle_var_per_record) {
+            (true, Some(var)) => {
+                let m = model.turntable_measurement(layout, var);
+                model.reset_turntable();
+                m
+            }
+            _ => None,
+        };
+        let (phi, q) = model.transition();
+        if self.covariance_only {
+            self.filter.predict_structured_covariance(phi, q)?;
+        } else {
+            self.filter.predict_structured(phi, q)?;
+        }
+        model.reset_transition();
+        if let Some(m) = &acc {
+            report.accel_nis = self.update(m)?;
+        }
+        if let Some(m) = &tt {
+            report.turntable_nis = self.update(m)?;
+        }
+        Ok(report)
+    }
+
+    fn update(&mut self, m: &Measurement) -> Result<Option<f64>, KalmanError> {
+        for i in 0..3 {
+            for k in 0..3 {
+                self.r[(i, k)] = m.r[(i, k)];
+            }
+        }
+        let h = self.model.h(m.kind);
+        if self.covariance_only {
+            self.filter.update_covariance(h, self.r.as_ref())?;
             Ok(None)
         } else {
-            Ok(Some(filter.update(&m.z, &m.h, &m.r)?.nis))
+            let info = self.filter.update(m.z.as_slice(), h, self.r.as_ref())?;
+            Ok(Some(info.nis))
         }
-    };
-    if let Some(m) = &acc {
-        report.accel_nis = apply(m)?;
     }
-    if let Some(m) = &tt {
-        report.turntable_nis = apply(m)?;
-    }
-    Ok(report)
 }
 
 #[cfg(test)]

@@ -4,10 +4,9 @@
 //! parameters span 1e-9 rad/s to 0.05 s, and an unscaled covariance matrix would lose the small
 //! ones to rounding. Everything outside this module is in SI units.
 
-use crate::model::LinearModel;
-use faer::Mat;
+use faer::{Mat, MatRef};
 use kalman::{KalmanError, KalmanFilter, UpdateInfo};
-use nalgebra::{DMatrix, Matrix3, Vector3};
+use nalgebra::DMatrix;
 
 /// A Kalman filter whose public face is in SI units and whose inside is normalised.
 #[derive(Debug, Clone)]
@@ -55,14 +54,29 @@ impl NormalisedFilter {
         self.sigma.len()
     }
 
-    /// Propagate with the transition accumulated in `model` (then reset it).
-    pub fn predict(
+    /// Propagate with the transition `phi_top` (3 x n) and attitude process noise `q_top` (SI).
+    pub fn predict_structured(
         &mut self,
-        model: &mut LinearModel,
-        covariance_only: bool,
+        phi_top: MatRef<'_, f64>,
+        q_top: MatRef<'_, f64>,
     ) -> Result<(), KalmanError> {
-        let phi = model.phi_top();
-        let q = model.q_top();
+        self.load_transition(phi_top, q_top);
+        self.kf
+            .predict_structured(self.phi.as_ref(), self.q.as_ref())
+    }
+
+    /// [`Self::predict_structured`] of the covariance only.
+    pub fn predict_structured_covariance(
+        &mut self,
+        phi_top: MatRef<'_, f64>,
+        q_top: MatRef<'_, f64>,
+    ) -> Result<(), KalmanError> {
+        self.load_transition(phi_top, q_top);
+        self.kf
+            .predict_structured_covariance(self.phi.as_ref(), self.q.as_ref())
+    }
+
+    fn load_transition(&mut self, phi: MatRef<'_, f64>, q: MatRef<'_, f64>) {
         let s = &self.sigma;
         for j in 0..self.dim() {
             for i in 0..3 {
@@ -74,17 +88,9 @@ impl NormalisedFilter {
                 self.q[(i, j)] = q[(i, j)] / (s[i] * s[j]);
             }
         }
-        model.reset_transition();
-        if covariance_only {
-            self.kf
-                .predict_structured_covariance(self.phi.as_ref(), self.q.as_ref())
-        } else {
-            self.kf
-                .predict_structured(self.phi.as_ref(), self.q.as_ref())
-        }
     }
 
-    fn load(&mut self, h: &DMatrix<f64>, r: &Matrix3<f64>) {
+    fn load(&mut self, h: MatRef<'_, f64>, r: MatRef<'_, f64>) {
         for j in 0..self.dim() {
             for i in 0..3 {
                 self.h[(i, j)] = h[(i, j)] * self.sigma[j];
@@ -100,8 +106,8 @@ impl NormalisedFilter {
     /// Covariance-only update with a 3-component measurement (SI `h`, `r`).
     pub fn update_covariance(
         &mut self,
-        h: &DMatrix<f64>,
-        r: &Matrix3<f64>,
+        h: MatRef<'_, f64>,
+        r: MatRef<'_, f64>,
     ) -> Result<(), KalmanError> {
         self.load(h, r);
         self.kf.update_covariance(self.h.as_ref(), self.r.as_ref())
@@ -110,13 +116,12 @@ impl NormalisedFilter {
     /// Full update with measurement `z` (SI).
     pub fn update(
         &mut self,
-        z: &Vector3<f64>,
-        h: &DMatrix<f64>,
-        r: &Matrix3<f64>,
+        z: &[f64],
+        h: MatRef<'_, f64>,
+        r: MatRef<'_, f64>,
     ) -> Result<UpdateInfo, KalmanError> {
         self.load(h, r);
-        self.kf
-            .update(z.as_slice(), self.h.as_ref(), self.r.as_ref())
+        self.kf.update(z, self.h.as_ref(), self.r.as_ref())
     }
 
     /// State estimate (SI).

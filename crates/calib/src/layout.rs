@@ -4,7 +4,13 @@
 //! [`ErrorModel`], then the turntable terms when the turntable angles are used: installation
 //! misalignment `delta_z` (3), delay `tau` (1) and, optionally, base misalignment `gamma_p` (3).
 //! With the paper's four terms that is 24 states without and 28 with the turntable angles.
+//!
+//! The layout of a run configuration ([`layout_for`]) and the prior covariance of its states
+//! ([`initial_covariance`]) are set up here for the covariance analysis, the estimation and the
+//! simulation alike.
 
+use crate::config::{AttitudePrior, RunConfig};
+use nalgebra::{DMatrix, DVector, Matrix3};
 use sins_model::terms::{ErrorModel, PaperPriors, ParamSpec, Unit};
 
 /// Which states the filter carries.
@@ -114,6 +120,62 @@ impl StateLayout {
     pub fn index(&self, name: &str) -> Option<usize> {
         self.entries.iter().position(|e| e.name == name)
     }
+}
+
+/// The non-instrument priors of a configuration.
+pub fn non_instrument_priors(config: &RunConfig) -> NonInstrumentPriors {
+    NonInstrumentPriors {
+        attitude: config.initial_attitude_sigma(),
+        install: config.install_sigma(),
+        tau: config.priors.tau_s,
+        base: config.base_sigma(),
+    }
+}
+
+/// The paper's layout for a configuration.
+pub fn layout_for(config: &RunConfig, with_turntable: bool) -> StateLayout {
+    StateLayout::new(
+        ErrorModel::paper(&config.priors_si()),
+        &non_instrument_priors(config),
+        with_turntable,
+        config.filter.estimate_base_misalignment,
+    )
+}
+
+/// The prior covariance of all states (SI). `c0_body_to_enu` is the start attitude computed from
+/// the program's start angles with the nominal mounting; with [`AttitudePrior::Installation`] the
+/// attitude error is `beta_0 = C_0 delta_z + eps`, correlated with `delta_z` when that is a state
+/// and carrying its variance when it is not (the installation misalignment is real either way).
+pub fn initial_covariance(
+    config: &RunConfig,
+    layout: &StateLayout,
+    c0_body_to_enu: &Matrix3<f64>,
+) -> DMatrix<f64> {
+    let sigma = layout.prior_sigma();
+    let mut p = DMatrix::from_diagonal(&DVector::from_iterator(
+        sigma.len(),
+        sigma.iter().map(|s| s * s),
+    ));
+    if config.filter.attitude_prior == AttitudePrior::Installation {
+        let var_d = config.install_sigma().powi(2);
+        let c = c0_body_to_enu;
+        let cc = c * c.transpose() * var_d;
+        for i in 0..3 {
+            for j in 0..3 {
+                p[(i, j)] += cc[(i, j)];
+            }
+        }
+        if let Some(k) = layout.install {
+            // cov(beta_0, delta_z) = C_0 P_delta.
+            for i in 0..3 {
+                for j in 0..3 {
+                    p[(i, k + j)] = c[(i, j)] * var_d;
+                    p[(k + j, i)] = c[(i, j)] * var_d;
+                }
+            }
+        }
+    }
+    p
 }
 
 #[cfg(test)]

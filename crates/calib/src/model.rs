@@ -18,6 +18,7 @@
 //!   through the interpolation weights of the records it was interpolated from.
 
 use crate::layout::StateLayout;
+use faer::{Mat, MatRef};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{exp_so3, skew};
 use sins_model::terms::{Sensor, SensorInput};
@@ -114,15 +115,32 @@ pub struct LinearModel {
     acc: AccelWindow,
     tt: TurntableWindow,
     scratch: Vec<Vector3<f64>>,
+    /// `phi_top` and `q_top` as dense matrices for the filter (filled at each predict).
+    phi_mat: Mat<f64>,
+    q_mat: Mat<f64>,
+    /// Measurement matrices of the two kinds, filled when a measurement is formed.
+    h_accel: Mat<f64>,
+    h_turntable: Mat<f64>,
 }
 
-/// One averaged measurement, ready for the filter: `z = H x + v`, `v ~ N(0, R)`.
-#[derive(Clone, Debug)]
+/// Which measurement a [`Measurement`] is, and where its matrix lives in the [`LinearModel`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeasurementKind {
+    /// Specific force at rest (window mean).
+    Accel,
+    /// Turntable angles (window mean).
+    Turntable,
+}
+
+/// One averaged measurement, ready for the filter: `z = H x + v`, `v ~ N(0, R)`. The matrix `H`
+/// (3 x n, in terms of the state at the measurement instant) stays in the model that formed it:
+/// [`LinearModel::h`].
+#[derive(Clone, Copy, Debug)]
 pub struct Measurement {
+    /// Which measurement.
+    pub kind: MeasurementKind,
     /// Measured value (zero in a covariance analysis).
     pub z: Vector3<f64>,
-    /// Measurement matrix (3 x n) in terms of the state at the measurement instant.
-    pub h: DMatrix<f64>,
     /// Noise covariance.
     pub r: Matrix3<f64>,
     /// Number of IMU steps (specific force) or angle samples (turntable) averaged.
@@ -173,6 +191,10 @@ impl LinearModel {
                 records: Vec::with_capacity(64),
             },
             scratch: vec![Vector3::zeros(); n],
+            phi_mat: Mat::zeros(3, n),
+            q_mat: Mat::zeros(3, 3),
+            h_accel: Mat::zeros(3, n),
+            h_turntable: Mat::zeros(3, n),
         };
         m.reset_transition();
         m
@@ -294,6 +316,30 @@ impl LinearModel {
         DMatrix::from_fn(3, self.n, |i, j| self.phi_top[j][i])
     }
 
+    /// The accumulated transition `phi_top` (3 x n) and attitude process noise `q_top` (3 x 3)
+    /// as views for the filter (no allocation).
+    pub fn transition(&mut self) -> (MatRef<'_, f64>, MatRef<'_, f64>) {
+        for (j, col) in self.phi_top.iter().enumerate() {
+            for i in 0..3 {
+                self.phi_mat[(i, j)] = col[i];
+            }
+        }
+        for i in 0..3 {
+            for j in 0..3 {
+                self.q_mat[(i, j)] = self.q_top[(i, j)];
+            }
+        }
+        (self.phi_mat.as_ref(), self.q_mat.as_ref())
+    }
+
+    /// The measurement matrix of the last measurement of `kind` formed.
+    pub fn h(&self, kind: MeasurementKind) -> MatRef<'_, f64> {
+        match kind {
+            MeasurementKind::Accel => self.h_accel.as_ref(),
+            MeasurementKind::Turntable => self.h_turntable.as_ref(),
+        }
+    }
+
     /// The accumulated attitude process noise.
     pub fn q_top(&self) -> Matrix3<f64> {
         self.q_top
@@ -316,7 +362,7 @@ impl LinearModel {
         if t <= 0.0 {
             return None;
         }
-        let mut h = DMatrix::zeros(3, self.n);
+        let h = &mut self.h_accel;
         self.acc.beta.expressed_at(&self.phi_top, &mut self.scratch);
         let sf = skew(f_enu) / self.acc.beta.weight;
         for (j, col) in self.scratch.iter().enumerate() {
@@ -331,8 +377,8 @@ impl LinearModel {
             }
         }
         Some(Measurement {
+            kind: MeasurementKind::Accel,
             z: self.acc.dv_enu / t - f_enu,
-            h,
             r: Matrix3::identity() * (psd_accel / t),
             samples: (t / self.dt).round() as usize,
         })
@@ -353,31 +399,40 @@ impl LinearModel {
             return None;
         }
         let nf = w.count as f64;
-        let mut h = DMatrix::zeros(3, self.n);
+        let h = &mut self.h_turntable;
         w.beta.expressed_at(&self.phi_top, &mut self.scratch);
         for (j, col) in self.scratch.iter().enumerate() {
             for r in 0..3 {
                 h[(r, j)] = col[r] / w.beta.weight;
             }
         }
+        let mut set_block = |col: usize, m: &Matrix3<f64>, ncols: usize| {
+            for c in 0..ncols {
+                for r in 0..3 {
+                    h[(r, col + c)] = m[(r, c)];
+                }
+            }
+        };
         if let Some(i) = layout.install {
-            h.fixed_view_mut::<3, 3>(0, i).copy_from(&(-w.c_sum / nf));
+            set_block(i, &(-w.c_sum / nf), 3);
         }
         if let Some(i) = layout.tau {
-            h.fixed_view_mut::<3, 1>(0, i)
-                .copy_from(&(-w.omega_sum / nf));
+            set_block(
+                i,
+                &Matrix3::from_columns(&[-w.omega_sum / nf, Vector3::zeros(), Vector3::zeros()]),
+                1,
+            );
         }
         if let Some(i) = layout.base {
-            h.fixed_view_mut::<3, 3>(0, i)
-                .copy_from(&(-Matrix3::identity()));
+            set_block(i, &(-Matrix3::identity()), 3);
         }
         let mut r = Matrix3::identity() * (1e-6 * var_per_record / nf);
         for (_, m) in &w.records {
             r += m * m.transpose() * (var_per_record / (nf * nf));
         }
         Some(Measurement {
+            kind: MeasurementKind::Turntable,
             z: w.y_sum / nf,
-            h,
             r,
             samples: w.count,
         })

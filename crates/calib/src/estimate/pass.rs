@@ -1,0 +1,346 @@
+//! One pass of the estimation over the data, as an explicit engine with named stages:
+//! compensate the increments, propagate (strapdown and error model), read the turntable angles,
+//! update at the measurement instants, feed back. [`Pass::step`] is the whole state machine.
+
+use super::angles::AngleInterpolator;
+use super::{EstimateError, FitStatistics};
+use crate::engine::{Engine, InstantReport, RateChanges};
+use crate::io::{ImuKind, ImuRecord};
+use crate::layout::StateLayout;
+use crate::model::AngleSample;
+use nalgebra::{Matrix3, Vector3};
+use sins_model::attitude::{attitude_error, exp_so3, orthonormalize};
+use sins_model::terms::{ErrorModel, Sensor, SensorInput};
+use turntable::gimbal::{c_platform_to_base, gimbal_jacobian};
+
+/// The point the pass linearises about: the current totals of every non-attitude state.
+#[derive(Clone, Debug)]
+pub(super) struct Linearisation {
+    /// Instrument parameters (SI), in the error model's order.
+    pub p: Vec<f64>,
+    /// Installation misalignment `delta_z` (rad).
+    pub delta: Vector3<f64>,
+    /// Delay of the turntable data (s).
+    pub tau: f64,
+    /// Base misalignment `gamma_p` (rad).
+    pub gamma: Vector3<f64>,
+    /// `exp(delta)`, kept with it.
+    pub c_install: Matrix3<f64>,
+    /// `exp(gamma)`, kept with it.
+    pub c_base: Matrix3<f64>,
+}
+
+impl Linearisation {
+    /// From a full state vector of totals (attitude entries unused).
+    pub fn from_totals(layout: &StateLayout, totals: &[f64]) -> Self {
+        let v3 = |k: Option<usize>| {
+            k.map_or(Vector3::zeros(), |k| {
+                Vector3::new(totals[k], totals[k + 1], totals[k + 2])
+            })
+        };
+        let off = StateLayout::INSTRUMENT;
+        let (delta, gamma) = (v3(layout.install), v3(layout.base));
+        Self {
+            p: totals[off..off + layout.n_instrument()].to_vec(),
+            delta,
+            tau: layout.tau.map_or(0.0, |k| totals[k]),
+            gamma,
+            c_install: exp_so3(&delta),
+            c_base: exp_so3(&gamma),
+        }
+    }
+
+    /// Add the error estimates `x` (a full state vector, SI) of every non-attitude state.
+    pub fn absorb(&mut self, layout: &StateLayout, x: &[f64]) {
+        for (k, p) in self.p.iter_mut().enumerate() {
+            *p += x[StateLayout::INSTRUMENT + k];
+        }
+        if let Some(k) = layout.install {
+            self.delta += Vector3::new(x[k], x[k + 1], x[k + 2]);
+            self.c_install = exp_so3(&self.delta);
+        }
+        if let Some(k) = layout.tau {
+            self.tau += x[k];
+        }
+        if let Some(k) = layout.base {
+            self.gamma += Vector3::new(x[k], x[k + 1], x[k + 2]);
+            self.c_base = exp_so3(&self.gamma);
+        }
+    }
+}
+
+/// The strapdown attitude (body to ENU) at the IMU rate, with the coning and sculling terms.
+#[derive(Clone, Debug)]
+pub(super) struct Strapdown {
+    /// Computed attitude at the end of the last step.
+    pub c: Matrix3<f64>,
+    /// Earth rotation over one step, `exp(-skew(u dt))`.
+    a_step: Matrix3<f64>,
+    dth_prev: Vector3<f64>,
+    dv_prev: Vector3<f64>,
+}
+
+/// What one strapdown step hands to the error model.
+pub(super) struct StepKinematics {
+    /// Attitude at the middle of the step (mean of its ends).
+    pub c_mid: Matrix3<f64>,
+    /// Velocity increment of the step in ENU (with rotation and sculling terms).
+    pub dv_enu: Vector3<f64>,
+}
+
+impl Strapdown {
+    pub fn new(c0: Matrix3<f64>, u_enu: &Vector3<f64>, dt: f64) -> Self {
+        Self {
+            c: c0,
+            a_step: exp_so3(&(-u_enu * dt)),
+            dth_prev: Vector3::zeros(),
+            dv_prev: Vector3::zeros(),
+        }
+    }
+
+    /// Advance by the true increments of one step.
+    pub fn advance(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>) -> StepKinematics {
+        let phi = dth + self.dth_prev.cross(dth) / 12.0;
+        let dv_body =
+            dv + 0.5 * dth.cross(dv) + (self.dth_prev.cross(dv) + self.dv_prev.cross(dth)) / 12.0;
+        let c_prev = self.c;
+        self.c = self.a_step * c_prev * exp_so3(&phi);
+        (self.dth_prev, self.dv_prev) = (*dth, *dv);
+        StepKinematics {
+            c_mid: (c_prev + self.c) * 0.5,
+            dv_enu: c_prev * dv_body,
+        }
+    }
+
+    /// Rotate the computed attitude by the estimated attitude error `beta` (feedback).
+    pub fn correct(&mut self, beta: &Vector3<f64>) {
+        self.c = orthonormalize(&(exp_so3(beta) * self.c));
+    }
+}
+
+/// Invert the sensor models with the current estimates: the true increments solve
+/// `dth' = dth - nu(p; w, f) dt` and `dv' = dv + df(p; w, f) dt`, with the errors evaluated at the
+/// true rate and specific force. Three fixed-point passes: the first alone (errors evaluated at
+/// the measured values) would leave `Theta^2 w`, a 3e-6 relative scale error for a 1e-3 `Theta`,
+/// which is twenty times the scale-factor sigma the paper's program reaches.
+pub(super) fn correct_increments(
+    model: &ErrorModel,
+    p: &[f64],
+    raw_dth: &Vector3<f64>,
+    raw_dv: &Vector3<f64>,
+    dt: f64,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let (mut dth, mut dv) = (*raw_dth, *raw_dv);
+    for _ in 0..3 {
+        let input = SensorInput {
+            omega_body: dth / dt,
+            f_body: dv / dt,
+        };
+        dth = raw_dth + model.error(Sensor::Gyro, p, &input) * dt;
+        dv = raw_dv - model.error(Sensor::Accel, p, &input) * dt;
+    }
+    (dth, dv)
+}
+
+/// The turntable side of a pass: the interpolator and what the samples need.
+pub(super) struct AngleReader<'a> {
+    pub interp: AngleInterpolator<'a>,
+    /// The platform's rate changes (program time) and the program's start on the IMU clock.
+    pub rate_changes: RateChanges,
+    pub program_start: f64,
+}
+
+/// Fixed settings of a pass.
+pub(super) struct PassSettings {
+    pub kind: ImuKind,
+    pub dt: f64,
+    pub u_enu: Vector3<f64>,
+    pub f_enu: Vector3<f64>,
+    /// Feed every estimate back (closed loop, pass 1) or only the attitude (pass 2).
+    pub full_feedback: bool,
+    /// Number of IMU records.
+    pub n_steps: usize,
+}
+
+/// One pass over the data.
+pub(super) struct Pass<'a> {
+    pub layout: &'a StateLayout,
+    pub settings: PassSettings,
+    pub engine: Engine,
+    pub nav: Strapdown,
+    pub lin: Linearisation,
+    pub angles: Option<AngleReader<'a>>,
+    pub stats: FitStatistics,
+    nis_sum: (f64, f64),
+    /// Steps done.
+    j: usize,
+}
+
+impl<'a> Pass<'a> {
+    pub fn new(
+        layout: &'a StateLayout,
+        settings: PassSettings,
+        engine: Engine,
+        nav: Strapdown,
+        lin: Linearisation,
+        angles: Option<AngleReader<'a>>,
+    ) -> Self {
+        Self {
+            layout,
+            settings,
+            engine,
+            nav,
+            lin,
+            angles,
+            stats: FitStatistics::default(),
+            nis_sum: (0.0, 0.0),
+            j: 0,
+        }
+    }
+
+    /// Process one IMU record (on `line` of its file).
+    pub fn step(&mut self, rec: &ImuRecord, line: usize) -> Result<(), EstimateError> {
+        self.j += 1;
+        let (dth, dv) = self.compensate(rec);
+        let input = self.propagate(&dth, &dv);
+        if self.angles.is_some() && self.engine.schedule.in_turntable_window(self.j) {
+            self.read_angles(rec.t, &input);
+        }
+        let last = self.j == self.settings.n_steps;
+        let report = self
+            .engine
+            .measurement_instant(self.layout, self.j, &self.settings.f_enu, last)
+            .map_err(|source| EstimateError::Filter {
+                t: rec.t,
+                line,
+                source,
+            })?;
+        self.count(&report);
+        let model = &self.engine.model;
+        if (report.updated() || last) && !model.accel_open() && !model.turntable_open() {
+            self.feed_back();
+        }
+        Ok(())
+    }
+
+    /// The true increments of a record under the current parameter estimates.
+    fn compensate(&self, rec: &ImuRecord) -> (Vector3<f64>, Vector3<f64>) {
+        let (g, a) = (Vector3::from(rec.gyro), Vector3::from(rec.accel));
+        let dt = self.settings.dt;
+        let (raw_dth, raw_dv) = match self.settings.kind {
+            ImuKind::Increments => (g, a),
+            ImuKind::Rates => (g * dt, a * dt),
+        };
+        correct_increments(&self.layout.model, &self.lin.p, &raw_dth, &raw_dv, dt)
+    }
+
+    /// Strapdown step and the error model's sub-step; returns the step's mean rate and force.
+    fn propagate(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>) -> SensorInput {
+        let dt = self.settings.dt;
+        let step = self.nav.advance(dth, dv);
+        let input = SensorInput {
+            omega_body: dth / dt,
+            f_body: dv / dt,
+        };
+        let in_acc = self
+            .engine
+            .schedule
+            .in_accel_window(self.j)
+            .then_some(&step.dv_enu);
+        self.engine
+            .model
+            .substep(self.layout, &step.c_mid, &input, &self.lin.p, in_acc);
+        input
+    }
+
+    /// A turntable-angle sample at the end of the step at IMU time `t`, unless it straddles a
+    /// change of the platform rate ([`RateChanges`]).
+    fn read_angles(&mut self, t: f64, input: &SensorInput) {
+        let reader = self.angles.as_mut().expect("checked by the caller");
+        let t_query = t + self.lin.tau;
+        let Some(set) = reader.interp.at(t_query) else {
+            self.stats.turntable_samples_missing += 1;
+            return;
+        };
+        let tau_index = self.layout.tau.expect("turntable layout");
+        let band = 3.0 * self.engine.filter.sigma(tau_index) + self.settings.dt;
+        let lo = t.min(set.t_records_imu[0]).min(t_query - band);
+        let hi = t.max(set.t_records_imu[1]).max(t_query + band);
+        let ps = reader.program_start;
+        if !reader.rate_changes.clear(lo - ps, hi - ps) {
+            self.stats.turntable_samples_near_rate_changes += 1;
+            return;
+        }
+        let c = self.nav.c;
+        let c_tt = self.lin.c_base * c_platform_to_base(&set.k) * self.lin.c_install;
+        self.engine.model.add_angle_sample(&AngleSample {
+            y: attitude_error(&c, &c_tt),
+            c_body_to_enu: c,
+            platform_rate_enu: c * input.omega_body - self.settings.u_enu,
+            gimbal_jacobian: gimbal_jacobian(&set.k),
+            records: &set.records,
+        });
+        self.stats.turntable_samples += 1;
+    }
+
+    fn count(&mut self, report: &InstantReport) {
+        if let Some(nis) = report.accel_nis {
+            self.stats.accel_updates += 1;
+            self.nis_sum.0 += nis;
+        }
+        if let Some(nis) = report.turntable_nis {
+            self.stats.turntable_updates += 1;
+            self.nis_sum.1 += nis;
+        }
+    }
+
+    /// Feedback: the attitude error into the attitude; in a closed-loop pass every other error
+    /// estimate into its total too, and the filter state back to zero.
+    fn feed_back(&mut self) {
+        let x = self.engine.filter.state();
+        self.nav.correct(&Vector3::new(x[0], x[1], x[2]));
+        if self.settings.full_feedback {
+            self.lin.absorb(self.layout, &x);
+            self.engine.filter.reset_state();
+        } else {
+            for k in 0..3 {
+                self.engine.filter.set_state(k, 0.0);
+            }
+        }
+    }
+
+    /// The pass's estimate of every state (totals, SI; the attitude errors fed back, so zero),
+    /// the final attitude and the fit statistics.
+    pub fn finish(
+        mut self,
+    ) -> (
+        Vec<f64>,
+        Matrix3<f64>,
+        FitStatistics,
+        nalgebra::DMatrix<f64>,
+    ) {
+        // Whatever the last windows left in the state (they were still open at the end).
+        let x = self.engine.filter.state();
+        let c = exp_so3(&Vector3::new(x[0], x[1], x[2])) * self.nav.c;
+        let mut values = x.clone();
+        values[..3].fill(0.0);
+        let mut lin = self.lin.clone();
+        lin.absorb(self.layout, &x);
+        let off = StateLayout::INSTRUMENT;
+        values[off..off + lin.p.len()].copy_from_slice(&lin.p);
+        let mut put3 = |k: Option<usize>, v: &Vector3<f64>| {
+            if let Some(k) = k {
+                values[k..k + 3].copy_from_slice(v.as_slice());
+            }
+        };
+        put3(self.layout.install, &lin.delta);
+        put3(self.layout.base, &lin.gamma);
+        if let Some(k) = self.layout.tau {
+            values[k] = lin.tau;
+        }
+        self.stats.imu_steps = self.j;
+        self.stats.accel_mean_nis = self.nis_sum.0 / self.stats.accel_updates.max(1) as f64;
+        self.stats.turntable_mean_nis = self.nis_sum.1 / self.stats.turntable_updates.max(1) as f64;
+        (values, c, self.stats, self.engine.filter.covariance())
+    }
+}
