@@ -44,9 +44,10 @@ impl PhiMean {
         self.weight = 0.0;
     }
 
-    fn add(&mut self, phi: &[Vector3<f64>], w: f64) {
-        for (s, p) in self.sum.iter_mut().zip(phi) {
-            *s += p * w;
+    /// Add `w` times the columns `active` of `phi` (the others are zero).
+    fn add(&mut self, phi: &[Vector3<f64>], active: &[usize], w: f64) {
+        for &j in active {
+            self.sum[j] += phi[j] * w;
         }
         self.weight += w;
     }
@@ -108,8 +109,15 @@ pub struct LinearModel {
     a_step: Matrix3<f64>,
     /// Gyro white-noise PSD [rad^2/s].
     psd_gyro: f64,
+    /// The columns of `phi_top` that can be non-zero: the attitude errors and the parameters
+    /// of the gyro terms (nothing else drives `beta`). The others are never touched.
+    dynamic: Vec<usize>,
+    /// The gyro terms' parameter ranges (indices into the instrument parameters).
+    gyro_params: Vec<std::ops::Range<usize>>,
+    /// IMU steps since the last reset of the transition: `q_top = steps * psd dt I`, since the
+    /// Earth-rate rotation leaves a multiple of the identity unchanged.
+    q_steps: usize,
     phi_top: Vec<Vector3<f64>>,
-    q_top: Matrix3<f64>,
     jac: Vec<Vector3<f64>>,
     dt: f64,
     acc: AccelWindow,
@@ -167,13 +175,29 @@ impl LinearModel {
     pub fn new(layout: &StateLayout, dt: f64, u_enu: &Vector3<f64>, psd_gyro: f64) -> Self {
         let n = layout.dim();
         let n_instr = layout.n_instrument();
+        let gyro_params: Vec<_> = (0..layout.model.terms().len())
+            .filter(|&k| layout.model.terms()[k].sensor() == Sensor::Gyro)
+            .map(|k| {
+                let o = layout.model.offset(k);
+                o..o + layout.model.terms()[k].params().len()
+            })
+            .collect();
+        let dynamic = (0..3)
+            .chain(
+                gyro_params
+                    .iter()
+                    .flat_map(|r| r.clone().map(|i| StateLayout::INSTRUMENT + i)),
+            )
+            .collect();
         let mut m = Self {
             n,
             n_instr,
             a_step: exp_so3(&(-u_enu * dt)),
             psd_gyro,
+            dynamic,
+            gyro_params,
+            q_steps: 0,
             phi_top: vec![Vector3::zeros(); n],
-            q_top: Matrix3::zeros(),
             jac: vec![Vector3::zeros(); n_instr],
             dt,
             acc: AccelWindow {
@@ -218,7 +242,7 @@ impl LinearModel {
         for i in 0..3 {
             self.phi_top[i][i] = 1.0;
         }
-        self.q_top = Matrix3::zeros();
+        self.q_steps = 0;
     }
 
     /// Start a new specific-force window.
@@ -266,22 +290,25 @@ impl LinearModel {
         let in_acc = accel_dv_enu.is_some();
         if in_acc {
             // Midpoint rule for the window mean of beta: half weight before, half after.
-            self.acc.beta.add(&self.phi_top, 0.5 * dt);
+            self.acc.beta.add(&self.phi_top, &self.dynamic, 0.5 * dt);
         }
         let a = self.a_step;
-        for col in self.phi_top.iter_mut() {
-            *col = a * *col;
+        for &k in &self.dynamic {
+            self.phi_top[k] = a * self.phi_top[k];
         }
         let off = StateLayout::INSTRUMENT;
         layout.model.jacobian(Sensor::Gyro, p, input, &mut self.jac);
-        for (i, j) in self.jac.iter().enumerate() {
-            if *j != Vector3::zeros() {
-                self.phi_top[off + i] += c_body_to_enu * j * dt;
+        for range in &self.gyro_params {
+            for i in range.clone() {
+                let j = &self.jac[i];
+                if *j != Vector3::zeros() {
+                    self.phi_top[off + i] += c_body_to_enu * j * dt;
+                }
             }
         }
-        self.q_top = a * self.q_top * a.transpose() + Matrix3::identity() * (self.psd_gyro * dt);
+        self.q_steps += 1;
         if let Some(dv) = accel_dv_enu {
-            self.acc.beta.add(&self.phi_top, 0.5 * dt);
+            self.acc.beta.add(&self.phi_top, &self.dynamic, 0.5 * dt);
             layout
                 .model
                 .jacobian(Sensor::Accel, p, input, &mut self.jac);
@@ -298,7 +325,7 @@ impl LinearModel {
     /// Add a turntable-angle sample at the end of the last [`Self::substep`].
     pub fn add_angle_sample(&mut self, s: &AngleSample) {
         let w = &mut self.tt;
-        w.beta.add(&self.phi_top, 1.0);
+        w.beta.add(&self.phi_top, &self.dynamic, 1.0);
         w.c_sum += s.c_body_to_enu;
         w.omega_sum += s.platform_rate_enu;
         w.y_sum += s.y;
@@ -326,7 +353,7 @@ impl LinearModel {
         }
         for i in 0..3 {
             for j in 0..3 {
-                self.q_mat[(i, j)] = self.q_top[(i, j)];
+                self.q_mat[(i, j)] = if i == j { self.q_diagonal() } else { 0.0 };
             }
         }
         (self.phi_mat.as_ref(), self.q_mat.as_ref())
@@ -342,7 +369,11 @@ impl LinearModel {
 
     /// The accumulated attitude process noise.
     pub fn q_top(&self) -> Matrix3<f64> {
-        self.q_top
+        Matrix3::identity() * self.q_diagonal()
+    }
+
+    fn q_diagonal(&self) -> f64 {
+        self.q_steps as f64 * self.psd_gyro * self.dt
     }
 
     /// Length of the current specific-force window [s].

@@ -2,9 +2,9 @@
 //! differences of the nonlinear model it linearises.
 
 use calib::config::RunConfig;
-use calib::covariance::layout_for;
 use calib::layout::StateLayout;
-use calib::model::{AngleSample, LinearModel};
+use calib::layout::layout_for;
+use calib::model::{AngleSample, LinearModel, MeasurementKind};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{apply_attitude_error, attitude_error, exp_so3, log_so3};
 use sins_model::terms::{Sensor, SensorInput};
@@ -209,12 +209,13 @@ fn window_measurements_match_finite_differences() {
                 phi[(i, j)] = top[(i, j)];
             }
         }
-        let ha = model
+        let as_dmatrix = |h: faer::MatRef<'_, f64>| DMatrix::from_fn(3, n, |i, j| h[(i, j)]);
+        model
             .accel_measurement(&kin.specific_force_enu(), 1e-6)
-            .unwrap()
-            .h
-            * &phi;
-        let ht = model.turntable_measurement(&layout, 1e-10).unwrap().h * &phi;
+            .unwrap();
+        let ha = as_dmatrix(model.h(MeasurementKind::Accel)) * &phi;
+        model.turntable_measurement(&layout, 1e-10).unwrap();
+        let ht = as_dmatrix(model.h(MeasurementKind::Turntable)) * &phi;
         let p0 = vec![0.0; p.len()];
         let f = |beta: &Vector3<f64>, pp: &[f64], d: &Vector3<f64>, tau: f64| {
             nonlinear_window(&kin, &layout, (t0, t1), beta, pp, d, tau)

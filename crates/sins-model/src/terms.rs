@@ -10,7 +10,7 @@
 //! Sign conventions (paper, design notes): the gyro output is `w' = w - nu`, the accelerometer
 //! output `f' = f + df`; a gyro term contributes to `nu`, an accelerometer term to `df`.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 
@@ -117,6 +117,31 @@ pub trait ErrorTerm: Debug + Send + Sync {
     /// Jacobian of [`ErrorTerm::error`] with respect to `p`, one column per parameter, written
     /// into `out` (length = number of parameters).
     fn jacobian(&self, p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]);
+    /// Whether the error is affine in the input (`a + B w + C f` for fixed parameters), so that
+    /// a model of such terms can be compensated with precomputed matrices
+    /// ([`ErrorModel::affine`]). False unless a term says otherwise.
+    fn is_affine(&self) -> bool {
+        false
+    }
+}
+
+/// A triad's error as an affine function of the input, for fixed parameters:
+/// `e = offset + d_omega * omega_body + d_f * f_body`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AffineError {
+    /// Error at zero input.
+    pub offset: Vector3<f64>,
+    /// Change of the error per unit of angular rate.
+    pub d_omega: Matrix3<f64>,
+    /// Change of the error per unit of specific force.
+    pub d_f: Matrix3<f64>,
+}
+
+impl AffineError {
+    /// The error at `input`.
+    pub fn at(&self, input: &SensorInput) -> Vector3<f64> {
+        self.offset + self.d_omega * input.omega_body + self.d_f * input.f_body
+    }
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -150,6 +175,9 @@ impl Bias {
 }
 
 impl ErrorTerm for Bias {
+    fn is_affine(&self) -> bool {
+        true
+    }
     fn sensor(&self) -> Sensor {
         self.sensor
     }
@@ -198,6 +226,9 @@ impl GyroMatrix {
 }
 
 impl ErrorTerm for GyroMatrix {
+    fn is_affine(&self) -> bool {
+        true
+    }
     fn sensor(&self) -> Sensor {
         Sensor::Gyro
     }
@@ -256,6 +287,9 @@ impl AccelLowerTriangular {
 }
 
 impl ErrorTerm for AccelLowerTriangular {
+    fn is_affine(&self) -> bool {
+        true
+    }
     fn sensor(&self) -> Sensor {
         Sensor::Accel
     }
@@ -383,6 +417,34 @@ impl ErrorModel {
         e
     }
 
+    /// One triad's error as an affine function of the input for parameters `p`, when every term
+    /// of that triad is affine in the input ([`ErrorTerm::is_affine`]); `None` otherwise.
+    pub fn affine(&self, sensor: Sensor, p: &[f64]) -> Option<AffineError> {
+        let all_affine = self
+            .terms
+            .iter()
+            .filter(|t| t.sensor() == sensor)
+            .all(|t| t.is_affine());
+        if !all_affine {
+            return None;
+        }
+        let zero = SensorInput::default();
+        let offset = self.error(sensor, p, &zero);
+        let column = |omega: Vector3<f64>, f: Vector3<f64>| {
+            let input = SensorInput {
+                omega_body: omega,
+                f_body: f,
+            };
+            self.error(sensor, p, &input) - offset
+        };
+        let (e, z) = (Matrix3::<f64>::identity(), Vector3::zeros());
+        Some(AffineError {
+            offset,
+            d_omega: Matrix3::from_columns(&[0, 1, 2].map(|i| column(e.column(i).into(), z))),
+            d_f: Matrix3::from_columns(&[0, 1, 2].map(|i| column(z, e.column(i).into()))),
+        })
+    }
+
     /// Jacobian of one triad's error with respect to all parameters (zero columns for the other
     /// triad's parameters). `out` has length [`ErrorModel::n_params`].
     pub fn jacobian(
@@ -465,6 +527,21 @@ mod tests {
         assert!((nu - Vector3::new(1e-3 * inp.omega_body.y, 2e-6, 0.0)).norm() < 1e-18);
         let df = m.error(Sensor::Accel, &p, &inp);
         assert!((df - Vector3::new(0.0, 5e-4 * inp.f_body.x, 0.0)).norm() < 1e-18);
+    }
+
+    #[test]
+    fn affine_form_of_the_paper_model_is_its_error() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let p: Vec<f64> = (0..m.n_params()).map(|i| 1e-3 * (i as f64 - 7.3)).collect();
+        let x = input();
+        for sensor in [Sensor::Gyro, Sensor::Accel] {
+            let a = m.affine(sensor, &p).expect("the paper's terms are affine");
+            let d = a.at(&x) - m.error(sensor, &p, &x);
+            assert!(
+                d.norm() < 1e-15 * m.error(sensor, &p, &x).norm().max(1e-3),
+                "{d}"
+            );
+        }
     }
 
     #[test]

@@ -10,7 +10,7 @@ use crate::layout::StateLayout;
 use crate::model::AngleSample;
 use nalgebra::{Matrix3, Vector3};
 use sins_model::attitude::{attitude_error, exp_so3, orthonormalize};
-use sins_model::terms::{ErrorModel, Sensor, SensorInput};
+use sins_model::terms::{AffineError, ErrorModel, Sensor, SensorInput};
 use turntable::gimbal::{c_platform_to_base, gimbal_jacobian};
 
 /// The point the pass linearises about: the current totals of every non-attitude state.
@@ -28,6 +28,8 @@ pub(super) struct Linearisation {
     pub c_install: Matrix3<f64>,
     /// `exp(gamma)`, kept with it.
     pub c_base: Matrix3<f64>,
+    /// The compensation of the increments with `p`, kept with it.
+    pub compensation: Compensation,
 }
 
 impl Linearisation {
@@ -40,8 +42,10 @@ impl Linearisation {
         };
         let off = StateLayout::INSTRUMENT;
         let (delta, gamma) = (v3(layout.install), v3(layout.base));
+        let p = totals[off..off + layout.n_instrument()].to_vec();
         Self {
-            p: totals[off..off + layout.n_instrument()].to_vec(),
+            compensation: Compensation::new(&layout.model, &p),
+            p,
             delta,
             tau: layout.tau.map_or(0.0, |k| totals[k]),
             gamma,
@@ -55,6 +59,7 @@ impl Linearisation {
         for (k, p) in self.p.iter_mut().enumerate() {
             *p += x[StateLayout::INSTRUMENT + k];
         }
+        self.compensation = Compensation::new(&layout.model, &self.p);
         if let Some(k) = layout.install {
             self.delta += Vector3::new(x[k], x[k + 1], x[k + 2]);
             self.c_install = exp_so3(&self.delta);
@@ -118,28 +123,57 @@ impl Strapdown {
     }
 }
 
-/// Invert the sensor models with the current estimates: the true increments solve
+/// Inverts the sensor models with the current estimates: the true increments solve
 /// `dth' = dth - nu(p; w, f) dt` and `dv' = dv + df(p; w, f) dt`, with the errors evaluated at the
 /// true rate and specific force. Three fixed-point passes: the first alone (errors evaluated at
 /// the measured values) would leave `Theta^2 w`, a 3e-6 relative scale error for a 1e-3 `Theta`,
 /// which is twenty times the scale-factor sigma the paper's program reaches.
-pub(super) fn correct_increments(
-    model: &ErrorModel,
-    p: &[f64],
-    raw_dth: &Vector3<f64>,
-    raw_dv: &Vector3<f64>,
-    dt: f64,
-) -> (Vector3<f64>, Vector3<f64>) {
-    let (mut dth, mut dv) = (*raw_dth, *raw_dv);
-    for _ in 0..3 {
-        let input = SensorInput {
-            omega_body: dth / dt,
-            f_body: dv / dt,
-        };
-        dth = raw_dth + model.error(Sensor::Gyro, p, &input) * dt;
-        dv = raw_dv - model.error(Sensor::Accel, p, &input) * dt;
+///
+/// When every term is affine in the input (the paper's model) the errors are evaluated through
+/// matrices computed once per change of the parameters, not term by term at every step.
+#[derive(Clone, Debug)]
+pub(super) struct Compensation {
+    /// The affine forms of the gyro and accelerometer errors at the current parameters.
+    affine: Option<(AffineError, AffineError)>,
+}
+
+impl Compensation {
+    /// The compensation for parameters `p` of `model`.
+    pub fn new(model: &ErrorModel, p: &[f64]) -> Self {
+        Self {
+            affine: model
+                .affine(Sensor::Gyro, p)
+                .zip(model.affine(Sensor::Accel, p)),
+        }
     }
-    (dth, dv)
+
+    /// The true increments of the raw increments `raw_dth`, `raw_dv` over `dt`.
+    pub fn apply(
+        &self,
+        model: &ErrorModel,
+        p: &[f64],
+        raw_dth: &Vector3<f64>,
+        raw_dv: &Vector3<f64>,
+        dt: f64,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (mut dth, mut dv) = (*raw_dth, *raw_dv);
+        for _ in 0..3 {
+            let input = SensorInput {
+                omega_body: dth / dt,
+                f_body: dv / dt,
+            };
+            let (nu, df) = match &self.affine {
+                Some((g, a)) => (g.at(&input), a.at(&input)),
+                None => (
+                    model.error(Sensor::Gyro, p, &input),
+                    model.error(Sensor::Accel, p, &input),
+                ),
+            };
+            dth = raw_dth + nu * dt;
+            dv = raw_dv - df * dt;
+        }
+        (dth, dv)
+    }
 }
 
 /// The turntable side of a pass: the interpolator and what the samples need.
@@ -231,7 +265,9 @@ impl<'a> Pass<'a> {
             ImuKind::Increments => (g, a),
             ImuKind::Rates => (g * dt, a * dt),
         };
-        correct_increments(&self.layout.model, &self.lin.p, &raw_dth, &raw_dv, dt)
+        let lin = &self.lin;
+        lin.compensation
+            .apply(&self.layout.model, &lin.p, &raw_dth, &raw_dv, dt)
     }
 
     /// Strapdown step and the error model's sub-step; returns the step's mean rate and force.
