@@ -20,7 +20,8 @@ use crate::filter::NormalisedFilter;
 use crate::io::{ImuData, IoError, ResultFile, ResultParameter, TurntableData, check_overlap};
 use crate::layout::{StateLayout, initial_covariance, layout_for};
 use crate::model::LinearModel;
-use nalgebra::{DMatrix, Matrix3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
+use sins_model::attitude::{exp_so3, log_so3};
 use sins_model::terms::Unit;
 use turntable::gimbal::c_platform_to_base;
 
@@ -87,9 +88,11 @@ pub struct FitStatistics {
     /// Turntable samples left out because the platform rate changes within the delay
     /// uncertainty ([`crate::engine::angle_sample_usable`]).
     pub turntable_samples_near_rate_changes: usize,
-    /// Largest change of a parameter from the first pass to the second, in posterior sigmas
-    /// (large values mean the first pass was far from linear).
+    /// Largest change of a parameter from the pass before the last to the last, in posterior
+    /// sigmas (large values mean the iteration had not converged).
     pub first_pass_shift_sigma: f64,
+    /// Passes over the data made by the filter.
+    pub passes: usize,
     /// Record rate of the turntable file on the IMU clock [Hz].
     pub turntable_record_rate_hz: f64,
 }
@@ -127,6 +130,15 @@ impl Estimate {
     pub fn sigma(&self, name: &str) -> Option<f64> {
         self.index(name).map(|i| self.cov[(i, i)].max(0.0).sqrt())
     }
+    /// Keep the first `n` states only.
+    fn truncate(&mut self, n: usize) {
+        self.names.truncate(n);
+        self.units.truncate(n);
+        self.values.truncate(n);
+        self.prior_sigma.truncate(n);
+        self.cov = self.cov.view((0, 0), (n, n)).into_owned();
+    }
+
     /// The parameters (every state but the attitude errors) as a result file.
     pub fn to_result_file(&self) -> ResultFile {
         ResultFile {
@@ -244,23 +256,54 @@ pub fn estimate_from(
 ) -> Result<Estimate, EstimateError> {
     let scan = scan_imu(imu, config.filter.imu_rate_hz, progress)?;
     let n = scan.n;
-    let first = run_pass(config, layout, imu, turntable, &scan, None, &mut |j| {
-        progress(n + j, 3 * n)
-    })?;
-    let mut second = run_pass(
-        config,
-        layout,
-        imu,
-        turntable,
-        &scan,
-        Some(&first.values),
-        &mut |j| progress(2 * n + j, 3 * n),
-    )?;
-    second.stats.first_pass_shift_sigma = (StateLayout::INSTRUMENT..layout.dim())
-        .map(|i| (second.values[i] - first.values[i]).abs() / second.cov[(i, i)].sqrt())
-        .fold(0.0, f64::max);
-    Ok(second)
+    // Every pass carries a constant copy of the start attitude error, so that the next pass can
+    // start from the estimate of the start attitude (a fixed-point smoother).
+    let smoother = layout.with_start_attitude();
+    let s = smoother.start_attitude.expect("set by with_start_attitude");
+    let total = (1 + MAX_PASSES) * n;
+    let mut nominal: Option<Nominal> = None;
+    let mut shift = f64::INFINITY;
+    let mut pass = 0;
+    let mut estimate = loop {
+        let done = (1 + pass) * n;
+        let (est, c_start) = run_pass(
+            config,
+            &smoother,
+            imu,
+            turntable,
+            &scan,
+            nominal.as_ref(),
+            &mut |j| progress(done + j, total),
+        )?;
+        pass += 1;
+        let beta = Vector3::new(est.values[s], est.values[s + 1], est.values[s + 2]);
+        if let Some(prev) = &nominal {
+            shift = (StateLayout::INSTRUMENT..layout.dim())
+                .map(|i| (est.values[i] - prev.totals[i]).abs() / est.cov[(i, i)].sqrt())
+                .fold(0.0, f64::max);
+        }
+        nominal = Some(Nominal {
+            totals: est.values[..layout.dim()].to_vec(),
+            c_start: exp_so3(&beta) * c_start,
+        });
+        if pass == MAX_PASSES || shift < CONVERGED_SIGMA {
+            break est;
+        }
+    };
+    progress(total, total);
+    estimate.truncate(layout.dim());
+    estimate.stats.passes = pass;
+    estimate.stats.first_pass_shift_sigma = shift;
+    Ok(estimate)
 }
+
+/// Passes over the data at most: the first closed loop, each further one linearised about the
+/// one before (parameters and start attitude).
+const MAX_PASSES: usize = 4;
+
+/// A pass whose estimates moved less than this (posterior sigmas, largest over the parameters)
+/// from the pass before ends the iteration.
+const CONVERGED_SIGMA: f64 = 0.02;
 
 /// The turntable side of a pass: checks the records against the IMU span and sets up the
 /// interpolation; returns the reader and the variance of one angle record.
@@ -305,9 +348,17 @@ fn program_start(_config: &RunConfig) -> f64 {
     0.0
 }
 
-/// One pass over the data. Without `nominal`: closed loop from the prior means. With it (a full
-/// state vector of totals, attitude entries unused): compensation and turntable reading with
-/// the nominal values, the prior mean of each error state `-nominal`, attitude-only feedback.
+/// The point a pass linearises about: the estimates of the pass before.
+struct Nominal {
+    /// A full state vector of totals (attitude entries unused).
+    totals: Vec<f64>,
+    /// The estimate of the start attitude (body to ENU).
+    c_start: Matrix3<f64>,
+}
+
+/// One pass over the data. Without `nominal`: closed loop from the prior means. With it:
+/// compensation, turntable reading and start attitude with the nominal values, the prior mean of
+/// each error state the prior mean less the nominal value, attitude-only feedback.
 #[allow(clippy::too_many_arguments)]
 fn run_pass(
     config: &RunConfig,
@@ -315,9 +366,9 @@ fn run_pass(
     imu: &mut dyn ImuSource,
     turntable: Option<(&TurntableData, &str)>,
     scan: &Scan,
-    nominal: Option<&[f64]>,
+    nominal: Option<&Nominal>,
     progress: &mut dyn FnMut(usize),
-) -> Result<Estimate, EstimateError> {
+) -> Result<(Estimate, Matrix3<f64>), EstimateError> {
     let dt = 1.0 / config.filter.imu_rate_hz;
     let site = config.site();
     let u_enu = site.earth_rate_enu();
@@ -331,17 +382,29 @@ fn run_pass(
     };
     let program = config.program()?;
     let (k0, _) = program.state(scan.span.0 - dt - program_start(config));
-    let c0 = c_platform_to_base(&k0);
-    let mut filter = NormalisedFilter::with_covariance(&initial_covariance(config, layout, &c0))
-        .map_err(|source| EstimateError::Filter {
-            t: scan.span.0,
-            line: 0,
-            source,
-        })?;
-    let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], <[f64]>::to_vec);
+    let c_program = c_platform_to_base(&k0);
+    let mut filter =
+        NormalisedFilter::with_covariance(&initial_covariance(config, layout, &c_program))
+            .map_err(|source| EstimateError::Filter {
+                t: scan.span.0,
+                line: 0,
+                source,
+            })?;
+    let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());
     // The prior means are zero: as errors of the nominal values they are -nominal.
     for (k, v) in totals.iter().enumerate().skip(StateLayout::INSTRUMENT) {
         filter.set_state(k, -v);
+    }
+    // The start attitude: the program's with the nominal mounting, or the estimate of the pass
+    // before. The prior is about the program's start attitude, so relative to the estimate the
+    // start attitude error (and its copy) has the prior mean `log(C_program C_start^T)`.
+    let c0 = nominal.map_or(c_program, |n| n.c_start);
+    let beta_prior = log_so3(&(c_program * c0.transpose()));
+    for k in 0..3 {
+        filter.set_state(k, beta_prior[k]);
+        if let Some(s) = layout.start_attitude {
+            filter.set_state(s + k, beta_prior[k]);
+        }
     }
     let noise = MeasurementNoise {
         accel_psd: config.accel_psd(),
@@ -379,7 +442,7 @@ fn run_pass(
         }
     }
     let (values, c, stats, cov) = pass.finish();
-    Ok(Estimate {
+    let estimate = Estimate {
         names: layout.entries().iter().map(|e| e.name.clone()).collect(),
         units: layout.entries().iter().map(|e| e.unit).collect(),
         values,
@@ -388,5 +451,6 @@ fn run_pass(
         final_time,
         final_c_body_to_enu: c,
         stats,
-    })
+    };
+    Ok((estimate, c0))
 }

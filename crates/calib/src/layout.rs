@@ -12,13 +12,18 @@
 use crate::config::{AttitudePrior, RunConfig};
 use nalgebra::{DMatrix, DVector, Matrix3};
 use sins_model::terms::{ErrorModel, PaperPriors, ParamSpec, Unit};
+use std::sync::Arc;
 
 /// Which states the filter carries.
 #[derive(Debug)]
 pub struct StateLayout {
     entries: Vec<ParamSpec>,
     /// The instrument error model; its parameters start at [`StateLayout::INSTRUMENT`].
-    pub model: ErrorModel,
+    pub model: Arc<ErrorModel>,
+    /// Index of a constant copy of the start attitude error (3 states), when carried: the
+    /// estimation's first pass estimates the start attitude with it (a fixed-point smoother),
+    /// and its second pass starts from that estimate.
+    pub start_attitude: Option<usize>,
     /// Index of `delta_z` (3 states), when the turntable angles are used.
     pub install: Option<usize>,
     /// Index of `tau`, when the turntable angles are used.
@@ -84,10 +89,34 @@ impl StateLayout {
         }
         Self {
             entries,
-            model,
+            model: Arc::new(model),
+            start_attitude: None,
             install,
             tau,
             base,
+        }
+    }
+
+    /// The same layout with a constant copy of the start attitude error appended
+    /// (`attitude.start.{x,y,z}`, the attitude's prior sigma); see
+    /// [`StateLayout::start_attitude`].
+    pub fn with_start_attitude(&self) -> Self {
+        let mut entries = self.entries.clone();
+        let start = entries.len();
+        for (i, a) in ["x", "y", "z"].iter().enumerate() {
+            entries.push(ParamSpec::new(
+                format!("attitude.start.{a}"),
+                Unit::SmallAngle,
+                self.entries[Self::BETA + i].prior_sigma,
+            ));
+        }
+        Self {
+            entries,
+            model: Arc::clone(&self.model),
+            start_attitude: Some(start),
+            install: self.install,
+            tau: self.tau,
+            base: self.base,
         }
     }
 
@@ -172,6 +201,21 @@ pub fn initial_covariance(
                     p[(i, k + j)] = c[(i, j)] * var_d;
                     p[(k + j, i)] = c[(i, j)] * var_d;
                 }
+            }
+        }
+    }
+    if let Some(s) = layout.start_attitude {
+        // The copy is the start attitude error itself: the same rows and columns.
+        let n = p.nrows();
+        for i in 0..3 {
+            for j in 0..n {
+                let v = if (s..s + 3).contains(&j) {
+                    p[(i, j - s)]
+                } else {
+                    p[(i, j)]
+                };
+                p[(s + i, j)] = v;
+                p[(j, s + i)] = v;
             }
         }
     }

@@ -338,6 +338,12 @@ impl<'a> Pass<'a> {
         if self.settings.full_feedback {
             self.lin.absorb(self.layout, &x);
             self.engine.filter.reset_state();
+            // The copy of the start attitude error is estimated, not fed back anywhere.
+            if let Some(s) = self.layout.start_attitude {
+                for (k, v) in x.iter().enumerate().skip(s).take(3) {
+                    self.engine.filter.set_state(k, *v);
+                }
+            }
         } else {
             for k in 0..3 {
                 self.engine.filter.set_state(k, 0.0);
