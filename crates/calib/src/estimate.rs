@@ -14,11 +14,14 @@
 //!   the attitude error into `C`, the parameter errors into the parameter estimates, which
 //!   correct the following increments, and the filter state is zeroed.
 
-use crate::config::{ConfigError, RunConfig};
+use crate::align::{RateBin, RateBinner, align_to_program, aligned_covariance};
+use crate::config::{AttitudePrior, ConfigError, RunConfig};
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
 use crate::filter::NormalisedFilter;
-use crate::io::{ImuData, IoError, ResultFile, ResultParameter, TurntableData, check_overlap};
-use crate::layout::{StateLayout, initial_covariance, layout_for};
+use crate::io::{
+    ImuData, ImuKind, IoError, ResultFile, ResultParameter, TurntableData, check_overlap,
+};
+use crate::layout::{StateLayout, copy_start_attitude, initial_covariance, layout_for};
 use crate::model::LinearModel;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{exp_so3, log_so3};
@@ -155,13 +158,18 @@ impl Estimate {
 }
 
 /// What the first reading of the IMU data found.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct Scan {
     /// Number of records.
     n: usize,
     /// First and last time stamp (s).
     span: (f64, f64),
+    /// Mean rates and specific forces over short bins.
+    bins: Vec<RateBin>,
 }
+
+/// Length of the rate bins of the scan (s).
+const BIN_S: f64 = 0.1;
 
 /// Read the IMU data once: count the records and check that they come at the configured rate
 /// (within 5 %), naming the first line that does not.
@@ -174,7 +182,14 @@ fn scan_imu(
     imu.rewind()?;
     let hint = imu.len_hint().unwrap_or(0);
     let (mut n, mut first, mut prev) = (0usize, f64::NAN, f64::NAN);
+    let mut binner = RateBinner::new(BIN_S);
+    let kind = imu.kind();
     while let Some((rec, line)) = imu.next_record()? {
+        let (g, a) = (Vector3::from(rec.gyro), Vector3::from(rec.accel));
+        match kind {
+            ImuKind::Increments => binner.push(rec.t, dt, &g, &a),
+            ImuKind::Rates => binner.push(rec.t, dt, &(g * dt), &(a * dt)),
+        }
         if n == 0 {
             first = rec.t;
         } else {
@@ -208,6 +223,7 @@ fn scan_imu(
     Ok(Scan {
         n,
         span: (first, prev),
+        bins: binner.finish(),
     })
 }
 
@@ -343,6 +359,42 @@ fn angle_reader<'a>(
     Ok((reader, config.angle_psd() * stats.turntable_record_rate_hz))
 }
 
+/// The start attitude the prior is about, and the prior covariance of all states. With the
+/// turntable angles (or the `independent` attitude prior of the paper's analysis) the start
+/// attitude is the program's with the nominal mounting (`c_nominal`) and its error is tied to the
+/// installation misalignment ([`initial_covariance`]). Without them it comes from the
+/// alignment to the program's rotations where the program turns about two axes
+/// ([`crate::align`]), with the error tied to the gyro parameters.
+fn start_prior(
+    config: &RunConfig,
+    layout: &StateLayout,
+    scan: &Scan,
+    program: &turntable::program::Program,
+    c_nominal: Matrix3<f64>,
+) -> (Matrix3<f64>, DMatrix<f64>) {
+    let nominal = || (c_nominal, initial_covariance(config, layout, &c_nominal));
+    if layout.install.is_some() || config.filter.attitude_prior == AttitudePrior::Independent {
+        return nominal();
+    }
+    let dt = 1.0 / config.filter.imu_rate_hz;
+    let Some(al) = align_to_program(
+        &scan.bins,
+        program,
+        &config.site(),
+        program_start(config),
+        scan.span.0 - dt,
+        &layout.model,
+        config.gyro_psd(),
+    ) else {
+        return nominal();
+    };
+    let off = StateLayout::INSTRUMENT;
+    let p = initial_covariance(config, layout, &al.c_start);
+    let mut p = aligned_covariance(&p, off..off + layout.n_instrument(), &al);
+    copy_start_attitude(&mut p, layout);
+    (al.c_start, p)
+}
+
 /// The IMU time at which the program starts.
 fn program_start(_config: &RunConfig) -> f64 {
     0.0
@@ -382,14 +434,13 @@ fn run_pass(
     };
     let program = config.program()?;
     let (k0, _) = program.state(scan.span.0 - dt - program_start(config));
-    let c_program = c_platform_to_base(&k0);
+    let (c_program, p0) = start_prior(config, layout, scan, &program, c_platform_to_base(&k0));
     let mut filter =
-        NormalisedFilter::with_covariance(&initial_covariance(config, layout, &c_program))
-            .map_err(|source| EstimateError::Filter {
-                t: scan.span.0,
-                line: 0,
-                source,
-            })?;
+        NormalisedFilter::with_covariance(&p0).map_err(|source| EstimateError::Filter {
+            t: scan.span.0,
+            line: 0,
+            source,
+        })?;
     let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());
     // The prior means are zero: as errors of the nominal values they are -nominal.
     for (k, v) in totals.iter().enumerate().skip(StateLayout::INSTRUMENT) {

@@ -204,8 +204,14 @@ pub fn initial_covariance(
             }
         }
     }
+    copy_start_attitude(&mut p, layout);
+    p
+}
+
+/// Make the rows and columns of the copy of the start attitude error (when the layout carries
+/// one) equal to those of the start attitude error: the copy is the error itself.
+pub fn copy_start_attitude(p: &mut DMatrix<f64>, layout: &StateLayout) {
     if let Some(s) = layout.start_attitude {
-        // The copy is the start attitude error itself: the same rows and columns.
         let n = p.nrows();
         for i in 0..3 {
             for j in 0..n {
@@ -219,7 +225,6 @@ pub fn initial_covariance(
             }
         }
     }
-    p
 }
 
 #[cfg(test)]

@@ -25,6 +25,7 @@
 //! assert!(with_tt.sigma("gyro.bias.x").unwrap() < imu_only.sigma("gyro.bias.x").unwrap());
 //! ```
 
+pub mod align;
 pub mod config;
 pub mod covariance;
 pub mod engine;

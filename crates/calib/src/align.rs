@@ -1,0 +1,256 @@
+//! Coarse alignment of the start attitude from the rotation program (IMU-only calibration).
+//!
+//! Without the turntable's angle sensors the filter learns the start attitude only from the
+//! accelerometers (tilt) and, slowly and confounded with the East gyro bias, from the Earth rate
+//! (heading: about 0.35 deg after the paper's program). The installation misalignment, degrees,
+//! sits in that start attitude; a linear error model with a degree-level attitude error leaves
+//! second-order terms, and a heading known only to its prior leaves prior-driven errors in the
+//! gyro biases (both measured: errors of several sigma on noiseless data).
+//!
+//! The program says more: the platform turns about known axes. The mean body rates the gyros
+//! measure while the platform turns are the platform's rates rotated by the unknown mounting, so
+//! the mounting follows from a fit of the two sets of directions (Wahba's problem, solved by
+//! SVD). Its error comes from the gyro errors, `Theta` first (the fit sees `(I - Theta) w`), and
+//! from the gyro noise; both are modelled: [`Alignment::jacobian`] is the derivative of the
+//! start attitude error with respect to the instrument parameters (by finite differences of the
+//! fit), so the filter's prior of the start attitude error is `beta_0 = B p + eps`, correlated
+//! with the parameters, with `eps` the fit's noise. The fit needs rotations about two axes at
+//! least (the paper's program turns about three); otherwise there is no alignment and the
+//! start attitude keeps the installation prior.
+
+use crate::engine::RateChanges;
+use nalgebra::{DMatrix, Matrix3, Vector3};
+use sins_model::attitude::log_so3;
+use sins_model::earth::Site;
+use sins_model::terms::{ErrorModel, Sensor, SensorInput};
+use turntable::gimbal::c_platform_to_base;
+use turntable::kinematics::{Kinematics, Mounting};
+use turntable::program::Program;
+
+/// Mean measured body rate and specific force over a short bin of IMU records.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RateBin {
+    /// Start and end of the bin on the IMU clock (s).
+    pub t0: f64,
+    /// End of the bin (s).
+    pub t1: f64,
+    /// Mean measured angular rate (rad/s, body axes).
+    pub rate: Vector3<f64>,
+    /// Mean measured specific force (m/s^2, body axes).
+    pub f: Vector3<f64>,
+}
+
+/// Accumulates IMU records into [`RateBin`]s of a fixed length.
+#[derive(Clone, Debug)]
+pub struct RateBinner {
+    bin_s: f64,
+    bins: Vec<RateBin>,
+    open: Option<(f64, f64, Vector3<f64>, Vector3<f64>)>,
+}
+
+impl RateBinner {
+    /// Bins of `bin_s` seconds.
+    pub fn new(bin_s: f64) -> Self {
+        Self {
+            bin_s,
+            bins: Vec::new(),
+            open: None,
+        }
+    }
+
+    /// Add the record whose interval is `(t - dt, t]` with angle and velocity increments
+    /// `dth` (rad) and `dv` (m/s).
+    pub fn push(&mut self, t: f64, dt: f64, dth: &Vector3<f64>, dv: &Vector3<f64>) {
+        let (t0, _, sum_dth, sum_dv) =
+            self.open
+                .get_or_insert((t - dt, t, Vector3::zeros(), Vector3::zeros()));
+        let t0 = *t0;
+        *sum_dth += dth;
+        *sum_dv += dv;
+        let (sum_dth, sum_dv) = (*sum_dth, *sum_dv);
+        self.open = Some((t0, t, sum_dth, sum_dv));
+        if t - t0 >= self.bin_s * (1.0 - 1e-9) {
+            self.close();
+        }
+    }
+
+    fn close(&mut self) {
+        if let Some((t0, t1, dth, dv)) = self.open.take() {
+            let span = t1 - t0;
+            self.bins.push(RateBin {
+                t0,
+                t1,
+                rate: dth / span,
+                f: dv / span,
+            });
+        }
+    }
+
+    /// The bins (a last, shorter one included).
+    pub fn finish(mut self) -> Vec<RateBin> {
+        self.close();
+        self.bins
+    }
+}
+
+/// The start attitude from the program's rotations.
+#[derive(Clone, Debug)]
+pub struct Alignment {
+    /// Estimated mounting: body to platform.
+    pub c_body_to_platform: Matrix3<f64>,
+    /// Start attitude (body to ENU) at the start of the first IMU record.
+    pub c_start: Matrix3<f64>,
+    /// Derivative of the start attitude error `beta_0` (rad, ENU; `C_true = exp(beta_0) C_start`)
+    /// with respect to the instrument parameters (3 x parameters).
+    pub jacobian: DMatrix<f64>,
+    /// Standard deviation of the fit's noise about each ENU axis (rad).
+    pub sigma_noise: f64,
+    /// Bins used.
+    pub bins_used: usize,
+}
+
+/// Smallest ratio of the second to the largest eigenvalue of the rotation information
+/// `sum (|r|^2 I - r r^T)` for a fit: below it the rotations do not span two axes.
+const MIN_AXIS_SPREAD: f64 = 1e-3;
+
+/// Rates below this (rad/s, about 0.6 deg/s) carry no direction worth fitting.
+const MIN_RATE: f64 = 0.01;
+
+/// Align the start attitude to `program`, which starts at IMU time `program_start`, from the
+/// rate bins of the data. `t_start` is the start of the first record. `None` when the program
+/// does not turn about two axes within the data.
+#[allow(clippy::too_many_arguments)]
+pub fn align_to_program(
+    bins: &[RateBin],
+    program: &Program,
+    site: &Site,
+    program_start: f64,
+    t_start: f64,
+    model: &ErrorModel,
+    gyro_psd: f64,
+) -> Option<Alignment> {
+    let kin = Kinematics::new(program.clone(), Mounting::default(), *site);
+    let changes = RateChanges::new(program);
+    // Platform-frame reference rate of each usable bin, with the bin.
+    let pairs: Vec<(Vector3<f64>, &RateBin)> = bins
+        .iter()
+        .filter(|b| changes.clear(b.t0 - program_start, b.t1 - program_start))
+        .map(|b| {
+            let mid = 0.5 * (b.t0 + b.t1) - program_start;
+            (kin.sample(mid).omega_body, b)
+        })
+        .filter(|(r, _)| r.norm() > MIN_RATE)
+        .collect();
+    let mut info = Matrix3::zeros();
+    let mut b_sum = Matrix3::zeros();
+    for (r, bin) in &pairs {
+        let w = bin.t1 - bin.t0;
+        info += (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * w;
+        b_sum += bin.rate * r.transpose() * w;
+    }
+    let eig = info.symmetric_eigenvalues();
+    let (lo, hi) = (eig.min(), eig.max());
+    if pairs.is_empty() || !(hi > 0.0) {
+        return None;
+    }
+    let mut sorted = [eig[0], eig[1], eig[2]];
+    sorted.sort_by(f64::total_cmp);
+    if sorted[1] / hi < MIN_AXIS_SPREAD {
+        return None;
+    }
+    let _ = lo;
+    let r_platform_to_body = wahba(&b_sum)?;
+    let c_body_to_platform = r_platform_to_body.transpose();
+    let (k0, _) = program.state(t_start - program_start);
+    let c_p0 = c_platform_to_base(&k0);
+    let c_start = c_p0 * c_body_to_platform;
+
+    // d beta_0 / d p by central differences of the fit: a parameter p_i changes the measured
+    // rates by -d nu / d p_i, hence the fit's B by -sum (d nu / d p_i) r^T w.
+    let n = model.n_params();
+    let mut d_b = vec![Matrix3::zeros(); n];
+    let mut jac = vec![Vector3::zeros(); n];
+    for (r, bin) in &pairs {
+        let w = bin.t1 - bin.t0;
+        let input = SensorInput {
+            omega_body: bin.rate,
+            f_body: bin.f,
+        };
+        model.jacobian(Sensor::Gyro, &vec![0.0; n], &input, &mut jac);
+        for (d, j) in d_b.iter_mut().zip(&jac) {
+            *d -= j * r.transpose() * w;
+        }
+    }
+    let mut jacobian = DMatrix::zeros(3, n);
+    let scale = b_sum.norm();
+    for (i, d) in d_b.iter().enumerate() {
+        if d.norm() == 0.0 {
+            continue;
+        }
+        let h = 1e-6 * scale / d.norm();
+        let attitude = |s: f64| wahba(&(b_sum + d * s)).map(|r| c_p0 * r.transpose());
+        let (Some(plus), Some(minus)) = (attitude(h), attitude(-h)) else {
+            continue;
+        };
+        // beta_0(p) = log(C_true C_start(p)^T), C_true the fit without the error.
+        let col = (log_so3(&(c_start * plus.transpose()))
+            - log_so3(&(c_start * minus.transpose())))
+            / (2.0 * h);
+        jacobian.set_column(i, &col);
+    }
+    // Noise: white rate noise of PSD q on a bin of length w has variance q / w; the fit's
+    // attitude covariance is then q info^-1 (platform axes); take its largest value, with a
+    // floor of 1e-6 rad for what the model leaves out.
+    let sigma_noise = (gyro_psd / sorted[0].max(1e-300)).sqrt().max(1e-6);
+    Some(Alignment {
+        c_body_to_platform,
+        c_start,
+        jacobian,
+        sigma_noise,
+        bins_used: pairs.len(),
+    })
+}
+
+/// The rotation `R` minimising `sum w |b - R r|^2` from `B = sum w b r^T` (SVD solution of
+/// Wahba's problem).
+fn wahba(b: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let svd = b.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let d = (u * v_t).determinant().signum();
+    Some(u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t)
+}
+
+/// The prior covariance of all states with the start attitude error tied to the alignment:
+/// `beta_0 = B p + eps`, `cov(beta_0) = B P_p B^T + sigma_eps^2 I`, `cov(beta_0, p) = B P_p`,
+/// `beta_0` uncorrelated with the other states. `p0` is the prior covariance without it.
+pub fn aligned_covariance(
+    p0: &DMatrix<f64>,
+    instrument: std::ops::Range<usize>,
+    alignment: &Alignment,
+) -> DMatrix<f64> {
+    let mut p = p0.clone();
+    let n = p.nrows();
+    for i in 0..3 {
+        for j in 0..n {
+            p[(i, j)] = 0.0;
+            p[(j, i)] = 0.0;
+        }
+    }
+    let p_pp = p0.view(
+        (instrument.start, instrument.start),
+        (instrument.len(), instrument.len()),
+    );
+    let b = &alignment.jacobian;
+    let b_p = b * p_pp;
+    let beta = &b_p * b.transpose() + DMatrix::identity(3, 3) * alignment.sigma_noise.powi(2);
+    for i in 0..3 {
+        for j in 0..3 {
+            p[(i, j)] = beta[(i, j)];
+        }
+        for (c, j) in instrument.clone().enumerate() {
+            p[(i, j)] = b_p[(i, c)];
+            p[(j, i)] = b_p[(i, c)];
+        }
+    }
+    p
+}
