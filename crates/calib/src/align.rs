@@ -149,16 +149,13 @@ pub fn align_to_program(
         b_sum += bin.rate * r.transpose() * w;
     }
     let eig = info.symmetric_eigenvalues();
-    let (lo, hi) = (eig.min(), eig.max());
-    if pairs.is_empty() || !(hi > 0.0) {
-        return None;
-    }
     let mut sorted = [eig[0], eig[1], eig[2]];
     sorted.sort_by(f64::total_cmp);
-    if sorted[1] / hi < MIN_AXIS_SPREAD {
+    // Rotations about one axis only leave the rotation about that axis unknown.
+    let spread_enough = sorted[2] > 0.0 && sorted[1] / sorted[2] >= MIN_AXIS_SPREAD;
+    if pairs.is_empty() || !spread_enough {
         return None;
     }
-    let _ = lo;
     let r_platform_to_body = wahba(&b_sum)?;
     let c_body_to_platform = r_platform_to_body.transpose();
     let (k0, _) = program.state(t_start - program_start);
