@@ -109,7 +109,7 @@ pub struct Alignment {
     pub bins_used: usize,
 }
 
-/// Smallest ratio of the second to the largest eigenvalue of the rotation information
+/// Smallest ratio of the smallest to the largest eigenvalue of the rotation information
 /// `sum (|r|^2 I - r r^T)` for a fit: below it the rotations do not span two axes.
 const MIN_AXIS_SPREAD: f64 = 1e-3;
 
@@ -152,7 +152,7 @@ pub fn align_to_program(
     let mut sorted = [eig[0], eig[1], eig[2]];
     sorted.sort_by(f64::total_cmp);
     // Rotations about one axis only leave the rotation about that axis unknown.
-    let spread_enough = sorted[2] > 0.0 && sorted[1] / sorted[2] >= MIN_AXIS_SPREAD;
+    let spread_enough = sorted[2] > 0.0 && sorted[0] / sorted[2] >= MIN_AXIS_SPREAD;
     if pairs.is_empty() || !spread_enough {
         return None;
     }
