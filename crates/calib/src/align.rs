@@ -208,6 +208,69 @@ pub fn align_to_program(
     })
 }
 
+/// How well the two kinds of direction are known before calibration: the scale of the errors
+/// that turn a measured direction away from the true one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectionErrors {
+    /// Gyro bias (rad/s).
+    pub gyro_bias: f64,
+    /// Gyro scale and misalignment (dimensionless, rad).
+    pub gyro_matrix: f64,
+    /// Accelerometer bias (m/s^2).
+    pub accel_bias: f64,
+    /// Accelerometer scale and non-orthogonality (dimensionless, rad).
+    pub accel_matrix: f64,
+    /// Prior of the mounting about each axis (rad): the nominal mounting enters the fit as a
+    /// pseudo-measurement with this weight, so that a direction the data do not fix stays
+    /// at the nominal one.
+    pub mounting: f64,
+}
+
+/// The mounting (body to platform) that best turns the platform-frame directions of the
+/// program into the measured body-frame ones: the measured mean rates and specific forces of
+/// every bin that does not straddle a change of the platform rate, each weighted by how well its
+/// direction is known ([`DirectionErrors`]), and the nominal mounting as a pseudo-measurement.
+/// Levelling from the specific force where the platform rests, and the full mounting from the
+/// rotation axes where it turns. Used as the point the calibration linearises about, not as
+/// information.
+pub fn fit_mounting(
+    bins: &[RateBin],
+    program: &Program,
+    site: &Site,
+    program_start: f64,
+    errors: &DirectionErrors,
+) -> Option<Matrix3<f64>> {
+    let kin = Kinematics::new(program.clone(), Mounting::default(), *site);
+    let changes = RateChanges::new(program);
+    let usable: Vec<&RateBin> = bins
+        .iter()
+        .filter(|b| changes.clear(b.t0 - program_start, b.t1 - program_start))
+        .collect();
+    let total: f64 = usable.iter().map(|b| b.t1 - b.t0).sum();
+    let mut b = Matrix3::identity() / errors.mounting.powi(2);
+    for bin in usable {
+        let s = kin.sample(0.5 * (bin.t0 + bin.t1) - program_start);
+        let w = (bin.t1 - bin.t0) / total;
+        // A direction's error is about sigma_dir |r| per axis: weight 1 / (sigma_dir |r|)^2.
+        // The errors are systematic (biases, scale factors), so the data as a whole weigh as
+        // one direction of each kind, not as many independent ones: bins share the weight by
+        // their length.
+        let mut add = |measured: &Vector3<f64>, r: &Vector3<f64>, sigma_dir: f64| {
+            let r2 = r.norm_squared();
+            if r2 > 0.0 && sigma_dir.is_finite() {
+                b += measured * r.transpose() * (w / (sigma_dir * sigma_dir * r2));
+            }
+        };
+        let rate = s.omega_body.norm();
+        let sigma_rate = errors.gyro_matrix.hypot(errors.gyro_bias / rate);
+        add(&bin.rate, &s.omega_body, sigma_rate);
+        let f = s.f_body.norm();
+        let sigma_f = errors.accel_matrix.hypot(errors.accel_bias / f);
+        add(&bin.f, &s.f_body, sigma_f);
+    }
+    wahba(&b).map(|r| r.transpose())
+}
+
 /// The rotation `R` minimising `sum w |b - R r|^2` from `B = sum w b r^T` (SVD solution of
 /// Wahba's problem).
 fn wahba(b: &Matrix3<f64>) -> Option<Matrix3<f64>> {

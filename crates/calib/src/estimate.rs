@@ -14,7 +14,9 @@
 //!   the attitude error into `C`, the parameter errors into the parameter estimates, which
 //!   correct the following increments, and the filter state is zeroed.
 
-use crate::align::{RateBin, RateBinner, align_to_program, aligned_covariance};
+use crate::align::{
+    DirectionErrors, RateBin, RateBinner, align_to_program, aligned_covariance, fit_mounting,
+};
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
 use crate::filter::NormalisedFilter;
@@ -277,7 +279,7 @@ pub fn estimate_from(
     let smoother = layout.with_start_attitude();
     let s = smoother.start_attitude.expect("set by with_start_attitude");
     let total = (1 + MAX_PASSES) * n;
-    let mut nominal: Option<Nominal> = None;
+    let mut nominal = first_linearisation_point(config, layout, &scan)?;
     let mut shift = f64::INFINITY;
     let mut pass = 0;
     let mut estimate = loop {
@@ -289,11 +291,12 @@ pub fn estimate_from(
             turntable,
             &scan,
             nominal.as_ref(),
+            pass == 0,
             &mut |j| progress(done + j, total),
         )?;
         pass += 1;
         let beta = Vector3::new(est.values[s], est.values[s + 1], est.values[s + 2]);
-        if let Some(prev) = &nominal {
+        if let (Some(prev), true) = (&nominal, pass > 1) {
             shift = (StateLayout::INSTRUMENT..layout.dim())
                 .map(|i| (est.values[i] - prev.totals[i]).abs() / est.cov[(i, i)].sqrt())
                 .fold(0.0, f64::max);
@@ -408,9 +411,47 @@ struct Nominal {
     c_start: Matrix3<f64>,
 }
 
-/// One pass over the data. Without `nominal`: closed loop from the prior means. With it:
-/// compensation, turntable reading and start attitude with the nominal values, the prior mean of
-/// each error state the prior mean less the nominal value, attitude-only feedback.
+/// The point the first pass starts from. With the turntable angles, the mounting fitted to the
+/// program's directions ([`fit_mounting`]: levelling where the platform rests, the rotation axes
+/// where it turns), so that the first pass does not linearise about a start attitude and an
+/// installation misalignment that are degrees off (their products with the other errors misled
+/// the filter: on a static run it became sure of an installation misalignment that was 1.5 deg
+/// off). Without them the start prior itself comes from the program ([`start_prior`]).
+fn first_linearisation_point(
+    config: &RunConfig,
+    layout: &StateLayout,
+    scan: &Scan,
+) -> Result<Option<Nominal>, EstimateError> {
+    let Some(k) = layout.install else {
+        return Ok(None);
+    };
+    let program = config.program()?;
+    let pri = config.priors_si();
+    let errors = DirectionErrors {
+        gyro_bias: pri.gyro_bias,
+        gyro_matrix: pri.gyro_scale.hypot(pri.gyro_misalignment),
+        accel_bias: pri.accel_bias,
+        accel_matrix: pri.accel_scale.hypot(pri.accel_misalignment),
+        mounting: config.install_sigma(),
+    };
+    let start = program_start(config);
+    let Some(m) = fit_mounting(&scan.bins, &program, &config.site(), start, &errors) else {
+        return Ok(None);
+    };
+    let dt = 1.0 / config.filter.imu_rate_hz;
+    let (k0, _) = program.state(scan.span.0 - dt - start);
+    let mut totals = vec![0.0; layout.dim()];
+    totals[k..k + 3].copy_from_slice(log_so3(&m).as_slice());
+    Ok(Some(Nominal {
+        totals,
+        c_start: c_platform_to_base(&k0) * m,
+    }))
+}
+
+/// One pass over the data, linearised about `nominal` (the prior means and the program's
+/// start attitude if `None`): compensation, turntable reading and start attitude with the
+/// nominal values, the prior mean of each error state the prior mean less the nominal value.
+/// A `closed_loop` pass feeds every estimate back as it goes; otherwise only the attitude.
 #[allow(clippy::too_many_arguments)]
 fn run_pass(
     config: &RunConfig,
@@ -419,6 +460,7 @@ fn run_pass(
     turntable: Option<(&TurntableData, &str)>,
     scan: &Scan,
     nominal: Option<&Nominal>,
+    closed_loop: bool,
     progress: &mut dyn FnMut(usize),
 ) -> Result<(Estimate, Matrix3<f64>), EstimateError> {
     let dt = 1.0 / config.filter.imu_rate_hz;
@@ -468,7 +510,7 @@ fn run_pass(
         dt,
         u_enu,
         f_enu: site.specific_force_at_rest_enu(),
-        full_feedback: nominal.is_none(),
+        full_feedback: closed_loop,
         n_steps: scan.n,
     };
     let lin = Linearisation::from_totals(layout, &totals);
