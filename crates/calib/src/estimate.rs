@@ -476,6 +476,7 @@ fn run_pass(
     };
     let program = config.program()?;
     let (k0, _) = program.state(scan.span.0 - dt - program_start(config));
+    let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());
     let (c_program, p0) = start_prior(config, layout, scan, &program, c_platform_to_base(&k0));
     let mut filter =
         NormalisedFilter::with_covariance(&p0).map_err(|source| EstimateError::Filter {
@@ -483,7 +484,6 @@ fn run_pass(
             line: 0,
             source,
         })?;
-    let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());
     // The prior means are zero: as errors of the nominal values they are -nominal.
     for (k, v) in totals.iter().enumerate().skip(StateLayout::INSTRUMENT) {
         filter.set_state(k, -v);

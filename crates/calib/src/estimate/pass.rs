@@ -9,7 +9,7 @@ use crate::io::{ImuKind, ImuRecord};
 use crate::layout::StateLayout;
 use crate::model::AngleSample;
 use nalgebra::{Matrix3, Vector3};
-use sins_model::attitude::{attitude_error, exp_so3, orthonormalize};
+use sins_model::attitude::{attitude_error, exp_so3, log_so3, orthonormalize};
 use sins_model::terms::{AffineError, ErrorModel, Sensor, SensorInput};
 use turntable::gimbal::{c_platform_to_base, gimbal_jacobian};
 
@@ -60,16 +60,21 @@ impl Linearisation {
             *p += x[StateLayout::INSTRUMENT + k];
         }
         self.compensation = Compensation::new(&layout.model, &self.p);
+        // The mounting errors are small rotations about the current mountings, as the
+        // turntable measurement's Jacobian takes them: body-frame for the installation
+        // (`exp(dz) = exp(dz_hat) exp(d)`, Jacobian `-C`), ENU for the base
+        // (`exp(g) exp(g_hat)`, Jacobian `-I`). Adding rotation vectors instead is wrong by
+        // `dz_hat x d / 2`, a few per cent for degree-level mountings.
         if let Some(k) = layout.install {
-            self.delta += Vector3::new(x[k], x[k + 1], x[k + 2]);
-            self.c_install = exp_so3(&self.delta);
+            self.c_install *= exp_so3(&Vector3::new(x[k], x[k + 1], x[k + 2]));
+            self.delta = log_so3(&self.c_install);
         }
         if let Some(k) = layout.tau {
             self.tau += x[k];
         }
         if let Some(k) = layout.base {
-            self.gamma += Vector3::new(x[k], x[k + 1], x[k + 2]);
-            self.c_base = exp_so3(&self.gamma);
+            self.c_base = exp_so3(&Vector3::new(x[k], x[k + 1], x[k + 2])) * self.c_base;
+            self.gamma = log_so3(&self.c_base);
         }
     }
 }
