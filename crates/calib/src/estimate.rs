@@ -374,8 +374,16 @@ fn start_prior(
     scan: &Scan,
     program: &turntable::program::Program,
     c_nominal: Matrix3<f64>,
+    install_hat: &Vector3<f64>,
 ) -> (Matrix3<f64>, DMatrix<f64>) {
-    let nominal = || (c_nominal, initial_covariance(config, layout, &c_nominal));
+    // The start attitude error is tied to the installation error as a perturbation of the
+    // mounting about its linearisation point: C_true = C_p exp(dz_hat) exp(d) gives
+    // beta_0 = C_p exp(dz_hat) d + eps, so the correlation is with the attitude of that mounting,
+    // not the nominal one (the two differ by dz_hat x d, 1e-3 rad for degree-level mountings,
+    // six times the sigma of eps; with the nominal one a static run's installation heading came
+    // out 6 sigma off).
+    let c_linearised = c_nominal * exp_so3(install_hat);
+    let nominal = || (c_nominal, initial_covariance(config, layout, &c_linearised));
     if layout.install.is_some() || config.filter.attitude_prior == AttitudePrior::Independent {
         return nominal();
     }
@@ -477,7 +485,17 @@ fn run_pass(
     let program = config.program()?;
     let (k0, _) = program.state(scan.span.0 - dt - program_start(config));
     let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());
-    let (c_program, p0) = start_prior(config, layout, scan, &program, c_platform_to_base(&k0));
+    let install_hat = layout.install.map_or(Vector3::zeros(), |k| {
+        Vector3::new(totals[k], totals[k + 1], totals[k + 2])
+    });
+    let (c_program, p0) = start_prior(
+        config,
+        layout,
+        scan,
+        &program,
+        c_platform_to_base(&k0),
+        &install_hat,
+    );
     let mut filter =
         NormalisedFilter::with_covariance(&p0).map_err(|source| EstimateError::Filter {
             t: scan.span.0,
