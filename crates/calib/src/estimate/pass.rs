@@ -86,6 +86,8 @@ pub(super) struct Strapdown {
     pub c: Matrix3<f64>,
     /// Earth rotation over one step, `exp(-skew(u dt))`.
     a_step: Matrix3<f64>,
+    /// The Earth rotation vector of one step, `u dt` (ENU).
+    zeta: Vector3<f64>,
     dth_prev: Vector3<f64>,
     dv_prev: Vector3<f64>,
 }
@@ -103,6 +105,7 @@ impl Strapdown {
         Self {
             c: c0,
             a_step: exp_so3(&(-u_enu * dt)),
+            zeta: u_enu * dt,
             dth_prev: Vector3::zeros(),
             dv_prev: Vector3::zeros(),
         }
@@ -122,9 +125,12 @@ impl Strapdown {
         let c_prev = self.c;
         self.c = self.a_step * c_prev * exp_so3(&phi);
         (self.dth_prev, self.dv_prev) = (*dth, *dv);
+        // In the ENU frame, which turns by zeta = u dt against inertial space over the step:
+        // dv_enu = (I - skew(zeta) / 2) C_prev dv_body.
+        let dv_start = c_prev * dv_body;
         StepKinematics {
             c_mid: (c_prev + self.c) * 0.5,
-            dv_enu: c_prev * dv_body,
+            dv_enu: dv_start - 0.5 * self.zeta.cross(&dv_start),
         }
     }
 
