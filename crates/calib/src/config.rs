@@ -136,6 +136,10 @@ pub struct FilterConfig {
     /// Prior of the initial attitude error (absent: `installation`).
     #[serde(default)]
     pub attitude_prior: AttitudePrior,
+    /// IMU time at which the rotation program starts (s); absent: found from the data (the
+    /// measured rate magnitude matched against the program's).
+    #[serde(default)]
+    pub program_start_s: Option<f64>,
 }
 
 /// How the turntable clock relates to the IMU clock: `t_tt = offset_s + (1 + rate_error) * t_imu`,

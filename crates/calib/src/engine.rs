@@ -96,6 +96,11 @@ impl RateChanges {
         Self { times }
     }
 
+    /// The program times of the rate changes, increasing.
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
+
     /// Whether the open program-time interval `(t0, t1)` is free of rate changes.
     pub fn clear(&self, t0: f64, t1: f64) -> bool {
         let k = self.times.partition_point(|&c| c <= t0);

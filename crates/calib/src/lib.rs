@@ -35,5 +35,6 @@ pub mod io;
 pub mod layout;
 pub mod model;
 pub mod paper;
+pub mod program_start;
 pub mod report;
 pub mod simulate;

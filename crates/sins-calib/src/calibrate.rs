@@ -21,8 +21,8 @@ const PROGRESS_ABOVE_RECORDS: usize = 100_000;
 pub struct Args {
     /// IMU records: a CSV with the header `t,dthx,dthy,dthz,dvx,dvy,dvz` (increments, rad and m/s)
     /// or `t,wx,wy,wz,fx,fy,fz` (rad/s and m/s^2), an optional `temp` column; t in s on the IMU
-    /// clock, the rotation program starting at t = 0, records at filter.imu_rate_hz
-    /// (docs/formats.md).
+    /// clock (the program may start at any time: see --program-start), records at
+    /// filter.imu_rate_hz (docs/formats.md).
     #[arg(long, value_name = "FILE")]
     pub imu: PathBuf,
     /// Turntable angle records: a CSV with the header `t,k1,k2,k3` (t in s on the turntable
@@ -40,6 +40,12 @@ pub struct Args {
     /// units, and the fit statistics (docs/formats.md).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// IMU time (s) at which the rotation program starts. Without it the start is found from the
+    /// data, by matching the measured rate magnitude against the program's; with it, the data are
+    /// checked against the program from there. Either way a recording that does not follow the
+    /// program is refused.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub program_start: Option<f64>,
     /// True values (the truth.json of `simulate`, or any result file): also print each
     /// parameter's true value, its error in sigmas and the normalised estimation error squared
     /// (NEES) of all parameters.
@@ -112,7 +118,10 @@ fn progress_bar(records: usize) -> ProgressBar {
 
 /// Run `calibrate`.
 pub fn run(args: &Args) -> Result<(), Error> {
-    let (config, origin) = load_config(&args.config)?;
+    let (mut config, origin) = load_config(&args.config)?;
+    if let Some(t) = args.program_start {
+        config.filter.program_start_s = Some(t);
+    }
     let program = config.program()?;
     // Read the truth first: a wrong path should not cost a whole run.
     let truth = args.truth.as_deref().map(read_result_json).transpose()?;
@@ -181,13 +190,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
         est.names.len(),
         est.names.len() - 3
     );
-    if t0 * config.filter.imu_rate_hz > 50.0 {
-        let _ = writeln!(
-            s,
-            "  note: the IMU data start at t = {t0} s; calibrate takes the program to start at \
-             IMU time 0"
-        );
-    }
+    let _ = writeln!(
+        s,
+        "  program start   t = {} s on the IMU clock ({})",
+        table::compact(est.program_start_s),
+        if est.program_start_found {
+            "found from the data"
+        } else {
+            "given, checked against the data"
+        }
+    );
     s.push('\n');
     s += &parameter_report(&est, truth.as_ref());
     s.push('\n');
