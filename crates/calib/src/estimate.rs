@@ -26,7 +26,8 @@ use crate::io::{
 use crate::layout::{StateLayout, copy_start_attitude, initial_covariance, layout_for};
 use crate::model::LinearModel;
 use crate::program_start::{
-    ProgramStart, ProgramStartError, check_program_start, find_program_start,
+    ProgramStart, ProgramStartError, TurntableClockError, check_program_start,
+    check_turntable_clock, find_program_start,
 };
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{exp_so3, log_so3};
@@ -37,6 +38,7 @@ mod angles;
 mod pass;
 mod source;
 
+pub(crate) use angles::wrap_deg;
 use angles::{AngleInterpolator, median_interval};
 use pass::{AngleReader, Linearisation, Pass, PassSettings, Strapdown};
 pub use source::{ImuSource, MemoryImu};
@@ -57,6 +59,14 @@ pub enum EstimateError {
         file: String,
         /// What did not match.
         source: ProgramStartError,
+    },
+    /// The turntable angles do not follow the program on the clock relation.
+    #[error("{file}: {source}")]
+    TurntableClock {
+        /// The turntable file.
+        file: String,
+        /// What did not match.
+        source: TurntableClockError,
     },
     /// The filter refused a step.
     #[error(
@@ -403,6 +413,18 @@ fn angle_reader<'a>(
     }
     stats.turntable_record_rate_hz = (1.0 + clock.turntable_rate_error) / med;
     let program = config.program()?;
+    // The delay is searched within its prior (three sigma).
+    check_turntable_clock(
+        &tt.records,
+        &clock,
+        &program,
+        scan.program_start,
+        3.0 * config.priors.tau_s,
+    )
+    .map_err(|source| EstimateError::TurntableClock {
+        file: file.to_string(),
+        source,
+    })?;
     let reader = AngleReader {
         interp: AngleInterpolator::new(tt, clock, med),
         rate_changes: RateChanges::new(&program),

@@ -329,3 +329,180 @@ fn golden_section(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64, tol: f64) -> f
     }
     0.5 * (a + b)
 }
+
+/// Why the turntable angles do not follow the program on the clock relation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TurntableClockError {
+    /// The angles hardly move although the program turns.
+    #[error(
+        "the gimbal angles stay within {range_deg:.3} deg while the program turns the platform \
+         by up to {program_deg:.1} deg: expected angles that follow the program (constant \
+         angles: a stuck sensor or the wrong columns)"
+    )]
+    Constant {
+        /// Largest spread of a recorded gimbal angle (deg).
+        range_deg: f64,
+        /// Largest spread of the program's gimbal angles (deg).
+        program_deg: f64,
+    },
+    /// The angles look like radians.
+    #[error(
+        "the gimbal angles follow the program once multiplied by 180/pi (largest magnitude \
+         {max_abs:.3} while the program's reach {program_deg:.1} deg): the angles look like \
+         radians; the file must give them in degrees"
+    )]
+    Radians {
+        /// Largest recorded magnitude.
+        max_abs: f64,
+        /// Largest magnitude of the program's angles (deg).
+        program_deg: f64,
+    },
+    /// The angles follow the program at another time offset.
+    #[error(
+        "the gimbal angles follow the program {shift_s:+.3} s later on the IMU clock than the \
+         [clock] relation puts them (RMS {rms_deg:.3} deg there, {rms_at_zero_deg:.3} deg with \
+         the relation as given): check the [clock] relation (clock.turntable_offset_s = \
+         {offset_s:.3} s would put them there)"
+    )]
+    Shifted {
+        /// Shift of the best fit (IMU clock, s).
+        shift_s: f64,
+        /// RMS angle misfit at that shift (deg).
+        rms_deg: f64,
+        /// RMS angle misfit with the relation as given (deg).
+        rms_at_zero_deg: f64,
+        /// The turntable clock offset that would fit (s).
+        offset_s: f64,
+    },
+    /// The angles do not follow the program at any offset.
+    #[error(
+        "the gimbal angles do not follow the program at any clock offset: RMS misfit \
+         {rms_deg:.3} deg at best (at most {limit_deg:.3} deg expected); check the program and \
+         the column order (heading, bank, pitch)"
+    )]
+    NoMatch {
+        /// Best RMS misfit (deg).
+        rms_deg: f64,
+        /// Accepted misfit (deg).
+        limit_deg: f64,
+    },
+}
+
+/// Check the turntable records against the program through the clock relation: the recorded
+/// gimbal angles at turntable time `t_tt` must be the program's at program time
+/// `clock.imu_time(t_tt) - program_start - tau` for a delay `tau` of at most `max_delay_s`.
+/// Refuses constant angles, radians and a clock offset that is off, naming the likely cause.
+pub fn check_turntable_clock(
+    records: &[crate::io::TurntableRecord],
+    clock: &crate::config::ClockConfig,
+    program: &Program,
+    program_start: f64,
+    max_delay_s: f64,
+) -> Result<(), TurntableClockError> {
+    if records.len() < 2 {
+        return Ok(());
+    }
+    let duration = program.duration();
+    // About two thousand records spread over the file are plenty.
+    let every = (records.len() / 2000).max(1);
+    let sample: Vec<&crate::io::TurntableRecord> = records.iter().step_by(every).collect();
+    let prog_deg = |t: f64| program.state(t).0.map(f64::to_degrees);
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let mut max_abs: f64 = 0.0;
+    for r in &sample {
+        for g in 0..3 {
+            lo[g] = lo[g].min(r.k_deg[g]);
+            hi[g] = hi[g].max(r.k_deg[g]);
+            max_abs = max_abs.max(r.k_deg[g].abs());
+        }
+    }
+    let spread = (0..3).map(|g| hi[g] - lo[g]).fold(0.0, f64::max);
+    let (mut plo, mut phi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let mut prog_abs: f64 = 0.0;
+    for i in 0..=2000 {
+        let k = prog_deg(duration * i as f64 / 2000.0);
+        for g in 0..3 {
+            plo[g] = plo[g].min(k[g]);
+            phi[g] = phi[g].max(k[g]);
+            prog_abs = prog_abs.max(k[g].abs());
+        }
+    }
+    let prog_spread = (0..3).map(|g| phi[g] - plo[g]).fold(0.0, f64::max);
+    if prog_spread > 10.0 && spread < 0.01 * prog_spread {
+        return Err(TurntableClockError::Constant {
+            range_deg: spread,
+            program_deg: prog_spread,
+        });
+    }
+    // RMS angle misfit (deg) of the records inside the program with the records taken `shift`
+    // later on the IMU clock, the recorded values multiplied by `scale`.
+    let rms_scaled = |shift: f64, scale: f64| {
+        let (mut sse, mut n) = (0.0, 0usize);
+        for r in &sample {
+            let t = clock.imu_time(r.t) - program_start - shift;
+            if !(0.0..=duration).contains(&t) {
+                continue;
+            }
+            let k = prog_deg(t);
+            for g in 0..3 {
+                let d = crate::estimate::wrap_deg(scale * r.k_deg[g] - k[g]);
+                sse += d * d;
+            }
+            n += 3;
+        }
+        (n > 0).then(|| (sse / n as f64).sqrt())
+    };
+    let rms = |shift: f64| rms_scaled(shift, 1.0);
+    let at_zero = rms(0.0).unwrap_or(f64::INFINITY);
+    // The fastest gimbal rate times the largest delay, plus sensor noise and a margin.
+    let max_rate = program
+        .pieces()
+        .iter()
+        .flat_map(|p| p.rate)
+        .fold(0.0_f64, |m, r| m.max(r.abs()))
+        .to_degrees();
+    let limit = max_rate * max_delay_s + 0.05;
+    if at_zero <= limit {
+        return Ok(());
+    }
+    // Search shifts of up to a tenth of the program (1-s grid, then 10 ms).
+    let reach = (0.1 * duration).max(5.0);
+    let mut best = (at_zero, 0.0);
+    let mut s = -reach;
+    while s <= reach {
+        if let Some(v) = rms(s)
+            && v < best.0
+        {
+            best = (v, s);
+        }
+        s += 1.0;
+    }
+    let centre = best.1;
+    let mut s = centre - 1.0;
+    while s <= centre + 1.0 {
+        if let Some(v) = rms(s)
+            && v < best.0
+        {
+            best = (v, s);
+        }
+        s += 0.01;
+    }
+    if best.0 > limit && rms_scaled(0.0, 180.0 / std::f64::consts::PI).is_some_and(|v| v <= limit) {
+        return Err(TurntableClockError::Radians {
+            max_abs,
+            program_deg: prog_abs,
+        });
+    }
+    if best.0 <= limit {
+        return Err(TurntableClockError::Shifted {
+            shift_s: best.1,
+            rms_deg: best.0,
+            rms_at_zero_deg: at_zero,
+            offset_s: clock.turntable_offset_s + best.1 * (1.0 + clock.turntable_rate_error),
+        });
+    }
+    Err(TurntableClockError::NoMatch {
+        rms_deg: best.0,
+        limit_deg: limit,
+    })
+}
