@@ -443,9 +443,8 @@ pub fn check_turntable_clock(
             if !(0.0..=duration).contains(&t) {
                 continue;
             }
-            let k = prog_deg(t);
-            for g in 0..3 {
-                let d = crate::estimate::wrap_deg(scale * r.k_deg[g] - k[g]);
+            for (recorded, expected) in r.k_deg.iter().zip(prog_deg(t)) {
+                let d = crate::estimate::wrap_deg(scale * recorded - expected);
                 sse += d * d;
             }
             n += 3;
