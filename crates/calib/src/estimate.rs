@@ -18,6 +18,7 @@ use crate::align::{
     DirectionErrors, RateBin, RateBinner, align_to_program, aligned_covariance, fit_mounting,
 };
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
+use crate::data_checks::{check_gyros_alive, check_record, check_specific_force};
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
 use crate::filter::NormalisedFilter;
 use crate::io::{
@@ -216,6 +217,7 @@ fn scan_imu(
     let mut binner = RateBinner::new(BIN_S);
     let kind = imu.kind();
     while let Some((rec, line)) = imu.next_record()? {
+        check_record(&rec, kind, dt, imu.file(), line)?;
         let (g, a) = (Vector3::from(rec.gyro), Vector3::from(rec.accel));
         match kind {
             ImuKind::Increments => binner.push(rec.t, dt, &g, &a),
@@ -304,6 +306,11 @@ pub fn estimate_from(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let mut scan = scan_imu(imu, config.filter.imu_rate_hz, progress)?;
+    let program = config.program()?;
+    let turns = program.pieces().iter().any(|p| p.rate != [0.0; 3]);
+    check_gyros_alive(&scan.bins, turns, imu.file())?;
+    let g = config.site().specific_force_at_rest_enu().norm();
+    check_specific_force(&scan.bins, g, imu.file())?;
     locate_program(config, &mut scan, imu.file())?;
     let n = scan.n;
     // Every pass carries a constant copy of the start attitude error, so that the next pass can

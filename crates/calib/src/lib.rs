@@ -28,6 +28,7 @@
 pub mod align;
 pub mod config;
 pub mod covariance;
+pub mod data_checks;
 pub mod engine;
 pub mod estimate;
 pub mod filter;

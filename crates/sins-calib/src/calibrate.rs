@@ -116,8 +116,65 @@ fn progress_bar(records: usize) -> ProgressBar {
     bar
 }
 
+/// How a calibration ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// Every measurement's mean NIS is inside its band.
+    Fits,
+    /// A measurement's mean NIS is outside its band: the model does not fit these data.
+    DoesNotFit,
+}
+
+/// The band of a mean of `n` chi-square(3) values: 3 +- three standard deviations, sqrt(6 / n)
+/// each (a false alarm about once in 370 runs per measurement).
+fn nis_band(n: usize) -> f64 {
+    3.0 * (6.0 / n.max(1) as f64).sqrt()
+}
+
+/// The measurements whose mean NIS is outside its band, as lines of a report.
+fn misfits(stats: &FitStatistics, with_turntable: bool) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut check = |what: &str, mean: f64, n: usize| {
+        if n > 0 && (mean - 3.0).abs() > nis_band(n) {
+            out.push(format!(
+                "{what}: mean NIS {mean:.3} over {n} updates, expected 3 +- {:.3}",
+                nis_band(n)
+            ));
+        }
+    };
+    check("specific force", stats.accel_mean_nis, stats.accel_updates);
+    if with_turntable {
+        check(
+            "turntable angles",
+            stats.turntable_mean_nis,
+            stats.turntable_updates,
+        );
+    }
+    out
+}
+
+/// Refuse an output path whose directory does not exist, before any work is done.
+fn check_output_path(path: &Path) -> Result<(), Error> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(format!(
+            "{}: cannot write there: the directory {} does not exist",
+            path.display(),
+            dir.display()
+        )
+        .into());
+    }
+    Ok(())
+}
+
 /// Run `calibrate`.
-pub fn run(args: &Args) -> Result<(), Error> {
+pub fn run(args: &Args) -> Result<Outcome, Error> {
+    if let Some(path) = &args.json {
+        check_output_path(path)?;
+    }
     let (mut config, origin) = load_config(&args.config)?;
     if let Some(t) = args.program_start {
         config.filter.program_start_s = Some(t);
@@ -218,7 +275,18 @@ pub fn run(args: &Args) -> Result<(), Error> {
         std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
         let _ = writeln!(s, "\nwrote {}", path.display());
     }
-    print(&s)
+    print(&s)?;
+    let bad = misfits(&est.stats, turntable.is_some());
+    if bad.is_empty() {
+        return Ok(Outcome::Fits);
+    }
+    eprintln!(
+        "\nTHE MODEL DOES NOT FIT THESE DATA (exit status 3): the innovations scatter unlike the \
+         configured noise\n  {}\nThe estimates above are not to be trusted: check the noise \
+         levels in [noise], the program, the clock relation, and errors the model lacks.",
+        bad.join("\n  ")
+    );
+    Ok(Outcome::DoesNotFit)
 }
 
 /// The estimates by group in the paper's units; with a truth also the true value and the error
@@ -267,8 +335,7 @@ fn nis_verdict(mean: f64, n: usize) -> String {
     if n == 0 {
         return "no updates".into();
     }
-    // The mean of n independent chi-square(3) values: 3 +- sqrt(6 / n); three of those either way.
-    let band = 3.0 * (6.0 / n as f64).sqrt();
+    let band = nis_band(n);
     let head = format!("mean NIS {mean:.3} over {n} updates");
     let band_text = format!("3 +- {}", table::significant(band, 2));
     if (mean - 3.0).abs() <= band {

@@ -78,15 +78,23 @@ pub fn print(text: &str) -> Result<(), Error> {
     }
 }
 
+/// Exit status of a calibration whose model does not fit the data (a mean NIS outside its
+/// band): the estimates were computed and reported, but are not to be trusted. 1 is refused
+/// input or another error, 2 a malformed command line.
+pub const MODEL_DOES_NOT_FIT: u8 = 3;
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Simulate(args) => simulate::run(&args),
-        Command::Calibrate(args) => calibrate::run(&args),
-        Command::Analyse(args) => analyse::run(&args),
+        Command::Simulate(args) => simulate::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Calibrate(args) => calibrate::run(&args).map(|outcome| match outcome {
+            calibrate::Outcome::Fits => ExitCode::SUCCESS,
+            calibrate::Outcome::DoesNotFit => ExitCode::from(MODEL_DOES_NOT_FIT),
+        }),
+        Command::Analyse(args) => analyse::run(&args).map(|()| ExitCode::SUCCESS),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
