@@ -39,7 +39,8 @@ pub fn check_record(
         ImuKind::Increments => "increment",
         ImuKind::Rates => "value",
     };
-    if !(rate <= MAX_RATE_RAD_S) {
+    // NaN never gets here (the readers refuse it), infinity does.
+    if rate.is_nan() || rate > MAX_RATE_RAD_S {
         return Err(IoError::Line {
             file: file.to_string(),
             line,
@@ -50,7 +51,7 @@ pub fn check_record(
             ),
         });
     }
-    if !(force <= MAX_SPECIFIC_FORCE_M_S2) {
+    if force.is_nan() || force > MAX_SPECIFIC_FORCE_M_S2 {
         return Err(IoError::Line {
             file: file.to_string(),
             line,
