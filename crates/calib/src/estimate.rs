@@ -42,7 +42,7 @@ mod source;
 pub(crate) use angles::wrap_deg;
 use angles::{AngleInterpolator, median_interval};
 use pass::{AngleReader, Linearisation, Pass, PassSettings, Strapdown};
-pub use source::{ImuSource, MemoryImu};
+pub use source::{FileImu, ImuSource, MemoryImu};
 
 /// Errors of an estimation run.
 #[derive(Debug, thiserror::Error)]
@@ -143,6 +143,10 @@ pub struct Estimate {
     pub final_c_body_to_enu: Matrix3<f64>,
     /// Fit statistics.
     pub stats: FitStatistics,
+    /// First and last time stamp of the IMU records (s).
+    pub imu_span: (f64, f64),
+    /// Increments or rates.
+    pub imu_kind: ImuKind,
     /// IMU time at which the rotation program starts (s).
     pub program_start_s: f64,
     /// Whether that start was found from the data (rather than given).
@@ -635,6 +639,8 @@ fn run_pass(
         final_time,
         final_c_body_to_enu: c,
         stats,
+        imu_span: scan.span,
+        imu_kind: imu.kind(),
         program_start_s: scan.program_start,
         program_start_found: scan.program_start_found,
     };

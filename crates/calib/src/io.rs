@@ -14,6 +14,7 @@
 
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
+use std::io::BufRead;
 use std::path::Path;
 use turntable::simulate::{ImuSample, Truth, TurntableSample};
 
@@ -190,64 +191,179 @@ fn write_text(path: &Path, text: &str) -> Result<(), IoError> {
     })
 }
 
-/// Split into numbered lines (1-based); trailing blank lines at the end of the file are fine,
-/// blank lines before data are not.
-fn numbered_lines(text: &str) -> Vec<(usize, &str)> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines: Vec<(usize, &str)> = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
-        .collect();
-    while lines.last().is_some_and(|(_, l)| l.trim().is_empty()) {
-        lines.pop();
+/// At most this many characters of a field are echoed in a message (a 10-MB field is not).
+const ECHO_CHARS: usize = 60;
+
+/// A field as a message shows it: whole if short, else its start, "..." and its length.
+fn excerpt(field: &str) -> String {
+    match field.char_indices().nth(ECHO_CHARS) {
+        None => field.to_string(),
+        Some((cut, _)) => format!("{}... ({} bytes)", &field[..cut], field.len()),
     }
-    lines
 }
 
-/// Parse one data row into `n` finite numbers.
-fn parse_row(file: &str, line: usize, text: &str, names: &[String]) -> Result<Vec<f64>, IoError> {
-    let fields: Vec<&str> = text.split(',').map(str::trim).collect();
-    if fields.len() != names.len() {
+/// Lines of a delimited text file read one at a time, numbered from 1, with the checks every
+/// line needs: valid UTF-8, no blank line before data, and a line end after the last line (a
+/// last line without one is taken as a file cut off in the middle of a row).
+struct Lines {
+    reader: Box<dyn BufRead>,
+    file: String,
+    buf: Vec<u8>,
+    /// Number of the line in `buf`.
+    line: usize,
+    /// First blank line not yet followed by data (blank lines at the very end are fine).
+    blank: Option<usize>,
+}
+
+impl Lines {
+    fn new(reader: Box<dyn BufRead>, file: &str) -> Self {
+        Self {
+            reader,
+            file: file.to_string(),
+            buf: Vec::with_capacity(256),
+            line: 0,
+            blank: None,
+        }
+    }
+
+    /// The next non-blank line and its number; `None` at the end of the file.
+    fn next_line(&mut self) -> Result<Option<(usize, &str)>, IoError> {
+        let (start, end) = loop {
+            self.buf.clear();
+            let n = self
+                .reader
+                .read_until(b'\n', &mut self.buf)
+                .map_err(|source| IoError::Read {
+                    file: self.file.clone(),
+                    source,
+                })?;
+            if n == 0 {
+                return Ok(None);
+            }
+            self.line += 1;
+            let ended = self.buf.last() == Some(&b'\n');
+            let bom = "\u{feff}".as_bytes();
+            let start = if self.line == 1 && self.buf.starts_with(bom) {
+                bom.len()
+            } else {
+                0
+            };
+            let mut end = self.buf.len();
+            while end > start && matches!(self.buf[end - 1], b'\n' | b'\r') {
+                end -= 1;
+            }
+            let text = match std::str::from_utf8(&self.buf[start..end]) {
+                Ok(t) => t,
+                Err(e) => {
+                    return Err(line_error(
+                        &self.file,
+                        self.line,
+                        format!(
+                            "not UTF-8 text (byte {} of the line): expected a text file of \
+                             numbers",
+                            e.valid_up_to() + 1
+                        ),
+                    ));
+                }
+            };
+            if text.trim().is_empty() {
+                self.blank.get_or_insert(self.line);
+                continue;
+            }
+            if let Some(b) = self.blank {
+                return Err(line_error(
+                    &self.file,
+                    b,
+                    "empty line before more data: expected a data row".into(),
+                ));
+            }
+            if !ended {
+                return Err(line_error(
+                    &self.file,
+                    self.line,
+                    format!(
+                        "the last line has no line end: the file looks cut off in the middle of \
+                         a row (`{}`); expected every row to end with a line end",
+                        excerpt(text)
+                    ),
+                ));
+            }
+            break (start, end);
+        };
+        let text = std::str::from_utf8(&self.buf[start..end]).expect("checked in the loop");
+        Ok(Some((self.line, text)))
+    }
+}
+
+fn open_reader(path: &Path) -> Result<Box<dyn BufRead>, IoError> {
+    let f = std::fs::File::open(path).map_err(|source| IoError::Read {
+        file: path.display().to_string(),
+        source,
+    })?;
+    Ok(Box::new(std::io::BufReader::with_capacity(1 << 16, f)))
+}
+
+/// Parse one data row into its numbers (`out`, as many as `names`).
+fn parse_row(
+    file: &str,
+    line: usize,
+    text: &str,
+    names: &[String],
+    out: &mut [f64],
+) -> Result<(), IoError> {
+    let mut count = 0;
+    for (k, f) in text.split(',').enumerate() {
+        count = k + 1;
+        if k >= names.len() {
+            continue;
+        }
+        let f = f.trim();
+        out[k] = match f.parse::<f64>() {
+            Ok(v) if v.is_finite() => v,
+            Ok(_) => {
+                return Err(line_error(
+                    file,
+                    line,
+                    format!(
+                        "column `{}`: expected a finite number, found `{}`",
+                        names[k],
+                        excerpt(f)
+                    ),
+                ));
+            }
+            Err(_) => {
+                return Err(line_error(
+                    file,
+                    line,
+                    format!(
+                        "column `{}`: expected a number, found `{}`",
+                        names[k],
+                        excerpt(f)
+                    ),
+                ));
+            }
+        };
+    }
+    if count != names.len() {
         return Err(line_error(
             file,
             line,
             format!(
-                "expected {} comma-separated fields ({}), found {}",
+                "expected {} comma-separated fields ({}), found {count}",
                 names.len(),
-                names.join(","),
-                if text.trim().is_empty() {
-                    "an empty line".to_string()
-                } else {
-                    format!("{}", fields.len())
-                }
+                names.join(",")
             ),
         ));
     }
-    fields
-        .iter()
-        .zip(names)
-        .map(|(f, name)| match f.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => Err(line_error(
-                file,
-                line,
-                format!("column `{name}`: expected a finite number, found `{f}`"),
-            )),
-            Err(_) => Err(line_error(
-                file,
-                line,
-                format!("column `{name}`: expected a number, found `{f}`"),
-            )),
-        })
-        .collect()
+    Ok(())
 }
 
 /// Header names, trimmed; refuses duplicates and empty names.
-fn header(file: &str, lines: &[(usize, &str)], expected: &str) -> Result<Vec<String>, IoError> {
-    let Some(&(n, text)) = lines.first() else {
+fn header(lines: &mut Lines, expected: &str) -> Result<(usize, Vec<String>), IoError> {
+    let file = lines.file.clone();
+    let Some((n, text)) = lines.next_line()? else {
         return Err(line_error(
-            file,
+            &file,
             1,
             format!("empty file: expected a header row `{expected}` and data rows"),
         ));
@@ -256,7 +372,7 @@ fn header(file: &str, lines: &[(usize, &str)], expected: &str) -> Result<Vec<Str
     for (i, name) in names.iter().enumerate() {
         if name.is_empty() {
             return Err(line_error(
-                file,
+                &file,
                 n,
                 format!(
                     "header column {} is empty: expected a header row `{expected}`",
@@ -266,13 +382,16 @@ fn header(file: &str, lines: &[(usize, &str)], expected: &str) -> Result<Vec<Str
         }
         if names[..i].contains(name) {
             return Err(line_error(
-                file,
+                &file,
                 n,
-                format!("header names column `{name}` twice: expected `{expected}`"),
+                format!(
+                    "header names column `{}` twice: expected `{expected}`",
+                    excerpt(name)
+                ),
             ));
         }
     }
-    Ok(names)
+    Ok((n, names))
 }
 
 fn check_time(file: &str, line: usize, t: f64, previous: Option<f64>) -> Result<(), IoError> {
@@ -291,26 +410,18 @@ fn check_time(file: &str, line: usize, t: f64, previous: Option<f64>) -> Result<
     Ok(())
 }
 
-fn no_data(file: &str, lines: &[(usize, &str)]) -> Result<(), IoError> {
-    if lines.len() < 2 {
-        return Err(line_error(
-            file,
-            2,
-            "expected at least one data row after the header, found none".into(),
-        ));
-    }
-    Ok(())
-}
+const IMU_EXPECTED: &str = "t,dthx,dthy,dthz,dvx,dvy,dvz[,temp] or t,wx,wy,wz,fx,fy,fz[,temp]";
 
-/// Parse the text of an `imu.csv`; `file` names it in errors.
-pub fn parse_imu_csv(text: &str, file: &str) -> Result<ImuData, IoError> {
-    let lines = numbered_lines(text);
-    let expected = "t,dthx,dthy,dthz,dvx,dvy,dvz[,temp] or t,wx,wy,wz,fx,fy,fz[,temp]";
-    let names = header(file, &lines, expected)?;
-    let hline = lines[0].0;
+/// The kind of an `imu.csv` header and the column of `t` and each sensor value.
+fn imu_columns(
+    file: &str,
+    hline: usize,
+    names: &[String],
+) -> Result<(ImuKind, [usize; 7], Option<usize>), IoError> {
+    let expected = IMU_EXPECTED;
     let known = |kind: ImuKind, n: &str| kind.columns().contains(&n);
     let mut kinds = Vec::new();
-    for n in &names {
+    for n in names {
         let kind = if known(ImuKind::Increments, n) {
             ImuKind::Increments
         } else if known(ImuKind::Rates, n) {
@@ -321,7 +432,10 @@ pub fn parse_imu_csv(text: &str, file: &str) -> Result<ImuData, IoError> {
             return Err(line_error(
                 file,
                 hline,
-                format!("unknown column `{n}` in the header: expected {expected}"),
+                format!(
+                    "unknown column `{}` in the header: expected {expected}",
+                    excerpt(n)
+                ),
             ));
         };
         if !kinds.contains(&kind) {
@@ -362,36 +476,143 @@ pub fn parse_imu_csv(text: &str, file: &str) -> Result<ImuData, IoError> {
             )
         })?;
     }
-    let temp = index("temp");
-    no_data(file, &lines)?;
-    let mut records = Vec::with_capacity(lines.len() - 1);
-    let mut previous = None;
-    for &(n, text) in &lines[1..] {
-        let v = parse_row(file, n, text, &names)?;
-        let t = v[cols[0]];
-        check_time(file, n, t, previous)?;
-        previous = Some(t);
-        records.push(ImuRecord {
-            t,
-            gyro: [v[cols[1]], v[cols[2]], v[cols[3]]],
-            accel: [v[cols[4]], v[cols[5]], v[cols[6]]],
-            temp: temp.map(|i| v[i]),
-        });
-    }
-    Ok(ImuData { kind, records })
+    Ok((kind, cols, index("temp")))
 }
 
-/// Read an `imu.csv`.
+/// An `imu.csv` read record by record, every record checked as it comes (numbers, time order),
+/// so that a calibration never holds the whole file.
+pub struct ImuReader {
+    lines: Lines,
+    names: Vec<String>,
+    kind: ImuKind,
+    cols: [usize; 7],
+    temp: Option<usize>,
+    previous: Option<f64>,
+    values: Vec<f64>,
+    records: usize,
+    /// Line of the record last returned.
+    line: usize,
+}
+
+impl std::fmt::Debug for ImuReader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ImuReader")
+            .field("file", &self.lines.file)
+            .field("kind", &self.kind)
+            .field("line", &self.line)
+            .finish()
+    }
+}
+
+impl ImuReader {
+    /// Open an `imu.csv` and read its header.
+    pub fn open(path: &Path) -> Result<Self, IoError> {
+        Self::from_reader(open_reader(path)?, &path.display().to_string())
+    }
+
+    /// Read an `imu.csv` from any buffered reader; `file` names it in errors.
+    pub fn from_reader(reader: Box<dyn BufRead>, file: &str) -> Result<Self, IoError> {
+        let mut lines = Lines::new(reader, file);
+        let (hline, names) = header(&mut lines, IMU_EXPECTED)?;
+        let (kind, cols, temp) = imu_columns(file, hline, &names)?;
+        Ok(Self {
+            values: vec![0.0; names.len()],
+            lines,
+            names,
+            kind,
+            cols,
+            temp,
+            previous: None,
+            records: 0,
+            line: hline,
+        })
+    }
+
+    /// Increments or rates.
+    pub fn kind(&self) -> ImuKind {
+        self.kind
+    }
+
+    /// Whether the file has a `temp` column.
+    pub fn has_temp(&self) -> bool {
+        self.temp.is_some()
+    }
+
+    /// The file name used in messages.
+    pub fn file(&self) -> &str {
+        &self.lines.file
+    }
+
+    /// The line of the record last returned (1-based; the header is line 1).
+    pub fn line(&self) -> usize {
+        self.line
+    }
+
+    /// The next record; `None` at the end (a file without records is refused).
+    pub fn next_record(&mut self) -> Result<Option<ImuRecord>, IoError> {
+        let file = self.lines.file.clone();
+        let Some((n, text)) = self.lines.next_line()? else {
+            if self.records == 0 {
+                return Err(line_error(
+                    &file,
+                    self.line + 1,
+                    "expected at least one data row after the header, found none".into(),
+                ));
+            }
+            return Ok(None);
+        };
+        parse_row(&file, n, text, &self.names, &mut self.values)?;
+        let v = &self.values;
+        let c = &self.cols;
+        let t = v[c[0]];
+        check_time(&file, n, t, self.previous)?;
+        self.previous = Some(t);
+        self.records += 1;
+        self.line = n;
+        Ok(Some(ImuRecord {
+            t,
+            gyro: [v[c[1]], v[c[2]], v[c[3]]],
+            accel: [v[c[4]], v[c[5]], v[c[6]]],
+            temp: self.temp.map(|i| v[i]),
+        }))
+    }
+}
+
+/// Parse the text of an `imu.csv`; `file` names it in errors.
+pub fn parse_imu_csv(text: &str, file: &str) -> Result<ImuData, IoError> {
+    let bytes = text.as_bytes().to_vec();
+    collect_imu(ImuReader::from_reader(
+        Box::new(std::io::Cursor::new(bytes)),
+        file,
+    )?)
+}
+
+fn collect_imu(mut reader: ImuReader) -> Result<ImuData, IoError> {
+    let mut records = Vec::new();
+    while let Some(r) = reader.next_record()? {
+        records.push(r);
+    }
+    Ok(ImuData {
+        kind: reader.kind(),
+        records,
+    })
+}
+
+/// Read an `imu.csv` whole (a calibration streams it instead: [`ImuReader`]).
 pub fn read_imu_csv(path: &Path) -> Result<ImuData, IoError> {
-    parse_imu_csv(&read_text(path)?, &path.display().to_string())
+    collect_imu(ImuReader::open(path)?)
 }
 
 /// Parse the text of a `turntable.csv`; `file` names it in errors.
 pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoError> {
-    let lines = numbered_lines(text);
+    let bytes = text.as_bytes().to_vec();
+    read_turntable(Box::new(std::io::Cursor::new(bytes)), file)
+}
+
+fn read_turntable(reader: Box<dyn BufRead>, file: &str) -> Result<TurntableData, IoError> {
+    let mut lines = Lines::new(reader, file);
     let expected = TURNTABLE_COLUMNS.join(",");
-    let names = header(file, &lines, &expected)?;
-    let hline = lines[0].0;
+    let (hline, names) = header(&mut lines, &expected)?;
     if let Some(n) = names
         .iter()
         .find(|n| !TURNTABLE_COLUMNS.contains(&n.as_str()))
@@ -399,7 +620,10 @@ pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoEr
         return Err(line_error(
             file,
             hline,
-            format!("unknown column `{n}` in the header: expected {expected}"),
+            format!(
+                "unknown column `{}` in the header: expected {expected}",
+                excerpt(n)
+            ),
         ));
     }
     let mut cols = [0usize; 4];
@@ -412,11 +636,11 @@ pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoEr
             )
         })?;
     }
-    no_data(file, &lines)?;
-    let mut records = Vec::with_capacity(lines.len() - 1);
+    let mut records = Vec::new();
     let mut previous = None;
-    for &(n, text) in &lines[1..] {
-        let v = parse_row(file, n, text, &names)?;
+    let mut v = vec![0.0; names.len()];
+    while let Some((n, text)) = lines.next_line()? {
+        parse_row(file, n, text, &names, &mut v)?;
         let t = v[cols[0]];
         check_time(file, n, t, previous)?;
         previous = Some(t);
@@ -425,12 +649,20 @@ pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoEr
             k_deg: [v[cols[1]], v[cols[2]], v[cols[3]]],
         });
     }
+    if records.is_empty() {
+        return Err(line_error(
+            file,
+            hline + 1,
+            "expected at least one data row after the header, found none".into(),
+        ));
+    }
     Ok(TurntableData { records })
 }
 
-/// Read a `turntable.csv`.
+/// Read a `turntable.csv` (12 bytes of memory per record on the IMU clock's side: small next
+/// to the IMU file, which is streamed).
 pub fn read_turntable_csv(path: &Path) -> Result<TurntableData, IoError> {
-    parse_turntable_csv(&read_text(path)?, &path.display().to_string())
+    read_turntable(open_reader(path)?, &path.display().to_string())
 }
 
 /// Shortest text that parses back to the identical `f64` (plain or exponent form).

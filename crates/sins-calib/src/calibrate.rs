@@ -2,10 +2,9 @@
 
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, print};
-use calib::estimate::{Estimate, FitStatistics, RunData, estimate};
-use calib::io::{
-    ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json, read_turntable_csv,
-};
+use calib::estimate::{Estimate, FileImu, FitStatistics, ImuSource as _, estimate_from};
+use calib::io::{ImuKind, ResultFile, ResultParameter, read_result_json, read_turntable_csv};
+use calib::layout::layout_for;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -182,8 +181,9 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     let program = config.program()?;
     // Read the truth first: a wrong path should not cost a whole run.
     let truth = args.truth.as_deref().map(read_result_json).transpose()?;
-    let imu_file = args.imu.display().to_string();
-    let imu = read_imu_csv(&args.imu)?;
+    // The IMU file is streamed (read once per pass, kept in memory only when short).
+    let mut imu = FileImu::open(&args.imu)?;
+    let imu_file = imu.file().to_string();
     let tt_file = args.turntable.as_ref().map(|p| p.display().to_string());
     let tt = args
         .turntable
@@ -194,14 +194,9 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         (Some(d), Some(f)) => Some((d, f.as_str())),
         _ => None,
     };
-    let data = RunData {
-        imu: &imu,
-        imu_file: &imu_file,
-        turntable,
-    };
-
-    let bar = progress_bar(imu.records.len());
-    let result = estimate(&config, &data, &mut |done, total| {
+    let layout = layout_for(&config, turntable.is_some());
+    let bar = progress_bar(imu.len_hint().unwrap_or(0));
+    let result = estimate_from(&config, &layout, &mut imu, turntable, &mut |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     });
@@ -216,12 +211,12 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         program.name,
         table::compact(program.duration())
     );
-    let (t0, t1) = imu.span().unwrap_or((0.0, 0.0));
+    let (t0, t1) = est.imu_span;
     let _ = writeln!(
         s,
         "  IMU data        {imu_file}: {} records of {}, t = {} .. {} s",
-        imu.records.len(),
-        match imu.kind {
+        est.stats.imu_steps,
+        match est.imu_kind {
             ImuKind::Increments => "increments",
             ImuKind::Rates => "rates",
         },

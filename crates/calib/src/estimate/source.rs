@@ -1,7 +1,7 @@
 //! Where the IMU records come from: a source that can be read from its start again, once per
 //! pass, so that a calibration never needs the whole file in memory.
 
-use crate::io::{ImuData, ImuKind, ImuRecord, IoError};
+use crate::io::{ImuData, ImuKind, ImuReader, ImuRecord, IoError};
 
 /// IMU records in time order, readable from the start again (one reading per pass).
 pub trait ImuSource {
@@ -57,5 +57,99 @@ impl ImuSource for MemoryImu<'_> {
     }
     fn len_hint(&self) -> Option<usize> {
         Some(self.data.records.len())
+    }
+}
+
+/// An `imu.csv` read from its file once per pass. The records of the first reading are kept in
+/// memory up to [`FileImu::CACHE_RECORDS`] (a 45-minute run at 100 Hz fits) so that later passes
+/// do not parse the file again; a longer file is read again at every pass, and memory stays
+/// bounded whatever the length of the run.
+#[derive(Debug)]
+pub struct FileImu {
+    path: std::path::PathBuf,
+    file: String,
+    reader: Option<ImuReader>,
+    kind: ImuKind,
+    cache: Vec<(ImuRecord, usize)>,
+    /// The cache holds the whole file.
+    cached: bool,
+    /// The cache was given up (the file is longer than the cache).
+    overflowed: bool,
+    next: usize,
+    size_hint: Option<usize>,
+}
+
+impl FileImu {
+    /// Records kept in memory at most (80 bytes each).
+    pub const CACHE_RECORDS: usize = 500_000;
+
+    /// Open an `imu.csv` (its header is read and checked now).
+    pub fn open(path: &std::path::Path) -> Result<Self, IoError> {
+        let reader = ImuReader::open(path)?;
+        // Progress estimate: about 130 bytes a record in our own files.
+        let size_hint = std::fs::metadata(path)
+            .ok()
+            .map(|m| (m.len() / 130) as usize);
+        Ok(Self {
+            path: path.to_path_buf(),
+            file: path.display().to_string(),
+            kind: reader.kind(),
+            reader: Some(reader),
+            cache: Vec::new(),
+            cached: false,
+            overflowed: false,
+            next: 0,
+            size_hint,
+        })
+    }
+}
+
+impl ImuSource for FileImu {
+    fn file(&self) -> &str {
+        &self.file
+    }
+    fn kind(&self) -> ImuKind {
+        self.kind
+    }
+    fn rewind(&mut self) -> Result<(), IoError> {
+        self.next = 0;
+        if self.cached {
+            self.reader = None;
+        } else if self.reader.as_ref().is_none_or(|r| r.line() > 1) {
+            self.reader = Some(ImuReader::open(&self.path)?);
+        }
+        Ok(())
+    }
+    fn next_record(&mut self) -> Result<Option<(ImuRecord, usize)>, IoError> {
+        if self.cached {
+            let r = self.cache.get(self.next).copied();
+            self.next += 1;
+            return Ok(r);
+        }
+        let Some(reader) = self.reader.as_mut() else {
+            return Ok(None);
+        };
+        let Some(rec) = reader.next_record()? else {
+            // The first complete reading fills the cache unless it overflowed.
+            self.cached = !self.overflowed;
+            return Ok(None);
+        };
+        let item = (rec, reader.line());
+        if !self.overflowed {
+            if self.cache.len() < Self::CACHE_RECORDS {
+                self.cache.push(item);
+            } else {
+                self.overflowed = true;
+                self.cache = Vec::new();
+            }
+        }
+        Ok(Some(item))
+    }
+    fn len_hint(&self) -> Option<usize> {
+        if self.cached {
+            Some(self.cache.len())
+        } else {
+            self.size_hint
+        }
     }
 }
