@@ -312,6 +312,37 @@ impl RunConfig {
                 });
             }
         }
+        let site = &self.site;
+        let range = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(ConfigError::Invalid {
+                    origin: origin.to_string(),
+                    message: format!("{name} = {v} must lie in {lo} .. {hi} {unit}"),
+                })
+            }
+        };
+        range("site.latitude_deg", site.latitude_deg, -90.0, 90.0, "deg")?;
+        range(
+            "site.longitude_deg",
+            site.longitude_deg,
+            -180.0,
+            360.0,
+            "deg",
+        )?;
+        // From the Dead Sea shore to above any laboratory on a mountain.
+        range("site.height_m", site.height_m, -500.0, 10_000.0, "m")?;
+        // Rates beyond 100 kHz are no IMU's; they would only exhaust memory.
+        range("filter.imu_rate_hz", f.imu_rate_hz, 0.0, 1e5, "Hz")?;
+        range("truth.imu_rate_hz", self.truth.imu_rate_hz, 0.0, 1e5, "Hz")?;
+        range(
+            "truth.turntable_rate_hz",
+            self.truth.turntable_rate_hz,
+            0.0,
+            1e5,
+            "Hz",
+        )?;
         let c = &self.clock;
         if !(c.turntable_offset_s.is_finite()
             && c.turntable_rate_error.is_finite()

@@ -822,8 +822,57 @@ pub fn write_truth_json(path: &Path, truth: &Truth) -> Result<(), IoError> {
 /// Read a result or truth file.
 pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
     let text = read_text(path)?;
-    serde_json::from_str(&text).map_err(|source| IoError::Json {
-        file: path.display().to_string(),
+    let file = path.display().to_string();
+    let result: ResultFile = serde_json::from_str(&text).map_err(|source| IoError::Json {
+        file: file.clone(),
         source,
-    })
+    })?;
+    for (i, p) in result.parameters.iter().enumerate() {
+        if result.parameters[..i].iter().any(|q| q.name == p.name) {
+            return Err(IoError::File {
+                file,
+                message: format!(
+                    "parameter `{}` is given twice: expected each name once",
+                    excerpt(&p.name)
+                ),
+            });
+        }
+        if !p.value.is_finite() || p.sigma.is_some_and(|s| !s.is_finite()) {
+            return Err(IoError::File {
+                file,
+                message: format!(
+                    "parameter `{}`: expected a finite value and sigma",
+                    excerpt(&p.name)
+                ),
+            });
+        }
+    }
+    Ok(result)
+}
+
+impl ResultFile {
+    /// Refuse a parameter whose unit differs from the one the estimate uses (`expected` gives
+    /// the SI unit by name; other names are not checked): values are SI, and a value in another
+    /// unit would be compared as if it were.
+    pub fn check_units<'a>(
+        &self,
+        file: &str,
+        expected: impl Iterator<Item = (&'a str, &'a str)>,
+    ) -> Result<(), IoError> {
+        for (name, unit) in expected {
+            if let Some(p) = self.get(name)
+                && p.unit != unit
+            {
+                return Err(IoError::File {
+                    file: file.to_string(),
+                    message: format!(
+                        "parameter `{name}` is in `{}`: expected `{unit}` (result and truth files \
+                         hold SI values)",
+                        excerpt(&p.unit)
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
 }

@@ -22,6 +22,18 @@ pub fn named_or_file(name: &str) -> Result<RunConfig, ConfigError> {
     match name {
         "paper" => Ok(literal()),
         "paper-reconciled" => Ok(reconciled()),
-        path => RunConfig::from_file(std::path::Path::new(path)),
+        path => {
+            let p = std::path::Path::new(path);
+            // A name that is no file and no built-in configuration: say which names exist.
+            if !p.exists() && !path.contains(['/', '\\', '.']) {
+                return Err(ConfigError::Invalid {
+                    origin: path.to_string(),
+                    message: "no such file and no built-in configuration of that name: the \
+                              built-in configurations are `paper` and `paper-reconciled`"
+                        .into(),
+                });
+            }
+            RunConfig::from_file(p)
+        }
     }
 }

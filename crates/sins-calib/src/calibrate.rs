@@ -195,6 +195,15 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         _ => None,
     };
     let layout = layout_for(&config, turntable.is_some());
+    if let (Some(truth), Some(path)) = (&truth, &args.truth) {
+        truth.check_units(
+            &path.display().to_string(),
+            layout
+                .entries()
+                .iter()
+                .map(|e| (e.name.as_str(), e.unit.si_name())),
+        )?;
+    }
     let bar = progress_bar(imu.len_hint().unwrap_or(0));
     let result = estimate_from(&config, &layout, &mut imu, turntable, &mut |done, total| {
         bar.set_length(total as u64);

@@ -25,6 +25,42 @@ pub struct Args {
     pub seed: Option<u64>,
 }
 
+/// Records a simulation may hold: it keeps the whole run in memory, about 200 bytes a record
+/// (50 million records: 139 h at 100 Hz, 10 GB).
+const MAX_RECORDS: f64 = 5e7;
+
+/// Refuse a run with no records, or more than [`MAX_RECORDS`], before simulating anything.
+fn check_size(
+    config: &calib::config::RunConfig,
+    program_s: f64,
+    origin: &str,
+) -> Result<(), Error> {
+    let t = &config.truth;
+    let duration = t.duration_s.unwrap_or(program_s);
+    for (name, rate, least) in [
+        ("truth.imu_rate_hz", t.imu_rate_hz, 2.0),
+        ("truth.turntable_rate_hz", t.turntable_rate_hz, 2.0),
+    ] {
+        let n = duration * rate;
+        if n < least {
+            return Err(format!(
+                "{origin}: {duration} s at {name} = {rate} gives {n:.3} records: expected a run of \
+                 at least {least} records (nothing would be written that calibrate can read)"
+            )
+            .into());
+        }
+        if n > MAX_RECORDS {
+            return Err(format!(
+                "{origin}: {duration} s at {name} = {rate} gives {n:.3e} records: simulate keeps \
+                 the run in memory (about 200 bytes a record) and accepts at most {MAX_RECORDS:.0e} \
+                 records; shorten truth.duration_s or lower the rate"
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
 /// Run `simulate`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let (mut config, origin) = load_config(&args.config)?;
@@ -32,6 +68,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         config.truth.seed = seed;
     }
     let program = config.program()?;
+    check_size(&config, program.duration(), &origin)?;
     let sim = simulate_run(&config, &origin)?;
     std::fs::create_dir_all(&args.out)
         .map_err(|e| format!("{}: cannot create the directory: {e}", args.out.display()))?;

@@ -262,9 +262,20 @@ impl Program {
             }
         }
         if pieces.is_empty() {
+            let message = if spec.segments.is_empty() {
+                "a program needs at least one [[segment]]".to_string()
+            } else {
+                format!(
+                    "the program takes no time: its {} segment(s) only move to where the gimbals \
+                     already are (start_deg = {:?}); expected a segment that rotates, dwells or \
+                     moves somewhere",
+                    spec.segments.len(),
+                    spec.start_deg
+                )
+            };
             return Err(ProgramError::Parse {
                 origin: origin.to_string(),
-                message: "a program needs at least one [[segment]]".into(),
+                message,
             });
         }
         Ok(Self {
