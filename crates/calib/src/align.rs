@@ -280,6 +280,53 @@ fn wahba(b: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     Some(u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t)
 }
 
+/// The start attitude aligned to `program` from the rate bins and the prior covariance of all
+/// states of `layout` with the start attitude error tied to the alignment
+/// ([`aligned_covariance`]; the copy of the start attitude error, if carried, made equal to
+/// it). `None` when the program does not turn about two axes.
+pub fn aligned_prior(
+    config: &crate::config::RunConfig,
+    layout: &crate::layout::StateLayout,
+    bins: &[RateBin],
+    program: &Program,
+    program_start: f64,
+    t_start: f64,
+) -> Option<(Matrix3<f64>, DMatrix<f64>)> {
+    let al = align_to_program(
+        bins,
+        program,
+        &config.site(),
+        program_start,
+        t_start,
+        &layout.model,
+        config.gyro_psd(),
+    )?;
+    let off = crate::layout::StateLayout::INSTRUMENT;
+    let p = crate::layout::initial_covariance(config, layout, &al.c_start);
+    let mut p = aligned_covariance(&p, off..off + layout.n_instrument(), &al);
+    crate::layout::copy_start_attitude(&mut p, layout);
+    Some((al.c_start, p))
+}
+
+/// Rate bins of the ideal motion of a program (no sensor errors), as the covariance analysis
+/// sees it.
+pub fn ideal_bins(kin: &Kinematics, bin_s: f64) -> Vec<RateBin> {
+    let n = (kin.program.duration() / bin_s).floor() as usize;
+    (0..n)
+        .map(|i| {
+            let (t0, t1) = (i as f64 * bin_s, (i + 1) as f64 * bin_s);
+            // The mean over the bin, by the midpoint rule on ten sub-intervals.
+            let (mut rate, mut f) = (Vector3::zeros(), Vector3::zeros());
+            for k in 0..10 {
+                let s = kin.sample(t0 + (k as f64 + 0.5) * bin_s / 10.0);
+                rate += s.omega_body / 10.0;
+                f += s.f_body / 10.0;
+            }
+            RateBin { t0, t1, rate, f }
+        })
+        .collect()
+}
+
 /// The prior covariance of all states with the start attitude error tied to the alignment:
 /// `beta_0 = B p + eps`, `cov(beta_0) = B P_p B^T + sigma_eps^2 I`, `cov(beta_0, p) = B P_p`,
 /// `beta_0` uncorrelated with the other states. `p0` is the prior covariance without it.

@@ -3,7 +3,8 @@
 //! The program's true kinematics drive the same [`LinearModel`] and [`NormalisedFilter`] that
 //! estimation uses, in covariance-only mode.
 
-use crate::config::{ConfigError, RunConfig};
+use crate::align::{aligned_prior, ideal_bins};
+use crate::config::{AttitudePrior, ConfigError, RunConfig};
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
 use crate::filter::NormalisedFilter;
 use crate::layout::StateLayout;
@@ -75,9 +76,18 @@ pub fn covariance_analysis_with(
     let n_steps = (kin.program.duration() * f.imu_rate_hz).floor() as usize;
     let model = LinearModel::new(layout, dt, &kin.earth_rate_enu(), config.gyro_psd());
     let c0 = kin.sample(0.0).c_body_to_enu;
-    let filter = NormalisedFilter::with_covariance(&initial_covariance(config, layout, &c0))
-        .map_err(|source| AnalysisError::Filter { t: 0.0, source })?;
     let use_tt = layout.install.is_some();
+    // Without the turntable angles the estimation aligns the start attitude to the program's
+    // rotations (crate::align); the analysis does the same on the ideal motion.
+    let aligned = (!use_tt && config.filter.attitude_prior == AttitudePrior::Installation)
+        .then(|| {
+            let bins = ideal_bins(&kin, 0.1);
+            aligned_prior(config, layout, &bins, &kin.program, 0.0, 0.0)
+        })
+        .flatten();
+    let p0 = aligned.map_or_else(|| initial_covariance(config, layout, &c0), |(_, p)| p);
+    let filter = NormalisedFilter::with_covariance(&p0)
+        .map_err(|source| AnalysisError::Filter { t: 0.0, source })?;
     // Angle records are taken to come at the IMU rate, one per step, so that a window of N steps
     // averages N records: the variance of one record is the PSD times the record rate.
     let noise = MeasurementNoise {

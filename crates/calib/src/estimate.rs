@@ -14,9 +14,7 @@
 //!   the attitude error into `C`, the parameter errors into the parameter estimates, which
 //!   correct the following increments, and the filter state is zeroed.
 
-use crate::align::{
-    DirectionErrors, RateBin, RateBinner, align_to_program, aligned_covariance, fit_mounting,
-};
+use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
 use crate::data_checks::{check_gyros_alive, check_record, check_specific_force};
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
@@ -24,7 +22,7 @@ use crate::filter::NormalisedFilter;
 use crate::io::{
     ImuData, ImuKind, IoError, ResultFile, ResultParameter, TurntableData, check_overlap,
 };
-use crate::layout::{StateLayout, copy_start_attitude, initial_covariance, layout_for};
+use crate::layout::{StateLayout, initial_covariance, layout_for};
 use crate::model::LinearModel;
 use crate::program_start::{
     ProgramStart, ProgramStartError, TurntableClockError, check_program_start,
@@ -378,6 +376,11 @@ fn locate_program(config: &RunConfig, scan: &mut Scan, file: &str) -> Result<(),
                 t_imu_s: scan.span.0 - dt,
                 rms_misfit: 0.0,
             },
+            // A recording of part of a program is taken to start with it, and checked.
+            Err(ProgramStartError::TooShort { .. }) => {
+                check_program_start(&scan.bins, &program, &site, scan.span.0 - dt, 0.1 * dt)
+                    .map_err(refuse)?
+            }
             other => other.map_err(refuse)?,
         },
     };
@@ -470,22 +473,9 @@ fn start_prior(
         return nominal();
     }
     let dt = 1.0 / config.filter.imu_rate_hz;
-    let Some(al) = align_to_program(
-        &scan.bins,
-        program,
-        &config.site(),
-        scan.program_start,
-        scan.span.0 - dt,
-        &layout.model,
-        config.gyro_psd(),
-    ) else {
-        return nominal();
-    };
-    let off = StateLayout::INSTRUMENT;
-    let p = initial_covariance(config, layout, &al.c_start);
-    let mut p = aligned_covariance(&p, off..off + layout.n_instrument(), &al);
-    copy_start_attitude(&mut p, layout);
-    (al.c_start, p)
+    let start = scan.program_start;
+    aligned_prior(config, layout, &scan.bins, program, start, scan.span.0 - dt)
+        .unwrap_or_else(nominal)
 }
 
 /// The point a pass linearises about: the estimates of the pass before.

@@ -274,7 +274,7 @@ impl Lines {
                 return Err(line_error(
                     &self.file,
                     b,
-                    "empty line before more data: expected a data row".into(),
+                    "expected a data row, found an empty line before more data".into(),
                 ));
             }
             if !ended {

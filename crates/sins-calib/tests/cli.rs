@@ -178,7 +178,8 @@ fn small_imu(path: &Path, nan_on_line: Option<usize>) {
         } else {
             "0.0981".to_string()
         };
-        t += &format!("{},0,0,0,0,0,{dvz}\n", i as f64 * 0.01);
+        // The first 0.2 s of the paper's program: 10 deg/s about instrument x.
+        t += &format!("{},0.0017453292519943,0,0,0,0,{dvz}\n", i as f64 * 0.01);
     }
     std::fs::write(path, t).unwrap();
 }
