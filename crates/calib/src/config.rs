@@ -182,6 +182,9 @@ pub struct TruthConfig {
     /// installation misalignment, delay, and the base misalignment when it is estimated);
     /// otherwise such parameters are zero.
     pub draw_from_priors: bool,
+    /// Add the sensor noises of `[noise]` to the records (absent: true); false gives noiseless
+    /// records, where a consistent calibration's errors are far below its sigmas.
+    pub noise: bool,
     /// True values in SI units by documented name (`gyro.bias.x`, `install.delta.z`,
     /// `turntable.tau`, `base.gamma.x`, ...), overriding the draws.
     pub values: std::collections::BTreeMap<String, f64>,
@@ -195,6 +198,7 @@ impl Default for TruthConfig {
             turntable_rate_hz: 100.0,
             duration_s: None,
             draw_from_priors: true,
+            noise: true,
             values: Default::default(),
         }
     }

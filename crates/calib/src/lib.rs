@@ -39,3 +39,4 @@ pub mod paper;
 pub mod program_start;
 pub mod report;
 pub mod simulate;
+pub mod stats;

@@ -90,7 +90,8 @@ pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, Simu
     };
     let kin = Kinematics::new(config.program()?, mounting, config.site());
     let t = &config.truth;
-    let sigma = (config.angle_psd() * t.turntable_rate_hz).sqrt();
+    let on = if t.noise { 1.0 } else { 0.0 };
+    let sigma = on * (config.angle_psd() * t.turntable_rate_hz).sqrt();
     let sensor = AngleSensor {
         sigma: [sigma; 3],
         rate_hz: t.turntable_rate_hz,
@@ -100,8 +101,8 @@ pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, Simu
     };
     let sim = SimConfig {
         imu_rate_hz: t.imu_rate_hz,
-        gyro_psd: config.gyro_psd(),
-        accel_psd: config.accel_psd(),
+        gyro_psd: on * config.gyro_psd(),
+        accel_psd: on * config.accel_psd(),
         duration_s: t.duration_s,
         seed: t.seed,
         ..SimConfig::default()

@@ -421,12 +421,9 @@ fn truth_report(
         .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
         .map_or((0, f64::NAN), |(k, v)| (idx[k], *v));
     let diagonal: f64 = z.iter().map(|v| v * v).sum();
-    // Full NEES on the correlation matrix (the parameters span many orders of magnitude).
-    let corr = DMatrix::from_fn(n, n, |a, b| est.cov[(idx[a], idx[b])] / (sig[a] * sig[b]));
-    let full = corr.cholesky().map(|c| {
-        let zv = nalgebra::DVector::from_column_slice(&z);
-        zv.dot(&c.solve(&zv))
-    });
+    let errors: Vec<f64> = z.iter().zip(&sig).map(|(v, sg)| v * sg).collect();
+    let cov = DMatrix::from_fn(n, n, |a, b| est.cov[(idx[a], idx[b])]);
+    let full = calib::stats::nees(&errors, &cov);
     let expected = format!(
         "a consistent filter gives {n} on average, standard deviation {}",
         table::significant((2.0 * n as f64).sqrt(), 2)
