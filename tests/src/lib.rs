@@ -1,6 +1,11 @@
 //! Helpers shared by the workspace-level tests.
 
 use calib::config::{AttitudePrior, RunConfig};
+use calib::estimate::Estimate;
+use nalgebra::Vector3;
+use sins_model::attitude::attitude_error;
+use turntable::kinematics::{Kinematics, Mounting};
+use turntable::simulate::Simulation;
 
 /// The run the calibration tests simulate: the paper's program, priors and noises, the start
 /// attitude from the installation (its extra error 0.01 deg: none in the simulation), the
@@ -20,72 +25,117 @@ pub fn simulated_run_config() -> RunConfig {
     c
 }
 
-/// Quantile of the chi-square distribution with `dof` degrees of freedom (Wilson-Hilferty;
-/// relative error below 1e-3 for `dof >= 20`, which is all the tests use).
-pub fn chi_square_quantile(p: f64, dof: f64) -> f64 {
-    let z = standard_normal_quantile(p);
-    let a = 2.0 / (9.0 * dof);
-    dof * (1.0 - a + z * a.sqrt()).powi(3)
-}
-
-/// Quantile of the standard normal distribution (Acklam's rational approximation, relative
-/// error below 1.2e-9).
-pub fn standard_normal_quantile(p: f64) -> f64 {
-    const A: [f64; 6] = [
-        -3.969683028665376e1,
-        2.209460984245205e2,
-        -2.759285104469687e2,
-        1.38357751867269e2,
-        -3.066479806614716e1,
-        2.506628277459239,
-    ];
-    const B: [f64; 5] = [
-        -5.447609879822406e1,
-        1.615858368580409e2,
-        -1.556989798598866e2,
-        6.680131188771972e1,
-        -1.328068155288572e1,
-    ];
-    const C: [f64; 6] = [
-        -7.784894002430293e-3,
-        -3.223964580411365e-1,
-        -2.400758277161838,
-        -2.549732539343734,
-        4.374664141464968,
-        2.938163982698783,
-    ];
-    const D: [f64; 4] = [
-        7.784695709041462e-3,
-        3.224671290700398e-1,
-        2.445134137142996,
-        3.754408661907416,
-    ];
-    let tail = |q: f64| {
-        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
-            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+/// Estimation error of every state of `est` against the truth of `sim` (estimate minus truth;
+/// for the attitude states, which are fed back, the remaining error of the computed attitude),
+/// with each state's reported sigma.
+pub fn state_errors(config: &RunConfig, sim: &Simulation, est: &Estimate) -> (Vec<f64>, Vec<f64>) {
+    let truth = |n: &str| sim.truth.get(n).expect("truth names");
+    let axes = ["x", "y", "z"];
+    let mounting = Mounting {
+        delta_z: Vector3::from_fn(|i, _| truth(&format!("install.delta.{}", axes[i]))),
+        gamma_p: Vector3::from_fn(|i, _| {
+            sim.truth
+                .get(&format!("base.gamma.{}", axes[i]))
+                .unwrap_or(0.0)
+        }),
     };
-    if p < 0.02425 {
-        tail((-2.0 * p.ln()).sqrt())
-    } else if p > 1.0 - 0.02425 {
-        -tail((-2.0 * (1.0 - p).ln()).sqrt())
-    } else {
-        let q = p - 0.5;
-        let r = q * q;
-        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
-            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
-    }
+    let kin = Kinematics::new(config.program().unwrap(), mounting, config.site());
+    // Simulated runs start the program at IMU time 0 (the estimate's own start is found).
+    let c_true = kin.sample(est.final_time).c_body_to_enu;
+    let beta = attitude_error(&est.final_c_body_to_enu, &c_true);
+    let errors = est
+        .names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            if i < 3 {
+                -beta[i]
+            } else {
+                est.values[i] - truth(n)
+            }
+        })
+        .collect();
+    let sigma = (0..est.names.len())
+        .map(|i| est.cov[(i, i)].sqrt())
+        .collect();
+    (errors, sigma)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// The normalised errors and NEES of many runs of one model.
+#[derive(Debug, Default)]
+pub struct MonteCarlo {
+    /// State names.
+    pub names: Vec<String>,
+    /// NEES of each run (all states, on the correlation matrix: [`calib::stats::nees`]).
+    pub nees: Vec<f64>,
+    /// Normalised errors (error / sigma), per run and state.
+    pub z: Vec<Vec<f64>>,
+}
 
-    #[test]
-    fn quantiles_match_tables() {
-        assert!((standard_normal_quantile(0.975) - 1.959964).abs() < 1e-5);
-        assert!((standard_normal_quantile(0.025) + 1.959964).abs() < 1e-5);
-        // chi2(100): 2.5 % 74.222, 97.5 % 129.561.
-        assert!((chi_square_quantile(0.025, 100.0) - 74.222).abs() < 0.1);
-        assert!((chi_square_quantile(0.975, 100.0) - 129.561).abs() < 0.1);
+impl MonteCarlo {
+    /// Add one run.
+    pub fn add(&mut self, config: &RunConfig, sim: &Simulation, est: &Estimate) {
+        let (e, s) = state_errors(config, sim, est);
+        let n = e.len();
+        let cov = nalgebra::DMatrix::from_fn(n, n, |i, j| est.cov[(i, j)]);
+        self.nees
+            .push(calib::stats::nees(&e, &cov).expect("posterior positive definite"));
+        self.z.push(e.iter().zip(&s).map(|(e, s)| e / s).collect());
+        self.names = est.names.clone();
+    }
+
+    /// Check, and print, the two figures of consistency fixed before the runs were looked at:
+    /// the NEES summed over the runs inside the two-sided 95 % band of its chi-square
+    /// distribution, and the largest mean normalised error (in standard errors of the mean)
+    /// below the Bonferroni bound for the number of states at a family-wise 5 %. Returns the
+    /// failures (empty: consistent).
+    pub fn check(&self, label: &str) -> Vec<String> {
+        let runs = self.nees.len() as f64;
+        let k = self.names.len();
+        let total: f64 = self.nees.iter().sum();
+        let (lo, hi) = calib::stats::chi_square_band(k as f64 * runs, 0.95);
+        let bound = calib::stats::bonferroni_bound(k, 0.05);
+        let (worst, name) = (0..k)
+            .map(|i| {
+                let mean = self.z.iter().map(|z| z[i]).sum::<f64>() / runs;
+                (mean * runs.sqrt(), &self.names[i])
+            })
+            .max_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+            .expect("states");
+        println!(
+            "{label}: {runs} runs, NEES per run {:.2} for {k} states (sum {total:.1}, 95 % band [{lo:.1}, {hi:.1}]); \
+             largest mean error {worst:+.2} SEM ({name}), bound {bound:.2}",
+            total / runs
+        );
+        // The states whose normalised errors scatter most (rms well above 1: sigma too small).
+        let mut rms: Vec<(f64, &String)> = (0..k)
+            .map(|i| {
+                (
+                    (self.z.iter().map(|z| z[i] * z[i]).sum::<f64>() / runs).sqrt(),
+                    &self.names[i],
+                )
+            })
+            .collect();
+        rms.sort_by(|a, b| b.0.total_cmp(&a.0));
+        println!(
+            "{label}: largest rms normalised errors: {}",
+            rms.iter()
+                .take(4)
+                .map(|(r, n)| format!("{n} {r:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        let mut failures = vec![];
+        if !(lo..=hi).contains(&total) {
+            failures.push(format!(
+                "{label}: NEES sum {total:.1} outside [{lo:.1}, {hi:.1}]"
+            ));
+        }
+        if worst.abs() > bound {
+            failures.push(format!(
+                "{label}: {name} biased by {worst:+.2} SEM (bound {bound:.2})"
+            ));
+        }
+        failures
     }
 }

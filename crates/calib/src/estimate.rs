@@ -34,6 +34,7 @@ use sins_model::terms::Unit;
 use turntable::gimbal::c_platform_to_base;
 
 mod angles;
+mod consider;
 mod pass;
 mod source;
 
@@ -120,7 +121,17 @@ pub struct FitStatistics {
     pub passes: usize,
     /// Record rate of the turntable file on the IMU clock [Hz].
     pub turntable_record_rate_hz: f64,
+    /// Standard deviation (m/s^2, largest direction) of the second-order specific-force error
+    /// `beta x (C df)` that the linear model leaves out, from the posterior; zero when it is
+    /// negligible ([`consider::second_order_accel`]).
+    pub second_order_accel_sigma: f64,
+    /// Extra passes made to carry that error into the posterior covariance.
+    pub consider_passes: usize,
 }
+
+/// A parameter whose posterior sigma is above this fraction of its prior sigma is reported as
+/// not observed by the run ([`Estimate::unobserved`]).
+pub const UNOBSERVED_SIGMA_RATIO: f64 = 0.9;
 
 /// The result of a calibration: every state's estimate and the posterior covariance.
 #[derive(Clone, Debug)]
@@ -155,6 +166,22 @@ impl Estimate {
     fn index(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| n == name)
     }
+    /// The parameters the data leave (nearly) where the prior had them: posterior sigma above
+    /// [`UNOBSERVED_SIGMA_RATIO`] of the prior sigma, with that ratio. A static run, for
+    /// example, says nothing of the gyro matrix or of the delay; a rotation about one axis
+    /// nothing of some scale factors. Their estimates are the prior's, and their sigmas honest.
+    pub fn unobserved(&self) -> Vec<(String, f64)> {
+        self.names
+            .iter()
+            .enumerate()
+            .skip(StateLayout::INSTRUMENT)
+            .filter_map(|(i, n)| {
+                let ratio = self.cov[(i, i)].sqrt() / self.prior_sigma[i];
+                (ratio > UNOBSERVED_SIGMA_RATIO).then(|| (n.clone(), ratio))
+            })
+            .collect()
+    }
+
     /// Estimate of a state by name (SI).
     pub fn value(&self, name: &str) -> Option<f64> {
         self.index(name).map(|i| self.values[i])
@@ -323,6 +350,7 @@ pub fn estimate_from(
     let mut nominal = first_linearisation_point(config, layout, &scan)?;
     let mut shift = f64::INFINITY;
     let mut pass = 0;
+    let mut linearised_about;
     let mut estimate = loop {
         let done = (1 + pass) * n;
         let (est, c_start) = run_pass(
@@ -333,8 +361,10 @@ pub fn estimate_from(
             &scan,
             nominal.as_ref(),
             pass == 0,
+            &Vector3::zeros(),
             &mut |j| progress(done + j, total),
         )?;
+        linearised_about = nominal.clone();
         pass += 1;
         let beta = Vector3::new(est.values[s], est.values[s + 1], est.values[s + 2]);
         if let (Some(prev), true) = (&nominal, pass > 1) {
@@ -350,6 +380,23 @@ pub fn estimate_from(
             break est;
         }
     };
+    if let Some(nominal) = &linearised_about {
+        let mut rerun = |offset: &Vector3<f64>| {
+            run_pass(
+                config,
+                &smoother,
+                imu,
+                turntable,
+                &scan,
+                Some(nominal),
+                false,
+                offset,
+                &mut |_| {},
+            )
+            .map(|(est, _)| (est.values, est.final_c_body_to_enu))
+        };
+        consider::second_order_accel(config, &smoother, &mut estimate, &mut rerun)?;
+    }
     progress(total, total);
     estimate.truncate(layout.dim());
     estimate.stats.passes = pass;
@@ -443,6 +490,7 @@ fn angle_reader<'a>(
         interp: AngleInterpolator::new(tt, clock, med),
         rate_changes: RateChanges::new(&program),
         program_start: scan.program_start,
+        per_record: 1.0 / stats.turntable_record_rate_hz > 2.0 * dt,
     };
     Ok((reader, config.angle_psd() * stats.turntable_record_rate_hz))
 }
@@ -479,6 +527,7 @@ fn start_prior(
 }
 
 /// The point a pass linearises about: the estimates of the pass before.
+#[derive(Clone)]
 struct Nominal {
     /// A full state vector of totals (attitude entries unused).
     totals: Vec<f64>,
@@ -536,6 +585,7 @@ fn run_pass(
     scan: &Scan,
     nominal: Option<&Nominal>,
     closed_loop: bool,
+    f_offset_enu: &Vector3<f64>,
     progress: &mut dyn FnMut(usize),
 ) -> Result<(Estimate, Matrix3<f64>), EstimateError> {
     let dt = 1.0 / config.filter.imu_rate_hz;
@@ -594,7 +644,7 @@ fn run_pass(
         kind: imu.kind(),
         dt,
         u_enu,
-        f_enu: site.specific_force_at_rest_enu(),
+        f_enu: site.specific_force_at_rest_enu() + f_offset_enu,
         full_feedback: closed_loop,
         n_steps: scan.n,
     };

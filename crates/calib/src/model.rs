@@ -98,6 +98,10 @@ struct TurntableWindow {
     /// Noise map of each angle record the window's samples were interpolated from:
     /// `(record index, sum of weight * J)`.
     records: Vec<(usize, Matrix3<f64>)>,
+    /// The records and sample count of the window before: records interpolated into both make
+    /// the two measurements' noises correlated.
+    prev_records: Vec<(usize, Matrix3<f64>)>,
+    prev_count: usize,
 }
 
 /// Accumulates the transition and measurement matrices of one filter interval.
@@ -213,6 +217,8 @@ impl LinearModel {
                 y_sum: Vector3::zeros(),
                 count: 0,
                 records: Vec::with_capacity(64),
+                prev_records: Vec::with_capacity(64),
+                prev_count: 0,
             },
             scratch: vec![Vector3::zeros(); n],
             phi_mat: Mat::zeros(3, n),
@@ -260,6 +266,10 @@ impl LinearModel {
         w.c_sum = Matrix3::zeros();
         w.omega_sum = Vector3::zeros();
         w.y_sum = Vector3::zeros();
+        if w.count > 0 {
+            std::mem::swap(&mut w.records, &mut w.prev_records);
+            w.prev_count = w.count;
+        }
         w.count = 0;
         w.records.clear();
     }
@@ -460,6 +470,20 @@ impl LinearModel {
         let mut r = Matrix3::identity() * (1e-6 * var_per_record / nf);
         for (_, m) in &w.records {
             r += m * m.transpose() * (var_per_record / (nf * nf));
+        }
+        // A record interpolated into this window and the one before correlates the two
+        // measurements, which the filter takes as independent. The cross-covariance is added to
+        // this window's R (both orderings), so that the R's of a run add up to the variance of
+        // the sum of its measurements: exact for what stays constant over two windows (the
+        // calibration's parameters), conservative for what changes faster. With angles at
+        // 1 Hz against 1-s windows every record sits in two windows, and without this the
+        // 28-state NEES came out 36.6 per run for 28 states.
+        let np = w.prev_count.max(1) as f64;
+        for (k, m) in &w.records {
+            if let Some((_, mp)) = w.prev_records.iter().find(|(i, _)| i == k) {
+                let c = mp * m.transpose() * (var_per_record / (np * nf));
+                r += c + c.transpose();
+            }
         }
         Some(Measurement {
             kind: MeasurementKind::Turntable,

@@ -70,6 +70,17 @@ struct FitJson {
     accel_mean_nis: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     turntable: Option<TurntableFitJson>,
+    /// Parameters the data leave at their prior (posterior sigma / prior sigma above 0.9).
+    unobserved: Vec<UnobservedJson>,
+    /// Standard deviation of the second-order specific-force error carried into the
+    /// covariance (m/s^2; 0 when negligible).
+    second_order_accel_sigma_m_s2: f64,
+}
+
+#[derive(Serialize)]
+struct UnobservedJson {
+    name: String,
+    sigma_over_prior: f64,
 }
 
 #[derive(Serialize)]
@@ -98,6 +109,15 @@ fn fit_json(est: &Estimate, with_turntable: bool) -> FitJson {
             samples_without_data: s.turntable_samples_missing,
             record_rate_hz: s.turntable_record_rate_hz,
         }),
+        unobserved: est
+            .unobserved()
+            .into_iter()
+            .map(|(name, sigma_over_prior)| UnobservedJson {
+                name,
+                sigma_over_prior,
+            })
+            .collect(),
+        second_order_accel_sigma_m_s2: s.second_order_accel_sigma,
     }
 }
 
@@ -265,6 +285,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     s += &parameter_report(&est, truth.as_ref());
     s.push('\n');
     s += &fit_report(&est.stats, turntable.is_some());
+    s += &observability_report(&est);
     if let (Some(truth), Some(path)) = (&truth, &args.truth) {
         s.push('\n');
         s += &truth_report(&est, truth, path, &config.clock);
@@ -381,6 +402,40 @@ fn fit_report(stats: &FitStatistics, with_turntable: bool) -> String {
             stats.turntable_samples_near_rate_changes,
             stats.turntable_samples_missing,
             table::compact(stats.turntable_record_rate_hz)
+        );
+    }
+    s
+}
+
+/// Which parameters the run leaves at their prior, and the second-order error carried.
+fn observability_report(est: &Estimate) -> String {
+    let mut s = String::new();
+    let unobserved = est.unobserved();
+    if unobserved.is_empty() {
+        let _ = writeln!(
+            s,
+            "  observability     every parameter is observed by this run"
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "  not observed      {} of {} parameters keep more than {:.0} % of their prior sigma              (estimate = prior, sigma honest): {}",
+            unobserved.len(),
+            est.names.len() - 3,
+            100.0 * calib::estimate::UNOBSERVED_SIGMA_RATIO,
+            unobserved
+                .iter()
+                .map(|(n, r)| format!("{n} ({:.0} %)", 100.0 * r))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    if est.stats.consider_passes > 0 {
+        let _ = writeln!(
+            s,
+            "  second order      beta x (C df) is {} m/s^2 (1 sigma) on this run: carried into              the covariance ({} extra passes)",
+            table::significant(est.stats.second_order_accel_sigma, 2),
+            est.stats.consider_passes
         );
     }
     s

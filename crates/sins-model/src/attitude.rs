@@ -82,6 +82,24 @@ pub fn log_so3(c: &Matrix3<f64>) -> Vector3<f64> {
     }
 }
 
+/// Inverse of the right Jacobian of SO(3): `log(exp(phi) exp(e)) = phi + J_r^-1(phi) e` to first
+/// order in the small rotation `e`. It maps a covariance of a body-frame (right) perturbation
+/// of `exp(phi)` into the covariance of the rotation vector `phi` itself. The left form,
+/// `log(exp(e) exp(phi)) = phi + J_l^-1(phi) e`, is `J_r^-1(-phi)`.
+pub fn right_jacobian_inv(phi: &Vector3<f64>) -> Matrix3<f64> {
+    let t2 = phi.norm_squared();
+    let k = skew(phi);
+    // Coefficient of skew(phi)^2: 1/t^2 - (1 + cos t) / (2 t sin t), whose series is
+    // 1/12 + t^2/720 + t^4/30240 (used below 1e-2 rad, where the closed form cancels).
+    let c = if t2 < 1e-4 {
+        1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0
+    } else {
+        let t = t2.sqrt();
+        1.0 / t2 - (1.0 + t.cos()) / (2.0 * t * t.sin())
+    };
+    Matrix3::identity() + 0.5 * k + c * k * k
+}
+
 /// Re-orthonormalise a nearly orthogonal matrix (nearest rotation, via the quaternion).
 pub fn orthonormalize(c: &Matrix3<f64>) -> Matrix3<f64> {
     let q = UnitQuaternion::from_matrix_eps(c, 1e-15, 50, UnitQuaternion::identity());
@@ -130,6 +148,38 @@ mod tests {
         assert_eq!(h[(0, 1)], a.z);
         assert_eq!(h[(0, 2)], -a.y);
         assert_eq!(h[(1, 2)], a.x);
+    }
+
+    #[test]
+    fn right_jacobian_inverse_matches_finite_differences() {
+        for phi in [
+            Vector3::new(0.03, -0.035, 0.04),
+            Vector3::new(1e-4, 2e-4, -3e-5),
+            Vector3::new(0.8, -0.3, 1.1),
+        ] {
+            let j = right_jacobian_inv(&phi);
+            let h = 1e-7;
+            for i in 0..3 {
+                let mut e = Vector3::zeros();
+                e[i] = h;
+                let fd = (log_so3(&(exp_so3(&phi) * exp_so3(&e)))
+                    - log_so3(&(exp_so3(&phi) * exp_so3(&-e))))
+                    / (2.0 * h);
+                assert!(
+                    (fd - j.column(i)).norm() < 1e-7,
+                    "{phi:?} column {i}: {fd:?}"
+                );
+                // The left form.
+                let jl = right_jacobian_inv(&-phi);
+                let fd = (log_so3(&(exp_so3(&e) * exp_so3(&phi)))
+                    - log_so3(&(exp_so3(&-e) * exp_so3(&phi))))
+                    / (2.0 * h);
+                assert!(
+                    (fd - jl.column(i)).norm() < 1e-7,
+                    "left, {phi:?} column {i}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -9,7 +9,7 @@ use crate::io::{ImuKind, ImuRecord};
 use crate::layout::StateLayout;
 use crate::model::AngleSample;
 use nalgebra::{Matrix3, Vector3};
-use sins_model::attitude::{attitude_error, exp_so3, log_so3, orthonormalize};
+use sins_model::attitude::{attitude_error, exp_so3, log_so3, orthonormalize, right_jacobian_inv};
 use sins_model::terms::{AffineError, ErrorModel, Sensor, SensorInput};
 use turntable::gimbal::{c_platform_to_base, gimbal_jacobian};
 
@@ -113,6 +113,13 @@ impl Strapdown {
 
     /// Advance by the true increments of one step.
     pub fn advance(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>) -> StepKinematics {
+        // The previous-sample coning and sculling corrections assume rates that vary smoothly
+        // across the two samples; across a jump of the rate (a reversal or the start or stop of
+        // a turn) they are wrong by (w dt)^2-sized terms, so that step goes without them.
+        if (dth - self.dth_prev).norm() > 0.1 * dth.norm().max(self.dth_prev.norm()) {
+            self.dth_prev = Vector3::zeros();
+            self.dv_prev = Vector3::zeros();
+        }
         let phi = dth + self.dth_prev.cross(dth) / 12.0;
         // The rotation of the velocity increment to the step's start frame in full
         // (`exp(skew(dth) s)` integrated over the step: `dv + dth x dv / 2 + dth x (dth x dv) / 6`;
@@ -199,6 +206,9 @@ pub(super) struct AngleReader<'a> {
     /// The platform's rate changes (program time) and the program's start on the IMU clock.
     pub rate_changes: RateChanges,
     pub program_start: f64,
+    /// Take one sample per angle record (at the IMU step nearest to the time the record holds)
+    /// rather than one per IMU step: set when the records are more than two IMU steps apart.
+    pub per_record: bool,
 }
 
 /// Fixed settings of a pass.
@@ -292,9 +302,14 @@ impl<'a> Pass<'a> {
     fn propagate(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>) -> SensorInput {
         let dt = self.settings.dt;
         let step = self.nav.advance(dth, dv);
+        // The error Jacobians take the specific force the unit is known to feel (gravity, turned
+        // into the body by the computed attitude), not the measured one: the measured one
+        // carries the same noise as the residual, and regressing the residual on it biased an
+        // accelerometer scale factor whose axis lay near the horizontal by sigma^2 / f^2 (0.6
+        // prior sigma on static runs).
         let input = SensorInput {
             omega_body: dth / dt,
-            f_body: dv / dt,
+            f_body: step.c_mid.transpose() * self.settings.f_enu,
         };
         let in_acc = self
             .engine
@@ -316,10 +331,32 @@ impl<'a> Pass<'a> {
             self.stats.turntable_samples_missing += 1;
             return;
         };
+        let dt = self.settings.dt;
+        if reader.per_record {
+            // The records hold the angles at their stamps less the delay. Sampling every IMU
+            // step between sparse records interpolates each record into every sample of two
+            // windows, whose noises the filter would take as independent (1-Hz records: NEES
+            // 36.6 per run for 28 states); one sample per record, at the step nearest to the
+            // time it holds, uses each record once.
+            let held = [
+                set.t_records_imu[0] - self.lin.tau,
+                set.t_records_imu[1] - self.lin.tau,
+            ];
+            if !held
+                .iter()
+                .any(|c| (t - 0.5 * dt..t + 0.5 * dt).contains(c))
+            {
+                return;
+            }
+        }
         let tau_index = self.layout.tau.expect("turntable layout");
-        let band = 3.0 * self.engine.filter.sigma(tau_index) + self.settings.dt;
-        let lo = t.min(set.t_records_imu[0]).min(t_query - band);
-        let hi = t.max(set.t_records_imu[1]).max(t_query + band);
+        let band = 3.0 * self.engine.filter.sigma(tau_index) + dt;
+        // The two records hold the angles at their stamps less the delay: linear interpolation
+        // between them is exact only where the program's rate is constant over that span (the
+        // span of the stamps themselves is off by tau: at 1-Hz records and a 0.1-s delay that
+        // let samples straddle the reversals, turntable mean NIS 39).
+        let lo = t.min(set.t_records_imu[0] - self.lin.tau - band);
+        let hi = t.max(set.t_records_imu[1] - self.lin.tau + band);
         let ps = reader.program_start;
         if !reader.rate_changes.clear(lo - ps, hi - ps) {
             self.stats.turntable_samples_near_rate_changes += 1;
@@ -405,6 +442,39 @@ impl<'a> Pass<'a> {
         self.stats.imu_steps = self.j;
         self.stats.accel_mean_nis = self.nis_sum.0 / self.stats.accel_updates.max(1) as f64;
         self.stats.turntable_mean_nis = self.nis_sum.1 / self.stats.turntable_updates.max(1) as f64;
-        (values, c, self.stats, self.engine.filter.covariance())
+        let cov = mounting_covariance(self.layout, &lin, self.engine.filter.covariance());
+        (values, c, self.stats, cov)
     }
+}
+
+/// The filter's covariance of the mounting errors is that of small rotations about the
+/// estimated mountings (body-frame for the installation, ENU for the base), but the result
+/// reports the rotation vectors `delta_z` and `gamma_p` themselves. The two differ by
+/// `delta_hat x e / 2` at first order: on a static run the installation heading stays at its
+/// 1-degree prior while the tilt is known to microradians, and a 2-degree tilt turns that
+/// heading uncertainty into 3e-4 rad of uncertainty in the tilt components of `delta_z` (the
+/// filter's own covariance put the truth hundreds of sigmas away). Map it with the inverse
+/// right (left) Jacobian.
+fn mounting_covariance(
+    layout: &StateLayout,
+    lin: &Linearisation,
+    mut cov: nalgebra::DMatrix<f64>,
+) -> nalgebra::DMatrix<f64> {
+    let n = cov.nrows();
+    let mut t = nalgebra::DMatrix::<f64>::identity(n, n);
+    let blocks = [
+        (layout.install, right_jacobian_inv(&lin.delta)),
+        (layout.base, right_jacobian_inv(&-lin.gamma)),
+    ];
+    let mut any = false;
+    for (k, j) in blocks {
+        if let Some(k) = k {
+            t.view_mut((k, k), (3, 3)).copy_from(&j);
+            any = true;
+        }
+    }
+    if any {
+        cov = &t * cov * t.transpose();
+    }
+    cov
 }
