@@ -21,18 +21,18 @@ use serde::{Deserialize, Serialize};
 /// Thresholds of the static detector.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DetectorSettings {
-    /// Length of the sliding window, centred on each record [s]. Default 1.0.
+    /// Length of the sliding window, centred on each record (s). Default 1.0.
     pub window_s: f64,
     /// Largest standard deviation of the specific force over the window (root of the summed
-    /// variances of the three axes) [m/s^2]. Default 0.1.
+    /// variances of the three axes), in m/s^2. Default 0.1.
     pub max_std_f_m_s2: f64,
-    /// Largest standard deviation of the angular rate over the window [rad/s]. Default 0.05
+    /// Largest standard deviation of the angular rate over the window (rad/s). Default 0.05
     /// (2.9 deg/s).
     pub max_std_w_rad_s: f64,
-    /// Largest magnitude of the mean angular rate over the window [rad/s]. Default 0.1
+    /// Largest magnitude of the mean angular rate over the window (rad/s). Default 0.1
     /// (5.7 deg/s): above any plausible gyro bias, below a deliberate rotation.
     pub max_rate_rad_s: f64,
-    /// Shortest static interval [s]. Default 2.0.
+    /// Shortest static interval (s). Default 2.0.
     pub min_duration_s: f64,
     /// An interval between records longer than this many median intervals is a gap. Default 1.5.
     pub gap_factor: f64,
@@ -88,24 +88,24 @@ pub struct StaticInterval {
     pub first_record: usize,
     /// 0-based index of its last record.
     pub last_record: usize,
-    /// Time stamp of the first record [s].
+    /// Time stamp of the first record (s).
     pub start_s: f64,
-    /// Time stamp of the last record [s].
+    /// Time stamp of the last record (s).
     pub end_s: f64,
-    /// `end_s - start_s` [s].
+    /// `end_s - start_s` (s).
     pub duration_s: f64,
     /// Number of records.
     pub records: usize,
-    /// Mean specific force, body axes [m/s^2].
+    /// Mean specific force, body axes (m/s^2).
     pub mean_f_m_s2: [f64; 3],
-    /// Magnitude of the mean specific force [m/s^2].
+    /// Magnitude of the mean specific force (m/s^2).
     pub norm_f_m_s2: f64,
-    /// Mean angular rate, body axes [rad/s] (the gyro bias plus Earth rate, uncalibrated).
+    /// Mean angular rate, body axes (rad/s) (the gyro bias plus Earth rate, uncalibrated).
     pub mean_w_rad_s: [f64; 3],
-    /// Standard deviation of the specific force over the interval (root of the summed variances)
-    /// [m/s^2].
+    /// Standard deviation of the specific force over the interval (root of the summed variances),
+    /// in m/s^2.
     pub std_f_m_s2: f64,
-    /// Standard deviation of the angular rate over the interval [rad/s].
+    /// Standard deviation of the angular rate over the interval (rad/s).
     pub std_w_rad_s: f64,
 }
 
@@ -116,11 +116,11 @@ pub struct Span {
     pub first_record: usize,
     /// 0-based index of the last record.
     pub last_record: usize,
-    /// Time stamp of the first record [s].
+    /// Time stamp of the first record (s).
     pub start_s: f64,
-    /// Time stamp of the last record [s].
+    /// Time stamp of the last record (s).
     pub end_s: f64,
-    /// `end_s - start_s` [s].
+    /// `end_s - start_s` (s).
     pub duration_s: f64,
 }
 
@@ -129,11 +129,11 @@ pub struct Span {
 pub struct Gap {
     /// 0-based index of the record after the gap.
     pub record: usize,
-    /// Time of the record before the gap [s].
+    /// Time of the record before the gap (s).
     pub t_before_s: f64,
-    /// Time of the record after the gap [s].
+    /// Time of the record after the gap (s).
     pub t_after_s: f64,
-    /// Length of the interval [s].
+    /// Length of the interval (s).
     pub length_s: f64,
 }
 
@@ -144,11 +144,11 @@ pub struct Segmentation {
     pub settings: DetectorSettings,
     /// Number of records.
     pub records: usize,
-    /// First time stamp [s].
+    /// First time stamp (s).
     pub t_first_s: f64,
-    /// Last time stamp [s].
+    /// Last time stamp (s).
     pub t_last_s: f64,
-    /// Median interval between records [s].
+    /// Median interval between records (s).
     pub median_interval_s: f64,
     /// Records in a window: `2 h + 1` with `h = round(window_s / (2 median))`.
     pub window_records: usize,
@@ -162,9 +162,11 @@ pub struct Segmentation {
 }
 
 impl Segmentation {
-    /// Total time at rest [s].
+    /// Total time at rest (s).
     pub fn static_s(&self) -> f64 {
-        self.static_intervals.iter().map(|s| s.duration_s).sum()
+        self.static_intervals
+            .iter()
+            .fold(0.0, |sum, s| sum + s.duration_s)
     }
 }
 
@@ -207,10 +209,10 @@ impl Prefix {
         let m = (b - a) as f64;
         let mut mean = [0.0; 3];
         let mut var = 0.0;
-        for k in 0..3 {
+        for (k, mean_k) in mean.iter_mut().enumerate() {
             let mu = (self.sum[b][k] - self.sum[a][k]) / m;
             var += ((self.sq[b][k] - self.sq[a][k]) / m - mu * mu).max(0.0);
-            mean[k] = mu + self.reference[k];
+            *mean_k = mu + self.reference[k];
         }
         (mean, var)
     }
@@ -249,7 +251,7 @@ fn windowed(w: &[[f64; 3]], f: &[[f64; 3]], blocks: &[(usize, usize)], h: usize)
     out
 }
 
-/// Split a recording (time stamps, angular rates [rad/s], specific forces [m/s^2], at least two
+/// Split a recording (time stamps, angular rates (rad/s), specific forces (m/s^2), at least two
 /// records with strictly increasing time) into static intervals and motion.
 pub fn detect_static(
     t: &[f64],
@@ -384,7 +386,7 @@ pub fn segment(data: &ImuData, settings: &DetectorSettings) -> Result<Segmentati
 }
 
 /// The quietest window of the specific force: `[start, end)` of the `window_s` window with the
-/// smallest standard deviation within one gap-free stretch, and that deviation [m/s^2]. A
+/// smallest standard deviation within one gap-free stretch, and that deviation (m/s^2). A
 /// recording shorter than the window gives its longest gap-free stretch.
 pub fn quietest_window(
     t: &[f64],

@@ -54,7 +54,7 @@ use timing::{GapAt, Timing};
 /// standard gravity, over the quietest window of the recording.
 pub const G_BAND: (f64, f64) = (0.8, 1.2);
 
-/// Length of the window in which the specific force at rest is checked [s].
+/// Length of the window in which the specific force at rest is checked (s).
 pub const QUIET_WINDOW_S: f64 = 1.0;
 
 /// Choices of an import that are not part of the profile.
@@ -90,11 +90,11 @@ pub struct GapReport {
     pub file: String,
     /// Line of the record after the gap in that file.
     pub line: usize,
-    /// Time of the record before the gap [s].
+    /// Time of the record before the gap (s).
     pub t_before_s: f64,
-    /// Time of the record after the gap [s].
+    /// Time of the record after the gap (s).
     pub t_after_s: f64,
-    /// Length of the interval [s].
+    /// Length of the interval (s).
     pub length_s: f64,
     /// Length in median intervals.
     pub median_intervals: f64,
@@ -113,20 +113,20 @@ pub struct SaturationReport {
     pub file: String,
     /// Line of the first saturated record, if any.
     pub first_line: Option<usize>,
-    /// Stretches of consecutive saturated records, `[first t, last t]` [s].
+    /// Stretches of consecutive saturated records, `[first t, last t]` (s).
     pub stretches: Vec<[f64; 2]>,
 }
 
 /// The specific force in the quietest window (the check against g).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StaticForce {
-    /// Median magnitude of the specific force over the window [m/s^2].
+    /// Median magnitude of the specific force over the window (m/s^2).
     pub median_norm_m_s2: f64,
     /// Its ratio to standard gravity.
     pub ratio_to_g: f64,
-    /// First and last time stamp of the window [s].
+    /// First and last time stamp of the window (s).
     pub window_s: [f64; 2],
-    /// Standard deviation of the specific force over the window [m/s^2].
+    /// Standard deviation of the specific force over the window (m/s^2).
     pub std_m_s2: f64,
 }
 
@@ -144,9 +144,9 @@ pub struct ImportReport {
     pub form: String,
     /// Records written to `imu.csv`.
     pub records: usize,
-    /// First time stamp [s].
+    /// First time stamp (s).
     pub t_first_s: f64,
-    /// Last time stamp [s].
+    /// Last time stamp (s).
     pub t_last_s: f64,
     /// Interval statistics (jitter is kept).
     pub timing: Timing,
@@ -429,13 +429,13 @@ pub fn import_recording(
     let mut records = Vec::with_capacity(n);
     let mut sat_g = Saturation::new();
     let mut sat_a = Saturation::new();
-    for k in 0..n {
+    for (k, &tk) in t.iter().enumerate() {
         let raw_g = triad(&gs.table, k, g_at);
         let raw_a = triad(&as_.table, k, a_at);
-        sat_g.push(k, t[k], profile.gyro.saturated(&raw_g));
-        sat_a.push(k, t[k], profile.accel.saturated(&raw_a));
+        sat_g.push(k, tk, profile.gyro.saturated(&raw_g));
+        sat_a.push(k, tk, profile.accel.saturated(&raw_a));
         records.push(ImuRecord {
-            t: t[k],
+            t: tk,
             gyro: profile.gyro.convert(raw_g),
             accel: profile.accel.convert(raw_a),
             temp: None,

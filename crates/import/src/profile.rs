@@ -14,7 +14,7 @@ use crate::error::ImportError;
 use serde::{Deserialize, Deserializer};
 use std::path::{Path, PathBuf};
 
-/// Standard gravity [m/s^2], the value of the unit `g` (ISO 80000-3).
+/// Standard gravity (m/s^2), the value of the unit `g` (ISO 80000-3).
 pub const STANDARD_GRAVITY: f64 = 9.80665;
 
 /// A parsed and checked import profile.
@@ -94,7 +94,7 @@ pub struct Input {
     /// Default `"time"`.
     #[serde(default)]
     pub join: Join,
-    /// Largest difference of two time stamps taken as the same record when joining [s];
+    /// Largest difference of two time stamps taken as the same record when joining (s);
     /// default a tenth of the gyro file's median interval.
     #[serde(default)]
     pub join_tolerance_s: Option<f64>,
@@ -232,7 +232,7 @@ pub struct Time {
     /// A sample-counter column: t = counter / `rate_hz`.
     #[serde(default)]
     pub counter_column: Option<Column>,
-    /// Sample rate [Hz]: with `counter_column`, t = counter / rate_hz; alone (no time column),
+    /// Sample rate (Hz): with `counter_column`, t = counter / rate_hz; alone (no time column),
     /// the k-th data row (from 0) has t = k / rate_hz.
     #[serde(default)]
     pub rate_hz: Option<f64>,
@@ -419,7 +419,7 @@ pub struct Sensor {
     /// Unit of the values: for rates `"rad/s"`, `"deg/s"` (gyro), `"m/s^2"`, `"g"` (accel); for
     /// increments `"rad"`, `"deg"` (gyro), `"m/s"` (accel); or `"counts"`.
     pub unit: Unit,
-    /// Counts only: the reading at zero, per source axis [counts].
+    /// Counts only: the reading at zero, per source axis (counts).
     #[serde(default)]
     pub offset: Option<[f64; 3]>,
     /// Counts only: counts per `sensitivity_unit`, per source axis.
@@ -597,7 +597,7 @@ pub struct SectionsSource {
     /// with 0-based data-row positions, end exclusive) for now.
     #[serde(default)]
     pub format: SectionsFormat,
-    /// The turn each `*_rot` section was meant to make about its axis [deg], signed (right-hand
+    /// The turn each `*_rot` section was meant to make about its axis (deg), signed (right-hand
     /// rule about the source axis). imucal's convention, and the default: -360.
     #[serde(default = "default_turn")]
     pub expected_turn_deg: f64,

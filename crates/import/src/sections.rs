@@ -34,9 +34,9 @@ pub struct Section {
     pub first_record: usize,
     /// 0-based index of its last record.
     pub last_record: usize,
-    /// Time stamp of the first record [s].
+    /// Time stamp of the first record (s).
     pub start_s: f64,
-    /// Time stamp of the last record [s].
+    /// Time stamp of the last record (s).
     pub end_s: f64,
     /// Static faces: the body axis that points up (unit vector in the axes of `imu.csv`): the
     /// specific force at rest is `g` times this.
@@ -45,15 +45,15 @@ pub struct Section {
     /// Rotations: the body axis of the turn (unit vector in the axes of `imu.csv`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f64; 3]>,
-    /// Rotations: the turn the section was meant to make about `axis`, right-handed [deg] (the
+    /// Rotations: the turn the section was meant to make about `axis`, right-handed (deg) (the
     /// profile's `expected_turn_deg`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub expected_turn_deg: Option<f64>,
     /// Rotations: the uncalibrated gyro about `axis` integrated over the section's records (each
-    /// rate times its own interval) [deg].
+    /// rate times its own interval) (deg).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measured_turn_deg: Option<f64>,
-    /// Mean specific force over the section, body axes [m/s^2].
+    /// Mean specific force over the section, body axes (m/s^2).
     pub mean_f_m_s2: [f64; 3],
 }
 
@@ -180,8 +180,8 @@ pub(crate) fn carry(
         let count = recs.len() as f64;
         let mut mean_f = [0.0; 3];
         for r in recs {
-            for k in 0..3 {
-                mean_f[k] += r.accel[k] / count;
+            for (m, a) in mean_f.iter_mut().zip(r.accel) {
+                *m += a / count;
             }
         }
         if data.kind == ImuKind::Increments {

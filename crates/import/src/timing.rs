@@ -7,11 +7,11 @@ use serde::{Deserialize, Serialize};
 /// Interval statistics of a recording.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Timing {
-    /// Median interval between consecutive records [s].
+    /// Median interval between consecutive records (s).
     pub median_interval_s: f64,
-    /// Shortest interval [s].
+    /// Shortest interval (s).
     pub min_interval_s: f64,
-    /// Longest interval [s].
+    /// Longest interval (s).
     pub max_interval_s: f64,
     /// An interval longer than this many median intervals is a gap.
     pub gap_factor: f64,
@@ -22,14 +22,14 @@ pub struct Timing {
 pub struct GapAt {
     /// 0-based index of the record after the gap.
     pub index: usize,
-    /// Time of the record before the gap [s].
+    /// Time of the record before the gap (s).
     pub t_before_s: f64,
-    /// Time of the record after the gap [s].
+    /// Time of the record after the gap (s).
     pub t_after_s: f64,
 }
 
 impl GapAt {
-    /// Length of the interval [s].
+    /// Length of the interval (s).
     pub fn length_s(&self) -> f64 {
         self.t_after_s - self.t_before_s
     }

@@ -236,9 +236,9 @@ axes = ["+z", "-x", "+y"]
     let r = &imported.imu.records[1];
     assert_eq!(r.t, 0.01);
     // Output gyro = (-y, +z, -x) of the source.
-    let expect = [-2.0 * d, 3.0 * d, -1.0 * d];
-    for k in 0..3 {
-        assert!((r.gyro[k] - expect[k]).abs() < 1e-15, "{:?}", r.gyro);
+    let expect = [-2.0 * d, 3.0 * d, -d];
+    for (got, want) in r.gyro.iter().zip(expect) {
+        assert!((got - want).abs() < 1e-15, "{:?}", r.gyro);
     }
     // Output accel = (+z, -x, +y) of the source: 1 g along x.
     assert_eq!(r.accel, [9.80665, -0.0, 0.0]);

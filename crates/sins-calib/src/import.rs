@@ -61,7 +61,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         c(r.t_last_s),
         r.records,
         c(tm.median_interval_s),
-        table::significant(1.0 / tm.median_interval_s, 5),
+        c(1.0 / tm.median_interval_s),
         c(tm.min_interval_s),
         c(tm.max_interval_s)
     );
@@ -81,7 +81,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             let _ = writeln!(
                 s,
                 "    {} s ({:.1} median intervals) between t = {} s and t = {} s, {} line {}",
-                table::significant(g.length_s, 4),
+                c(g.length_s),
                 g.median_intervals,
                 c(g.t_before_s),
                 c(g.t_after_s),

@@ -147,7 +147,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let _ = writeln!(
             s,
             "  gap: {} s between t = {} s and t = {} s (before line {} of {file})",
-            sig(g.length_s, 4),
+            c(g.length_s),
             c(g.t_before_s),
             c(g.t_after_s),
             g.record + 2
