@@ -252,11 +252,21 @@ fn times(table: &Table, column: Option<usize>, profile: &Profile) -> Result<Vec<
     let mut t = Vec::with_capacity(table.rows());
     for i in 0..table.rows() {
         let ti = match (column, time.counter_column.is_some(), time.rate_hz) {
-            (Some(j), false, _) => table.get(i, j) / time.unit.per_second(),
+            (Some(j), false, _) => table.get(i, j) / time.unit.unwrap_or_default().per_second(),
             (Some(j), true, Some(r)) => table.get(i, j) / r,
             (_, _, Some(r)) => i as f64 / r,
             _ => f64::NAN, // excluded by the profile's check
         };
+        if !ti.is_finite() {
+            return Err(ImportError::line(
+                &table.file,
+                table.lines[i],
+                format!(
+                    "the time comes out as {ti} s: expected a finite time (check the profile's \
+                     [time])"
+                ),
+            ));
+        }
         if let Some(&p) = t.last()
             && ti.partial_cmp(&p) != Some(std::cmp::Ordering::Greater)
         {

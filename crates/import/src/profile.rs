@@ -226,9 +226,9 @@ pub struct Time {
     /// The time-stamp column (in each input file).
     #[serde(default)]
     pub column: Option<Column>,
-    /// Unit of the time column: `"s"` (default), `"ms"`, `"us"` or `"ns"`.
+    /// Unit of the time column: `"s"` (the default), `"ms"`, `"us"` or `"ns"`.
     #[serde(default)]
-    pub unit: TimeUnit,
+    pub unit: Option<TimeUnit>,
     /// A sample-counter column: t = counter / `rate_hz`.
     #[serde(default)]
     pub counter_column: Option<Column>,
@@ -744,6 +744,13 @@ impl Profile {
                         .into(),
                 );
             }
+        }
+        if t.unit.is_some() && t.column.is_none() {
+            return err(
+                "[time] unit applies to a time column (column = ...) only: a counter \
+                        or a row number counts samples at rate_hz"
+                    .into(),
+            );
         }
         if let Some(r) = t.rate_hz
             && !(r.is_finite() && r > 0.0)
