@@ -148,6 +148,17 @@ fn other_profile_mistakes_are_refused() {
             REST_PROFILE.replace("file = \"data.csv\"", "gyro_file = \"data.csv\""),
             "both gyro_file and accel_file",
         ),
+        (
+            REST_PROFILE.replace(
+                "column = \"time\"",
+                "counter_column = \"time\"\nrate_hz = 10.0\nunit = \"ms\"",
+            ),
+            "unit applies to a time column",
+        ),
+        (
+            REST_PROFILE.replace("form = \"rates\"", "form = \"increments\""),
+            "[gyro] unit = \"deg/s\": expected one of \"rad\", \"deg\" or \"counts\" for gyro increments",
+        ),
     ];
     for (toml, needle) in cases {
         let e = message(setup(&dir, &toml, &[]).unwrap_err());
@@ -493,4 +504,36 @@ fn angles_go_to_the_turntable_file() {
     let written = write_outputs(&imported, &dir.join("out")).unwrap();
     let back = calib::io::read_turntable_csv(written.turntable.as_ref().unwrap()).unwrap();
     assert_eq!(back.records.len(), 200);
+}
+
+#[test]
+fn increments_are_written_as_increments_and_checked_per_interval() {
+    let dir = scratch("increments");
+    let toml = r#"
+form = "increments"
+[input]
+file = "inc.csv"
+[time]
+rate_hz = 200.0
+[gyro]
+columns = [1, 2, 3]
+unit = "deg"
+[accel]
+columns = [4, 5, 6]
+unit = "m/s"
+"#;
+    // At rest, z up: dv = g dt = 9.81 / 200 per record.
+    let text: String = (0..1000).map(|_| "0.001,0,0,0,0,0.04905\n").collect();
+    let imported = import(&dir, toml, &[("inc.csv", text)]).unwrap();
+    assert_eq!(imported.imu.kind, calib::io::ImuKind::Increments);
+    assert!((imported.report.static_force.median_norm_m_s2 - 9.81).abs() < 1e-9);
+    let written = write_outputs(&imported, &dir.join("out")).unwrap();
+    let header = std::fs::read_to_string(&written.imu).unwrap();
+    assert!(
+        header.starts_with("t,dthx,dthy,dthz,dvx,dvy,dvz\n"),
+        "{header:.40}"
+    );
+    let seg = import::detect::segment(&imported.imu, &Default::default()).unwrap();
+    assert_eq!(seg.static_intervals.len(), 1);
+    assert!((seg.static_intervals[0].norm_f_m_s2 - 9.81).abs() < 1e-9);
 }
