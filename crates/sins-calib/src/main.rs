@@ -3,13 +3,17 @@
 //! - `simulate`: a simulated run (IMU and turntable records, true values) from a run configuration;
 //! - `calibrate`: estimate the instrument errors from recorded data, with a report in the paper's
 //!   units, fit statistics and, against a truth file, the errors in sigmas;
-//! - `analyse`: covariance analysis of a run configuration, without data.
+//! - `analyse`: covariance analysis of a run configuration, without data;
+//! - `import`: a recording in another layout turned into `imu.csv` by an import profile;
+//! - `segment`: an `imu.csv` split into static intervals and motion.
 //!
 //! The work is done by the `calib` library; this crate only reads arguments, reports and exits.
 //! File formats: `docs/formats.md`.
 
 mod analyse;
 mod calibrate;
+mod import;
+mod segment;
 mod simulate;
 mod table;
 
@@ -54,6 +58,19 @@ enum Command {
     /// Runs the configuration's filter along the ideal motion of its rotation program and
     /// reports what a calibration with that program, noise and priors can achieve.
     Analyse(analyse::Args),
+    /// Import a recording in another layout: write DIR/imu.csv (and turntable.csv, sections.json
+    /// where the source has angles or a section list) and DIR/import.json.
+    ///
+    /// An import profile (TOML) says which files, columns, time base, units, axes and ranges the
+    /// recording has. Time stamps keep their jitter; gaps are refused (or kept with
+    /// --allow-gaps), saturated samples counted, a specific force at rest nowhere near g refused.
+    Import(import::Args),
+    /// Split an imu.csv into static intervals and motion, and print the static intervals.
+    ///
+    /// A record is static when, over a window centred on it, the standard deviations of the
+    /// specific force and of the rate and the magnitude of the mean rate are below thresholds;
+    /// runs of static records at least --min-duration long are the static intervals.
+    Segment(segment::Args),
 }
 
 /// Read a run configuration by name (`paper`, `paper-reconciled`) or path; returns it with the
@@ -92,6 +109,8 @@ fn main() -> ExitCode {
             calibrate::Outcome::DoesNotFit => ExitCode::from(MODEL_DOES_NOT_FIT),
         }),
         Command::Analyse(args) => analyse::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Import(args) => import::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Segment(args) => segment::run(&args).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,

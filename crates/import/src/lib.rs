@@ -1,0 +1,758 @@
+//! # import
+//!
+//! Recordings in other layouts turned into the project's interchange files, and static
+//! detection on them.
+//!
+//! - [`profile`]: the import profile (TOML): input files, delimiter, skipped lines, which column
+//!   is which, the time base, rates or increments, units (physical or counts with offset and
+//!   sensitivity), axis mapping with sign flips, sensor ranges, turntable angles, a section list;
+//! - [`import_recording`]: reads the files a profile names and checks them: time strictly
+//!   increasing, jitter kept (every record keeps its own time stamp), gaps refused unless allowed
+//!   (then recorded), saturated samples counted, a specific force at rest nowhere near g refused
+//!   with the likely cause; [`write_outputs`] writes `imu.csv` (with `calib::io`'s writer),
+//!   `turntable.csv` when the source has angles, `sections.json` when the profile has a section
+//!   list, and the report `import.json`;
+//! - [`detect`]: the static detector, splitting an `imu.csv` into static intervals and motion;
+//! - [`sections`]: section lists (static faces, rotations) carried onto the imported records.
+//!
+//! Every refusal is an [`ImportError`] naming the file, the line where there is one, and what was
+//! expected; nothing panics on user data. Formats: `docs/formats.md`.
+//!
+//! ```no_run
+//! use import::{ImportOptions, import_recording, profile::Profile, write_outputs};
+//! use std::path::Path;
+//!
+//! let profile = Profile::load(Path::new("examples/xsens_mti.toml"))?;
+//! let imported = import_recording(&profile, &ImportOptions::default())?;
+//! write_outputs(&imported, Path::new("out/xsens"))?;
+//! let segmentation = import::detect::segment(&imported.imu, &Default::default())?;
+//! assert_eq!(segmentation.static_intervals.len(), 38);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod detect;
+mod error;
+pub mod profile;
+pub mod sections;
+mod text;
+pub mod timing;
+
+pub use error::ImportError;
+
+use calib::io::{ImuData, ImuKind, ImuRecord, TurntableData, TurntableRecord};
+use profile::{AngleUnit, Column, Form, Join, Profile, STANDARD_GRAVITY, Sensor, Unit};
+use sections::SectionsFile;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use text::{Table, Wanted, read_table};
+use timing::{GapAt, Timing};
+
+/// The specific force at rest must have a median magnitude within this band, in units of
+/// standard gravity, over the quietest window of the recording.
+pub const G_BAND: (f64, f64) = (0.8, 1.2);
+
+/// Length of the window in which the specific force at rest is checked (s).
+pub const QUIET_WINDOW_S: f64 = 1.0;
+
+/// Choices of an import that are not part of the profile.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ImportOptions {
+    /// Import a recording with gaps (intervals longer than the profile's `checks.gap_factor`
+    /// median intervals) as it is, the gaps recorded in the report; without it such a recording
+    /// is refused at its first gap.
+    pub allow_gaps: bool,
+}
+
+/// One input file of an import, as the report lists it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InputFile {
+    /// `"imu"` (the single file), `"gyro"` or `"accel"`.
+    pub role: String,
+    /// The file (resolved path).
+    pub file: String,
+    /// Data rows read.
+    pub rows: usize,
+    /// Line of the first data row (1-based).
+    pub first_line: usize,
+    /// Line of the last data row.
+    pub last_line: usize,
+}
+
+/// A gap as the report lists it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GapReport {
+    /// 0-based index of the record after the gap in `imu.csv`.
+    pub record: usize,
+    /// The input file of the line below.
+    pub file: String,
+    /// Line of the record after the gap in that file.
+    pub line: usize,
+    /// Time of the record before the gap (s).
+    pub t_before_s: f64,
+    /// Time of the record after the gap (s).
+    pub t_after_s: f64,
+    /// Length of the interval (s).
+    pub length_s: f64,
+    /// Length in median intervals.
+    pub median_intervals: f64,
+}
+
+/// Saturated samples of one sensor.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SaturationReport {
+    /// `"gyro"` or `"accel"`.
+    pub sensor: String,
+    /// The profile's range `[lowest, highest]`, in the file's values.
+    pub range: [f64; 2],
+    /// Records with any axis at or beyond the range.
+    pub count: usize,
+    /// The input file of `first_line`.
+    pub file: String,
+    /// Line of the first saturated record, if any.
+    pub first_line: Option<usize>,
+    /// Stretches of consecutive saturated records, `[first t, last t]` (s).
+    pub stretches: Vec<[f64; 2]>,
+}
+
+/// The specific force in the quietest window (the check against g).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StaticForce {
+    /// Median magnitude of the specific force over the window (m/s^2).
+    pub median_norm_m_s2: f64,
+    /// Its ratio to standard gravity.
+    pub ratio_to_g: f64,
+    /// First and last time stamp of the window (s).
+    pub window_s: [f64; 2],
+    /// Standard deviation of the specific force over the window (m/s^2).
+    pub std_m_s2: f64,
+}
+
+/// What an import read, found and wrote (`import.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ImportReport {
+    /// The profile file.
+    pub profile: String,
+    /// The profile's description.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// The input files.
+    pub inputs: Vec<InputFile>,
+    /// `"rates"` or `"increments"`.
+    pub form: String,
+    /// Records written to `imu.csv`.
+    pub records: usize,
+    /// First time stamp (s).
+    pub t_first_s: f64,
+    /// Last time stamp (s).
+    pub t_last_s: f64,
+    /// Interval statistics (jitter is kept).
+    pub timing: Timing,
+    /// Gaps (only with [`ImportOptions::allow_gaps`]; otherwise the import is refused).
+    pub gaps: Vec<GapReport>,
+    /// Saturation per sensor with a range in the profile.
+    pub saturation: Vec<SaturationReport>,
+    /// The check of the specific force at rest against g.
+    pub static_force: StaticForce,
+    /// Whether `turntable.csv` was written.
+    pub turntable: bool,
+    /// Number of sections written to `sections.json` (absent without a section list).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sections: Option<usize>,
+}
+
+/// An imported recording.
+#[derive(Clone, Debug)]
+pub struct Imported {
+    /// The records for `imu.csv`.
+    pub imu: ImuData,
+    /// The angles for `turntable.csv`, when the profile has `[angles]`.
+    pub turntable: Option<TurntableData>,
+    /// The sections for `sections.json`, when the profile has `[sections]`.
+    pub sections: Option<SectionsFile>,
+    /// What was read and found.
+    pub report: ImportReport,
+}
+
+/// A read input file with its time stamps.
+struct Source {
+    role: &'static str,
+    table: Table,
+    t: Vec<f64>,
+}
+
+/// Indices of the columns in a table, by what they hold.
+#[derive(Default)]
+struct Layout {
+    time: Option<usize>,
+    gyro: Option<usize>,
+    accel: Option<usize>,
+    angles: Option<usize>,
+}
+
+fn want<'a>(
+    wanted: &mut Vec<Wanted<'a>>,
+    what: &str,
+    columns: &'a [Column],
+    axes: [&str; 3],
+) -> usize {
+    let at = wanted.len();
+    for (c, a) in columns.iter().zip(axes) {
+        wanted.push(Wanted {
+            what: format!("{what} {a} ({c})"),
+            column: c,
+        });
+    }
+    at
+}
+
+fn read_source(
+    profile: &Profile,
+    role: &'static str,
+    path: &Path,
+) -> Result<(Source, Layout), ImportError> {
+    let mut wanted = Vec::new();
+    let mut layout = Layout::default();
+    let time = &profile.time;
+    if let Some(c) = &time.column {
+        layout.time = Some(wanted.len());
+        wanted.push(Wanted {
+            what: format!("time ({c})"),
+            column: c,
+        });
+    } else if let Some(c) = &time.counter_column {
+        layout.time = Some(wanted.len());
+        wanted.push(Wanted {
+            what: format!("sample counter ({c})"),
+            column: c,
+        });
+    }
+    let xyz = ["x", "y", "z"];
+    if role != "accel" {
+        layout.gyro = Some(want(&mut wanted, "gyro", &profile.gyro.columns, xyz));
+    }
+    if role != "gyro" {
+        layout.accel = Some(want(&mut wanted, "accel", &profile.accel.columns, xyz));
+    }
+    if role != "accel"
+        && let Some(a) = &profile.angles
+    {
+        layout.angles = Some(want(&mut wanted, "angle", &a.columns, ["k1", "k2", "k3"]));
+    }
+    let table = read_table(path, &profile.input, &wanted)?;
+    let t = times(&table, layout.time, profile)?;
+    Ok((Source { role, table, t }, layout))
+}
+
+/// Time stamps of a table's rows, checked to increase strictly.
+fn times(table: &Table, column: Option<usize>, profile: &Profile) -> Result<Vec<f64>, ImportError> {
+    let time = &profile.time;
+    let mut t = Vec::with_capacity(table.rows());
+    for i in 0..table.rows() {
+        let ti = match (column, time.counter_column.is_some(), time.rate_hz) {
+            (Some(j), false, _) => table.get(i, j) / time.unit.unwrap_or_default().per_second(),
+            (Some(j), true, Some(r)) => table.get(i, j) / r,
+            (_, _, Some(r)) => i as f64 / r,
+            _ => f64::NAN, // excluded by the profile's check
+        };
+        if !ti.is_finite() {
+            return Err(ImportError::line(
+                &table.file,
+                table.lines[i],
+                format!(
+                    "the time comes out as {ti} s: expected a finite time (check the profile's \
+                     [time])"
+                ),
+            ));
+        }
+        if let Some(&p) = t.last()
+            && ti.partial_cmp(&p) != Some(std::cmp::Ordering::Greater)
+        {
+            let what = if time.counter_column.is_some() {
+                "sample counter"
+            } else {
+                "time"
+            };
+            return Err(ImportError::line(
+                &table.file,
+                table.lines[i],
+                format!(
+                    "t = {} s is not after the previous row's t = {} s (line {}): expected a \
+                     strictly increasing {what}",
+                    show_t(ti),
+                    show_t(p),
+                    table.lines[i - 1]
+                ),
+            ));
+        }
+        t.push(ti);
+    }
+    Ok(t)
+}
+
+/// Check that two files pair row by row (the join), naming the first row without a partner.
+fn join(profile: &Profile, g: &Source, a: &Source) -> Result<(), ImportError> {
+    let tol = profile
+        .input
+        .join_tolerance_s
+        .unwrap_or_else(|| 0.1 * timing::median_interval(&g.t));
+    let tol = if tol.is_finite() { tol } else { 0.0 };
+    let n = g.t.len().min(a.t.len());
+    let has_time = profile.time.column.is_some() || profile.time.counter_column.is_some();
+    match profile.input.join {
+        Join::Time => {
+            for i in 0..n {
+                let d = g.t[i] - a.t[i];
+                if d.abs() > tol {
+                    // The file whose time is earlier has a row the other lacks.
+                    let (lone, other) = if d < 0.0 { (g, a) } else { (a, g) };
+                    return Err(ImportError::line(
+                        &lone.table.file,
+                        lone.table.lines[i],
+                        format!(
+                            "t = {} s has no row with the same time in {} (its row there, line \
+                             {}, has t = {} s): expected the {} and {} files to hold the same \
+                             time stamps, within join_tolerance_s = {tol} s",
+                            show_t(lone.t[i]),
+                            other.table.file,
+                            other.table.lines[i],
+                            show_t(other.t[i]),
+                            g.role,
+                            a.role
+                        ),
+                    ));
+                }
+            }
+        }
+        Join::Row => {
+            if has_time {
+                for i in 0..n {
+                    if (g.t[i] - a.t[i]).abs() > tol {
+                        return Err(ImportError::line(
+                            &a.table.file,
+                            a.table.lines[i],
+                            format!(
+                                "t = {} s, but line {} of {} has t = {} s: expected rows joined \
+                                 by position to have the same time within join_tolerance_s = \
+                                 {tol} s",
+                                show_t(a.t[i]),
+                                g.table.lines[i],
+                                g.table.file,
+                                show_t(g.t[i])
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    if g.t.len() != a.t.len() {
+        let (long, short) = if g.t.len() > a.t.len() {
+            (g, a)
+        } else {
+            (a, g)
+        };
+        return Err(ImportError::line(
+            &long.table.file,
+            long.table.lines[n],
+            format!(
+                "row {} (t = {} s) has no partner: {} ends after {} rows; expected the {} and {} \
+                 files to have as many rows",
+                n + 1,
+                show_t(long.t[n]),
+                short.table.file,
+                short.t.len(),
+                g.role,
+                a.role
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Saturation bookkeeping of one sensor.
+struct Saturation {
+    count: usize,
+    first: Option<usize>,
+    stretches: Vec<[f64; 2]>,
+    open: bool,
+}
+
+impl Saturation {
+    fn new() -> Self {
+        Self {
+            count: 0,
+            first: None,
+            stretches: Vec::new(),
+            open: false,
+        }
+    }
+
+    fn push(&mut self, k: usize, t: f64, saturated: bool) {
+        if saturated {
+            self.count += 1;
+            self.first.get_or_insert(k);
+            match (self.open, self.stretches.last_mut()) {
+                (true, Some(s)) => s[1] = t,
+                _ => self.stretches.push([t, t]),
+            }
+        }
+        self.open = saturated;
+    }
+}
+
+fn triad(table: &Table, i: usize, at: usize) -> [f64; 3] {
+    [table.get(i, at), table.get(i, at + 1), table.get(i, at + 2)]
+}
+
+/// Read, convert and check the recording a profile describes.
+pub fn import_recording(
+    profile: &Profile,
+    options: &ImportOptions,
+) -> Result<Imported, ImportError> {
+    let files = profile.input_files();
+    let mut sources = Vec::new();
+    let mut layouts = Vec::new();
+    for (role, path) in &files {
+        let (s, l) = read_source(profile, role, path)?;
+        sources.push(s);
+        layouts.push(l);
+    }
+    if let [g, a] = sources.as_slice() {
+        join(profile, g, a)?;
+    }
+    let (gs, gl) = (&sources[0], &layouts[0]);
+    let (as_, al) = (
+        sources.last().expect("one or two"),
+        layouts.last().expect("one or two"),
+    );
+    let (g_at, a_at) = (gl.gyro.unwrap_or(0), al.accel.unwrap_or(0));
+    let n = gs.t.len();
+    let t = &gs.t;
+
+    let kind = match profile.form {
+        Form::Rates => ImuKind::Rates,
+        Form::Increments => ImuKind::Increments,
+    };
+    let mut records = Vec::with_capacity(n);
+    let mut sat_g = Saturation::new();
+    let mut sat_a = Saturation::new();
+    for (k, &tk) in t.iter().enumerate() {
+        let raw_g = triad(&gs.table, k, g_at);
+        let raw_a = triad(&as_.table, k, a_at);
+        sat_g.push(k, tk, profile.gyro.saturated(&raw_g));
+        sat_a.push(k, tk, profile.accel.saturated(&raw_a));
+        records.push(ImuRecord {
+            t: tk,
+            gyro: profile.gyro.convert(raw_g),
+            accel: profile.accel.convert(raw_a),
+            temp: None,
+        });
+    }
+    let imu = ImuData { kind, records };
+
+    // Timing: jitter kept, gaps refused unless allowed.
+    if n < 2 {
+        return Err(ImportError::line(
+            &gs.table.file,
+            gs.table.lines[0],
+            "expected at least two data rows (a recording), found one",
+        ));
+    }
+    let (timing, gaps) = timing::analyse(t, profile.checks.gap_factor);
+    let gap_reports: Vec<GapReport> = gaps
+        .iter()
+        .map(|g| GapReport {
+            record: g.index,
+            file: gs.table.file.clone(),
+            line: gs.table.lines[g.index],
+            t_before_s: g.t_before_s,
+            t_after_s: g.t_after_s,
+            length_s: g.length_s(),
+            median_intervals: g.length_s() / timing.median_interval_s,
+        })
+        .collect();
+    if let Some(g) = gap_reports.first()
+        && !options.allow_gaps
+    {
+        return Err(ImportError::line(
+            &g.file,
+            g.line,
+            format!(
+                "a gap of {} s ({:.1} median intervals of {} s) between t = {} s (line {}) and \
+                 t = {} s: expected intervals of at most {} median intervals ({} gap{} in all); \
+                 gaps are never bridged: import with gaps allowed (sins-calib import \
+                 --allow-gaps) to keep the records as they are with the gaps recorded in \
+                 import.json",
+                round_sig(g.length_s),
+                g.median_intervals,
+                round_sig(timing.median_interval_s),
+                show_t(g.t_before_s),
+                gs.table.lines[g.record - 1],
+                show_t(g.t_after_s),
+                profile.checks.gap_factor,
+                gap_reports.len(),
+                if gap_reports.len() == 1 { "" } else { "s" }
+            ),
+        ));
+    }
+
+    let static_force = check_static_force(profile, &imu, &gaps, as_)?;
+
+    let saturation = [
+        (&profile.gyro, &sat_g, "gyro", gs),
+        (&profile.accel, &sat_a, "accel", as_),
+    ]
+    .into_iter()
+    .filter_map(|(sensor, s, name, src)| {
+        sensor.range.map(|range| SaturationReport {
+            sensor: name.into(),
+            range,
+            count: s.count,
+            file: src.table.file.clone(),
+            first_line: s.first.map(|k| src.table.lines[k]),
+            stretches: s.stretches.clone(),
+        })
+    })
+    .collect();
+
+    let turntable = profile.angles.as_ref().zip(gl.angles).map(|(a, at)| {
+        let f = match a.unit {
+            AngleUnit::Deg => 1.0,
+            AngleUnit::Rad => 180.0 / std::f64::consts::PI,
+        };
+        TurntableData {
+            records: (0..n)
+                .map(|k| TurntableRecord {
+                    t: t[k],
+                    k_deg: triad(&gs.table, k, at).map(|v| v * f),
+                })
+                .collect(),
+        }
+    });
+
+    let sections = match &profile.sections {
+        Some(s) => Some(sections::carry(
+            s,
+            &profile.resolve(&s.file),
+            &imu,
+            &profile.gyro,
+            &profile.accel,
+        )?),
+        None => None,
+    };
+
+    let report = ImportReport {
+        profile: profile.origin.clone(),
+        description: profile.description.clone(),
+        inputs: sources
+            .iter()
+            .map(|s| InputFile {
+                role: s.role.into(),
+                file: s.table.file.clone(),
+                rows: s.table.rows(),
+                first_line: s.table.lines[0],
+                last_line: *s.table.lines.last().expect("rows"),
+            })
+            .collect(),
+        form: match kind {
+            ImuKind::Rates => "rates",
+            ImuKind::Increments => "increments",
+        }
+        .into(),
+        records: n,
+        t_first_s: t[0],
+        t_last_s: t[n - 1],
+        timing,
+        gaps: gap_reports,
+        saturation,
+        static_force,
+        turntable: turntable.is_some(),
+        sections: sections.as_ref().map(|s| s.sections.len()),
+    };
+    Ok(Imported {
+        imu,
+        turntable,
+        sections,
+        report,
+    })
+}
+
+/// Rounded to 4 significant digits, for messages.
+fn round_sig(x: f64) -> f64 {
+    round_to(x, 4)
+}
+
+/// Rounded to `digits` significant digits (shown without the float noise of sums such as
+/// `1.0600000000000001`).
+fn round_to(x: f64, digits: i32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(digits - 1 - x.abs().log10().floor() as i32);
+    if !scale.is_finite() || scale == 0.0 {
+        return x;
+    }
+    (x * scale).round() / scale
+}
+
+/// A time stamp for messages: 10 significant digits.
+fn show_t(t: f64) -> f64 {
+    round_to(t, 10)
+}
+
+/// The specific force in the quietest window must be near g; else the import is refused with
+/// the likely cause.
+fn check_static_force(
+    profile: &Profile,
+    imu: &ImuData,
+    gaps: &[GapAt],
+    src: &Source,
+) -> Result<StaticForce, ImportError> {
+    let (t, _, f) = detect::rates_of(imu);
+    let (a, b, std) = detect::quietest_window(&t, &f, QUIET_WINDOW_S, gaps);
+    let mut norms: Vec<f64> = f[a..b]
+        .iter()
+        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+        .collect();
+    let median = timing::median_of(&mut norms);
+    let ratio = median / STANDARD_GRAVITY;
+    let found = StaticForce {
+        median_norm_m_s2: median,
+        ratio_to_g: ratio,
+        window_s: [t[a], t[b - 1]],
+        std_m_s2: std,
+    };
+    if (G_BAND.0..=G_BAND.1).contains(&ratio) {
+        return Ok(found);
+    }
+    let cause = force_cause(&profile.accel, profile.form, ratio);
+    Err(ImportError::line(
+        &src.table.file,
+        src.table.lines[a],
+        format!(
+            "the specific force at rest has a median magnitude of {} m/s^2 ({} g) over lines \
+             {}..{} (t = {} .. {} s, the quietest {} s of the recording): expected g = {} m/s^2 \
+             within {} to {} g; {cause}",
+            round_sig(median),
+            round_sig(ratio),
+            src.table.lines[a],
+            src.table.lines[b - 1],
+            show_t(t[a]),
+            show_t(t[b - 1]),
+            QUIET_WINDOW_S,
+            STANDARD_GRAVITY,
+            G_BAND.0,
+            G_BAND.1
+        ),
+    ))
+}
+
+/// The likely cause of a specific force at rest of `ratio` g.
+fn force_cause(accel: &Sensor, form: Form, ratio: f64) -> String {
+    let near = |x: f64| (0.8 * x..=1.2 * x).contains(&ratio);
+    let per = |u: Option<Unit>| u.map_or("?", Unit::name);
+    let increments = if form == Form::Increments {
+        " (increments are divided by their record interval: check that the file holds velocity \
+         increments, not specific force)"
+    } else {
+        ""
+    };
+    let cause = if ratio < 0.01 {
+        "the accelerometers read almost nothing: check [accel] columns (a gyro or a counter \
+         column?) and, for counts, the offset"
+            .to_string()
+    } else if accel.unit == Unit::Counts {
+        let su = accel.sensitivity_unit;
+        if su == Some(Unit::MPerS2) && near(1.0 / STANDARD_GRAVITY) {
+            "about 1/9.81 of g: the sensitivity looks given in counts per g, not per m/s^2 \
+             (sensitivity_unit = \"g\")"
+                .to_string()
+        } else if su == Some(Unit::G) && near(STANDARD_GRAVITY) {
+            "about 9.81 g: the sensitivity looks given in counts per m/s^2, not per g \
+             (sensitivity_unit = \"m/s^2\")"
+                .to_string()
+        } else {
+            format!(
+                "check the accelerometer offset (counts at zero) and sensitivity (counts per {}), \
+                 and the columns",
+                per(su)
+            )
+        }
+    } else if ratio > 100.0 {
+        format!(
+            "the values look like raw counts: set unit = \"counts\" with offset and sensitivity \
+             (unit is \"{}\")",
+            accel.unit.name()
+        )
+    } else if accel.unit == Unit::MPerS2 && near(1.0 / STANDARD_GRAVITY) {
+        "the accelerometers look given in g, not m/s^2: set unit = \"g\"".to_string()
+    } else if accel.unit == Unit::G && near(STANDARD_GRAVITY) {
+        "the accelerometers look given in m/s^2, not g: set unit = \"m/s^2\"".to_string()
+    } else {
+        format!(
+            "check the accelerometer unit (unit = \"{}\") and columns",
+            accel.unit.name()
+        )
+    };
+    cause + increments
+}
+
+/// The files [`write_outputs`] wrote.
+#[derive(Clone, Debug)]
+pub struct Written {
+    /// `imu.csv`.
+    pub imu: PathBuf,
+    /// `turntable.csv`, when the source has angles.
+    pub turntable: Option<PathBuf>,
+    /// `sections.json`, when the profile has a section list.
+    pub sections: Option<PathBuf>,
+    /// `import.json`.
+    pub report: PathBuf,
+}
+
+/// Write `imu.csv`, `turntable.csv` (with angles), `sections.json` (with a section list) and
+/// `import.json` into `dir` (created when missing; files there are overwritten).
+pub fn write_outputs(imported: &Imported, dir: &Path) -> Result<Written, ImportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ImportError::Write {
+        file: dir.display().to_string(),
+        source,
+    })?;
+    let imu = dir.join("imu.csv");
+    calib::io::write_imu_csv(&imu, &imported.imu)?;
+    let turntable = match &imported.turntable {
+        Some(tt) => {
+            let p = dir.join("turntable.csv");
+            calib::io::write_turntable_csv(&p, tt)?;
+            Some(p)
+        }
+        None => None,
+    };
+    let json = |path: &Path, text: String| {
+        std::fs::write(path, text + "\n").map_err(|source| ImportError::Write {
+            file: path.display().to_string(),
+            source,
+        })
+    };
+    let sections = match &imported.sections {
+        Some(s) => {
+            let p = dir.join("sections.json");
+            json(&p, serde_json::to_string_pretty(s).expect("plain data"))?;
+            Some(p)
+        }
+        None => None,
+    };
+    let report = dir.join("import.json");
+    json(
+        &report,
+        serde_json::to_string_pretty(&imported.report).expect("plain data"),
+    )?;
+    Ok(Written {
+        imu,
+        turntable,
+        sections,
+        report,
+    })
+}

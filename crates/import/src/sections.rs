@@ -1,0 +1,237 @@
+//! Section lists: the labelled parts of a calibration session (static faces, rotations) carried
+//! from the source's list into `sections.json` beside `imu.csv`, on the records and axes of the
+//! imported file (format: `docs/formats.md`, "Sections file").
+
+use crate::error::ImportError;
+use crate::profile::{SectionsSource, Sensor};
+use crate::text::excerpt;
+use calib::io::{ImuData, ImuKind};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// What a section is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SectionKind {
+    /// The unit at rest with one axis up or down.
+    Static,
+    /// A turn about one axis.
+    Rotation,
+}
+
+/// One section, on the imported records.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Section {
+    /// Name in the source list (`x_p`, `y_rot`, ...).
+    pub name: String,
+    /// Static face or rotation.
+    pub kind: SectionKind,
+    /// First data row in the source list's terms (0-based row position).
+    pub source_start: usize,
+    /// End in the source list's terms (0-based row position, exclusive).
+    pub source_end: usize,
+    /// 0-based index of the section's first record in `imu.csv` (line `first_record + 2`).
+    pub first_record: usize,
+    /// 0-based index of its last record.
+    pub last_record: usize,
+    /// Time stamp of the first record (s).
+    pub start_s: f64,
+    /// Time stamp of the last record (s).
+    pub end_s: f64,
+    /// Static faces: the body axis that points up (unit vector in the axes of `imu.csv`): the
+    /// specific force at rest is `g` times this.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<[f64; 3]>,
+    /// Rotations: the body axis of the turn (unit vector in the axes of `imu.csv`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
+    /// Rotations: the turn the section was meant to make about `axis`, right-handed (deg) (the
+    /// profile's `expected_turn_deg`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expected_turn_deg: Option<f64>,
+    /// Rotations: the uncalibrated gyro about `axis` integrated over the section's records (each
+    /// rate times its own interval) (deg).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured_turn_deg: Option<f64>,
+    /// Mean specific force over the section, body axes (m/s^2).
+    pub mean_f_m_s2: [f64; 3],
+}
+
+/// The contents of `sections.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SectionsFile {
+    /// The source list, as the profile named it (resolved path).
+    pub source: String,
+    /// Its format (`"imucal"`).
+    pub format: String,
+    /// The sections in time order.
+    pub sections: Vec<Section>,
+}
+
+impl SectionsFile {
+    /// A section by name.
+    pub fn get(&self, name: &str) -> Option<&Section> {
+        self.sections.iter().find(|s| s.name == name)
+    }
+
+    /// Read a `sections.json`.
+    pub fn read(path: &Path) -> Result<Self, ImportError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ImportError::Read {
+            file: file.clone(),
+            source,
+        })?;
+        serde_json::from_str(&text).map_err(|e| {
+            ImportError::line(
+                &file,
+                e.line(),
+                format!("expected a sections file (docs/formats.md): {e}"),
+            )
+        })
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Bounds {
+    start: usize,
+    end: usize,
+}
+
+/// What an imucal name says: kind, source axis (0..3) and, for static faces, the sign of the
+/// axis that points up.
+fn parse_name(name: &str) -> Option<(SectionKind, usize, f64)> {
+    let (axis, rest) = name.split_once('_')?;
+    let axis = match axis {
+        "x" => 0,
+        "y" => 1,
+        "z" => 2,
+        _ => return None,
+    };
+    match rest {
+        "p" => Some((SectionKind::Static, axis, 1.0)),
+        "a" => Some((SectionKind::Static, axis, -1.0)),
+        "rot" => Some((SectionKind::Rotation, axis, 1.0)),
+        _ => None,
+    }
+}
+
+/// Read an imucal section list and put it on the imported records (`data`, whose record `k` is
+/// data row `k` of the source) with the sensors' axis mappings.
+pub(crate) fn carry(
+    source: &SectionsSource,
+    path: &Path,
+    data: &ImuData,
+    gyro: &Sensor,
+    accel: &Sensor,
+) -> Result<SectionsFile, ImportError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| ImportError::Read {
+        file: file.clone(),
+        source,
+    })?;
+    let list: serde_json::Map<String, serde_json::Value> =
+        serde_json::from_str(&text).map_err(|e| {
+            ImportError::line(
+                &file,
+                e.line(),
+                format!(
+                    "expected an imucal section list, a JSON object {{\"x_p\": {{\"start\": 540, \
+                     \"end\": 1271}}, ...}}: {e}"
+                ),
+            )
+        })?;
+    let n = data.records.len();
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    let median = crate::timing::median_interval(&t);
+    let mut sections = Vec::new();
+    for (name, value) in list {
+        let Some((kind, axis, sign)) = parse_name(&name) else {
+            return Err(ImportError::file(
+                &file,
+                format!(
+                    "section `{}`: expected imucal's names x_p, x_a, y_p, y_a, z_p, z_a (static \
+                     faces: that axis up or down) and x_rot, y_rot, z_rot (rotations)",
+                    excerpt(&name)
+                ),
+            ));
+        };
+        let b: Bounds = serde_json::from_value(value).map_err(|e| {
+            ImportError::file(
+                &file,
+                format!(
+                    "section `{name}`: expected {{\"start\": row, \"end\": row}} (0-based data \
+                     rows, end exclusive): {e}"
+                ),
+            )
+        })?;
+        if !(b.start < b.end && b.end <= n) {
+            return Err(ImportError::file(
+                &file,
+                format!(
+                    "section `{name}`: start {} and end {}: expected 0 <= start < end <= {n}, \
+                     the number of data rows imported (rows are 0-based, end exclusive)",
+                    b.start, b.end
+                ),
+            ));
+        }
+        let (a, z) = (b.start, b.end - 1);
+        let recs = &data.records[a..=z];
+        let count = recs.len() as f64;
+        let mut mean_f = [0.0; 3];
+        for r in recs {
+            for (m, a) in mean_f.iter_mut().zip(r.accel) {
+                *m += a / count;
+            }
+        }
+        if data.kind == ImuKind::Increments {
+            // Velocity increments: the mean force is their sum over the section's span.
+            let dt0 = if a == 0 { median } else { t[a] - t[a - 1] };
+            let span = t[z] - t[a] + dt0;
+            mean_f = mean_f.map(|v| v * count / span);
+        }
+        let mut section = Section {
+            name: name.clone(),
+            kind,
+            source_start: b.start,
+            source_end: b.end,
+            first_record: a,
+            last_record: z,
+            start_s: t[a],
+            end_s: t[z],
+            up: None,
+            axis: None,
+            expected_turn_deg: None,
+            measured_turn_deg: None,
+            mean_f_m_s2: mean_f,
+        };
+        match kind {
+            SectionKind::Static => section.up = Some(accel.map_direction(axis, sign)),
+            SectionKind::Rotation => {
+                let dir = gyro.map_direction(axis, 1.0);
+                let mut turn = 0.0;
+                for k in a..=z {
+                    let g = data.records[k].gyro;
+                    let along = g[0] * dir[0] + g[1] * dir[1] + g[2] * dir[2];
+                    turn += match data.kind {
+                        ImuKind::Rates => {
+                            let dt = if k == 0 { median } else { t[k] - t[k - 1] };
+                            along * dt
+                        }
+                        ImuKind::Increments => along,
+                    };
+                }
+                section.axis = Some(dir);
+                section.expected_turn_deg = Some(source.expected_turn_deg);
+                section.measured_turn_deg = Some(turn.to_degrees());
+            }
+        }
+        sections.push(section);
+    }
+    sections.sort_by_key(|s| s.first_record);
+    Ok(SectionsFile {
+        source: file,
+        format: "imucal".into(),
+        sections,
+    })
+}

@@ -1,0 +1,268 @@
+//! Delimited text read line by line: the wanted columns of every data row as numbers, each row
+//! with its line number, every refusal naming the file, the line and what was expected.
+
+use crate::error::ImportError;
+use crate::profile::{Column, Input};
+use std::io::BufRead;
+use std::path::Path;
+
+/// At most this many characters of a field are echoed in a message.
+const ECHO_CHARS: usize = 60;
+
+/// A field as a message shows it: whole if short, else its start, "..." and its length.
+pub(crate) fn excerpt(field: &str) -> String {
+    match field.char_indices().nth(ECHO_CHARS) {
+        None => field.to_string(),
+        Some((cut, _)) => format!("{}... ({} bytes)", &field[..cut], field.len()),
+    }
+}
+
+/// A column the caller wants, and what it is for (named in messages, e.g. "gyro x").
+pub(crate) struct Wanted<'a> {
+    /// What the column holds, for messages.
+    pub what: String,
+    /// Where it is.
+    pub column: &'a Column,
+}
+
+/// The wanted columns of every data row.
+#[derive(Debug)]
+pub(crate) struct Table {
+    /// The file's name in messages.
+    pub file: String,
+    /// 1-based line of each data row.
+    pub lines: Vec<usize>,
+    /// Number of wanted columns.
+    pub width: usize,
+    /// Row-major values, `width` per row.
+    pub values: Vec<f64>,
+}
+
+impl Table {
+    /// Number of data rows.
+    pub fn rows(&self) -> usize {
+        self.lines.len()
+    }
+
+    /// Value `j` of row `i`.
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.values[i * self.width + j]
+    }
+}
+
+/// Lines of a text file, numbered from 1, with the checks every line needs: UTF-8, a line end
+/// after the last line (a last line without one is taken as a file cut off mid-row).
+struct Lines {
+    reader: Box<dyn BufRead>,
+    file: String,
+    buf: Vec<u8>,
+    line: usize,
+}
+
+impl Lines {
+    /// The next line (without its line end) and its number; `None` at the end.
+    fn next_line(&mut self) -> Result<Option<(usize, String)>, ImportError> {
+        self.buf.clear();
+        let n = self
+            .reader
+            .read_until(b'\n', &mut self.buf)
+            .map_err(|source| ImportError::Read {
+                file: self.file.clone(),
+                source,
+            })?;
+        if n == 0 {
+            return Ok(None);
+        }
+        self.line += 1;
+        let ended = self.buf.last() == Some(&b'\n');
+        let bom = "\u{feff}".as_bytes();
+        let start = if self.line == 1 && self.buf.starts_with(bom) {
+            bom.len()
+        } else {
+            0
+        };
+        let mut end = self.buf.len();
+        while end > start && matches!(self.buf[end - 1], b'\n' | b'\r') {
+            end -= 1;
+        }
+        let text = std::str::from_utf8(&self.buf[start..end]).map_err(|e| {
+            ImportError::line(
+                &self.file,
+                self.line,
+                format!(
+                    "not UTF-8 text (byte {} of the line): expected a text file of numbers",
+                    e.valid_up_to() + 1
+                ),
+            )
+        })?;
+        if !ended && !text.trim().is_empty() {
+            return Err(ImportError::line(
+                &self.file,
+                self.line,
+                format!(
+                    "the last line has no line end: the file looks cut off in the middle of a \
+                     row (`{}`); expected every row to end with a line end",
+                    excerpt(text)
+                ),
+            ));
+        }
+        Ok(Some((self.line, text.to_string())))
+    }
+}
+
+/// Read the wanted columns of every data row of `path` laid out as `input` says.
+pub(crate) fn read_table(
+    path: &Path,
+    input: &Input,
+    wanted: &[Wanted<'_>],
+) -> Result<Table, ImportError> {
+    let file = path.display().to_string();
+    let f = std::fs::File::open(path).map_err(|source| ImportError::Read {
+        file: file.clone(),
+        source,
+    })?;
+    let mut lines = Lines {
+        reader: Box::new(std::io::BufReader::with_capacity(1 << 16, f)),
+        file: file.clone(),
+        buf: Vec::with_capacity(256),
+        line: 0,
+    };
+    let delimiter = input.delimiter;
+    // Field index of each wanted column: numbers now, names from the header line.
+    let mut index: Vec<Option<usize>> = wanted
+        .iter()
+        .map(|w| match w.column {
+            Column::Number(n) => Some(n - 1),
+            Column::Name(_) => None,
+        })
+        .collect();
+    for _ in 0..input.skip_lines {
+        let Some((n, text)) = lines.next_line()? else {
+            return Err(ImportError::line(
+                &file,
+                lines.line + 1,
+                format!(
+                    "the file ends within the {} lines the profile skips ([input] skip_lines): \
+                     expected those lines and data rows after them",
+                    input.skip_lines
+                ),
+            ));
+        };
+        if Some(n) == input.header_line {
+            let names: Vec<&str> = delimiter
+                .split(&text)
+                .map(|s| s.trim_matches('"').trim())
+                .collect();
+            for (slot, w) in index.iter_mut().zip(wanted) {
+                if let Column::Name(name) = w.column {
+                    let at = names.iter().position(|x| x == name).ok_or_else(|| {
+                        ImportError::line(
+                            &file,
+                            n,
+                            format!(
+                                "no column named `{}` on the header line (the profile's {}): \
+                                 expected one of {} (separated by {})",
+                                excerpt(name),
+                                w.what,
+                                excerpt(&names.join(", ")),
+                                delimiter.describe()
+                            ),
+                        )
+                    })?;
+                    *slot = Some(at);
+                }
+            }
+        }
+    }
+    let index: Vec<usize> = index.into_iter().map(|i| i.unwrap_or(0)).collect();
+    let needed = index.iter().max().map_or(0, |m| m + 1);
+    let mut table = Table {
+        file: file.clone(),
+        lines: Vec::new(),
+        width: wanted.len(),
+        values: Vec::new(),
+    };
+    let mut blank: Option<usize> = None;
+    while let Some((n, text)) = lines.next_line()? {
+        let trimmed = text.trim_start();
+        if trimmed.is_empty() {
+            blank.get_or_insert(n);
+            continue;
+        }
+        if let Some(c) = &input.comment
+            && trimmed.starts_with(c.as_str())
+        {
+            continue;
+        }
+        if let Some(b) = blank {
+            return Err(ImportError::line(
+                &file,
+                b,
+                "expected a data row, found an empty line before more data",
+            ));
+        }
+        let fields: Vec<&str> = delimiter.split(&text).collect();
+        if fields.len() < needed {
+            let (w, _) = wanted
+                .iter()
+                .zip(&index)
+                .max_by_key(|(_, i)| **i)
+                .expect("at least one wanted column");
+            return Err(ImportError::line(
+                &file,
+                n,
+                format!(
+                    "expected at least {needed} fields separated by {} (up to the {}), found {}",
+                    delimiter.describe(),
+                    w.what,
+                    fields.len()
+                ),
+            ));
+        }
+        for (w, &i) in wanted.iter().zip(&index) {
+            let f = fields[i];
+            let place = match w.column {
+                Column::Name(_) => format!(", field {}", i + 1),
+                Column::Number(_) => String::new(),
+            };
+            let v = match f.parse::<f64>() {
+                Ok(v) if v.is_finite() => v,
+                Ok(_) => {
+                    return Err(ImportError::line(
+                        &file,
+                        n,
+                        format!(
+                            "{}{place}: expected a finite number, found `{}`",
+                            w.what,
+                            excerpt(f)
+                        ),
+                    ));
+                }
+                Err(_) => {
+                    return Err(ImportError::line(
+                        &file,
+                        n,
+                        format!(
+                            "{}{place}: expected a number, found `{}`",
+                            w.what,
+                            excerpt(f)
+                        ),
+                    ));
+                }
+            };
+            table.values.push(v);
+        }
+        table.lines.push(n);
+    }
+    if table.lines.is_empty() {
+        return Err(ImportError::line(
+            &file,
+            lines.line + 1,
+            format!(
+                "expected data rows after the {} skipped lines, found none",
+                input.skip_lines
+            ),
+        ));
+    }
+    Ok(table)
+}

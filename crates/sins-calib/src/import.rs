@@ -1,0 +1,184 @@
+//! `sins-calib import`: a recording in another layout turned into `imu.csv` (and
+//! `turntable.csv`, `sections.json`) by an import profile; the work is the `import` crate's.
+
+use crate::table;
+use crate::{Error, print};
+use ::import::profile::Profile;
+use ::import::{ImportOptions, import_recording, write_outputs};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Arguments of `import`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Import profile (TOML, docs/formats.md "Import profile"): the input files, their layout,
+    /// which column is which, the time base, units, axis mapping and sensor ranges. Relative
+    /// paths in it resolve against its own directory. Ready profiles: examples/xsens_mti.toml,
+    /// examples/ferraris_session.toml.
+    #[arg(long, value_name = "FILE")]
+    pub profile: PathBuf,
+    /// Directory to write imu.csv, import.json and, where the source has them, turntable.csv and
+    /// sections.json into; created when missing, files already there are overwritten.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Import a recording with gaps (intervals longer than the profile's checks.gap_factor,
+    /// default 1.5, times the median interval) as it is, each gap printed and recorded in
+    /// import.json. Without it such a recording is refused at its first gap; gaps are never
+    /// bridged.
+    #[arg(long)]
+    pub allow_gaps: bool,
+}
+
+/// Run `import`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let profile = Profile::load(&args.profile)?;
+    let options = ImportOptions {
+        allow_gaps: args.allow_gaps,
+    };
+    let imported = import_recording(&profile, &options)?;
+    let written = write_outputs(&imported, &args.out)?;
+    let r = &imported.report;
+    let c = table::compact;
+
+    let mut s = String::new();
+    let _ = writeln!(s, "sins-calib import: {}", args.profile.display());
+    if let Some(d) = &r.description {
+        let _ = writeln!(s, "  {d}");
+    }
+    for i in &r.inputs {
+        let _ = writeln!(
+            s,
+            "  read {} ({}): {} data rows, lines {}..{}",
+            i.file, i.role, i.rows, i.first_line, i.last_line
+        );
+    }
+    let tm = &r.timing;
+    let _ = writeln!(
+        s,
+        "  time: t = {} .. {} s, {} records, median interval {} s ({} Hz), intervals {} .. {} s \
+         (each record keeps its own time stamp)",
+        c(r.t_first_s),
+        c(r.t_last_s),
+        r.records,
+        c(tm.median_interval_s),
+        c(1.0 / tm.median_interval_s),
+        c(tm.min_interval_s),
+        c(tm.max_interval_s)
+    );
+    if r.gaps.is_empty() {
+        let _ = writeln!(
+            s,
+            "  gaps: none (no interval longer than {} median intervals)",
+            c(tm.gap_factor)
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "  gaps: {} (kept as they are, --allow-gaps; recorded in import.json):",
+            r.gaps.len()
+        );
+        for g in &r.gaps {
+            let _ = writeln!(
+                s,
+                "    {} s ({:.1} median intervals) between t = {} s and t = {} s, {} line {}",
+                c(g.length_s),
+                g.median_intervals,
+                c(g.t_before_s),
+                c(g.t_after_s),
+                g.file,
+                g.line
+            );
+        }
+    }
+    for sat in &r.saturation {
+        match sat.first_line {
+            None => {
+                let _ = writeln!(
+                    s,
+                    "  saturation: {} none (range {} .. {} in the file's values)",
+                    sat.sensor,
+                    c(sat.range[0]),
+                    c(sat.range[1])
+                );
+            }
+            Some(line) => {
+                let _ = writeln!(
+                    s,
+                    "  saturation: {} {} records at or beyond the range {} .. {} in {} \
+                     stretches, the first at {} line {} (recorded in import.json)",
+                    sat.sensor,
+                    sat.count,
+                    c(sat.range[0]),
+                    c(sat.range[1]),
+                    sat.stretches.len(),
+                    sat.file,
+                    line
+                );
+            }
+        }
+    }
+    let f = &r.static_force;
+    let _ = writeln!(
+        s,
+        "  specific force at rest: median |f| = {} m/s^2 ({} g) over t = {} .. {} s (the \
+         quietest second)",
+        table::significant(f.median_norm_m_s2, 5),
+        table::significant(f.ratio_to_g, 4),
+        c(f.window_s[0]),
+        c(f.window_s[1])
+    );
+    let _ = writeln!(
+        s,
+        "  wrote {}: {} records, {}",
+        written.imu.display(),
+        r.records,
+        if r.form == "rates" {
+            "rates (rad/s, m/s^2)"
+        } else {
+            "increments (rad, m/s)"
+        }
+    );
+    if let Some(p) = &written.turntable {
+        let _ = writeln!(s, "  wrote {}: {} records", p.display(), r.records);
+    }
+    if let (Some(p), Some(sections)) = (&written.sections, &imported.sections) {
+        let _ = writeln!(
+            s,
+            "  wrote {}: {} sections",
+            p.display(),
+            sections.sections.len()
+        );
+        for x in &sections.sections {
+            let what = match (x.up, x.axis) {
+                (Some(up), _) => format!("static, up = {}", axis_name(up)),
+                (_, Some(axis)) => format!(
+                    "rotation about {}, expected {} deg, gyro integrates to {} deg",
+                    axis_name(axis),
+                    c(x.expected_turn_deg.unwrap_or(f64::NAN)),
+                    table::significant(x.measured_turn_deg.unwrap_or(f64::NAN), 4)
+                ),
+                _ => String::new(),
+            };
+            let _ = writeln!(
+                s,
+                "    {:<6} t = {:>7} .. {:>7} s  {:>4} records  {what}",
+                x.name,
+                table::significant(x.start_s, 4),
+                table::significant(x.end_s, 4),
+                x.last_record - x.first_record + 1
+            );
+        }
+    }
+    let _ = writeln!(s, "  wrote {}", written.report.display());
+    print(&s)
+}
+
+/// `+x`, `-z`, ... for a signed unit vector along an axis; the components otherwise.
+fn axis_name(v: [f64; 3]) -> String {
+    for (k, name) in ["x", "y", "z"].iter().enumerate() {
+        if v[k].abs() == 1.0 && v.iter().filter(|x| **x == 0.0).count() == 2 {
+            return format!("{}{name}", if v[k] > 0.0 { '+' } else { '-' });
+        }
+    }
+    format!("[{}, {}, {}]", v[0], v[1], v[2])
+}
