@@ -363,17 +363,15 @@ fn error_budget_groups() {
 }
 
 #[test]
-fn paper_rows_and_speed() {
+fn paper_rows() {
     let flight = SnakeTrajectory::new(&SnakeConfig::default_config()).unwrap();
     let opts = NavOptions::default();
-    let t0 = std::time::Instant::now();
     let without = rho_series(
         &flight,
         &InstrumentCovariance::paper_without_turntable(),
         &opts,
     )
     .unwrap();
-    let elapsed = t0.elapsed().as_secs_f64();
     let with = rho_series(
         &flight,
         &InstrumentCovariance::paper_with_turntable(),
@@ -381,17 +379,22 @@ fn paper_rows_and_speed() {
     )
     .unwrap();
     println!(
-        "rho after 1 h: {:.0} m without, {:.0} m with the turntable angles ({elapsed:.3} s)",
+        "rho after 1 h: {:.0} m without, {:.0} m with the turntable angles",
         without.final_rho_m(),
         with.final_rho_m()
     );
-    // The turntable angles improve navigation, and both figures are of the paper's order
-    // (1900 m, 1100 m); docs/navsim.md discusses the differences.
-    assert!(without.final_rho_m() > 1.5 * with.final_rho_m());
-    assert!((1000.0..4000.0).contains(&without.final_rho_m()));
-    assert!((500.0..2200.0).contains(&with.final_rho_m()));
-    // Well under a second for one hour at 1 s steps (the test profile is optimised).
-    assert!(elapsed < 1.0, "{elapsed}");
+    // The figures docs/navsim.md gives for the paper's own tables (2318 m and 1062 m, against
+    // the paper's 1900 m and 1100 m; the differences are discussed there), within 1 %.
+    assert!(
+        (without.final_rho_m() / 2318.0 - 1.0).abs() < 0.01,
+        "{}",
+        without.final_rho_m()
+    );
+    assert!(
+        (with.final_rho_m() / 1062.0 - 1.0).abs() < 0.01,
+        "{}",
+        with.final_rho_m()
+    );
 }
 
 #[test]

@@ -145,7 +145,24 @@ fn simulate_then_calibrate_round_trip() {
         assert!(p["unit"].is_string());
     }
     assert_eq!(json["fit"]["states"], 28);
-    assert!(json["fit"]["turntable"]["mean_nis"].as_f64().unwrap() > 0.0);
+    // Mean NIS of 3-dof updates: 3, standard error sqrt(6 / n); within four of them.
+    for fit in [&json["fit"]["turntable"], &json["fit"]] {
+        let key = if fit.get("mean_nis").is_some() {
+            "mean_nis"
+        } else {
+            "accel_mean_nis"
+        };
+        let n_key = if key == "mean_nis" {
+            "updates"
+        } else {
+            "accel_updates"
+        };
+        let (nis, n) = (fit[key].as_f64().unwrap(), fit[n_key].as_f64().unwrap());
+        assert!(
+            (nis - 3.0).abs() < 4.0 * (6.0 / n).sqrt(),
+            "{key} {nis} over {n}"
+        );
+    }
     // The result reads back with the library's reader (the extra `fit` field is ignored).
     let back = calib::io::read_result_json(&result).expect("calib reads the result");
     assert_eq!(back.parameters.len(), 25);

@@ -366,7 +366,12 @@ fn runs_are_reproducible_and_truth_is_complete() {
         .zip(&specs)
         .map(|(v, s)| (v / s.prior_sigma).powi(2))
         .sum();
-    assert!(z2 > 1.0 && z2 < 80.0, "{z2}");
+    // A chi-square with as many degrees of freedom as parameters: inside its two-sided 99.9 %
+    // band (statrs quantiles).
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    let chi2 = ChiSquared::new(specs.len() as f64).unwrap();
+    let (lo, hi) = (chi2.inverse_cdf(0.0005), chi2.inverse_cdf(0.9995));
+    assert!(z2 > lo && z2 < hi, "{z2} outside [{lo:.1}, {hi:.1}]");
     let mut s = sensor();
     s.sigma = [1e-5; 3];
     let cfg = SimConfig {

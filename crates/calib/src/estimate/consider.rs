@@ -30,6 +30,9 @@ use sins_model::terms::{Sensor, SensorInput};
 /// of the whole run's mean specific force are left out (no extra pass).
 const NEGLIGIBLE: f64 = 0.1;
 
+/// The state estimates and final attitude of a re-run pass.
+pub(super) type Rerun = (Vec<f64>, Matrix3<f64>);
+
 /// Covariance of `b = beta x d` for independent zero-mean `beta` and `d`:
 /// `B_ij = sum eps_ikl eps_jmn P_beta_km P_d_ln`.
 fn cross_product_covariance(p_beta: &Matrix3<f64>, p_d: &Matrix3<f64>) -> Matrix3<f64> {
@@ -63,7 +66,7 @@ pub(super) fn second_order_accel(
     config: &RunConfig,
     layout: &StateLayout,
     est: &mut Estimate,
-    rerun: &mut dyn FnMut(&Vector3<f64>) -> Result<(Vec<f64>, Matrix3<f64>), EstimateError>,
+    rerun: &mut dyn FnMut(&Vector3<f64>) -> Result<Rerun, EstimateError>,
 ) -> Result<(), EstimateError> {
     let Some(s) = layout.start_attitude else {
         return Ok(());
