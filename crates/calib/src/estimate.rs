@@ -1,18 +1,23 @@
-//! Calibration from recorded data.
+//! Calibration from recorded data (the method in full: `docs/estimation.md`).
 //!
+//! - Checks before any filter: values no sensor gives, the specific force at rest, dead gyros,
+//!   the program's start on the IMU clock (found from the rates or checked), the turntable
+//!   angles against the program through the clock relation.
 //! - Strapdown: the attitude `C` (body to ENU) is integrated at the IMU rate from the increments,
 //!   corrected with the current parameter estimate, with the coning correction
 //!   `phi = dth + dth_prev x dth / 12`; the velocity increment in ENU gets the rotation and
-//!   sculling corrections. The start attitude is the program's at the first interval's start
-//!   (the program starts at IMU time zero), the mounting taken as nominal.
+//!   sculling corrections; both previous-sample terms are dropped across a jump of the rate.
+//!   The start attitude is aligned to the program's rotations (IMU only) or comes from the
+//!   mounting fitted to the program's directions (with the turntable angles).
 //! - Specific force: the mean over each window of `C dv` against the site's `(0, 0, g)`.
-//! - Turntable angles: at the end of every IMU step in a window, the angle records are
-//!   interpolated (linearly, wrap-aware) at the turntable-clock time of `t + tau_hat`, turned
-//!   into the attitude `C_tt` with the current installation estimate, and compared with `C`.
+//! - Turntable angles: interpolated (linearly, wrap-aware) at the turntable-clock time of
+//!   `t + tau_hat`, turned into the attitude `C_tt` with the current installation estimate, and
+//!   compared with `C`; one sample per record when the records are sparse.
 //! - Filter: the error-state model of [`crate::model`] with [`crate::engine`], shared with the
-//!   covariance analysis. Whenever no measurement window is open the whole estimate is fed back:
-//!   the attitude error into `C`, the parameter errors into the parameter estimates, which
-//!   correct the following increments, and the filter state is zeroed.
+//!   covariance analysis; a closed-loop first pass, then passes linearised about the one before
+//!   until the parameters settle; the mounting covariances mapped to rotation-vector
+//!   coordinates; the second-order specific-force error carried as a consider parameter where
+//!   it matters (`consider`).
 
 use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
