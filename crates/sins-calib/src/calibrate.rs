@@ -419,7 +419,7 @@ fn observability_report(est: &Estimate) -> String {
     } else {
         let _ = writeln!(
             s,
-            "  not observed      {} of {} parameters keep more than {:.0} % of their prior sigma              (estimate = prior, sigma honest): {}",
+            "  not observed      {} of {} parameters keep more than {:.0} % of their prior sigma (estimate = prior, sigma honest): {}",
             unobserved.len(),
             est.names.len() - 3,
             100.0 * calib::estimate::UNOBSERVED_SIGMA_RATIO,
@@ -433,7 +433,7 @@ fn observability_report(est: &Estimate) -> String {
     if est.stats.consider_passes > 0 {
         let _ = writeln!(
             s,
-            "  second order      beta x (C df) is {} m/s^2 (1 sigma) on this run: carried into              the covariance ({} extra passes)",
+            "  second order      beta x (C df) is {} m/s^2 (1 sigma) on this run: carried into the covariance ({} extra passes)",
             table::significant(est.stats.second_order_accel_sigma, 2),
             est.stats.consider_passes
         );
