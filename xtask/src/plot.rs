@@ -36,7 +36,7 @@ fn ensure_fonts() -> Result<(), String> {
 }
 
 /// Draw rho(t) curves into a PNG file: rho in km against time in minutes, one line per series,
-/// with a legend. Each series is `(name, t [s], rho [m])`, both slices of equal length.
+/// with a legend. Each series is `(name, t (s), rho (m))`, both slices of equal length.
 pub fn plot_rho_png(
     path: &Path,
     title: &str,

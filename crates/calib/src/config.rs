@@ -30,7 +30,7 @@ pub enum ConfigError {
     /// Not a valid configuration.
     #[error("{origin}: {message}")]
     Invalid {
-        /// File path or "<embedded>".
+        /// File path or `"<embedded>"`.
         origin: String,
         /// What is wrong (toml's message carries line and column).
         message: String,
@@ -44,11 +44,11 @@ pub enum ConfigError {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SiteConfig {
-    /// Geodetic latitude [deg].
+    /// Geodetic latitude (deg).
     pub latitude_deg: f64,
-    /// Longitude [deg].
+    /// Longitude (deg).
     pub longitude_deg: f64,
-    /// Height [m].
+    /// Height (m).
     pub height_m: f64,
 }
 
@@ -56,27 +56,27 @@ pub struct SiteConfig {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PriorsConfig {
-    /// Gyro bias [deg/h].
+    /// Gyro bias (deg/h).
     pub gyro_bias_deg_h: f64,
-    /// Gyro scale-factor errors [-].
+    /// Gyro scale-factor errors (-).
     pub gyro_scale: f64,
-    /// Gyro misalignments [arcmin].
+    /// Gyro misalignments (arcmin).
     pub gyro_misalignment_arcmin: f64,
-    /// Accelerometer bias [m/s^2].
+    /// Accelerometer bias (m/s^2).
     pub accel_bias_m_s2: f64,
-    /// Accelerometer scale-factor errors [-].
+    /// Accelerometer scale-factor errors (-).
     pub accel_scale: f64,
-    /// Accelerometer non-orthogonality [arcmin].
+    /// Accelerometer non-orthogonality (arcmin).
     pub accel_misalignment_arcmin: f64,
-    /// Installation misalignment delta_z [deg].
+    /// Installation misalignment delta_z (deg).
     pub install_misalignment_deg: f64,
-    /// Turntable data delay tau [s].
+    /// Turntable data delay tau (s).
     pub tau_s: f64,
-    /// Initial attitude error of the computed frame about the horizontal axes (tilt) [deg].
+    /// Initial attitude error of the computed frame about the horizontal axes (tilt) (deg).
     pub initial_tilt_deg: f64,
-    /// Initial attitude error of the computed frame about the vertical (heading) [deg].
+    /// Initial attitude error of the computed frame about the vertical (heading) (deg).
     pub initial_heading_deg: f64,
-    /// Base misalignment gamma_p [arcsec].
+    /// Base misalignment gamma_p (arcsec).
     pub base_misalignment_arcsec: f64,
 }
 
@@ -98,11 +98,11 @@ pub enum NoiseReading {
 pub struct NoiseConfig {
     /// How measurements read the accelerometer and angle-sensor noise.
     pub reading: NoiseReading,
-    /// Gyro noise [deg/h at 1 Hz].
+    /// Gyro noise (deg/h at 1 Hz).
     pub gyro_deg_h: f64,
-    /// Accelerometer noise [m/s^2 at 1 Hz].
+    /// Accelerometer noise (m/s^2 at 1 Hz).
     pub accel_m_s2: f64,
-    /// Angle-sensor noise, each gimbal [arcsec at 1 Hz].
+    /// Angle-sensor noise, each gimbal (arcsec at 1 Hz).
     pub angle_arcsec: f64,
 }
 
@@ -125,11 +125,11 @@ pub enum AttitudePrior {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterConfig {
-    /// IMU integration rate [Hz].
+    /// IMU integration rate (Hz).
     pub imu_rate_hz: f64,
-    /// Specific-force measurement rate [Hz].
+    /// Specific-force measurement rate (Hz).
     pub accel_rate_hz: f64,
-    /// Turntable-angle measurement rate [Hz].
+    /// Turntable-angle measurement rate (Hz).
     pub turntable_rate_hz: f64,
     /// Estimate the base misalignment gamma_p (3 more states).
     pub estimate_base_misalignment: bool,
@@ -149,7 +149,7 @@ pub struct FilterConfig {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ClockConfig {
-    /// Turntable clock reading at IMU time zero [s].
+    /// Turntable clock reading at IMU time zero (s).
     pub turntable_offset_s: f64,
     /// Relative rate error of the turntable clock against the IMU clock (dimensionless).
     pub turntable_rate_error: f64,
@@ -172,11 +172,11 @@ impl ClockConfig {
 pub struct TruthConfig {
     /// Seed of the random generator (parameter draws and noise).
     pub seed: u64,
-    /// IMU output rate [Hz].
+    /// IMU output rate (Hz).
     pub imu_rate_hz: f64,
-    /// Turntable angle-sensor output rate [Hz] (its own clock).
+    /// Turntable angle-sensor output rate (Hz) (its own clock).
     pub turntable_rate_hz: f64,
-    /// Length of the run [s]; absent = the program's duration.
+    /// Length of the run (s); absent = the program's duration.
     pub duration_s: Option<f64>,
     /// Draw every parameter that `values` does not set from its prior (instrument errors,
     /// installation misalignment, delay, and the base misalignment when it is estimated);
@@ -434,7 +434,7 @@ impl RunConfig {
         }
     }
 
-    /// Gyro white-noise PSD [rad^2/s].
+    /// Gyro white-noise PSD (rad^2/s).
     pub fn gyro_psd(&self) -> f64 {
         (self.noise.gyro_deg_h * DEG_H).powi(2)
     }
@@ -442,11 +442,11 @@ impl RunConfig {
     pub fn accel_psd(&self) -> f64 {
         self.noise.accel_m_s2.powi(2)
     }
-    /// Angle-sensor white-noise PSD [rad^2 s].
+    /// Angle-sensor white-noise PSD (rad^2 s).
     pub fn angle_psd(&self) -> f64 {
         (self.noise.angle_arcsec * ARCSEC).powi(2)
     }
-    /// Initial attitude-error sigma [rad] about East, North, Up.
+    /// Initial attitude-error sigma (rad) about East, North, Up.
     pub fn initial_attitude_sigma(&self) -> [f64; 3] {
         let t = self.priors.initial_tilt_deg.to_radians();
         [t, t, self.priors.initial_heading_deg.to_radians()]
@@ -459,11 +459,11 @@ impl RunConfig {
             NoiseReading::Sample => psd * 1.0,
         }
     }
-    /// Installation-misalignment sigma [rad].
+    /// Installation-misalignment sigma (rad).
     pub fn install_sigma(&self) -> f64 {
         self.priors.install_misalignment_deg.to_radians()
     }
-    /// Base-misalignment sigma [rad].
+    /// Base-misalignment sigma (rad).
     pub fn base_sigma(&self) -> f64 {
         self.priors.base_misalignment_arcsec * ARCSEC
     }

@@ -24,7 +24,7 @@ pub enum AnalysisError {
     /// The filter refused a step.
     #[error("Kalman filter at t = {t:.3} s: {source}")]
     Filter {
-        /// Time of the failing step [s].
+        /// Time of the failing step (s).
         t: f64,
         /// Cause.
         source: kalman::KalmanError,

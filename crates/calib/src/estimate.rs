@@ -117,18 +117,18 @@ pub struct FitStatistics {
     /// a gap of the records).
     pub turntable_samples_missing: usize,
     /// Turntable samples left out because the platform rate changes within the delay
-    /// uncertainty ([`crate::engine::angle_sample_usable`]).
+    /// uncertainty (`RateChanges`).
     pub turntable_samples_near_rate_changes: usize,
     /// Largest change of a parameter from the pass before the last to the last, in posterior
     /// sigmas (large values mean the iteration had not converged).
     pub first_pass_shift_sigma: f64,
     /// Passes over the data made by the filter.
     pub passes: usize,
-    /// Record rate of the turntable file on the IMU clock [Hz].
+    /// Record rate of the turntable file on the IMU clock (Hz).
     pub turntable_record_rate_hz: f64,
     /// Standard deviation (m/s^2, largest direction) of the second-order specific-force error
     /// `beta x (C df)` that the linear model leaves out, from the posterior; zero when it is
-    /// negligible ([`consider::second_order_accel`]).
+    /// negligible (see docs/estimation.md, step 8).
     pub second_order_accel_sigma: f64,
     /// Extra passes made to carry that error into the posterior covariance.
     pub consider_passes: usize,
@@ -151,7 +151,7 @@ pub struct Estimate {
     pub prior_sigma: Vec<f64>,
     /// Posterior covariance (SI).
     pub cov: DMatrix<f64>,
-    /// IMU time of the final estimate [s].
+    /// IMU time of the final estimate (s).
     pub final_time: f64,
     /// Computed attitude at `final_time` (the attitude states are its error).
     pub final_c_body_to_enu: Matrix3<f64>,

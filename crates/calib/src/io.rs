@@ -68,10 +68,10 @@ pub enum IoError {
 /// What the IMU file holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ImuKind {
-    /// `dthx..dvz`: angle increments [rad] and velocity increments [m/s] over the interval ending
+    /// `dthx..dvz`: angle increments (rad) and velocity increments (m/s) over the interval ending
     /// at `t`.
     Increments,
-    /// `wx..fz`: angular rate [rad/s] and specific force [m/s^2] at `t`.
+    /// `wx..fz`: angular rate (rad/s) and specific force (m/s^2) at `t`.
     Rates,
 }
 
@@ -88,13 +88,13 @@ impl ImuKind {
 /// One IMU row.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImuRecord {
-    /// Time on the IMU clock [s] (end of the interval for increments).
+    /// Time on the IMU clock (s) (end of the interval for increments).
     pub t: f64,
-    /// `dth` [rad] or `w` [rad/s], body axes.
+    /// `dth` (rad) or `w` (rad/s), body axes.
     pub gyro: [f64; 3],
-    /// `dv` [m/s] or `f` [m/s^2], body axes.
+    /// `dv` (m/s) or `f` (m/s^2), body axes.
     pub accel: [f64; 3],
-    /// Temperature [deg C], when the file has a `temp` column.
+    /// Temperature (deg C), when the file has a `temp` column.
     pub temp: Option<f64>,
 }
 
@@ -133,9 +133,9 @@ impl ImuData {
 /// One turntable row.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TurntableRecord {
-    /// Time on the turntable clock [s].
+    /// Time on the turntable clock (s).
     pub t: f64,
-    /// Gimbal angles (heading, bank, pitch) [deg].
+    /// Gimbal angles (heading, bank, pitch) (deg).
     pub k_deg: [f64; 3],
 }
 
@@ -768,16 +768,16 @@ pub fn check_overlap(
 pub struct ResultParameter {
     /// Documented name, e.g. `gyro.theta.xy`.
     pub name: String,
-    /// Value [SI].
+    /// Value (SI).
     pub value: f64,
-    /// Standard deviation [SI]; absent in a truth file.
+    /// Standard deviation (SI); absent in a truth file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sigma: Option<f64>,
     /// SI unit name.
     pub unit: String,
 }
 
-/// A result (or truth) file: `{"parameters": [...]}`.
+/// A result (or truth) file: `{"parameters": (...)}`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ResultFile {
     /// Parameters in state order.

@@ -35,13 +35,13 @@ pub struct StateLayout {
 /// Prior sigmas of the states that are not instrument errors.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NonInstrumentPriors {
-    /// Initial attitude error [rad] about East, North, Up.
+    /// Initial attitude error (rad) about East, North, Up.
     pub attitude: [f64; 3],
-    /// Installation misalignment [rad].
+    /// Installation misalignment (rad).
     pub install: f64,
-    /// Delay [s].
+    /// Delay (s).
     pub tau: f64,
-    /// Base misalignment [rad].
+    /// Base misalignment (rad).
     pub base: f64,
 }
 

@@ -24,7 +24,7 @@ use sins_model::attitude::{exp_so3, skew};
 use sins_model::terms::{Sensor, SensorInput};
 
 /// Weighted sum of `phi_top` over the sample instants of a measurement window, kept relative to
-/// the last filter instant and re-expressed at every predict ([`PhiMean::rebase`]).
+/// the last filter instant and re-expressed at every predict (`PhiMean::rebase`).
 #[derive(Clone, Debug)]
 pub struct PhiMean {
     sum: Vec<Vector3<f64>>,
@@ -83,7 +83,7 @@ struct AccelWindow {
     c_jac: Vec<Vector3<f64>>,
     /// `sum C f' dt`: the measured velocity increment in ENU (estimation only).
     dv_enu: Vector3<f64>,
-    /// Window length [s].
+    /// Window length (s).
     t: f64,
 }
 
@@ -111,7 +111,7 @@ pub struct LinearModel {
     n_instr: usize,
     /// Rotation of beta over one IMU step due to `beta x u`.
     a_step: Matrix3<f64>,
-    /// Gyro white-noise PSD [rad^2/s].
+    /// Gyro white-noise PSD (rad^2/s).
     psd_gyro: f64,
     /// The columns of `phi_top` that can be non-zero: the attitude errors and the parameters
     /// of the gyro terms (nothing else drives `beta`). The others are never touched.
@@ -166,7 +166,7 @@ pub struct AngleSample<'a> {
     pub y: Vector3<f64>,
     /// Attitude used for the linearisation.
     pub c_body_to_enu: Matrix3<f64>,
-    /// Platform rate relative to the base, ENU [rad/s].
+    /// Platform rate relative to the base, ENU (rad/s).
     pub platform_rate_enu: Vector3<f64>,
     /// Gimbal Jacobian at the sample's angles.
     pub gimbal_jacobian: Matrix3<f64>,
@@ -175,7 +175,7 @@ pub struct AngleSample<'a> {
 }
 
 impl LinearModel {
-    /// A model for `layout`, IMU step `dt` [s], Earth rate `u_enu` and gyro PSD [rad^2/s].
+    /// A model for `layout`, IMU step `dt` (s), Earth rate `u_enu` and gyro PSD (rad^2/s).
     pub fn new(layout: &StateLayout, dt: f64, u_enu: &Vector3<f64>, psd_gyro: f64) -> Self {
         let n = layout.dim();
         let n_instr = layout.n_instrument();
@@ -230,7 +230,7 @@ impl LinearModel {
         m
     }
 
-    /// IMU step [s].
+    /// IMU step (s).
     pub fn dt(&self) -> f64 {
         self.dt
     }
@@ -386,7 +386,7 @@ impl LinearModel {
         self.q_steps as f64 * self.psd_gyro * self.dt
     }
 
-    /// Length of the current specific-force window [s].
+    /// Length of the current specific-force window (s).
     pub fn accel_interval(&self) -> f64 {
         self.acc.t
     }

@@ -8,17 +8,17 @@ use sins_model::terms::GAMMA_INDEX;
 /// One row of the paper's tables.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PaperTable {
-    /// Gyro bias [deg/h].
+    /// Gyro bias (deg/h).
     pub nu0_deg_h: f64,
-    /// Gyro scale factors [-].
+    /// Gyro scale factors (-).
     pub theta_ii: f64,
-    /// Gyro misalignments [arcmin].
+    /// Gyro misalignments (arcmin).
     pub theta_ij_arcmin: f64,
-    /// Accelerometer biases [m/s^2].
+    /// Accelerometer biases (m/s^2).
     pub df0_m_s2: f64,
-    /// Accelerometer scale factors [-].
+    /// Accelerometer scale factors (-).
     pub gamma_ii: f64,
-    /// Accelerometer non-orthogonality [arcmin].
+    /// Accelerometer non-orthogonality (arcmin).
     pub gamma_ij_arcmin: f64,
 }
 

@@ -64,7 +64,7 @@ impl TurnDirection {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SnakeConfig {
-    /// Ground speed [m/s].
+    /// Ground speed (m/s).
     pub speed_m_s: f64,
     /// Length of each straight leg \[m\].
     pub leg_length_m: f64,
@@ -72,7 +72,7 @@ pub struct SnakeConfig {
     /// `turn_rate_deg_s` must be given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub turn_radius_m: Option<f64>,
-    /// Heading rate in the constant-bank part of each turn [deg/s]; exactly one of this and
+    /// Heading rate in the constant-bank part of each turn (deg/s); exactly one of this and
     /// `turn_radius_m` must be given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub turn_rate_deg_s: Option<f64>,
@@ -248,7 +248,7 @@ impl SnakeConfig {
         self.start_site().normal_gravity()
     }
 
-    /// Heading rate in the constant-bank part of a turn [rad/s] (positive).
+    /// Heading rate in the constant-bank part of a turn (rad/s) (positive).
     pub fn turn_rate_rad_s(&self) -> f64 {
         match (self.turn_radius_m, self.turn_rate_deg_s) {
             (Some(r), _) => self.speed_m_s / r,

@@ -6,8 +6,8 @@
 //! calibration's body (instrument) frame is the aircraft's, so the parameters apply directly.
 //!
 //! Navigation's instrument state is the 21 parameters in [`INSTRUMENT_NAMES`] order, all SI:
-//! `gyro.bias.{x,y,z}` [rad/s], `gyro.theta.<i><j>` (row-major, i, j in x, y, z) [-],
-//! `accel.bias.{x,y,z}` [m/s^2], `accel.gamma.{xx,yx,yy,zx,zy,zz}` [-].
+//! `gyro.bias.{x,y,z}` (rad/s), `gyro.theta.<i><j>` (row-major, i, j in x, y, z) (-),
+//! `accel.bias.{x,y,z}` (m/s^2), `accel.gamma.{xx,yx,yy,zx,zy,zz}` (-).
 
 use nalgebra::{DMatrix, SMatrix};
 
@@ -115,9 +115,9 @@ impl InstrumentCovariance {
 
     /// The diagonal covariance of one row of the paper's result tables, in the paper's units,
     /// every value taken as the standard deviation of each parameter of its kind:
-    /// `nu0_deg_h` gyro bias [deg/h], `theta_ii` gyro scale-factor errors [-], `theta_ij_arcmin`
-    /// gyro off-diagonal terms \[arcmin\], `df0_m_s2` accelerometer bias [m/s^2], `gamma_ii`
-    /// accelerometer scale-factor errors [-], `gamma_ij_arcmin` accelerometer off-diagonal terms
+    /// `nu0_deg_h` gyro bias (deg/h), `theta_ii` gyro scale-factor errors (-), `theta_ij_arcmin`
+    /// gyro off-diagonal terms \[arcmin\], `df0_m_s2` accelerometer bias (m/s^2), `gamma_ii`
+    /// accelerometer scale-factor errors (-), `gamma_ij_arcmin` accelerometer off-diagonal terms
     /// \[arcmin\] (the three below the diagonal).
     ///
     /// Paper, without turntable angles: `(0.01, 5.1e-7, 0.1, 9e-5, 1.36e-5, 0.1)`; with them:

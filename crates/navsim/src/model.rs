@@ -1,7 +1,7 @@
 //! The SINS error model in geographic (ENU) axes and the initial alignment.
 //!
 //! Navigation state (7): `[dphi, dlambda, dV_E, dV_N, beta_E, beta_N, beta_U]` — latitude and
-//! longitude errors \[rad\], horizontal velocity errors [m/s], attitude errors \[rad\] with the
+//! longitude errors \[rad\], horizontal velocity errors (m/s), attitude errors \[rad\] with the
 //! paper's sign (the computed body-to-ENU DCM is `exp(-skew(beta)) C`, so the computed specific
 //! force in ENU is `f + f x beta + C df`). The vertical channel (height and vertical velocity
 //! errors) is left out: the figure of merit is horizontal, and it is unstable on its own anyway.
@@ -50,7 +50,7 @@ pub const NAV_NAMES: [&str; NAV_DIM] = [
 pub const DLAT: usize = 0;
 /// Index of the longitude error \[rad\].
 pub const DLON: usize = 1;
-/// Index of the east velocity error [m/s] (north follows).
+/// Index of the east velocity error (m/s) (north follows).
 pub const DV: usize = 2;
 /// Index of the east attitude error \[rad\] (north, up follow).
 pub const BETA: usize = 4;
@@ -116,7 +116,7 @@ pub struct ErrorDynamics {
 }
 
 /// The error dynamics (see the module doc) at trajectory point `p` for an Earth rotating at
-/// `earth_rate` [rad/s].
+/// `earth_rate` (rad/s).
 pub fn error_dynamics(p: &TrajectoryPoint, earth_rate: f64) -> ErrorDynamics {
     let (sp, cp) = p.latitude.sin_cos();
     let tp = sp / cp;

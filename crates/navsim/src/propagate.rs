@@ -46,7 +46,7 @@ pub enum InitialAttitude {
     /// From a stationary self-alignment at the start point and heading, as a linear map of the
     /// instrument errors ([`crate::model::alignment_map`]), correlations included.
     Aligned,
-    /// This attitude-error covariance [rad^2] (ENU), uncorrelated with the instruments.
+    /// This attitude-error covariance (rad^2) (ENU), uncorrelated with the instruments.
     Explicit(Matrix3<f64>),
 }
 
@@ -55,7 +55,7 @@ pub enum InitialAttitude {
 pub struct NavOptions {
     /// Propagation step \[s\].
     pub dt_s: f64,
-    /// Earth rotation rate [rad/s] (0 switches Earth rotation off, for tests).
+    /// Earth rotation rate (rad/s) (0 switches Earth rotation off, for tests).
     pub earth_rate_rad_s: f64,
     /// Gyro white-noise density [rad/s/sqrt(Hz)] (0 = none).
     pub gyro_noise_density: f64,

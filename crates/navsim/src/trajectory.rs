@@ -33,9 +33,9 @@ pub struct TrajectoryPoint {
     pub heading: f64,
     /// Bank angle, right wing down positive \[rad\].
     pub bank: f64,
-    /// Velocity relative to the Earth in ENU [m/s].
+    /// Velocity relative to the Earth in ENU (m/s).
     pub velocity_enu: Vector3<f64>,
-    /// Time derivative of the ENU velocity components [m/s^2] (not including the rotation of
+    /// Time derivative of the ENU velocity components (m/s^2) (not including the rotation of
     /// the ENU frame).
     pub accel_enu: Vector3<f64>,
     /// Body-to-ENU direction cosine matrix.
@@ -65,7 +65,7 @@ impl TrajectoryPoint {
         prime_vertical_radius(self.latitude) + self.height
     }
 
-    /// Earth rate in ENU for an Earth rotating at `earth_rate` [rad/s].
+    /// Earth rate in ENU for an Earth rotating at `earth_rate` (rad/s).
     pub fn earth_rate_enu(&self, earth_rate: f64) -> Vector3<f64> {
         Vector3::new(
             0.0,
@@ -348,7 +348,7 @@ impl SnakeTrajectory {
         }
     }
 
-    /// (lat, lon) rates [rad/s] at time `t` and position `pos`.
+    /// (lat, lon) rates (rad/s) at time `t` and position `pos`.
     fn position_rate(&self, pos: (f64, f64), t: f64) -> (f64, f64) {
         let psi = self.attitude(t).heading;
         let (ve, vn) = (self.speed * psi.sin(), self.speed * psi.cos());

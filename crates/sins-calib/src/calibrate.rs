@@ -25,14 +25,14 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub imu: PathBuf,
     /// Turntable angle records: a CSV with the header `t,k1,k2,k3` (t in s on the turntable
-    /// clock, related to the IMU clock by the configuration's [clock]; heading, bank and pitch in
+    /// clock, related to the IMU clock by the configuration's (clock); heading, bank and pitch in
     /// degrees). Adds the installation misalignment and the delay to the estimated parameters
     /// (28 states); without it the IMU data alone are used (24 states).
     #[arg(long, value_name = "FILE")]
     pub turntable: Option<PathBuf>,
     /// Run configuration: a TOML file (docs/formats.md), or `paper` / `paper-reconciled` for the
-    /// embedded configurations. Its program must be the one the turntable ran; [priors], [noise],
-    /// [filter] and [clock] set up the filter ([truth] is not read).
+    /// embedded configurations. Its program must be the one the turntable ran; (priors), (noise),
+    /// (filter) and (clock) set up the filter ((truth) is not read).
     #[arg(long, value_name = "FILE|NAME")]
     pub config: String,
     /// Write the result to this JSON file: every parameter's name, value, sigma and unit in SI

@@ -42,8 +42,8 @@ struct Cli {
 enum Command {
     /// Simulate a run: write DIR/imu.csv, DIR/turntable.csv and DIR/truth.json.
     ///
-    /// The configuration's [truth] section sets the seed, the record rates, the duration and the
-    /// true values; [noise] the sensor noises; [clock] the turntable clock against the IMU clock.
+    /// The configuration's (truth) section sets the seed, the record rates, the duration and the
+    /// true values; (noise) the sensor noises; (clock) the turntable clock against the IMU clock.
     Simulate(simulate::Args),
     /// Calibrate from recorded data and print the estimates in the paper's units.
     ///

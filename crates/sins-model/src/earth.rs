@@ -5,19 +5,19 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-/// WGS-84 semi-major axis `a` [m].
+/// WGS-84 semi-major axis `a` (m).
 pub const WGS84_A: f64 = 6_378_137.0;
 /// WGS-84 flattening `f`.
 pub const WGS84_F: f64 = 1.0 / 298.257_223_563;
 /// WGS-84 first eccentricity squared `e^2 = f (2 - f)`.
 pub const WGS84_E2: f64 = WGS84_F * (2.0 - WGS84_F);
-/// Earth rotation rate [rad/s] (WGS-84).
+/// Earth rotation rate (rad/s) (WGS-84).
 pub const EARTH_RATE: f64 = 7.292_115e-5;
-/// Normal gravity at the equator [m/s^2] (WGS-84).
+/// Normal gravity at the equator (m/s^2) (WGS-84).
 pub const GAMMA_EQUATOR: f64 = 9.780_325_335_9;
 /// Somigliana constant `k = (b gamma_p) / (a gamma_e) - 1` (WGS-84).
 pub const SOMIGLIANA_K: f64 = 0.001_931_852_652_41;
-/// WGS-84 geocentric gravitational constant GM [m^3/s^2].
+/// WGS-84 geocentric gravitational constant GM (m^3/s^2).
 pub const WGS84_GM: f64 = 3.986_004_418e14;
 /// `m = omega^2 a^2 b / GM` (WGS-84), used by the free-air correction.
 pub const WGS84_M: f64 = 0.003_449_786_506_84;
@@ -25,11 +25,11 @@ pub const WGS84_M: f64 = 0.003_449_786_506_84;
 /// A point on (or above) the WGS-84 ellipsoid.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Site {
-    /// Geodetic latitude [rad].
+    /// Geodetic latitude (rad).
     pub latitude: f64,
-    /// Longitude [rad].
+    /// Longitude (rad).
     pub longitude: f64,
-    /// Height above the ellipsoid [m].
+    /// Height above the ellipsoid (m).
     pub height: f64,
 }
 
@@ -65,18 +65,18 @@ impl Site {
         earth_rate_enu(self.latitude)
     }
 
-    /// Meridian radius of curvature `R_N` (north-south) [m], without height.
+    /// Meridian radius of curvature `R_N` (north-south) (m), without height.
     pub fn meridian_radius(&self) -> f64 {
         meridian_radius(self.latitude)
     }
 
-    /// Prime-vertical radius of curvature `R_E` (east-west) [m], without height.
+    /// Prime-vertical radius of curvature `R_E` (east-west) (m), without height.
     pub fn prime_vertical_radius(&self) -> f64 {
         prime_vertical_radius(self.latitude)
     }
 }
 
-/// Earth rotation rate in ENU at geodetic latitude `latitude` [rad].
+/// Earth rotation rate in ENU at geodetic latitude `latitude` (rad).
 pub fn earth_rate_enu(latitude: f64) -> Vector3<f64> {
     Vector3::new(
         0.0,
@@ -85,13 +85,13 @@ pub fn earth_rate_enu(latitude: f64) -> Vector3<f64> {
     )
 }
 
-/// Meridian radius of curvature [m] at geodetic latitude [rad].
+/// Meridian radius of curvature (m) at geodetic latitude (rad).
 pub fn meridian_radius(latitude: f64) -> f64 {
     let s2 = latitude.sin().powi(2);
     WGS84_A * (1.0 - WGS84_E2) / (1.0 - WGS84_E2 * s2).powf(1.5)
 }
 
-/// Prime-vertical radius of curvature [m] at geodetic latitude [rad].
+/// Prime-vertical radius of curvature (m) at geodetic latitude (rad).
 pub fn prime_vertical_radius(latitude: f64) -> f64 {
     let s2 = latitude.sin().powi(2);
     WGS84_A / (1.0 - WGS84_E2 * s2).sqrt()

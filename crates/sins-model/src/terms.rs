@@ -100,9 +100,9 @@ impl ParamSpec {
 /// What a sensor is exposed to at one instant, in the instrument (body) frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SensorInput {
-    /// True angular rate of the body relative to inertial space [rad/s].
+    /// True angular rate of the body relative to inertial space (rad/s).
     pub omega_body: Vector3<f64>,
-    /// True specific force [m/s^2].
+    /// True specific force (m/s^2).
     pub f_body: Vector3<f64>,
 }
 
@@ -155,12 +155,12 @@ pub struct Bias {
 }
 
 impl Bias {
-    /// Gyro bias with prior sigma [rad/s] on each axis.
+    /// Gyro bias with prior sigma (rad/s) on each axis.
     pub fn gyro(prior_sigma: f64) -> Self {
         Self::new(Sensor::Gyro, "gyro", Unit::RadPerSecond, prior_sigma)
     }
 
-    /// Accelerometer bias with prior sigma [m/s^2] on each axis.
+    /// Accelerometer bias with prior sigma (m/s^2) on each axis.
     pub fn accel(prior_sigma: f64) -> Self {
         Self::new(Sensor::Accel, "accel", Unit::MeterPerSecond2, prior_sigma)
     }
@@ -317,17 +317,17 @@ impl ErrorTerm for AccelLowerTriangular {
 /// Prior standard deviations of the paper's four-term model, in SI units.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PaperPriors {
-    /// Gyro bias [rad/s].
+    /// Gyro bias (rad/s).
     pub gyro_bias: f64,
-    /// Gyro scale-factor errors (Theta diagonal) [-].
+    /// Gyro scale-factor errors (Theta diagonal) (-).
     pub gyro_scale: f64,
-    /// Gyro misalignments (Theta off-diagonal) [rad].
+    /// Gyro misalignments (Theta off-diagonal) (rad).
     pub gyro_misalignment: f64,
-    /// Accelerometer bias [m/s^2].
+    /// Accelerometer bias (m/s^2).
     pub accel_bias: f64,
-    /// Accelerometer scale-factor errors (Gamma diagonal) [-].
+    /// Accelerometer scale-factor errors (Gamma diagonal) (-).
     pub accel_scale: f64,
-    /// Accelerometer non-orthogonality (Gamma off-diagonal) [rad].
+    /// Accelerometer non-orthogonality (Gamma off-diagonal) (rad).
     pub accel_misalignment: f64,
 }
 

@@ -13,7 +13,7 @@
 use nalgebra::{Matrix3, Vector3};
 use sins_model::attitude::{rot_x, rot_y, rot_z};
 
-/// `c_platform_to_base` of gimbal angles `k` [rad].
+/// `c_platform_to_base` of gimbal angles `k` (rad).
 pub fn c_platform_to_base(k: &[f64; 3]) -> Matrix3<f64> {
     rot_z(k[0]) * rot_x(k[1]) * rot_y(k[2])
 }
@@ -36,7 +36,7 @@ pub fn gimbal_jacobian(k: &[f64; 3]) -> Matrix3<f64> {
     Matrix3::from_columns(&[a1, a2, a3])
 }
 
-/// Platform angular rate relative to the base, in base axes [rad/s].
+/// Platform angular rate relative to the base, in base axes (rad/s).
 pub fn platform_rate_base(k: &[f64; 3], k_dot: &[f64; 3]) -> Vector3<f64> {
     gimbal_jacobian(k) * Vector3::from(*k_dot)
 }

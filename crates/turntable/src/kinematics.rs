@@ -18,9 +18,9 @@ use sins_model::earth::Site;
 /// How the instrument sits on the platform and the turntable on its foundation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Mounting {
-    /// Installation misalignment of the instrument frame relative to the platform [rad].
+    /// Installation misalignment of the instrument frame relative to the platform (rad).
     pub delta_z: Vector3<f64>,
-    /// Misalignment of the turntable base relative to ENU [rad].
+    /// Misalignment of the turntable base relative to ENU (rad).
     pub gamma_p: Vector3<f64>,
 }
 
@@ -38,19 +38,19 @@ impl Mounting {
 /// The motion at one instant.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotionSample {
-    /// Time [s].
+    /// Time (s).
     pub t: f64,
-    /// Gimbal angles [rad].
+    /// Gimbal angles (rad).
     pub k: [f64; 3],
-    /// Gimbal rates [rad/s].
+    /// Gimbal rates (rad/s).
     pub k_dot: [f64; 3],
     /// Instrument attitude.
     pub c_body_to_enu: Matrix3<f64>,
-    /// Angular rate of the instrument relative to inertial space, in body axes [rad/s].
+    /// Angular rate of the instrument relative to inertial space, in body axes (rad/s).
     pub omega_body: Vector3<f64>,
-    /// Specific force in body axes [m/s^2].
+    /// Specific force in body axes (m/s^2).
     pub f_body: Vector3<f64>,
-    /// Angular rate of the platform relative to the base, in ENU axes [rad/s] (`Omega_x`).
+    /// Angular rate of the platform relative to the base, in ENU axes (rad/s) (`Omega_x`).
     pub platform_rate_enu: Vector3<f64>,
 }
 
@@ -83,12 +83,12 @@ impl Kinematics {
         }
     }
 
-    /// Earth rate in ENU [rad/s].
+    /// Earth rate in ENU (rad/s).
     pub fn earth_rate_enu(&self) -> Vector3<f64> {
         self.u_enu
     }
 
-    /// Specific force in ENU [m/s^2].
+    /// Specific force in ENU (m/s^2).
     pub fn specific_force_enu(&self) -> Vector3<f64> {
         self.f_enu
     }

@@ -6,18 +6,18 @@
 //!
 //! ```toml
 //! name = "one turn about the bank axis"
-//! start_deg = [0.0, 0.0, 0.0]
-//! [[segment]]
+//! start_deg = (0.0, 0.0, 0.0)
+//! [(segment)]
 //! kind = "rotate"        # one gimbal at a constant rate
 //! gimbal = 2             # 1 = heading, 2 = bank, 3 = pitch
 //! rate_deg_s = 10.0
 //! duration_s = 36.0
-//! [[segment]]
+//! [(segment)]
 //! kind = "dwell"         # all gimbals still
 //! duration_s = 10.0
-//! [[segment]]
+//! [(segment)]
 //! kind = "move"          # to target angles, one gimbal after another, at rate_deg_s
-//! target_deg = [-90.0, 0.0, 0.0]
+//! target_deg = (-90.0, 0.0, 0.0)
 //! rate_deg_s = 10.0
 //! ```
 
@@ -41,7 +41,7 @@ pub enum ProgramError {
     /// The TOML does not describe a program.
     #[error("{origin}: {message}")]
     Parse {
-        /// File path or "<embedded>".
+        /// File path or `"<embedded>"`.
         origin: String,
         /// What toml/serde said, with line and column.
         message: String,
@@ -49,7 +49,7 @@ pub enum ProgramError {
     /// A segment is not physically meaningful.
     #[error("{origin}: segment {index} ({kind}): {message}")]
     Segment {
-        /// File path or "<embedded>".
+        /// File path or `"<embedded>"`.
         origin: String,
         /// 1-based segment index.
         index: usize,
@@ -68,22 +68,22 @@ pub enum Segment {
     Rotate {
         /// Gimbal number: 1 = heading (outer), 2 = bank (middle), 3 = pitch (inner).
         gimbal: u8,
-        /// Rate [deg/s] (signed).
+        /// Rate (deg/s) (signed).
         rate_deg_s: f64,
-        /// Duration [s].
+        /// Duration (s).
         duration_s: f64,
     },
     /// All gimbals still.
     Dwell {
-        /// Duration [s].
+        /// Duration (s).
         duration_s: f64,
     },
     /// Move to target angles, one gimbal after another (heading, bank, pitch), each at the given
     /// rate magnitude; gimbals already at their target do not move.
     Move {
-        /// Target angles [deg].
+        /// Target angles (deg).
         target_deg: [f64; 3],
-        /// Rate magnitude [deg/s].
+        /// Rate magnitude (deg/s).
         rate_deg_s: f64,
     },
 }
@@ -104,7 +104,7 @@ impl Segment {
 pub struct ProgramSpec {
     /// Human-readable name.
     pub name: String,
-    /// Gimbal angles at t = 0 [deg].
+    /// Gimbal angles at t = 0 (deg).
     pub start_deg: [f64; 3],
     /// Segments in order.
     #[serde(rename = "segment")]
@@ -114,13 +114,13 @@ pub struct ProgramSpec {
 /// A piece of constant gimbal rates: angles `k0 + rate * (t - t0)` for `t0 <= t <= t1` (SI).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Piece {
-    /// Start time [s].
+    /// Start time (s).
     pub t0: f64,
-    /// End time [s].
+    /// End time (s).
     pub t1: f64,
-    /// Gimbal angles at `t0` [rad].
+    /// Gimbal angles at `t0` (rad).
     pub k0: [f64; 3],
-    /// Gimbal rates [rad/s].
+    /// Gimbal rates (rad/s).
     pub rate: [f64; 3],
 }
 
@@ -290,7 +290,7 @@ impl Program {
         &self.pieces
     }
 
-    /// Total duration [s].
+    /// Total duration (s).
     pub fn duration(&self) -> f64 {
         self.pieces.last().map_or(0.0, |p| p.t1)
     }
@@ -311,7 +311,7 @@ impl Program {
         }
     }
 
-    /// Gimbal angles [rad] and rates [rad/s] at time `t`; before the start the program holds its
+    /// Gimbal angles (rad) and rates (rad/s) at time `t`; before the start the program holds its
     /// start position, after the end its end position (rates zero outside).
     pub fn state(&self, t: f64) -> ([f64; 3], [f64; 3]) {
         if t <= 0.0 {

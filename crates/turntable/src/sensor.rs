@@ -10,13 +10,13 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AngleSensor {
-    /// Standard deviation of each gimbal-angle reading [rad], per sample.
+    /// Standard deviation of each gimbal-angle reading (rad), per sample.
     pub sigma: [f64; 3],
-    /// Sampling rate [Hz].
+    /// Sampling rate (Hz).
     pub rate_hz: f64,
-    /// Delay of the turntable data relative to the IMU data [s].
+    /// Delay of the turntable data relative to the IMU data (s).
     pub tau: f64,
-    /// Turntable clock reading at IMU time zero [s].
+    /// Turntable clock reading at IMU time zero (s).
     pub clock_offset: f64,
     /// Relative rate error of the turntable clock (dimensionless).
     pub clock_rate_error: f64,

@@ -22,20 +22,20 @@ use sins_model::terms::{ErrorModel, Sensor, SensorInput, Unit};
 /// One IMU record: increments over `[t - dt, t]`, body axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImuSample {
-    /// End of the interval on the IMU clock [s].
+    /// End of the interval on the IMU clock (s).
     pub t: f64,
-    /// Angle increment [rad].
+    /// Angle increment (rad).
     pub dtheta: Vector3<f64>,
-    /// Velocity increment [m/s].
+    /// Velocity increment (m/s).
     pub dv: Vector3<f64>,
 }
 
 /// One turntable record.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TurntableSample {
-    /// Stamp on the turntable clock [s].
+    /// Stamp on the turntable clock (s).
     pub t_tt: f64,
-    /// Gimbal angles (heading, bank, pitch) as read by the angle sensors [deg].
+    /// Gimbal angles (heading, bank, pitch) as read by the angle sensors (deg).
     pub k_deg: [f64; 3],
 }
 
@@ -43,7 +43,7 @@ pub struct TurntableSample {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
-    /// IMU output rate [Hz].
+    /// IMU output rate (Hz).
     pub imu_rate_hz: f64,
     /// Gyro white-noise PSD [rad^2/s]: an angle increment gets noise of variance `psd * dt`.
     pub gyro_psd: f64,
@@ -51,7 +51,7 @@ pub struct SimConfig {
     pub accel_psd: f64,
     /// Gauss-Legendre points per smooth sub-interval (1..=64).
     pub quadrature_points: usize,
-    /// Length of the IMU run [s]; `None` = the program's duration.
+    /// Length of the IMU run (s); `None` = the program's duration.
     pub duration_s: Option<f64>,
     /// Seed of the random generator (noise).
     pub seed: u64,
@@ -97,7 +97,7 @@ pub struct TruthParameter {
     pub unit: String,
 }
 
-/// True values of everything the simulation was built from; JSON `{"parameters": [...]}`.
+/// True values of everything the simulation was built from; JSON `{"parameters": (...)}`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Truth {
     /// Parameters in order: the error model's, then `install.delta.*`, `turntable.tau`,
