@@ -25,6 +25,9 @@
 //! assert!(with_tt.sigma("gyro.bias.x").unwrap() < imu_only.sigma("gyro.bias.x").unwrap());
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod align;
 pub mod config;
 pub mod covariance;

@@ -32,6 +32,9 @@
 //! assert!((after_one_hour / 1062.0 - 1.0).abs() < 0.01, "{after_one_hour}");
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod config;
 pub mod instruments;
 pub mod model;

@@ -16,6 +16,9 @@
 //! assert!((g - 9.815).abs() < 0.002);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod attitude;
 pub mod earth;
 pub mod errors;

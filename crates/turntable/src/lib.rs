@@ -20,6 +20,9 @@
 //! assert!((s.omega_body.x - 10f64.to_radians()).abs() < 1e-9);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod gimbal;
 pub mod kinematics;
 pub mod program;
