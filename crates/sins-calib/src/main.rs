@@ -12,7 +12,9 @@
 
 mod analyse;
 mod calibrate;
+mod free_motion;
 mod import;
+mod plot;
 mod segment;
 mod simulate;
 mod table;
@@ -51,7 +53,8 @@ enum Command {
     /// biases, gyro matrix Theta, accelerometer biases, lower-triangular accelerometer matrix
     /// Gamma); with it the 28-state model adds the installation misalignment of the instrument on
     /// the platform and the delay of the turntable data (and the base misalignment when the
-    /// configuration's filter.estimate_base_misalignment is true).
+    /// configuration's filter.estimate_base_misalignment is true). With --free-motion a
+    /// hand-turned multi-position recording is calibrated without program or turntable.
     Calibrate(calibrate::Args),
     /// Covariance analysis: the prior and posterior sigma of every parameter, without data.
     ///
