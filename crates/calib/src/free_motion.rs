@@ -130,6 +130,9 @@ pub struct FreeMotionSettings {
     pub direction_floor_rad: f64,
     /// Sigma of a known turn's angle (rad). Default 0.5 deg.
     pub turn_sigma_rad: f64,
+    /// Measure the gyro bias in every fitted static interval instead of the first only.
+    /// Default false.
+    pub bias_from_all_intervals: bool,
 }
 
 impl FreeMotionSettings {
@@ -142,6 +145,7 @@ impl FreeMotionSettings {
             accel_floor_m_s2: 5e-4,
             direction_floor_rad: 0.1f64.to_radians(),
             turn_sigma_rad: 0.5f64.to_radians(),
+            bias_from_all_intervals: false,
         }
     }
 }
@@ -153,7 +157,9 @@ pub enum FreeMotionError {
     #[error("{0} static intervals in the fit: expected at least 3 (poses in different directions)")]
     TooFewIntervals(usize),
     /// A hold-out of 0 or 1.
-    #[error("holdout K = {0}: expected at least 2 (every K-th static interval is held out; the first gives the gyro bias)")]
+    #[error(
+        "holdout K = {0}: expected at least 2 (every K-th static interval is held out; the first gives the gyro bias)"
+    )]
     BadHoldout(usize),
     /// Intervals out of order or out of the records.
     #[error("static interval {0} is empty, out of order or outside the records")]
@@ -347,7 +353,9 @@ impl Increments {
 
     /// The calibrated increments integrated about `axis` over the records `from..=to`.
     fn turn(&self, from: usize, to: usize, axis: &Vector3<f64>, cal: &GyroCal) -> f64 {
-        (from..=to).map(|k| axis.dot(&self.calibrated(k, cal))).sum()
+        (from..=to)
+            .map(|k| axis.dot(&self.calibrated(k, cal)))
+            .sum()
     }
 }
 
@@ -548,7 +556,12 @@ pub fn calibrate_free_motion(
             .collect()
     };
     let accel = gauss_newton(9, &accel_res);
-    let accel_p: Vec<f64> = accel.x.iter().zip(&accel_prior).map(|(a, s)| a * s).collect();
+    let accel_p: Vec<f64> = accel
+        .x
+        .iter()
+        .zip(&accel_prior)
+        .map(|(a, s)| a * s)
+        .collect();
     let accel_cal = AccelCal::new(&accel_p);
     let up: Vec<Vector3<f64>> = stats
         .iter()
@@ -584,7 +597,14 @@ pub fn calibrate_free_motion(
     let gyro_p: Vec<f64> = gyro.x.iter().zip(&gyro_prior).map(|(a, s)| a * s).collect();
     let gyro_cal = GyroCal::new(&gyro_p);
 
-    let parameters = parameters(&gyro_p, &gyro.cov, &gyro_prior, &accel_p, &accel.cov, &accel_prior);
+    let parameters = parameters(
+        &gyro_p,
+        &gyro.cov,
+        &gyro_prior,
+        &accel_p,
+        &accel.cov,
+        &accel_prior,
+    );
     let prior_sigma = gyro_prior.iter().chain(&accel_prior).copied().collect();
     let poses = intervals
         .iter()
@@ -609,9 +629,9 @@ pub fn calibrate_free_motion(
             }
         })
         .collect();
-    let validation = settings.holdout.map(|_| {
-        validate(&inc, intervals, &stats, &poses, &accel_cal, &gyro_cal)
-    });
+    let validation = settings
+        .holdout
+        .map(|_| validate(&inc, intervals, &stats, &poses, &accel_cal, &gyro_cal));
     Ok(FreeMotionResult {
         parameters,
         prior_sigma,
@@ -641,10 +661,17 @@ impl GyroContext<'_> {
     fn residuals(&self, cal: &GyroCal) -> Vec<f64> {
         let mut out = Vec::new();
         // Bias from the first fitted interval; the Earth rate is part of its noise.
-        let first = &self.stats[self.fit_idx[0]];
-        let sb = first.sigma_w.hypot(EARTH_RATE);
-        for a in 0..3 {
-            out.push((cal.bias[a] + first.w[a]) / sb);
+        let bias_from = if self.settings.bias_from_all_intervals {
+            self.fit_idx
+        } else {
+            &self.fit_idx[..1]
+        };
+        for &i in bias_from {
+            let s = &self.stats[i];
+            let sb = s.sigma_w.hypot(EARTH_RATE);
+            for a in 0..3 {
+                out.push((cal.bias[a] + s.w[a]) / sb);
+            }
         }
         for pair in self.fit_idx.windows(2) {
             let (i, j) = (pair[0], pair[1]);
@@ -656,8 +683,8 @@ impl GyroContext<'_> {
             let predicted = c.transpose() * self.up[i];
             let mismatch = self.up[j].cross(&predicted);
             let su = |k: usize| self.stats[k].sigma_f / self.g;
-            let sigma = (su(i).powi(2) + su(j).powi(2) + self.settings.direction_floor_rad.powi(2))
-                .sqrt();
+            let sigma =
+                (su(i).powi(2) + su(j).powi(2) + self.settings.direction_floor_rad.powi(2)).sqrt();
             out.extend(mismatch.iter().map(|m| m / sigma));
         }
         for t in self.turns {
@@ -698,7 +725,12 @@ fn parameters(
             let k = 3 + 3 * i + j;
             let unit = if i == j { "1" } else { "rad" };
             let s = sd(gyro_cov, gyro_prior, k);
-            push(format!("gyro.theta.{}{}", AXES[i], AXES[j]), gyro_p[k], s, unit);
+            push(
+                format!("gyro.theta.{}{}", AXES[i], AXES[j]),
+                gyro_p[k],
+                s,
+                unit,
+            );
         }
     }
     for a in 0..3 {
@@ -708,7 +740,12 @@ fn parameters(
     for (k, &(i, j)) in GAMMA_INDEX.iter().enumerate() {
         let unit = if i == j { "1" } else { "rad" };
         let s = sd(accel_cov, accel_prior, 3 + k);
-        push(format!("accel.gamma.{}{}", AXES[i], AXES[j]), accel_p[3 + k], s, unit);
+        push(
+            format!("accel.gamma.{}{}", AXES[i], AXES[j]),
+            accel_p[3 + k],
+            s,
+            unit,
+        );
     }
     out
 }
@@ -756,5 +793,212 @@ fn validate(
         static_rms_after_m_s2: rms(&after),
         rotation_rms_before_rad: rms(&rb),
         rotation_rms_after_rad: rms(&ra),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::ImuRecord;
+    use sins_model::attitude::log_so3;
+
+    /// Small deterministic generator (no dependence on a random crate's API).
+    struct Lcg(u64);
+    impl Lcg {
+        fn uniform(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        }
+        fn normal(&mut self) -> f64 {
+            let (u, v) = (self.uniform(), self.uniform());
+            (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+        }
+    }
+
+    const G: f64 = 9.81;
+
+    /// True parameters: `[nu0 (3), Theta (9), df0 (3), Gamma (6)]`.
+    fn truth() -> Vec<f64> {
+        vec![
+            0.01, -0.02, 0.015, // gyro bias, rad/s
+            0.01, 0.004, -0.006, 0.003, -0.008, 0.005, -0.004, 0.002, 0.012, // Theta
+            0.05, -0.08, 0.1, // accel bias
+            0.004, 0.003, -0.006, -0.002, 0.005, 0.008, // Gamma
+        ]
+    }
+
+    /// A hand-turned recording: rests of 5 s at `poses`, constant-rate turns of 2 s between them
+    /// (plus a 360-degree turn about body z after the 4th pose), rate form, time steps of 10 ms
+    /// with `jitter` (relative, uniform), white noise.
+    fn simulate(
+        poses: &[Matrix3<f64>],
+        jitter: f64,
+        rng: &mut Lcg,
+    ) -> (ImuData, Vec<Interval>, KnownTurn) {
+        let p = truth();
+        let (gyro, accel) = (GyroCal::new(&p[..12]), AccelCal::new(&p[12..]));
+        let (m_gyro, m_accel) = (
+            gyro.inv.try_inverse().unwrap(),
+            accel.inv.try_inverse().unwrap(),
+        );
+        let mut records = Vec::new();
+        let mut t = 0.0;
+        let mut intervals = Vec::new();
+        let mut turn = None;
+        let mut push = |records: &mut Vec<ImuRecord>,
+                        t: &mut f64,
+                        dt: f64,
+                        w: Vector3<f64>,
+                        c: &Matrix3<f64>| {
+            *t += dt;
+            let f = c.transpose() * Vector3::new(0.0, 0.0, G);
+            let wr = m_gyro * w - gyro.bias + Vector3::from_fn(|_, _| 0.003 * rng.normal());
+            let fr = m_accel * f + accel.bias + Vector3::from_fn(|_, _| 0.01 * rng.normal());
+            records.push(ImuRecord {
+                t: *t,
+                gyro: wr.into(),
+                accel: fr.into(),
+                temp: None,
+            });
+        };
+        let steps = |n: usize, rng_j: &mut Lcg| -> Vec<f64> {
+            (0..n)
+                .map(|_| 0.01 * (1.0 + jitter * (2.0 * rng_j.uniform() - 1.0)))
+                .collect()
+        };
+        let mut rng_j = Lcg(99);
+        for (i, c) in poses.iter().enumerate() {
+            let first = records.len();
+            for dt in steps(if i == 0 { 2000 } else { 500 }, &mut rng_j) {
+                push(&mut records, &mut t, dt, Vector3::zeros(), c);
+            }
+            intervals.push(Interval {
+                first_record: first,
+                last_record: records.len() - 1,
+            });
+            let mut moves = Vec::new();
+            if i == 3 {
+                moves.push(Vector3::new(0.0, 0.0, 2.0 * std::f64::consts::PI));
+            }
+            if let Some(next) = poses.get(i + 1) {
+                moves.push(log_so3(&(c.transpose() * next)));
+            }
+            let mut now = *c;
+            for (m, phi) in moves.iter().enumerate() {
+                let dts = steps(200, &mut rng_j);
+                let w = phi / dts.iter().sum::<f64>();
+                let start = records.len();
+                for dt in dts {
+                    now *= exp_so3(&(w * dt));
+                    push(&mut records, &mut t, dt, w, &now);
+                }
+                if i == 3 && m == 0 {
+                    turn = Some(KnownTurn {
+                        name: "z_rot".into(),
+                        first_record: start,
+                        last_record: records.len() - 1,
+                        axis: [0.0, 0.0, 1.0],
+                        angle_rad: 2.0 * std::f64::consts::PI,
+                    });
+                }
+            }
+        }
+        (
+            ImuData {
+                kind: ImuKind::Rates,
+                records,
+            },
+            intervals,
+            turn.unwrap(),
+        )
+    }
+
+    fn poses(rng: &mut Lcg, n: usize) -> Vec<Matrix3<f64>> {
+        (0..n)
+            .map(|_| {
+                let v = Vector3::new(rng.normal(), rng.normal(), rng.normal());
+                exp_so3(&(v.normalize() * std::f64::consts::PI * rng.uniform()))
+            })
+            .collect()
+    }
+
+    fn max_error_in_sigmas(r: &FreeMotionResult) -> (f64, String) {
+        r.parameters
+            .iter()
+            .zip(truth())
+            .map(|(p, t)| ((p.value - t).abs() / p.sigma.unwrap(), p.name.clone()))
+            .fold((0.0, String::new()), |a, b| if b.0 > a.0 { b } else { a })
+    }
+
+    #[test]
+    fn recovers_known_errors_within_three_sigma() {
+        let mut rng = Lcg(7);
+        let poses = poses(&mut rng, 24);
+        let (data, intervals, turn) = simulate(&poses, 0.2, &mut rng);
+        let mut settings = FreeMotionSettings::new(G);
+        settings.holdout = Some(5);
+        let r = calibrate_free_motion(&data, &intervals, &[turn], &settings).unwrap();
+        let (worst, name) = max_error_in_sigmas(&r);
+        assert!(worst < 3.0, "{name}: {worst} sigma");
+        assert!(r.unobserved().is_empty(), "{:?}", r.unobserved());
+        let v = r.validation.unwrap();
+        assert!(
+            v.static_rms_after_m_s2 < 0.01 * v.static_rms_before_m_s2,
+            "{v:?}"
+        );
+        assert!(
+            v.rotation_rms_after_rad < 0.05 * v.rotation_rms_before_rad,
+            "{v:?}"
+        );
+        let t = &r.turns[0];
+        assert!(
+            (t.after_rad - t.expected_rad).abs() < 0.2f64.to_radians(),
+            "{t:?}"
+        );
+    }
+
+    #[test]
+    fn jittered_time_stamps_are_integrated_over_their_own_intervals() {
+        let mut rng = Lcg(11);
+        let poses = poses(&mut rng, 16);
+        let (data, intervals, turn) = simulate(&poses, 0.3, &mut rng);
+        let settings = FreeMotionSettings::new(G);
+        let r = calibrate_free_motion(&data, &intervals, &[turn.clone()], &settings).unwrap();
+        let (worst, name) = max_error_in_sigmas(&r);
+        assert!(worst < 3.0, "{name}: {worst} sigma");
+        // The same records on a fixed 10-ms grid (a fixed-dt integration): the estimates are
+        // far off.
+        let mut fixed = data.clone();
+        for (k, rec) in fixed.records.iter_mut().enumerate() {
+            rec.t = 0.01 * (k + 1) as f64;
+        }
+        let rf = calibrate_free_motion(&fixed, &intervals, &[turn], &settings).unwrap();
+        let (worst_fixed, _) = max_error_in_sigmas(&rf);
+        assert!(worst_fixed > 10.0, "fixed dt: only {worst_fixed} sigma off");
+    }
+
+    #[test]
+    fn refuses_bad_input() {
+        let mut rng = Lcg(3);
+        let poses = poses(&mut rng, 4);
+        let (data, intervals, _) = simulate(&poses, 0.0, &mut rng);
+        let mut s = FreeMotionSettings::new(G);
+        s.holdout = Some(1);
+        assert!(matches!(
+            calibrate_free_motion(&data, &intervals, &[], &s),
+            Err(FreeMotionError::BadHoldout(1))
+        ));
+        s.holdout = Some(2);
+        assert!(matches!(
+            calibrate_free_motion(&data, &intervals, &[], &s),
+            Err(FreeMotionError::TooFewIntervals(2))
+        ));
+        let mut back = intervals.clone();
+        back.swap(0, 1);
+        let s = FreeMotionSettings::new(G);
+        assert!(calibrate_free_motion(&data, &back, &[], &s).is_err());
     }
 }

@@ -53,7 +53,12 @@ pub struct Args {
     #[arg(long, value_name = "FILE", requires = "free_motion")]
     pub plot: Option<PathBuf>,
     /// With --free-motion and no --config: latitude of the site (deg) for normal gravity.
-    #[arg(long, value_name = "DEG", requires = "free_motion", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "free_motion",
+        allow_negative_numbers = true
+    )]
     pub latitude: Option<f64>,
     /// Write the result to this JSON file: every parameter's name, value, sigma and unit in SI
     /// units, and the fit statistics (docs/formats.md).

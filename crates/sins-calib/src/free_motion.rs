@@ -99,17 +99,29 @@ fn settings_of(args: &Args) -> Result<(FreeMotionSettings, String), Error> {
     }
 }
 
-/// Known turns of a section list: its rotations with an expected angle.
-fn known_turns(sections: &SectionsFile) -> Vec<KnownTurn> {
+/// Known turns of a section list: its rotations with an expected angle, each widened to the
+/// whole motion between the static intervals around it (a list's bounds may cut off the start
+/// or end of the turn; the rest on either side adds only the bias, which is calibrated).
+fn known_turns(sections: &SectionsFile, intervals: &[Interval]) -> Vec<KnownTurn> {
     sections
         .sections
         .iter()
         .filter(|s| s.kind == SectionKind::Rotation)
         .filter_map(|s| {
+            let first = intervals
+                .iter()
+                .filter(|iv| iv.last_record < s.first_record)
+                .map(|iv| iv.last_record + 1)
+                .next_back()
+                .unwrap_or(s.first_record);
+            let last = intervals
+                .iter()
+                .find(|iv| iv.first_record > s.last_record)
+                .map_or(s.last_record, |iv| iv.first_record);
             Some(KnownTurn {
                 name: s.name.clone(),
-                first_record: s.first_record.max(1),
-                last_record: s.last_record,
+                first_record: first.max(1),
+                last_record: last,
                 axis: s.axis?,
                 angle_rad: s.expected_turn_deg?.to_radians(),
             })
@@ -120,9 +132,11 @@ fn known_turns(sections: &SectionsFile) -> Vec<KnownTurn> {
 /// Run `calibrate --free-motion`.
 pub fn run(args: &Args) -> Result<Outcome, Error> {
     if args.turntable.is_some() || args.program_start.is_some() || args.truth.is_some() {
-        return Err("calibrate --free-motion: --turntable, --program-start and --truth belong to \
+        return Err(
+            "calibrate --free-motion: --turntable, --program-start and --truth belong to \
                     a turntable calibration"
-            .into());
+                .into(),
+        );
     }
     for path in args.json.iter().chain(&args.plot) {
         check_output_path(path)?;
@@ -141,7 +155,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         })
         .collect();
     let turns = match &args.sections {
-        Some(p) => known_turns(&SectionsFile::read(p)?),
+        Some(p) => known_turns(&SectionsFile::read(p)?, &intervals),
         None => Vec::new(),
     };
     let result = calibrate_free_motion(&data, &intervals, &turns, &settings)
@@ -331,7 +345,10 @@ fn fit_report(r: &FreeMotionResult) -> String {
     }
     let un = r.unobserved();
     if un.is_empty() {
-        let _ = writeln!(s, "  every parameter observed (posterior sigma <= 0.9 prior)");
+        let _ = writeln!(
+            s,
+            "  every parameter observed (posterior sigma <= 0.9 prior)"
+        );
     } else {
         let names: Vec<String> = un.iter().map(|(n, q)| format!("{n} ({q:.2})")).collect();
         let _ = writeln!(

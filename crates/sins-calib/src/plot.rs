@@ -54,7 +54,10 @@ fn panel(
         .draw()
         .map_err(|e| err(&e))?;
     chart
-        .draw_series(LineSeries::new([(0.0, 0.0), (n, 0.0)], BLACK.stroke_width(1)))
+        .draw_series(LineSeries::new(
+            [(0.0, 0.0), (n, 0.0)],
+            BLACK.stroke_width(1),
+        ))
         .map_err(|e| err(&e))?;
     chart
         .draw_series(
