@@ -533,35 +533,7 @@ pub fn calibrate_free_motion(
     let pr = &settings.priors;
 
     // Stage 1: accelerometers.
-    let accel_prior: Vec<f64> = [pr.accel_bias; 3]
-        .into_iter()
-        .chain(GAMMA_INDEX.iter().map(|&(i, j)| {
-            if i == j {
-                pr.accel_scale
-            } else {
-                pr.accel_misalignment
-            }
-        }))
-        .collect();
-    let accel_res = |x: &[f64]| -> Vec<f64> {
-        let p: Vec<f64> = x.iter().zip(&accel_prior).map(|(a, s)| a * s).collect();
-        let cal = AccelCal::new(&p);
-        fit_idx
-            .iter()
-            .map(|&i| {
-                let s = &stats[i];
-                let sigma = s.sigma_f.hypot(settings.accel_floor_m_s2);
-                (cal.apply(&s.f).norm() - g) / sigma
-            })
-            .collect()
-    };
-    let accel = gauss_newton(9, &accel_res);
-    let accel_p: Vec<f64> = accel
-        .x
-        .iter()
-        .zip(&accel_prior)
-        .map(|(a, s)| a * s)
-        .collect();
+    let (accel, accel_p, accel_prior) = accel_stage(&stats, &fit_idx, settings);
     let accel_cal = AccelCal::new(&accel_p);
     let up: Vec<Vector3<f64>> = stats
         .iter()
@@ -641,6 +613,46 @@ pub fn calibrate_free_motion(
         turns: turn_checks,
         validation,
     })
+}
+
+/// The accelerometer stage: the fit, its parameters (SI) and their prior sigmas.
+fn accel_stage(
+    stats: &[PoseStat],
+    fit_idx: &[usize],
+    settings: &FreeMotionSettings,
+) -> (GnSolution, Vec<f64>, Vec<f64>) {
+    let g = settings.gravity_m_s2;
+    let pr = &settings.priors;
+    let accel_prior: Vec<f64> = [pr.accel_bias; 3]
+        .into_iter()
+        .chain(GAMMA_INDEX.iter().map(|&(i, j)| {
+            if i == j {
+                pr.accel_scale
+            } else {
+                pr.accel_misalignment
+            }
+        }))
+        .collect();
+    let accel_res = |x: &[f64]| -> Vec<f64> {
+        let p: Vec<f64> = x.iter().zip(&accel_prior).map(|(a, s)| a * s).collect();
+        let cal = AccelCal::new(&p);
+        fit_idx
+            .iter()
+            .map(|&i| {
+                let s = &stats[i];
+                let sigma = s.sigma_f.hypot(settings.accel_floor_m_s2);
+                (cal.apply(&s.f).norm() - g) / sigma
+            })
+            .collect()
+    };
+    let accel = gauss_newton(9, &accel_res);
+    let accel_p: Vec<f64> = accel
+        .x
+        .iter()
+        .zip(&accel_prior)
+        .map(|(a, s)| a * s)
+        .collect();
+    (accel, accel_p, accel_prior)
 }
 
 /// What the gyro stage's residuals need.
