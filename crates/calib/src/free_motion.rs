@@ -506,7 +506,7 @@ fn check_inputs(
 
 /// Whether the `i`-th (0-based) static interval is held out.
 fn held_out(i: usize, holdout: Option<usize>) -> bool {
-    holdout.is_some_and(|k| (i + 1) % k == 0)
+    holdout.is_some_and(|k| (i + 1).is_multiple_of(k))
 }
 
 /// Calibrate the accelerometers and gyros from static intervals (and known turns) of a
@@ -732,17 +732,12 @@ fn parameters(
         let s = sd(gyro_cov, gyro_prior, a);
         push(format!("gyro.bias.{}", AXES[a]), gyro_p[a], s, "rad/s");
     }
-    for i in 0..3 {
-        for j in 0..3 {
+    for (i, a) in AXES.iter().enumerate() {
+        for (j, b) in AXES.iter().enumerate() {
             let k = 3 + 3 * i + j;
             let unit = if i == j { "1" } else { "rad" };
             let s = sd(gyro_cov, gyro_prior, k);
-            push(
-                format!("gyro.theta.{}{}", AXES[i], AXES[j]),
-                gyro_p[k],
-                s,
-                unit,
-            );
+            push(format!("gyro.theta.{a}{b}"), gyro_p[k], s, unit);
         }
     }
     for a in 0..3 {
@@ -978,7 +973,8 @@ mod tests {
         let poses = poses(&mut rng, 16);
         let (data, intervals, turn) = simulate(&poses, 0.3, &mut rng);
         let settings = FreeMotionSettings::new(G);
-        let r = calibrate_free_motion(&data, &intervals, &[turn.clone()], &settings).unwrap();
+        let r = calibrate_free_motion(&data, &intervals, std::slice::from_ref(&turn), &settings)
+            .unwrap();
         let (worst, name) = max_error_in_sigmas(&r);
         assert!(worst < 3.0, "{name}: {worst} sigma");
         // The same records on a fixed 10-ms grid (a fixed-dt integration): the estimates are
