@@ -11,6 +11,7 @@
 //! - [`layout`]: the state vector assembled from the error terms;
 //! - [`model`]: transition and measurement matrices built from IMU-rate samples;
 //! - [`filter`]: the Kalman engine in normalised coordinates;
+//! - [`free_motion`]: calibration from a hand-turned multi-position recording (no turntable);
 //! - [`covariance`]: covariance analysis of a program;
 //! - [`report`]: the paper's tables.
 //!
@@ -35,6 +36,7 @@ pub mod data_checks;
 pub mod engine;
 pub mod estimate;
 pub mod filter;
+pub mod free_motion;
 pub mod io;
 pub mod layout;
 pub mod model;

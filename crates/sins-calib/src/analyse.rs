@@ -12,7 +12,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// Run configuration: a TOML file (docs/formats.md), or `paper` / `paper-reconciled` for the
     /// embedded configurations of the paper's covariance analysis (the literal reading and the
-    /// reconciled one, docs/paper-check.md). Its program, (priors), (noise) and (filter) are used.
+    /// reconciled one, docs/paper-check.md). Its program, `[priors]`, `[noise]` and `[filter]` are used.
     #[arg(long, value_name = "FILE|NAME")]
     pub config: String,
     /// Analyse the IMU data alone (24 states) instead of IMU and turntable angles (28 states).

@@ -25,16 +25,42 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub imu: PathBuf,
     /// Turntable angle records: a CSV with the header `t,k1,k2,k3` (t in s on the turntable
-    /// clock, related to the IMU clock by the configuration's (clock); heading, bank and pitch in
+    /// clock, related to the IMU clock by the configuration's `[clock]`; heading, bank and pitch in
     /// degrees). Adds the installation misalignment and the delay to the estimated parameters
     /// (28 states); without it the IMU data alone are used (24 states).
     #[arg(long, value_name = "FILE")]
     pub turntable: Option<PathBuf>,
     /// Run configuration: a TOML file (docs/formats.md), or `paper` / `paper-reconciled` for the
-    /// embedded configurations. Its program must be the one the turntable ran; (priors), (noise),
-    /// (filter) and (clock) set up the filter ((truth) is not read).
+    /// embedded configurations. Its program must be the one the turntable ran; `[priors]`,
+    /// `[noise]`, `[filter]` and `[clock]` set up the filter (`[truth]` is not read). Required
+    /// unless --free-motion; with it optional: its `[priors]` and `[site]` (for g) replace the
+    /// defaults.
     #[arg(long, value_name = "FILE|NAME")]
-    pub config: String,
+    pub config: Option<String>,
+    /// Free-motion calibration of a hand-turned multi-position recording, without a rotation
+    /// program or turntable: accelerometers from |f| = g in every static interval, gyros from the
+    /// rotations between them (batch Gauss-Newton least squares; docs/real-data.md).
+    #[arg(long)]
+    pub free_motion: bool,
+    /// With --free-motion: the section list written by `import` (sections.json); its rotations
+    /// with an expected turn (e.g. 360-degree turns) become measurements of the integrated angle.
+    #[arg(long, value_name = "FILE", requires = "free_motion")]
+    pub sections: Option<PathBuf>,
+    /// With --free-motion: leave every K-th static interval (K, 2K, ... counted from 1) out of
+    /// the fit and report the errors on those (a "validation" block in the JSON).
+    #[arg(long, value_name = "K", requires = "free_motion")]
+    pub holdout: Option<usize>,
+    /// With --free-motion: write a PNG of |f| - g per static interval, before and after.
+    #[arg(long, value_name = "FILE", requires = "free_motion")]
+    pub plot: Option<PathBuf>,
+    /// With --free-motion and no --config: latitude of the site (deg) for normal gravity.
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "free_motion",
+        allow_negative_numbers = true
+    )]
+    pub latitude: Option<f64>,
     /// Write the result to this JSON file: every parameter's name, value, sigma and unit in SI
     /// units, and the fit statistics (docs/formats.md).
     #[arg(long, value_name = "FILE")]
@@ -173,7 +199,7 @@ fn misfits(stats: &FitStatistics, with_turntable: bool) -> Vec<String> {
 }
 
 /// Refuse an output path whose directory does not exist, before any work is done.
-fn check_output_path(path: &Path) -> Result<(), Error> {
+pub fn check_output_path(path: &Path) -> Result<(), Error> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -191,10 +217,17 @@ fn check_output_path(path: &Path) -> Result<(), Error> {
 
 /// Run `calibrate`.
 pub fn run(args: &Args) -> Result<Outcome, Error> {
+    if args.free_motion {
+        return crate::free_motion::run(args);
+    }
     if let Some(path) = &args.json {
         check_output_path(path)?;
     }
-    let (mut config, origin) = load_config(&args.config)?;
+    let name = args.config.as_deref().ok_or(
+        "calibrate: --config is required (or --free-motion for a recording without a rotation \
+         program)",
+    )?;
+    let (mut config, origin) = load_config(name)?;
     if let Some(t) = args.program_start {
         config.filter.program_start_s = Some(t);
     }

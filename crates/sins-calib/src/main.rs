@@ -14,7 +14,9 @@
 
 mod analyse;
 mod calibrate;
+mod free_motion;
 mod import;
+mod plot;
 mod segment;
 mod simulate;
 mod table;
@@ -44,8 +46,8 @@ struct Cli {
 enum Command {
     /// Simulate a run: write DIR/imu.csv, DIR/turntable.csv and DIR/truth.json.
     ///
-    /// The configuration's (truth) section sets the seed, the record rates, the duration and the
-    /// true values; (noise) the sensor noises; (clock) the turntable clock against the IMU clock.
+    /// The configuration's `[truth]` section sets the seed, the record rates, the duration and the
+    /// true values; `[noise]` the sensor noises; `[clock]` the turntable clock against the IMU clock.
     Simulate(simulate::Args),
     /// Calibrate from recorded data and print the estimates in the paper's units.
     ///
@@ -53,7 +55,8 @@ enum Command {
     /// biases, gyro matrix Theta, accelerometer biases, lower-triangular accelerometer matrix
     /// Gamma); with it the 28-state model adds the installation misalignment of the instrument on
     /// the platform and the delay of the turntable data (and the base misalignment when the
-    /// configuration's filter.estimate_base_misalignment is true).
+    /// configuration's filter.estimate_base_misalignment is true). With --free-motion a
+    /// hand-turned multi-position recording is calibrated without program or turntable.
     Calibrate(calibrate::Args),
     /// Covariance analysis: the prior and posterior sigma of every parameter, without data.
     ///

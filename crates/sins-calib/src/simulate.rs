@@ -10,9 +10,9 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Run configuration: a TOML file (docs/formats.md), or `paper` / `paper-reconciled` for the
-    /// embedded configurations of the paper's covariance analysis. Its (truth) section sets the
+    /// embedded configurations of the paper's covariance analysis. Its `[truth]` section sets the
     /// seed, the IMU and turntable record rates, the duration and the true values (drawn from
-    /// (priors) unless given); (noise) the sensor noises; (clock) the turntable clock.
+    /// `[priors]` unless given); `[noise]` the sensor noises; `[clock]` the turntable clock.
     #[arg(long, value_name = "FILE|NAME")]
     pub config: String,
     /// Directory to write imu.csv, turntable.csv and truth.json into; created when missing,

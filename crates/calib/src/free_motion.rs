@@ -1,0 +1,1012 @@
+//! Free-motion calibration: the paper's instrument model estimated from a hand-turned
+//! multi-position recording, without a rotation program or turntable angles.
+//!
+//! The method is a batch Gauss-Newton least-squares fit with priors, in two stages:
+//!
+//! 1. **Accelerometers** (`accel.bias.*`, lower-triangular `accel.gamma.*`, 9 parameters): in
+//!    every static interval the calibrated specific force `f = (I + Gamma)^-1 (f' - df0)` must have
+//!    the magnitude `g`. One residual per interval, `|f| - g`, weighted by the noise of the
+//!    interval's mean (`std / sqrt(records)`) and a floor ([`FreeMotionSettings::accel_floor_m_s2`]).
+//! 2. **Gyros** (`gyro.bias.*`, full `gyro.theta.*`, 12 parameters): the bias is measured by the
+//!    mean rate over the first static interval (the Earth rate, which a consumer gyro cannot see,
+//!    is taken as part of that measurement's noise); the rotation between consecutive static
+//!    intervals is integrated from the calibrated increments `(I - Theta)^-1 (dth' + nu0 dt)` over
+//!    each record's own interval (jittered time stamps are used as they are: a rate record is the
+//!    mean over the interval ending at its time stamp), the calibrated gravity direction of one
+//!    pose is rotated into the next, and its mismatch with the direction measured there is a
+//!    residual (the cross product of the two unit vectors, in rad). A known turn (e.g. a
+//!    360-degree rotation of a section list) adds the integrated angle about its axis as a
+//!    measurement of that angle.
+//!
+//! Parameters are normalised by their prior sigma; the prior enters as a pseudo-measurement of
+//! zero, so parameters the data do not observe keep their prior (and are named by
+//! [`FreeMotionResult::unobserved`]). The covariance is the inverse of the normal matrix, with
+//! the measurement weights scaled down by the reduced chi-square when it exceeds 1 (the residual
+//! scatter, not the assumed noise, then sets the sigmas); the degrees of freedom are the number
+//! of residuals less the effective number of parameters (trace of the data's share of the normal
+//! matrix).
+//!
+//! Held-out validation ([`FreeMotionSettings::holdout`]) leaves every K-th static interval out of
+//! both fits and checks the calibration on those only ([`Validation`]).
+//!
+//! Sensor models (as in the paper): `w' = w - nu`, `nu = nu0 + Theta w`; `f' = f + df`,
+//! `df = df0 + Gamma f`. Everything is SI.
+
+use crate::config::PriorsConfig;
+use crate::io::{ImuData, ImuKind, ResultParameter};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use sins_model::attitude::exp_so3;
+use sins_model::earth::EARTH_RATE;
+use sins_model::terms::GAMMA_INDEX;
+
+/// Posterior sigma over prior sigma above which a parameter counts as unobserved.
+pub const UNOBSERVED_RATIO: f64 = 0.9;
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+const ARCMIN: f64 = std::f64::consts::PI / 180.0 / 60.0;
+
+/// A static interval: inclusive 0-based record indices into the [`ImuData`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Interval {
+    /// First record.
+    pub first_record: usize,
+    /// Last record.
+    pub last_record: usize,
+}
+
+/// A rotation whose angle is known (e.g. a hand-made 360-degree turn against a box edge).
+#[derive(Clone, Debug, PartialEq)]
+pub struct KnownTurn {
+    /// Name for reports (`x_rot`).
+    pub name: String,
+    /// First record of the turn.
+    pub first_record: usize,
+    /// Last record of the turn.
+    pub last_record: usize,
+    /// Body axis of the turn (unit vector).
+    pub axis: [f64; 3],
+    /// Angle the turn makes about `axis`, right-handed (rad).
+    pub angle_rad: f64,
+}
+
+/// Prior standard deviations of the 21 parameters (SI).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FreeMotionPriors {
+    /// Gyro bias (rad/s).
+    pub gyro_bias: f64,
+    /// Gyro scale-factor errors, `Theta` diagonal (-).
+    pub gyro_scale: f64,
+    /// Gyro misalignments, `Theta` off-diagonal (rad).
+    pub gyro_misalignment: f64,
+    /// Accelerometer bias (m/s^2).
+    pub accel_bias: f64,
+    /// Accelerometer scale-factor errors, `Gamma` diagonal (-).
+    pub accel_scale: f64,
+    /// Accelerometer non-orthogonality, `Gamma` off-diagonal (rad).
+    pub accel_misalignment: f64,
+}
+
+impl FreeMotionPriors {
+    /// Consumer-grade MEMS defaults: gyro bias 1 deg/s, scale 0.05, misalignment 60 arcmin;
+    /// accelerometer bias 1 m/s^2, scale 0.05, non-orthogonality 60 arcmin.
+    pub fn consumer() -> Self {
+        Self {
+            gyro_bias: 1f64.to_radians(),
+            gyro_scale: 0.05,
+            gyro_misalignment: 60.0 * ARCMIN,
+            accel_bias: 1.0,
+            accel_scale: 0.05,
+            accel_misalignment: 60.0 * ARCMIN,
+        }
+    }
+
+    /// The priors of a run configuration (converted from its paper units).
+    pub fn from_config(p: &PriorsConfig) -> Self {
+        Self {
+            gyro_bias: p.gyro_bias_deg_h.to_radians() / 3600.0,
+            gyro_scale: p.gyro_scale,
+            gyro_misalignment: p.gyro_misalignment_arcmin * ARCMIN,
+            accel_bias: p.accel_bias_m_s2,
+            accel_scale: p.accel_scale,
+            accel_misalignment: p.accel_misalignment_arcmin * ARCMIN,
+        }
+    }
+}
+
+/// Settings of a free-motion calibration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FreeMotionSettings {
+    /// Magnitude of gravity at the site (m/s^2).
+    pub gravity_m_s2: f64,
+    /// Priors of the parameters.
+    pub priors: FreeMotionPriors,
+    /// Leave every K-th static interval (1-based: K, 2K, ...) out of the fit and validate on
+    /// those; `None`: fit on all. K must be at least 2 (the first interval gives the gyro bias).
+    pub holdout: Option<usize>,
+    /// Noise floor of a static interval's `|f|` (m/s^2), added in quadrature to the noise of its
+    /// mean. Default 5e-4.
+    pub accel_floor_m_s2: f64,
+    /// Noise floor of a pose-to-pose gravity-direction mismatch (rad). Default 0.1 deg.
+    pub direction_floor_rad: f64,
+    /// Sigma of a known turn's angle (rad). Default 0.5 deg.
+    pub turn_sigma_rad: f64,
+    /// Measure the gyro bias in every fitted static interval instead of the first only.
+    /// Default false.
+    pub bias_from_all_intervals: bool,
+}
+
+impl FreeMotionSettings {
+    /// Defaults with the given gravity and consumer-grade priors, no hold-out.
+    pub fn new(gravity_m_s2: f64) -> Self {
+        Self {
+            gravity_m_s2,
+            priors: FreeMotionPriors::consumer(),
+            holdout: None,
+            accel_floor_m_s2: 5e-4,
+            direction_floor_rad: 0.1f64.to_radians(),
+            turn_sigma_rad: 0.5f64.to_radians(),
+            bias_from_all_intervals: false,
+        }
+    }
+}
+
+/// Why a free-motion calibration could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum FreeMotionError {
+    /// Too few static intervals to fit.
+    #[error("{0} static intervals in the fit: expected at least 3 (poses in different directions)")]
+    TooFewIntervals(usize),
+    /// A hold-out of 0 or 1.
+    #[error(
+        "holdout K = {0}: expected at least 2 (every K-th static interval is held out; the first gives the gyro bias)"
+    )]
+    BadHoldout(usize),
+    /// Intervals out of order or out of the records.
+    #[error("static interval {0} is empty, out of order or outside the records")]
+    BadInterval(usize),
+    /// A known turn outside the records.
+    #[error("known turn `{0}` lies outside the records")]
+    BadTurn(String),
+    /// Gravity not a positive number.
+    #[error("gravity {0} m/s^2: expected a positive number")]
+    BadGravity(f64),
+}
+
+/// Summary of one least-squares stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StageFit {
+    /// Number of data residuals (priors not counted).
+    pub residuals: usize,
+    /// Effective number of parameters the data determine.
+    pub effective_parameters: f64,
+    /// Reduced chi-square of the data residuals at the solution.
+    pub reduced_chi2: f64,
+    /// Gauss-Newton iterations run.
+    pub iterations: usize,
+}
+
+/// One static interval, before and after calibration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseResidual {
+    /// The interval.
+    pub interval: Interval,
+    /// Held out of the fit.
+    pub held_out: bool,
+    /// `|f'| - g` of the uncalibrated mean (m/s^2).
+    pub before_m_s2: f64,
+    /// `|f| - g` of the calibrated mean (m/s^2).
+    pub after_m_s2: f64,
+}
+
+/// A known turn, before and after calibration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TurnCheck {
+    /// Name of the turn.
+    pub name: String,
+    /// Expected angle (rad).
+    pub expected_rad: f64,
+    /// Raw gyro integrated about the axis (rad).
+    pub before_rad: f64,
+    /// Calibrated gyro integrated about the axis (rad).
+    pub after_rad: f64,
+}
+
+/// Held-out validation: errors on the held-out static intervals only.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Validation {
+    /// Held-out static intervals.
+    pub intervals: usize,
+    /// Pairs of consecutive held-out intervals in the rotation check.
+    pub rotation_pairs: usize,
+    /// RMS of `|f| - g` uncalibrated (m/s^2).
+    pub static_rms_before_m_s2: f64,
+    /// RMS of `|f| - g` calibrated (m/s^2).
+    pub static_rms_after_m_s2: f64,
+    /// RMS angle between the gravity direction predicted by the raw gyros from one held-out
+    /// pose to the next and the one measured there (raw accelerometers) (rad).
+    pub rotation_rms_before_rad: f64,
+    /// The same with the calibrated gyros and accelerometers (rad).
+    pub rotation_rms_after_rad: f64,
+}
+
+/// The outcome of a free-motion calibration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FreeMotionResult {
+    /// The 21 parameters in the paper's order (gyro bias, Theta, accel bias, Gamma), SI.
+    pub parameters: Vec<ResultParameter>,
+    /// Prior sigma of each parameter (SI), in the same order.
+    pub prior_sigma: Vec<f64>,
+    /// Accelerometer stage.
+    pub accel_fit: StageFit,
+    /// Gyro stage.
+    pub gyro_fit: StageFit,
+    /// Every static interval, before and after.
+    pub poses: Vec<PoseResidual>,
+    /// Known turns, before and after.
+    pub turns: Vec<TurnCheck>,
+    /// Held-out validation, with a hold-out.
+    pub validation: Option<Validation>,
+}
+
+impl FreeMotionResult {
+    /// Parameters the data leave at their prior: `(name, posterior sigma / prior sigma)` for
+    /// those above [`UNOBSERVED_RATIO`].
+    pub fn unobserved(&self) -> Vec<(String, f64)> {
+        self.parameters
+            .iter()
+            .zip(&self.prior_sigma)
+            .filter_map(|(p, s0)| {
+                let r = p.sigma.unwrap_or(*s0) / s0;
+                (r > UNOBSERVED_RATIO).then(|| (p.name.clone(), r))
+            })
+            .collect()
+    }
+}
+
+/// Calibrated accelerometer: `f = (I + Gamma)^-1 (f' - df0)`.
+#[derive(Clone, Copy, Debug)]
+struct AccelCal {
+    bias: Vector3<f64>,
+    inv: Matrix3<f64>,
+}
+
+impl AccelCal {
+    /// From `[df0 (3), Gamma (6, GAMMA_INDEX order)]`.
+    fn new(p: &[f64]) -> Self {
+        let mut m = Matrix3::identity();
+        for (k, &(i, j)) in GAMMA_INDEX.iter().enumerate() {
+            m[(i, j)] += p[3 + k];
+        }
+        Self {
+            bias: Vector3::new(p[0], p[1], p[2]),
+            inv: m.try_inverse().unwrap_or_else(Matrix3::identity),
+        }
+    }
+    fn apply(&self, f_raw: &Vector3<f64>) -> Vector3<f64> {
+        self.inv * (f_raw - self.bias)
+    }
+}
+
+/// Calibrated gyro: `dth = (I - Theta)^-1 (dth' + nu0 dt)`.
+#[derive(Clone, Copy, Debug)]
+struct GyroCal {
+    bias: Vector3<f64>,
+    inv: Matrix3<f64>,
+}
+
+impl GyroCal {
+    /// From `[nu0 (3), Theta (9, row-major)]`.
+    fn new(p: &[f64]) -> Self {
+        let mut m = Matrix3::identity();
+        for i in 0..3 {
+            for j in 0..3 {
+                m[(i, j)] -= p[3 + 3 * i + j];
+            }
+        }
+        Self {
+            bias: Vector3::new(p[0], p[1], p[2]),
+            inv: m.try_inverse().unwrap_or_else(Matrix3::identity),
+        }
+    }
+    fn raw() -> Self {
+        Self::new(&[0.0; 12])
+    }
+}
+
+/// The records as raw angle increments with their own intervals.
+struct Increments {
+    dth: Vec<Vector3<f64>>,
+    dt: Vec<f64>,
+}
+
+impl Increments {
+    fn new(data: &ImuData) -> Self {
+        let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+        let median = median_interval(&t);
+        let mut dth = Vec::with_capacity(t.len());
+        let mut dt = Vec::with_capacity(t.len());
+        for (k, r) in data.records.iter().enumerate() {
+            let h = if k == 0 { median } else { t[k] - t[k - 1] };
+            let g = Vector3::from(r.gyro);
+            dth.push(match data.kind {
+                ImuKind::Rates => g * h,
+                ImuKind::Increments => g,
+            });
+            dt.push(h);
+        }
+        Self { dth, dt }
+    }
+
+    fn calibrated(&self, k: usize, cal: &GyroCal) -> Vector3<f64> {
+        cal.inv * (self.dth[k] + cal.bias * self.dt[k])
+    }
+
+    /// Rotation of the body from before record `from` to after record `to` (inclusive):
+    /// `c_end_to_start`, the product of the steps' rotations.
+    fn rotation(&self, from: usize, to: usize, cal: &GyroCal) -> Matrix3<f64> {
+        let mut c = Matrix3::identity();
+        for k in from..=to {
+            c *= exp_so3(&self.calibrated(k, cal));
+        }
+        c
+    }
+
+    /// The calibrated increments integrated about `axis` over the records `from..=to`.
+    fn turn(&self, from: usize, to: usize, axis: &Vector3<f64>, cal: &GyroCal) -> f64 {
+        (from..=to)
+            .map(|k| axis.dot(&self.calibrated(k, cal)))
+            .sum()
+    }
+}
+
+fn median_interval(t: &[f64]) -> f64 {
+    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    if d.is_empty() {
+        return 0.01;
+    }
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2]
+}
+
+/// Mean specific force and rate of a static interval with the noise of the means.
+#[derive(Clone, Copy, Debug)]
+struct PoseStat {
+    f: Vector3<f64>,
+    sigma_f: f64,
+    w: Vector3<f64>,
+    sigma_w: f64,
+}
+
+fn pose_stat(data: &ImuData, inc: &Increments, iv: Interval) -> PoseStat {
+    let n = (iv.last_record - iv.first_record + 1) as f64;
+    let (mut sf, mut sw) = (Vector3::zeros(), Vector3::zeros());
+    let rows = iv.first_record..=iv.last_record;
+    let force = |k: usize| -> Vector3<f64> {
+        let a = Vector3::from(data.records[k].accel);
+        match data.kind {
+            ImuKind::Rates => a,
+            ImuKind::Increments => a / inc.dt[k],
+        }
+    };
+    for k in rows.clone() {
+        sf += force(k);
+        sw += inc.dth[k] / inc.dt[k];
+    }
+    let (mf, mw) = (sf / n, sw / n);
+    let (mut vf, mut vw) = (0.0, 0.0);
+    for k in rows {
+        vf += (force(k) - mf).norm_squared();
+        vw += (inc.dth[k] / inc.dt[k] - mw).norm_squared();
+    }
+    let denom = (n - 1.0).max(1.0);
+    PoseStat {
+        f: mf,
+        sigma_f: (vf / denom / n).sqrt(),
+        w: mw,
+        sigma_w: (vw / denom / n).sqrt(),
+    }
+}
+
+/// Outcome of [`gauss_newton`]: normalised solution and covariance.
+struct GnSolution {
+    x: DVector<f64>,
+    cov: DMatrix<f64>,
+    fit: StageFit,
+}
+
+/// Minimise `|e(x)|^2 + |x|^2` (data residuals already divided by their sigma, `x` the
+/// parameters over their prior sigma) by Gauss-Newton with central-difference Jacobians.
+fn gauss_newton(n: usize, residuals: &dyn Fn(&[f64]) -> Vec<f64>) -> GnSolution {
+    let mut x = DVector::zeros(n);
+    let h = 1e-5;
+    let mut iterations = 0;
+    let jacobian = |x: &DVector<f64>| -> (DVector<f64>, DMatrix<f64>) {
+        let e = DVector::from_vec(residuals(x.as_slice()));
+        let mut j = DMatrix::zeros(e.len(), n);
+        for c in 0..n {
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[c] += h;
+            xm[c] -= h;
+            let d = (DVector::from_vec(residuals(xp.as_slice()))
+                - DVector::from_vec(residuals(xm.as_slice())))
+                / (2.0 * h);
+            j.set_column(c, &d);
+        }
+        (e, j)
+    };
+    let (mut e, mut j) = jacobian(&x);
+    for _ in 0..30 {
+        iterations += 1;
+        let normal = j.transpose() * &j + DMatrix::identity(n, n);
+        let rhs = -(j.transpose() * &e + &x);
+        let dx = normal
+            .cholesky()
+            .map(|c| c.solve(&rhs))
+            .unwrap_or_else(|| DVector::zeros(n));
+        x += &dx;
+        (e, j) = jacobian(&x);
+        if dx.norm() < 1e-9 {
+            break;
+        }
+    }
+    let jtj = j.transpose() * &j;
+    let plain = (jtj.clone() + DMatrix::identity(n, n))
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::identity(n, n));
+    let n_eff = (&jtj * &plain).trace();
+    let m = e.len();
+    let dof = (m as f64 - n_eff).max(1.0);
+    let reduced_chi2 = e.norm_squared() / dof;
+    let scale = reduced_chi2.max(1.0);
+    let cov = (jtj / scale + DMatrix::identity(n, n))
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::identity(n, n));
+    GnSolution {
+        x,
+        cov,
+        fit: StageFit {
+            residuals: m,
+            effective_parameters: n_eff,
+            reduced_chi2,
+            iterations,
+        },
+    }
+}
+
+fn check_inputs(
+    data: &ImuData,
+    intervals: &[Interval],
+    turns: &[KnownTurn],
+    settings: &FreeMotionSettings,
+) -> Result<(), FreeMotionError> {
+    if !(settings.gravity_m_s2.is_finite() && settings.gravity_m_s2 > 0.0) {
+        return Err(FreeMotionError::BadGravity(settings.gravity_m_s2));
+    }
+    if let Some(k) = settings.holdout
+        && k < 2
+    {
+        return Err(FreeMotionError::BadHoldout(k));
+    }
+    let n = data.records.len();
+    let mut prev_end: Option<usize> = None;
+    for (i, iv) in intervals.iter().enumerate() {
+        let ordered = prev_end.is_none_or(|p| iv.first_record > p);
+        if iv.first_record >= iv.last_record || iv.last_record >= n || !ordered {
+            return Err(FreeMotionError::BadInterval(i + 1));
+        }
+        prev_end = Some(iv.last_record);
+    }
+    for t in turns {
+        if t.first_record > t.last_record || t.last_record >= n || t.first_record == 0 {
+            return Err(FreeMotionError::BadTurn(t.name.clone()));
+        }
+    }
+    Ok(())
+}
+
+/// Whether the `i`-th (0-based) static interval is held out.
+fn held_out(i: usize, holdout: Option<usize>) -> bool {
+    holdout.is_some_and(|k| (i + 1).is_multiple_of(k))
+}
+
+/// Calibrate the accelerometers and gyros from static intervals (and known turns) of a
+/// hand-turned recording. See the module documentation for the method.
+pub fn calibrate_free_motion(
+    data: &ImuData,
+    intervals: &[Interval],
+    turns: &[KnownTurn],
+    settings: &FreeMotionSettings,
+) -> Result<FreeMotionResult, FreeMotionError> {
+    check_inputs(data, intervals, turns, settings)?;
+    let inc = Increments::new(data);
+    let stats: Vec<PoseStat> = intervals
+        .iter()
+        .map(|iv| pose_stat(data, &inc, *iv))
+        .collect();
+    let fit_idx: Vec<usize> = (0..intervals.len())
+        .filter(|&i| !held_out(i, settings.holdout))
+        .collect();
+    if fit_idx.len() < 3 {
+        return Err(FreeMotionError::TooFewIntervals(fit_idx.len()));
+    }
+    let g = settings.gravity_m_s2;
+    let pr = &settings.priors;
+
+    // Stage 1: accelerometers.
+    let (accel, accel_p, accel_prior) = accel_stage(&stats, &fit_idx, settings);
+    let accel_cal = AccelCal::new(&accel_p);
+    let up: Vec<Vector3<f64>> = stats
+        .iter()
+        .map(|s| accel_cal.apply(&s.f).normalize())
+        .collect();
+
+    // Stage 2: gyros.
+    let gyro_prior: Vec<f64> = [pr.gyro_bias; 3]
+        .into_iter()
+        .chain((0..9).map(|k| {
+            if k % 4 == 0 {
+                pr.gyro_scale
+            } else {
+                pr.gyro_misalignment
+            }
+        }))
+        .collect();
+    let ctx = GyroContext {
+        inc: &inc,
+        intervals,
+        stats: &stats,
+        up: &up,
+        fit_idx: &fit_idx,
+        turns,
+        settings,
+        g,
+    };
+    let gyro_res = |x: &[f64]| -> Vec<f64> {
+        let p: Vec<f64> = x.iter().zip(&gyro_prior).map(|(a, s)| a * s).collect();
+        ctx.residuals(&GyroCal::new(&p))
+    };
+    let gyro = gauss_newton(12, &gyro_res);
+    let gyro_p: Vec<f64> = gyro.x.iter().zip(&gyro_prior).map(|(a, s)| a * s).collect();
+    let gyro_cal = GyroCal::new(&gyro_p);
+
+    let parameters = parameters(
+        &gyro_p,
+        &gyro.cov,
+        &gyro_prior,
+        &accel_p,
+        &accel.cov,
+        &accel_prior,
+    );
+    let prior_sigma = gyro_prior.iter().chain(&accel_prior).copied().collect();
+    let poses = intervals
+        .iter()
+        .zip(&stats)
+        .enumerate()
+        .map(|(i, (iv, s))| PoseResidual {
+            interval: *iv,
+            held_out: held_out(i, settings.holdout),
+            before_m_s2: s.f.norm() - g,
+            after_m_s2: accel_cal.apply(&s.f).norm() - g,
+        })
+        .collect::<Vec<_>>();
+    let turn_checks = turns
+        .iter()
+        .map(|t| {
+            let a = Vector3::from(t.axis).normalize();
+            TurnCheck {
+                name: t.name.clone(),
+                expected_rad: t.angle_rad,
+                before_rad: inc.turn(t.first_record, t.last_record, &a, &GyroCal::raw()),
+                after_rad: inc.turn(t.first_record, t.last_record, &a, &gyro_cal),
+            }
+        })
+        .collect();
+    let validation = settings
+        .holdout
+        .map(|_| validate(&inc, intervals, &stats, &poses, &accel_cal, &gyro_cal));
+    Ok(FreeMotionResult {
+        parameters,
+        prior_sigma,
+        accel_fit: accel.fit,
+        gyro_fit: gyro.fit,
+        poses,
+        turns: turn_checks,
+        validation,
+    })
+}
+
+/// The accelerometer stage: the fit, its parameters (SI) and their prior sigmas.
+fn accel_stage(
+    stats: &[PoseStat],
+    fit_idx: &[usize],
+    settings: &FreeMotionSettings,
+) -> (GnSolution, Vec<f64>, Vec<f64>) {
+    let g = settings.gravity_m_s2;
+    let pr = &settings.priors;
+    let accel_prior: Vec<f64> = [pr.accel_bias; 3]
+        .into_iter()
+        .chain(GAMMA_INDEX.iter().map(|&(i, j)| {
+            if i == j {
+                pr.accel_scale
+            } else {
+                pr.accel_misalignment
+            }
+        }))
+        .collect();
+    let accel_res = |x: &[f64]| -> Vec<f64> {
+        let p: Vec<f64> = x.iter().zip(&accel_prior).map(|(a, s)| a * s).collect();
+        let cal = AccelCal::new(&p);
+        fit_idx
+            .iter()
+            .map(|&i| {
+                let s = &stats[i];
+                let sigma = s.sigma_f.hypot(settings.accel_floor_m_s2);
+                (cal.apply(&s.f).norm() - g) / sigma
+            })
+            .collect()
+    };
+    let accel = gauss_newton(9, &accel_res);
+    let accel_p: Vec<f64> = accel
+        .x
+        .iter()
+        .zip(&accel_prior)
+        .map(|(a, s)| a * s)
+        .collect();
+    (accel, accel_p, accel_prior)
+}
+
+/// What the gyro stage's residuals need.
+struct GyroContext<'a> {
+    inc: &'a Increments,
+    intervals: &'a [Interval],
+    stats: &'a [PoseStat],
+    up: &'a [Vector3<f64>],
+    fit_idx: &'a [usize],
+    turns: &'a [KnownTurn],
+    settings: &'a FreeMotionSettings,
+    g: f64,
+}
+
+impl GyroContext<'_> {
+    /// Bias measurement (3), gravity-direction mismatches (3 per pair of consecutive fitted
+    /// poses), known turns (1 each); all divided by their sigma.
+    fn residuals(&self, cal: &GyroCal) -> Vec<f64> {
+        let mut out = Vec::new();
+        // Bias from the first fitted interval; the Earth rate is part of its noise.
+        let bias_from = if self.settings.bias_from_all_intervals {
+            self.fit_idx
+        } else {
+            &self.fit_idx[..1]
+        };
+        for &i in bias_from {
+            let s = &self.stats[i];
+            let sb = s.sigma_w.hypot(EARTH_RATE);
+            for a in 0..3 {
+                out.push((cal.bias[a] + s.w[a]) / sb);
+            }
+        }
+        for pair in self.fit_idx.windows(2) {
+            let (i, j) = (pair[0], pair[1]);
+            let c = self.inc.rotation(
+                self.intervals[i].last_record + 1,
+                self.intervals[j].first_record,
+                cal,
+            );
+            let predicted = c.transpose() * self.up[i];
+            let mismatch = self.up[j].cross(&predicted);
+            let su = |k: usize| self.stats[k].sigma_f / self.g;
+            let sigma =
+                (su(i).powi(2) + su(j).powi(2) + self.settings.direction_floor_rad.powi(2)).sqrt();
+            out.extend(mismatch.iter().map(|m| m / sigma));
+        }
+        for t in self.turns {
+            let a = Vector3::from(t.axis).normalize();
+            let angle = self.inc.turn(t.first_record, t.last_record, &a, cal);
+            out.push((angle - t.angle_rad) / self.settings.turn_sigma_rad);
+        }
+        out
+    }
+}
+
+/// The result parameters in the paper's order with their sigmas from the normalised
+/// covariances.
+fn parameters(
+    gyro_p: &[f64],
+    gyro_cov: &DMatrix<f64>,
+    gyro_prior: &[f64],
+    accel_p: &[f64],
+    accel_cov: &DMatrix<f64>,
+    accel_prior: &[f64],
+) -> Vec<ResultParameter> {
+    let mut out = Vec::with_capacity(21);
+    let mut push = |name: String, value: f64, sigma: f64, unit: &str| {
+        out.push(ResultParameter {
+            name,
+            value,
+            sigma: Some(sigma),
+            unit: unit.into(),
+        });
+    };
+    let sd = |cov: &DMatrix<f64>, prior: &[f64], k: usize| cov[(k, k)].max(0.0).sqrt() * prior[k];
+    for a in 0..3 {
+        let s = sd(gyro_cov, gyro_prior, a);
+        push(format!("gyro.bias.{}", AXES[a]), gyro_p[a], s, "rad/s");
+    }
+    for (i, a) in AXES.iter().enumerate() {
+        for (j, b) in AXES.iter().enumerate() {
+            let k = 3 + 3 * i + j;
+            let unit = if i == j { "1" } else { "rad" };
+            let s = sd(gyro_cov, gyro_prior, k);
+            push(format!("gyro.theta.{a}{b}"), gyro_p[k], s, unit);
+        }
+    }
+    for a in 0..3 {
+        let s = sd(accel_cov, accel_prior, a);
+        push(format!("accel.bias.{}", AXES[a]), accel_p[a], s, "m/s^2");
+    }
+    for (k, &(i, j)) in GAMMA_INDEX.iter().enumerate() {
+        let unit = if i == j { "1" } else { "rad" };
+        let s = sd(accel_cov, accel_prior, 3 + k);
+        push(
+            format!("accel.gamma.{}{}", AXES[i], AXES[j]),
+            accel_p[3 + k],
+            s,
+            unit,
+        );
+    }
+    out
+}
+
+fn rms(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// Angle between two vectors (rad).
+fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    a.cross(b).norm().atan2(a.dot(b))
+}
+
+/// The held-out checks: `|f| - g` at rest, and the gravity direction carried by the gyros from
+/// one held-out pose to the next (through everything between) against the measured one.
+fn validate(
+    inc: &Increments,
+    intervals: &[Interval],
+    stats: &[PoseStat],
+    poses: &[PoseResidual],
+    accel: &AccelCal,
+    gyro: &GyroCal,
+) -> Validation {
+    let held: Vec<usize> = (0..poses.len()).filter(|&i| poses[i].held_out).collect();
+    let before: Vec<f64> = held.iter().map(|&i| poses[i].before_m_s2).collect();
+    let after: Vec<f64> = held.iter().map(|&i| poses[i].after_m_s2).collect();
+    let (mut rb, mut ra) = (Vec::new(), Vec::new());
+    for pair in held.windows(2) {
+        let (i, j) = (pair[0], pair[1]);
+        let (from, to) = (intervals[i].last_record + 1, intervals[j].first_record);
+        let raw = inc.rotation(from, to, &GyroCal::raw());
+        let cal = inc.rotation(from, to, gyro);
+        let (ui, uj) = (stats[i].f.normalize(), stats[j].f.normalize());
+        rb.push(angle_between(&(raw.transpose() * ui), &uj));
+        let (ci, cj) = (accel.apply(&stats[i].f), accel.apply(&stats[j].f));
+        ra.push(angle_between(&(cal.transpose() * ci), &cj));
+    }
+    Validation {
+        intervals: held.len(),
+        rotation_pairs: rb.len(),
+        static_rms_before_m_s2: rms(&before),
+        static_rms_after_m_s2: rms(&after),
+        rotation_rms_before_rad: rms(&rb),
+        rotation_rms_after_rad: rms(&ra),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::ImuRecord;
+    use sins_model::attitude::log_so3;
+
+    /// Small deterministic generator (no dependence on a random crate's API).
+    struct Lcg(u64);
+    impl Lcg {
+        fn uniform(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        }
+        fn normal(&mut self) -> f64 {
+            let (u, v) = (self.uniform(), self.uniform());
+            (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+        }
+    }
+
+    const G: f64 = 9.81;
+
+    /// True parameters: `[nu0 (3), Theta (9), df0 (3), Gamma (6)]`.
+    fn truth() -> Vec<f64> {
+        vec![
+            0.01, -0.02, 0.015, // gyro bias, rad/s
+            0.01, 0.004, -0.006, 0.003, -0.008, 0.005, -0.004, 0.002, 0.012, // Theta
+            0.05, -0.08, 0.1, // accel bias
+            0.004, 0.003, -0.006, -0.002, 0.005, 0.008, // Gamma
+        ]
+    }
+
+    /// A hand-turned recording: rests of 5 s at `poses`, constant-rate turns of 2 s between them
+    /// (plus a 360-degree turn about body z after the 4th pose), rate form, time steps of 10 ms
+    /// with `jitter` (relative, uniform), white noise.
+    fn simulate(
+        poses: &[Matrix3<f64>],
+        jitter: f64,
+        rng: &mut Lcg,
+    ) -> (ImuData, Vec<Interval>, KnownTurn) {
+        let p = truth();
+        let (gyro, accel) = (GyroCal::new(&p[..12]), AccelCal::new(&p[12..]));
+        let (m_gyro, m_accel) = (
+            gyro.inv.try_inverse().unwrap(),
+            accel.inv.try_inverse().unwrap(),
+        );
+        let mut records = Vec::new();
+        let mut t = 0.0;
+        let mut intervals = Vec::new();
+        let mut turn = None;
+        let mut push = |records: &mut Vec<ImuRecord>,
+                        t: &mut f64,
+                        dt: f64,
+                        w: Vector3<f64>,
+                        c: &Matrix3<f64>| {
+            *t += dt;
+            let f = c.transpose() * Vector3::new(0.0, 0.0, G);
+            let wr = m_gyro * w - gyro.bias + Vector3::from_fn(|_, _| 0.003 * rng.normal());
+            let fr = m_accel * f + accel.bias + Vector3::from_fn(|_, _| 0.01 * rng.normal());
+            records.push(ImuRecord {
+                t: *t,
+                gyro: wr.into(),
+                accel: fr.into(),
+                temp: None,
+            });
+        };
+        let steps = |n: usize, rng_j: &mut Lcg| -> Vec<f64> {
+            (0..n)
+                .map(|_| 0.01 * (1.0 + jitter * (2.0 * rng_j.uniform() - 1.0)))
+                .collect()
+        };
+        let mut rng_j = Lcg(99);
+        for (i, c) in poses.iter().enumerate() {
+            let first = records.len();
+            for dt in steps(if i == 0 { 2000 } else { 500 }, &mut rng_j) {
+                push(&mut records, &mut t, dt, Vector3::zeros(), c);
+            }
+            intervals.push(Interval {
+                first_record: first,
+                last_record: records.len() - 1,
+            });
+            let mut moves = Vec::new();
+            if i == 3 {
+                moves.push(Vector3::new(0.0, 0.0, 2.0 * std::f64::consts::PI));
+            }
+            if let Some(next) = poses.get(i + 1) {
+                moves.push(log_so3(&(c.transpose() * next)));
+            }
+            let mut now = *c;
+            for (m, phi) in moves.iter().enumerate() {
+                let dts = steps(200, &mut rng_j);
+                let w = phi / dts.iter().sum::<f64>();
+                let start = records.len();
+                for dt in dts {
+                    now *= exp_so3(&(w * dt));
+                    push(&mut records, &mut t, dt, w, &now);
+                }
+                if i == 3 && m == 0 {
+                    turn = Some(KnownTurn {
+                        name: "z_rot".into(),
+                        first_record: start,
+                        last_record: records.len() - 1,
+                        axis: [0.0, 0.0, 1.0],
+                        angle_rad: 2.0 * std::f64::consts::PI,
+                    });
+                }
+            }
+        }
+        (
+            ImuData {
+                kind: ImuKind::Rates,
+                records,
+            },
+            intervals,
+            turn.unwrap(),
+        )
+    }
+
+    fn poses(rng: &mut Lcg, n: usize) -> Vec<Matrix3<f64>> {
+        (0..n)
+            .map(|_| {
+                let v = Vector3::new(rng.normal(), rng.normal(), rng.normal());
+                exp_so3(&(v.normalize() * std::f64::consts::PI * rng.uniform()))
+            })
+            .collect()
+    }
+
+    fn max_error_in_sigmas(r: &FreeMotionResult) -> (f64, String) {
+        r.parameters
+            .iter()
+            .zip(truth())
+            .map(|(p, t)| ((p.value - t).abs() / p.sigma.unwrap(), p.name.clone()))
+            .fold((0.0, String::new()), |a, b| if b.0 > a.0 { b } else { a })
+    }
+
+    #[test]
+    fn recovers_known_errors_within_three_sigma() {
+        let mut rng = Lcg(7);
+        let poses = poses(&mut rng, 24);
+        let (data, intervals, turn) = simulate(&poses, 0.2, &mut rng);
+        let mut settings = FreeMotionSettings::new(G);
+        settings.holdout = Some(5);
+        let r = calibrate_free_motion(&data, &intervals, &[turn], &settings).unwrap();
+        let (worst, name) = max_error_in_sigmas(&r);
+        assert!(worst < 3.0, "{name}: {worst} sigma");
+        assert!(r.unobserved().is_empty(), "{:?}", r.unobserved());
+        let v = r.validation.unwrap();
+        assert!(
+            v.static_rms_after_m_s2 < 0.01 * v.static_rms_before_m_s2,
+            "{v:?}"
+        );
+        assert!(
+            v.rotation_rms_after_rad < 0.05 * v.rotation_rms_before_rad,
+            "{v:?}"
+        );
+        let t = &r.turns[0];
+        assert!(
+            (t.after_rad - t.expected_rad).abs() < 0.2f64.to_radians(),
+            "{t:?}"
+        );
+    }
+
+    #[test]
+    fn jittered_time_stamps_are_integrated_over_their_own_intervals() {
+        let mut rng = Lcg(11);
+        let poses = poses(&mut rng, 16);
+        let (data, intervals, turn) = simulate(&poses, 0.3, &mut rng);
+        let settings = FreeMotionSettings::new(G);
+        let r = calibrate_free_motion(&data, &intervals, std::slice::from_ref(&turn), &settings)
+            .unwrap();
+        let (worst, name) = max_error_in_sigmas(&r);
+        assert!(worst < 3.0, "{name}: {worst} sigma");
+        // The same records on a fixed 10-ms grid (a fixed-dt integration): the estimates are
+        // far off.
+        let mut fixed = data.clone();
+        for (k, rec) in fixed.records.iter_mut().enumerate() {
+            rec.t = 0.01 * (k + 1) as f64;
+        }
+        let rf = calibrate_free_motion(&fixed, &intervals, &[turn], &settings).unwrap();
+        let (worst_fixed, _) = max_error_in_sigmas(&rf);
+        assert!(worst_fixed > 10.0, "fixed dt: only {worst_fixed} sigma off");
+    }
+
+    #[test]
+    fn refuses_bad_input() {
+        let mut rng = Lcg(3);
+        let poses = poses(&mut rng, 4);
+        let (data, intervals, _) = simulate(&poses, 0.0, &mut rng);
+        let mut s = FreeMotionSettings::new(G);
+        s.holdout = Some(1);
+        assert!(matches!(
+            calibrate_free_motion(&data, &intervals, &[], &s),
+            Err(FreeMotionError::BadHoldout(1))
+        ));
+        s.holdout = Some(2);
+        assert!(matches!(
+            calibrate_free_motion(&data, &intervals, &[], &s),
+            Err(FreeMotionError::TooFewIntervals(2))
+        ));
+        let mut back = intervals.clone();
+        back.swap(0, 1);
+        let s = FreeMotionSettings::new(G);
+        assert!(calibrate_free_motion(&data, &back, &[], &s).is_err());
+    }
+}

@@ -1,0 +1,361 @@
+//! `sins-calib calibrate --free-motion`: calibration of a hand-turned multi-position recording
+//! (no rotation program, no turntable) by `calib::free_motion`, with the static intervals of the
+//! `import` crate's detector.
+
+use crate::calibrate::{Args, Outcome, check_output_path};
+use crate::table::{self, Align, Table};
+use crate::{Error, load_config, print};
+use ::import::detect::{DetectorSettings, segment};
+use ::import::sections::{SectionKind, SectionsFile};
+use calib::free_motion::{
+    FreeMotionPriors, FreeMotionResult, FreeMotionSettings, Interval, KnownTurn,
+    calibrate_free_motion,
+};
+use calib::io::{ResultParameter, read_imu_csv};
+use serde::Serialize;
+use sins_model::earth::Site;
+use sins_model::terms::Unit;
+use std::fmt::Write as _;
+
+/// Latitude (deg) of the site when neither --config nor --latitude gives one.
+pub const DEFAULT_LATITUDE_DEG: f64 = 45.0;
+
+/// The JSON result: parameters, fit summary and validation.
+#[derive(Serialize)]
+struct FreeMotionJson<'a> {
+    parameters: &'a [ResultParameter],
+    fit: FitJson,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    validation: Option<ValidationJson>,
+}
+
+#[derive(Serialize)]
+struct FitJson {
+    method: &'static str,
+    gravity_m_s2: f64,
+    static_intervals: usize,
+    accel: StageJson,
+    gyro: StageJson,
+    turns: Vec<TurnJson>,
+    unobserved: Vec<UnobservedJson>,
+}
+
+#[derive(Serialize)]
+struct StageJson {
+    residuals: usize,
+    effective_parameters: f64,
+    reduced_chi2: f64,
+}
+
+#[derive(Serialize)]
+struct TurnJson {
+    name: String,
+    expected_deg: f64,
+    before_deg: f64,
+    after_deg: f64,
+}
+
+#[derive(Serialize)]
+struct UnobservedJson {
+    name: String,
+    sigma_over_prior: f64,
+}
+
+#[derive(Serialize)]
+struct BeforeAfter {
+    before: f64,
+    after: f64,
+}
+
+#[derive(Serialize)]
+struct ValidationJson {
+    static_rms_m_s2: BeforeAfter,
+    rotation_rms_deg: BeforeAfter,
+    intervals: usize,
+    rotation_pairs: usize,
+}
+
+/// Gravity and priors from the configuration, or the defaults.
+fn settings_of(args: &Args) -> Result<(FreeMotionSettings, String), Error> {
+    match &args.config {
+        Some(name) => {
+            let (config, origin) = load_config(name)?;
+            let g = config.site().normal_gravity();
+            let mut s = FreeMotionSettings::new(g);
+            s.priors = FreeMotionPriors::from_config(&config.priors);
+            Ok((s, format!("{origin}: [site] and [priors]")))
+        }
+        None => {
+            let lat = args.latitude.unwrap_or(DEFAULT_LATITUDE_DEG);
+            if !(-90.0..=90.0).contains(&lat) {
+                return Err(format!("--latitude {lat}: expected -90 .. 90 deg").into());
+            }
+            let g = Site::from_degrees(lat, 0.0, 0.0).normal_gravity();
+            Ok((
+                FreeMotionSettings::new(g),
+                format!("no configuration: latitude {lat} deg, consumer-grade priors"),
+            ))
+        }
+    }
+}
+
+/// Known turns of a section list: its rotations with an expected angle, each widened to the
+/// whole motion between the static intervals around it (a list's bounds may cut off the start
+/// or end of the turn; the rest on either side adds only the bias, which is calibrated).
+fn known_turns(sections: &SectionsFile, intervals: &[Interval]) -> Vec<KnownTurn> {
+    sections
+        .sections
+        .iter()
+        .filter(|s| s.kind == SectionKind::Rotation)
+        .filter_map(|s| {
+            let first = intervals
+                .iter()
+                .filter(|iv| iv.last_record < s.first_record)
+                .map(|iv| iv.last_record + 1)
+                .next_back()
+                .unwrap_or(s.first_record);
+            let last = intervals
+                .iter()
+                .find(|iv| iv.first_record > s.last_record)
+                .map_or(s.last_record, |iv| iv.first_record);
+            Some(KnownTurn {
+                name: s.name.clone(),
+                first_record: first.max(1),
+                last_record: last,
+                axis: s.axis?,
+                angle_rad: s.expected_turn_deg?.to_radians(),
+            })
+        })
+        .collect()
+}
+
+/// Run `calibrate --free-motion`.
+pub fn run(args: &Args) -> Result<Outcome, Error> {
+    if args.turntable.is_some() || args.program_start.is_some() || args.truth.is_some() {
+        return Err(
+            "calibrate --free-motion: --turntable, --program-start and --truth belong to \
+                    a turntable calibration"
+                .into(),
+        );
+    }
+    for path in args.json.iter().chain(&args.plot) {
+        check_output_path(path)?;
+    }
+    let (mut settings, origin) = settings_of(args)?;
+    settings.holdout = args.holdout;
+    let data = read_imu_csv(&args.imu)?;
+    let file = args.imu.display().to_string();
+    let seg = segment(&data, &DetectorSettings::default()).map_err(|e| format!("{file}: {e}"))?;
+    let intervals: Vec<Interval> = seg
+        .static_intervals
+        .iter()
+        .map(|s| Interval {
+            first_record: s.first_record,
+            last_record: s.last_record,
+        })
+        .collect();
+    let turns = match &args.sections {
+        Some(p) => known_turns(&SectionsFile::read(p)?, &intervals),
+        None => Vec::new(),
+    };
+    let result = calibrate_free_motion(&data, &intervals, &turns, &settings)
+        .map_err(|e| format!("{file}: {e}"))?;
+
+    let mut s = String::new();
+    let _ = writeln!(s, "sins-calib calibrate --free-motion");
+    let _ = writeln!(s, "  settings        {origin}");
+    let _ = writeln!(
+        s,
+        "  IMU data        {file}: {} records, t = {} .. {} s",
+        seg.records,
+        table::compact(seg.t_first_s),
+        table::compact(seg.t_last_s)
+    );
+    let _ = writeln!(
+        s,
+        "  static          {} intervals (default detector){}",
+        intervals.len(),
+        match args.holdout {
+            Some(k) => format!(", every {k}-th held out of the fit"),
+            None => String::new(),
+        }
+    );
+    let _ = writeln!(
+        s,
+        "  gravity         {} m/s^2\n  method          batch Gauss-Newton least squares with \
+         priors (accelerometers, then gyros)\n",
+        table::significant(settings.gravity_m_s2, 7)
+    );
+    s += &parameter_report(&result);
+    s += &fit_report(&result);
+    let validation = result.validation.map(|v| ValidationJson {
+        static_rms_m_s2: BeforeAfter {
+            before: v.static_rms_before_m_s2,
+            after: v.static_rms_after_m_s2,
+        },
+        rotation_rms_deg: BeforeAfter {
+            before: v.rotation_rms_before_rad.to_degrees(),
+            after: v.rotation_rms_after_rad.to_degrees(),
+        },
+        intervals: v.intervals,
+        rotation_pairs: v.rotation_pairs,
+    });
+    if let Some(v) = &validation {
+        let _ = writeln!(
+            s,
+            "\nHeld-out validation ({} intervals, {} pairs of consecutive ones)\n  static |f| - g \
+             RMS        before {:.5} m/s^2, after {:.5} m/s^2\n  rotation (gravity direction) \
+             RMS  before {:.3} deg, after {:.3} deg",
+            v.intervals,
+            v.rotation_pairs,
+            v.static_rms_m_s2.before,
+            v.static_rms_m_s2.after,
+            v.rotation_rms_deg.before,
+            v.rotation_rms_deg.after
+        );
+    }
+    if let Some(path) = &args.json {
+        let json = FreeMotionJson {
+            parameters: &result.parameters,
+            fit: fit_json(&result, &settings, intervals.len()),
+            validation,
+        };
+        let text = serde_json::to_string_pretty(&json)? + "\n";
+        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        let _ = writeln!(s, "\nwrote {}", path.display());
+    }
+    if let Some(path) = &args.plot {
+        crate::plot::static_residuals_png(path, &file, &result.poses)?;
+        let _ = writeln!(s, "wrote {}", path.display());
+    }
+    print(&s)?;
+    Ok(Outcome::Fits)
+}
+
+fn fit_json(r: &FreeMotionResult, settings: &FreeMotionSettings, n: usize) -> FitJson {
+    let stage = |f: &calib::free_motion::StageFit| StageJson {
+        residuals: f.residuals,
+        effective_parameters: f.effective_parameters,
+        reduced_chi2: f.reduced_chi2,
+    };
+    FitJson {
+        method: "batch Gauss-Newton least squares with priors",
+        gravity_m_s2: settings.gravity_m_s2,
+        static_intervals: n,
+        accel: stage(&r.accel_fit),
+        gyro: stage(&r.gyro_fit),
+        turns: r
+            .turns
+            .iter()
+            .map(|t| TurnJson {
+                name: t.name.clone(),
+                expected_deg: t.expected_rad.to_degrees(),
+                before_deg: t.before_rad.to_degrees(),
+                after_deg: t.after_rad.to_degrees(),
+            })
+            .collect(),
+        unobserved: r
+            .unobserved()
+            .into_iter()
+            .map(|(name, sigma_over_prior)| UnobservedJson {
+                name,
+                sigma_over_prior,
+            })
+            .collect(),
+    }
+}
+
+/// Report unit of a result parameter.
+fn unit_of(p: &ResultParameter) -> Unit {
+    match p.unit.as_str() {
+        "rad/s" => Unit::RadPerSecond,
+        "m/s^2" => Unit::MeterPerSecond2,
+        "rad" => Unit::SmallAngle,
+        _ => Unit::Ratio,
+    }
+}
+
+fn parameter_report(r: &FreeMotionResult) -> String {
+    let mut t = Table::new(&[
+        ("parameter", Align::Left),
+        ("value", Align::Right),
+        ("sigma", Align::Right),
+        ("prior", Align::Right),
+        ("unit", Align::Left),
+    ]);
+    let names: Vec<String> = r.parameters.iter().map(|p| p.name.clone()).collect();
+    for (title, members) in table::grouped(&names) {
+        t.section(title);
+        for i in members {
+            let p = &r.parameters[i];
+            let unit = unit_of(p);
+            let f = unit.report_factor();
+            let sg = p.sigma.unwrap_or(0.0) * f;
+            t.row(vec![
+                format!("  {}", p.name),
+                table::with_precision_of(p.value * f, sg),
+                table::sigma(sg),
+                table::sigma(r.prior_sigma[i] * f),
+                unit.report_name().to_string(),
+            ]);
+        }
+    }
+    t.render()
+}
+
+fn fit_report(r: &FreeMotionResult) -> String {
+    let mut s = String::from("\nFit\n");
+    for (what, f) in [
+        ("accelerometers", &r.accel_fit),
+        ("gyros         ", &r.gyro_fit),
+    ] {
+        let _ = writeln!(
+            s,
+            "  {what}  {} residuals, {:.1} effective parameters, reduced chi-square {:.3}{}",
+            f.residuals,
+            f.effective_parameters,
+            f.reduced_chi2,
+            if f.reduced_chi2 > 1.0 {
+                " (sigmas scaled up by its root)"
+            } else {
+                ""
+            }
+        );
+    }
+    let fitted: Vec<_> = r.poses.iter().filter(|p| !p.held_out).collect();
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    let before: Vec<f64> = fitted.iter().map(|p| p.before_m_s2).collect();
+    let after: Vec<f64> = fitted.iter().map(|p| p.after_m_s2).collect();
+    let _ = writeln!(
+        s,
+        "  static |f| - g RMS over the {} fitted intervals: before {:.5} m/s^2, after {:.5} m/s^2",
+        fitted.len(),
+        rms(&before),
+        rms(&after)
+    );
+    for t in &r.turns {
+        let _ = writeln!(
+            s,
+            "  turn {}: expected {:.1} deg, raw gyro {:.2} deg, calibrated {:.2} deg",
+            t.name,
+            t.expected_rad.to_degrees(),
+            t.before_rad.to_degrees(),
+            t.after_rad.to_degrees()
+        );
+    }
+    let un = r.unobserved();
+    if un.is_empty() {
+        let _ = writeln!(
+            s,
+            "  every parameter observed (posterior sigma <= 0.9 prior)"
+        );
+    } else {
+        let names: Vec<String> = un.iter().map(|(n, q)| format!("{n} ({q:.2})")).collect();
+        let _ = writeln!(
+            s,
+            "  unobserved (posterior/prior sigma > 0.9, kept at the prior): {}",
+            names.join(", ")
+        );
+    }
+    s
+}
