@@ -777,7 +777,7 @@ pub struct ResultParameter {
     pub unit: String,
 }
 
-/// A result (or truth) file: `{"parameters": (...)}`.
+/// A result (or truth) file: `{"parameters": [...]}`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ResultFile {
     /// Parameters in state order.

@@ -7,15 +7,15 @@
 //! ```toml
 //! name = "one turn about the bank axis"
 //! start_deg = (0.0, 0.0, 0.0)
-//! [(segment)]
+//! [[segment]]
 //! kind = "rotate"        # one gimbal at a constant rate
 //! gimbal = 2             # 1 = heading, 2 = bank, 3 = pitch
 //! rate_deg_s = 10.0
 //! duration_s = 36.0
-//! [(segment)]
+//! [[segment]]
 //! kind = "dwell"         # all gimbals still
 //! duration_s = 10.0
-//! [(segment)]
+//! [[segment]]
 //! kind = "move"          # to target angles, one gimbal after another, at rate_deg_s
 //! target_deg = (-90.0, 0.0, 0.0)
 //! rate_deg_s = 10.0
