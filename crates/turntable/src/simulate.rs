@@ -97,7 +97,7 @@ pub struct TruthParameter {
     pub unit: String,
 }
 
-/// True values of everything the simulation was built from; JSON `{"parameters": (...)}`.
+/// True values of everything the simulation was built from; JSON `{"parameters": [...]}`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Truth {
     /// Parameters in order: the error model's, then `install.delta.*`, `turntable.tau`,
