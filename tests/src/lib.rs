@@ -139,3 +139,37 @@ impl MonteCarlo {
         failures
     }
 }
+
+/// Simulate the run of `config` with each seed and calibrate it with both models (IMU only,
+/// then with the turntable angles), handing every estimate to `inspect` (which may assert on
+/// it) and collecting the Monte-Carlo figures; then check both ([`MonteCarlo::check`]) under
+/// `label` and fail on any inconsistency.
+pub fn monte_carlo_both_models(
+    label: &str,
+    seeds: std::ops::RangeInclusive<u64>,
+    config: impl Fn(u64) -> RunConfig,
+    mut inspect: impl FnMut(bool, &Estimate),
+) {
+    use calib::estimate::{RunData, estimate};
+    use calib::io::{ImuData, TurntableData};
+    let (mut imu_only, mut with_turntable) = (MonteCarlo::default(), MonteCarlo::default());
+    for seed in seeds {
+        let config = config(seed);
+        let sim = calib::simulate::simulate_run(&config, label).unwrap();
+        let imu = ImuData::from_samples(&sim.imu);
+        let tt = TurntableData::from_samples(&sim.turntable);
+        for (with_tt, mc) in [(false, &mut imu_only), (true, &mut with_turntable)] {
+            let data = RunData {
+                imu: &imu,
+                imu_file: "imu.csv",
+                turntable: with_tt.then_some((&tt, "turntable.csv")),
+            };
+            let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
+            inspect(with_tt, &est);
+            mc.add(&config, &sim, &est);
+        }
+    }
+    let mut failures = imu_only.check(&format!("{label}, 24 states"));
+    failures.extend(with_turntable.check(&format!("{label}, 28 states")));
+    assert!(failures.is_empty(), "{failures:?}");
+}

@@ -8,34 +8,17 @@
 //! `cargo test --release -p workspace-tests --test calibration_monte_carlo -- --ignored`). For
 //! each model: the NEES summed over the runs inside the two-sided 95 % band of its chi-square
 //! distribution, and no state's mean normalised error beyond the Bonferroni bound for the number
-//! of states at a family-wise 5 % ([`MonteCarlo::check`]).
+//! of states at a family-wise 5 % ([`workspace_tests::MonteCarlo::check`]).
 
-use calib::estimate::{RunData, estimate};
-use calib::io::{ImuData, TurntableData};
-use calib::simulate::simulate_run;
-use workspace_tests::{MonteCarlo, simulated_run_config};
+use workspace_tests::{monte_carlo_both_models, simulated_run_config};
 
 fn run(seeds: std::ops::RangeInclusive<u64>) {
-    let (mut imu_only, mut with_turntable) = (MonteCarlo::default(), MonteCarlo::default());
-    for seed in seeds {
-        let mut config = simulated_run_config();
-        config.truth.seed = seed;
-        let sim = simulate_run(&config, "mc").unwrap();
-        let imu = ImuData::from_samples(&sim.imu);
-        let tt = TurntableData::from_samples(&sim.turntable);
-        for (with_tt, mc) in [(false, &mut imu_only), (true, &mut with_turntable)] {
-            let data = RunData {
-                imu: &imu,
-                imu_file: "imu.csv",
-                turntable: with_tt.then_some((&tt, "turntable.csv")),
-            };
-            let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
-            mc.add(&config, &sim, &est);
-        }
-    }
-    let mut failures = imu_only.check("24 states");
-    failures.extend(with_turntable.check("28 states"));
-    assert!(failures.is_empty(), "{failures:?}");
+    let config = |seed| {
+        let mut c = simulated_run_config();
+        c.truth.seed = seed;
+        c
+    };
+    monte_carlo_both_models("paper's program", seeds, config, |_, _| {});
 }
 
 #[test]

@@ -6,14 +6,11 @@
 //!
 //! Seeds fixed before the runs were looked at: 300-309 in CI, 400-449 behind `--ignored`. Each
 //! run: a 600-s dwell, every parameter (installation misalignment about 1 deg per axis
-//! included) drawn from the priors, noise on, angles at 50 Hz. Checks: [`MonteCarlo::check`]
+//! included) drawn from the priors, noise on, angles at 50 Hz. Checks: [`workspace_tests::MonteCarlo::check`]
 //! for both models, and the unobserved parameters named.
 
 use calib::config::RunConfig;
-use calib::estimate::{RunData, estimate};
-use calib::io::{ImuData, TurntableData};
-use calib::simulate::simulate_run;
-use workspace_tests::{MonteCarlo, simulated_run_config};
+use workspace_tests::{monte_carlo_both_models, simulated_run_config};
 
 fn static_config(seed: u64) -> RunConfig {
     let dir = std::env::temp_dir().join(format!("sins-static-{}", std::process::id()));
@@ -31,41 +28,24 @@ fn static_config(seed: u64) -> RunConfig {
 }
 
 fn run(seeds: std::ops::RangeInclusive<u64>) {
-    let (mut imu_only, mut with_turntable) = (MonteCarlo::default(), MonteCarlo::default());
-    for seed in seeds {
-        let config = static_config(seed);
-        let sim = simulate_run(&config, "static").unwrap();
-        let imu = ImuData::from_samples(&sim.imu);
-        let tt = TurntableData::from_samples(&sim.turntable);
-        for (with_tt, mc) in [(false, &mut imu_only), (true, &mut with_turntable)] {
-            let data = RunData {
-                imu: &imu,
-                imu_file: "imu.csv",
-                turntable: with_tt.then_some((&tt, "turntable.csv")),
-            };
-            let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
-            let unobserved: Vec<String> = est.unobserved().into_iter().map(|u| u.0).collect();
-            // At rest the gyros see only the Earth rate: the gyro matrix (9 parameters) is
-            // unobserved, and so is the delay of the angles of a still platform.
-            for i in ["x", "y", "z"] {
-                for j in ["x", "y", "z"] {
-                    let name = format!("gyro.theta.{i}{j}");
-                    assert!(
-                        unobserved.contains(&name),
-                        "{name} not named: {unobserved:?}"
-                    );
-                }
+    monte_carlo_both_models("static", seeds, static_config, |with_tt, est| {
+        let unobserved: Vec<String> = est.unobserved().into_iter().map(|u| u.0).collect();
+        // At rest the gyros see only the Earth rate: the gyro matrix (9 parameters) is
+        // unobserved, and so is the delay of the angles of a still platform.
+        for i in ["x", "y", "z"] {
+            for j in ["x", "y", "z"] {
+                let name = format!("gyro.theta.{i}{j}");
+                assert!(
+                    unobserved.contains(&name),
+                    "{name} not named: {unobserved:?}"
+                );
             }
-            if with_tt {
-                assert!(unobserved.contains(&"turntable.tau".to_string()));
-                assert!(est.stats.consider_passes > 0, "{:?}", est.stats);
-            }
-            mc.add(&config, &sim, &est);
         }
-    }
-    let mut failures = imu_only.check("static, 24 states");
-    failures.extend(with_turntable.check("static, 28 states"));
-    assert!(failures.is_empty(), "{failures:?}");
+        if with_tt {
+            assert!(unobserved.contains(&"turntable.tau".to_string()));
+            assert!(est.stats.consider_passes > 0, "{:?}", est.stats);
+        }
+    });
 }
 
 #[test]
