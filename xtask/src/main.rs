@@ -262,7 +262,7 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) 
                 .fold(d, f64::max);
             println!(
                 "  also estimated: installation misalignment delta_z {:.3} arcsec, delay tau {:.2e} s",
-                dmax.to_degrees() * 3600.0,
+                dmax / sins_model::units::ARCSEC,
                 tau
             );
         }

@@ -12,9 +12,7 @@ use turntable::program::Program;
 /// The paper's run configuration, embedded.
 pub const PAPER_CONFIG_TOML: &str = include_str!("../configs/paper.toml");
 
-const ARCMIN: f64 = std::f64::consts::PI / 180.0 / 60.0;
-const ARCSEC: f64 = ARCMIN / 60.0;
-const DEG_H: f64 = std::f64::consts::PI / 180.0 / 3600.0;
+use sins_model::units::{ARCMIN, ARCSEC, DEG_PER_HOUR as DEG_H};
 
 /// Errors reading a configuration.
 #[derive(Debug, thiserror::Error)]

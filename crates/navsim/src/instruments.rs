@@ -54,10 +54,7 @@ pub const ACCEL_GAMMA: usize = 15;
 /// (installation misalignment on the turntable, turntable data delay).
 pub const IGNORED_PREFIXES: [&str; 2] = ["install.", "turntable."];
 
-/// One arc minute in radians.
-pub const ARCMIN: f64 = std::f64::consts::PI / (180.0 * 60.0);
-/// One degree per hour in rad/s.
-pub const DEG_PER_HOUR: f64 = std::f64::consts::PI / (180.0 * 3600.0);
+pub use sins_model::units::{ARCMIN, DEG_PER_HOUR};
 
 /// 21x21 covariance of the instrument parameters in [`INSTRUMENT_NAMES`] order.
 pub type InstrumentMatrix = SMatrix<f64, INSTRUMENT_DIM, INSTRUMENT_DIM>;

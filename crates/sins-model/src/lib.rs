@@ -23,3 +23,4 @@ pub mod attitude;
 pub mod earth;
 pub mod errors;
 pub mod terms;
+pub mod units;

@@ -67,10 +67,10 @@ impl Unit {
     /// Multiply an SI value by this to get it in the report unit.
     pub fn report_factor(self) -> f64 {
         match self {
-            Unit::RadPerSecond => 180.0 / std::f64::consts::PI * 3600.0,
+            Unit::RadPerSecond => 1.0 / crate::units::DEG_PER_HOUR,
             Unit::MeterPerSecond2 | Unit::Ratio | Unit::Second => 1.0,
-            Unit::SmallAngle => 180.0 / std::f64::consts::PI * 60.0,
-            Unit::Angle => 180.0 / std::f64::consts::PI,
+            Unit::SmallAngle => 1.0 / crate::units::ARCMIN,
+            Unit::Angle => 1.0 / crate::units::DEG,
         }
     }
 }
@@ -334,9 +334,9 @@ pub struct PaperPriors {
 impl PaperPriors {
     /// The a priori values of the paper's covariance analysis: 0.5 deg/h, 0.02 m/s^2, 1e-3, 3 arcmin.
     pub fn paper() -> Self {
-        let arcmin = (1.0f64 / 60.0).to_radians();
+        let arcmin = crate::units::ARCMIN;
         Self {
-            gyro_bias: 0.5f64.to_radians() / 3600.0,
+            gyro_bias: 0.5 * crate::units::DEG_PER_HOUR,
             gyro_scale: 1e-3,
             gyro_misalignment: 3.0 * arcmin,
             accel_bias: 0.02,
