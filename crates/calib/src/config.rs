@@ -140,29 +140,12 @@ pub struct FilterConfig {
     pub program_start_s: Option<f64>,
 }
 
-/// How the turntable clock relates to the IMU clock: `t_tt = offset_s + (1 + rate_error) * t_imu`,
-/// as the laboratory's synchronisation knows it. The filter estimates the remaining delay `tau`
-/// of the turntable data relative to this relation; a constant clock offset and `tau` act alike,
-/// so only their sum can be learnt from data.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ClockConfig {
-    /// Turntable clock reading at IMU time zero (s).
-    pub turntable_offset_s: f64,
-    /// Relative rate error of the turntable clock against the IMU clock (dimensionless).
-    pub turntable_rate_error: f64,
-}
-
-impl ClockConfig {
-    /// Turntable clock reading at IMU time `t_imu`.
-    pub fn turntable_time(&self, t_imu: f64) -> f64 {
-        self.turntable_offset_s + (1.0 + self.turntable_rate_error) * t_imu
-    }
-    /// IMU time at turntable clock reading `t_tt`.
-    pub fn imu_time(&self, t_tt: f64) -> f64 {
-        (t_tt - self.turntable_offset_s) / (1.0 + self.turntable_rate_error)
-    }
-}
+/// How the turntable clock relates to the IMU clock, as the laboratory's synchronisation knows
+/// it (`[clock]`): `t_tt = turntable_offset_s + (1 + turntable_rate_error) * t_imu`. The filter
+/// estimates the remaining delay `tau` of the turntable data relative to this relation; a
+/// constant clock offset and `tau` act alike, so only their sum can be learnt from data. The
+/// type is [`turntable::sensor::Clock`], the relation's one definition.
+pub type ClockConfig = turntable::sensor::Clock;
 
 /// The truth of a simulated run (`sins-calib simulate`): rates, seed and true values.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -96,8 +96,7 @@ pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, Simu
         sigma: [sigma; 3],
         rate_hz: t.turntable_rate_hz,
         tau: get("turntable.tau"),
-        clock_offset: config.clock.turntable_offset_s,
-        clock_rate_error: config.clock.turntable_rate_error,
+        clock: config.clock,
     };
     let sim = SimConfig {
         imu_rate_hz: t.imu_rate_hz,

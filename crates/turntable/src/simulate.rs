@@ -143,12 +143,12 @@ impl Truth {
         }
         push(
             "turntable.clock.offset".into(),
-            sensor.clock_offset,
+            sensor.clock.turntable_offset_s,
             Unit::Second,
         );
         push(
             "turntable.clock.rate_error".into(),
-            sensor.clock_rate_error,
+            sensor.clock.turntable_rate_error,
             Unit::Ratio,
         );
         Self { parameters }
@@ -415,9 +415,9 @@ pub fn simulate_turntable<R: Rng + ?Sized>(
     }
     let valid = sensor.sigma.iter().all(|s| s.is_finite() && *s >= 0.0)
         && sensor.tau.is_finite()
-        && sensor.clock_offset.is_finite()
-        && sensor.clock_rate_error.is_finite()
-        && sensor.clock_rate_error > -1.0;
+        && sensor.clock.turntable_offset_s.is_finite()
+        && sensor.clock.turntable_rate_error.is_finite()
+        && sensor.clock.turntable_rate_error > -1.0;
     if !valid {
         return Err(SimulateError::Invalid(
             "angle sensor sigma must be >= 0, tau and clock finite, clock rate error > -1".into(),

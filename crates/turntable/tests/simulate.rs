@@ -72,8 +72,10 @@ fn sensor() -> AngleSensor {
         sigma: [0.0; 3],
         rate_hz: 50.0,
         tau: 0.013,
-        clock_offset: 1234.5678,
-        clock_rate_error: 2e-5,
+        clock: turntable::sensor::Clock {
+            turntable_offset_s: 1234.5678,
+            turntable_rate_error: 2e-5,
+        },
     }
 }
 
@@ -395,10 +397,13 @@ fn runs_are_reproducible_and_truth_is_complete() {
     assert_eq!(truth.get("install.delta.y"), Some(mounting().delta_z.y));
     assert_eq!(truth.get("base.gamma.z"), Some(mounting().gamma_p.z));
     assert_eq!(truth.get("turntable.tau"), Some(s.tau));
-    assert_eq!(truth.get("turntable.clock.offset"), Some(s.clock_offset));
+    assert_eq!(
+        truth.get("turntable.clock.offset"),
+        Some(s.clock.turntable_offset_s)
+    );
     assert_eq!(
         truth.get("turntable.clock.rate_error"),
-        Some(s.clock_rate_error)
+        Some(s.clock.turntable_rate_error)
     );
     let json = truth.to_json();
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
