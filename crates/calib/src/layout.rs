@@ -11,6 +11,7 @@
 
 use crate::config::{AttitudePrior, RunConfig};
 use nalgebra::{DMatrix, DVector, Matrix3};
+use sins_model::names;
 use sins_model::terms::{ErrorModel, PaperPriors, ParamSpec, Unit};
 use std::sync::Arc;
 
@@ -58,32 +59,28 @@ impl StateLayout {
         with_turntable: bool,
         with_base: bool,
     ) -> Self {
-        let mut entries: Vec<ParamSpec> = ["x", "y", "z"]
+        let mut entries: Vec<ParamSpec> = names::ATTITUDE_BETA
             .iter()
             .zip(priors.attitude)
-            .map(|(a, s)| ParamSpec::new(format!("attitude.beta.{a}"), Unit::SmallAngle, s))
+            .map(|(n, s)| ParamSpec::new(*n, names::ANGLE_UNIT, s))
             .collect();
         entries.extend(model.params());
         let (mut install, mut tau, mut base) = (None, None, None);
         if with_turntable {
             install = Some(entries.len());
-            for a in ["x", "y", "z"] {
-                entries.push(ParamSpec::new(
-                    format!("install.delta.{a}"),
-                    Unit::SmallAngle,
-                    priors.install,
-                ));
+            for n in names::INSTALL_DELTA {
+                entries.push(ParamSpec::new(n, names::ANGLE_UNIT, priors.install));
             }
             tau = Some(entries.len());
-            entries.push(ParamSpec::new("turntable.tau", Unit::Second, priors.tau));
+            entries.push(ParamSpec::new(
+                names::TURNTABLE_TAU,
+                names::TAU_UNIT,
+                priors.tau,
+            ));
             if with_base {
                 base = Some(entries.len());
-                for a in ["x", "y", "z"] {
-                    entries.push(ParamSpec::new(
-                        format!("base.gamma.{a}"),
-                        Unit::SmallAngle,
-                        priors.base,
-                    ));
+                for n in names::BASE_GAMMA {
+                    entries.push(ParamSpec::new(n, names::ANGLE_UNIT, priors.base));
                 }
             }
         }

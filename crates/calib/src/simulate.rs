@@ -5,6 +5,7 @@ use crate::config::{ConfigError, RunConfig};
 use crate::covariance::layout_for;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
+use sins_model::names;
 use turntable::kinematics::{Kinematics, Mounting};
 use turntable::sensor::AngleSensor;
 use turntable::simulate::{SimConfig, SimRng, SimulateError, Simulation, simulate};
@@ -83,10 +84,9 @@ pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, Simu
     };
     let layout = layout_for(config, false);
     let p_true: Vec<f64> = layout.entries()[3..].iter().map(|e| get(&e.name)).collect();
-    let axes = ["x", "y", "z"];
     let mounting = Mounting {
-        delta_z: nalgebra::Vector3::from_fn(|i, _| get(&format!("install.delta.{}", axes[i]))),
-        gamma_p: nalgebra::Vector3::from_fn(|i, _| get(&format!("base.gamma.{}", axes[i]))),
+        delta_z: nalgebra::Vector3::from_fn(|i, _| get(names::INSTALL_DELTA[i])),
+        gamma_p: nalgebra::Vector3::from_fn(|i, _| get(names::BASE_GAMMA[i])),
     };
     let kin = Kinematics::new(config.program()?, mounting, config.site());
     let t = &config.truth;
@@ -95,7 +95,7 @@ pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, Simu
     let sensor = AngleSensor {
         sigma: [sigma; 3],
         rate_hz: t.turntable_rate_hz,
-        tau: get("turntable.tau"),
+        tau: get(names::TURNTABLE_TAU),
         clock: config.clock,
     };
     let sim = SimConfig {

@@ -52,7 +52,11 @@ pub const ACCEL_GAMMA: usize = 15;
 
 /// Name prefixes of calibration parameters that navigation ignores without complaint
 /// (installation misalignment on the turntable, turntable data delay).
-pub const IGNORED_PREFIXES: [&str; 2] = ["install.", "turntable."];
+pub const IGNORED_PREFIXES: [&str; 3] = [
+    sins_model::names::INSTALL_PREFIX,
+    sins_model::names::TURNTABLE_PREFIX,
+    sins_model::names::BASE_PREFIX,
+];
 
 pub use sins_model::units::{ARCMIN, DEG_PER_HOUR};
 

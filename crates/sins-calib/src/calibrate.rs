@@ -539,12 +539,12 @@ fn truth_report(
     );
     for (name, configured, what) in [
         (
-            "turntable.clock.offset",
+            sins_model::names::CLOCK_OFFSET,
             clock.turntable_offset_s,
             "clock.turntable_offset_s",
         ),
         (
-            "turntable.clock.rate_error",
+            sins_model::names::CLOCK_RATE_ERROR,
             clock.turntable_rate_error,
             "clock.turntable_rate_error",
         ),

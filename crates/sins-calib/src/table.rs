@@ -14,15 +14,15 @@ const GROUPS: [(&str, &str); 7] = [
     ),
     (
         "Installation misalignment delta_z (instrument on the platform)",
-        "install.delta.",
+        sins_model::names::INSTALL_PREFIX,
     ),
     (
         "Delay tau of the turntable data (after the [clock] relation)",
-        "turntable.tau",
+        sins_model::names::TURNTABLE_TAU,
     ),
     (
         "Base misalignment gamma_p (turntable base against ENU)",
-        "base.gamma.",
+        sins_model::names::BASE_PREFIX,
     ),
 ];
 

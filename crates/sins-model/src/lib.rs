@@ -22,5 +22,6 @@
 pub mod attitude;
 pub mod earth;
 pub mod errors;
+pub mod names;
 pub mod terms;
 pub mod units;

@@ -17,6 +17,7 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
+use sins_model::names;
 use sins_model::terms::{ErrorModel, Sensor, SensorInput, Unit};
 
 /// One IMU record: increments over `[t - dt, t]`, body axes.
@@ -125,29 +126,20 @@ impl Truth {
                 unit: unit.si_name().to_string(),
             })
         };
-        let axes = ["x", "y", "z"];
-        for (i, a) in axes.iter().enumerate() {
-            push(
-                format!("install.delta.{a}"),
-                kin.mounting.delta_z[i],
-                Unit::SmallAngle,
-            );
+        for (i, n) in names::INSTALL_DELTA.iter().enumerate() {
+            push(n.to_string(), kin.mounting.delta_z[i], names::ANGLE_UNIT);
         }
-        push("turntable.tau".into(), sensor.tau, Unit::Second);
-        for (i, a) in axes.iter().enumerate() {
-            push(
-                format!("base.gamma.{a}"),
-                kin.mounting.gamma_p[i],
-                Unit::SmallAngle,
-            );
+        push(names::TURNTABLE_TAU.into(), sensor.tau, names::TAU_UNIT);
+        for (i, n) in names::BASE_GAMMA.iter().enumerate() {
+            push(n.to_string(), kin.mounting.gamma_p[i], names::ANGLE_UNIT);
         }
         push(
-            "turntable.clock.offset".into(),
+            names::CLOCK_OFFSET.into(),
             sensor.clock.turntable_offset_s,
             Unit::Second,
         );
         push(
-            "turntable.clock.rate_error".into(),
+            names::CLOCK_RATE_ERROR.into(),
             sensor.clock.turntable_rate_error,
             Unit::Ratio,
         );
