@@ -20,7 +20,7 @@
 use crate::layout::StateLayout;
 use faer::{Mat, MatRef};
 use nalgebra::{DMatrix, Matrix3, Vector3};
-use sins_model::attitude::{exp_so3, skew};
+use sins_model::errors;
 use sins_model::terms::{Sensor, SensorInput};
 
 /// Weighted sum of `phi_top` over the sample instants of a measurement window, kept relative to
@@ -196,7 +196,7 @@ impl LinearModel {
         let mut m = Self {
             n,
             n_instr,
-            a_step: exp_so3(&(-u_enu * dt)),
+            a_step: errors::beta_transition(u_enu, dt),
             psd_gyro,
             dynamic,
             gyro_params,
@@ -405,7 +405,7 @@ impl LinearModel {
         }
         let h = &mut self.h_accel;
         self.acc.beta.expressed_at(&self.phi_top, &mut self.scratch);
-        let sf = skew(f_enu) / self.acc.beta.weight;
+        let sf = errors::specific_force_beta_jacobian(f_enu) / self.acc.beta.weight;
         for (j, col) in self.scratch.iter().enumerate() {
             let v = sf * col;
             for r in 0..3 {

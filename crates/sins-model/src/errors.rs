@@ -22,6 +22,12 @@ pub fn beta_dynamics_matrix(u_enu: &Vector3<f64>) -> Matrix3<f64> {
     -skew(u_enu)
 }
 
+/// The exact transition of `d(beta)/dt = A beta` over `dt` (`A` of [`beta_dynamics_matrix`]):
+/// `exp(A dt) = exp(-skew(u dt))`, the Earth's rotation over the step.
+pub fn beta_transition(u_enu: &Vector3<f64>, dt: f64) -> Matrix3<f64> {
+    crate::attitude::exp_so3(&(-u_enu * dt))
+}
+
 /// Specific-force residual `w = f_x x beta + C df` (linear model).
 pub fn specific_force_residual(
     beta: &Vector3<f64>,
