@@ -13,8 +13,8 @@ use std::process::ExitCode;
 mod plot;
 
 /// The paper's navigation figures after 1 h of the snake flight (m).
-const PAPER_RHO_IMU_ONLY_M: f64 = 1900.0;
-const PAPER_RHO_WITH_TURNTABLE_M: f64 = 1100.0;
+const PAPER_RHO_IMU_ONLY_M: f64 = sins_model::paper::RHO_IMU_ONLY_M;
+const PAPER_RHO_WITH_TURNTABLE_M: f64 = sins_model::paper::RHO_WITH_TURNTABLE_M;
 
 #[derive(Parser)]
 #[command(

@@ -33,24 +33,22 @@ pub const COLUMNS: [(&str, &str); 6] = [
 ];
 
 impl PaperTable {
-    /// The paper's table without the turntable angles.
-    pub const PAPER_IMU_ONLY: PaperTable = PaperTable {
-        nu0_deg_h: 0.01,
-        theta_ii: 5.1e-7,
-        theta_ij_arcmin: 0.1,
-        df0_m_s2: 9e-5,
-        gamma_ii: 1.36e-5,
-        gamma_ij_arcmin: 0.1,
-    };
-    /// The paper's table with the turntable angles.
-    pub const PAPER_WITH_TURNTABLE: PaperTable = PaperTable {
-        nu0_deg_h: 0.003,
-        theta_ii: 9.7e-8,
-        theta_ij_arcmin: 0.05,
-        df0_m_s2: 7.7e-5,
-        gamma_ii: 1.36e-5,
-        gamma_ij_arcmin: 0.05,
-    };
+    /// The paper's table without the turntable angles ([`sins_model::paper`]).
+    pub const PAPER_IMU_ONLY: PaperTable = Self::from_paper(sins_model::paper::TABLE_IMU_ONLY);
+    /// The paper's table with the turntable angles ([`sins_model::paper`]).
+    pub const PAPER_WITH_TURNTABLE: PaperTable =
+        Self::from_paper(sins_model::paper::TABLE_WITH_TURNTABLE);
+
+    const fn from_paper(t: sins_model::paper::ResultTable) -> Self {
+        PaperTable {
+            nu0_deg_h: t.nu0_deg_h,
+            theta_ii: t.theta_ii,
+            theta_ij_arcmin: t.theta_ij_arcmin,
+            df0_m_s2: t.df0_m_s2,
+            gamma_ii: t.gamma_ii,
+            gamma_ij_arcmin: t.gamma_ij_arcmin,
+        }
+    }
 
     /// The entries in [`COLUMNS`] order.
     pub fn values(&self) -> [f64; 6] {
@@ -73,8 +71,8 @@ impl PaperTable {
                 .fold(f64::NEG_INFINITY, f64::max)
         };
         let groups = Groups::new();
-        let deg_h = 180.0 / std::f64::consts::PI * 3600.0;
-        let arcmin = 180.0 / std::f64::consts::PI * 60.0;
+        let deg_h = 1.0 / sins_model::units::DEG_PER_HOUR;
+        let arcmin = 1.0 / sins_model::units::ARCMIN;
         PaperTable {
             nu0_deg_h: max_of(&groups.nu0) * deg_h,
             theta_ii: max_of(&groups.theta_ii),

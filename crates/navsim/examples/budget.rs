@@ -49,12 +49,12 @@ fn main() {
         (
             "paper, without turntable angles",
             InstrumentCovariance::paper_without_turntable(),
-            1900.0,
+            sins_model::paper::RHO_IMU_ONLY_M,
         ),
         (
             "paper, with turntable angles",
             InstrumentCovariance::paper_with_turntable(),
-            1100.0,
+            sins_model::paper::RHO_WITH_TURNTABLE_M,
         ),
     ];
     for takeoff in [false, true] {
@@ -107,7 +107,7 @@ fn main() {
         println!(
             "ratio without/with turntable: {:.2} (paper: {:.2})",
             budgets[0].total_m / budgets[1].total_m,
-            1900.0 / 1100.0
+            sins_model::paper::RHO_IMU_ONLY_M / sins_model::paper::RHO_WITH_TURNTABLE_M
         );
     }
 

@@ -150,12 +150,24 @@ impl InstrumentCovariance {
 
     /// The paper's result table without the turntable angles (diagonal).
     pub fn paper_without_turntable() -> Self {
-        Self::diagonal_from_paper_table(0.01, 5.1e-7, 0.1, 9e-5, 1.36e-5, 0.1)
+        Self::from_paper(&sins_model::paper::TABLE_IMU_ONLY)
     }
 
     /// The paper's result table with the turntable angles (diagonal).
     pub fn paper_with_turntable() -> Self {
-        Self::diagonal_from_paper_table(0.003, 9.7e-8, 0.05, 7.7e-5, 1.36e-5, 0.05)
+        Self::from_paper(&sins_model::paper::TABLE_WITH_TURNTABLE)
+    }
+
+    /// [`Self::diagonal_from_paper_table`] of one of the paper's tables.
+    pub fn from_paper(t: &sins_model::paper::ResultTable) -> Self {
+        Self::diagonal_from_paper_table(
+            t.nu0_deg_h,
+            t.theta_ii,
+            t.theta_ij_arcmin,
+            t.df0_m_s2,
+            t.gamma_ii,
+            t.gamma_ij_arcmin,
+        )
     }
 
     /// Standard deviation of a named parameter, if present.

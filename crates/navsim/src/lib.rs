@@ -24,7 +24,7 @@
 //!
 //! // The default one-hour snake and the paper's result table with the turntable angles.
 //! let flight = SnakeTrajectory::new(&SnakeConfig::default_config()).unwrap();
-//! let calib = InstrumentCovariance::diagonal_from_paper_table(0.003, 9.7e-8, 0.05, 7.7e-5, 1.36e-5, 0.05);
+//! let calib = InstrumentCovariance::from_paper(&sins_model::paper::TABLE_WITH_TURNTABLE);
 //! let rho = rho_series(&flight, &calib, &NavOptions::default()).unwrap();
 //! let after_one_hour = rho.final_rho_m();
 //! assert_eq!(rho.t.last(), Some(&3600.0));

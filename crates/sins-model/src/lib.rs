@@ -23,5 +23,6 @@ pub mod attitude;
 pub mod earth;
 pub mod errors;
 pub mod names;
+pub mod paper;
 pub mod terms;
 pub mod units;
