@@ -10,7 +10,8 @@
 //! - [`config`]: run configuration (site, priors, noises, filter rates) from TOML;
 //! - [`layout`]: the state vector assembled from the error terms;
 //! - [`model`]: transition and measurement matrices built from IMU-rate samples;
-//! - [`filter`]: the Kalman engine in normalised coordinates;
+//! - [`engine`]: the filter loop the covariance analysis and the estimation share (the Kalman
+//!   engine itself, with its normalised states, is the `kalman` crate);
 //! - [`covariance`]: covariance analysis of a program;
 //! - [`report`]: the paper's tables.
 //!
@@ -25,13 +26,14 @@
 //! assert!(with_tt.sigma("gyro.bias.x").unwrap() < imu_only.sigma("gyro.bias.x").unwrap());
 //! ```
 
+#![forbid(unsafe_code)]
+
 pub mod align;
 pub mod config;
 pub mod covariance;
 pub mod data_checks;
 pub mod engine;
 pub mod estimate;
-pub mod filter;
 pub mod io;
 pub mod layout;
 pub mod model;

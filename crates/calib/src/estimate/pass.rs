@@ -317,7 +317,7 @@ impl<'a> Pass<'a> {
             return;
         };
         let tau_index = self.layout.tau.expect("turntable layout");
-        let band = 3.0 * self.engine.filter.sigma(tau_index) + self.settings.dt;
+        let band = 3.0 * self.engine.filter.std_dev(tau_index) + self.settings.dt;
         let lo = t.min(set.t_records_imu[0]).min(t_query - band);
         let hi = t.max(set.t_records_imu[1]).max(t_query + band);
         let ps = reader.program_start;
@@ -405,6 +405,6 @@ impl<'a> Pass<'a> {
         self.stats.imu_steps = self.j;
         self.stats.accel_mean_nis = self.nis_sum.0 / self.stats.accel_updates.max(1) as f64;
         self.stats.turntable_mean_nis = self.nis_sum.1 / self.stats.turntable_updates.max(1) as f64;
-        (values, c, self.stats, self.engine.filter.covariance())
+        (values, c, self.stats, self.engine.covariance())
     }
 }
