@@ -1,5 +1,7 @@
 //! Helpers shared by the workspace-level tests.
 
+#![forbid(unsafe_code)]
+
 use calib::config::{AttitudePrior, RunConfig};
 
 /// The run the calibration tests simulate: the paper's program, priors and noises, the start

@@ -1,5 +1,7 @@
 //! Project automation: `cargo xtask paper-check` reproduces the paper's tables.
 
+#![forbid(unsafe_code)]
+
 use calib::config::{NoiseReading, RunConfig};
 use calib::covariance::{Posterior, covariance_analysis};
 use calib::report::{COLUMNS, PaperTable};

@@ -31,6 +31,8 @@
 //! assert!(after_one_hour > 100.0 && after_one_hour < 5000.0);
 //! ```
 
+#![forbid(unsafe_code)]
+
 pub mod config;
 pub mod instruments;
 pub mod model;

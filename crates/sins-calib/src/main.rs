@@ -8,6 +8,8 @@
 //! The work is done by the `calib` library; this crate only reads arguments, reports and exits.
 //! File formats: `docs/formats.md`.
 
+#![forbid(unsafe_code)]
+
 mod analyse;
 mod calibrate;
 mod simulate;

@@ -16,6 +16,8 @@
 //! assert!((g - 9.815).abs() < 0.002);
 //! ```
 
+#![forbid(unsafe_code)]
+
 pub mod attitude;
 pub mod earth;
 pub mod errors;

@@ -20,6 +20,8 @@
 //! assert!((s.omega_body.x - 10f64.to_radians()).abs() < 1e-9);
 //! ```
 
+#![forbid(unsafe_code)]
+
 pub mod gimbal;
 pub mod kinematics;
 pub mod program;
