@@ -1,5 +1,7 @@
 //! Helpers shared by the workspace-level tests.
 
+#![forbid(unsafe_code)]
+
 use calib::config::{AttitudePrior, RunConfig};
 use calib::estimate::Estimate;
 use nalgebra::Vector3;

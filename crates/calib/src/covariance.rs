@@ -1,12 +1,13 @@
 //! Covariance analysis: how well a rotation program calibrates, without any data.
 //!
-//! The program's true kinematics drive the same [`LinearModel`] and [`NormalisedFilter`] that
+//! The program's true kinematics drive the same [`LinearModel`] and [`KalmanFilter`] that
 //! estimation uses, in covariance-only mode.
+//!
+//! [`KalmanFilter`]: kalman::KalmanFilter
 
 use crate::align::{aligned_prior, ideal_bins};
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
-use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
-use crate::filter::NormalisedFilter;
+use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule, prior_filter};
 use crate::layout::StateLayout;
 pub use crate::layout::{initial_covariance, layout_for, non_instrument_priors};
 use crate::model::{AngleSample, LinearModel};
@@ -86,8 +87,7 @@ pub fn covariance_analysis_with(
         })
         .flatten();
     let p0 = aligned.map_or_else(|| initial_covariance(config, layout, &c0), |(_, p)| p);
-    let filter = NormalisedFilter::with_covariance(&p0)
-        .map_err(|source| AnalysisError::Filter { t: 0.0, source })?;
+    let filter = prior_filter(&p0).map_err(|source| AnalysisError::Filter { t: 0.0, source })?;
     // Angle records are taken to come at the IMU rate, one per step, so that a window of N steps
     // averages N records: the variance of one record is the PSD times the record rate.
     let noise = MeasurementNoise {
@@ -111,7 +111,7 @@ pub fn covariance_analysis_with(
         let t = j as f64 * dt;
         if use_tt && engine.schedule.in_turntable_window(j) {
             // One record per step, exactly at t: the sample depends on t and on the delay band.
-            let band = 3.0 * engine.filter.sigma(layout.tau.expect("turntable layout")) + dt;
+            let band = 3.0 * engine.filter.std_dev(layout.tau.expect("turntable layout")) + dt;
             if rate_changes.clear(t - band, t + band) {
                 let s = kin.sample(t);
                 engine.model.add_angle_sample(&AngleSample {
@@ -131,6 +131,6 @@ pub fn covariance_analysis_with(
         names: layout.entries().iter().map(|e| e.name.clone()).collect(),
         units: layout.entries().iter().map(|e| e.unit).collect(),
         prior_sigma: layout.prior_sigma(),
-        cov: engine.filter.covariance(),
+        cov: engine.covariance(),
     })
 }

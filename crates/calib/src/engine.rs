@@ -4,12 +4,11 @@
 //! (the true motion, or the strapdown solution and the recorded data).
 
 use crate::config::RunConfig;
-use crate::filter::NormalisedFilter;
 use crate::layout::StateLayout;
 use crate::model::{LinearModel, Measurement};
-use faer::Mat;
-use kalman::KalmanError;
-use nalgebra::Vector3;
+use faer::{Mat, MatRef};
+use kalman::{KalmanError, KalmanFilter};
+use nalgebra::{DMatrix, Vector3};
 use turntable::program::Program;
 
 /// Measurement instants and windows, in IMU steps (step `j` ends at `j * dt`, `j >= 1`).
@@ -133,13 +132,23 @@ impl InstantReport {
     }
 }
 
+/// The filter of a calibration: zero initial state, prior covariance `p0` (SI; the filter
+/// works on the states divided by their prior sigma), measurements of 3 components.
+pub fn prior_filter(p0: &DMatrix<f64>) -> Result<KalmanFilter, KalmanError> {
+    let (n, p0) = (
+        p0.nrows(),
+        MatRef::from_column_major_slice(p0.as_slice(), p0.nrows(), p0.ncols()),
+    );
+    KalmanFilter::new(&vec![0.0; n], p0, 3)
+}
+
 /// The filter and the linear model between its instants: what the covariance analysis and the
 /// estimation run alike. The caller integrates IMU steps into [`Engine::model`] and calls
 /// [`Engine::measurement_instant`] at the end of every step.
 #[derive(Debug)]
 pub struct Engine {
     /// The Kalman filter (normalised inside, SI outside).
-    pub filter: NormalisedFilter,
+    pub filter: KalmanFilter,
     /// Transition and measurement windows since the last filter instant.
     pub model: LinearModel,
     /// When measurements are taken.
@@ -155,7 +164,7 @@ pub struct Engine {
 impl Engine {
     /// An engine with prior covariance `p0` (SI, zero mean).
     pub fn new(
-        filter: NormalisedFilter,
+        filter: KalmanFilter,
         model: LinearModel,
         schedule: Schedule,
         noise: MeasurementNoise,
@@ -169,6 +178,12 @@ impl Engine {
             covariance_only,
             r: Mat::zeros(3, 3),
         }
+    }
+
+    /// The filter's covariance (SI).
+    pub fn covariance(&self) -> DMatrix<f64> {
+        let p = self.filter.covariance();
+        DMatrix::from_fn(p.nrows(), p.ncols(), |i, j| p[(i, j)])
     }
 
     /// At the end of step `j`: if a measurement is due, close its window, predict to now and
@@ -206,9 +221,9 @@ impl Engine {
         };
         let (phi, q) = model.transition();
         if self.covariance_only {
-            self.filter.predict_structured_covariance(phi, q)?;
+            self.filter.predict_covariance(phi, q)?;
         } else {
-            self.filter.predict_structured(phi, q)?;
+            self.filter.predict(phi, q)?;
         }
         model.reset_transition();
         if let Some(m) = &acc {

@@ -22,8 +22,8 @@
 use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
 use crate::data_checks::{check_gyros_alive, check_record, check_specific_force};
+use crate::engine::prior_filter;
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
-use crate::filter::NormalisedFilter;
 use crate::io::{
     ImuData, ImuKind, IoError, ResultFile, ResultParameter, TurntableData, check_overlap,
 };
@@ -618,12 +618,11 @@ fn run_pass(
         c_platform_to_base(&k0),
         &install_hat,
     );
-    let mut filter =
-        NormalisedFilter::with_covariance(&p0).map_err(|source| EstimateError::Filter {
-            t: scan.span.0,
-            line: 0,
-            source,
-        })?;
+    let mut filter = prior_filter(&p0).map_err(|source| EstimateError::Filter {
+        t: scan.span.0,
+        line: 0,
+        source,
+    })?;
     // The prior means are zero: as errors of the nominal values they are -nominal.
     for (k, v) in totals.iter().enumerate().skip(StateLayout::INSTRUMENT) {
         filter.set_state(k, -v);

@@ -7,13 +7,21 @@
 //! (24 states) or with the turntable's angle sensors (28 states: + installation misalignment and
 //! the delay between the two data streams).
 //!
-//! - [`config`]: run configuration (site, priors, noises, filter rates) from TOML;
-//! - [`layout`]: the state vector assembled from the error terms;
+//! - [`config`]: run configuration (site, priors, noises, filter rates, clock) from TOML;
+//! - [`layout`]: the state vector assembled from the error terms, and the prior;
 //! - [`model`]: transition and measurement matrices built from IMU-rate samples;
-//! - [`filter`]: the Kalman engine in normalised coordinates;
-//! - [`free_motion`]: calibration from a hand-turned multi-position recording (no turntable);
+//! - [`engine`]: the measurement schedule and the predict/update loop shared by the covariance
+//!   analysis and the estimation, on [`kalman::KalmanFilter`];
 //! - [`covariance`]: covariance analysis of a program;
-//! - [`report`]: the paper's tables.
+//! - [`estimate`]: calibration from recorded data (`imu.csv`, `turntable.csv`);
+//! - [`align`]: coarse alignment of the start attitude to the program's rotations;
+//! - [`program_start`]: where the program starts on the IMU clock;
+//! - [`data_checks`]: checks of the IMU data before any filter;
+//! - [`free_motion`]: calibration from a hand-turned multi-position recording (no turntable);
+//! - [`io`]: the interchange files (readers with file and line in every error, writers);
+//! - [`simulate`]: the truth of a simulated run from a run configuration;
+//! - [`stats`]: NEES and chi-square bands;
+//! - [`paper`], [`report`]: the paper's configurations and tables.
 //!
 //! ```
 //! use calib::{config::RunConfig, covariance::covariance_analysis};
@@ -35,7 +43,6 @@ pub mod covariance;
 pub mod data_checks;
 pub mod engine;
 pub mod estimate;
-pub mod filter;
 pub mod free_motion;
 pub mod io;
 pub mod layout;

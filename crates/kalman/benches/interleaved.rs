@@ -1,27 +1,27 @@
-//! Structured versus dense engine, measured in interleaved batches.
+//! Structured engine versus dense baseline, measured in interleaved batches.
 //!
 //! The benchmark machine is a shared virtual machine whose speed drifts by up to a factor of
 //! four over seconds, and faer's product kernels are sometimes several times slower in a process
-//! that has already run other work (see `docs/performance.md`). Criterion (`benches/step.rs`)
-//! measures each case in its own time window of one long process, so the ratio of two of its
-//! medians can mix two different machine states. Here the two engines alternate in batches of
-//! 500 steps in a fresh process per size, each round timing both, and the report gives the
-//! fastest batch of each (the machine's uncontended speed), the medians, and the median of the
-//! per-round ratios (both sides of each ratio ran within milliseconds of each other).
+//! that has already run other work (see `docs/performance.md`). So the two engines alternate in
+//! batches of 500 steps in a fresh process per size, each round timing both, and the report
+//! gives the fastest batch of each (the machine's uncontended speed), the medians, and the
+//! median of the per-round ratios (both sides of each ratio ran within milliseconds of each
+//! other).
 //!
-//! The structured engine is [`KalmanFilter`] (`predict_structured` + `update`), the dense one the
-//! plain dense faer baseline [`DenseFilter`] (`predict` with the equivalent full Phi and Q +
-//! `update`).
+//! The structured engine is [`KalmanFilter`] (`predict` with the k = 3 top rows of the
+//! transition + `update`, normalised states), the dense one the plain dense faer baseline
+//! [`dense::DenseFilter`] (`predict` with the equivalent full Phi and Q + `update`).
 //!
-//! Run with `cargo bench -p kalman --bench interleaved -- 28` (or `-- 60`; no number: both sizes
-//! in one process). A kernel set among the arguments (`avx512`, `avx2`, `portable`) makes the
-//! structured engine use it instead of the default one.
+//! Run with `cargo bench -p kalman` (both sizes in one process) or
+//! `cargo bench -p kalman --bench interleaved -- 28` (or `-- 60`).
 
 use std::hint::black_box;
 use std::time::Instant;
 
 use kalman::KalmanFilter;
-use kalman::dense::DenseFilter;
+
+mod dense;
+use dense::DenseFilter;
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -70,21 +70,8 @@ fn pair(label: &str, n: usize, mut a: impl FnMut(), mut b: impl FnMut()) {
 }
 
 fn main() {
-    // `cargo bench` passes `--bench`; a number among the other arguments selects that `n` only,
-    // a kernel set name the structured engine's kernels.
+    // `cargo bench` passes `--bench`; a number among the other arguments selects that `n` only.
     let only: Option<usize> = std::env::args().skip(1).find_map(|a| a.parse().ok());
-    let kernels: Option<String> = std::env::args()
-        .skip(1)
-        .find(|a| ["avx512", "avx2", "portable"].contains(&a.as_str()));
-    let select = |kf: &mut KalmanFilter| {
-        if let Some(k) = &kernels {
-            assert!(
-                kf.select_kernel_set(k),
-                "this CPU cannot run the {k} kernels"
-            );
-        }
-        kf.kernel_set()
-    };
     println!(
         "| case | n | structured best (us) | dense best (us) | structured median (us) | \
          dense median (us) | median per-round ratio |"
@@ -103,18 +90,17 @@ fn main() {
         let r = rng.spd(M);
         let zs: Vec<Vec<f64>> = (0..256).map(|_| rng.vec(M)).collect();
 
-        // predict + Joseph update
+        // predict + update
         let mut structured = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
-        let set = select(&mut structured);
         let mut dense = DenseFilter::new(&x0, p0.as_ref(), M);
         let (mut i, mut j) = (0usize, 0usize);
         pair(
-            &format!("step ({set})"),
+            "step",
             n,
             || {
                 i = (i + 1) % zs.len();
                 structured
-                    .predict_structured(
+                    .predict(
                         black_box(sys.phi_top.as_ref()),
                         black_box(sys.q_top.as_ref()),
                     )
@@ -127,9 +113,7 @@ fn main() {
             },
             || {
                 j = (j + 1) % zs.len();
-                dense
-                    .predict(black_box(phi.as_ref()), black_box(q.as_ref()))
-                    .unwrap();
+                dense.predict(black_box(phi.as_ref()), black_box(q.as_ref()));
                 black_box(
                     dense
                         .update(black_box(&zs[j]), h.as_ref(), r.as_ref())
@@ -139,20 +123,20 @@ fn main() {
         );
 
         // the time update alone (covariance reset every 1024 steps to stay bounded)
-        let mut structured = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
-        let set = select(&mut structured);
+        let fresh = KalmanFilter::new(&x0, p0.as_ref(), M).unwrap();
+        let mut structured = fresh.clone();
         let mut dense = DenseFilter::new(&x0, p0.as_ref(), M);
         let (mut i, mut j) = (0usize, 0usize);
         pair(
-            &format!("predict ({set})"),
+            "predict only",
             n,
             || {
                 i += 1;
                 if i.is_multiple_of(1024) {
-                    structured.covariance_mut().copy_from(&p0);
+                    structured.clone_from(&fresh);
                 }
                 structured
-                    .predict_structured(
+                    .predict(
                         black_box(sys.phi_top.as_ref()),
                         black_box(sys.q_top.as_ref()),
                     )
@@ -163,9 +147,7 @@ fn main() {
                 if j.is_multiple_of(1024) {
                     dense.covariance_mut().copy_from(&p0);
                 }
-                dense
-                    .predict(black_box(phi.as_ref()), black_box(q.as_ref()))
-                    .unwrap();
+                dense.predict(black_box(phi.as_ref()), black_box(q.as_ref()));
             },
         );
     }

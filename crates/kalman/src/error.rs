@@ -1,9 +1,11 @@
-//! The error type shared by the kernels and [`KalmanFilter`](crate::KalmanFilter).
+//! The error type of the filter and the input checks every step runs first.
+
+use faer::MatRef;
 
 /// What can go wrong in a predict or update step.
 ///
-/// Every fallible function in this crate checks its inputs before it writes anything, so after an
-/// `Err` the filter (or the matrices passed to a kernel) are exactly as they were before the call.
+/// Every step checks its inputs before it writes anything, so after an `Err` the filter's state
+/// and covariance are exactly as they were before the call.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum KalmanError {
     /// A matrix or vector argument has the wrong shape.
@@ -25,7 +27,7 @@ pub enum KalmanError {
         m_max: usize,
     },
     /// The innovation covariance `S = H P H^T + R` is not (numerically) positive definite,
-    /// so no gain can be computed. The filter is left unchanged.
+    /// so no gain can be computed. The filter's state and covariance are left unchanged.
     #[error(
         "innovation covariance S of the {m}-dimensional measurement is not positive definite \
          (Cholesky pivot {pivot} is {value:e})"
@@ -38,14 +40,15 @@ pub enum KalmanError {
         /// The value of that pivot before its square root (zero, negative, tiny or NaN).
         value: f64,
     },
-    /// An input contains NaN or an infinity.
+    /// An input contains NaN or an infinity (after scaling to normalised units, so a finite
+    /// input that overflows there is reported too).
     #[error("non-finite value (NaN or infinity) in {what}")]
     NonFinite {
         /// Which argument, e.g. `"z"`.
         what: &'static str,
     },
-    /// A standard deviation (prior sigma or scaling sigma) is negative, zero where it must not be,
-    /// or not finite.
+    /// A standard deviation or scale factor is not finite and positive (a prior variance on
+    /// the diagonal of `P0` counts as its square).
     #[error("invalid standard deviation {value:e} at index {index} of {what}")]
     InvalidSigma {
         /// Which argument, e.g. `"sigma0"`.
@@ -73,14 +76,15 @@ pub(crate) fn check_shape(
     }
 }
 
-pub(crate) fn check_finite_mat(
-    what: &'static str,
-    m: faer::MatRef<'_, f64>,
-) -> Result<(), KalmanError> {
-    if crate::small::all_finite(m) {
-        Ok(())
-    } else {
+pub(crate) fn check_finite_mat(what: &'static str, m: MatRef<'_, f64>) -> Result<(), KalmanError> {
+    let mut bad = false;
+    for c in m.col_iter() {
+        bad |= c.iter().fold(false, |b, v| b | !v.is_finite());
+    }
+    if bad {
         Err(KalmanError::NonFinite { what })
+    } else {
+        Ok(())
     }
 }
 
@@ -89,5 +93,17 @@ pub(crate) fn check_finite_slice(what: &'static str, v: &[f64]) -> Result<(), Ka
         Ok(())
     } else {
         Err(KalmanError::NonFinite { what })
+    }
+}
+
+/// The first entry of `sigma` that is not finite and positive, as an error.
+pub(crate) fn check_sigma(what: &'static str, sigma: &[f64]) -> Result<(), KalmanError> {
+    match sigma
+        .iter()
+        .enumerate()
+        .find(|(_, s)| !(s.is_finite() && **s > 0.0))
+    {
+        Some((index, &value)) => Err(KalmanError::InvalidSigma { what, index, value }),
+        None => Ok(()),
     }
 }

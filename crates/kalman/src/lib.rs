@@ -1,37 +1,37 @@
-//! A generic linear Kalman filter and covariance engine on [faer], built for the small, dense,
+//! A linear Kalman filter and covariance engine on [faer], built for the small, dense,
 //! many-step problems of instrument calibration: tens of states, measurements of a few
 //! components, and hundreds of thousands of steps.
 //!
-//! - **No allocation in the step loop.** [`KalmanFilter`] allocates all scratch for a state
-//!   dimension `n` and a maximum measurement dimension `m_max` when it is built; `predict*` and
-//!   `update*` then allocate nothing. Everything runs sequentially on the calling thread.
-//! - **Structured predict.** When only the first `k` states are dynamic (e.g. three attitude
-//!   errors) and the rest are constant parameters, [`KalmanFilter::predict_structured`] costs
-//!   `O(k n^2)` instead of the `O(n^3)` of [`KalmanFilter::predict`].
-//! - **Joseph-form update** in `O(n^2 m)` ([`KalmanFilter::update`]), which returns the
-//!   normalised innovation squared (NIS) and `ln det S` for consistency checks. For the optimal
-//!   gain the Joseph form is `P - B S^{-1} B^T` (`B = P H^T`), which the filter forms as
-//!   `P - W W^T` with `W = B L^{-T}`, `S = L L^T`: exactly symmetric, one rank-`m` update.
-//! - **Covariance-only mode** ([`KalmanFilter::predict_covariance`],
-//!   [`KalmanFilter::predict_structured_covariance`], [`KalmanFilter::update_covariance`]) for
-//!   covariance analysis without data.
-//! - **Normalisation by prior sigma** ([`Scaling`]), so that states of very different magnitudes
-//!   (`1e-9 rad/s` next to `0.05 s`) stay well conditioned for everything around the filter.
+//! There is one engine, [`KalmanFilter`], with two stages:
 //!
-//! The structured predict and the update of [`KalmanFilter`] run on hand-written kernels for
-//! these small sizes (the filter keeps its covariance in 64-byte aligned column-major storage
-//! with the leading dimension rounded up to a multiple of 8, and picks AVX-512, AVX2 + FMA or
-//! portable code at run time); the dense predict uses faer's matrix product.
+//! - **Structured predict** ([`KalmanFilter::predict`]). The transition is the identity except
+//!   its first `k` rows (`phi_top`, `k x n`) and the process noise is zero except its top-left
+//!   `k x k` block: the first `k` states are dynamic (e.g. three attitude errors), the rest are
+//!   constant parameters. The step costs `O(k n^2)` instead of the `O(n^3)` of a dense
+//!   `Phi P Phi^T`; with `k = n` it is the general dense predict.
+//! - **Optimal-gain update** ([`KalmanFilter::update`]) in `O(n^2 m)`: with `B = P H^T`,
+//!   `S = H B + R = L L^T` and `W = B L^{-T}`, the covariance becomes `P - W W^T` (the Joseph
+//!   form for the optimal gain), computed on the lower triangle and mirrored, so it is exactly
+//!   symmetric. The update returns the normalised innovation squared (NIS) and `ln det S`.
 //!
-//! The building blocks are also available as free functions on faer matrix views of any
-//! strides, in faer's style (views in, a [`Par`](faer::Par) setting and a scratch
-//! [`MemStack`](faer::dyn_stack::MemStack) whose size a `*_scratch` function gives): see
-//! [`predict`] and [`update`]; they go through faer's products and accept any gain in the
-//! Joseph form ([`update::joseph_covariance`]). [`reference`](mod@reference) holds a naive loop
-//! implementation used as the ground truth by the tests, and [`dense`] the plain dense faer
-//! filter that the benchmarks compare against.
+//! Both stages have a covariance-only form ([`KalmanFilter::predict_covariance`],
+//! [`KalmanFilter::update_covariance`]) for covariance analysis without data.
 //!
-//! Performance figures and what they depend on are in `docs/performance.md` of the repository.
+//! **Normalised states.** The filter holds a scale factor `sigma_i` per state (by default the
+//! prior standard deviation) and works on `x_i / sigma_i` inside, so that states of very
+//! different magnitudes (`1e-9 rad/s` next to `0.05 s`) stay well conditioned. Its public face
+//! is in the caller's units: it takes and returns the state, the covariance and the model
+//! matrices (`phi_top`, `Q`, `H`, `R`) unscaled, and converts them on the way in and out.
+//!
+//! **No allocation in the step loop.** The constructor allocates the state, the covariance, the
+//! results of the last update and one scratch buffer (faer's [`MemBuffer`](faer::dyn_stack))
+//! sized for `n` states and measurements of up to `m_max` components; `predict*` and `update*`
+//! take their temporaries from that buffer and allocate nothing. Every step runs sequentially
+//! ([`Par::Seq`](faer::Par)) on the calling thread, and checks its inputs before it writes
+//! anything: after an error the filter is unchanged.
+//!
+//! Performance figures and the commands that measure them are in `docs/performance.md` of the
+//! repository.
 //!
 //! # Example: estimating a constant from noisy measurements
 //!
@@ -52,21 +52,13 @@
 //! # Ok::<(), kalman::KalmanError>(())
 //! ```
 
-#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
-pub mod dense;
 mod error;
 mod filter;
-mod gemm;
-mod kernels;
-pub mod predict;
-pub mod reference;
-mod scaling;
-mod small;
-mod symmetric;
-pub mod update;
+mod predict;
+mod update;
 
 pub use error::KalmanError;
 pub use filter::{KalmanFilter, UpdateInfo};
-pub use scaling::Scaling;
-pub use symmetric::symmetrise;

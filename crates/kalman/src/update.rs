@@ -1,244 +1,193 @@
-//! Measurement update kernels on faer matrix views: innovation covariance, a small Cholesky
-//! factorisation, the gain, the Joseph-form covariance update for any gain and the state update
-//! with its innovation diagnostics.
+//! The optimal-gain measurement update, on faer views of the normalised covariance and state.
 //!
-//! For `n` states and an `m`-dimensional measurement the covariance work is `O(n^2 m)` and goes
-//! through faer's matrix product; the `O(m^3)` and `O(n m)` parts (Cholesky, inverse of `S`,
-//! matrix-vector products, copies) are plain loops, because faer's general kernels carry a fixed
-//! per-call cost that is larger than that work at the sizes used here (`m` of a few units).
+//! With `B = P H^T` (`n x m`), `S = H B + R = L L^T` and `W = B L^{-T}`:
 //!
-//! [`KalmanFilter::update`](crate::KalmanFilter::update) does not use these functions: it runs
-//! the same update (for the optimal gain) on its own kernels and storage, several times faster
-//! at calibration sizes, and agrees with them to rounding (`tests/reference.rs`).
+//! ```text
+//! P' = P - B S^-1 B^T = P - W W^T          (the Joseph form for the optimal gain)
+//! x' = x + K nu = x + W (L^-1 nu)          (K = B S^-1 = W L^-1, nu = z - H x)
+//! NIS = nu^T S^-1 nu = |L^-1 nu|^2,   ln det S = 2 sum ln L_jj
+//! ```
+//!
+//! `W W^T` is formed on the lower triangle only (faer's triangular product) and mirrored, so the
+//! updated covariance is exactly symmetric; no gain matrix is formed. The `m x m` Cholesky
+//! factorisation is a plain loop: it rejects pivots lost to rounding (not larger than
+//! `m * eps` times their diagonal entry), which faer's `llt` would accept.
 
 use faer::dyn_stack::{MemStack, StackReq};
+use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::linalg::{temp_mat_scratch, temp_mat_zeroed};
 use faer::mat::AsMatMut;
 use faer::prelude::*;
-use faer::{Accum, ColMut, ColRef, MatMut, MatRef, Par};
+use faer::{Accum, MatMut, MatRef, Par, unzip, zip};
 
-use crate::error::{KalmanError, check_finite_mat, check_shape};
-use crate::gemm::matmul;
-use crate::small::{self, copy, gemv, load, store};
+use crate::error::{KalmanError, check_finite_mat};
+use crate::predict::symmetrise;
 
-/// Computes `B = P H^T` (`n x m`) and the innovation covariance `S = H B + R` (`m x m`,
-/// symmetrised). Costs `n^2 m + n m^2`.
-///
-/// `h` and `r` are checked for shape and finiteness before anything is written; `b` and `s` are
-/// outputs.
-pub fn innovation_covariance(
-    mut b: MatMut<'_, f64>,
-    mut s: MatMut<'_, f64>,
-    p: MatRef<'_, f64>,
-    h: MatRef<'_, f64>,
-    r: MatRef<'_, f64>,
-    par: Par,
-) -> Result<(), KalmanError> {
-    let n = p.nrows();
-    let m = h.nrows();
-    check_shape("P", (p.nrows(), p.ncols()), (n, n))?;
-    check_shape("H", (h.nrows(), h.ncols()), (m, n))?;
-    check_shape("R", (r.nrows(), r.ncols()), (m, m))?;
-    check_shape("B", (b.nrows(), b.ncols()), (n, m))?;
-    check_shape("S", (s.nrows(), s.ncols()), (m, m))?;
-    check_finite_mat("H", h)?;
-    check_finite_mat("R", r)?;
-    matmul(b.rb_mut(), Accum::Replace, p, h.transpose(), 1.0, par);
-    copy(s.rb_mut(), r);
-    matmul(s.rb_mut(), Accum::Add, h, b.rb(), 1.0, par);
-    crate::symmetrise(s);
-    Ok(())
-}
-
-/// Scratch needed by [`cholesky_in_place`] for an `m x m` matrix.
-pub fn cholesky_in_place_scratch(m: usize) -> StackReq {
-    StackReq::new::<f64>(m * m)
-}
-
-/// In-place Cholesky factorisation `A = L L^T` of a small symmetric positive definite matrix.
-///
-/// Reads the lower triangle of `a`; on success the lower triangle holds `L`, the strict upper
-/// triangle is zeroed, and the return value is `ln det A`. A pivot that is not larger than
-/// `m * eps` times its diagonal entry (so zero, negative, NaN, or lost to rounding) is reported as
-/// [`KalmanError::NotPositiveDefinite`], and `a` is then left unchanged.
-///
-/// Meant for the `m x m` innovation covariance (`m` small): plain loops on a contiguous copy,
-/// `m^3 / 6` operations.
-pub fn cholesky_in_place(a: MatMut<'_, f64>, stack: &mut MemStack) -> Result<f64, KalmanError> {
-    let m = a.nrows();
-    check_shape("S", (a.nrows(), a.ncols()), (m, m))?;
-    let (mut buf, _) = stack.make_with::<f64>(m * m, |_| 0.0);
-    load(&mut buf, a.rb());
-    let log_det = small::cholesky(&mut buf, m)
-        .map_err(|(pivot, value)| KalmanError::NotPositiveDefinite { m, pivot, value })?;
-    store(a, &buf);
-    Ok(log_det)
-}
-
-/// Scratch needed by [`gain_from_cholesky`] for an `m`-dimensional measurement.
-pub fn gain_from_cholesky_scratch(m: usize) -> StackReq {
-    StackReq::new::<f64>(3 * m * m)
-}
-
-/// Computes the gain `K = B S^{-1}` (`n x m`) from `B = P H^T` (`n x m`) and the lower Cholesky
-/// factor `L` of `S` (`m x m`, as left by [`cholesky_in_place`]): `S^{-1} = L^{-T} L^{-1}`
-/// (`m^3 / 2`), then one `n x m x m` product.
-pub fn gain_from_cholesky(
-    k: MatMut<'_, f64>,
-    b: MatRef<'_, f64>,
-    l: MatRef<'_, f64>,
-    par: Par,
-    stack: &mut MemStack,
-) -> Result<(), KalmanError> {
-    let n = b.nrows();
-    let m = b.ncols();
-    check_shape("L", (l.nrows(), l.ncols()), (m, m))?;
-    check_shape("K", (k.nrows(), k.ncols()), (n, m))?;
-    let (mut buf, _) = stack.make_with::<f64>(3 * m * m, |_| 0.0);
-    let (lbuf, rest) = buf.split_at_mut(m * m);
-    let (w, sinv) = rest.split_at_mut(m * m);
-    load(lbuf, l);
-    small::spd_inverse_from_cholesky(sinv, w, lbuf, m);
-    matmul(
-        k,
-        Accum::Replace,
-        b,
-        MatRef::from_column_major_slice(sinv, m, m),
-        1.0,
-        par,
-    );
-    Ok(())
-}
-
-/// Scratch needed by [`joseph_covariance`] for `n` states and an `m`-dimensional measurement.
-pub fn joseph_covariance_scratch(n: usize, m: usize) -> StackReq {
-    temp_mat_scratch::<f64>(n, m)
-}
-
-/// Joseph-form covariance update `P <- (I - K H) P (I - K H)^T + K R K^T` for any gain `K`.
-///
-/// Takes `B = P H^T` and `S = H P H^T + R` (from [`innovation_covariance`]) rather than `H` and
-/// `R`. Expanding the Joseph form gives `P - K B^T - B K^T + K S K^T`, that is, with
-/// `C = B - K S / 2`,
-///
-/// ```text
-/// P' = P - K C^T - C K^T = (A + A^T) / 2   where   A = P - 2 K C^T
-/// ```
-///
-/// (for symmetric `P`). So the kernel forms `C` (`n m^2`), subtracts `2 K C^T` from `P` with one
-/// `n x n x m` product, and symmetrises, which it would do anyway: the whole Joseph update costs
-/// one product more than `B` (`2 n^2 m` multiply-adds in all), like the textbook `P - K B^T`,
-/// and its result is exactly symmetric. It is algebraically the Joseph form for *any* `K` (not
-/// only the optimal one), so it keeps the Joseph form's first-order insensitivity to errors in
-/// the gain; for the optimal gain `K S = B` and it reduces to `P - K B^T`.
-///
-/// `p` must be symmetric on entry (its symmetric part is what is updated).
-pub fn joseph_covariance(
-    mut p: MatMut<'_, f64>,
-    k: MatRef<'_, f64>,
-    b: MatRef<'_, f64>,
-    s: MatRef<'_, f64>,
-    par: Par,
-    stack: &mut MemStack,
-) -> Result<(), KalmanError> {
-    let n = p.nrows();
-    let m = k.ncols();
-    check_shape("P", (p.nrows(), p.ncols()), (n, n))?;
-    check_shape("K", (k.nrows(), k.ncols()), (n, m))?;
-    check_shape("B", (b.nrows(), b.ncols()), (n, m))?;
-    check_shape("S", (s.nrows(), s.ncols()), (m, m))?;
-    if m == 0 {
-        return Ok(());
-    }
-    let (mut c, _) = temp_mat_zeroed::<f64, _, _>(n, m, stack);
-    let mut c = c.as_mat_mut();
-    copy(c.rb_mut(), b);
-    matmul(c.rb_mut(), Accum::Add, k, s, -0.5, par);
-    matmul(p.rb_mut(), Accum::Add, k, c.rb().transpose(), -2.0, par);
-    crate::symmetrise(p);
-    Ok(())
-}
-
-/// Scratch needed by [`state_update`] for an `m`-dimensional measurement.
-pub fn state_update_scratch(m: usize) -> StackReq {
-    StackReq::new::<f64>(m * m + m)
-}
-
-/// State update with diagnostics: `nu = z - H x`, `x <- x + K nu`, and returns the normalised
-/// innovation squared `NIS = nu^T S^{-1} nu` (computed as `|L^{-1} nu|^2`).
-///
-/// Call it with the *prior* state and the gain and Cholesky factor of this update (the
-/// covariance kernels do not touch `x`). `innovation` (`m`) receives `nu`. `z` is checked for
-/// shape and finiteness before anything is written.
-pub fn state_update(
-    x: ColMut<'_, f64>,
-    mut innovation: ColMut<'_, f64>,
-    z: ColRef<'_, f64>,
-    h: MatRef<'_, f64>,
-    k: MatRef<'_, f64>,
-    l: MatRef<'_, f64>,
-    stack: &mut MemStack,
-) -> Result<f64, KalmanError> {
-    let n = x.nrows();
-    let m = z.nrows();
-    check_shape("H", (h.nrows(), h.ncols()), (m, n))?;
-    check_shape("K", (k.nrows(), k.ncols()), (n, m))?;
-    check_shape("L", (l.nrows(), l.ncols()), (m, m))?;
-    check_shape("innovation", (innovation.nrows(), 1), (m, 1))?;
-    check_finite_mat("z", z.as_mat())?;
-    // nu = z - H x
-    copy(innovation.rb_mut().as_mat_mut(), z.as_mat());
-    gemv(innovation.rb_mut(), -1.0, h, x.rb());
-    // NIS = |w|^2 with L w = nu.
-    let (mut buf, _) = stack.make_with::<f64>(m * m + m, |_| 0.0);
-    let (lbuf, w) = buf.split_at_mut(m * m);
-    load(lbuf, l);
-    let nis = small::whitened_norm2(lbuf, innovation.rb(), w, m);
-    // x += K nu
-    gemv(x, 1.0, k, innovation.rb());
-    Ok(nis)
-}
-
-/// Scratch needed by [`joseph_update`] for `n` states and an `m`-dimensional measurement.
-pub fn joseph_update_scratch(n: usize, m: usize) -> StackReq {
+/// Scratch of [`update`] for `n` states and measurements of up to `m_max` components.
+pub(crate) fn update_scratch(n: usize, m_max: usize) -> StackReq {
     StackReq::all_of(&[
-        temp_mat_scratch::<f64>(n, m),
-        temp_mat_scratch::<f64>(m, m),
-        StackReq::any_of(&[
-            cholesky_in_place_scratch(m),
-            gain_from_cholesky_scratch(m),
-            joseph_covariance_scratch(n, m),
-        ]),
+        temp_mat_scratch::<f64>(m_max, n), // normalised H
+        temp_mat_scratch::<f64>(m_max, 1), // L^-1 nu
     ])
 }
 
-/// Complete covariance measurement update in one call: [`innovation_covariance`],
-/// [`cholesky_in_place`], [`gain_from_cholesky`] and [`joseph_covariance`].
+/// Where the update writes: the normalised covariance (`n x n`) and the results the filter
+/// keeps for its accessors, `W` (`n x m`), `S` and its Cholesky factor `L` (`m x m`).
+pub(crate) struct Outputs<'a> {
+    pub p: MatMut<'a, f64>,
+    pub w: MatMut<'a, f64>,
+    pub s: MatMut<'a, f64>,
+    pub l: MatMut<'a, f64>,
+}
+
+/// The state part of an update: the normalised state (`n`), the measurement (`m`) and where the
+/// innovation goes (`m`).
+pub(crate) struct StatePart<'a> {
+    pub x: &'a mut [f64],
+    pub z: &'a [f64],
+    pub innovation: &'a mut [f64],
+}
+
+/// The measurement update with `h` (`m x n`) in the caller's units (normalised here with
+/// `scale`) and `r` (`m x m`); returns `(ln det S, NIS)` (NIS 0 without a state part).
 ///
-/// On success `p` holds the posterior covariance, `gain` (`n x m`) the gain `K` and `s_chol`
-/// (`m x m`) the lower Cholesky factor of `S`, ready for [`state_update`]; returns `ln det S`.
-/// On error `p` is unchanged. Costs about `2 n^2 m` multiply-adds.
-pub fn joseph_update(
-    p: MatMut<'_, f64>,
+/// Shapes are checked by the caller. `h` and `r` are checked for finiteness before anything is
+/// written. When `S` is not positive definite, `out.s` holds it and `out.p` and the state are
+/// unchanged.
+pub(crate) fn update(
+    out: Outputs<'_>,
+    state: Option<StatePart<'_>>,
+    scale: &[f64],
     h: MatRef<'_, f64>,
     r: MatRef<'_, f64>,
-    mut gain: MatMut<'_, f64>,
-    mut s_chol: MatMut<'_, f64>,
-    par: Par,
     stack: &mut MemStack,
+) -> Result<(f64, f64), KalmanError> {
+    let (m, n) = (h.nrows(), h.ncols());
+    // H_s = H D
+    let (mut hs, stack) = temp_mat_zeroed::<f64, _, _>(m, n, stack);
+    let mut hs = hs.as_mat_mut();
+    for (j, &sj) in scale.iter().enumerate() {
+        zip!(hs.rb_mut().col_mut(j), h.col(j)).for_each(|unzip!(d, x)| *d = *x * sj);
+    }
+    check_finite_mat("H", hs.rb())?;
+    check_finite_mat("R", r)?;
+    let Outputs { p, mut w, s, mut l } = out;
+    let log_det_s = covariance(p, w.rb_mut(), s, l.rb_mut(), hs.rb(), r)?;
+    let nis = match state {
+        Some(state) => update_state(state, hs.rb(), w.rb(), l.rb(), stack),
+        None => 0.0,
+    };
+    Ok((log_det_s, nis))
+}
+
+/// `B = P H^T` (into `w`), `S = H B + R`, `L`, then `W = B L^-T` and `P <- P - W W^T`; returns
+/// `ln det S`. `p` is untouched when `S` is not positive definite.
+fn covariance(
+    mut p: MatMut<'_, f64>,
+    mut w: MatMut<'_, f64>,
+    mut s: MatMut<'_, f64>,
+    mut l: MatMut<'_, f64>,
+    h: MatRef<'_, f64>,
+    r: MatRef<'_, f64>,
 ) -> Result<f64, KalmanError> {
-    let n = p.nrows();
-    let m = h.nrows();
-    check_shape("gain", (gain.nrows(), gain.ncols()), (n, m))?;
-    check_shape("s_chol", (s_chol.nrows(), s_chol.ncols()), (m, m))?;
-    let (mut b, stack) = temp_mat_zeroed::<f64, _, _>(n, m, stack);
-    let mut b = b.as_mat_mut();
-    let (mut s, stack) = temp_mat_zeroed::<f64, _, _>(m, m, stack);
-    let mut s = s.as_mat_mut();
-    innovation_covariance(b.rb_mut(), s.rb_mut(), p.rb(), h, r, par)?;
-    copy(s_chol.rb_mut(), s.rb());
-    let log_det = cholesky_in_place(s_chol.rb_mut(), stack)?;
-    gain_from_cholesky(gain.rb_mut(), b.rb(), s_chol.rb(), par, stack)?;
-    joseph_covariance(p, gain.rb(), b.rb(), s.rb(), par, stack)?;
-    Ok(log_det)
+    let seq = Par::Seq;
+    matmul(w.rb_mut(), Accum::Replace, p.rb(), h.transpose(), 1.0, seq);
+    s.copy_from(r);
+    matmul(s.rb_mut(), Accum::Add, h, w.rb(), 1.0, seq);
+    symmetrise(s.rb_mut());
+    l.copy_from(s.rb());
+    let log_det_s = cholesky_in_place(l.rb_mut()).map_err(|(pivot, value)| {
+        KalmanError::NotPositiveDefinite {
+            m: h.nrows(),
+            pivot,
+            value,
+        }
+    })?;
+    // W = B L^-T, that is L W^T = B^T
+    solve_lower_triangular_in_place(l.rb(), w.rb_mut().transpose_mut(), seq);
+    // P <- P - W W^T on the lower triangle, then mirrored.
+    let (rect, lower) = (BlockStructure::Rectangular, BlockStructure::TriangularLower);
+    let wt = w.rb().transpose();
+    triangular::matmul(
+        p.rb_mut(),
+        lower,
+        Accum::Add,
+        w.rb(),
+        rect,
+        wt,
+        rect,
+        -1.0,
+        seq,
+    );
+    for j in 0..p.ncols() {
+        for i in 0..j {
+            p[(i, j)] = p[(j, i)];
+        }
+    }
+    Ok(log_det_s)
+}
+
+/// `nu = z - H x` (into the innovation; `H_s x_s = H x`), `e = L^-1 nu`, `x <- x + W e`;
+/// returns the NIS `|e|^2`.
+fn update_state(
+    state: StatePart<'_>,
+    h: MatRef<'_, f64>,
+    w: MatRef<'_, f64>,
+    l: MatRef<'_, f64>,
+    stack: &mut MemStack,
+) -> f64 {
+    let StatePart { x, z, innovation } = state;
+    let seq = Par::Seq;
+    let mut nu = ColMut::from_slice_mut(innovation);
+    nu.copy_from(ColRef::from_slice(z));
+    let x_prior = ColRef::from_slice(x).as_mat();
+    matmul(nu.rb_mut().as_mat_mut(), Accum::Add, h, x_prior, -1.0, seq);
+    let (mut e, _) = temp_mat_zeroed::<f64, _, _>(nu.nrows(), 1, stack);
+    let mut e = e.as_mat_mut();
+    e.copy_from(nu.rb().as_mat());
+    solve_lower_triangular_in_place(l, e.rb_mut(), seq);
+    let x = ColMut::from_slice_mut(x).as_mat_mut();
+    matmul(x, Accum::Add, w, e.rb(), 1.0, seq);
+    e.rb().col(0).squared_norm_l2()
+}
+
+/// In-place lower Cholesky factor of the small symmetric `a` (lower triangle read, strict upper
+/// triangle zeroed). Returns `ln det a`, or the first pivot that is not larger than
+/// `m * eps * |a_jj|` (zero, negative, NaN or lost to rounding) and its value.
+fn cholesky_in_place(mut a: MatMut<'_, f64>) -> Result<f64, (usize, f64)> {
+    let m = a.nrows();
+    let tol = m as f64 * f64::EPSILON;
+    // ln det = ln prod d_j, accumulated as a product (one `ln` instead of `m`) and folded into
+    // the sum whenever it leaves a safe range.
+    let (mut log_det, mut det_part) = (0.0, 1.0f64);
+    for j in 0..m {
+        let diag = a[(j, j)];
+        for c in 0..j {
+            let f = a[(j, c)];
+            for i in j..m {
+                a[(i, j)] -= f * a[(i, c)];
+            }
+        }
+        let d = a[(j, j)];
+        // Written so that a NaN pivot fails too.
+        if !(d > tol * diag.abs() && d.is_finite()) {
+            return Err((j, d));
+        }
+        let ljj = d.sqrt();
+        a[(j, j)] = ljj;
+        for i in (j + 1)..m {
+            a[(i, j)] /= ljj;
+        }
+        for i in 0..j {
+            a[(i, j)] = 0.0;
+        }
+        det_part *= d;
+        if !(1e-150..=1e150).contains(&det_part) {
+            log_det += det_part.ln();
+            det_part = 1.0;
+        }
+    }
+    Ok(log_det + det_part.ln())
 }

@@ -22,13 +22,13 @@ fn assert_rejected(
     let err = f(&mut g).expect_err("expected an error");
     assert!(expect(&err), "unexpected error {err:?}");
     assert_eq!(
-        g.state(),
-        kf.state(),
+        g.normalised_state(),
+        kf.normalised_state(),
         "state changed by a failed call ({err})"
     );
     assert_eq!(
-        g.covariance().to_owned(),
-        kf.covariance().to_owned(),
+        g.normalised_covariance(),
+        kf.normalised_covariance(),
         "covariance changed by a failed call ({err})"
     );
 }
@@ -54,7 +54,11 @@ fn dimension_mismatches_are_errors() {
         KalmanFilter::from_diagonal(&[0.0; 3], &[1.0; 2], 1),
         Err(KalmanError::DimensionMismatch { what: "sigma0", .. })
     ));
-    assert_rejected(&kf, |f| f.predict(id(4).as_ref(), id(5).as_ref()), is_dim);
+    assert!(matches!(
+        KalmanFilter::with_scale(&[0.0; 3], id(3).as_ref(), vec![1.0; 4], 1),
+        Err(KalmanError::DimensionMismatch { what: "scale", .. })
+    ));
+    // the dense predict (k = n) with Q of the wrong size, more rows than states
     assert_rejected(&kf, |f| f.predict(id(5).as_ref(), id(4).as_ref()), is_dim);
     assert_rejected(
         &kf,
@@ -63,23 +67,11 @@ fn dimension_mismatches_are_errors() {
     );
     // phi_top with the wrong number of columns, q_top of the wrong size, too many rows
     let (phi_top, q_top) = (Mat::<f64>::zeros(2, 4), id(2));
-    assert_rejected(
-        &kf,
-        |f| f.predict_structured(phi_top.as_ref(), q_top.as_ref()),
-        is_dim,
-    );
+    assert_rejected(&kf, |f| f.predict(phi_top.as_ref(), q_top.as_ref()), is_dim);
     let phi_top = Mat::<f64>::zeros(2, n);
-    assert_rejected(
-        &kf,
-        |f| f.predict_structured(phi_top.as_ref(), id(3).as_ref()),
-        is_dim,
-    );
+    assert_rejected(&kf, |f| f.predict(phi_top.as_ref(), id(3).as_ref()), is_dim);
     let phi_top = Mat::<f64>::zeros(6, n);
-    assert_rejected(
-        &kf,
-        |f| f.predict_structured(phi_top.as_ref(), id(6).as_ref()),
-        is_dim,
-    );
+    assert_rejected(&kf, |f| f.predict(phi_top.as_ref(), id(6).as_ref()), is_dim);
     // z length vs H rows, H columns, R size
     let h = Mat::<f64>::zeros(2, n);
     assert_rejected(
@@ -150,6 +142,7 @@ fn non_positive_definite_innovation_covariance_is_an_error() {
     assert!(msg.contains("2-dimensional"), "{msg}");
     // the failed S is shown, innovation and gain are NaN
     assert_eq!(g.innovation_covariance().nrows(), 2);
+    assert!(g.innovation().iter().all(|v| v.is_nan()));
     assert!(g.gain()[(0, 0)].is_nan());
 }
 
@@ -206,13 +199,20 @@ fn non_finite_inputs_are_errors() {
     let (phi_top, q_top) = (Mat::<f64>::identity(2, n), mat![[0.1, 0.0], [0.0, 0.1]]);
     assert_rejected(
         &kf,
-        |f| f.predict_structured(nan_in(&phi_top, f64::NAN).as_ref(), q_top.as_ref()),
+        |f| f.predict(nan_in(&phi_top, f64::NAN).as_ref(), q_top.as_ref()),
         is_nonfinite,
     );
     assert_rejected(
         &kf,
-        |f| f.predict_structured_covariance(phi_top.as_ref(), nan_in(&q_top, f64::NAN).as_ref()),
+        |f| f.predict_covariance(phi_top.as_ref(), nan_in(&q_top, f64::NAN).as_ref()),
         is_nonfinite,
+    );
+    // finite in the caller's units, infinite once normalised
+    let tiny = KalmanFilter::from_diagonal(&[0.0; 2], &[1e-300, 1e300], 1).unwrap();
+    assert_rejected(
+        &tiny,
+        |f| f.predict(mat![[1.0, 1.0]].as_ref(), mat![[0.0]].as_ref()),
+        |e| matches!(e, KalmanError::NonFinite { what: "phi_top" }),
     );
     assert!(matches!(
         KalmanFilter::new(&[0.0, f64::NAN], Mat::<f64>::identity(2, 2).as_ref(), 1),
@@ -226,10 +226,6 @@ fn non_finite_inputs_are_errors() {
         ),
         Err(KalmanError::NonFinite { what: "P0" })
     ));
-    assert!(matches!(
-        KalmanFilter::from_diagonal(&[0.0, 0.0], &[1.0, -1.0], 1),
-        Err(KalmanError::InvalidSigma { index: 1, .. })
-    ));
     // After all the failures, the filter still works.
     let mut g = kf.clone();
     g.predict(phi.as_ref(), q.as_ref()).unwrap();
@@ -237,27 +233,36 @@ fn non_finite_inputs_are_errors() {
 }
 
 #[test]
-fn kernels_report_shape_errors_too() {
-    use faer::Par;
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use kalman::update::{joseph_covariance, joseph_covariance_scratch};
-    let n = 4;
-    let mut p = Mat::<f64>::identity(n, n);
-    let k = Mat::<f64>::zeros(n, 2);
-    let b = Mat::<f64>::zeros(n, 3); // wrong
-    let s = Mat::<f64>::identity(2, 2);
-    let mut buf = MemBuffer::new(joseph_covariance_scratch(n, 3));
-    let e = joseph_covariance(
-        p.as_mut(),
-        k.as_ref(),
-        b.as_ref(),
-        s.as_ref(),
-        Par::Seq,
-        MemStack::new(&mut buf),
-    );
+fn invalid_scales_are_errors() {
     assert!(matches!(
-        e,
-        Err(KalmanError::DimensionMismatch { what: "B", .. })
+        KalmanFilter::from_diagonal(&[0.0, 0.0], &[1.0, -1.0], 1),
+        Err(KalmanError::InvalidSigma { index: 1, .. })
     ));
-    assert_eq!(p, Mat::<f64>::identity(n, n));
+    assert!(matches!(
+        KalmanFilter::from_diagonal(&[0.0, 0.0], &[0.0, 1.0], 1),
+        Err(KalmanError::InvalidSigma { index: 0, .. })
+    ));
+    // a zero prior variance cannot be its own scale ...
+    let p0 = mat![[1.0, 0.0], [0.0, 0.0]];
+    assert!(matches!(
+        KalmanFilter::new(&[0.0, 0.0], p0.as_ref(), 1),
+        Err(KalmanError::InvalidSigma {
+            what: "P0 diagonal",
+            index: 1,
+            ..
+        })
+    ));
+    // ... but is fine with an explicit scale.
+    let kf = KalmanFilter::with_scale(&[0.0, 0.0], p0.as_ref(), vec![1.0, 2.0], 1).unwrap();
+    assert_eq!(kf.std_dev(1), 0.0);
+    for bad in [f64::NAN, f64::INFINITY, 0.0, -2.0] {
+        assert!(matches!(
+            KalmanFilter::with_scale(&[0.0, 0.0], p0.as_ref(), vec![1.0, bad], 1),
+            Err(KalmanError::InvalidSigma {
+                what: "scale",
+                index: 1,
+                ..
+            })
+        ));
+    }
 }

@@ -350,7 +350,7 @@ impl<'a> Pass<'a> {
             }
         }
         let tau_index = self.layout.tau.expect("turntable layout");
-        let band = 3.0 * self.engine.filter.sigma(tau_index) + dt;
+        let band = 3.0 * self.engine.filter.std_dev(tau_index) + dt;
         // The two records hold the angles at their stamps less the delay: linear interpolation
         // between them is exact only where the program's rate is constant over that span (the
         // span of the stamps themselves is off by tau: at 1-Hz records and a 0.1-s delay that
@@ -442,7 +442,7 @@ impl<'a> Pass<'a> {
         self.stats.imu_steps = self.j;
         self.stats.accel_mean_nis = self.nis_sum.0 / self.stats.accel_updates.max(1) as f64;
         self.stats.turntable_mean_nis = self.nis_sum.1 / self.stats.turntable_updates.max(1) as f64;
-        let cov = mounting_covariance(self.layout, &lin, self.engine.filter.covariance());
+        let cov = mounting_covariance(self.layout, &lin, self.engine.covariance());
         (values, c, self.stats, cov)
     }
 }

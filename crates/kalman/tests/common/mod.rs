@@ -1,45 +1,24 @@
-//! Shared test helpers: a small deterministic random generator and matrix builders.
+//! Shared test helpers: a seeded normal generator, matrix builders and comparisons, and the
+//! naive reference filter ([`naive`]).
 #![allow(dead_code)]
 
-use faer::Mat;
+pub mod naive;
 
-/// SplitMix64 with Box-Muller normals: deterministic, dependency-free.
-pub struct Rng {
-    state: u64,
-    spare: Option<f64>,
-}
+use faer::Mat;
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// Standard normal numbers from a seeded [`StdRng`].
+pub struct Rng(StdRng);
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Self {
-            state: seed,
-            spare: None,
-        }
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in (0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        Self(StdRng::seed_from_u64(seed))
     }
 
     pub fn normal(&mut self) -> f64 {
-        if let Some(s) = self.spare.take() {
-            return s;
-        }
-        let u1 = self.uniform();
-        let u2 = self.uniform();
-        let rad = (-2.0 * u1.ln()).sqrt();
-        let (s, c) = (2.0 * std::f64::consts::PI * u2).sin_cos();
-        self.spare = Some(rad * s);
-        rad * c
+        StandardNormal.sample(&mut self.0)
     }
 
     pub fn mat(&mut self, r: usize, c: usize) -> Mat<f64> {
@@ -50,7 +29,7 @@ impl Rng {
         (0..n).map(|_| self.normal()).collect()
     }
 
-    /// Random SPD matrix A A^T / n + eps I, well conditioned.
+    /// Random SPD matrix A A^T / n + 0.1 I, well conditioned.
     pub fn spd(&mut self, n: usize) -> Mat<f64> {
         let a = self.mat(n, n);
         let mut p = &a * a.transpose() * (1.0 / n as f64);
@@ -64,6 +43,10 @@ impl Rng {
 pub fn sym(p: Mat<f64>) -> Mat<f64> {
     let n = p.nrows();
     Mat::from_fn(n, n, |i, j| 0.5 * (p[(i, j)] + p[(j, i)]))
+}
+
+pub fn diag(v: &[f64]) -> Mat<f64> {
+    Mat::from_fn(v.len(), v.len(), |i, j| if i == j { v[i] } else { 0.0 })
 }
 
 pub fn to_row_major(m: &Mat<f64>) -> Vec<f64> {
@@ -108,6 +91,14 @@ pub fn rel_diff_vec(a: &[f64], b: &[f64]) -> f64 {
     d / scale.max(f64::MIN_POSITIVE)
 }
 
+pub fn assert_symmetric(p: &Mat<f64>, what: &str) {
+    for j in 0..p.ncols() {
+        for i in 0..j {
+            assert_eq!(p[(i, j)], p[(j, i)], "{what}: P[{i}, {j}] != P[{j}, {i}]");
+        }
+    }
+}
+
 /// The structured system used by several tests: k dynamic states driven by
 /// phi_top = [I + dt A | dt G] and q_top = dt * Qc.
 pub struct Structured {
@@ -149,30 +140,8 @@ impl Structured {
     }
 }
 
-/// Lower Cholesky factor (naive), panics if not PD.
-pub fn cholesky(p: &Mat<f64>) -> Mat<f64> {
-    let n = p.nrows();
-    let mut l = Mat::<f64>::zeros(n, n);
-    for j in 0..n {
-        let mut d = p[(j, j)];
-        for k in 0..j {
-            d -= l[(j, k)] * l[(j, k)];
-        }
-        assert!(d > 0.0, "not PD at pivot {j}: {d}");
-        l[(j, j)] = d.sqrt();
-        for i in (j + 1)..n {
-            let mut v = p[(i, j)];
-            for k in 0..j {
-                v -= l[(i, k)] * l[(j, k)];
-            }
-            l[(i, j)] = v / l[(j, j)];
-        }
-    }
-    l
-}
-
-/// Whether a symmetric matrix is positive definite (Cholesky succeeds).
-pub fn is_pd(p: &Mat<f64>) -> bool {
+/// Lower Cholesky factor (naive), `None` if not positive definite.
+pub fn try_cholesky(p: &Mat<f64>) -> Option<Mat<f64>> {
     let n = p.nrows();
     let mut l = Mat::<f64>::zeros(n, n);
     for j in 0..n {
@@ -181,7 +150,7 @@ pub fn is_pd(p: &Mat<f64>) -> bool {
             d -= l[(j, k)] * l[(j, k)];
         }
         if d.is_nan() || d <= 0.0 {
-            return false;
+            return None;
         }
         l[(j, j)] = d.sqrt();
         for i in (j + 1)..n {
@@ -192,14 +161,24 @@ pub fn is_pd(p: &Mat<f64>) -> bool {
             l[(i, j)] = v / l[(j, j)];
         }
     }
-    true
+    Some(l)
 }
 
-/// Inverse by the naive Gauss-Jordan of the reference module.
+/// Lower Cholesky factor (naive); panics if not positive definite.
+pub fn cholesky(p: &Mat<f64>) -> Mat<f64> {
+    try_cholesky(p).expect("not positive definite")
+}
+
+/// Whether a symmetric matrix is positive definite (Cholesky succeeds).
+pub fn is_pd(p: &Mat<f64>) -> bool {
+    try_cholesky(p).is_some()
+}
+
+/// Inverse by the naive Gauss-Jordan of the reference.
 pub fn inv(a: &Mat<f64>) -> Mat<f64> {
     let n = a.nrows();
     let mut work = to_row_major(a);
     let mut out = vec![0.0; n * n];
-    kalman::reference::invert(&mut work, &mut out, n).expect("singular");
+    naive::invert(&mut work, &mut out, n).expect("singular");
     from_row_major(&out, n, n)
 }

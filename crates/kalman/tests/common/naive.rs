@@ -1,10 +1,10 @@
-//! A naive dense reference filter: plain loops on row-major `Vec<f64>`, obviously correct and
-//! slow (`O(n^3)` per update). Used by the tests as the ground truth and by the benchmark as the
-//! "no library" baseline. It allocates only in [`NaiveFilter::new`].
+//! The naive dense reference filter: plain loops on row-major `Vec<f64>`, obviously correct and
+//! slow (`O(n^3)` per update), the literal Joseph form. The ground truth of the tests. It
+//! allocates only in [`NaiveFilter::new`].
 //!
 //! Row-major means element `(i, j)` of an `r x c` matrix is `a[i * c + j]`.
 
-use crate::KalmanError;
+use kalman::KalmanError;
 
 /// `c = a b` with `a` `rows x inner`, `b` `inner x cols`, all row-major.
 pub fn matmul(c: &mut [f64], a: &[f64], b: &[f64], rows: usize, inner: usize, cols: usize) {
