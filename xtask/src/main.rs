@@ -268,7 +268,37 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) 
         }
         out.insert(key.into(), table_json(&tr, rec_p, &tl));
     }
-    // The paper's qualitative conclusions.
+    ok &= conclusions_hold(&rec, config_name);
+    let (nav_ok, nav_json) = navigation_check(&rec, plot_path);
+    ok &= nav_ok;
+    println!(
+        "\nliteral = configs/paper.toml, {config_name} = {}; see docs/paper-check.md ({elapsed:.1} s)",
+        if config_name == "paper-reconciled" {
+            "configs/paper-reconciled.toml (crates/calib)"
+        } else {
+            config_name
+        }
+    );
+    if let Some(path) = json_path {
+        let doc = json!({ "tables": Value::Object(out), "navigation": nav_json });
+        if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap() + "\n") {
+            eprintln!("error: {}: cannot write: {e}", path.display());
+            return ExitCode::FAILURE;
+        }
+        println!("wrote {}", path.display());
+    }
+    if ok {
+        println!("paper-check: PASS");
+        ExitCode::SUCCESS
+    } else {
+        println!("paper-check: FAIL");
+        ExitCode::FAILURE
+    }
+}
+
+/// The paper's qualitative conclusions, checked on the tables of `rec` (printed).
+fn conclusions_hold(rec: &(Posterior, Posterior), config_name: &str) -> bool {
+    let mut ok = true;
     let (a, b) = (
         PaperTable::from_posterior(&rec.0),
         PaperTable::from_posterior(&rec.1),
@@ -296,31 +326,7 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) 
         ok &= holds;
         println!("  {} {what}", if holds { "yes:" } else { "NO: " });
     }
-    let (nav_ok, nav_json) = navigation_check(&rec, plot_path);
-    ok &= nav_ok;
-    println!(
-        "\nliteral = configs/paper.toml, {config_name} = {}; see docs/paper-check.md ({elapsed:.1} s)",
-        if config_name == "paper-reconciled" {
-            "configs/paper-reconciled.toml (crates/calib)"
-        } else {
-            config_name
-        }
-    );
-    if let Some(path) = json_path {
-        let doc = json!({ "tables": Value::Object(out), "navigation": nav_json });
-        if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap() + "\n") {
-            eprintln!("error: {}: cannot write: {e}", path.display());
-            return ExitCode::FAILURE;
-        }
-        println!("wrote {}", path.display());
-    }
-    if ok {
-        println!("paper-check: PASS");
-        ExitCode::SUCCESS
-    } else {
-        println!("paper-check: FAIL");
-        ExitCode::FAILURE
-    }
+    ok
 }
 
 /// One sweep row: ratios ours/paper of both tables.
