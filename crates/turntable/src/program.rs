@@ -111,6 +111,38 @@ pub struct ProgramSpec {
     pub segments: Vec<Segment>,
 }
 
+/// What is wrong with a segment's numbers, if anything.
+fn segment_problem(seg: &Segment) -> Option<String> {
+    let positive = |name: &str, v: f64| {
+        (!(v.is_finite() && v > 0.0)).then(|| format!("{name} must be > 0, got {v}"))
+    };
+    match *seg {
+        Segment::Rotate {
+            gimbal,
+            rate_deg_s,
+            duration_s,
+        } => {
+            if !(1..=3).contains(&gimbal) {
+                Some(format!("gimbal must be 1, 2 or 3, got {gimbal}"))
+            } else if !rate_deg_s.is_finite() {
+                Some("rate_deg_s must be finite".into())
+            } else {
+                positive("duration_s", duration_s)
+            }
+        }
+        Segment::Dwell { duration_s } => positive("duration_s", duration_s),
+        Segment::Move {
+            target_deg,
+            rate_deg_s,
+        } => positive("rate_deg_s", rate_deg_s).or_else(|| {
+            target_deg
+                .iter()
+                .any(|a| !a.is_finite())
+                .then(|| "target_deg must be three finite angles".into())
+        }),
+    }
+}
+
 /// A piece of constant gimbal rates: angles `k0 + rate * (t - t0)` for `t0 <= t <= t1` (SI).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Piece {
@@ -176,29 +208,15 @@ impl Program {
         let mut t = 0.0;
         let mut pieces = Vec::new();
         for (i, seg) in spec.segments.iter().enumerate() {
+            if let Some(message) = segment_problem(seg) {
+                return Err(err(i, seg, message));
+            }
             match *seg {
                 Segment::Rotate {
                     gimbal,
                     rate_deg_s,
                     duration_s,
                 } => {
-                    if !(1..=3).contains(&gimbal) {
-                        return Err(err(
-                            i,
-                            seg,
-                            format!("gimbal must be 1, 2 or 3, got {gimbal}"),
-                        ));
-                    }
-                    if !rate_deg_s.is_finite() {
-                        return Err(err(i, seg, "rate_deg_s must be finite".into()));
-                    }
-                    if !(duration_s.is_finite() && duration_s > 0.0) {
-                        return Err(err(
-                            i,
-                            seg,
-                            format!("duration_s must be > 0, got {duration_s}"),
-                        ));
-                    }
                     let mut rate = [0.0; 3];
                     rate[gimbal as usize - 1] = rate_deg_s.to_radians();
                     pieces.push(Piece {
@@ -211,13 +229,6 @@ impl Program {
                     t += duration_s;
                 }
                 Segment::Dwell { duration_s } => {
-                    if !(duration_s.is_finite() && duration_s > 0.0) {
-                        return Err(err(
-                            i,
-                            seg,
-                            format!("duration_s must be > 0, got {duration_s}"),
-                        ));
-                    }
                     pieces.push(Piece {
                         t0: t,
                         t1: t + duration_s,
@@ -230,16 +241,6 @@ impl Program {
                     target_deg,
                     rate_deg_s,
                 } => {
-                    if !(rate_deg_s.is_finite() && rate_deg_s > 0.0) {
-                        return Err(err(
-                            i,
-                            seg,
-                            format!("rate_deg_s must be > 0, got {rate_deg_s}"),
-                        ));
-                    }
-                    if target_deg.iter().any(|a| !a.is_finite()) {
-                        return Err(err(i, seg, "target_deg must be three finite angles".into()));
-                    }
                     for g in 0..3 {
                         let delta = target_deg[g].to_radians() - k[g];
                         if delta.abs() < 1e-12 {
