@@ -32,18 +32,17 @@
 //! Sensor models (as in the paper): `w' = w - nu`, `nu = nu0 + Theta w`; `f' = f + df`,
 //! `df = df0 + Gamma f`. Everything is SI.
 
-use crate::config::PriorsConfig;
 use crate::io::{ImuData, ImuKind, ResultParameter};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use sins_model::attitude::exp_so3;
 use sins_model::earth::EARTH_RATE;
-use sins_model::terms::GAMMA_INDEX;
+use sins_model::terms::{GAMMA_INDEX, PaperPriors};
 
 /// Posterior sigma over prior sigma above which a parameter counts as unobserved.
 pub const UNOBSERVED_RATIO: f64 = 0.9;
 
 const AXES: [&str; 3] = ["x", "y", "z"];
-const ARCMIN: f64 = std::f64::consts::PI / 180.0 / 60.0;
+use sins_model::units::{ARCMIN, DEG};
 
 /// A static interval: inclusive 0-based record indices into the [`ImuData`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -69,47 +68,20 @@ pub struct KnownTurn {
     pub angle_rad: f64,
 }
 
-/// Prior standard deviations of the 21 parameters (SI).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FreeMotionPriors {
-    /// Gyro bias (rad/s).
-    pub gyro_bias: f64,
-    /// Gyro scale-factor errors, `Theta` diagonal (-).
-    pub gyro_scale: f64,
-    /// Gyro misalignments, `Theta` off-diagonal (rad).
-    pub gyro_misalignment: f64,
-    /// Accelerometer bias (m/s^2).
-    pub accel_bias: f64,
-    /// Accelerometer scale-factor errors, `Gamma` diagonal (-).
-    pub accel_scale: f64,
-    /// Accelerometer non-orthogonality, `Gamma` off-diagonal (rad).
-    pub accel_misalignment: f64,
-}
+/// Prior standard deviations of the 21 parameters (SI): the paper's four-term model's priors
+/// ([`PaperPriors`]; from a run configuration with [`crate::config::RunConfig::priors_si`]).
+pub type FreeMotionPriors = PaperPriors;
 
-impl FreeMotionPriors {
-    /// Consumer-grade MEMS defaults: gyro bias 1 deg/s, scale 0.05, misalignment 60 arcmin;
-    /// accelerometer bias 1 m/s^2, scale 0.05, non-orthogonality 60 arcmin.
-    pub fn consumer() -> Self {
-        Self {
-            gyro_bias: 1f64.to_radians(),
-            gyro_scale: 0.05,
-            gyro_misalignment: 60.0 * ARCMIN,
-            accel_bias: 1.0,
-            accel_scale: 0.05,
-            accel_misalignment: 60.0 * ARCMIN,
-        }
-    }
-
-    /// The priors of a run configuration (converted from its paper units).
-    pub fn from_config(p: &PriorsConfig) -> Self {
-        Self {
-            gyro_bias: p.gyro_bias_deg_h.to_radians() / 3600.0,
-            gyro_scale: p.gyro_scale,
-            gyro_misalignment: p.gyro_misalignment_arcmin * ARCMIN,
-            accel_bias: p.accel_bias_m_s2,
-            accel_scale: p.accel_scale,
-            accel_misalignment: p.accel_misalignment_arcmin * ARCMIN,
-        }
+/// Consumer-grade MEMS priors: gyro bias 1 deg/s, scale 0.05, misalignment 60 arcmin;
+/// accelerometer bias 1 m/s^2, scale 0.05, non-orthogonality 60 arcmin.
+pub fn consumer_priors() -> PaperPriors {
+    PaperPriors {
+        gyro_bias: DEG,
+        gyro_scale: 0.05,
+        gyro_misalignment: 60.0 * ARCMIN,
+        accel_bias: 1.0,
+        accel_scale: 0.05,
+        accel_misalignment: 60.0 * ARCMIN,
     }
 }
 
@@ -140,7 +112,7 @@ impl FreeMotionSettings {
     pub fn new(gravity_m_s2: f64) -> Self {
         Self {
             gravity_m_s2,
-            priors: FreeMotionPriors::consumer(),
+            priors: consumer_priors(),
             holdout: None,
             accel_floor_m_s2: 5e-4,
             direction_floor_rad: 0.1f64.to_radians(),

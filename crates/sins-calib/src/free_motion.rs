@@ -8,8 +8,7 @@ use crate::{Error, load_config, print};
 use ::import::detect::{DetectorSettings, segment};
 use ::import::sections::{SectionKind, SectionsFile};
 use calib::free_motion::{
-    FreeMotionPriors, FreeMotionResult, FreeMotionSettings, Interval, KnownTurn,
-    calibrate_free_motion,
+    FreeMotionResult, FreeMotionSettings, Interval, KnownTurn, calibrate_free_motion,
 };
 use calib::io::{ResultParameter, read_imu_csv};
 use serde::Serialize;
@@ -82,7 +81,7 @@ fn settings_of(args: &Args) -> Result<(FreeMotionSettings, String), Error> {
             let (config, origin) = load_config(name)?;
             let g = config.site().normal_gravity();
             let mut s = FreeMotionSettings::new(g);
-            s.priors = FreeMotionPriors::from_config(&config.priors);
+            s.priors = config.priors_si();
             Ok((s, format!("{origin}: [site] and [priors]")))
         }
         None => {
