@@ -13,6 +13,7 @@
 //! - [`engine`]: the measurement schedule and the predict/update loop shared by the covariance
 //!   analysis and the estimation, on [`kalman::KalmanFilter`];
 //! - [`covariance`]: covariance analysis of a program;
+//! - [`evidence`]: the statistics of model extension (score test, separability, gain);
 //! - [`estimate`]: calibration from recorded data (`imu.csv`, `turntable.csv`);
 //! - [`align`]: coarse alignment of the start attitude to the program's rotations;
 //! - [`program_start`]: where the program starts on the IMU clock;
@@ -43,6 +44,7 @@ pub mod covariance;
 pub mod data_checks;
 pub mod engine;
 pub mod estimate;
+pub mod evidence;
 pub mod free_motion;
 pub mod io;
 pub mod layout;

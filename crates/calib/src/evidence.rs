@@ -1,0 +1,339 @@
+//! The evidence for extending the model by a candidate term, from fits and covariance analyses
+//! (the statistics behind the model-extension loop, `docs/model-extension.md`).
+//!
+//! - [`score_test`]: whether the data call for a term, from the fit of the model extended by it.
+//!   With a Gaussian prior `N(0, P0)` on the term's parameters `theta` (independent of the other
+//!   states) the posterior of `theta` is `P = (P0^-1 + I)^-1`, where `I` is the information the
+//!   data hold on `theta` once every other state is marginalised (`I = P^-1 - P0^-1`), and its
+//!   mean is `theta_hat = P s` with `s` the efficient score at `theta = 0`. When the term is
+//!   absent, `s ~ N(0, I)` exactly in the linear-Gaussian model, so `T = s^T I^+ s` is
+//!   chi-square with `rank(I)` degrees of freedom. Directions in which the data hold less than
+//!   [`MIN_INFORMATION_SHARE`] of the prior's information are left out of the rank: there the
+//!   statistic would rest on the prior alone.
+//! - [`chi_bar_square_sf`]: the p-value of a likelihood-ratio statistic for variance
+//!   parameters on the boundary (a random walk's intensity cannot be negative).
+//! - [`separability`]: whether a covariance analysis of the extended model on the recorded
+//!   program can tell the term from the base parameters (posterior sigma against prior), and
+//!   which base parameters it is confounded with.
+//! - [`InformationGain`]: what an accepted term gains (log-likelihood, AIC, BIC).
+
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use serde::Serialize;
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+/// Share of the prior's information below which the data are taken to say nothing about a
+/// direction of the parameter space (see [`score_test`]).
+pub const MIN_INFORMATION_SHARE: f64 = 0.01;
+
+/// Result of a score test.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ScoreTest {
+    /// The statistic `s^T I^+ s`.
+    pub statistic: f64,
+    /// Degrees of freedom (the rank of the data's information).
+    pub dof: usize,
+    /// Probability of a statistic at least this large when the term is absent.
+    pub p_value: f64,
+}
+
+/// Upper tail of the chi-square distribution with `dof` degrees of freedom (1 for `dof = 0`).
+pub fn chi_square_sf(x: f64, dof: usize) -> f64 {
+    if dof == 0 {
+        return 1.0;
+    }
+    let d = ChiSquared::new(dof as f64).expect("positive degrees of freedom");
+    if !x.is_finite() {
+        return if x > 0.0 { 0.0 } else { 1.0 };
+    }
+    (1.0 - d.cdf(x.max(0.0))).clamp(0.0, 1.0)
+}
+
+/// The score test of a term whose parameters have prior sigmas `prior_sigma`, posterior mean
+/// `theta_hat` and posterior covariance `post_cov` (SI) in the fit of the extended model.
+///
+/// Computed in prior-normalised coordinates (`u = theta / sigma0`), where the prior is the
+/// identity and the parameters' scales (1e-9 to 1e-2) do not matter.
+pub fn score_test(theta_hat: &[f64], post_cov: &DMatrix<f64>, prior_sigma: &[f64]) -> ScoreTest {
+    let k = theta_hat.len();
+    let pn = DMatrix::from_fn(k, k, |i, j| {
+        post_cov[(i, j)] / (prior_sigma[i] * prior_sigma[j])
+    });
+    let u = DVector::from_iterator(k, theta_hat.iter().zip(prior_sigma).map(|(t, s)| t / s));
+    // Posterior information in normalised units: Pn^-1 = I_n + identity.
+    let eig = SymmetricEigen::new(pn);
+    let mut statistic = 0.0;
+    let mut dof = 0;
+    for (i, &lambda) in eig.eigenvalues.iter().enumerate() {
+        // Along an eigenvector v of Pn: posterior variance lambda, data information
+        // 1/lambda - 1, score s = (v . u) / lambda, statistic s^2 / info.
+        if !(lambda > 0.0 && lambda.is_finite()) {
+            continue;
+        }
+        let info = 1.0 / lambda - 1.0;
+        if info < MIN_INFORMATION_SHARE {
+            continue;
+        }
+        let s = eig.eigenvectors.column(i).dot(&u) / lambda;
+        statistic += s * s / info;
+        dof += 1;
+    }
+    ScoreTest {
+        statistic,
+        dof,
+        p_value: chi_square_sf(statistic, dof),
+    }
+}
+
+/// Upper tail of the chi-bar-square distribution of a likelihood-ratio statistic for `k`
+/// non-negative parameters on the boundary of their space, taken as orthogonal: the mixture
+/// `sum_j C(k, j) 2^-k chi2_j` (`chi2_0` a point mass at zero).
+pub fn chi_bar_square_sf(lr: f64, k: usize) -> f64 {
+    let mut p = 0.0;
+    let mut binom = 1.0;
+    for j in 0..=k {
+        if j > 0 {
+            binom *= (k - j + 1) as f64 / j as f64;
+            p += binom * chi_square_sf(lr, j);
+        }
+    }
+    (p / 2f64.powi(k as i32)).clamp(0.0, 1.0)
+}
+
+/// How well a covariance analysis separates one candidate parameter.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ParameterSeparation {
+    /// Parameter name.
+    pub name: String,
+    /// Posterior sigma over prior sigma (1 = the program says nothing about it).
+    pub sigma_ratio: f64,
+    /// The base parameters it is most correlated with in the posterior, largest first
+    /// (`|correlation| >= CONFOUNDING_CORRELATION`).
+    pub confounded_with: Vec<(String, f64)>,
+}
+
+/// Posterior sigma over prior sigma at or below which a parameter counts as separated.
+pub const SEPARATED_SIGMA_RATIO: f64 = 0.5;
+
+/// Posterior correlation from which a base parameter is named as confounded with a candidate.
+pub const CONFOUNDING_CORRELATION: f64 = 0.5;
+
+/// Whether a term is separable from the base parameters under a program.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Separability {
+    /// Every parameter of the term has a posterior sigma at most [`SEPARATED_SIGMA_RATIO`] of
+    /// its prior.
+    pub separable: bool,
+    /// Per parameter.
+    pub parameters: Vec<ParameterSeparation>,
+}
+
+impl Separability {
+    /// The base parameters the inseparable part of the term is confounded with (unique, in order
+    /// of the largest correlation).
+    pub fn confounded(&self) -> Vec<String> {
+        let mut all: Vec<(String, f64)> = self
+            .parameters
+            .iter()
+            .filter(|p| p.sigma_ratio > SEPARATED_SIGMA_RATIO)
+            .flat_map(|p| p.confounded_with.iter().cloned())
+            .collect();
+        all.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+        let mut names: Vec<String> = Vec::new();
+        for (n, _) in all {
+            if !names.contains(&n) {
+                names.push(n);
+            }
+        }
+        names
+    }
+}
+
+/// Separability of the parameters `candidate` from the parameters `base` in a posterior
+/// (`names`, `prior_sigma`, `cov`, SI) of a covariance analysis of the extended model.
+pub fn separability(
+    names: &[String],
+    prior_sigma: &[f64],
+    cov: &DMatrix<f64>,
+    candidate: &[String],
+    base: &[String],
+) -> Separability {
+    let index = |n: &str| names.iter().position(|m| m == n);
+    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    let parameters: Vec<ParameterSeparation> = candidate
+        .iter()
+        .filter_map(|c| index(c).map(|i| (c, i)))
+        .map(|(c, i)| {
+            let mut conf: Vec<(String, f64)> = base
+                .iter()
+                .filter_map(|b| index(b).map(|j| (b, j)))
+                .map(|(b, j)| (b.clone(), cov[(i, j)] / (sd(i) * sd(j)).max(f64::MIN_POSITIVE)))
+                .filter(|(_, r)| r.abs() >= CONFOUNDING_CORRELATION)
+                .collect();
+            conf.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+            conf.truncate(4);
+            ParameterSeparation {
+                name: c.clone(),
+                sigma_ratio: sd(i) / prior_sigma[i],
+                confounded_with: conf,
+            }
+        })
+        .collect();
+    Separability {
+        separable: !parameters.is_empty()
+            && parameters
+                .iter()
+                .all(|p| p.sigma_ratio <= SEPARATED_SIGMA_RATIO),
+        parameters,
+    }
+}
+
+/// What extending a model gains, from the innovation log-likelihoods of the two fits.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct InformationGain {
+    /// `ln L(extended) - ln L(base)`.
+    pub log_likelihood: f64,
+    /// Parameters added.
+    pub parameters: usize,
+    /// Scalar innovations behind the likelihoods.
+    pub observations: usize,
+    /// `AIC(extended) - AIC(base)` (negative: the extension is worth its parameters).
+    pub delta_aic: f64,
+    /// `BIC(extended) - BIC(base)`.
+    pub delta_bic: f64,
+}
+
+impl InformationGain {
+    /// From the two log-likelihoods, the parameters added and the scalar observations.
+    pub fn new(ll_base: f64, ll_extended: f64, parameters: usize, observations: usize) -> Self {
+        let d = ll_extended - ll_base;
+        let k = parameters as f64;
+        Self {
+            log_likelihood: d,
+            parameters,
+            observations,
+            delta_aic: 2.0 * k - 2.0 * d,
+            delta_bic: k * (observations.max(1) as f64).ln() - 2.0 * d,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{SeedableRng, rngs::StdRng};
+    use rand_distr::{Distribution, StandardNormal};
+
+    /// A linear-Gaussian batch problem: `y = A b + G theta + v`, priors `b ~ N(0, 1)`,
+    /// `theta ~ N(0, diag(s0^2))`, `v ~ N(0, 1)`; the posterior of the joint state.
+    fn posterior(
+        a: &DMatrix<f64>,
+        g: &DMatrix<f64>,
+        s0: &[f64],
+        y: &DVector<f64>,
+    ) -> (DVector<f64>, DMatrix<f64>) {
+        let h = DMatrix::from_fn(a.nrows(), a.ncols() + g.ncols(), |i, j| {
+            if j < a.ncols() {
+                a[(i, j)]
+            } else {
+                g[(i, j - a.ncols())]
+            }
+        });
+        let mut info = h.transpose() * &h;
+        for j in 0..a.ncols() {
+            info[(j, j)] += 1.0;
+        }
+        for (k, s) in s0.iter().enumerate() {
+            info[(a.ncols() + k, a.ncols() + k)] += 1.0 / (s * s);
+        }
+        let cov = info.try_inverse().unwrap();
+        let mean = &cov * h.transpose() * y;
+        (mean, cov)
+    }
+
+    #[test]
+    fn score_statistic_is_chi_square_when_the_term_is_absent() {
+        // Seed and bound fixed before the run: 400 draws of a 2-parameter term (one direction
+        // well observed, one barely, one confounded with a base parameter); the mean of a
+        // chi2(2) over 400 draws has standard error sqrt(4/400) = 0.1: accept 2 +- 0.4.
+        let mut rng = StdRng::seed_from_u64(20_261_123);
+        let m = 60;
+        let a = DMatrix::from_fn(m, 2, |i, j| ((i + 3 * j) as f64 * 0.37).sin());
+        let g = DMatrix::from_fn(m, 2, |i, j| {
+            if j == 0 {
+                0.8 * ((i as f64) * 0.37).sin() + 0.3 * ((i as f64) * 1.1).cos()
+            } else {
+                ((i as f64) * 0.05).cos() * 0.2
+            }
+        });
+        let s0 = [2.0, 5.0];
+        let (mut sum, mut rejected) = (0.0, 0);
+        let n = 400;
+        for _ in 0..n {
+            let b = DVector::from_fn(2, |_, _| StandardNormal.sample(&mut rng));
+            let v = DVector::from_fn(m, |_, _| StandardNormal.sample(&mut rng));
+            let y = &a * b + v;
+            let (mean, cov) = posterior(&a, &g, &s0, &y);
+            let theta = [mean[2], mean[3]];
+            let pc = cov.view((2, 2), (2, 2)).into_owned();
+            let t = score_test(&theta, &pc, &s0);
+            assert_eq!(t.dof, 2);
+            sum += t.statistic;
+            rejected += usize::from(t.p_value < 0.05);
+        }
+        let mean = sum / n as f64;
+        assert!((mean - 2.0).abs() < 0.4, "mean statistic {mean}");
+        // Rejections at 5 %: binomial(400, 0.05) = 20 +- 4.4; accept 6..=36.
+        assert!((6..=36).contains(&rejected), "{rejected} rejections");
+    }
+
+    #[test]
+    fn score_statistic_sees_a_present_term_and_ignores_unobserved_directions() {
+        let mut rng = StdRng::seed_from_u64(7);
+        let m = 60;
+        let a = DMatrix::from_fn(m, 2, |i, j| ((i + 3 * j) as f64 * 0.37).sin());
+        // Second column zero: the data say nothing about theta_2.
+        let g = DMatrix::from_fn(m, 2, |i, j| if j == 0 { ((i as f64) * 0.9).cos() } else { 0.0 });
+        let s0 = [2.0, 5.0];
+        let theta_true = DVector::from_vec(vec![1.0, 3.0]);
+        let v = DVector::from_fn(m, |_, _| StandardNormal.sample(&mut rng));
+        let y = &g * &theta_true + v;
+        let (mean, cov) = posterior(&a, &g, &s0, &y);
+        let pc = cov.view((2, 2), (2, 2)).into_owned();
+        let t = score_test(&[mean[2], mean[3]], &pc, &s0);
+        assert_eq!(t.dof, 1);
+        // theta_1 = 1 against a noise of about 1/sqrt(30): a statistic near 30.
+        assert!(t.statistic > 10.0 && t.p_value < 1e-3, "{t:?}");
+    }
+
+    #[test]
+    fn chi_bar_square_mixes_the_chi_squares() {
+        // k = 1: half a point mass at zero, half chi2(1): P(> 2.706) = 0.05.
+        assert!((chi_bar_square_sf(2.7055, 1) - 0.05).abs() < 1e-4);
+        // k = 3 at zero: everything but the point mass 1/8.
+        assert!((chi_bar_square_sf(0.0, 3) - 7.0 / 8.0).abs() < 1e-12);
+        assert!(chi_bar_square_sf(50.0, 3) < 1e-9);
+    }
+
+    #[test]
+    fn separability_names_the_confounded_base_parameters() {
+        let names: Vec<String> = ["b", "c", "t"].iter().map(|s| s.to_string()).collect();
+        // t is 0.95 correlated with b and barely known; c is independent.
+        let (sb, sc, st) = (1.0, 1.0, 0.9);
+        let cov = DMatrix::from_row_slice(
+            3,
+            3,
+            &[sb * sb, 0.0, 0.95 * sb * st, 0.0, sc * sc, 0.0, 0.95 * sb * st, 0.0, st * st],
+        );
+        let s = separability(
+            &names,
+            &[1.0, 1.0, 1.0],
+            &cov,
+            &["t".to_string()],
+            &["b".to_string(), "c".to_string()],
+        );
+        assert!(!s.separable);
+        assert_eq!(s.confounded(), vec!["b".to_string()]);
+        let gain = InformationGain::new(-100.0, -90.0, 3, 1000);
+        assert!((gain.delta_aic - (6.0 - 20.0)).abs() < 1e-12);
+    }
+}
