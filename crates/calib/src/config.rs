@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use sins_model::earth::Site;
 use sins_model::terms::PaperPriors;
 use std::path::{Path, PathBuf};
-use turntable::program::Program;
+use turntable::program::{PAPER_PROGRAM_TOML, Program, ProgramSpec};
 
 /// The paper's run configuration, embedded.
 pub const PAPER_CONFIG_TOML: &str = include_str!("../configs/paper.toml");
@@ -208,6 +208,10 @@ pub struct RunConfig {
     /// Directory the configuration was read from (for relative program paths).
     #[serde(skip)]
     pub base_dir: Option<PathBuf>,
+    /// A program held in memory (e.g. one proposed by `sins-calib design`), used instead of
+    /// `program` when set.
+    #[serde(skip)]
+    pub inline_program: Option<ProgramSpec>,
 }
 
 impl RunConfig {
@@ -392,6 +396,9 @@ impl RunConfig {
 
     /// The rotation program.
     pub fn program(&self) -> Result<Program, ConfigError> {
+        if let Some(spec) = &self.inline_program {
+            return Ok(Program::compile(spec, "<inline program>")?);
+        }
         if self.program == "paper" {
             return Ok(Program::paper());
         }
@@ -400,6 +407,33 @@ impl RunConfig {
             None => PathBuf::from(&self.program),
         };
         Ok(Program::from_file(&p)?)
+    }
+
+    /// The rotation program as written (the segments before compilation).
+    pub fn program_spec(&self) -> Result<ProgramSpec, ConfigError> {
+        if let Some(spec) = &self.inline_program {
+            return Ok(spec.clone());
+        }
+        let (text, origin) = if self.program == "paper" {
+            (
+                PAPER_PROGRAM_TOML.to_string(),
+                "<embedded paper program>".to_string(),
+            )
+        } else {
+            let p = match &self.base_dir {
+                Some(d) => d.join(&self.program),
+                None => PathBuf::from(&self.program),
+            };
+            let text = std::fs::read_to_string(&p).map_err(|source| ConfigError::Io {
+                path: p.display().to_string(),
+                source,
+            })?;
+            (text, p.display().to_string())
+        };
+        toml::from_str(&text).map_err(|e| ConfigError::Invalid {
+            origin,
+            message: e.to_string(),
+        })
     }
 
     /// Instrument-error priors in SI.

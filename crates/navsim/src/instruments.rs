@@ -16,30 +16,20 @@ use crate::NavError;
 /// Number of instrument parameters navigation propagates.
 pub const INSTRUMENT_DIM: usize = 21;
 
-/// Names of the instrument parameters in navigation's state order.
-pub const INSTRUMENT_NAMES: [&str; INSTRUMENT_DIM] = [
-    "gyro.bias.x",
-    "gyro.bias.y",
-    "gyro.bias.z",
-    "gyro.theta.xx",
-    "gyro.theta.xy",
-    "gyro.theta.xz",
-    "gyro.theta.yx",
-    "gyro.theta.yy",
-    "gyro.theta.yz",
-    "gyro.theta.zx",
-    "gyro.theta.zy",
-    "gyro.theta.zz",
-    "accel.bias.x",
-    "accel.bias.y",
-    "accel.bias.z",
-    "accel.gamma.xx",
-    "accel.gamma.yx",
-    "accel.gamma.yy",
-    "accel.gamma.zx",
-    "accel.gamma.zy",
-    "accel.gamma.zz",
-];
+/// Names of the instrument parameters in navigation's state order: the parameters of the
+/// paper's instrument model, [`sins_model::terms::ErrorModel::paper`], in its order (the one
+/// owner of the names; navigation only takes them over).
+pub static INSTRUMENT_NAMES: std::sync::LazyLock<[&'static str; INSTRUMENT_DIM]> =
+    std::sync::LazyLock::new(|| {
+        let names: Vec<&'static str> = crate::model::paper_model()
+            .params()
+            .into_iter()
+            .map(|p| &*Box::leak(p.name.into_boxed_str()))
+            .collect();
+        names
+            .try_into()
+            .expect("the paper's model has INSTRUMENT_DIM parameters")
+    });
 
 /// Index of the first gyro bias in the instrument state.
 pub const GYRO_BIAS: usize = 0;

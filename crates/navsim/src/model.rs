@@ -29,9 +29,10 @@
 use nalgebra::{Matrix3, SMatrix, Vector3};
 use sins_model::attitude::skew;
 use sins_model::earth::Site;
+use sins_model::terms::{ErrorModel, PaperPriors, Sensor, SensorInput};
 
 use crate::NavError;
-use crate::instruments::{ACCEL_BIAS, GYRO_BIAS, INSTRUMENT_DIM};
+use crate::instruments::INSTRUMENT_DIM;
 use crate::trajectory::TrajectoryPoint;
 
 /// Number of navigation error states.
@@ -62,47 +63,37 @@ pub type NavInstrumentMatrix = SMatrix<f64, NAV_DIM, INSTRUMENT_DIM>;
 /// 3x21 map from instrument parameters to the attitude error after alignment.
 pub type AlignmentMap = SMatrix<f64, 3, INSTRUMENT_DIM>;
 
-/// Jacobian of the gyro error `nu = nu0 + Theta w` with respect to `[nu0 (3), Theta row-major
-/// (9)]` at body rate `w`: `[I3 | blockdiag(w^T, w^T, w^T)]`.
-pub fn gyro_error_jacobian(w: &Vector3<f64>) -> SMatrix<f64, 3, 12> {
-    let mut j = SMatrix::<f64, 3, 12>::zeros();
-    for i in 0..3 {
-        j[(i, i)] = 1.0;
-        for k in 0..3 {
-            j[(i, 3 + 3 * i + k)] = w[k];
-        }
-    }
-    j
-}
-
-/// Jacobian of the accelerometer error `df = df0 + Gamma f` with respect to `[df0 (3), Gamma_xx,
-/// Gamma_yx, Gamma_yy, Gamma_zx, Gamma_zy, Gamma_zz]` at body specific force `f`.
-pub fn accel_error_jacobian(f: &Vector3<f64>) -> SMatrix<f64, 3, 9> {
-    let mut j = SMatrix::<f64, 3, 9>::zeros();
-    for i in 0..3 {
-        j[(i, i)] = 1.0;
-    }
-    j[(0, 3)] = f.x;
-    j[(1, 4)] = f.x;
-    j[(1, 5)] = f.y;
-    j[(2, 6)] = f.x;
-    j[(2, 7)] = f.y;
-    j[(2, 8)] = f.z;
-    j
+/// The paper's instrument model (gyro bias, Theta, accelerometer bias, lower-triangular Gamma),
+/// whose Jacobians navigation uses (their values do not depend on the priors it is built with).
+pub fn paper_model() -> &'static ErrorModel {
+    static MODEL: std::sync::OnceLock<ErrorModel> = std::sync::OnceLock::new();
+    MODEL.get_or_init(|| ErrorModel::paper(&PaperPriors::paper()))
 }
 
 /// `C nu` and `C df` as linear maps of the instrument state: rows 0..3 give the gyro error in ENU,
-/// rows 3..6 the accelerometer error in ENU.
+/// rows 3..6 the accelerometer error in ENU. The sensor errors' Jacobians are those of the
+/// instrument model ([`paper_model`]) at the true body rate and specific force.
 pub fn instrument_errors_enu(
     c_body_to_enu: &Matrix3<f64>,
     w_body: &Vector3<f64>,
     f_body: &Vector3<f64>,
 ) -> SMatrix<f64, 6, INSTRUMENT_DIM> {
+    let model = paper_model();
+    let input = SensorInput {
+        omega_body: *w_body,
+        f_body: *f_body,
+        ..SensorInput::default()
+    };
+    let p = [0.0; INSTRUMENT_DIM];
+    let mut cols = [Vector3::zeros(); INSTRUMENT_DIM];
     let mut m = SMatrix::<f64, 6, INSTRUMENT_DIM>::zeros();
-    m.fixed_view_mut::<3, 12>(0, GYRO_BIAS)
-        .copy_from(&(c_body_to_enu * gyro_error_jacobian(w_body)));
-    m.fixed_view_mut::<3, 9>(3, ACCEL_BIAS)
-        .copy_from(&(c_body_to_enu * accel_error_jacobian(f_body)));
+    for (row, sensor) in [(0, Sensor::Gyro), (3, Sensor::Accel)] {
+        model.jacobian(sensor, &p, &input, &mut cols);
+        for (k, col) in cols.iter().enumerate() {
+            m.fixed_view_mut::<3, 1>(row, k)
+                .copy_from(&(c_body_to_enu * col));
+        }
+    }
     m
 }
 
@@ -227,7 +218,7 @@ pub fn alignment_map(
 mod tests {
     use super::*;
     use crate::config::SnakeConfig;
-    use crate::instruments::{ACCEL_GAMMA, GYRO_THETA, INSTRUMENT_NAMES};
+    use crate::instruments::{ACCEL_BIAS, ACCEL_GAMMA, GYRO_BIAS, GYRO_THETA, INSTRUMENT_NAMES};
     use crate::trajectory::{SnakeTrajectory, StaticTrajectory, Trajectory, c_body_to_enu};
     use nalgebra::SVector;
     use sins_model::attitude::attitude_error;
@@ -253,10 +244,9 @@ mod tests {
         let f = Vector3::new(1.0, -2.0, 9.0);
         let c = SVector::<f64, 21>::from_fn(|i, _| (i as f64 * 0.37).sin());
         let (nu, df) = sensor_errors(&c, &w, &f);
-        let jg = gyro_error_jacobian(&w) * c.fixed_rows::<12>(0);
-        let ja = accel_error_jacobian(&f) * c.fixed_rows::<9>(12);
-        assert!((nu - jg).norm() < 1e-14);
-        assert!((df - ja).norm() < 1e-14);
+        let m = instrument_errors_enu(&Matrix3::identity(), &w, &f) * c;
+        assert!((nu - m.fixed_rows::<3>(0)).norm() < 1e-14);
+        assert!((df - m.fixed_rows::<3>(3)).norm() < 1e-14);
         // The Gamma columns follow the documented name order.
         for (k, name) in INSTRUMENT_NAMES[ACCEL_GAMMA..].iter().enumerate() {
             let mut e = SVector::<f64, 21>::zeros();
