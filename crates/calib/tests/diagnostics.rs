@@ -1,0 +1,174 @@
+//! Diagnostics of whole calibrations of simulated runs of the paper's program: a clean run
+//! fits; runs corrupted with an effect the model lacks are (or are not) flagged, and by which
+//! statistics. Seeds and effect sizes fixed before the runs.
+
+use calib::config::{AttitudePrior, RunConfig};
+use calib::diagnostics::{DiagnosticSettings, Diagnostics, diagnose, segments};
+use calib::estimate::{Estimate, RunData, estimate};
+use calib::io::{ImuData, TurntableData};
+use calib::simulate::simulate_run;
+use turntable::simulate::Simulation;
+
+/// The workspace tests' `simulated_run_config` (tests/src/lib.rs), with its seed.
+fn config(seed: u64) -> RunConfig {
+    let mut c = RunConfig::paper();
+    c.filter.attitude_prior = AttitudePrior::Installation;
+    c.priors.initial_tilt_deg = 0.01;
+    c.priors.initial_heading_deg = 0.01;
+    c.clock.turntable_offset_s = 12.5;
+    c.clock.turntable_rate_error = 2e-4;
+    c.truth.imu_rate_hz = 100.0;
+    c.truth.turntable_rate_hz = 50.0;
+    c.truth.draw_from_priors = true;
+    c.truth.seed = seed;
+    c
+}
+
+fn calibrate(config: &RunConfig, sim: &Simulation, with_tt: bool) -> (Estimate, Diagnostics) {
+    let imu = ImuData::from_samples(&sim.imu);
+    let tt = TurntableData::from_samples(&sim.turntable);
+    let data = RunData {
+        imu: &imu,
+        imu_file: "imu.csv",
+        turntable: with_tt.then_some((&tt, "turntable.csv")),
+    };
+    let est = estimate(config, &data, &mut |_, _| {}).unwrap();
+    let segs = segments(&config.program().unwrap(), est.program_start_s);
+    let d = diagnose(&est.innovations, &segs, &DiagnosticSettings::default());
+    (est, d)
+}
+
+/// The p-values of the headline statistics, one line.
+fn headline(d: &Diagnostics) -> String {
+    d.kinds
+        .iter()
+        .map(|k| {
+            let seg = k
+                .segments
+                .iter()
+                .map(|s| s.nis.p_value)
+                .fold(f64::INFINITY, f64::min);
+            let line = k
+                .lines
+                .iter()
+                .flat_map(|l| l.p_value)
+                .fold(f64::INFINITY, f64::min);
+            let lb: Vec<String> = k
+                .whiteness
+                .iter()
+                .map(|w| format!("{:.2e}", w.p_value))
+                .collect();
+            format!(
+                "{}: NIS/dof {:.4} p {:.2e}, min segment p {seg:.2e}, Ljung-Box p [{}], \
+                 min line p {line:.2e}",
+                calib::diagnostics::kind_label(k.kind),
+                k.nis.sum / k.nis.dof,
+                k.nis.p_value,
+                lb.join(", ")
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n    ")
+}
+
+/// (a) A noisy run with no unmodelled effect fits, both models, seeds 1 and 2; every Ljung-Box
+/// test passes at the verdict's per-test level.
+#[test]
+fn clean_runs_fit() {
+    for seed in [1, 2] {
+        let config = config(seed);
+        let sim = simulate_run(&config, "clean").unwrap();
+        for with_tt in [false, true] {
+            let (est, d) = calibrate(&config, &sim, with_tt);
+            assert_eq!(
+                est.innovations.len(),
+                est.stats.accel_updates + est.stats.turntable_updates
+            );
+            println!(
+                "clean seed {seed}, {} states: fits {} ({} tests, each at {:.2e})\n    {}",
+                est.names.len(),
+                d.fits,
+                d.tests.len(),
+                d.per_test_level,
+                headline(&d)
+            );
+            for f in &d.failures {
+                println!("    FAIL {f}");
+            }
+            assert!(d.fits, "seed {seed}, turntable {with_tt}: {:?}", d.failures);
+            for k in &d.kinds {
+                for w in &k.whiteness {
+                    assert!(w.p_value >= d.per_test_level, "{w:?}");
+                }
+            }
+        }
+    }
+}
+
+/// Add a gyro scale asymmetry `asym * |w_i| * dt` to every angle increment.
+fn with_scale_asymmetry(sim: &Simulation, asym: f64) -> Simulation {
+    let mut s = sim.clone();
+    for r in &mut s.imu {
+        r.dtheta = r.dtheta.map(|v| v + asym * v.abs());
+    }
+    s
+}
+
+/// Add a gyro bias drifting linearly from 0 to `rate * T` (rad/s) on each axis.
+fn with_bias_drift(sim: &Simulation, rate: f64, dt: f64) -> Simulation {
+    let mut s = sim.clone();
+    for r in &mut s.imu {
+        r.dtheta = r.dtheta.map(|v| v + rate * r.t * dt);
+    }
+    s
+}
+
+/// (b) The same run (seed 1, 28 states) corrupted by effects the model lacks. The verdict on
+/// the larger scale asymmetry (2e-5) must be "does not fit"; the others are reported only
+/// (printed, and written down in the report of the branch). No seed was tuned.
+#[test]
+fn unmodelled_effects_are_flagged() {
+    let config = config(1);
+    let sim = simulate_run(&config, "clean").unwrap();
+    let (clean, _) = calibrate(&config, &sim, true);
+    let dt = 1.0 / config.truth.imu_rate_hz;
+    let runs = [
+        ("scale asymmetry 2e-6", with_scale_asymmetry(&sim, 2e-6)),
+        ("scale asymmetry 2e-5", with_scale_asymmetry(&sim, 2e-5)),
+        // 0.01 deg/h over the run's 2727 s (the prior bias sigma is 0.5 deg/h).
+        (
+            "bias drift 0.01 deg/h per 2727 s",
+            with_bias_drift(&sim, (0.01f64 / 3600.0).to_radians() / 2727.0, dt),
+        ),
+    ];
+    let mut flagged = vec![];
+    for (label, s) in &runs {
+        let (est, d) = calibrate(&config, s, true);
+        let shift = (3..est.names.len())
+            .map(|i| {
+                (
+                    (est.values[i] - clean.values[i]).abs() / est.cov[(i, i)].sqrt(),
+                    est.names[i].clone(),
+                )
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .unwrap();
+        println!(
+            "{label}: largest parameter shift {:.2} sigma ({}); mean NIS accel {:.3}, turntable \
+             {:.3}; fits {} ({} of {} tests fail)\n    {}",
+            shift.0,
+            shift.1,
+            est.stats.accel_mean_nis,
+            est.stats.turntable_mean_nis,
+            d.fits,
+            d.failures.len(),
+            d.tests.len(),
+            headline(&d)
+        );
+        for f in &d.failures {
+            println!("    FAIL {f}");
+        }
+        flagged.push((*label, d.fits));
+    }
+    assert!(!flagged[1].1, "scale asymmetry 2e-5 not flagged");
+}
