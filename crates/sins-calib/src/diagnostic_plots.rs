@@ -408,3 +408,51 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
     }
     legend(&mut chart)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use calib::diagnostics::{DiagnosticSettings, diagnose};
+    use nalgebra::{Matrix3, Vector3};
+
+    fn innovations(scale: f64) -> Vec<Innovation> {
+        (0..400)
+            .map(|k| {
+                let x = (k as f64 * 0.37).sin() * scale;
+                Innovation {
+                    t: 0.5 * k as f64,
+                    kind: if k % 2 == 0 {
+                        MeasurementKind::Accel
+                    } else {
+                        MeasurementKind::Turntable
+                    },
+                    nu: Vector3::new(x, -0.5 * x, 0.3),
+                    s: Matrix3::identity(),
+                    segment: k / 100,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn before_and_after_are_plotted_and_bad_directories_refused() {
+        let dir =
+            std::env::temp_dir().join(format!("sins-calib-diag-plots-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (a, b) = (innovations(1.0), innovations(2.0));
+        let settings = DiagnosticSettings::default();
+        let (da, db) = (diagnose(&a, &[], &settings), diagnose(&b, &[], &settings));
+        let files = write_diagnostic_plots(&dir, &da, &a, Some((&db, &b))).unwrap();
+        assert_eq!(files.len(), 8);
+        assert!(files.iter().all(|f| f.metadata().unwrap().len() > 1000));
+        // Nothing to plot: no files; a missing directory: an error, not a panic.
+        let empty = diagnose(&[], &[], &settings);
+        assert!(
+            write_diagnostic_plots(&dir, &empty, &[], None)
+                .unwrap()
+                .is_empty()
+        );
+        assert!(write_diagnostic_plots(&dir.join("missing"), &da, &a, None).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
