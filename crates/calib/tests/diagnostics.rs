@@ -124,8 +124,18 @@ fn with_bias_drift(sim: &Simulation, rate: f64, dt: f64) -> Simulation {
 }
 
 /// (b) The same run (seed 1, 28 states) corrupted by effects the model lacks. The verdict on
-/// the larger scale asymmetry (2e-5) must be "does not fit"; the others are reported only
-/// (printed, and written down in the report of the branch). No seed was tuned.
+/// the larger scale asymmetry (2e-5) must be "does not fit"; the others are reported only.
+/// No seed was tuned. Measured (98 tests, per-test level 1.02e-4):
+/// - asymmetry 2e-6: fits; nothing flags it (smallest p 4.4e-3, a segment NIS, as on the clean
+///   run), while `gyro.bias.z` moves 19.3 sigma from the clean run's estimate;
+/// - asymmetry 2e-5: does not fit, 23 tests: both NIS sums (turntable p 5e-74, specific force
+///   1.9e-5), the NIS of the "-" halves of cycles 2 and 3 (both kinds), Ljung-Box (turntable
+///   x, y, z; specific force y), the means (specific force y, turntable x), the lines at the
+///   cycle period and its harmonics 2 and 3 (both kinds), the turntable line at the rotation
+///   frequency (y, z) and its third harmonic (y);
+/// - bias drift 0.01 and 0.1 deg/h over the run: fits, nothing flags it (the shifts, 2.2 and
+///   21.6 sigma of `gyro.bias.z`, are mostly the drift's mean, 0.005 and 0.05 deg/h, which the
+///   constant bias rightly takes up).
 #[test]
 fn unmodelled_effects_are_flagged() {
     let config = config(1);
@@ -139,6 +149,10 @@ fn unmodelled_effects_are_flagged() {
         (
             "bias drift 0.01 deg/h per 2727 s",
             with_bias_drift(&sim, (0.01f64 / 3600.0).to_radians() / 2727.0, dt),
+        ),
+        (
+            "bias drift 0.1 deg/h per 2727 s",
+            with_bias_drift(&sim, (0.1f64 / 3600.0).to_radians() / 2727.0, dt),
         ),
     ];
     let mut flagged = vec![];
