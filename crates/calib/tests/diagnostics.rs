@@ -186,3 +186,73 @@ fn unmodelled_effects_are_flagged() {
     }
     assert!(!flagged[1].1, "scale asymmetry 2e-5 not flagged");
 }
+
+mod arbitrary {
+    use calib::diagnostics::{DiagnosticSettings, Innovation, Segment, diagnose, regression_test};
+    use calib::model::MeasurementKind;
+    use nalgebra::{Matrix3, Vector3};
+    use proptest::prelude::*;
+
+    /// Any f64, weighted towards the awkward ones.
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            4 => -10.0f64..10.0,
+            1 => Just(f64::NAN),
+            1 => Just(f64::INFINITY),
+            1 => Just(0.0),
+            1 => any::<f64>(),
+        ]
+    }
+
+    fn innovation() -> impl Strategy<Value = Innovation> {
+        (
+            value(),
+            any::<bool>(),
+            proptest::array::uniform3(value()),
+            proptest::array::uniform9(value()),
+            0usize..12,
+        )
+            .prop_map(|(t, accel, nu, s, segment)| Innovation {
+                t,
+                kind: if accel {
+                    MeasurementKind::Accel
+                } else {
+                    MeasurementKind::Turntable
+                },
+                nu: Vector3::from(nu),
+                s: Matrix3::from_row_slice(&s),
+                segment,
+            })
+    }
+
+    fn segment() -> impl Strategy<Value = Segment> {
+        (0usize..12, value(), value(), value()).prop_map(|(index, t0, t1, rotation_hz)| Segment {
+            index,
+            cycle: Some(index / 2),
+            label: format!("segment {index}"),
+            t0,
+            t1,
+            rotation_hz,
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+        /// Diagnostics and the regression test take any values without panicking.
+        #[test]
+        fn no_panic_on_any_values(
+            innov in proptest::collection::vec(innovation(), 0..60),
+            segs in proptest::collection::vec(segment(), 0..6),
+            alpha in value(),
+            lag in 0usize..40,
+            reg in proptest::collection::vec(proptest::array::uniform3(value()), 0..60),
+        ) {
+            let settings = DiagnosticSettings { alpha, max_lag: lag, ..Default::default() };
+            let d = diagnose(&innov, &segs, &settings);
+            let _ = d.summary();
+            let _ = serde_json::to_string(&d);
+            let col: Vec<Vector3<f64>> = reg.into_iter().map(Vector3::from).collect();
+            let _ = regression_test(&innov, &[col]);
+        }
+    }
+}
