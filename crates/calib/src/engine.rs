@@ -8,7 +8,7 @@ use crate::layout::StateLayout;
 use crate::model::{LinearModel, Measurement};
 use faer::{Mat, MatRef};
 use kalman::{KalmanError, KalmanFilter};
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 use turntable::program::Program;
 
 /// Measurement instants and windows, in IMU steps (step `j` ends at `j * dt`, `j >= 1`).
@@ -116,6 +116,19 @@ pub struct MeasurementNoise {
     pub angle_var_per_record: Option<f64>,
 }
 
+/// One measurement update as the filter saw it: the innovation, its covariance and the NIS.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpdateRecord {
+    /// Normalised innovation squared `nu^T S^-1 nu`.
+    pub nis: f64,
+    /// `ln det S`.
+    pub log_det_s: f64,
+    /// Innovation `nu = z - H x_prior` (measurement units: m/s^2 or rad).
+    pub nu: Vector3<f64>,
+    /// Innovation covariance `S = H P_prior H^T + R`.
+    pub s: Matrix3<f64>,
+}
+
 /// What happened at a measurement instant.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct InstantReport {
@@ -123,6 +136,10 @@ pub struct InstantReport {
     pub accel_nis: Option<f64>,
     /// Normalised innovation squared of the turntable update.
     pub turntable_nis: Option<f64>,
+    /// The specific-force update in full (estimation only).
+    pub accel_update: Option<UpdateRecord>,
+    /// The turntable update in full (estimation only).
+    pub turntable_update: Option<UpdateRecord>,
 }
 
 impl InstantReport {
@@ -227,15 +244,19 @@ impl Engine {
         }
         model.reset_transition();
         if let Some(m) = &acc {
-            report.accel_nis = self.update(m)?;
+            report.accel_update = self.update(m)?;
+            report.accel_nis = report.accel_update.map(|u| u.nis);
         }
         if let Some(m) = &tt {
-            report.turntable_nis = self.update(m)?;
+            report.turntable_update = self.update(m)?;
+            report.turntable_nis = report.turntable_update.map(|u| u.nis);
         }
         Ok(report)
     }
 
-    fn update(&mut self, m: &Measurement) -> Result<Option<f64>, KalmanError> {
+    /// The update with `m`; in an estimation, with the innovation and its covariance (copied
+    /// from the filter, nothing allocated).
+    fn update(&mut self, m: &Measurement) -> Result<Option<UpdateRecord>, KalmanError> {
         for i in 0..3 {
             for k in 0..3 {
                 self.r[(i, k)] = m.r[(i, k)];
@@ -247,7 +268,22 @@ impl Engine {
             Ok(None)
         } else {
             let info = self.filter.update(m.z.as_slice(), h, self.r.as_ref())?;
-            Ok(Some(info.nis))
+            let (nu, s) = (
+                self.filter.innovation(),
+                self.filter.innovation_covariance(),
+            );
+            Ok(Some(UpdateRecord {
+                nis: info.nis,
+                log_det_s: info.log_det_s,
+                nu: Vector3::from_fn(|i, _| nu.get(i).copied().unwrap_or(f64::NAN)),
+                s: Matrix3::from_fn(|i, k| {
+                    if i < s.nrows() && k < s.ncols() {
+                        s[(i, k)]
+                    } else {
+                        f64::NAN
+                    }
+                }),
+            }))
         }
     }
 }

@@ -22,6 +22,7 @@
 use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
 use crate::data_checks::{check_gyros_alive, check_record, check_specific_force};
+use crate::diagnostics::{self, Innovation};
 use crate::engine::prior_filter;
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
 use crate::io::{
@@ -45,7 +46,7 @@ mod source;
 
 pub(crate) use angles::wrap_deg;
 use angles::{AngleInterpolator, median_interval};
-use pass::{AngleReader, Linearisation, Pass, PassSettings, Strapdown};
+use pass::{AngleReader, Linearisation, Pass, PassResult, PassSettings, Strapdown};
 pub use source::{FileImu, ImuSource, MemoryImu};
 
 /// Errors of an estimation run.
@@ -165,6 +166,9 @@ pub struct Estimate {
     pub program_start_s: f64,
     /// Whether that start was found from the data (rather than given).
     pub program_start_found: bool,
+    /// Every update of the reported pass in order: innovation, its covariance, IMU time and the
+    /// program segment ([`crate::diagnostics`]).
+    pub innovations: Vec<Innovation>,
 }
 
 impl Estimate {
@@ -673,7 +677,15 @@ fn run_pass(
             progress(j);
         }
     }
-    let (values, c, stats, cov) = pass.finish();
+    let PassResult {
+        values,
+        c,
+        stats,
+        cov,
+        mut innovations,
+    } = pass.finish();
+    let segments = diagnostics::segments(&program, scan.program_start);
+    diagnostics::assign_segments(&mut innovations, &segments);
     let estimate = Estimate {
         names: layout.entries().iter().map(|e| e.name.clone()).collect(),
         units: layout.entries().iter().map(|e| e.unit).collect(),
@@ -687,6 +699,7 @@ fn run_pass(
         imu_kind: imu.kind(),
         program_start_s: scan.program_start,
         program_start_found: scan.program_start_found,
+        innovations,
     };
     Ok((estimate, c0))
 }

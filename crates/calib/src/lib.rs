@@ -22,6 +22,8 @@
 //! - [`io`]: the interchange files (readers with file and line in every error, writers);
 //! - [`simulate`]: the truth of a simulated run from a run configuration;
 //! - [`stats`]: NEES and chi-square bands;
+//! - [`diagnostics`]: tests of a fit from its innovations (NIS per segment, whiteness, lines at
+//!   the program's frequencies, regression on candidate terms);
 //! - [`paper`], [`report`]: the paper's configurations and tables.
 //!
 //! ```
@@ -42,6 +44,7 @@ pub mod align;
 pub mod config;
 pub mod covariance;
 pub mod data_checks;
+pub mod diagnostics;
 pub mod engine;
 pub mod estimate;
 pub mod evidence;

@@ -1,7 +1,9 @@
 //! `sins-calib calibrate`: estimation from recorded data, with a report in the paper's units.
 
+use crate::diagnostic_plots::write_diagnostic_plots;
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, print};
+use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
 use calib::estimate::{Estimate, FileImu, FitStatistics, ImuSource as _, estimate_from};
 use calib::io::{ImuKind, ResultFile, ResultParameter, read_result_json, read_turntable_csv};
 use calib::layout::layout_for;
@@ -76,6 +78,12 @@ pub struct Args {
     /// (NEES) of all parameters.
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
+    /// Test the fit from its innovations (NIS per program segment, whiteness, lines at the
+    /// program's frequencies; docs/estimation.md, "Diagnostics"), print a summary and write
+    /// PNG plots into DIR (created if missing); with --json the result gets a "diagnostics"
+    /// block. A failing verdict (family-wise level 1 %) ends with exit status 3.
+    #[arg(long, value_name = "DIR")]
+    pub diagnostics: Option<PathBuf>,
 }
 
 /// The JSON result: the parameters as `calib::io::ResultFile` writes them, plus the fit
@@ -84,6 +92,9 @@ pub struct Args {
 struct ResultJson<'a> {
     parameters: &'a [ResultParameter],
     fit: FitJson,
+    /// With --diagnostics: `calib::diagnostics::Diagnostics`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    diagnostics: Option<&'a Diagnostics>,
 }
 
 /// Fit statistics in the JSON result.
@@ -223,6 +234,100 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     if let Some(path) = &args.json {
         check_output_path(path)?;
     }
+    if let Some(dir) = &args.diagnostics {
+        prepare_diagnostics_dir(dir)?;
+    }
+    let mut input = load_inputs(args)?;
+    let turntable = match (&input.tt, &input.tt_file) {
+        (Some(d), Some(f)) => Some((d, f.as_str())),
+        _ => None,
+    };
+    let layout = layout_for(&input.config, turntable.is_some());
+    if let (Some(truth), Some(path)) = (&input.truth, &args.truth) {
+        truth.check_units(
+            &path.display().to_string(),
+            layout
+                .entries()
+                .iter()
+                .map(|e| (e.name.as_str(), e.unit.si_name())),
+        )?;
+    }
+    let bar = progress_bar(input.imu.len_hint().unwrap_or(0));
+    let result = estimate_from(
+        &input.config,
+        &layout,
+        &mut input.imu,
+        turntable,
+        &mut |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        },
+    );
+    bar.finish_and_clear();
+    let est = result?;
+
+    let mut s = header_report(&input, &est);
+    s += &parameter_report(&est, input.truth.as_ref());
+    s.push('\n');
+    s += &fit_report(&est.stats, turntable.is_some());
+    s += &observability_report(&est);
+    if let (Some(truth), Some(path)) = (&input.truth, &args.truth) {
+        s.push('\n');
+        s += &truth_report(&est, truth, path, &input.config.clock);
+    }
+    let diagnostics = match &args.diagnostics {
+        Some(dir) => Some(diagnostics_stage(dir, &input, &est, &mut s)?),
+        None => None,
+    };
+    if let Some(path) = &args.json {
+        let result = est.to_result_file();
+        let json = ResultJson {
+            parameters: &result.parameters,
+            fit: fit_json(&est, turntable.is_some()),
+            diagnostics: diagnostics.as_ref(),
+        };
+        let text = serde_json::to_string_pretty(&json)? + "\n";
+        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        let _ = writeln!(s, "\nwrote {}", path.display());
+    }
+    print(&s)?;
+    let mut bad = misfits(&est.stats, turntable.is_some());
+    if let Some(d) = diagnostics.as_ref().filter(|d| !d.fits) {
+        bad.push(format!(
+            "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
+            d.failures.len(),
+            d.tests.len(),
+            100.0 * d.settings.alpha
+        ));
+    }
+    if bad.is_empty() {
+        return Ok(Outcome::Fits);
+    }
+    eprintln!(
+        "\nTHE MODEL DOES NOT FIT THESE DATA (exit status 3): the innovations scatter unlike the \
+         configured noise\n  {}\nThe estimates above are not to be trusted: check the noise \
+         levels in [noise], the program, the clock relation, and errors the model lacks.",
+        bad.join("\n  ")
+    );
+    Ok(Outcome::DoesNotFit)
+}
+
+/// What `calibrate` reads before the filter runs.
+struct Inputs {
+    config: calib::config::RunConfig,
+    origin: String,
+    /// The program's name and duration (s).
+    program: (String, f64),
+    truth: Option<ResultFile>,
+    imu: FileImu,
+    imu_file: String,
+    tt: Option<calib::io::TurntableData>,
+    tt_file: Option<String>,
+}
+
+/// Read the configuration, the truth, and open the data files (refusing bad ones before any
+/// work is done).
+fn load_inputs(args: &Args) -> Result<Inputs, Error> {
     let name = args.config.as_deref().ok_or(
         "calibrate: --config is required (or --free-motion for a recording without a rotation \
          program)",
@@ -232,10 +337,11 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         config.filter.program_start_s = Some(t);
     }
     let program = config.program()?;
+    let program = (program.name.clone(), program.duration());
     // Read the truth first: a wrong path should not cost a whole run.
     let truth = args.truth.as_deref().map(read_result_json).transpose()?;
     // The IMU file is streamed (read once per pass, kept in memory only when short).
-    let mut imu = FileImu::open(&args.imu)?;
+    let imu = FileImu::open(&args.imu)?;
     let imu_file = imu.file().to_string();
     let tt_file = args.turntable.as_ref().map(|p| p.display().to_string());
     let tt = args
@@ -243,40 +349,35 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         .as_deref()
         .map(read_turntable_csv)
         .transpose()?;
-    let turntable = match (&tt, &tt_file) {
-        (Some(d), Some(f)) => Some((d, f.as_str())),
-        _ => None,
-    };
-    let layout = layout_for(&config, turntable.is_some());
-    if let (Some(truth), Some(path)) = (&truth, &args.truth) {
-        truth.check_units(
-            &path.display().to_string(),
-            layout
-                .entries()
-                .iter()
-                .map(|e| (e.name.as_str(), e.unit.si_name())),
-        )?;
-    }
-    let bar = progress_bar(imu.len_hint().unwrap_or(0));
-    let result = estimate_from(&config, &layout, &mut imu, turntable, &mut |done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    });
-    bar.finish_and_clear();
-    let est = result?;
+    Ok(Inputs {
+        config,
+        origin,
+        program,
+        truth,
+        imu,
+        imu_file,
+        tt,
+        tt_file,
+    })
+}
 
+/// The head of the report: configuration, data, model, program start.
+fn header_report(input: &Inputs, est: &Estimate) -> String {
+    let (config, (program_name, duration)) = (&input.config, &input.program);
     let mut s = String::new();
     let _ = writeln!(s, "sins-calib calibrate");
     let _ = writeln!(
         s,
-        "  configuration   {origin}: program \"{}\" ({} s)",
-        program.name,
-        table::compact(program.duration())
+        "  configuration   {}: program \"{}\" ({} s)",
+        input.origin,
+        program_name,
+        table::compact(*duration)
     );
     let (t0, t1) = est.imu_span;
     let _ = writeln!(
         s,
-        "  IMU data        {imu_file}: {} records of {}, t = {} .. {} s",
+        "  IMU data        {}: {} records of {}, t = {} .. {} s",
+        input.imu_file,
         est.stats.imu_steps,
         match est.imu_kind {
             ImuKind::Increments => "increments",
@@ -285,7 +386,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         table::compact(t0),
         table::compact(t1),
     );
-    if let (Some(tt), Some(f)) = (&tt, &tt_file) {
+    if let (Some(tt), Some(f)) = (&input.tt, &input.tt_file) {
         let (a, b) = tt.span().unwrap_or((0.0, 0.0));
         let _ = writeln!(
             s,
@@ -315,36 +416,45 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         }
     );
     s.push('\n');
-    s += &parameter_report(&est, truth.as_ref());
-    s.push('\n');
-    s += &fit_report(&est.stats, turntable.is_some());
-    s += &observability_report(&est);
-    if let (Some(truth), Some(path)) = (&truth, &args.truth) {
-        s.push('\n');
-        s += &truth_report(&est, truth, path, &config.clock);
+    s
+}
+
+/// Make the diagnostics directory (one level) if it is not there; refuse a file.
+fn prepare_diagnostics_dir(dir: &Path) -> Result<(), Error> {
+    if dir.is_dir() {
+        return Ok(());
     }
-    if let Some(path) = &args.json {
-        let result = est.to_result_file();
-        let json = ResultJson {
-            parameters: &result.parameters,
-            fit: fit_json(&est, turntable.is_some()),
-        };
-        let text = serde_json::to_string_pretty(&json)? + "\n";
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
-        let _ = writeln!(s, "\nwrote {}", path.display());
+    if dir.exists() {
+        return Err(format!(
+            "{}: --diagnostics needs a directory, this is a file",
+            dir.display()
+        )
+        .into());
     }
-    print(&s)?;
-    let bad = misfits(&est.stats, turntable.is_some());
-    if bad.is_empty() {
-        return Ok(Outcome::Fits);
-    }
-    eprintln!(
-        "\nTHE MODEL DOES NOT FIT THESE DATA (exit status 3): the innovations scatter unlike the \
-         configured noise\n  {}\nThe estimates above are not to be trusted: check the noise \
-         levels in [noise], the program, the clock relation, and errors the model lacks.",
-        bad.join("\n  ")
-    );
-    Ok(Outcome::DoesNotFit)
+    std::fs::create_dir(dir).map_err(|e| {
+        format!(
+            "{}: cannot create the diagnostics directory: {e}",
+            dir.display()
+        )
+        .into()
+    })
+}
+
+/// The diagnostics of the fit: their summary appended to the report, the plots written to
+/// `dir`.
+fn diagnostics_stage(
+    dir: &Path,
+    input: &Inputs,
+    est: &Estimate,
+    s: &mut String,
+) -> Result<Diagnostics, Error> {
+    let segments = diagnostics::segments(&input.config.program()?, est.program_start_s);
+    let d = diagnostics::diagnose(&est.innovations, &segments, &DiagnosticSettings::default());
+    let _ = writeln!(s, "\nDiagnostics (docs/estimation.md, \"Diagnostics\")");
+    s.push_str(&d.summary());
+    let files = write_diagnostic_plots(dir, &d, &est.innovations, None)?;
+    let _ = writeln!(s, "  plots: {} files in {}", files.len(), dir.display());
+    Ok(d)
 }
 
 /// The estimates by group in the paper's units; with a truth also the true value and the error

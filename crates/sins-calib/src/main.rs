@@ -14,6 +14,7 @@
 
 mod analyse;
 mod calibrate;
+mod diagnostic_plots;
 mod free_motion;
 mod import;
 mod plot;

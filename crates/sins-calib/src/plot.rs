@@ -12,7 +12,7 @@ use std::sync::OnceLock;
 const FITTED: RGBColor = RGBColor(31, 119, 180);
 const HELD_OUT: RGBColor = RGBColor(214, 39, 40);
 
-fn ensure_fonts() -> Result<(), String> {
+pub(crate) fn ensure_fonts() -> Result<(), String> {
     static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
     REGISTERED
         .get_or_init(|| {

@@ -309,3 +309,70 @@ fn analyse_the_paper_configuration() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(!text(&out.stdout).contains("turntable.tau"));
 }
+
+/// `--diagnostics DIR`: a summary in the report, eight PNGs (two kinds), the "diagnostics"
+/// block in the JSON; a file in place of the directory is refused before any work.
+#[test]
+fn calibrate_with_diagnostics_writes_plots_and_json() {
+    let dir = scratch("diagnostics");
+    let config = short_config(&dir);
+    let data = dir.join("run");
+    let out = run(&["simulate", "--config", s(&config), "--out", s(&data)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let plots = dir.join("plots");
+    let result = dir.join("result.json");
+    let out = run(&[
+        "calibrate",
+        "--imu",
+        s(&data.join("imu.csv")),
+        "--turntable",
+        s(&data.join("turntable.csv")),
+        "--config",
+        s(&config),
+        "--json",
+        s(&result),
+        "--diagnostics",
+        s(&plots),
+    ]);
+    let report = text(&out.stdout);
+    assert!(report.contains("Diagnostics"), "{report}");
+    assert!(report.contains("Ljung-Box"), "{report}");
+    assert!(report.contains("verdict"), "{report}");
+    for kind in ["accel", "turntable"] {
+        for what in ["innovations", "spectrum", "autocorrelation", "nis_segments"] {
+            let f = plots.join(format!("{what}_{kind}.png"));
+            assert!(f.is_file(), "{} missing", f.display());
+        }
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&result).expect("result")).expect("JSON");
+    let d = &json["diagnostics"];
+    assert!(d["fits"].is_boolean(), "{d}");
+    assert_eq!(d["kinds"].as_array().unwrap().len(), 2);
+    // A failing verdict ends with exit status 3 (so may a mean NIS outside its band).
+    let fits = d["fits"].as_bool().unwrap();
+    let code = out.status.code();
+    assert!(
+        if fits {
+            matches!(code, Some(0 | 3))
+        } else {
+            code == Some(3)
+        },
+        "{code:?}: {}",
+        text(&out.stderr)
+    );
+
+    let not_a_dir = dir.join("file.txt");
+    std::fs::write(&not_a_dir, "x").unwrap();
+    let out = run(&[
+        "calibrate",
+        "--imu",
+        s(&data.join("imu.csv")),
+        "--config",
+        s(&config),
+        "--diagnostics",
+        s(&not_a_dir),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("needs a directory"));
+}

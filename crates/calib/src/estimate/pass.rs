@@ -4,10 +4,11 @@
 
 use super::angles::AngleInterpolator;
 use super::{EstimateError, FitStatistics};
+use crate::diagnostics::Innovation;
 use crate::engine::{Engine, InstantReport, RateChanges};
 use crate::io::{ImuKind, ImuRecord};
 use crate::layout::StateLayout;
-use crate::model::AngleSample;
+use crate::model::{AngleSample, MeasurementKind};
 use nalgebra::{Matrix3, Vector3};
 use sins_model::attitude::{attitude_error, exp_so3, log_so3, orthonormalize, right_jacobian_inv};
 use sins_model::terms::{AffineError, ErrorModel, Sensor, SensorInput};
@@ -234,6 +235,8 @@ pub(super) struct Pass<'a> {
     pub angles: Option<AngleReader<'a>>,
     pub stats: FitStatistics,
     nis_sum: (f64, f64),
+    /// Every update of the pass in order (segments assigned by the caller).
+    innovations: Vec<Innovation>,
     /// Steps done.
     j: usize,
 }
@@ -247,6 +250,13 @@ impl<'a> Pass<'a> {
         lin: Linearisation,
         angles: Option<AngleReader<'a>>,
     ) -> Self {
+        // One slot per measurement instant, reserved once.
+        let sched = &engine.schedule;
+        let updates = settings.n_steps / sched.accel_interval.max(1)
+            + angles
+                .as_ref()
+                .map_or(0, |_| settings.n_steps / sched.turntable_interval.max(1))
+            + 2;
         Self {
             layout,
             settings,
@@ -256,6 +266,7 @@ impl<'a> Pass<'a> {
             angles,
             stats: FitStatistics::default(),
             nis_sum: (0.0, 0.0),
+            innovations: Vec::with_capacity(updates),
             j: 0,
         }
     }
@@ -277,7 +288,7 @@ impl<'a> Pass<'a> {
                 line,
                 source,
             })?;
-        self.count(&report);
+        self.count(&report, rec.t);
         let model = &self.engine.model;
         if (report.updated() || last) && !model.accel_open() && !model.turntable_open() {
             self.feed_back();
@@ -374,7 +385,8 @@ impl<'a> Pass<'a> {
         self.stats.turntable_samples += 1;
     }
 
-    fn count(&mut self, report: &InstantReport) {
+    /// Count the updates of a measurement instant at IMU time `t` and log their innovations.
+    fn count(&mut self, report: &InstantReport, t: f64) {
         if let Some(nis) = report.accel_nis {
             self.stats.accel_updates += 1;
             self.nis_sum.0 += nis;
@@ -382,6 +394,21 @@ impl<'a> Pass<'a> {
         if let Some(nis) = report.turntable_nis {
             self.stats.turntable_updates += 1;
             self.nis_sum.1 += nis;
+        }
+        let updates = [
+            (MeasurementKind::Accel, &report.accel_update),
+            (MeasurementKind::Turntable, &report.turntable_update),
+        ];
+        for (kind, u) in updates {
+            if let Some(u) = u {
+                self.innovations.push(Innovation {
+                    t,
+                    kind,
+                    nu: u.nu,
+                    s: u.s,
+                    segment: 0,
+                });
+            }
         }
     }
 
@@ -411,15 +438,8 @@ impl<'a> Pass<'a> {
     }
 
     /// The pass's estimate of every state (totals, SI; the attitude errors fed back, so zero),
-    /// the final attitude and the fit statistics.
-    pub fn finish(
-        mut self,
-    ) -> (
-        Vec<f64>,
-        Matrix3<f64>,
-        FitStatistics,
-        nalgebra::DMatrix<f64>,
-    ) {
+    /// the final attitude, the fit statistics, the covariance and the innovation log.
+    pub fn finish(mut self) -> PassResult {
         // Whatever the last windows left in the state (they were still open at the end).
         let x = self.engine.filter.state();
         let c = exp_so3(&Vector3::new(x[0], x[1], x[2])) * self.nav.c;
@@ -443,8 +463,27 @@ impl<'a> Pass<'a> {
         self.stats.accel_mean_nis = self.nis_sum.0 / self.stats.accel_updates.max(1) as f64;
         self.stats.turntable_mean_nis = self.nis_sum.1 / self.stats.turntable_updates.max(1) as f64;
         let cov = mounting_covariance(self.layout, &lin, self.engine.covariance());
-        (values, c, self.stats, cov)
+        PassResult {
+            values,
+            c,
+            stats: self.stats,
+            cov,
+            innovations: self.innovations,
+        }
     }
+}
+
+/// What [`Pass::finish`] returns.
+pub(super) struct PassResult {
+    /// Every state's estimate (totals, SI).
+    pub values: Vec<f64>,
+    /// The final attitude (body to ENU).
+    pub c: Matrix3<f64>,
+    pub stats: FitStatistics,
+    /// Covariance (SI, mounting in rotation-vector coordinates).
+    pub cov: nalgebra::DMatrix<f64>,
+    /// Every update in order (segment 0: the caller assigns them).
+    pub innovations: Vec<Innovation>,
 }
 
 /// The filter's covariance of the mounting errors is that of small rotations about the
