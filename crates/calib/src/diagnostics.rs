@@ -447,7 +447,31 @@ fn diagnose_kind(
     if nis.updates > 0 {
         test("NIS sum".into(), nis.sum, nis.dof, nis.p_value);
     }
-    // Per segment (the series is in time order, so each segment is contiguous or nearly so).
+    let seg_nis = segment_nis(&s, segments, &mut test);
+    let whiteness = whiteness_tests(&s, settings, &mut test);
+    let dt = median_interval(&s.t);
+    let lines = spectral_lines(&s, segments, settings, dt, &mut test);
+    let spectrum = plotting_spectrum(&s, settings, dt);
+    Some(KindDiagnostics {
+        kind,
+        updates: s.w.len(),
+        unusable: s.unusable,
+        update_interval_s: dt,
+        nis,
+        segments: seg_nis,
+        whiteness,
+        lines,
+        spectrum,
+        log_likelihood: s.log_lik,
+    })
+}
+
+/// A test made: (what, statistic, dof, p-value).
+type TestSink<'a> = dyn FnMut(String, f64, f64, f64) + 'a;
+
+/// The NIS of each segment (the series is in time order, so each segment is contiguous or
+/// nearly so).
+fn segment_nis(s: &Series, segments: &[Segment], test: &mut TestSink) -> Vec<SegmentNis> {
     let mut seg_nis = vec![];
     let mut ids: Vec<usize> = s.segment.clone();
     ids.sort_unstable();
@@ -475,6 +499,15 @@ fn diagnose_kind(
             nis: t,
         });
     }
+    seg_nis
+}
+
+/// Autocorrelation and Ljung-Box test of each whitened axis.
+fn whiteness_tests(
+    s: &Series,
+    settings: &DiagnosticSettings,
+    test: &mut TestSink,
+) -> Vec<AxisWhiteness> {
     let n = s.w.len();
     let mut whiteness = vec![];
     for (a, axis) in ["x", "y", "z"].iter().enumerate() {
@@ -497,12 +530,19 @@ fn diagnose_kind(
             p_value: p,
         });
     }
-    let dt = median_interval(&s.t);
+    whiteness
+}
+
+/// The periodogram at the mean and the program's frequencies (below Nyquist), each tested
+/// against white noise.
+fn spectral_lines(
+    s: &Series,
+    segments: &[Segment],
+    settings: &DiagnosticSettings,
+    dt: f64,
+    test: &mut TestSink,
+) -> Vec<SpectralLine> {
     let nyquist = 0.5 / dt;
-    let span = match (s.t.first(), s.t.last()) {
-        (Some(a), Some(b)) => b - a,
-        _ => f64::NAN,
-    };
     let mut freqs = vec![(0.0, "mean".to_string())];
     freqs.extend(
         program_frequencies(segments, settings)
@@ -511,33 +551,43 @@ fn diagnose_kind(
             .take(settings.max_lines),
     );
     let mut lines = vec![];
-    if n > 1 {
-        for (f, source) in freqs {
-            let o = spectrum::ordinate(&s.t, &s.w, f);
-            if o.dof == 0 {
-                continue;
-            }
-            let d = ChiSquared::new(o.dof as f64).ok();
-            let p = o.q.map(|q| d.as_ref().map_or(f64::NAN, |d| d.sf(q)));
-            for (a, axis) in ["x", "y", "z"].iter().enumerate() {
-                test(
-                    format!("line at {f:.5} Hz ({source}), axis {axis}"),
-                    o.q[a],
-                    o.dof as f64,
-                    p[a],
-                );
-            }
-            lines.push(SpectralLine {
-                frequency_hz: f,
-                source,
-                power: o.q.map(|q| q / o.dof as f64),
-                dof: o.dof,
-                p_value: p,
-            });
-        }
+    if s.w.len() < 2 {
+        return lines;
     }
-    let grid = spectrum::log_grid(1.0 / span, nyquist, settings.spectrum_points);
-    let spectrum = Spectrum {
+    for (f, source) in freqs {
+        let o = spectrum::ordinate(&s.t, &s.w, f);
+        if o.dof == 0 {
+            continue;
+        }
+        let d = ChiSquared::new(o.dof as f64).ok();
+        let p = o.q.map(|q| d.as_ref().map_or(f64::NAN, |d| d.sf(q)));
+        for (a, axis) in ["x", "y", "z"].iter().enumerate() {
+            test(
+                format!("line at {f:.5} Hz ({source}), axis {axis}"),
+                o.q[a],
+                o.dof as f64,
+                p[a],
+            );
+        }
+        lines.push(SpectralLine {
+            frequency_hz: f,
+            source,
+            power: o.q.map(|q| q / o.dof as f64),
+            dof: o.dof,
+            p_value: p,
+        });
+    }
+    lines
+}
+
+/// The periodogram on a log grid from 1/span to Nyquist, for the plots (not tested).
+fn plotting_spectrum(s: &Series, settings: &DiagnosticSettings, dt: f64) -> Spectrum {
+    let span = match (s.t.first(), s.t.last()) {
+        (Some(a), Some(b)) => b - a,
+        _ => f64::NAN,
+    };
+    let grid = spectrum::log_grid(1.0 / span, 0.5 / dt, settings.spectrum_points);
+    Spectrum {
         power: grid
             .iter()
             .map(|&f| {
@@ -546,19 +596,7 @@ fn diagnose_kind(
             })
             .collect(),
         frequency_hz: grid,
-    };
-    Some(KindDiagnostics {
-        kind,
-        updates: n,
-        unusable: s.unusable,
-        update_interval_s: dt,
-        nis,
-        segments: seg_nis,
-        whiteness,
-        lines,
-        spectrum,
-        log_likelihood: s.log_lik,
-    })
+    }
 }
 
 /// The band that holds a chi-square(dof) variable with probability `1 - level`, two-sided.

@@ -166,7 +166,12 @@ pub fn separability(
             let mut conf: Vec<(String, f64)> = base
                 .iter()
                 .filter_map(|b| index(b).map(|j| (b, j)))
-                .map(|(b, j)| (b.clone(), cov[(i, j)] / (sd(i) * sd(j)).max(f64::MIN_POSITIVE)))
+                .map(|(b, j)| {
+                    (
+                        b.clone(),
+                        cov[(i, j)] / (sd(i) * sd(j)).max(f64::MIN_POSITIVE),
+                    )
+                })
                 .filter(|(_, r)| r.abs() >= CONFOUNDING_CORRELATION)
                 .collect();
             conf.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
@@ -292,7 +297,13 @@ mod tests {
         let m = 60;
         let a = DMatrix::from_fn(m, 2, |i, j| ((i + 3 * j) as f64 * 0.37).sin());
         // Second column zero: the data say nothing about theta_2.
-        let g = DMatrix::from_fn(m, 2, |i, j| if j == 0 { ((i as f64) * 0.9).cos() } else { 0.0 });
+        let g = DMatrix::from_fn(m, 2, |i, j| {
+            if j == 0 {
+                ((i as f64) * 0.9).cos()
+            } else {
+                0.0
+            }
+        });
         let s0 = [2.0, 5.0];
         let theta_true = DVector::from_vec(vec![1.0, 3.0]);
         let v = DVector::from_fn(m, |_, _| StandardNormal.sample(&mut rng));
@@ -322,7 +333,17 @@ mod tests {
         let cov = DMatrix::from_row_slice(
             3,
             3,
-            &[sb * sb, 0.0, 0.95 * sb * st, 0.0, sc * sc, 0.0, 0.95 * sb * st, 0.0, st * st],
+            &[
+                sb * sb,
+                0.0,
+                0.95 * sb * st,
+                0.0,
+                sc * sc,
+                0.0,
+                0.95 * sb * st,
+                0.0,
+                st * st,
+            ],
         );
         let s = separability(
             &names,
