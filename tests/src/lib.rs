@@ -2,6 +2,8 @@
 
 #![forbid(unsafe_code)]
 
+pub mod hidden;
+
 use calib::config::{AttitudePrior, RunConfig};
 use calib::estimate::Estimate;
 use nalgebra::Vector3;

@@ -10,6 +10,7 @@ use serde_json::{Map, Value, json};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod hidden;
 mod plot;
 
 /// The paper's navigation figures after 1 h of the snake flight (m).
@@ -48,6 +49,14 @@ enum Command {
     /// Print the navigation error budget of both calibrations and the sweeps behind
     /// docs/navsim.md (correlations kept or dropped, the paper's diagonal tables, sensor noise).
     NavBudget,
+    /// Run every hidden-effect case of the model-extension loop and the negative control, and
+    /// print the table of docs/model-extension.md (effect, accepted term, estimate against
+    /// truth, gain). Exits non-zero when a case fails its checks.
+    HiddenEffects {
+        /// Seeds of the negative control (101, 102, ...).
+        #[arg(long, default_value_t = 20)]
+        control_seeds: u64,
+    },
 }
 
 fn main() -> ExitCode {
@@ -58,6 +67,7 @@ fn main() -> ExitCode {
             paper_sweep();
             ExitCode::SUCCESS
         }
+        Command::HiddenEffects { control_seeds } => hidden::hidden_effects(control_seeds),
         Command::NavBudget => match nav_budget() {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {

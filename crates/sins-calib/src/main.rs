@@ -5,7 +5,9 @@
 //!   units, fit statistics and, against a truth file, the errors in sigmas;
 //! - `analyse`: covariance analysis of a run configuration, without data;
 //! - `import`: a recording in another layout turned into `imu.csv` by an import profile;
-//! - `segment`: an `imu.csv` split into static intervals and motion.
+//! - `segment`: an `imu.csv` split into static intervals and motion;
+//! - `diagnose`: what the model gets wrong, and the terms that fix it (model-extension loop);
+//! - `design`: a program that separates candidate terms.
 //!
 //! The work is done by the `calib` library; this crate only reads arguments, reports and exits.
 //! File formats: `docs/formats.md`.
@@ -14,6 +16,9 @@
 
 mod analyse;
 mod calibrate;
+mod design;
+mod diagnose;
+mod diagnose_report;
 mod diagnostic_plots;
 mod free_motion;
 mod import;
@@ -77,6 +82,13 @@ enum Command {
     /// specific force and of the rate and the magnitude of the mean rate are below thresholds;
     /// runs of static records at least --min-duration long are the static intervals.
     Segment(segment::Args),
+    /// Find what the paper's model gets wrong: fit it, test every candidate error term against
+    /// the innovations, add the best-supported one the program can separate, measure the gain,
+    /// and repeat while it is significant (docs/model-extension.md).
+    Diagnose(diagnose::Args),
+    /// Propose a rotation program that separates the given candidate terms from the paper's
+    /// parameters, printed as TOML with its predicted sigmas.
+    Design(design::Args),
 }
 
 /// Read a run configuration by name (`paper`, `paper-reconciled`) or path; returns it with the
@@ -117,6 +129,8 @@ fn main() -> ExitCode {
         Command::Analyse(args) => analyse::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Import(args) => import::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Segment(args) => segment::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Diagnose(args) => diagnose::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Design(args) => design::run(&args).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,

@@ -1,0 +1,290 @@
+//! Program design for candidate terms the recorded program cannot separate: extend the program
+//! with manoeuvres from a fixed menu, run the covariance analysis of the extended model on each
+//! proposal, and return the shortest proposal under which every requested term is separable
+//! (`sins-calib design`).
+//!
+//! The menu, in order of added time (the instrument axes as in the paper's program: at gimbal
+//! angles (0, 0, 0) x = East, y = North, z = Up; the bank gimbal turns about x, the pitch
+//! gimbal about y there):
+//! - six static positions, each instrument axis up and down, 60 s each: a dwell with an axis
+//!   along gravity sees `f_i = +-g` against zero with it horizontal, which tells a term in
+//!   `f_i^2` from a bias;
+//! - turns about the vertical at +-10 deg/s with each instrument axis up in turn: rates with the
+//!   specific force along the rotation axis, which tell g-sensitivity from the scale factors;
+//! - the program's own turns again at twice the rate (half the duration): the centripetal
+//!   terms grow as the rate squared while the scale factors grow as the rate;
+//! - combinations of these.
+
+use crate::config::{ConfigError, RunConfig};
+use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
+use crate::evidence::{Separability, separability};
+use crate::extension::ModelExtension;
+use serde::Serialize;
+use sins_model::candidates::Candidate;
+use turntable::program::{ProgramSpec, Segment};
+
+/// Errors of the design.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    /// The configuration's program cannot be read.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A covariance analysis failed.
+    #[error(transparent)]
+    Analysis(#[from] AnalysisError),
+}
+
+/// One evaluated program.
+#[derive(Clone, Debug, Serialize)]
+pub struct Proposal {
+    /// What was added to the recorded program.
+    pub description: String,
+    /// The whole program.
+    #[serde(skip)]
+    pub program: ProgramSpec,
+    /// Its duration (s).
+    pub duration_s: f64,
+    /// Separability of each requested term under it.
+    pub terms: Vec<(String, Separability)>,
+    /// Posterior sigma of every parameter of the requested terms (SI).
+    pub sigmas: Vec<(String, f64, f64)>,
+}
+
+impl Proposal {
+    /// Every requested term separable.
+    pub fn separates(&self) -> bool {
+        self.terms.iter().all(|(_, s)| s.separable)
+    }
+
+    /// The largest posterior-over-prior sigma ratio of the requested terms' parameters.
+    pub fn worst_ratio(&self) -> f64 {
+        self.terms
+            .iter()
+            .flat_map(|(_, s)| s.parameters.iter().map(|p| p.sigma_ratio))
+            .fold(0.0, f64::max)
+    }
+
+    /// The program as TOML, headed by the predicted sigmas.
+    pub fn to_toml(&self) -> String {
+        let mut s = format!(
+            "# Proposed by `sins-calib design`: {}\n# Duration {:.0} s. Predicted posterior sigma \
+             (SI) of the requested terms, against their prior:\n",
+            self.description, self.duration_s
+        );
+        for (name, sigma, prior) in &self.sigmas {
+            s += &format!("#   {name:<22} {sigma:.3e}  (prior {prior:.3e}, ratio {:.3})\n", sigma / prior);
+        }
+        s += &toml::to_string(&self.program).unwrap_or_else(|e| format!("# cannot write: {e}\n"));
+        s
+    }
+}
+
+const POSITION_RATE_DEG_S: f64 = 10.0;
+
+/// Gimbal angles putting each instrument axis up and down.
+const SIX_POSITIONS_DEG: [[f64; 3]; 6] = [
+    [0.0, 0.0, 0.0],
+    [0.0, 180.0, 0.0],
+    [0.0, 90.0, 0.0],
+    [0.0, -90.0, 0.0],
+    [0.0, 0.0, 90.0],
+    [0.0, 0.0, -90.0],
+];
+
+fn six_positions(dwell_s: f64) -> Vec<Segment> {
+    SIX_POSITIONS_DEG
+        .iter()
+        .flat_map(|k| {
+            [
+                Segment::Move {
+                    target_deg: *k,
+                    rate_deg_s: POSITION_RATE_DEG_S,
+                },
+                Segment::Dwell {
+                    duration_s: dwell_s,
+                },
+            ]
+        })
+        .collect()
+}
+
+fn vertical_turns(turn_s: f64) -> Vec<Segment> {
+    // z up at (0, 0, 0); the bank gimbal's quarter turn about x brings y vertical, the pitch
+    // gimbal's quarter turn about y brings x vertical.
+    [[0.0, 0.0, 0.0], [0.0, 90.0, 0.0], [0.0, 0.0, 90.0]]
+        .iter()
+        .flat_map(|k| {
+            [
+                Segment::Move {
+                    target_deg: *k,
+                    rate_deg_s: POSITION_RATE_DEG_S,
+                },
+                Segment::Rotate {
+                    gimbal: 1,
+                    rate_deg_s: 10.0,
+                    duration_s: turn_s,
+                },
+                Segment::Rotate {
+                    gimbal: 1,
+                    rate_deg_s: -10.0,
+                    duration_s: turn_s,
+                },
+            ]
+        })
+        .collect()
+}
+
+fn faster_turns(base: &ProgramSpec) -> Vec<Segment> {
+    std::iter::once(Segment::Move {
+        target_deg: base.start_deg,
+        rate_deg_s: POSITION_RATE_DEG_S,
+    })
+    .chain(base.segments.iter().map(|s| match *s {
+        Segment::Rotate {
+            gimbal,
+            rate_deg_s,
+            duration_s,
+        } => Segment::Rotate {
+            gimbal,
+            rate_deg_s: 2.0 * rate_deg_s,
+            duration_s: 0.5 * duration_s,
+        },
+        ref other => other.clone(),
+    }))
+    .collect()
+}
+
+/// The menu of additions to `base`, shortest first.
+pub fn candidate_programs(base: &ProgramSpec) -> Vec<(String, ProgramSpec)> {
+    let extend = |name: &str, parts: Vec<Vec<Segment>>| {
+        let mut p = base.clone();
+        p.name = format!("{} + {name}", base.name);
+        for part in parts {
+            p.segments.extend(part);
+        }
+        (name.to_string(), p)
+    };
+    vec![
+        extend("six static positions, 60 s each", vec![six_positions(60.0)]),
+        extend(
+            "turns about the vertical at +-10 deg/s with each axis up, 180 s each way",
+            vec![vertical_turns(180.0)],
+        ),
+        extend("the program's turns again at twice the rate", vec![faster_turns(base)]),
+        extend(
+            "six static positions and turns about the vertical",
+            vec![six_positions(60.0), vertical_turns(180.0)],
+        ),
+        extend(
+            "six static positions and the turns at twice the rate",
+            vec![six_positions(60.0), faster_turns(base)],
+        ),
+        extend(
+            "six static positions, turns about the vertical and at twice the rate",
+            vec![six_positions(60.0), vertical_turns(180.0), faster_turns(base)],
+        ),
+    ]
+}
+
+/// Evaluate the extended model `ext` (holding `terms`) under `program`.
+pub fn evaluate(
+    config: &RunConfig,
+    with_turntable: bool,
+    ext: &ModelExtension,
+    terms: &[Candidate],
+    description: &str,
+    program: ProgramSpec,
+) -> Result<Proposal, DesignError> {
+    let mut c = config.clone();
+    c.inline_program = Some(program.clone());
+    let duration_s = c.program()?.duration();
+    let post: Posterior = covariance_analysis_ext(&c, with_turntable, ext)?;
+    let requested: Vec<String> = terms.iter().flat_map(|t| t.param_names()).collect();
+    let base: Vec<String> = post
+        .names
+        .iter()
+        .skip(crate::layout::StateLayout::INSTRUMENT)
+        .filter(|n| !requested.contains(n))
+        .cloned()
+        .collect();
+    let sep_terms = terms
+        .iter()
+        .map(|t| {
+            let s = separability(&post.names, &post.prior_sigma, &post.cov, &t.param_names(), &base);
+            (t.id().to_string(), s)
+        })
+        .collect();
+    let sigmas = requested
+        .iter()
+        .filter_map(|n| {
+            let i = post.names.iter().position(|m| m == n)?;
+            Some((n.clone(), post.cov[(i, i)].max(0.0).sqrt(), post.prior_sigma[i]))
+        })
+        .collect();
+    Ok(Proposal {
+        description: description.to_string(),
+        program,
+        duration_s,
+        terms: sep_terms,
+        sigmas,
+    })
+}
+
+/// The recorded program and every proposal, evaluated; the chosen one is the shortest that
+/// separates every term in `terms` (or, if none does, the one with the smallest worst ratio).
+/// Returns (recorded, proposals, index of the chosen proposal).
+pub fn design(
+    config: &RunConfig,
+    with_turntable: bool,
+    terms: &[Candidate],
+) -> Result<(Proposal, Vec<Proposal>, usize), DesignError> {
+    let mut ext = ModelExtension::default();
+    for &t in terms {
+        ext = crate::extend::with_term(&ext, t);
+    }
+    // The random walk is not a state: the covariance analysis has nothing to separate.
+    ext.gyro_drift = None;
+    let terms: Vec<Candidate> = terms
+        .iter()
+        .copied()
+        .filter(|t| *t != Candidate::GyroBiasDrift)
+        .collect();
+    let base = config.program_spec()?;
+    let recorded = evaluate(config, with_turntable, &ext, &terms, "the recorded program", base.clone())?;
+    let mut proposals = Vec::new();
+    for (name, p) in candidate_programs(&base) {
+        proposals.push(evaluate(config, with_turntable, &ext, &terms, &name, p)?);
+    }
+    let chosen = proposals
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.separates())
+        .min_by(|a, b| a.1.duration_s.total_cmp(&b.1.duration_s))
+        .or_else(|| {
+            proposals
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1.worst_ratio().total_cmp(&b.1.worst_ratio()))
+        })
+        .map_or(0, |(i, _)| i);
+    Ok((recorded, proposals, chosen))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn proposals_compile_and_grow_the_program() {
+        let base = RunConfig::paper().program_spec().unwrap();
+        let base_len = turntable::program::Program::compile(&base, "base").unwrap().duration();
+        for (name, p) in candidate_programs(&base) {
+            let prog = turntable::program::Program::compile(&p, &name).unwrap();
+            assert!(prog.duration() > base_len + 300.0, "{name}: {}", prog.duration());
+            // The TOML written for the user reads back as the same program.
+            let text = toml::to_string(&p).unwrap();
+            let back: ProgramSpec = toml::from_str(&text).unwrap();
+            assert_eq!(back, p);
+        }
+    }
+}

@@ -1,0 +1,481 @@
+//! The model-extension loop: fit the base model, rank the candidate terms by the evidence in
+//! the innovations, add the best-supported separable one, measure what it gains, repeat while
+//! the gain is significant (the method in full: `docs/model-extension.md`).
+//!
+//! Each round:
+//! 1. every candidate term not yet in the model is fitted together with the model
+//!    ([`crate::estimate::estimate_ext`]); its score statistic ([`crate::evidence::score_test`])
+//!    says whether the innovations call for it, with a chi-square p-value; the gyro bias random
+//!    walk, a noise process and not a state, is tested by the likelihood ratio of the
+//!    innovations over a grid of intensities, with the chi-bar-square p-value of a parameter on
+//!    the boundary;
+//! 2. a covariance analysis of the extended model on the recorded program
+//!    ([`crate::covariance::covariance_analysis_ext`]) says whether each candidate is separable
+//!    from the parameters already in the model ([`crate::evidence::separability`]);
+//! 3. the separable candidate with the smallest p-value is accepted if that p-value is below
+//!    the level divided by the number of candidates tested in the round (Bonferroni: the
+//!    family-wise chance of accepting a term the data do not call for stays under the level);
+//! 4. the gain of the accepted term is measured against the model before it: innovation
+//!    log-likelihood, AIC and BIC, the mean NIS of each measurement kind and the diagnostics'
+//!    verdict.
+//!
+//! A significant candidate that is not separable is reported with the base parameters it is
+//! confounded with and is not accepted: under this program its effect cannot be told from
+//! theirs ([`crate::design`] proposes a program that separates it).
+
+use crate::config::RunConfig;
+use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
+use crate::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose, segments};
+use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
+use crate::evidence::{
+    InformationGain, ScoreTest, Separability, chi_bar_square_sf, score_test, separability,
+};
+use crate::extension::ModelExtension;
+use crate::layout::StateLayout;
+use serde::Serialize;
+use sins_model::candidates::Candidate;
+use std::collections::BTreeMap;
+
+/// Settings of the loop.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoopSettings {
+    /// Family-wise level of each round's decision (default 0.01).
+    pub level: f64,
+    /// The candidate terms to consider (default: all).
+    pub candidates: Vec<Candidate>,
+    /// At most this many terms are accepted.
+    pub max_terms: usize,
+    /// Intensities (rad/s/sqrt(s)) tried for the gyro bias random walk, common to the three
+    /// axes; the best is refined per axis when the term is accepted.
+    pub drift_grid: Vec<f64>,
+    /// Settings of the diagnostics.
+    pub diagnostics: DiagnosticSettings,
+}
+
+impl Default for LoopSettings {
+    fn default() -> Self {
+        // A navigation-grade gyro's bias instability is of order 0.003-0.03 deg/h/sqrt(h):
+        // 2.5e-10 to 2.5e-9 rad/s/sqrt(s); the grid spans it and a decade above.
+        let unit = sins_model::units::DEG_PER_HOUR / 60.0;
+        Self {
+            level: 0.01,
+            candidates: Candidate::ALL.to_vec(),
+            max_terms: 3,
+            drift_grid: [0.003, 0.01, 0.03, 0.1, 0.3]
+                .iter()
+                .map(|q| q * unit)
+                .collect(),
+            diagnostics: DiagnosticSettings::default(),
+        }
+    }
+}
+
+/// Errors of the loop.
+#[derive(Debug, thiserror::Error)]
+pub enum LoopError {
+    /// A fit failed.
+    #[error(transparent)]
+    Estimate(#[from] EstimateError),
+    /// A covariance analysis failed.
+    #[error(transparent)]
+    Analysis(#[from] AnalysisError),
+}
+
+/// One fit of a model to the data, with what the loop reads from it.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    /// The model fitted (the extension of the paper's model).
+    pub extension: ModelExtension,
+    /// The estimate.
+    pub estimate: Estimate,
+    /// Diagnostics of its innovations.
+    pub diagnostics: Diagnostics,
+    /// Log-likelihood of the innovations.
+    pub log_likelihood: f64,
+    /// Scalar innovations.
+    pub observations: usize,
+}
+
+/// A parameter value with its sigma (SI).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ParameterValue {
+    /// Name.
+    pub name: String,
+    /// Estimate.
+    pub value: f64,
+    /// Posterior sigma.
+    pub sigma: f64,
+}
+
+/// The evidence for one candidate in one round.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CandidateEvidence {
+    /// Term id (`gyro_g_sensitivity`, ...).
+    pub term: String,
+    /// Score statistic (constant terms) or likelihood ratio (the random walk).
+    pub statistic: f64,
+    /// Degrees of freedom of the statistic (the random walk: the parameters on the boundary).
+    pub dof: usize,
+    /// p-value.
+    pub p_value: f64,
+    /// Separable from the model's parameters under the recorded program.
+    pub separable: bool,
+    /// Per-parameter separation (empty for the random walk, which is separated by the
+    /// innovations' time structure, not by the program).
+    pub separation: Option<Separability>,
+    /// The term's parameters as the extended fit estimates them.
+    pub estimate: Vec<ParameterValue>,
+}
+
+/// One round of the loop.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Round {
+    /// Candidates in order of evidence (smallest p-value first).
+    pub candidates: Vec<CandidateEvidence>,
+    /// The p-value a separable candidate had to beat.
+    pub threshold: f64,
+    /// The term accepted, if any.
+    pub accepted: Option<String>,
+}
+
+/// What an accepted term gained.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TermGain {
+    /// Likelihood and information criteria.
+    pub information: InformationGain,
+    /// Mean NIS of the specific-force updates before and after.
+    pub accel_mean_nis: (f64, f64),
+    /// Mean NIS of the turntable updates before and after (zero without turntable data).
+    pub turntable_mean_nis: (f64, f64),
+    /// Whether the diagnostics said the model fits, before and after.
+    pub diagnostics_fit: (bool, bool),
+}
+
+/// The result of the loop.
+#[derive(Clone, Debug)]
+pub struct LoopResult {
+    /// Term ids in the order accepted.
+    pub accepted_terms: Vec<String>,
+    /// Every round's evidence.
+    pub rounds: Vec<Round>,
+    /// The gain of each accepted term.
+    pub gain: BTreeMap<String, TermGain>,
+    /// The paper's model fitted.
+    pub base: Fit,
+    /// The final model fitted.
+    pub last: Fit,
+}
+
+impl LoopResult {
+    /// Whether the base model fits: no candidate called for and the diagnostics pass.
+    pub fn base_fits(&self) -> bool {
+        self.accepted_terms.is_empty() && self.base.diagnostics.fits && !self.any_inseparable_call()
+    }
+
+    /// The significant candidates of the last round that could not be accepted because the
+    /// program does not separate them.
+    pub fn inseparable_calls(&self) -> Vec<&CandidateEvidence> {
+        self.rounds.last().map_or(Vec::new(), |r| {
+            r.candidates
+                .iter()
+                .filter(|c| !c.separable && c.p_value < r.threshold)
+                .collect()
+        })
+    }
+
+    fn any_inseparable_call(&self) -> bool {
+        !self.inseparable_calls().is_empty()
+    }
+}
+
+/// Log-likelihood of innovations `nu ~ N(0, S)`, and the number of scalar innovations.
+pub fn log_likelihood(innovations: &[Innovation]) -> (f64, usize) {
+    let mut ll = 0.0;
+    let mut m = 0;
+    for inn in innovations {
+        let Some(chol) = inn.s.cholesky() else {
+            continue;
+        };
+        let y = chol.solve(&inn.nu);
+        let log_det: f64 = 2.0 * chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+        ll -= 0.5 * (inn.nu.dot(&y) + log_det + 3.0 * (2.0 * std::f64::consts::PI).ln());
+        m += 3;
+    }
+    (ll, m)
+}
+
+/// The loop's context: the data and what every fit shares.
+struct Context<'a> {
+    config: &'a RunConfig,
+    data: &'a RunData<'a>,
+    settings: &'a LoopSettings,
+    progress: &'a mut dyn FnMut(&str),
+}
+
+impl Context<'_> {
+    fn fit(&mut self, ext: &ModelExtension) -> Result<Fit, LoopError> {
+        let estimate = estimate_ext(self.config, *self.data, ext)?;
+        let program = self.config.program().map_err(EstimateError::from)?;
+        let segs = segments(&program, estimate.program_start_s);
+        let diagnostics = diagnose(&estimate.innovations, &segs, &self.settings.diagnostics);
+        let (log_likelihood, observations) = log_likelihood(&estimate.innovations);
+        Ok(Fit {
+            extension: ext.clone(),
+            estimate,
+            diagnostics,
+            log_likelihood,
+            observations,
+        })
+    }
+
+    fn analyse(&mut self, ext: &ModelExtension) -> Result<Posterior, LoopError> {
+        Ok(covariance_analysis_ext(
+            self.config,
+            self.data.turntable.is_some(),
+            ext,
+        )?)
+    }
+
+    /// The evidence for a constant-parameter candidate against the model `current`.
+    fn constant_term(
+        &mut self,
+        current: &Fit,
+        c: Candidate,
+    ) -> Result<(CandidateEvidence, Fit), LoopError> {
+        (self.progress)(&format!("fitting with {}", c.id()));
+        let ext = with_term(&current.extension, c);
+        let fit = self.fit(&ext)?;
+        let names = c.param_names();
+        let est = &fit.estimate;
+        let idx: Vec<usize> = names
+            .iter()
+            .map(|n| est.names.iter().position(|m| m == n).expect("term in layout"))
+            .collect();
+        let theta: Vec<f64> = idx.iter().map(|&i| est.values[i]).collect();
+        let cov = nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| est.cov[(idx[a], idx[b])]);
+        let s0: Vec<f64> = idx.iter().map(|&i| est.prior_sigma[i]).collect();
+        let ScoreTest {
+            statistic,
+            dof,
+            p_value,
+        } = score_test(&theta, &cov, &s0);
+        let post = self.analyse(&ext)?;
+        let base: Vec<String> = parameter_names(&current.estimate);
+        let sep = separability(&post.names, &post.prior_sigma, &post.cov, &names, &base);
+        let estimate = idx
+            .iter()
+            .map(|&i| ParameterValue {
+                name: est.names[i].clone(),
+                value: est.values[i],
+                sigma: est.cov[(i, i)].max(0.0).sqrt(),
+            })
+            .collect();
+        Ok((
+            CandidateEvidence {
+                term: c.id().to_string(),
+                statistic,
+                dof,
+                p_value,
+                separable: sep.separable,
+                separation: Some(sep),
+                estimate,
+            },
+            fit,
+        ))
+    }
+
+    /// The evidence for a gyro bias random walk: the likelihood ratio over the grid of common
+    /// intensities.
+    fn drift(&mut self, current: &Fit) -> Result<(CandidateEvidence, Fit), LoopError> {
+        let mut best: Option<(f64, Fit)> = None;
+        for &q in &self.settings.drift_grid {
+            (self.progress)(&format!("fitting with a gyro bias random walk of {q:.2e}"));
+            let mut ext = current.extension.clone();
+            ext.gyro_drift = Some([q; 3]);
+            let fit = self.fit(&ext)?;
+            if best.as_ref().is_none_or(|(_, b)| fit.log_likelihood > b.log_likelihood) {
+                best = Some((q, fit));
+            }
+        }
+        let (q, mut fit) = best.expect("a non-empty grid");
+        let lr = (2.0 * (fit.log_likelihood - current.log_likelihood)).max(0.0);
+        let p_value = chi_bar_square_sf(lr, 1);
+        // Refine per axis around the common value when the data call for the term.
+        let mut values = [q; 3];
+        let mut sigmas = [f64::NAN; 3];
+        if p_value < self.settings.level {
+            for axis in 0..3 {
+                let (v, s, f) = self.refine_axis(current, &values, axis, &fit)?;
+                (values[axis], sigmas[axis]) = (v, s);
+                fit = f;
+            }
+        }
+        let estimate = (0..3)
+            .map(|i| ParameterValue {
+                name: format!("gyro.drift.{}", ["x", "y", "z"][i]),
+                value: values[i],
+                sigma: sigmas[i],
+            })
+            .collect();
+        Ok((
+            CandidateEvidence {
+                term: Candidate::GyroBiasDrift.id().to_string(),
+                statistic: lr,
+                dof: 1,
+                p_value,
+                separable: true,
+                separation: None,
+                estimate,
+            },
+            fit,
+        ))
+    }
+
+    /// Maximise the likelihood over one axis's intensity on a factor-of-two ladder around the
+    /// current value, and take the sigma from a parabola through the best three points.
+    fn refine_axis(
+        &mut self,
+        current: &Fit,
+        values: &[f64; 3],
+        axis: usize,
+        at: &Fit,
+    ) -> Result<(f64, f64, Fit), LoopError> {
+        let mut pts: Vec<(f64, f64, Option<Fit>)> = vec![(values[axis], at.log_likelihood, None)];
+        for factor in [0.0, 0.5, 2.0] {
+            let mut v = *values;
+            v[axis] *= factor;
+            let mut ext = current.extension.clone();
+            ext.gyro_drift = Some(v);
+            let fit = self.fit(&ext)?;
+            pts.push((v[axis], fit.log_likelihood, Some(fit)));
+        }
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let k = (0..pts.len())
+            .max_by(|&a, &b| pts[a].1.total_cmp(&pts[b].1))
+            .expect("points");
+        let sigma = if k > 0 && k + 1 < pts.len() {
+            curvature_sigma(&pts[k - 1..=k + 1])
+        } else {
+            f64::NAN
+        };
+        let (v, _, fit) = pts.swap_remove(k);
+        Ok((v, sigma, fit.unwrap_or_else(|| at.clone())))
+    }
+}
+
+/// Sigma `1 / sqrt(-l'')` from the parabola through three (value, log-likelihood) points.
+fn curvature_sigma(p: &[(f64, f64, Option<Fit>)]) -> f64 {
+    let (x0, y0) = (p[0].0, p[0].1);
+    let (x1, y1) = (p[1].0, p[1].1);
+    let (x2, y2) = (p[2].0, p[2].1);
+    let d1 = (y1 - y0) / (x1 - x0);
+    let d2 = (y2 - y1) / (x2 - x1);
+    let second = 2.0 * (d2 - d1) / (x2 - x0);
+    if second < 0.0 {
+        (-1.0 / second).sqrt()
+    } else {
+        f64::NAN
+    }
+}
+
+/// `ext` with candidate `c` added at its default prior.
+pub fn with_term(ext: &ModelExtension, c: Candidate) -> ModelExtension {
+    let mut e = ext.clone();
+    if c == Candidate::GyroBiasDrift {
+        e.gyro_drift = Some([0.0; 3]);
+    } else {
+        e.terms.push((c, c.default_prior_sigma()));
+    }
+    e
+}
+
+/// Whether `ext` holds candidate `c`.
+pub fn has_term(ext: &ModelExtension, c: Candidate) -> bool {
+    if c == Candidate::GyroBiasDrift {
+        ext.gyro_drift.is_some()
+    } else {
+        ext.terms.iter().any(|(t, _)| *t == c)
+    }
+}
+
+/// The estimated parameters of a fit (every state but the attitude errors).
+fn parameter_names(est: &Estimate) -> Vec<String> {
+    est.names[StateLayout::INSTRUMENT..].to_vec()
+}
+
+fn gain(before: &Fit, after: &Fit, parameters: usize) -> TermGain {
+    let (b, a) = (&before.estimate.stats, &after.estimate.stats);
+    TermGain {
+        information: InformationGain::new(
+            before.log_likelihood,
+            after.log_likelihood,
+            parameters,
+            after.observations,
+        ),
+        accel_mean_nis: (b.accel_mean_nis, a.accel_mean_nis),
+        turntable_mean_nis: (b.turntable_mean_nis, a.turntable_mean_nis),
+        diagnostics_fit: (before.diagnostics.fits, after.diagnostics.fits),
+    }
+}
+
+/// Run the loop on recorded data. `progress` hears what is being fitted.
+pub fn run_loop(
+    config: &RunConfig,
+    data: &RunData,
+    settings: &LoopSettings,
+    progress: &mut dyn FnMut(&str),
+) -> Result<LoopResult, LoopError> {
+    let mut cx = Context {
+        config,
+        data,
+        settings,
+        progress,
+    };
+    (cx.progress)("fitting the paper's model");
+    let base = cx.fit(&ModelExtension::default())?;
+    let mut current = base.clone();
+    let (mut accepted, mut rounds, mut gains) = (Vec::new(), Vec::new(), BTreeMap::new());
+    loop {
+        let mut evidence: Vec<(CandidateEvidence, Fit)> = Vec::new();
+        for &c in &settings.candidates {
+            if has_term(&current.extension, c) {
+                continue;
+            }
+            evidence.push(if c == Candidate::GyroBiasDrift {
+                cx.drift(&current)?
+            } else {
+                cx.constant_term(&current, c)?
+            });
+        }
+        evidence.sort_by(|a, b| a.0.p_value.total_cmp(&b.0.p_value));
+        let threshold = settings.level / evidence.len().max(1) as f64;
+        let pick = evidence
+            .iter()
+            .position(|(e, _)| e.separable && e.p_value < threshold)
+            .filter(|_| accepted.len() < settings.max_terms);
+        let mut round = Round {
+            candidates: evidence.iter().map(|(e, _)| e.clone()).collect(),
+            threshold,
+            accepted: None,
+        };
+        let Some(k) = pick else {
+            rounds.push(round);
+            break;
+        };
+        let (e, fit) = evidence.swap_remove(k);
+        let added = fit.estimate.names.len() - current.estimate.names.len();
+        let added = if e.term == Candidate::GyroBiasDrift.id() { 3 } else { added };
+        gains.insert(e.term.clone(), gain(&current, &fit, added));
+        round.accepted = Some(e.term.clone());
+        accepted.push(e.term.clone());
+        rounds.push(round);
+        current = fit;
+    }
+    Ok(LoopResult {
+        accepted_terms: accepted,
+        rounds,
+        gain: gains,
+        base,
+        last: current,
+    })
+}

@@ -1,0 +1,60 @@
+//! `sins-calib design`: a program that separates the given candidate terms from the paper's
+//! parameters, printed as TOML with its predicted sigmas (`calib::design`).
+
+use crate::diagnose::parse_terms;
+use crate::{Error, load_config, print};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Arguments of `design`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Run configuration whose program is the recorded (or planned) one.
+    #[arg(long, value_name = "FILE|NAME")]
+    pub config: String,
+    /// Candidate term ids to separate.
+    #[arg(long, value_name = "ID", num_args = 1.., required = true)]
+    pub terms: Vec<String>,
+    /// Analyse with the turntable angles (28-state model and more); default: the IMU alone.
+    #[arg(long)]
+    pub with_turntable: bool,
+    /// Write the proposed program to this TOML file (also printed).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// Run `design`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let (config, _) = load_config(&args.config)?;
+    let terms = parse_terms(&args.terms)?;
+    let (recorded, proposals, chosen) = calib::design::design(&config, args.with_turntable, &terms)?;
+    let mut s = String::new();
+    let _ = writeln!(s, "# Separability (posterior sigma / prior sigma, separable at <= 0.5):");
+    for p in std::iter::once(&recorded).chain(&proposals) {
+        let _ = writeln!(
+            s,
+            "#   {:<72} {:>6.0} s  worst ratio {:.3}{}",
+            p.description,
+            p.duration_s,
+            p.worst_ratio(),
+            if p.separates() { "  separates" } else { "" }
+        );
+    }
+    if recorded.separates() {
+        let _ = writeln!(s, "# The recorded program already separates every requested term.");
+    }
+    let best = &proposals[chosen];
+    if !best.separates() {
+        let _ = writeln!(
+            s,
+            "# No proposal separates every requested term; the closest one follows."
+        );
+    }
+    let toml = best.to_toml();
+    s += &toml;
+    print(&s)?;
+    if let Some(path) = &args.out {
+        std::fs::write(path, toml).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,226 @@
+//! `sins-calib diagnose`: fit the paper's model, test every candidate term against the
+//! innovations, add the best-supported separable one, measure what it gains, repeat
+//! (`calib::extend`; method in docs/model-extension.md).
+
+use crate::calibrate::check_output_path;
+use crate::{Error, load_config, print};
+use calib::estimate::RunData;
+use calib::extend::{CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop};
+use calib::io::{ResultParameter, read_imu_csv, read_turntable_csv};
+use serde::Serialize;
+use sins_model::candidates::Candidate;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Arguments of `diagnose`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// IMU records (as for `calibrate`).
+    #[arg(long, value_name = "FILE")]
+    pub imu: PathBuf,
+    /// Turntable angle records (as for `calibrate`); without them the IMU-only model is used.
+    #[arg(long, value_name = "FILE")]
+    pub turntable: Option<PathBuf>,
+    /// Run configuration (a TOML file, or `paper` / `paper-reconciled`).
+    #[arg(long, value_name = "FILE|NAME")]
+    pub config: String,
+    /// Write the loop's result as JSON: accepted_terms, candidates (last round), gain,
+    /// parameters (docs/formats.md).
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write a Markdown report with PNG plots (innovations, spectra, autocorrelation, NIS per
+    /// segment, before and after) into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
+    /// Family-wise level of each round's decision.
+    #[arg(long, default_value_t = 0.01, value_name = "P")]
+    pub level: f64,
+    /// Candidate terms to consider (ids; default all): gyro_g_sensitivity,
+    /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_bias_drift,
+    /// gyro_accel_time_offset.
+    #[arg(long, value_name = "ID", num_args = 1..)]
+    pub terms: Vec<String>,
+    /// IMU time (s) at which the rotation program starts (as for `calibrate`).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub program_start: Option<f64>,
+}
+
+/// Parse candidate ids, naming the valid ones on a bad id.
+pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
+    ids.iter()
+        .map(|id| {
+            Candidate::from_id(id).ok_or_else(|| {
+                let valid: Vec<&str> = Candidate::ALL.iter().map(|c| c.id()).collect();
+                format!("unknown term {id:?}: expected one of {}", valid.join(", ")).into()
+            })
+        })
+        .collect()
+}
+
+#[derive(Serialize)]
+struct CandidateJson<'a> {
+    term: &'a str,
+    statistic: f64,
+    dof: usize,
+    p_value: f64,
+    separable: bool,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    confounded_with: Vec<String>,
+}
+
+#[derive(Serialize)]
+struct LoopJson<'a> {
+    accepted_terms: &'a [String],
+    base_model_fits: bool,
+    candidates: Vec<CandidateJson<'a>>,
+    gain: &'a BTreeMap<String, TermGain>,
+    parameters: Vec<ResultParameter>,
+    rounds: &'a [calib::extend::Round],
+}
+
+fn candidate_json(c: &CandidateEvidence) -> CandidateJson<'_> {
+    CandidateJson {
+        term: &c.term,
+        statistic: c.statistic,
+        dof: c.dof,
+        p_value: c.p_value,
+        separable: c.separable,
+        confounded_with: c.separation.as_ref().map_or(Vec::new(), |s| s.confounded()),
+    }
+}
+
+/// The loop's result as JSON.
+fn to_json(r: &LoopResult) -> Result<String, Error> {
+    let mut parameters = r.last.estimate.to_result_file().parameters;
+    if let Some(d) = r.last.extension.gyro_drift {
+        for (i, a) in ["x", "y", "z"].iter().enumerate() {
+            parameters.push(ResultParameter {
+                name: format!("gyro.drift.{a}"),
+                value: d[i],
+                sigma: None,
+                unit: "rad/s/sqrt(s)".into(),
+            });
+        }
+    }
+    let j = LoopJson {
+        accepted_terms: &r.accepted_terms,
+        base_model_fits: r.base_fits(),
+        candidates: r
+            .rounds
+            .last()
+            .map_or(Vec::new(), |l| l.candidates.iter().map(candidate_json).collect()),
+        gain: &r.gain,
+        parameters,
+        rounds: &r.rounds,
+    };
+    Ok(serde_json::to_string_pretty(&j)?)
+}
+
+/// The summary printed (and heading the Markdown report).
+pub fn summary(r: &LoopResult) -> String {
+    let mut s = String::new();
+    for (k, round) in r.rounds.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "round {}: candidates by evidence (accept below p = {:.2e} if separable)",
+            k + 1,
+            round.threshold
+        );
+        let _ = writeln!(s, "  {:<24} {:>12} {:>4} {:>10}  separable", "term", "statistic", "dof", "p");
+        for c in &round.candidates {
+            let conf = c.separation.as_ref().map(|x| x.confounded()).unwrap_or_default();
+            let sep = if c.separable {
+                "yes".to_string()
+            } else if conf.is_empty() {
+                "no (posterior sigma near the prior)".to_string()
+            } else {
+                format!("no: confounded with {}", conf.join(", "))
+            };
+            let _ = writeln!(
+                s,
+                "  {:<24} {:>12.2} {:>4} {:>10.2e}  {sep}",
+                c.term, c.statistic, c.dof, c.p_value
+            );
+        }
+        match &round.accepted {
+            Some(t) => {
+                let g = &r.gain[t];
+                let _ = writeln!(
+                    s,
+                    "  accepted {t}: log-likelihood +{:.1}, AIC {:+.1}, BIC {:+.1}, mean NIS \
+                     accel {:.3} -> {:.3}, turntable {:.3} -> {:.3}",
+                    g.information.log_likelihood,
+                    g.information.delta_aic,
+                    g.information.delta_bic,
+                    g.accel_mean_nis.0,
+                    g.accel_mean_nis.1,
+                    g.turntable_mean_nis.0,
+                    g.turntable_mean_nis.1
+                );
+            }
+            None => {
+                let _ = writeln!(s, "  nothing accepted");
+            }
+        }
+    }
+    let calls = r.inseparable_calls();
+    if r.base_fits() {
+        let _ = writeln!(s, "verdict: the paper's model fits these data; no term is called for.");
+    } else if r.accepted_terms.is_empty() && calls.is_empty() {
+        let _ = writeln!(
+            s,
+            "verdict: no candidate term is called for, but the diagnostics fail: {}",
+            r.base.diagnostics.failures.join("; ")
+        );
+    } else {
+        let _ = writeln!(s, "verdict: terms accepted: {}", r.accepted_terms.join(", "));
+    }
+    for c in calls {
+        let _ = writeln!(
+            s,
+            "note: the data call for {} (p = {:.2e}) but this program cannot separate it; run \
+             `sins-calib design --config ... --terms {}` for a program that does.",
+            c.term, c.p_value, c.term
+        );
+    }
+    s
+}
+
+/// Run `diagnose`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    for p in [&args.json, &args.report].into_iter().flatten() {
+        check_output_path(p)?;
+    }
+    let (mut config, _) = load_config(&args.config)?;
+    if let Some(t) = args.program_start {
+        config.filter.program_start_s = Some(t);
+    }
+    let mut settings = LoopSettings {
+        level: args.level,
+        ..LoopSettings::default()
+    };
+    if !args.terms.is_empty() {
+        settings.candidates = parse_terms(&args.terms)?;
+    }
+    let imu = read_imu_csv(&args.imu)?;
+    let imu_file = args.imu.display().to_string();
+    let tt = args.turntable.as_deref().map(read_turntable_csv).transpose()?;
+    let tt_file = args.turntable.as_ref().map(|p| p.display().to_string());
+    let data = RunData {
+        imu: &imu,
+        imu_file: &imu_file,
+        turntable: tt.as_ref().zip(tt_file.as_deref()),
+    };
+    let result = run_loop(&config, &data, &settings, &mut |what| eprintln!("diagnose: {what}"))?;
+    let text = summary(&result);
+    print(&text)?;
+    if let Some(path) = &args.json {
+        std::fs::write(path, to_json(&result)?)
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    }
+    if let Some(dir) = &args.report {
+        crate::diagnose_report::write(dir, &result, &text)?;
+    }
+    Ok(())
+}
