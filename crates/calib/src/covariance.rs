@@ -103,6 +103,7 @@ pub fn covariance_analysis_with(
         let input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
+            ..SensorInput::default()
         };
         let in_acc = engine.schedule.in_accel_window(j).then_some(&zero);
         engine

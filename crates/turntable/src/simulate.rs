@@ -273,6 +273,7 @@ pub fn increments(
         let input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
+            ..SensorInput::default()
         };
         (
             s.omega_body - model.error(Sensor::Gyro, p_true, &input),

@@ -185,6 +185,7 @@ impl Compensation {
             let input = SensorInput {
                 omega_body: dth / dt,
                 f_body: dv / dt,
+                ..SensorInput::default()
             };
             let (nu, df) = match &self.affine {
                 Some((g, a)) => (g.at(&input), a.at(&input)),
@@ -310,6 +311,7 @@ impl<'a> Pass<'a> {
         let input = SensorInput {
             omega_body: dth / dt,
             f_body: step.c_mid.transpose() * self.settings.f_enu,
+            ..SensorInput::default()
         };
         let in_acc = self
             .engine
