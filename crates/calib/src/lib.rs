@@ -14,6 +14,8 @@
 //!   analysis and the estimation, on [`kalman::KalmanFilter`];
 //! - [`covariance`]: covariance analysis of a program;
 //! - [`estimate`]: calibration from recorded data (`imu.csv`, `turntable.csv`);
+//! - [`extension`]: candidate terms beyond the paper's model for the filter
+//!   ([`extension::ModelExtension`]) and the simulator ([`extension::HiddenEffects`]);
 //! - [`align`]: coarse alignment of the start attitude to the program's rotations;
 //! - [`program_start`]: where the program starts on the IMU clock;
 //! - [`data_checks`]: checks of the IMU data before any filter;
@@ -43,6 +45,7 @@ pub mod covariance;
 pub mod data_checks;
 pub mod engine;
 pub mod estimate;
+pub mod extension;
 pub mod free_motion;
 pub mod io;
 pub mod layout;

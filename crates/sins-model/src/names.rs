@@ -28,6 +28,8 @@ pub const INSTALL_PREFIX: &str = "install.delta.";
 /// Common prefix of [`BASE_GAMMA`].
 pub const BASE_PREFIX: &str = "base.gamma.";
 
+/// The gyro biases (the paper's `nu0`), the states a gyro drift acts on.
+pub const GYRO_BIAS: [&str; 3] = ["gyro.bias.x", "gyro.bias.y", "gyro.bias.z"];
 /// Prefix of the gyro g-sensitivity parameters `gyro.gsens.<ij>` ([`crate::candidates`]).
 pub const GYRO_GSENS_PREFIX: &str = "gyro.gsens.";
 /// Prefix of the gyro scale-factor asymmetries `gyro.asym.<i>`.
