@@ -10,8 +10,16 @@ use sins_model::candidates::Candidate;
 #[ignore = "prints the table of docs/estimation.md, Candidate terms"]
 fn candidate_separability_table() {
     let mut config = RunConfig::paper();
-    config.filter.imu_rate_hz = 20.0;
+    config.filter.imu_rate_hz = 100.0;
     for tt in [false, true] {
+        let base = covariance_analysis_ext(&config, tt, &ModelExtension::default()).unwrap();
+        for a in ["x", "y", "z"] {
+            let n = format!("gyro.bias.{a}");
+            println!(
+                "tt={tt} paper model {n} sigma/prior {:.3}",
+                base.sigma_ratio(&n).unwrap()
+            );
+        }
         for c in Candidate::ALL {
             let t0 = std::time::Instant::now();
             let post = covariance_analysis_ext(&config, tt, &ModelExtension::with(&[c])).unwrap();
