@@ -172,6 +172,7 @@ pub fn align_to_program(
         let input = SensorInput {
             omega_body: bin.rate,
             f_body: bin.f,
+            ..SensorInput::default()
         };
         model.jacobian(Sensor::Gyro, &vec![0.0; n], &input, &mut jac);
         for (d, j) in d_b.iter_mut().zip(&jac) {

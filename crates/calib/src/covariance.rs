@@ -8,8 +8,9 @@
 use crate::align::{aligned_prior, ideal_bins};
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule, prior_filter};
+use crate::extension::ModelExtension;
 use crate::layout::StateLayout;
-pub use crate::layout::{initial_covariance, layout_for, non_instrument_priors};
+pub use crate::layout::{initial_covariance, layout_for, layout_with, non_instrument_priors};
 use crate::model::{AngleSample, LinearModel};
 use nalgebra::{DMatrix, Vector3};
 use sins_model::terms::{SensorInput, Unit};
@@ -48,8 +49,26 @@ pub struct Posterior {
 impl Posterior {
     /// Posterior sigma of a state by name (SI).
     pub fn sigma(&self, name: &str) -> Option<f64> {
-        let i = self.names.iter().position(|n| n == name)?;
+        let i = self.index(name)?;
         Some(self.cov[(i, i)].max(0.0).sqrt())
+    }
+
+    /// Index of a state by name.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    /// Posterior sigma over prior sigma of a state by name.
+    pub fn sigma_ratio(&self, name: &str) -> Option<f64> {
+        let i = self.index(name)?;
+        Some(self.sigma(name)? / self.prior_sigma[i])
+    }
+
+    /// Posterior correlation of two states by name.
+    pub fn correlation(&self, a: &str, b: &str) -> Option<f64> {
+        let (i, j) = (self.index(a)?, self.index(b)?);
+        let d = (self.cov[(i, i)] * self.cov[(j, j)]).sqrt();
+        Some(if d > 0.0 { self.cov[(i, j)] / d } else { 0.0 })
     }
 }
 
@@ -58,7 +77,18 @@ pub fn covariance_analysis(
     config: &RunConfig,
     with_turntable: bool,
 ) -> Result<Posterior, AnalysisError> {
-    let layout = layout_for(config, with_turntable);
+    covariance_analysis_ext(config, with_turntable, &ModelExtension::default())
+}
+
+/// Run the covariance analysis of the configured program with the paper's model extended by
+/// `ext` ([`layout_with`]). The posterior holds every state's name, prior sigma and the full
+/// covariance ([`Posterior::correlation`]).
+pub fn covariance_analysis_ext(
+    config: &RunConfig,
+    with_turntable: bool,
+    ext: &ModelExtension,
+) -> Result<Posterior, AnalysisError> {
+    let layout = layout_with(config, with_turntable, ext);
     covariance_analysis_with(config, &layout, &Mounting::default())
 }
 
@@ -98,12 +128,24 @@ pub fn covariance_analysis_with(
     let p0 = vec![0.0; layout.n_instrument()];
     let f_enu = kin.specific_force_enu();
     let zero = Vector3::zeros();
+    // Terms that use the rate derivatives get their mean over each step, from the values at its
+    // ends (left limits, as the simulator integrates them: a jump of the rate at a step's end
+    // belongs to the next step).
+    let derivatives = layout.model.uses_rate_derivatives();
+    let mut left = derivatives.then(|| kin.sample_left(0.0));
     for j in 1..=n_steps {
         let s = kin.sample((j as f64 - 0.5) * dt);
-        let input = SensorInput {
+        let mut input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
+            ..SensorInput::default()
         };
+        if let Some(a) = &mut left {
+            let b = kin.sample_left(j as f64 * dt);
+            input.omega_dot_body = (b.omega_body - a.omega_body) / dt;
+            input.f_dot_body = (b.f_body - a.f_body) / dt;
+            *a = b;
+        }
         let in_acc = engine.schedule.in_accel_window(j).then_some(&zero);
         engine
             .model

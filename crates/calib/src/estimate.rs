@@ -25,10 +25,11 @@ use crate::data_checks::{check_gyros_alive, check_record, check_specific_force};
 use crate::diagnostics::{self, Innovation};
 use crate::engine::prior_filter;
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
+use crate::extension::ModelExtension;
 use crate::io::{
     ImuData, ImuKind, IoError, ResultFile, ResultParameter, TurntableData, check_overlap,
 };
-use crate::layout::{StateLayout, initial_covariance, layout_for};
+use crate::layout::{StateLayout, initial_covariance, layout_for, layout_with};
 use crate::model::LinearModel;
 use crate::program_start::{
     ProgramStart, ProgramStartError, TurntableClockError, check_program_start,
@@ -313,6 +314,19 @@ pub fn estimate(
 ) -> Result<Estimate, EstimateError> {
     let layout = layout_for(config, data.turntable.is_some());
     estimate_with(config, &layout, data, progress)
+}
+
+/// Calibrate from recorded data in memory with the paper's model extended by `ext`
+/// ([`crate::layout::layout_with`]: the extra terms' parameters are states after the paper's,
+/// a gyro drift is process noise on the gyro biases). With an empty extension this is
+/// [`estimate`], bit for bit.
+pub fn estimate_ext(
+    config: &RunConfig,
+    data: RunData,
+    ext: &ModelExtension,
+) -> Result<Estimate, EstimateError> {
+    let layout = layout_with(config, data.turntable.is_some(), ext);
+    estimate_with(config, &layout, &data, &mut |_, _| {})
 }
 
 /// [`estimate`] with any state layout (e.g. an extended instrument model).

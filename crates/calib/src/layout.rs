@@ -10,6 +10,7 @@
 //! simulation alike.
 
 use crate::config::{AttitudePrior, RunConfig};
+use crate::extension::ModelExtension;
 use nalgebra::{DMatrix, DVector, Matrix3};
 use sins_model::names;
 use sins_model::terms::{ErrorModel, PaperPriors, ParamSpec, Unit};
@@ -31,6 +32,9 @@ pub struct StateLayout {
     pub tau: Option<usize>,
     /// Index of `gamma_p` (3 states), when estimated.
     pub base: Option<usize>,
+    /// Random-walk intensity of each gyro bias (rad/s/sqrt(s)): process noise on the states
+    /// `gyro.bias.*` ([`crate::extension::ModelExtension::gyro_drift`]); `None`: constant biases.
+    pub gyro_drift: Option<[f64; 3]>,
 }
 
 /// Prior sigmas of the states that are not instrument errors.
@@ -91,6 +95,7 @@ impl StateLayout {
             install,
             tau,
             base,
+            gyro_drift: None,
         }
     }
 
@@ -114,6 +119,7 @@ impl StateLayout {
             install: self.install,
             tau: self.tau,
             base: self.base,
+            gyro_drift: self.gyro_drift,
         }
     }
 
@@ -158,14 +164,26 @@ pub fn non_instrument_priors(config: &RunConfig) -> NonInstrumentPriors {
     }
 }
 
-/// The paper's layout for a configuration.
+/// The paper's layout for a configuration ([`layout_with`] without an extension).
 pub fn layout_for(config: &RunConfig, with_turntable: bool) -> StateLayout {
-    StateLayout::new(
-        ErrorModel::paper(&config.priors_si()),
+    layout_with(config, with_turntable, &ModelExtension::default())
+}
+
+/// The layout of the paper's model extended by `ext`: the paper's instrument parameters first,
+/// the extra terms' parameters after them (in the order of [`ModelExtension::terms`]), then the
+/// turntable states as in [`layout_for`]. The drift is carried as process noise
+/// ([`StateLayout::gyro_drift`]).
+pub fn layout_with(config: &RunConfig, with_turntable: bool, ext: &ModelExtension) -> StateLayout {
+    let mut model = ErrorModel::paper(&config.priors_si());
+    ext.extend(&mut model);
+    let mut layout = StateLayout::new(
+        model,
         &non_instrument_priors(config),
         with_turntable,
         config.filter.estimate_base_misalignment,
-    )
+    );
+    layout.gyro_drift = ext.gyro_drift;
+    layout
 }
 
 /// The prior covariance of all states (SI). `c0_body_to_enu` is the start attitude computed from

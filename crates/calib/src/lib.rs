@@ -17,6 +17,8 @@
 //! - [`extend`]: the model-extension loop (fit, test the candidate terms, accept, measure);
 //! - [`design`]: programs that separate candidate terms the recorded program cannot;
 //! - [`estimate`]: calibration from recorded data (`imu.csv`, `turntable.csv`);
+//! - [`extension`]: candidate terms beyond the paper's model for the filter
+//!   ([`extension::ModelExtension`]) and the simulator ([`extension::HiddenEffects`]);
 //! - [`align`]: coarse alignment of the start attitude to the program's rotations;
 //! - [`program_start`]: where the program starts on the IMU clock;
 //! - [`data_checks`]: checks of the IMU data before any filter;
@@ -52,6 +54,7 @@ pub mod engine;
 pub mod estimate;
 pub mod evidence;
 pub mod extend;
+pub mod extension;
 pub mod free_motion;
 pub mod io;
 pub mod layout;

@@ -133,6 +133,41 @@ pub struct LinearModel {
     /// Measurement matrices of the two kinds, filled when a measurement is formed.
     h_accel: Mat<f64>,
     h_turntable: Mat<f64>,
+    /// The gyro biases' random walk, when the layout carries one.
+    drift: Option<DriftNoise>,
+}
+
+/// Process noise of the attitude error and the drifting gyro biases (states 3..6) over one
+/// transition interval, accumulated step by step exactly as the discrete model
+/// `beta' = A beta + C dt b`, `b' = b + w` (`w` of variance `q dt`) propagates it.
+#[derive(Clone, Debug)]
+struct DriftNoise {
+    /// PSD of each bias's random walk ((rad/s)^2/s).
+    q: Vector3<f64>,
+    q_bb: Matrix3<f64>,
+    q_beta_b: Matrix3<f64>,
+    q_beta_beta: Matrix3<f64>,
+}
+
+impl DriftNoise {
+    fn reset(&mut self) {
+        self.q_bb = Matrix3::zeros();
+        self.q_beta_b = Matrix3::zeros();
+        self.q_beta_beta = Matrix3::zeros();
+    }
+
+    /// One step with the attitude rotation `a`, `c_dt = C dt` and the gyro white-noise
+    /// variance `white` of the step.
+    fn step(&mut self, a: &Matrix3<f64>, c_dt: &Matrix3<f64>, white: f64, dt: f64) {
+        let cross = a * self.q_beta_b * c_dt.transpose();
+        self.q_beta_beta = a * self.q_beta_beta * a.transpose()
+            + cross
+            + cross.transpose()
+            + c_dt * self.q_bb * c_dt.transpose()
+            + Matrix3::identity() * white;
+        self.q_beta_b = a * self.q_beta_b + c_dt * self.q_bb;
+        self.q_bb += Matrix3::from_diagonal(&(self.q * dt));
+    }
 }
 
 /// Which measurement a [`Measurement`] is, and where its matrix lives in the [`LinearModel`].
@@ -193,6 +228,22 @@ impl LinearModel {
                     .flat_map(|r| r.clone().map(|i| StateLayout::INSTRUMENT + i)),
             )
             .collect();
+        let drift = layout.gyro_drift.map(|d| {
+            let bias = layout.index(sins_model::names::GYRO_BIAS[0]);
+            assert_eq!(
+                bias,
+                Some(StateLayout::INSTRUMENT),
+                "a drifting gyro bias must be the first instrument term"
+            );
+            DriftNoise {
+                q: Vector3::from(d).component_mul(&Vector3::from(d)),
+                q_bb: Matrix3::zeros(),
+                q_beta_b: Matrix3::zeros(),
+                q_beta_beta: Matrix3::zeros(),
+            }
+        });
+        // The dynamic rows: the attitude error, and the drifting biases with it.
+        let k = if drift.is_some() { 6 } else { 3 };
         let mut m = Self {
             n,
             n_instr,
@@ -221,10 +272,11 @@ impl LinearModel {
                 prev_count: 0,
             },
             scratch: vec![Vector3::zeros(); n],
-            phi_mat: Mat::zeros(3, n),
-            q_mat: Mat::zeros(3, 3),
+            phi_mat: Mat::zeros(k, n),
+            q_mat: Mat::zeros(k, k),
             h_accel: Mat::zeros(3, n),
             h_turntable: Mat::zeros(3, n),
+            drift,
         };
         m.reset_transition();
         m
@@ -249,6 +301,9 @@ impl LinearModel {
             self.phi_top[i][i] = 1.0;
         }
         self.q_steps = 0;
+        if let Some(d) = &mut self.drift {
+            d.reset();
+        }
     }
 
     /// Start a new specific-force window.
@@ -317,6 +372,9 @@ impl LinearModel {
             }
         }
         self.q_steps += 1;
+        if let Some(d) = &mut self.drift {
+            d.step(&a, &(c_body_to_enu * dt), self.psd_gyro * dt, dt);
+        }
         if let Some(dv) = accel_dv_enu {
             self.acc.beta.add(&self.phi_top, &self.dynamic, 0.5 * dt);
             layout
@@ -354,16 +412,33 @@ impl LinearModel {
     }
 
     /// The accumulated transition `phi_top` (3 x n) and attitude process noise `q_top` (3 x 3)
-    /// as views for the filter (no allocation).
+    /// as views for the filter (no allocation). With drifting gyro biases the dynamic rows are
+    /// six: the attitude error and the biases (identity rows), `q_top` their joint noise.
     pub fn transition(&mut self) -> (MatRef<'_, f64>, MatRef<'_, f64>) {
         for (j, col) in self.phi_top.iter().enumerate() {
             for i in 0..3 {
                 self.phi_mat[(i, j)] = col[i];
             }
         }
-        for i in 0..3 {
-            for j in 0..3 {
-                self.q_mat[(i, j)] = if i == j { self.q_diagonal() } else { 0.0 };
+        match &self.drift {
+            None => {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        self.q_mat[(i, j)] = if i == j { self.q_diagonal() } else { 0.0 };
+                    }
+                }
+            }
+            Some(d) => {
+                let b = StateLayout::INSTRUMENT;
+                for i in 0..3 {
+                    self.phi_mat[(b + i, b + i)] = 1.0;
+                    for j in 0..3 {
+                        self.q_mat[(i, j)] = d.q_beta_beta[(i, j)];
+                        self.q_mat[(i, b + j)] = d.q_beta_b[(i, j)];
+                        self.q_mat[(b + j, i)] = d.q_beta_b[(i, j)];
+                        self.q_mat[(b + i, b + j)] = d.q_bb[(i, j)];
+                    }
+                }
             }
         }
         (self.phi_mat.as_ref(), self.q_mat.as_ref())

@@ -3,12 +3,17 @@
 
 use crate::config::{ConfigError, RunConfig};
 use crate::covariance::layout_for;
+use crate::extension::{HiddenEffects, ModelExtension};
+use crate::layout::layout_with;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use sins_model::names;
+use sins_model::terms::Unit;
 use turntable::kinematics::{Kinematics, Mounting};
 use turntable::sensor::AngleSensor;
-use turntable::simulate::{SimConfig, SimRng, SimulateError, Simulation, simulate};
+use turntable::simulate::{
+    GyroDrift, SimConfig, SimRng, SimulateError, Simulation, TruthParameter, simulate_drifting,
+};
 
 /// Errors of a simulation.
 #[derive(Debug, thiserror::Error)]
@@ -74,7 +79,33 @@ pub fn true_values(
 /// Simulate the run a configuration describes (its `[truth]`, `[noise]` and `[clock]`
 /// sections). `origin` names the configuration in messages.
 pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, SimulationError> {
+    simulate_run_hidden(config, origin, &HiddenEffects::default())
+}
+
+/// Seed of the gyro drift's own random stream, from the run's seed.
+pub fn drift_seed(config: &RunConfig) -> u64 {
+    config.truth.seed ^ 0x0d21_f7ba_5e5d_0001
+}
+
+/// [`simulate_run`] with extra effects the paper's model does not have: the named extra terms'
+/// true values (the other parameters of their terms zero) and a random walk of the gyro biases
+/// (seeded from [`drift_seed`], its own stream). The paper's parameters, the turntable records
+/// and every noise draw are those of the run without the effects. The truth lists the paper's
+/// parameters, then the extra terms' (in [`sins_model::candidates::Candidate::ALL`] order),
+/// then the turntable's, then the drift intensities (`gyro.drift.*`) when drifting.
+pub fn simulate_run_hidden(
+    config: &RunConfig,
+    origin: &str,
+    hidden: &HiddenEffects,
+) -> Result<Simulation, SimulationError> {
     let values = true_values(config, origin)?;
+    let candidates = hidden
+        .candidates()
+        .map_err(|name| SimulationError::UnknownName {
+            origin: origin.to_string(),
+            name,
+            expected: "the parameters of the candidate terms (sins_model::candidates)".into(),
+        })?;
     let get = |name: &str| {
         values
             .iter()
@@ -82,8 +113,24 @@ pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, Simu
             .map(|(_, v)| *v)
             .expect("layout names")
     };
-    let layout = layout_for(config, false);
-    let p_true: Vec<f64> = layout.entries()[3..].iter().map(|e| get(&e.name)).collect();
+    let layout = layout_with(config, false, &ModelExtension::with(&candidates));
+    let n_paper = layout_for(config, false).n_instrument();
+    let p_true: Vec<f64> = layout.entries()[3..]
+        .iter()
+        .enumerate()
+        .map(|(k, e)| {
+            if k < n_paper {
+                get(&e.name)
+            } else {
+                hidden
+                    .values
+                    .iter()
+                    .rev()
+                    .find(|(n, _)| *n == e.name)
+                    .map_or(0.0, |(_, v)| *v)
+            }
+        })
+        .collect();
     let mounting = Mounting {
         delta_z: nalgebra::Vector3::from_fn(|i, _| get(names::INSTALL_DELTA[i])),
         gamma_p: nalgebra::Vector3::from_fn(|i, _| get(names::BASE_GAMMA[i])),
@@ -106,5 +153,19 @@ pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, Simu
         seed: t.seed,
         ..SimConfig::default()
     };
-    Ok(simulate(&kin, &layout.model, &p_true, &sensor, &sim)?)
+    let drift = hidden.gyro_drift.map(|intensity| GyroDrift {
+        intensity,
+        seed: drift_seed(config),
+    });
+    let mut out = simulate_drifting(&kin, &layout.model, &p_true, &sensor, &sim, drift.as_ref())?;
+    if let Some(d) = hidden.gyro_drift {
+        for (n, v) in names::GYRO_DRIFT.iter().zip(d) {
+            out.truth.parameters.push(TruthParameter {
+                name: n.to_string(),
+                value: v,
+                unit: Unit::RadPerSecondPerSqrtSecond.si_name().to_string(),
+            });
+        }
+    }
+    Ok(out)
 }

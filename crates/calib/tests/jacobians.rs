@@ -54,6 +54,7 @@ fn nonlinear_beta(
         let input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
+            ..SensorInput::default()
         };
         let nu = layout.model.error(Sensor::Gyro, p, &input);
         let e = exp_so3(&(-u * dt));
@@ -77,6 +78,7 @@ fn transition_matches_finite_differences_of_strapdown() {
             let input = SensorInput {
                 omega_body: s.omega_body,
                 f_body: s.f_body,
+                ..SensorInput::default()
             };
             model.substep(&layout, &s.c_body_to_enu, &input, &p, None);
         }
@@ -153,6 +155,7 @@ fn nonlinear_window(
         let input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
+            ..SensorInput::default()
         };
         let nu = layout.model.error(Sensor::Gyro, p, &input);
         let f_meas = s.f_body + layout.model.error(Sensor::Accel, p, &input);
@@ -189,6 +192,7 @@ fn window_measurements_match_finite_differences() {
             let input = SensorInput {
                 omega_body: s.omega_body,
                 f_body: s.f_body,
+                ..SensorInput::default()
             };
             model.substep(&layout, &s.c_body_to_enu, &input, &p, Some(&zero));
             let s = kin.sample(t0 + (k + 1) as f64 * imu_dt);

@@ -7,6 +7,9 @@
 //! - [`attitude`]: DCMs, rotation vectors, quaternions, and the mapping to the paper's `L` and hat;
 //! - [`terms`]: instrument errors as composable terms (parameters with names, units and prior sigma;
 //!   the effect on the sensor output; its Jacobian);
+//! - [`candidates`]: candidate terms beyond the paper's model (g-sensitivity, scale asymmetry,
+//!   accelerometer nonlinearity, size effect, gyro-accelerometer time offset) and the gyro bias
+//!   drift option, each with ids, parameter names, units and default priors;
 //! - [`errors`]: the attitude-error equation for `beta` and the specific-force measurement.
 //!
 //! ```
@@ -20,6 +23,7 @@
 #![warn(missing_docs)]
 
 pub mod attitude;
+pub mod candidates;
 pub mod earth;
 pub mod errors;
 pub mod names;

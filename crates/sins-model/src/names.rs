@@ -28,6 +28,21 @@ pub const INSTALL_PREFIX: &str = "install.delta.";
 /// Common prefix of [`BASE_GAMMA`].
 pub const BASE_PREFIX: &str = "base.gamma.";
 
+/// The gyro biases (the paper's `nu0`), the states a gyro drift acts on.
+pub const GYRO_BIAS: [&str; 3] = ["gyro.bias.x", "gyro.bias.y", "gyro.bias.z"];
+/// Prefix of the gyro g-sensitivity parameters `gyro.gsens.<ij>` ([`crate::candidates`]).
+pub const GYRO_GSENS_PREFIX: &str = "gyro.gsens.";
+/// Prefix of the gyro scale-factor asymmetries `gyro.asym.<i>`.
+pub const GYRO_ASYM_PREFIX: &str = "gyro.asym.";
+/// Prefix of the accelerometers' quadratic coefficients `accel.k2.<i>`.
+pub const ACCEL_K2_PREFIX: &str = "accel.k2.";
+/// Prefix of the accelerometers' offsets `accel.lever.<i><j>` (size effect).
+pub const ACCEL_LEVER_PREFIX: &str = "accel.lever.";
+/// Delay of the accelerometer samples against the gyros' (s).
+pub const TIME_GYRO_ACCEL: &str = "time.gyro_accel";
+/// Random-walk intensities of the gyro biases (rad/s/sqrt(s)); model options, not states.
+pub const GYRO_DRIFT: [&str; 3] = ["gyro.drift.x", "gyro.drift.y", "gyro.drift.z"];
+
 /// Unit of the mounting and attitude states.
 pub const ANGLE_UNIT: Unit = Unit::SmallAngle;
 /// Unit of [`TURNTABLE_TAU`].

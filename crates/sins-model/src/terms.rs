@@ -40,7 +40,18 @@ pub enum Unit {
     Angle,
     /// Time (s), reported in s.
     Second,
+    /// Gyro g-sensitivity (rad/s per m/s^2), reported in deg/h per g (9.80665 m/s^2).
+    RadPerSecondPerMeterPerSecond2,
+    /// Second-order accelerometer coefficient (1/(m/s^2)), reported in 1/g.
+    PerMeterPerSecond2,
+    /// Length (m), reported in mm.
+    Meter,
+    /// Random-walk intensity of a gyro bias (rad/s/sqrt(s)), reported in deg/h/sqrt(h).
+    RadPerSecondPerSqrtSecond,
 }
+
+/// Standard gravity (m/s^2), the `g` of report units such as deg/h/g.
+pub const STANDARD_GRAVITY: f64 = 9.80665;
 
 impl Unit {
     /// SI unit name as written in result files.
@@ -51,6 +62,10 @@ impl Unit {
             Unit::Ratio => "1",
             Unit::SmallAngle | Unit::Angle => "rad",
             Unit::Second => "s",
+            Unit::RadPerSecondPerMeterPerSecond2 => "rad/s/(m/s^2)",
+            Unit::PerMeterPerSecond2 => "1/(m/s^2)",
+            Unit::Meter => "m",
+            Unit::RadPerSecondPerSqrtSecond => "rad/s/sqrt(s)",
         }
     }
     /// Report (paper) unit name.
@@ -62,6 +77,10 @@ impl Unit {
             Unit::SmallAngle => "arcmin",
             Unit::Angle => "deg",
             Unit::Second => "s",
+            Unit::RadPerSecondPerMeterPerSecond2 => "deg/h/g",
+            Unit::PerMeterPerSecond2 => "1/g",
+            Unit::Meter => "mm",
+            Unit::RadPerSecondPerSqrtSecond => "deg/h/sqrt(h)",
         }
     }
     /// Multiply an SI value by this to get it in the report unit.
@@ -71,6 +90,11 @@ impl Unit {
             Unit::MeterPerSecond2 | Unit::Ratio | Unit::Second => 1.0,
             Unit::SmallAngle => 1.0 / crate::units::ARCMIN,
             Unit::Angle => 1.0 / crate::units::DEG,
+            Unit::RadPerSecondPerMeterPerSecond2 => STANDARD_GRAVITY / crate::units::DEG_PER_HOUR,
+            Unit::PerMeterPerSecond2 => STANDARD_GRAVITY,
+            Unit::Meter => 1e3,
+            // rad/s/sqrt(s) -> deg/h/sqrt(h): x / (deg/h) * sqrt(3600 s/h).
+            Unit::RadPerSecondPerSqrtSecond => 60.0 / crate::units::DEG_PER_HOUR,
         }
     }
 }
@@ -98,12 +122,23 @@ impl ParamSpec {
 }
 
 /// What a sensor is exposed to at one instant, in the instrument (body) frame.
+///
+/// The two derivatives are zero by default (the paper's terms do not use them). A term that uses
+/// them ([`ErrorTerm::uses_rate_derivatives`]) must be affine in them with a slope that does not
+/// depend on the other inputs, `e = e0(p; w, f) + A(p) dw/dt + B(p) df/dt`: the turntable
+/// programs have rate jumps, and the truth simulator integrates that part exactly from the
+/// values of `w` and `f` at the ends of an interval (`integral of dw/dt = w(b) - w(a)`, jumps
+/// included), not by quadrature.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SensorInput {
     /// True angular rate of the body relative to inertial space (rad/s).
     pub omega_body: Vector3<f64>,
     /// True specific force (m/s^2).
     pub f_body: Vector3<f64>,
+    /// Time derivative of [`SensorInput::omega_body`] (body axes) (rad/s^2).
+    pub omega_dot_body: Vector3<f64>,
+    /// Time derivative of [`SensorInput::f_body`] (its body-axis components) (m/s^3).
+    pub f_dot_body: Vector3<f64>,
 }
 
 /// An instrument error term.
@@ -121,6 +156,12 @@ pub trait ErrorTerm: Debug + Send + Sync {
     /// a model of such terms can be compensated with precomputed matrices
     /// ([`ErrorModel::affine`]). False unless a term says otherwise.
     fn is_affine(&self) -> bool {
+        false
+    }
+    /// Whether the error depends on [`SensorInput::omega_dot_body`] or
+    /// [`SensorInput::f_dot_body`] (then affine in them, see [`SensorInput`]). False unless a
+    /// term says otherwise.
+    fn uses_rate_derivatives(&self) -> bool {
         false
     }
 }
@@ -434,6 +475,7 @@ impl ErrorModel {
             let input = SensorInput {
                 omega_body: omega,
                 f_body: f,
+                ..SensorInput::default()
             };
             self.error(sensor, p, &input) - offset
         };
@@ -443,6 +485,38 @@ impl ErrorModel {
             d_omega: Matrix3::from_columns(&[0, 1, 2].map(|i| column(e.column(i).into(), z))),
             d_f: Matrix3::from_columns(&[0, 1, 2].map(|i| column(z, e.column(i).into()))),
         })
+    }
+
+    /// Whether any term uses the rate derivatives ([`ErrorTerm::uses_rate_derivatives`]).
+    pub fn uses_rate_derivatives(&self) -> bool {
+        self.terms.iter().any(|t| t.uses_rate_derivatives())
+    }
+
+    /// The integral over an interval of the part of one triad's error that depends on the rate
+    /// derivatives, from the changes of the rate `d_omega = w(b) - w(a)` and of the specific
+    /// force `d_f = f(b) - f(a)` over it (exact for terms that keep the contract of
+    /// [`SensorInput`], jumps included). Zero when no term uses the derivatives.
+    pub fn derivative_error_integral(
+        &self,
+        sensor: Sensor,
+        p: &[f64],
+        d_omega: &Vector3<f64>,
+        d_f: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        let mut e = Vector3::zeros();
+        let zero = SensorInput::default();
+        let change = SensorInput {
+            omega_dot_body: *d_omega,
+            f_dot_body: *d_f,
+            ..zero
+        };
+        for (t, &o) in self.terms.iter().zip(&self.offsets) {
+            if t.sensor() == sensor && t.uses_rate_derivatives() {
+                let q = &p[o..o + t.params().len()];
+                e += t.error(q, &change) - t.error(q, &zero);
+            }
+        }
+        e
     }
 
     /// Jacobian of one triad's error with respect to all parameters (zero columns for the other
@@ -473,6 +547,7 @@ mod tests {
         SensorInput {
             omega_body: Vector3::new(0.17, -0.02, 0.05),
             f_body: Vector3::new(1.2, -3.4, 8.9),
+            ..SensorInput::default()
         }
     }
 

@@ -101,6 +101,18 @@ impl Kinematics {
     /// The motion at time `t`.
     pub fn sample(&self, t: f64) -> MotionSample {
         let (k, k_dot) = self.program.state(t);
+        self.motion(t, k, k_dot)
+    }
+
+    /// The motion at time `t` with the rates' left limits ([`Program::state_left`]): where the
+    /// program's rate jumps, `omega_body(b) - omega_body(a)` from these samples counts the jump
+    /// once, in the interval `(a, b]` that holds it.
+    pub fn sample_left(&self, t: f64) -> MotionSample {
+        let (k, k_dot) = self.program.state_left(t);
+        self.motion(t, k, k_dot)
+    }
+
+    fn motion(&self, t: f64, k: [f64; 3], k_dot: [f64; 3]) -> MotionSample {
         let c = self.c_body_to_enu(&k);
         let platform_rate_enu = self.c_base_to_enu * platform_rate_base(&k, &k_dot);
         let omega_body = c.transpose() * (self.u_enu + platform_rate_enu);

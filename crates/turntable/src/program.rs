@@ -312,6 +312,29 @@ impl Program {
         }
     }
 
+    /// [`Program::state`] with the rates' left limits: at a piece boundary `t` the rates of the
+    /// piece that ends there (the angles are continuous). With it, `rate(b) - rate(a)` counts a
+    /// jump at `t` in `(a, b]` exactly once over a sequence of intervals.
+    pub fn state_left(&self, t: f64) -> ([f64; 3], [f64; 3]) {
+        let (k, rate) = self.state(t);
+        if t <= 0.0 || self.pieces.is_empty() {
+            return (k, rate);
+        }
+        let i = self.piece_index(t);
+        let p = &self.pieces[i];
+        if t == p.t0 && i > 0 {
+            return (k, self.pieces[i - 1].rate);
+        }
+        if t > p.t1 {
+            // After the end: the last piece's rate up to and including its end.
+            return (k, [0.0; 3]);
+        }
+        if t == p.t1 && i + 1 == self.pieces.len() {
+            return (k, p.rate);
+        }
+        (k, rate)
+    }
+
     /// Gimbal angles (rad) and rates (rad/s) at time `t`; before the start the program holds its
     /// start position, after the end its end position (rates zero outside).
     pub fn state(&self, t: f64) -> ([f64; 3], [f64; 3]) {

@@ -273,6 +273,7 @@ pub fn increments(
         let input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
+            ..SensorInput::default()
         };
         (
             s.omega_body - model.error(Sensor::Gyro, p_true, &input),
@@ -303,7 +304,44 @@ pub fn increments(
             dv += y;
         }
     }
+    if model.uses_rate_derivatives() {
+        // The part of the errors that is linear in the rate derivatives (the quadrature above
+        // evaluates the terms with zero derivatives) integrates exactly to a function of the
+        // changes of the rate and specific force over the interval, jumps of the program's
+        // rates included (a delta function in dw/dt that no quadrature sees). Left limits at
+        // both ends, so that a jump at an interval's end belongs to the next interval, as a
+        // finite difference of consecutive increments puts it.
+        let (sa, sb) = (kin.sample_left(a), kin.sample_left(b));
+        let (d_omega, d_f) = (sb.omega_body - sa.omega_body, sb.f_body - sa.f_body);
+        dtheta -= model.derivative_error_integral(Sensor::Gyro, p_true, &d_omega, &d_f);
+        dv += model.derivative_error_integral(Sensor::Accel, p_true, &d_omega, &d_f);
+    }
     (dtheta, dv)
+}
+
+/// A random walk of the gyro biases on top of the constant ones: `d(nu0_i)/dt` white with PSD
+/// `intensity_i^2` ((rad/s)^2/s), from zero at `t = 0`, drawn from its own random stream.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GyroDrift {
+    /// Random-walk intensity of each gyro's bias (rad/s/sqrt(s)).
+    pub intensity: [f64; 3],
+    /// Seed of the walk's own random stream.
+    pub seed: u64,
+}
+
+/// The drifting part of the gyro biases at `i * dt`, `i = 0..=n` (zero at 0): independent
+/// increments of variance `intensity_i^2 dt`.
+pub fn gyro_bias_walk(drift: &GyroDrift, dt: f64, n: usize) -> Vec<Vector3<f64>> {
+    let mut rng = SimRng::seed_from_u64(drift.seed);
+    let s = Vector3::from(drift.intensity) * dt.sqrt();
+    let mut b = Vector3::zeros();
+    let mut out = Vec::with_capacity(n + 1);
+    out.push(b);
+    for _ in 0..n {
+        b += normal3(&mut rng).component_mul(&s);
+        out.push(b);
+    }
+    out
 }
 
 fn check(
@@ -356,6 +394,20 @@ pub fn simulate_imu<R: Rng + ?Sized>(
     config: &SimConfig,
     rng: &mut R,
 ) -> Result<Vec<ImuSample>, SimulateError> {
+    simulate_imu_drifting(kin, model, p_true, config, None, rng)
+}
+
+/// [`simulate_imu`] with the gyro biases drifting ([`gyro_bias_walk`]; the walk's integral
+/// over each interval by the trapezoid rule). The noise draws from `rng` are those of the run
+/// without the drift.
+pub fn simulate_imu_drifting<R: Rng + ?Sized>(
+    kin: &Kinematics,
+    model: &ErrorModel,
+    p_true: &[f64],
+    config: &SimConfig,
+    drift: Option<&GyroDrift>,
+    rng: &mut R,
+) -> Result<Vec<ImuSample>, SimulateError> {
     let (rule, dt) = check(model, p_true, config)?;
     let duration = run_duration(kin, config);
     if !(duration.is_finite() && duration > 0.0) {
@@ -366,10 +418,22 @@ pub fn simulate_imu<R: Rng + ?Sized>(
     let n = (duration * config.imu_rate_hz * (1.0 + 1e-12)).floor() as usize;
     let sg = (config.gyro_psd * dt).sqrt();
     let sa = (config.accel_psd * dt).sqrt();
+    if let Some(d) = drift
+        && d.intensity.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+    {
+        return Err(SimulateError::Invalid(format!(
+            "gyro drift intensities must be >= 0, got {:?}",
+            d.intensity
+        )));
+    }
+    let walk = drift.map(|d| gyro_bias_walk(d, dt, n));
     let mut out = Vec::with_capacity(n);
     for i in 1..=n {
         let t = i as f64 * dt;
         let (mut dtheta, mut dv) = increments(kin, model, p_true, &rule, (i - 1) as f64 * dt, t);
+        if let Some(b) = &walk {
+            dtheta -= (b[i - 1] + b[i]) * (0.5 * dt);
+        }
         if sg > 0.0 {
             dtheta += normal3(rng) * sg;
         }
@@ -448,8 +512,21 @@ pub fn simulate(
     sensor: &AngleSensor,
     config: &SimConfig,
 ) -> Result<Simulation, SimulateError> {
+    simulate_drifting(kin, model, p_true, sensor, config, None)
+}
+
+/// [`simulate`] with the gyro biases drifting ([`simulate_imu_drifting`]); the noise of the
+/// records is that of the run without the drift.
+pub fn simulate_drifting(
+    kin: &Kinematics,
+    model: &ErrorModel,
+    p_true: &[f64],
+    sensor: &AngleSensor,
+    config: &SimConfig,
+    drift: Option<&GyroDrift>,
+) -> Result<Simulation, SimulateError> {
     let mut rng = SimRng::seed_from_u64(config.seed);
-    let imu = simulate_imu(kin, model, p_true, config, &mut rng)?;
+    let imu = simulate_imu_drifting(kin, model, p_true, config, drift, &mut rng)?;
     let duration = imu.last().map_or(0.0, |s| s.t);
     let turntable = simulate_turntable(kin, sensor, duration, &mut rng)?;
     Ok(Simulation {

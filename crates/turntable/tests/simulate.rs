@@ -448,3 +448,146 @@ fn runs_are_reproducible_and_truth_is_complete() {
         .is_err()
     );
 }
+
+/// The accelerometers sampling `d` late, `f'(t) = f(t - d)`: the increments with the time-offset
+/// term are the plain increments over the interval shifted by `d`, to second order in `d`,
+/// inside a piece and across the program's rate changes (0 s: the rotation starts; 36 s: it
+/// stops), where the first-order model itself is off by a known amount.
+#[test]
+fn time_offset_increments_are_the_shifted_increments() {
+    use sins_model::candidates::Candidate;
+    let kin = Kinematics::new(program(), mounting(), site());
+    let plain = ErrorModel::new();
+    let mut late = ErrorModel::new();
+    late.push(Candidate::GyroAccelTimeOffset.term(1e-3).unwrap());
+    let d = 1e-3;
+    let rule = GaussLegendre::new(6).unwrap();
+    for (a, b) in [(0.0, 0.01), (12.0, 12.01), (35.995, 36.005), (50.0, 50.01)] {
+        let (_, v_late) = increments(&kin, &late, &[d], &rule, a, b);
+        let (_, v_plain) = increments(&kin, &plain, &[], &rule, a, b);
+        let (_, v_shift) = increments(&kin, &plain, &[], &rule, a - d, b - d);
+        let effect = (v_shift - v_plain).norm();
+        assert!(effect > 1e-6, "[{a}, {b}]: effect {effect:e}");
+        // Second order in d inside a piece; across a kink of f (36 s: the rotation stops, df/dt
+        // jumps by about w g) the first-order model is off by |jump of df/dt| d^2 / 2.
+        let kink = if [0.0, 36.0].iter().any(|&k| a - d < k && k < b) {
+            0.5 * d * d * 10f64.to_radians() * 9.82
+        } else {
+            0.0
+        };
+        assert!(
+            (v_late - v_shift).norm() < 1e-3 * effect + 1.1 * kink,
+            "[{a}, {b}]: {:e} vs effect {effect:e}",
+            (v_late - v_shift).norm()
+        );
+    }
+}
+
+/// Size effect across a jump of the rate: over a run of intervals the tangential part sums to
+/// `(w(end) - w(start)) x r_i` whatever the jumps inside, and a jump at an interval's end
+/// belongs to the next interval (left limits).
+#[test]
+fn size_effect_counts_rate_jumps_once() {
+    use sins_model::candidates::Candidate;
+    let kin = Kinematics::new(program(), mounting(), site());
+    let plain = ErrorModel::new();
+    let mut lever = ErrorModel::new();
+    lever.push(Candidate::AccelSizeEffect.term(0.02).unwrap());
+    let p: Vec<f64> = (0..9).map(|i| 0.01 * (i as f64 - 3.5)).collect();
+    let r = |i: usize| Vector3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+    let rule = GaussLegendre::new(8).unwrap();
+    let dt = 0.01;
+    // The rotation about bank stops at 36 s: intervals 35.95..36.05.
+    let (t0, t1): (f64, f64) = (35.95, 36.05);
+    let n = ((t1 - t0) / dt).round() as usize;
+    let mut sum = Vector3::zeros();
+    let mut centripetal = Vector3::zeros();
+    for k in 0..n {
+        let (a, b) = (t0 + k as f64 * dt, t0 + (k + 1) as f64 * dt);
+        let (_, v_lever) = increments(&kin, &lever, &p, &rule, a, b);
+        let (_, v_plain) = increments(&kin, &plain, &[], &rule, a, b);
+        sum += v_lever - v_plain;
+        // The centripetal part by a fine midpoint sum.
+        let m = 200;
+        for q in 0..m {
+            let w = kin.sample(a + (q as f64 + 0.5) * dt / m as f64).omega_body;
+            centripetal += Vector3::from_fn(|i, _| w.cross(&w.cross(&r(i)))[i]) * (dt / m as f64);
+        }
+    }
+    let dw = kin.sample_left(t1).omega_body - kin.sample_left(t0).omega_body;
+    let tangential = Vector3::from_fn(|i, _| dw.cross(&r(i))[i]);
+    assert!(tangential.norm() > 1e-4, "the jump is there: {tangential}");
+    let expect = tangential + centripetal;
+    assert!(
+        (sum - expect).norm() < 1e-6 * expect.norm(),
+        "{sum} vs {expect}"
+    );
+    // A jump exactly at the end of an interval is not in it.
+    let (_, v_before) = increments(&kin, &lever, &p, &rule, 35.99, 36.0);
+    let (_, v_after) = increments(&kin, &lever, &p, &rule, 36.0, 36.01);
+    let (_, p_before) = increments(&kin, &plain, &[], &rule, 35.99, 36.0);
+    let (_, p_after) = increments(&kin, &plain, &[], &rule, 36.0, 36.01);
+    assert!((v_before - p_before).norm() < 0.1 * tangential.norm());
+    assert!((v_after - p_after - tangential).norm() < 0.1 * tangential.norm());
+}
+
+/// The gyro-bias random walk grows its variance as `intensity^2 t` (400 walks, 1000 steps;
+/// the sample variance of 400 normals is within 20 % of the truth with probability > 0.99),
+/// and the walk does not touch the noise draws of the run.
+#[test]
+fn gyro_bias_walk_has_the_right_variance_growth() {
+    use turntable::simulate::{GyroDrift, gyro_bias_walk, simulate_imu_drifting};
+    let q = [1e-6, 2e-6, 5e-7];
+    let (dt, n, runs) = (0.01, 1000, 400);
+    let mut var = [Vector3::<f64>::zeros(); 2];
+    for seed in 0..runs {
+        let w = gyro_bias_walk(
+            &GyroDrift {
+                intensity: q,
+                seed: seed as u64,
+            },
+            dt,
+            n,
+        );
+        assert_eq!(w[0], Vector3::zeros());
+        var[0] += w[n / 4].component_mul(&w[n / 4]) / runs as f64;
+        var[1] += w[n].component_mul(&w[n]) / runs as f64;
+    }
+    for (k, t) in [(0, n as f64 / 4.0 * dt), (1, n as f64 * dt)] {
+        for i in 0..3 {
+            let expect = q[i] * q[i] * t;
+            let ratio = var[k][i] / expect;
+            assert!((0.8..1.2).contains(&ratio), "t {t} axis {i}: ratio {ratio}");
+        }
+    }
+    // The drift is in the gyros only, the same noise draws otherwise.
+    let kin = Kinematics::new(program(), mounting(), site());
+    let m = model();
+    let p = vec![0.0; 21];
+    let cfg = SimConfig {
+        gyro_psd: 1e-12,
+        accel_psd: 1e-8,
+        duration_s: Some(2.0),
+        ..quiet()
+    };
+    let drift = GyroDrift {
+        intensity: q,
+        seed: 9,
+    };
+    let a = simulate_imu(&kin, &m, &p, &cfg, &mut SimRng::seed_from_u64(4)).unwrap();
+    let b = simulate_imu_drifting(
+        &kin,
+        &m,
+        &p,
+        &cfg,
+        Some(&drift),
+        &mut SimRng::seed_from_u64(4),
+    )
+    .unwrap();
+    let walk = gyro_bias_walk(&drift, 0.01, a.len());
+    for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+        assert_eq!(x.dv, y.dv);
+        let expect = -(walk[i] + walk[i + 1]) * 0.005;
+        assert!((y.dtheta - x.dtheta - expect).norm() < 1e-15 * x.dtheta.norm() + 1e-22);
+    }
+}

@@ -79,6 +79,7 @@ pub(super) fn second_order_accel(
     let input = SensorInput {
         omega_body: c.transpose() * site.earth_rate_enu(),
         f_body: c.transpose() * site.specific_force_at_rest_enu(),
+        ..SensorInput::default()
     };
     let mut jac = vec![Vector3::zeros(); n_p];
     layout.model.jacobian(Sensor::Accel, p, &input, &mut jac);

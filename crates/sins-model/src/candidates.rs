@@ -1,0 +1,440 @@
+//! Candidate error terms beyond the paper's model (issue 10): effects a real unit may show that
+//! the paper's four terms do not describe. Each is an [`ErrorTerm`] like the paper's (parameters
+//! with names, units and prior sigma; `error()` for the truth simulator; `jacobian()` for the
+//! filter), except the gyro bias drift, which is not a constant error but process noise on the
+//! gyro-bias states (a model option, see [`Candidate::GyroBiasDrift`]).
+//!
+//! Sign conventions as everywhere: gyro output `w' = w - nu`, accelerometer output
+//! `f' = f + df`; a gyro term contributes to `nu`, an accelerometer term to `df`. SI inside.
+//!
+//! | id | parameters | unit | effect | default prior |
+//! | --- | --- | --- | --- | --- |
+//! | `gyro_g_sensitivity` | `gyro.gsens.<ij>` (9) | rad/s per m/s^2 | `nu_i += G_ij f_j` | 1e-6 |
+//! | `gyro_scale_asymmetry` | `gyro.asym.<i>` (3) | - | `nu_i += a_i abs(w_i)` | 1e-5 |
+//! | `accel_quadratic` | `accel.k2.<i>` (3) | 1/(m/s^2) | `df_i += k2_i f_i^2` | 1e-5 |
+//! | `accel_size_effect` | `accel.lever.<i><j>` (9) | m | `df_i += (dw/dt x r_i + w x (w x r_i))_i` | 0.02 |
+//! | `gyro_bias_drift` | `gyro.drift.<i>` (3, not states) | rad/s/sqrt(s) | `d(nu0_i)/dt` white, PSD `drift_i^2` | 0.1 deg/h/sqrt(h) |
+//! | `gyro_accel_time_offset` | `time.gyro_accel` (1) | s | `f'(t) = f(t - d)`: `df -= d df/dt` | 1e-3 |
+
+use crate::names;
+use crate::terms::{ErrorTerm, ParamSpec, Sensor, SensorInput, Unit};
+use nalgebra::{Matrix3, Vector3};
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// A candidate extension of the paper's model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Candidate {
+    /// Gyro error proportional to the specific force (full 3x3), [`GyroGSensitivity`].
+    GyroGSensitivity,
+    /// Gyro scale-factor error that differs for positive and negative rates,
+    /// [`GyroScaleAsymmetry`].
+    GyroScaleAsymmetry,
+    /// Accelerometer error quadratic in the specific force along its axis, [`AccelQuadratic`].
+    AccelQuadratic,
+    /// Offsets of the accelerometers from the common point (size effect), [`AccelSizeEffect`].
+    AccelSizeEffect,
+    /// Random walk of the gyro biases: process noise of intensity `drift_i^2` on the states
+    /// `gyro.bias.i`. Not a term (no constant parameters): [`Candidate::term`] gives `None`.
+    GyroBiasDrift,
+    /// The accelerometers sample late against the gyros, [`GyroAccelTimeOffset`].
+    GyroAccelTimeOffset,
+}
+
+impl Candidate {
+    /// Every candidate, in the order of the issue.
+    pub const ALL: [Candidate; 6] = [
+        Candidate::GyroGSensitivity,
+        Candidate::GyroScaleAsymmetry,
+        Candidate::AccelQuadratic,
+        Candidate::AccelSizeEffect,
+        Candidate::GyroBiasDrift,
+        Candidate::GyroAccelTimeOffset,
+    ];
+
+    /// The candidate's id (fixed by the issue).
+    pub fn id(self) -> &'static str {
+        match self {
+            Candidate::GyroGSensitivity => "gyro_g_sensitivity",
+            Candidate::GyroScaleAsymmetry => "gyro_scale_asymmetry",
+            Candidate::AccelQuadratic => "accel_quadratic",
+            Candidate::AccelSizeEffect => "accel_size_effect",
+            Candidate::GyroBiasDrift => "gyro_bias_drift",
+            Candidate::GyroAccelTimeOffset => "gyro_accel_time_offset",
+        }
+    }
+
+    /// The candidate with id `id`.
+    pub fn from_id(id: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.id() == id)
+    }
+
+    /// Names of the candidate's parameters (for the drift: of its three intensities, which are
+    /// not states).
+    pub fn param_names(self) -> Vec<String> {
+        let per_axis = |prefix: &str| AXES.iter().map(|a| format!("{prefix}{a}")).collect();
+        let pairs = |prefix: &str| {
+            AXES.iter()
+                .flat_map(|a| AXES.iter().map(move |b| format!("{prefix}{a}{b}")))
+                .collect()
+        };
+        match self {
+            Candidate::GyroGSensitivity => pairs(names::GYRO_GSENS_PREFIX),
+            Candidate::GyroScaleAsymmetry => per_axis(names::GYRO_ASYM_PREFIX),
+            Candidate::AccelQuadratic => per_axis(names::ACCEL_K2_PREFIX),
+            Candidate::AccelSizeEffect => pairs(names::ACCEL_LEVER_PREFIX),
+            Candidate::GyroBiasDrift => names::GYRO_DRIFT.iter().map(|s| s.to_string()).collect(),
+            Candidate::GyroAccelTimeOffset => vec![names::TIME_GYRO_ACCEL.to_string()],
+        }
+    }
+
+    /// Unit of the candidate's parameters (SI inside).
+    pub fn unit(self) -> Unit {
+        match self {
+            Candidate::GyroGSensitivity => Unit::RadPerSecondPerMeterPerSecond2,
+            Candidate::GyroScaleAsymmetry => Unit::Ratio,
+            Candidate::AccelQuadratic => Unit::PerMeterPerSecond2,
+            Candidate::AccelSizeEffect => Unit::Meter,
+            Candidate::GyroBiasDrift => Unit::RadPerSecondPerSqrtSecond,
+            Candidate::GyroAccelTimeOffset => Unit::Second,
+        }
+    }
+
+    /// The sensor triad the candidate corrupts.
+    pub fn sensor(self) -> Sensor {
+        match self {
+            Candidate::GyroGSensitivity
+            | Candidate::GyroScaleAsymmetry
+            | Candidate::GyroBiasDrift => Sensor::Gyro,
+            Candidate::AccelQuadratic
+            | Candidate::AccelSizeEffect
+            | Candidate::GyroAccelTimeOffset => Sensor::Accel,
+        }
+    }
+
+    /// Default prior sigma (SI), magnitudes typical of tactical- to navigation-grade units:
+    /// - g-sensitivity 1e-6 rad/s per m/s^2 (2 deg/h/g: dynamically tuned gyros and FOGs of
+    ///   that class quote 0.1 to 10 deg/h/g; ring lasers much less);
+    /// - scale asymmetry 1e-5 (10 ppm: RLG/FOG data sheets give 1 to 50 ppm);
+    /// - quadratic 1e-5 per m/s^2 (1e-4/g, 100 micro-g/g^2: pendulous quartz accelerometers
+    ///   quote 10 to 100 micro-g/g^2 uncompensated);
+    /// - size effect 0.02 m (offset of each accelerometer's proof mass from the common point in
+    ///   a navigation-grade cluster of pendulous accelerometers: centimetres);
+    /// - time offset 1e-3 s (a sample at 1 kHz, or the group delay difference of the two
+    ///   channels' anti-alias filters);
+    /// - drift: not a prior but the default random-walk intensity, 0.1 deg/h/sqrt(h)
+    ///   (between navigation grade, 0.001 to 0.01, and tactical grade, about 1).
+    pub fn default_prior_sigma(self) -> f64 {
+        match self {
+            Candidate::GyroGSensitivity => 1e-6,
+            Candidate::GyroScaleAsymmetry => 1e-5,
+            Candidate::AccelQuadratic => 1e-5,
+            Candidate::AccelSizeEffect => 0.02,
+            Candidate::GyroBiasDrift => 0.1 / Unit::RadPerSecondPerSqrtSecond.report_factor(),
+            Candidate::GyroAccelTimeOffset => 1e-3,
+        }
+    }
+
+    /// The candidate's error term with `prior_sigma` on every parameter; `None` for the drift,
+    /// which is process noise, not a term.
+    pub fn term(self, prior_sigma: f64) -> Option<Box<dyn ErrorTerm>> {
+        let specs = |c: Candidate| {
+            c.param_names()
+                .into_iter()
+                .map(|n| ParamSpec::new(n, c.unit(), prior_sigma))
+                .collect::<Vec<_>>()
+        };
+        let params = specs(self);
+        Some(match self {
+            Candidate::GyroGSensitivity => Box::new(GyroGSensitivity { params }),
+            Candidate::GyroScaleAsymmetry => Box::new(GyroScaleAsymmetry { params }),
+            Candidate::AccelQuadratic => Box::new(AccelQuadratic { params }),
+            Candidate::AccelSizeEffect => Box::new(AccelSizeEffect { params }),
+            Candidate::GyroAccelTimeOffset => Box::new(GyroAccelTimeOffset { params }),
+            Candidate::GyroBiasDrift => return None,
+        })
+    }
+}
+
+/// Gyro g-sensitivity, full 3x3 `G` (row-major parameters `gyro.gsens.xx, .xy, ...`; `xy` is the
+/// effect on gyro x of the specific force along y): `nu += G f_body`. Affine in the input.
+#[derive(Clone, Debug)]
+pub struct GyroGSensitivity {
+    params: Vec<ParamSpec>,
+}
+
+impl ErrorTerm for GyroGSensitivity {
+    fn is_affine(&self) -> bool {
+        true
+    }
+    fn sensor(&self) -> Sensor {
+        Sensor::Gyro
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        Matrix3::from_row_slice(&p[..9]) * input.f_body
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        let f = input.f_body;
+        for i in 0..3 {
+            for j in 0..3 {
+                let mut col = Vector3::zeros();
+                col[i] = f[j];
+                out[3 * i + j] = col;
+            }
+        }
+    }
+}
+
+/// Gyro scale-factor asymmetry (`gyro.asym.x, .y, .z`): the scale-factor error is `Theta_ii +
+/// a_i` for positive and `Theta_ii - a_i` for negative rates, `nu_i += a_i abs(w_i)`.
+#[derive(Clone, Debug)]
+pub struct GyroScaleAsymmetry {
+    params: Vec<ParamSpec>,
+}
+
+impl ErrorTerm for GyroScaleAsymmetry {
+    fn sensor(&self) -> Sensor {
+        Sensor::Gyro
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        let w = input.omega_body;
+        Vector3::new(p[0] * w.x.abs(), p[1] * w.y.abs(), p[2] * w.z.abs())
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        let w = input.omega_body;
+        out[0] = Vector3::new(w.x.abs(), 0.0, 0.0);
+        out[1] = Vector3::new(0.0, w.y.abs(), 0.0);
+        out[2] = Vector3::new(0.0, 0.0, w.z.abs());
+    }
+}
+
+/// Accelerometer second-order nonlinearity (`accel.k2.x, .y, .z`): `df_i += k2_i f_i^2`.
+#[derive(Clone, Debug)]
+pub struct AccelQuadratic {
+    params: Vec<ParamSpec>,
+}
+
+impl ErrorTerm for AccelQuadratic {
+    fn sensor(&self) -> Sensor {
+        Sensor::Accel
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        let f = input.f_body;
+        Vector3::new(p[0] * f.x * f.x, p[1] * f.y * f.y, p[2] * f.z * f.z)
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        let f = input.f_body;
+        out[0] = Vector3::new(f.x * f.x, 0.0, 0.0);
+        out[1] = Vector3::new(0.0, f.y * f.y, 0.0);
+        out[2] = Vector3::new(0.0, 0.0, f.z * f.z);
+    }
+}
+
+/// Size effect: accelerometer `i` sits at `r_i` from the common point (the point whose specific
+/// force `f` the unit reports, and the rotation centre of the turntable), parameters
+/// `accel.lever.<i><j>` = component `j` of `r_i`. It senses component `i` of
+/// `f + dw/dt x r_i + w x (w x r_i)`, so `df_i += e_i . (M r_i)` with
+/// `M = skew(dw/dt) + skew(w)^2`. The tangential part is linear in `dw/dt` (the contract of
+/// [`SensorInput`]).
+#[derive(Clone, Debug)]
+pub struct AccelSizeEffect {
+    params: Vec<ParamSpec>,
+}
+
+impl AccelSizeEffect {
+    /// `M = skew(dw/dt) + skew(w)^2`: `M r = dw/dt x r + w x (w x r)`.
+    fn lever_matrix(input: &SensorInput) -> Matrix3<f64> {
+        let sw = input.omega_body.cross_matrix();
+        input.omega_dot_body.cross_matrix() + sw * sw
+    }
+}
+
+impl ErrorTerm for AccelSizeEffect {
+    fn uses_rate_derivatives(&self) -> bool {
+        true
+    }
+    fn sensor(&self) -> Sensor {
+        Sensor::Accel
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        let m = Self::lever_matrix(input);
+        Vector3::from_fn(|i, _| (0..3).map(|j| m[(i, j)] * p[3 * i + j]).sum())
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        let m = Self::lever_matrix(input);
+        for i in 0..3 {
+            for j in 0..3 {
+                let mut col = Vector3::zeros();
+                col[i] = m[(i, j)];
+                out[3 * i + j] = col;
+            }
+        }
+    }
+}
+
+/// The accelerometers sample `d` seconds late against the gyros (`time.gyro_accel`):
+/// `f'(t) = f(t - d)`, to first order `df = -d df/dt` (body-axis derivative).
+#[derive(Clone, Debug)]
+pub struct GyroAccelTimeOffset {
+    params: Vec<ParamSpec>,
+}
+
+impl ErrorTerm for GyroAccelTimeOffset {
+    fn uses_rate_derivatives(&self) -> bool {
+        true
+    }
+    fn sensor(&self) -> Sensor {
+        Sensor::Accel
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        -input.f_dot_body * p[0]
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        out[0] = -input.f_dot_body;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::terms::ErrorModel;
+
+    fn input() -> SensorInput {
+        SensorInput {
+            omega_body: Vector3::new(0.17, -0.02, 0.05),
+            f_body: Vector3::new(1.2, -3.4, 8.9),
+            omega_dot_body: Vector3::new(0.3, 0.7, -0.4),
+            f_dot_body: Vector3::new(-0.8, 1.1, 0.2),
+        }
+    }
+
+    fn terms() -> Vec<(Candidate, Box<dyn ErrorTerm>)> {
+        Candidate::ALL
+            .into_iter()
+            .filter_map(|c| c.term(c.default_prior_sigma()).map(|t| (c, t)))
+            .collect()
+    }
+
+    /// Every candidate term's Jacobian equals central finite differences of its effect, at
+    /// parameters of the size of its prior.
+    #[test]
+    fn jacobians_match_finite_differences() {
+        let inp = input();
+        for (c, t) in terms() {
+            let n = t.params().len();
+            let s = c.default_prior_sigma();
+            let p: Vec<f64> = (0..n).map(|i| s * (1.0 + i as f64 * 0.7).sin()).collect();
+            let mut jac = vec![Vector3::zeros(); n];
+            t.jacobian(&p, &inp, &mut jac);
+            for k in 0..n {
+                let h = 1e-3 * s;
+                let (mut pp, mut pm) = (p.clone(), p.clone());
+                pp[k] += h;
+                pm[k] -= h;
+                let fd = (t.error(&pp, &inp) - t.error(&pm, &inp)) / (2.0 * h);
+                let tol = 1e-9 * jac[k].norm().max(1.0);
+                assert!(
+                    (fd - jac[k]).norm() < tol,
+                    "{} parameter {k}: fd {fd:?} vs jacobian {:?}",
+                    c.id(),
+                    jac[k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn ids_names_and_terms_are_consistent() {
+        for c in Candidate::ALL {
+            assert_eq!(Candidate::from_id(c.id()), Some(c));
+            let names = c.param_names();
+            match c.term(1.0) {
+                Some(t) => {
+                    let got: Vec<String> = t.params().iter().map(|p| p.name.clone()).collect();
+                    assert_eq!(got, names, "{}", c.id());
+                    assert!(t.params().iter().all(|p| p.unit == c.unit()));
+                    assert_eq!(t.sensor(), c.sensor());
+                }
+                None => assert_eq!(c, Candidate::GyroBiasDrift),
+            }
+        }
+        assert_eq!(Candidate::from_id("nonsense"), None);
+        let g = Candidate::GyroGSensitivity.param_names();
+        assert_eq!(g[1], "gyro.gsens.xy");
+        assert_eq!(
+            Candidate::AccelSizeEffect.param_names()[5],
+            "accel.lever.yz"
+        );
+        assert_eq!(Candidate::AccelQuadratic.param_names()[2], "accel.k2.z");
+        assert_eq!(
+            Candidate::GyroAccelTimeOffset.param_names(),
+            vec!["time.gyro_accel"]
+        );
+        assert_eq!(Candidate::GyroBiasDrift.param_names()[0], "gyro.drift.x");
+        // 0.1 deg/h/sqrt(h) in SI.
+        let d = Candidate::GyroBiasDrift.default_prior_sigma();
+        assert!((d - 0.1 * crate::units::DEG_PER_HOUR / 60.0).abs() < 1e-20);
+    }
+
+    /// The effects are the issue's formulas.
+    #[test]
+    fn effects_are_the_formulas() {
+        let x = input();
+        let g = Candidate::GyroGSensitivity.term(1.0).unwrap();
+        let mut p = vec![0.0; 9];
+        p[1] = 2e-6; // xy: gyro x, force along y
+        assert!((g.error(&p, &x) - Vector3::new(2e-6 * x.f_body.y, 0.0, 0.0)).norm() < 1e-20);
+        let a = Candidate::GyroScaleAsymmetry.term(1.0).unwrap();
+        let e = a.error(&[1e-5, 2e-5, 3e-5], &x);
+        assert!((e.y - 2e-5 * 0.02).abs() < 1e-20 && e.y > 0.0);
+        let k = Candidate::AccelQuadratic.term(1.0).unwrap();
+        let e = k.error(&[0.0, 0.0, 1e-5], &x);
+        assert!((e.z - 1e-5 * 8.9 * 8.9).abs() < 1e-18);
+        // Size effect: accelerometer y at r_y senses component y of the rigid-body formula.
+        let s = Candidate::AccelSizeEffect.term(1.0).unwrap();
+        let r_y = Vector3::new(0.01, -0.02, 0.03);
+        let mut p = vec![0.0; 9];
+        p[3..6].copy_from_slice(r_y.as_slice());
+        let w = x.omega_body;
+        let expect = x.omega_dot_body.cross(&r_y) + w.cross(&w.cross(&r_y));
+        let e = s.error(&p, &x);
+        assert!((e - Vector3::new(0.0, expect.y, 0.0)).norm() < 1e-15);
+        let d = Candidate::GyroAccelTimeOffset.term(1.0).unwrap();
+        assert!((d.error(&[1e-3], &x) + x.f_dot_body * 1e-3).norm() < 1e-18);
+    }
+
+    /// The derivative part of a model is integrated from the changes over an interval: for a
+    /// rate that jumps, `integral of dw/dt = w(b) - w(a)`.
+    #[test]
+    fn derivative_part_comes_from_the_changes() {
+        let mut m = ErrorModel::new();
+        m.push(Candidate::AccelSizeEffect.term(0.02).unwrap());
+        m.push(Candidate::GyroAccelTimeOffset.term(1e-3).unwrap());
+        assert!(m.uses_rate_derivatives());
+        let p: Vec<f64> = (0..10).map(|i| 0.01 * (i as f64 - 4.0)).collect();
+        let (dw, df) = (Vector3::new(0.1, -0.2, 0.05), Vector3::new(0.3, 0.0, -0.1));
+        let e = m.derivative_error_integral(Sensor::Accel, &p, &dw, &df);
+        let r = |i: usize| Vector3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+        let expect = Vector3::from_fn(|i, _| dw.cross(&r(i))[i]) - df * p[9];
+        assert!((e - expect).norm() < 1e-15);
+        assert_eq!(
+            m.derivative_error_integral(Sensor::Gyro, &p, &dw, &df),
+            Vector3::zeros()
+        );
+    }
+}
