@@ -69,7 +69,7 @@ fn xsens_held_out_targets() {
         s(&png),
     ]);
     let r = json(&out);
-    assert_eq!(r["parameters"].as_array().map(Vec::len), Some(21));
+    assert_eq!(r["parameters"].as_array().map(Vec::len), Some(30));
     let v = &r["validation"];
     assert_eq!(num(v, &["intervals"]), 9.0);
     let after = num(v, &["static_rms_m_s2", "after"]);
