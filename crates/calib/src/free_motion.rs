@@ -115,6 +115,11 @@ pub struct FreeMotionSettings {
     /// (the paper's four-term model). Default 0.01 deg/s per m/s^2 (about 0.1 deg/s per g,
     /// consumer-grade).
     pub g_sensitivity_prior: Option<f64>,
+    /// Prior sigma of the gyros' scale-factor asymmetry (1): the three terms `a` of
+    /// `nu = ... + diag(a) |w|`, i.e. an axis reads positive rates with the scale factor
+    /// `1 - theta - a` and negative ones with `1 - theta + a`; named `gyro.asym.x`. `None`:
+    /// not estimated. Default 0.01.
+    pub scale_asymmetry_prior: Option<f64>,
 }
 
 impl FreeMotionSettings {
@@ -129,6 +134,7 @@ impl FreeMotionSettings {
             turn_sigma_rad: 0.5f64.to_radians(),
             bias_from_all_intervals: true,
             g_sensitivity_prior: Some(0.01 * DEG),
+            scale_asymmetry_prior: Some(0.01),
         }
     }
 }
@@ -216,7 +222,8 @@ pub struct Validation {
 #[derive(Clone, Debug, PartialEq)]
 pub struct FreeMotionResult {
     /// The 21 parameters in the paper's order (gyro bias, Theta, accel bias, Gamma), then the
-    /// nine g-sensitivity terms `gyro.gsens.*` when they are estimated; SI.
+    /// nine g-sensitivity terms `gyro.gsens.*` and the three scale-factor asymmetries
+    /// `gyro.asym.*` when they are estimated; SI.
     pub parameters: Vec<ResultParameter>,
     /// Prior sigma of each parameter (SI), in the same order.
     pub prior_sigma: Vec<f64>,
@@ -273,13 +280,15 @@ impl AccelCal {
     }
 }
 
-/// Calibrated gyro: `dth = (I - Theta)^-1 (dth' + (nu0 + G f') dt)`.
+/// Calibrated gyro: `dth = (I - Theta)^-1 (dth' + (nu0 + G f') dt + diag(a) |dth'|)`.
 #[derive(Clone, Copy, Debug)]
 struct GyroCal {
     bias: Vector3<f64>,
     inv: Matrix3<f64>,
     /// g-sensitivity `G` (zero when not estimated).
     gsens: Matrix3<f64>,
+    /// Scale-factor asymmetry `a` (zero when not estimated).
+    asym: Vector3<f64>,
 }
 
 impl GyroCal {
@@ -296,6 +305,7 @@ impl GyroCal {
             bias: Vector3::new(p[0], p[1], p[2]),
             inv: m.try_inverse().unwrap_or_else(Matrix3::identity),
             gsens: gsens.map_or_else(Matrix3::zeros, Matrix3::from_row_slice),
+            asym: Vector3::zeros(),
         }
     }
     fn raw() -> Self {
@@ -337,7 +347,8 @@ impl Increments {
     }
 
     fn calibrated(&self, k: usize, cal: &GyroCal) -> Vector3<f64> {
-        cal.inv * (self.dth[k] + cal.bias_at(&self.f[k]) * self.dt[k])
+        let d = self.dth[k];
+        cal.inv * (d + cal.bias_at(&self.f[k]) * self.dt[k] + cal.asym.component_mul(&d.abs()))
     }
 
     /// Rotation of the body from before record `from` to after record `to` (inclusive):
@@ -536,15 +547,15 @@ pub fn calibrate_free_motion(
     };
     let prior = joint_prior(settings);
     let joint = gauss_newton(prior.len(), &|x: &[f64]| {
-        let (gyro_cal, accel_cal) = calibrations(&scaled(x, &prior));
+        let (gyro_cal, accel_cal) = calibrations(&scaled(x, &prior), settings);
         let mut e = accel_residuals(&stats, &fit_idx, settings, &accel_cal);
         e.extend(ctx.residuals(&gyro_cal, &up_vectors(&stats, &accel_cal)));
         e
     });
     let p = scaled(joint.x.as_slice(), &prior);
-    let (gyro_cal, accel_cal) = calibrations(&p);
+    let (gyro_cal, accel_cal) = calibrations(&p, settings);
 
-    let parameters = parameters(&p, &joint.cov, &prior);
+    let parameters = parameters(&p, &joint.cov, &prior, settings);
     let poses = intervals
         .iter()
         .zip(&stats)
@@ -588,10 +599,18 @@ fn scaled(x: &[f64], prior: &[f64]) -> Vec<f64> {
 }
 
 /// The calibrations of a joint parameter vector `[nu0 (3), Theta (9), df0 (3), Gamma (6),
-/// G (9, if estimated)]` (SI).
-fn calibrations(p: &[f64]) -> (GyroCal, AccelCal) {
-    let gsens = (p.len() > 21).then(|| &p[21..30]);
-    (GyroCal::new(&p[..12], gsens), AccelCal::new(&p[12..21]))
+/// G (9, if estimated), a (3, if estimated)]` (SI).
+fn calibrations(p: &[f64], settings: &FreeMotionSettings) -> (GyroCal, AccelCal) {
+    let mut next = 21;
+    let gsens = settings.g_sensitivity_prior.map(|_| {
+        next += 9;
+        &p[21..30]
+    });
+    let mut gyro = GyroCal::new(&p[..12], gsens);
+    if settings.scale_asymmetry_prior.is_some() {
+        gyro.asym = Vector3::new(p[next], p[next + 1], p[next + 2]);
+    }
+    (gyro, AccelCal::new(&p[12..21]))
 }
 
 /// Prior sigmas of the accelerometer parameters `[df0 (3), Gamma (6)]`.
@@ -622,7 +641,13 @@ fn joint_prior(settings: &FreeMotionSettings) -> Vec<f64> {
     let gsens = settings
         .g_sensitivity_prior
         .map_or(Vec::new(), |s| vec![s; 9]);
-    gyro.chain(accel_prior(settings)).chain(gsens).collect()
+    let asym = settings
+        .scale_asymmetry_prior
+        .map_or(Vec::new(), |s| vec![s; 3]);
+    gyro.chain(accel_prior(settings))
+        .chain(gsens)
+        .chain(asym)
+        .collect()
 }
 
 /// `|f| - g` of every fitted static interval over its sigma.
@@ -712,7 +737,12 @@ impl GyroContext<'_> {
 
 /// The result parameters (order of [`calibrations`]) with their sigmas from the normalised
 /// covariance.
-fn parameters(p: &[f64], cov: &DMatrix<f64>, prior: &[f64]) -> Vec<ResultParameter> {
+fn parameters(
+    p: &[f64],
+    cov: &DMatrix<f64>,
+    prior: &[f64],
+    settings: &FreeMotionSettings,
+) -> Vec<ResultParameter> {
     let mut names: Vec<(String, &str)> = Vec::with_capacity(p.len());
     for a in AXES {
         names.push((format!("gyro.bias.{a}"), "rad/s"));
@@ -730,9 +760,16 @@ fn parameters(p: &[f64], cov: &DMatrix<f64>, prior: &[f64]) -> Vec<ResultParamet
         let unit = if i == j { "1" } else { "rad" };
         names.push((format!("accel.gamma.{}{}", AXES[i], AXES[j]), unit));
     }
-    for a in AXES {
-        for b in AXES {
-            names.push((format!("gyro.gsens.{a}{b}"), GSENS_UNIT));
+    if settings.g_sensitivity_prior.is_some() {
+        for a in AXES {
+            for b in AXES {
+                names.push((format!("gyro.gsens.{a}{b}"), GSENS_UNIT));
+            }
+        }
+    }
+    if settings.scale_asymmetry_prior.is_some() {
+        for a in AXES {
+            names.push((format!("gyro.asym.{a}"), "1"));
         }
     }
     names
@@ -835,6 +872,7 @@ mod tests {
         poses: &[Matrix3<f64>],
         jitter: f64,
         gsens: Matrix3<f64>,
+        asym: Vector3<f64>,
         rng: &mut Lcg,
     ) -> (ImuData, Vec<Interval>, KnownTurn) {
         let p = truth();
@@ -855,8 +893,8 @@ mod tests {
             *t += dt;
             let f = c.transpose() * Vector3::new(0.0, 0.0, G);
             let fr = m_accel * f + accel.bias + Vector3::from_fn(|_, _| 0.01 * rng.normal());
-            let wr =
-                m_gyro * w - gyro.bias - gsens * fr + Vector3::from_fn(|_, _| 0.003 * rng.normal());
+            let wr = m_gyro * w - gyro.bias - gsens * fr - asym.component_mul(&w.abs())
+                + Vector3::from_fn(|_, _| 0.003 * rng.normal());
             records.push(ImuRecord {
                 t: *t,
                 gyro: wr.into(),
@@ -937,7 +975,8 @@ mod tests {
     fn recovers_known_errors_within_three_sigma() {
         let mut rng = Lcg(7);
         let poses = poses(&mut rng, 24);
-        let (data, intervals, turn) = simulate(&poses, 0.2, Matrix3::zeros(), &mut rng);
+        let (data, intervals, turn) =
+            simulate(&poses, 0.2, Matrix3::zeros(), Vector3::zeros(), &mut rng);
         let mut settings = FreeMotionSettings::new(G);
         settings.holdout = Some(5);
         let r = calibrate_free_motion(&data, &intervals, &[turn], &settings).unwrap();
@@ -965,8 +1004,12 @@ mod tests {
     fn jittered_time_stamps_are_integrated_over_their_own_intervals() {
         let mut rng = Lcg(11);
         let poses = poses(&mut rng, 16);
-        let (data, intervals, turn) = simulate(&poses, 0.3, Matrix3::zeros(), &mut rng);
-        let settings = FreeMotionSettings::new(G);
+        let (data, intervals, turn) =
+            simulate(&poses, 0.3, Matrix3::zeros(), Vector3::zeros(), &mut rng);
+        // The paper's model alone: the extra terms would absorb part of a timing error.
+        let mut settings = FreeMotionSettings::new(G);
+        settings.g_sensitivity_prior = None;
+        settings.scale_asymmetry_prior = None;
         let r = calibrate_free_motion(&data, &intervals, std::slice::from_ref(&turn), &settings)
             .unwrap();
         let (worst, name) = max_error_in_sigmas(&r);
@@ -998,7 +1041,7 @@ mod tests {
         let mut rng = Lcg(21);
         let poses = poses(&mut rng, 24);
         let gsens = xsens_like_gsens();
-        let (data, intervals, turn) = simulate(&poses, 0.0, gsens, &mut rng);
+        let (data, intervals, turn) = simulate(&poses, 0.0, gsens, Vector3::zeros(), &mut rng);
         let turns = std::slice::from_ref(&turn);
         // The paper's model alone (no g-sensitivity) cannot fit the carried gravity directions.
         let mut paper = FreeMotionSettings::new(G);
@@ -1013,13 +1056,50 @@ mod tests {
         assert!(gyro_misfit(&r) < 2.0, "{:?}", r.gyro_fit);
         let (worst, name) = max_error_in_sigmas(&r);
         assert!(worst < 3.0, "{name}: {worst} sigma");
-        for (k, p) in r.parameters[21..].iter().enumerate() {
+        for (k, p) in r.parameters[21..30].iter().enumerate() {
             let t = gsens[(k / 3, k % 3)];
             assert!(
                 (p.value - t).abs() < 3.0 * p.sigma.unwrap(),
                 "{p:?} against {t}"
             );
         }
+        let (v0, v) = (r0.validation.unwrap(), r.validation.unwrap());
+        assert!(
+            v.rotation_rms_after_rad < 0.3 * v0.rotation_rms_after_rad,
+            "{v0:?} {v:?}"
+        );
+    }
+
+    #[test]
+    fn scale_factor_asymmetry_explains_turns_against_flips() {
+        let mut rng = Lcg(33);
+        let poses = poses(&mut rng, 24);
+        let asym = Vector3::new(0.004, -0.003, 0.005);
+        let (data, intervals, turn) = simulate(&poses, 0.0, Matrix3::zeros(), asym, &mut rng);
+        let turns = std::slice::from_ref(&turn);
+        let mut without = FreeMotionSettings::new(G);
+        without.holdout = Some(5);
+        without.scale_asymmetry_prior = None;
+        let r0 = calibrate_free_motion(&data, &intervals, turns, &without).unwrap();
+        let mut settings = FreeMotionSettings::new(G);
+        settings.holdout = Some(5);
+        let r = calibrate_free_motion(&data, &intervals, turns, &settings).unwrap();
+        assert!(gyro_misfit(&r0) > 3.0, "{:?}", r0.gyro_fit);
+        assert!(gyro_misfit(&r) < 2.0, "{:?}", r.gyro_fit);
+        let (worst, name) = max_error_in_sigmas(&r);
+        assert!(worst < 3.0, "{name}: {worst} sigma");
+        for (k, p) in r.parameters[30..33].iter().enumerate() {
+            assert!(
+                (p.value - asym[k]).abs() < 3.0 * p.sigma.unwrap(),
+                "{p:?} against {}",
+                asym[k]
+            );
+        }
+        let t = &r.turns[0];
+        assert!(
+            (t.after_rad - t.expected_rad).abs() < 0.2f64.to_radians(),
+            "{t:?}"
+        );
         let (v0, v) = (r0.validation.unwrap(), r.validation.unwrap());
         assert!(
             v.rotation_rms_after_rad < 0.3 * v0.rotation_rms_after_rad,
@@ -1050,7 +1130,8 @@ mod tests {
                 exp_so3(v) * exp_so3(&tilt)
             })
             .collect();
-        let (data, intervals, turn) = simulate(&poses, 0.0, Matrix3::zeros(), &mut rng);
+        let (data, intervals, turn) =
+            simulate(&poses, 0.0, Matrix3::zeros(), Vector3::zeros(), &mut rng);
         let mut settings = FreeMotionSettings::new(G);
         settings.g_sensitivity_prior = None;
         let r = calibrate_free_motion(&data, &intervals, &[turn], &settings).unwrap();
@@ -1067,7 +1148,8 @@ mod tests {
     fn refuses_bad_input() {
         let mut rng = Lcg(3);
         let poses = poses(&mut rng, 4);
-        let (data, intervals, _) = simulate(&poses, 0.0, Matrix3::zeros(), &mut rng);
+        let (data, intervals, _) =
+            simulate(&poses, 0.0, Matrix3::zeros(), Vector3::zeros(), &mut rng);
         let mut s = FreeMotionSettings::new(G);
         s.holdout = Some(1);
         assert!(matches!(

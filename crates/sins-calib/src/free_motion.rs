@@ -286,13 +286,8 @@ fn parameter_report(r: &FreeMotionResult) -> String {
         ("unit", Align::Left),
     ]);
     let names: Vec<String> = r.parameters.iter().map(|p| p.name.clone()).collect();
-    for (title, members) in table::grouped(&names) {
-        let gsens = names[members[0]].starts_with("gyro.gsens.");
-        t.section(if gsens {
-            "Gyro g-sensitivity G (row: gyro, column: specific force)"
-        } else {
-            title
-        });
+    for (title, members) in groups(&names) {
+        t.section(title);
         for i in members {
             let p = &r.parameters[i];
             let (f, unit) = report_unit(p);
@@ -307,6 +302,35 @@ fn parameter_report(r: &FreeMotionResult) -> String {
         }
     }
     t.render()
+}
+
+/// The report's groups of parameters: the table's, with the terms beyond the paper's model
+/// (g-sensitivity, scale-factor asymmetry) under titles of their own.
+fn groups(names: &[String]) -> Vec<(&'static str, Vec<usize>)> {
+    let extra = [
+        (
+            "gyro.gsens.",
+            "Gyro g-sensitivity G (row: gyro, column: specific force)",
+        ),
+        (
+            "gyro.asym.",
+            "Gyro scale-factor asymmetry a (positive rates 1 - theta - a, negative 1 - theta + a)",
+        ),
+    ];
+    let mut out: Vec<(&'static str, Vec<usize>)> = Vec::new();
+    for (title, members) in table::grouped(names) {
+        for i in members {
+            let title = extra
+                .iter()
+                .find(|(prefix, _)| names[i].starts_with(prefix))
+                .map_or(title, |(_, t)| t);
+            match out.iter_mut().find(|(t, _)| *t == title) {
+                Some((_, m)) => m.push(i),
+                None => out.push((title, vec![i])),
+            }
+        }
+    }
+    out
 }
 
 fn fit_report(r: &FreeMotionResult) -> String {
