@@ -3,20 +3,27 @@
 //!
 //! The method is a batch Gauss-Newton least-squares fit with priors, in two stages:
 //!
-//! 1. **Accelerometers** (`accel.bias.*`, lower-triangular `accel.gamma.*`, 9 parameters): in
-//!    every static interval the calibrated specific force `f = (I + Gamma)^-1 (f' - df0)` must have
-//!    the magnitude `g`. One residual per interval, `|f| - g`, weighted by the noise of the
-//!    interval's mean (`std / sqrt(records)`) and a floor ([`FreeMotionSettings::accel_floor_m_s2`]).
-//! 2. **Gyros** (`gyro.bias.*`, full `gyro.theta.*`, 12 parameters): the bias is measured by the
-//!    mean rate over the first static interval (the Earth rate, which a consumer gyro cannot see,
-//!    is taken as part of that measurement's noise); the rotation between consecutive static
-//!    intervals is integrated from the calibrated increments `(I - Theta)^-1 (dth' + nu0 dt)` over
-//!    each record's own interval (jittered time stamps are used as they are: a rate record is the
-//!    mean over the interval ending at its time stamp), the calibrated gravity direction of one
-//!    pose is rotated into the next, and its mismatch with the direction measured there is a
-//!    residual (the cross product of the two unit vectors, in rad). A known turn (e.g. a
-//!    360-degree rotation of a section list) adds the integrated angle about its axis as a
-//!    measurement of that angle.
+//! 1. **Accelerometers alone** (`accel.bias.*`, lower-triangular `accel.gamma.*`, 9
+//!    parameters): in every static interval the calibrated specific force
+//!    `f = (I + Gamma)^-1 (f' - df0)` must have the magnitude `g`. One residual per interval,
+//!    `|f| - g`, weighted by the noise of the interval's mean (`std / sqrt(records)`) and a floor
+//!    ([`FreeMotionSettings::accel_floor_m_s2`]). Reported as a fit of its own; its values are
+//!    not the result.
+//! 2. **Gyros and accelerometers together** (`gyro.bias.*`, full `gyro.theta.*`, the
+//!    g-sensitivity `gyro.gsens.*` and the scale-factor asymmetry `gyro.asym.*` when their
+//!    priors are set, and the accelerometer parameters again): the residuals of stage 1; the
+//!    bias `nu0 + G f'` measured by the mean rate of every fitted static interval (the Earth
+//!    rate, which a consumer gyro cannot see, is taken as part of that measurement's noise); the
+//!    rotation between consecutive static intervals integrated from the calibrated increments
+//!    `(I - Theta)^-1 (dth' + (nu0 + G f') dt + diag(a) |dth'|)` over each record's own
+//!    interval (jittered time stamps are used as they are: a rate record is the mean over the
+//!    interval ending at its time stamp), the calibrated gravity direction of one pose rotated
+//!    into the next, and its mismatch with the direction measured there as a residual (the
+//!    cross product of the two unit vectors, in rad). The directions come from the
+//!    accelerometer parameters being fitted, so the carries observe the accelerometer
+//!    non-orthogonality that `|f| = g` cannot see with one axis along gravity. A known turn
+//!    (e.g. a 360-degree rotation of a section list) adds the integrated angle about its axis as
+//!    a measurement of that angle.
 //!
 //! Parameters are normalised by their prior sigma; the prior enters as a pseudo-measurement of
 //! zero, so parameters the data do not observe keep their prior (and are named by
@@ -29,8 +36,10 @@
 //! Held-out validation ([`FreeMotionSettings::holdout`]) leaves every K-th static interval out of
 //! both fits and checks the calibration on those only ([`Validation`]).
 //!
-//! Sensor models (as in the paper): `w' = w - nu`, `nu = nu0 + Theta w`; `f' = f + df`,
-//! `df = df0 + Gamma f`. Everything is SI.
+//! Sensor models (the paper's, with two gyro terms more): `w' = w - nu`,
+//! `nu = nu0 + Theta w + G f' + diag(a) |w|`; `f' = f + df`, `df = df0 + Gamma f`. Everything
+//! is SI. `docs/real-data.md` ("Cause of the gyro misfit") has the measurements behind the two
+//! extra terms and the joint stage.
 
 use crate::io::{ImuData, ImuKind, ResultParameter};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
