@@ -412,10 +412,63 @@ pub fn import_recording(
     profile: &Profile,
     options: &ImportOptions,
 ) -> Result<Imported, ImportError> {
-    let files = profile.input_files();
+    let (sources, layouts) = read_sources(profile)?;
+    let (gs, gl) = (&sources[0], &layouts[0]);
+    let (as_, al) = (
+        sources.last().expect("one or two"),
+        layouts.last().expect("one or two"),
+    );
+    let (imu, sat_g, sat_a) = convert_records(profile, gs, gl, as_, al);
+    let n = gs.t.len();
+    let t = &gs.t;
+    let (timing, gaps, gap_reports) = check_timing(profile, options, gs)?;
+    let static_force = check_static_force(profile, &imu, &gaps, as_)?;
+    let saturation = saturation_reports(profile, [(&sat_g, gs), (&sat_a, as_)]);
+    let turntable = turntable_of(profile, gs, gl);
+    let sections = match &profile.sections {
+        Some(s) => Some(sections::carry(
+            s,
+            &profile.resolve(&s.file),
+            &imu,
+            &profile.gyro,
+            &profile.accel,
+        )?),
+        None => None,
+    };
+
+    let report = ImportReport {
+        profile: profile.origin.clone(),
+        description: profile.description.clone(),
+        inputs: sources.iter().map(input_file).collect(),
+        form: match imu.kind {
+            ImuKind::Rates => "rates",
+            ImuKind::Increments => "increments",
+        }
+        .into(),
+        records: n,
+        t_first_s: t[0],
+        t_last_s: t[n - 1],
+        timing,
+        gaps: gap_reports,
+        saturation,
+        static_force,
+        turntable: turntable.is_some(),
+        sections: sections.as_ref().map(|s| s.sections.len()),
+    };
+    Ok(Imported {
+        imu,
+        turntable,
+        sections,
+        report,
+    })
+}
+
+/// Stage 1: read the profile's input files (one, or gyro and accelerometer files joined on
+/// time).
+fn read_sources(profile: &Profile) -> Result<(Vec<Source>, Vec<Layout>), ImportError> {
     let mut sources = Vec::new();
     let mut layouts = Vec::new();
-    for (role, path) in &files {
+    for (role, path) in &profile.input_files() {
         let (s, l) = read_source(profile, role, path)?;
         sources.push(s);
         layouts.push(l);
@@ -423,23 +476,27 @@ pub fn import_recording(
     if let [g, a] = sources.as_slice() {
         join(profile, g, a)?;
     }
-    let (gs, gl) = (&sources[0], &layouts[0]);
-    let (as_, al) = (
-        sources.last().expect("one or two"),
-        layouts.last().expect("one or two"),
-    );
-    let (g_at, a_at) = (gl.gyro.unwrap_or(0), al.accel.unwrap_or(0));
-    let n = gs.t.len();
-    let t = &gs.t;
+    Ok((sources, layouts))
+}
 
+/// Stage 2: the records converted to SI, with the saturation of both sensors in the file's
+/// values.
+fn convert_records(
+    profile: &Profile,
+    gs: &Source,
+    gl: &Layout,
+    as_: &Source,
+    al: &Layout,
+) -> (ImuData, Saturation, Saturation) {
+    let (g_at, a_at) = (gl.gyro.unwrap_or(0), al.accel.unwrap_or(0));
     let kind = match profile.form {
         Form::Rates => ImuKind::Rates,
         Form::Increments => ImuKind::Increments,
     };
-    let mut records = Vec::with_capacity(n);
+    let mut records = Vec::with_capacity(gs.t.len());
     let mut sat_g = Saturation::new();
     let mut sat_a = Saturation::new();
-    for (k, &tk) in t.iter().enumerate() {
+    for (k, &tk) in gs.t.iter().enumerate() {
         let raw_g = triad(&gs.table, k, g_at);
         let raw_a = triad(&as_.table, k, a_at);
         sat_g.push(k, tk, profile.gyro.saturated(&raw_g));
@@ -451,10 +508,17 @@ pub fn import_recording(
             temp: None,
         });
     }
-    let imu = ImuData { kind, records };
+    (ImuData { kind, records }, sat_g, sat_a)
+}
 
-    // Timing: jitter kept, gaps refused unless allowed.
-    if n < 2 {
+/// Stage 3, timing: jitter kept, gaps refused unless allowed.
+fn check_timing(
+    profile: &Profile,
+    options: &ImportOptions,
+    gs: &Source,
+) -> Result<(timing::Timing, Vec<timing::GapAt>, Vec<GapReport>), ImportError> {
+    let t = &gs.t;
+    if t.len() < 2 {
         return Err(ImportError::line(
             &gs.table.file,
             gs.table.lines[0],
@@ -498,86 +562,58 @@ pub fn import_recording(
             ),
         ));
     }
+    Ok((timing, gaps, gap_reports))
+}
 
-    let static_force = check_static_force(profile, &imu, &gaps, as_)?;
-
-    let saturation = [
-        (&profile.gyro, &sat_g, "gyro", gs),
-        (&profile.accel, &sat_a, "accel", as_),
-    ]
-    .into_iter()
-    .filter_map(|(sensor, s, name, src)| {
-        sensor.range.map(|range| SaturationReport {
-            sensor: name.into(),
-            range,
-            count: s.count,
-            file: src.table.file.clone(),
-            first_line: s.first.map(|k| src.table.lines[k]),
-            stretches: s.stretches.clone(),
+/// Stage 4: the saturation reports of the sensors with a range (gyro, then accelerometer).
+fn saturation_reports(
+    profile: &Profile,
+    found: [(&Saturation, &Source); 2],
+) -> Vec<SaturationReport> {
+    [&profile.gyro, &profile.accel]
+        .into_iter()
+        .zip(["gyro", "accel"])
+        .zip(found)
+        .filter_map(|((sensor, name), (s, src))| {
+            sensor.range.map(|range| SaturationReport {
+                sensor: name.into(),
+                range,
+                count: s.count,
+                file: src.table.file.clone(),
+                first_line: s.first.map(|k| src.table.lines[k]),
+                stretches: s.stretches.clone(),
+            })
         })
-    })
-    .collect();
+        .collect()
+}
 
-    let turntable = profile.angles.as_ref().zip(gl.angles).map(|(a, at)| {
+/// Stage 5: the turntable angles of the gyro file, when the profile has them (degrees).
+fn turntable_of(profile: &Profile, gs: &Source, gl: &Layout) -> Option<TurntableData> {
+    profile.angles.as_ref().zip(gl.angles).map(|(a, at)| {
         let f = match a.unit {
             AngleUnit::Deg => 1.0,
             AngleUnit::Rad => 180.0 / std::f64::consts::PI,
         };
         TurntableData {
-            records: (0..n)
+            records: (0..gs.t.len())
                 .map(|k| TurntableRecord {
-                    t: t[k],
+                    t: gs.t[k],
                     k_deg: triad(&gs.table, k, at).map(|v| v * f),
                 })
                 .collect(),
         }
-    });
-
-    let sections = match &profile.sections {
-        Some(s) => Some(sections::carry(
-            s,
-            &profile.resolve(&s.file),
-            &imu,
-            &profile.gyro,
-            &profile.accel,
-        )?),
-        None => None,
-    };
-
-    let report = ImportReport {
-        profile: profile.origin.clone(),
-        description: profile.description.clone(),
-        inputs: sources
-            .iter()
-            .map(|s| InputFile {
-                role: s.role.into(),
-                file: s.table.file.clone(),
-                rows: s.table.rows(),
-                first_line: s.table.lines[0],
-                last_line: *s.table.lines.last().expect("rows"),
-            })
-            .collect(),
-        form: match kind {
-            ImuKind::Rates => "rates",
-            ImuKind::Increments => "increments",
-        }
-        .into(),
-        records: n,
-        t_first_s: t[0],
-        t_last_s: t[n - 1],
-        timing,
-        gaps: gap_reports,
-        saturation,
-        static_force,
-        turntable: turntable.is_some(),
-        sections: sections.as_ref().map(|s| s.sections.len()),
-    };
-    Ok(Imported {
-        imu,
-        turntable,
-        sections,
-        report,
     })
+}
+
+/// An input file of the report.
+fn input_file(s: &Source) -> InputFile {
+    InputFile {
+        role: s.role.into(),
+        file: s.table.file.clone(),
+        rows: s.table.rows(),
+        first_line: s.table.lines[0],
+        last_line: *s.table.lines.last().expect("rows"),
+    }
 }
 
 /// Rounded to 4 significant digits, for messages.

@@ -116,19 +116,93 @@ pub(crate) fn read_table(
     input: &Input,
     wanted: &[Wanted<'_>],
 ) -> Result<Table, ImportError> {
+    let mut lines = open_lines(path)?;
+    let file = lines.file.clone();
+    let index = column_indices(&mut lines, input, wanted)?;
+    let needed = index.iter().max().map_or(0, |m| m + 1);
+    let mut table = Table {
+        file: file.clone(),
+        lines: Vec::new(),
+        width: wanted.len(),
+        values: Vec::new(),
+    };
+    let mut blank: Option<usize> = None;
+    while let Some((n, text)) = lines.next_line()? {
+        let trimmed = text.trim_start();
+        if trimmed.is_empty() {
+            blank.get_or_insert(n);
+            continue;
+        }
+        if let Some(c) = &input.comment
+            && trimmed.starts_with(c.as_str())
+        {
+            continue;
+        }
+        if let Some(b) = blank {
+            return Err(ImportError::line(
+                &file,
+                b,
+                "expected a data row, found an empty line before more data",
+            ));
+        }
+        let fields: Vec<&str> = input.delimiter.split(&text).collect();
+        if fields.len() < needed {
+            let (w, _) = wanted
+                .iter()
+                .zip(&index)
+                .max_by_key(|(_, i)| **i)
+                .expect("at least one wanted column");
+            return Err(ImportError::line(
+                &file,
+                n,
+                format!(
+                    "expected at least {needed} fields separated by {} (up to the {}), found {}",
+                    input.delimiter.describe(),
+                    w.what,
+                    fields.len()
+                ),
+            ));
+        }
+        parse_row(&file, n, &fields, wanted, &index, &mut table.values)?;
+        table.lines.push(n);
+    }
+    if table.lines.is_empty() {
+        return Err(ImportError::line(
+            &file,
+            lines.line + 1,
+            format!(
+                "expected data rows after the {} skipped lines, found none",
+                input.skip_lines
+            ),
+        ));
+    }
+    Ok(table)
+}
+
+/// The file's lines, from the first.
+fn open_lines(path: &Path) -> Result<Lines, ImportError> {
     let file = path.display().to_string();
     let f = std::fs::File::open(path).map_err(|source| ImportError::Read {
         file: file.clone(),
         source,
     })?;
-    let mut lines = Lines {
+    Ok(Lines {
         reader: Box::new(std::io::BufReader::with_capacity(1 << 16, f)),
-        file: file.clone(),
+        file,
         buf: Vec::with_capacity(256),
         line: 0,
-    };
+    })
+}
+
+/// Skip the lines before the data, and give the field index of each wanted column: numbers as
+/// they are, names from the header line.
+fn column_indices(
+    lines: &mut Lines,
+    input: &Input,
+    wanted: &[Wanted<'_>],
+) -> Result<Vec<usize>, ImportError> {
+    let file = lines.file.clone();
     let delimiter = input.delimiter;
-    // Field index of each wanted column: numbers now, names from the header line.
     let mut index: Vec<Option<usize>> = wanted
         .iter()
         .map(|w| match w.column {
@@ -174,95 +248,50 @@ pub(crate) fn read_table(
             }
         }
     }
-    let index: Vec<usize> = index.into_iter().map(|i| i.unwrap_or(0)).collect();
-    let needed = index.iter().max().map_or(0, |m| m + 1);
-    let mut table = Table {
-        file: file.clone(),
-        lines: Vec::new(),
-        width: wanted.len(),
-        values: Vec::new(),
-    };
-    let mut blank: Option<usize> = None;
-    while let Some((n, text)) = lines.next_line()? {
-        let trimmed = text.trim_start();
-        if trimmed.is_empty() {
-            blank.get_or_insert(n);
-            continue;
-        }
-        if let Some(c) = &input.comment
-            && trimmed.starts_with(c.as_str())
-        {
-            continue;
-        }
-        if let Some(b) = blank {
-            return Err(ImportError::line(
-                &file,
-                b,
-                "expected a data row, found an empty line before more data",
-            ));
-        }
-        let fields: Vec<&str> = delimiter.split(&text).collect();
-        if fields.len() < needed {
-            let (w, _) = wanted
-                .iter()
-                .zip(&index)
-                .max_by_key(|(_, i)| **i)
-                .expect("at least one wanted column");
-            return Err(ImportError::line(
-                &file,
-                n,
-                format!(
-                    "expected at least {needed} fields separated by {} (up to the {}), found {}",
-                    delimiter.describe(),
-                    w.what,
-                    fields.len()
-                ),
-            ));
-        }
-        for (w, &i) in wanted.iter().zip(&index) {
-            let f = fields[i];
-            let place = match w.column {
-                Column::Name(_) => format!(", field {}", i + 1),
-                Column::Number(_) => String::new(),
-            };
-            let v = match f.parse::<f64>() {
-                Ok(v) if v.is_finite() => v,
-                Ok(_) => {
-                    return Err(ImportError::line(
-                        &file,
-                        n,
-                        format!(
-                            "{}{place}: expected a finite number, found `{}`",
-                            w.what,
-                            excerpt(f)
-                        ),
-                    ));
-                }
-                Err(_) => {
-                    return Err(ImportError::line(
-                        &file,
-                        n,
-                        format!(
-                            "{}{place}: expected a number, found `{}`",
-                            w.what,
-                            excerpt(f)
-                        ),
-                    ));
-                }
-            };
-            table.values.push(v);
-        }
-        table.lines.push(n);
+    Ok(index.into_iter().map(|i| i.unwrap_or(0)).collect())
+}
+
+/// The wanted fields of the data row on line `n` as numbers, appended to `values`.
+fn parse_row(
+    file: &str,
+    n: usize,
+    fields: &[&str],
+    wanted: &[Wanted<'_>],
+    index: &[usize],
+    values: &mut Vec<f64>,
+) -> Result<(), ImportError> {
+    for (w, &i) in wanted.iter().zip(index) {
+        let f = fields[i];
+        let place = match w.column {
+            Column::Name(_) => format!(", field {}", i + 1),
+            Column::Number(_) => String::new(),
+        };
+        let v = match f.parse::<f64>() {
+            Ok(v) if v.is_finite() => v,
+            Ok(_) => {
+                return Err(ImportError::line(
+                    file,
+                    n,
+                    format!(
+                        "{}{place}: expected a finite number, found `{}`",
+                        w.what,
+                        excerpt(f)
+                    ),
+                ));
+            }
+            Err(_) => {
+                return Err(ImportError::line(
+                    file,
+                    n,
+                    format!(
+                        "{}{place}: expected a number, found `{}`",
+                        w.what,
+                        excerpt(f)
+                    ),
+                ));
+            }
+        };
+        values.push(v);
     }
-    if table.lines.is_empty() {
-        return Err(ImportError::line(
-            &file,
-            lines.line + 1,
-            format!(
-                "expected data rows after the {} skipped lines, found none",
-                input.skip_lines
-            ),
-        ));
-    }
-    Ok(table)
+    Ok(())
 }

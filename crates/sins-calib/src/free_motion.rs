@@ -8,12 +8,13 @@ use crate::{Error, load_config, print};
 use ::import::detect::{DetectorSettings, segment};
 use ::import::sections::{SectionKind, SectionsFile};
 use calib::free_motion::{
-    FreeMotionResult, FreeMotionSettings, Interval, KnownTurn, calibrate_free_motion,
+    FreeMotionResult, FreeMotionSettings, GSENS_UNIT, Interval, KnownTurn, calibrate_free_motion,
 };
 use calib::io::{ResultParameter, read_imu_csv};
 use serde::Serialize;
 use sins_model::earth::Site;
 use sins_model::terms::Unit;
+use sins_model::units::DEG_PER_HOUR;
 use std::fmt::Write as _;
 
 /// Latitude (deg) of the site when neither --config nor --latitude gives one.
@@ -182,7 +183,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     let _ = writeln!(
         s,
         "  gravity         {} m/s^2\n  method          batch Gauss-Newton least squares with \
-         priors (accelerometers, then gyros)\n",
+         priors (accelerometers alone, then gyros and accelerometers together)\n",
         table::significant(settings.gravity_m_s2, 7)
     );
     s += &parameter_report(&result);
@@ -264,14 +265,16 @@ fn fit_json(r: &FreeMotionResult, settings: &FreeMotionSettings, n: usize) -> Fi
     }
 }
 
-/// Report unit of a result parameter.
-fn unit_of(p: &ResultParameter) -> Unit {
-    match p.unit.as_str() {
+/// Factor from SI and name of the report unit of a result parameter.
+fn report_unit(p: &ResultParameter) -> (f64, &'static str) {
+    let unit = match p.unit.as_str() {
+        GSENS_UNIT => return (1.0 / DEG_PER_HOUR, "deg/h/(m/s^2)"),
         "rad/s" => Unit::RadPerSecond,
         "m/s^2" => Unit::MeterPerSecond2,
         "rad" => Unit::SmallAngle,
         _ => Unit::Ratio,
-    }
+    };
+    (unit.report_factor(), unit.report_name())
 }
 
 fn parameter_report(r: &FreeMotionResult) -> String {
@@ -283,30 +286,58 @@ fn parameter_report(r: &FreeMotionResult) -> String {
         ("unit", Align::Left),
     ]);
     let names: Vec<String> = r.parameters.iter().map(|p| p.name.clone()).collect();
-    for (title, members) in table::grouped(&names) {
+    for (title, members) in groups(&names) {
         t.section(title);
         for i in members {
             let p = &r.parameters[i];
-            let unit = unit_of(p);
-            let f = unit.report_factor();
+            let (f, unit) = report_unit(p);
             let sg = p.sigma.unwrap_or(0.0) * f;
             t.row(vec![
                 format!("  {}", p.name),
                 table::with_precision_of(p.value * f, sg),
                 table::sigma(sg),
                 table::sigma(r.prior_sigma[i] * f),
-                unit.report_name().to_string(),
+                unit.to_string(),
             ]);
         }
     }
     t.render()
 }
 
+/// The report's groups of parameters: the table's, with the terms beyond the paper's model
+/// (g-sensitivity, scale-factor asymmetry) under titles of their own.
+fn groups(names: &[String]) -> Vec<(&'static str, Vec<usize>)> {
+    let extra = [
+        (
+            "gyro.gsens.",
+            "Gyro g-sensitivity G (row: gyro, column: specific force)",
+        ),
+        (
+            "gyro.asym.",
+            "Gyro scale-factor asymmetry a (positive rates 1 - theta - a, negative 1 - theta + a)",
+        ),
+    ];
+    let mut out: Vec<(&'static str, Vec<usize>)> = Vec::new();
+    for (title, members) in table::grouped(names) {
+        for i in members {
+            let title = extra
+                .iter()
+                .find(|(prefix, _)| names[i].starts_with(prefix))
+                .map_or(title, |(_, t)| t);
+            match out.iter_mut().find(|(t, _)| *t == title) {
+                Some((_, m)) => m.push(i),
+                None => out.push((title, vec![i])),
+            }
+        }
+    }
+    out
+}
+
 fn fit_report(r: &FreeMotionResult) -> String {
     let mut s = String::from("\nFit\n");
     for (what, f) in [
-        ("accelerometers", &r.accel_fit),
-        ("gyros         ", &r.gyro_fit),
+        ("accelerometers alone  ", &r.accel_fit),
+        ("gyros + accelerometers", &r.gyro_fit),
     ] {
         let _ = writeln!(
             s,

@@ -4,7 +4,7 @@
 use crate::table;
 use crate::{Error, print};
 use ::import::profile::Profile;
-use ::import::{ImportOptions, import_recording, write_outputs};
+use ::import::{ImportOptions, ImportReport, Imported, Written, import_recording, write_outputs};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -65,6 +65,28 @@ pub fn run(args: &Args) -> Result<(), Error> {
         c(tm.min_interval_s),
         c(tm.max_interval_s)
     );
+    s += &gap_lines(r);
+    s += &saturation_lines(r);
+    let f = &r.static_force;
+    let _ = writeln!(
+        s,
+        "  specific force at rest: median |f| = {} m/s^2 ({} g) over t = {} .. {} s (the \
+         quietest second)",
+        table::significant(f.median_norm_m_s2, 5),
+        table::significant(f.ratio_to_g, 4),
+        c(f.window_s[0]),
+        c(f.window_s[1])
+    );
+    s += &written_lines(&imported, &written);
+    let _ = writeln!(s, "  wrote {}", written.report.display());
+    print(&s)
+}
+
+/// The gaps of the time stamps, or that there are none.
+fn gap_lines(r: &ImportReport) -> String {
+    let c = table::compact;
+    let mut s = String::new();
+    let tm = &r.timing;
     if r.gaps.is_empty() {
         let _ = writeln!(
             s,
@@ -90,6 +112,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
             );
         }
     }
+    s
+}
+
+/// The saturation of each sensor with a range.
+fn saturation_lines(r: &ImportReport) -> String {
+    let c = table::compact;
+    let mut s = String::new();
     for sat in &r.saturation {
         match sat.first_line {
             None => {
@@ -117,16 +146,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
             }
         }
     }
-    let f = &r.static_force;
-    let _ = writeln!(
-        s,
-        "  specific force at rest: median |f| = {} m/s^2 ({} g) over t = {} .. {} s (the \
-         quietest second)",
-        table::significant(f.median_norm_m_s2, 5),
-        table::significant(f.ratio_to_g, 4),
-        c(f.window_s[0]),
-        c(f.window_s[1])
-    );
+    s
+}
+
+/// The files written (but `import.json`), with the sections carried over.
+fn written_lines(imported: &Imported, written: &Written) -> String {
+    let c = table::compact;
+    let mut s = String::new();
+    let r = &imported.report;
     let _ = writeln!(
         s,
         "  wrote {}: {} records, {}",
@@ -169,8 +196,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             );
         }
     }
-    let _ = writeln!(s, "  wrote {}", written.report.display());
-    print(&s)
+    s
 }
 
 /// `+x`, `-z`, ... for a signed unit vector along an axis; the components otherwise.
