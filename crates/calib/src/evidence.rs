@@ -34,6 +34,8 @@ pub struct ScoreTest {
     pub dof: usize,
     /// Probability of a statistic at least this large when the term is absent.
     pub p_value: f64,
+    /// Its natural logarithm (finite where the p-value underflows).
+    pub ln_p_value: f64,
 }
 
 /// Upper tail of the chi-square distribution with `dof` degrees of freedom (1 for `dof = 0`).
@@ -45,7 +47,20 @@ pub fn chi_square_sf(x: f64, dof: usize) -> f64 {
     if !x.is_finite() {
         return if x > 0.0 { 0.0 } else { 1.0 };
     }
-    (1.0 - d.cdf(x.max(0.0))).clamp(0.0, 1.0)
+    d.sf(x.max(0.0)).clamp(0.0, 1.0)
+}
+
+/// Natural logarithm of [`chi_square_sf`], finite far into the tail where the p-value itself
+/// underflows (statistics of thousands): there the leading term of the incomplete gamma
+/// function's asymptotic series, `ln Q(a, y) = (a - 1) ln y - y - ln Gamma(a)` with `a = dof/2`,
+/// `y = x/2`. The loop ranks candidates by it: p-values of 0 would tie.
+pub fn ln_chi_square_sf(x: f64, dof: usize) -> f64 {
+    let p = chi_square_sf(x, dof);
+    if p > 1e-300 || dof == 0 || !x.is_finite() {
+        return p.ln();
+    }
+    let (a, y) = (0.5 * dof as f64, 0.5 * x);
+    (a - 1.0) * y.ln() - y - statrs::function::gamma::ln_gamma(a)
 }
 
 /// The score test of a term whose parameters have prior sigmas `prior_sigma`, posterior mean
@@ -81,6 +96,7 @@ pub fn score_test(theta_hat: &[f64], post_cov: &DMatrix<f64>, prior_sigma: &[f64
         statistic,
         dof,
         p_value: chi_square_sf(statistic, dof),
+        ln_p_value: ln_chi_square_sf(statistic, dof),
     }
 }
 
@@ -323,6 +339,19 @@ mod tests {
         // k = 3 at zero: everything but the point mass 1/8.
         assert!((chi_bar_square_sf(0.0, 3) - 7.0 / 8.0).abs() < 1e-12);
         assert!(chi_bar_square_sf(50.0, 3) < 1e-9);
+    }
+
+    #[test]
+    fn log_p_value_continues_past_underflow() {
+        // Where both are representable they agree; far out the series keeps the order.
+        for (x, k) in [(30.0, 1), (153.9, 9), (600.0, 3)] {
+            let exact = chi_square_sf(x, k).ln();
+            assert!((ln_chi_square_sf(x, k) - exact).abs() < 1e-9 * exact.abs(), "{x} {k}");
+        }
+        // chi2(1) at 5000: ln p = -0.5 ln(2 pi) - 0.5 ln 2500 - 2500 ... about -2505.
+        let far = ln_chi_square_sf(5000.0, 1);
+        assert!(far < -2500.0 && far > -2510.0, "{far}");
+        assert!(ln_chi_square_sf(5000.0, 1) < ln_chi_square_sf(3000.0, 1));
     }
 
     #[test]

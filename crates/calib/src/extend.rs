@@ -28,7 +28,8 @@ use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
 use crate::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose, segments};
 use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
 use crate::evidence::{
-    InformationGain, ScoreTest, Separability, chi_bar_square_sf, score_test, separability,
+    InformationGain, ScoreTest, Separability, chi_bar_square_sf, ln_chi_square_sf, score_test,
+    separability,
 };
 use crate::extension::ModelExtension;
 use crate::layout::StateLayout;
@@ -118,6 +119,9 @@ pub struct CandidateEvidence {
     pub dof: usize,
     /// p-value.
     pub p_value: f64,
+    /// Its natural logarithm: the evidence the candidates are ranked by (finite where the
+    /// p-value underflows to zero).
+    pub ln_p_value: f64,
     /// Separable from the model's parameters under the recorded program.
     pub separable: bool,
     /// Per-parameter separation (empty for the random walk, which is separated by the
@@ -258,6 +262,7 @@ impl Context<'_> {
             statistic,
             dof,
             p_value,
+            ln_p_value,
         } = score_test(&theta, &cov, &s0);
         let post = self.analyse(&ext)?;
         let base: Vec<String> = parameter_names(&current.estimate);
@@ -276,6 +281,7 @@ impl Context<'_> {
                 statistic,
                 dof,
                 p_value,
+                ln_p_value,
                 separable: sep.separable,
                 separation: Some(sep),
                 estimate,
@@ -323,6 +329,7 @@ impl Context<'_> {
                 statistic: lr,
                 dof: 1,
                 p_value,
+                ln_p_value: 0.5f64.ln() + ln_chi_square_sf(lr, 1),
                 separable: true,
                 separation: None,
                 estimate,
@@ -447,7 +454,7 @@ pub fn run_loop(
                 cx.constant_term(&current, c)?
             });
         }
-        evidence.sort_by(|a, b| a.0.p_value.total_cmp(&b.0.p_value));
+        evidence.sort_by(|a, b| a.0.ln_p_value.total_cmp(&b.0.ln_p_value));
         let threshold = settings.level / evidence.len().max(1) as f64;
         let pick = evidence
             .iter()
