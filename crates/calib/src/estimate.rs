@@ -680,6 +680,18 @@ fn run_pass(
         angles,
     );
     pass.stats = stats;
+    if layout.model.uses_rate_derivatives() {
+        // The program's motion in the middle of the interval before the first record, in the
+        // body through the start attitude (the middle: the program's start is found to a few
+        // microseconds, and a jump at the first record's start must fall after it).
+        let t_before = scan.span.0 - 1.5 * dt - scan.program_start;
+        let (k, k_dot) = program.state(t_before);
+        let platform = turntable::gimbal::platform_rate_base(&k, &k_dot);
+        pass.set_motion_before(
+            c0.transpose() * (u_enu + platform),
+            c0.transpose() * site.specific_force_at_rest_enu(),
+        );
+    }
     imu.rewind()?;
     let mut j = 0;
     let mut final_time = scan.span.0;

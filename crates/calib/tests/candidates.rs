@@ -3,12 +3,14 @@
 //! ([`estimate_ext`]) with the term. Every run is the paper's program as the workspace tests set
 //! it up (28 states with the turntable angles, plus the term's).
 //!
-//! Bounds fixed before the final runs: on a noiseless run with the effect present, every
-//! parameter (the term's and the paper's) within 0.35 sigma of the truth, 0.5 sigma for the
-//! gyro scale asymmetry, which the paper's program separates from the gyro biases only weakly
-//! (correlation -0.995 with `gyro.bias.x`/`.z`, see `asymmetry_is_weakly_separable_from_the_bias`).
-//! Observed: g-sensitivity 0.05, quadratic 0.11, size effect 0.16, time offset 0.06, asymmetry
-//! 0.29; the paper's model alone on the same runs 0.015.
+//! Noiseless runs with the effect present (0.5 to 2 prior sigma on every parameter of the term).
+//! The estimate is the posterior mean: where the run knows a parameter only to a tenth of its
+//! prior, the prior pulls it towards zero by a sizeable fraction of a sigma (0.15 sigma for the
+//! scale asymmetry; the paper's parameters, known to 1e-3 of their priors, by 0.01). The first
+//! version of these tests bounded the raw errors (0.35 sigma, 0.5 for the asymmetry; observed up
+//! to 0.29) and the remainder was traced to that pull: it matches `P P0^-1 (0 - x_true)` to 1e-3
+//! sigma. So the bound is on the error less the pull: 0.05 sigma for every instrument parameter,
+//! 0.35 sigma (raw) for the mounting and the delay.
 
 use calib::config::{AttitudePrior, RunConfig};
 use calib::covariance::{covariance_analysis, covariance_analysis_ext};
@@ -94,9 +96,37 @@ fn normalised_errors(est: &Estimate, truth: &[f64]) -> Vec<(f64, String)> {
     z
 }
 
-/// A noiseless run with `values` present, estimated with `candidate`: every parameter within
-/// `bound` sigma; the term's own values are the truth.
+/// The errors of a noiseless run that the prior explains: the estimate is the posterior mean,
+/// pulled from the truth towards the prior mean (zero) by `P P0^-1 (0 - x_true)`, which is a
+/// sizeable fraction of a sigma where the run knows a parameter only to a tenth of its prior.
+/// Over the instrument parameters (diagonal prior), normalised by the posterior sigma.
+fn prior_pull(est: &Estimate, truth: &[f64]) -> Vec<f64> {
+    let instr: Vec<usize> = (0..est.names.len())
+        .filter(|&i| {
+            let n = &est.names[i];
+            n.starts_with("gyro.") || n.starts_with("accel.") || n.starts_with("time.")
+        })
+        .collect();
+    (0..est.names.len())
+        .map(|i| {
+            let pull: f64 = instr
+                .iter()
+                .map(|&j| -est.cov[(i, j)] * truth[j] / est.prior_sigma[j].powi(2))
+                .sum();
+            pull / est.cov[(i, i)].sqrt()
+        })
+        .collect()
+}
+
+/// A noiseless run with `values` present, estimated with `candidate`: every instrument
+/// parameter (the term's and the paper's) within 0.05 sigma of the truth pulled by the prior
+/// ([`prior_pull`]), the mounting and delay within `bound` sigma of the truth; and without the
+/// term the paper's parameters miss by more than 2 sigma (the effect is there to be found).
 fn recovers(candidate: Candidate, values: &[(&str, f64)], bound: f64) {
+    recovers_within(candidate, values, bound, 0.05)
+}
+
+fn recovers_within(candidate: Candidate, values: &[(&str, f64)], bound: f64, bound_pulled: f64) {
     let c = noiseless();
     let hidden = HiddenEffects {
         values: values.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
@@ -107,10 +137,38 @@ fn recovers(candidate: Candidate, values: &[(&str, f64)], bound: f64) {
         assert_eq!(sim.truth.get(n), Some(*v), "the truth lists {n}");
     }
     let est = run(&c, &sim, true, &ModelExtension::with(&[candidate]));
-    let z = normalised_errors(&est, &truth(&sim, &est, None));
-    println!("{}: largest errors {:?}", candidate.id(), &z[..4]);
-    assert!(z[0].0.abs() < bound, "{}: {:?}", candidate.id(), z[0]);
-    // And the effect was there to be found: without the term the paper's parameters move.
+    let t = truth(&sim, &est, None);
+    let pull = prior_pull(&est, &t);
+    let mut worst_instr = (0.0f64, String::new());
+    let mut worst_raw = (0.0f64, String::new());
+    for (i, n) in est.names.iter().enumerate().skip(3) {
+        let z = (est.values[i] - t[i]) / est.cov[(i, i)].sqrt();
+        let instrument =
+            n.starts_with("gyro.") || n.starts_with("accel.") || n.starts_with("time.");
+        if instrument {
+            if (z - pull[i]).abs() > worst_instr.0.abs() {
+                worst_instr = (z - pull[i], n.clone());
+            }
+            if z.abs() > worst_raw.0.abs() {
+                worst_raw = (z, n.clone());
+            }
+        } else {
+            assert!(z.abs() < bound, "{}: {n} {z}", candidate.id());
+        }
+    }
+    println!(
+        "{}: largest error {:+.3} sigma ({}), largest error less the prior's pull {:+.4} sigma ({})",
+        candidate.id(),
+        worst_raw.0,
+        worst_raw.1,
+        worst_instr.0,
+        worst_instr.1
+    );
+    assert!(
+        worst_instr.0.abs() < bound_pulled,
+        "{}: {worst_instr:?}",
+        candidate.id()
+    );
     let plain = run(&c, &sim, true, &ModelExtension::default());
     let z_plain = normalised_errors(&plain, &truth(&sim, &plain, None));
     println!(
@@ -150,10 +208,12 @@ fn g_sensitivity_is_recovered() {
 }
 
 /// The asymmetry acts like a bias wherever the rate keeps its sign; the paper's program
-/// separates the two through the rests and the reversals only (bound 0.5, see the header).
+/// separates the two through the rests only (posterior sigma a tenth of the prior, correlation
+/// -0.995 with the bias): the estimate is pulled towards the prior by 0.15 sigma, exactly as
+/// the posterior says.
 #[test]
 fn scale_asymmetry_is_recovered() {
-    recovers_pattern(Candidate::GyroScaleAsymmetry, 0.5);
+    recovers_pattern(Candidate::GyroScaleAsymmetry, 0.35);
 }
 
 #[test]
@@ -168,12 +228,18 @@ fn size_effect_is_recovered() {
     recovers_pattern(Candidate::AccelSizeEffect, 0.35);
 }
 
+/// The one term above the 0.05 bound (0.054 sigma, `accel.gamma.xx`, after the pull): the
+/// estimator takes `df/dt` as the backward difference of consecutive steps' mean force, which is
+/// `df/dt` half a step early; at a kink of `f` (every start, stop and reversal) that leaves
+/// `d |jump of df/dt| dt / 2` of velocity in the window that holds it. The residue scales with
+/// the step (0.099, 0.054, 0.032 sigma at 50, 100, 200 Hz), so the bound here is 0.1.
 #[test]
 fn time_offset_is_recovered() {
-    recovers(
+    recovers_within(
         Candidate::GyroAccelTimeOffset,
         &[("time.gyro_accel", 1e-3)],
         0.35,
+        0.1,
     );
 }
 
@@ -338,4 +404,50 @@ fn drift_in_the_filter_keeps_the_run_consistent() {
         nees_bias_p > hi3,
         "the drift matters to this run: {nees_bias_p}"
     );
+}
+
+/// Every constant term at once, without the turntable angles (24 + 25 states, the start attitude
+/// aligned to the program's rotations through the gyro terms): every instrument parameter within
+/// 0.1 sigma of the truth pulled by the prior (the time offset's kink residue, see
+/// `time_offset_is_recovered`; observed 0.054), the rest within 0.35 sigma.
+#[test]
+fn every_term_at_once_without_the_turntable_angles() {
+    let c = noiseless();
+    let mut values = vec![];
+    for cand in [
+        Candidate::GyroGSensitivity,
+        Candidate::GyroScaleAsymmetry,
+        Candidate::AccelQuadratic,
+        Candidate::AccelSizeEffect,
+    ] {
+        values.extend(pattern(cand, cand.default_prior_sigma()));
+    }
+    values.push(("time.gyro_accel".into(), 1e-3));
+    let hidden = HiddenEffects {
+        values,
+        gyro_drift: None,
+    };
+    let sim = simulate_run_hidden(&c, "all", &hidden).unwrap();
+    let mut ext = ModelExtension::with(&Candidate::ALL);
+    ext.gyro_drift = None;
+    let est = run(&c, &sim, false, &ext);
+    assert_eq!(est.names.len(), 24 + 25);
+    let t = truth(&sim, &est, None);
+    let pull = prior_pull(&est, &t);
+    let mut worst = (0.0f64, String::new());
+    for i in 3..est.names.len() {
+        let n = &est.names[i];
+        let z = (est.values[i] - t[i]) / est.cov[(i, i)].sqrt();
+        let instrument =
+            n.starts_with("gyro.") || n.starts_with("accel.") || n.starts_with("time.");
+        if instrument {
+            if (z - pull[i]).abs() > worst.0.abs() {
+                worst = (z - pull[i], n.clone());
+            }
+        } else {
+            assert!(z.abs() < 0.35, "{n}: {z}");
+        }
+    }
+    println!("all terms, IMU only: largest error less the prior's pull {worst:?}");
+    assert!(worst.0.abs() < 0.1, "{worst:?}");
 }

@@ -204,22 +204,30 @@ impl Compensation {
         prev: &mut Option<CompensatedMeans>,
     ) -> (Vector3<f64>, Vector3<f64>) {
         let (mut dth, mut dv) = (*raw_dth, *raw_dv);
-        for _ in 0..3 {
-            let input = SensorInput {
-                omega_body: dth / dt,
-                f_body: dv / dt,
-                ..SensorInput::default()
-            };
-            let (nu, df) = match &self.affine {
-                Some((g, a)) => (g.at(&input), a.at(&input)),
-                None => (
-                    model.error(Sensor::Gyro, p, &input),
-                    model.error(Sensor::Accel, p, &input),
-                ),
-            };
-            dth = raw_dth + nu * dt;
-            dv = raw_dv - df * dt;
-        }
+        let (mut raw_dth, mut raw_dv) = (*raw_dth, *raw_dv);
+        let iterate = |raw_dth: &Vector3<f64>,
+                       raw_dv: &Vector3<f64>,
+                       dth: &mut Vector3<f64>,
+                       dv: &mut Vector3<f64>,
+                       n: usize| {
+            for _ in 0..n {
+                let input = SensorInput {
+                    omega_body: *dth / dt,
+                    f_body: *dv / dt,
+                    ..SensorInput::default()
+                };
+                let (nu, df) = match &self.affine {
+                    Some((g, a)) => (g.at(&input), a.at(&input)),
+                    None => (
+                        model.error(Sensor::Gyro, p, &input),
+                        model.error(Sensor::Accel, p, &input),
+                    ),
+                };
+                *dth = raw_dth + nu * dt;
+                *dv = raw_dv - df * dt;
+            }
+        };
+        iterate(&raw_dth, &raw_dv, &mut dth, &mut dv, 3);
         if !self.derivatives {
             return (dth, dv);
         }
@@ -230,8 +238,13 @@ impl Compensation {
         if let Some(q) = prev.replace(now) {
             let d_omega = now.omega_body - q.omega_body;
             let d_f = now.f_body - q.f_body;
-            dth += model.derivative_error_integral(Sensor::Gyro, p, &d_omega, &d_f);
-            dv -= model.derivative_error_integral(Sensor::Accel, p, &d_omega, &d_f);
+            // The derivative part is held fixed and the other terms evaluated again at the
+            // increments without it: the paper's matrices act on the true force, and a size
+            // effect's spike at a rate jump (5e-3 m/s in one step for 0.03 m at 10 deg/s) is
+            // no part of it.
+            raw_dth += model.derivative_error_integral(Sensor::Gyro, p, &d_omega, &d_f);
+            raw_dv -= model.derivative_error_integral(Sensor::Accel, p, &d_omega, &d_f);
+            iterate(&raw_dth, &raw_dv, &mut dth, &mut dv, 2);
         }
         (dth, dv)
     }
@@ -312,6 +325,16 @@ impl<'a> Pass<'a> {
             prev_compensated: None,
             prev_jacobian: None,
         }
+    }
+
+    /// The motion over the interval before the first record, as the program says (body rate
+    /// and specific force): the rate-derivative terms of the first step are differences to it.
+    /// Without it a program that starts with the data (a jump of the rate inside the first
+    /// interval) left its size-effect spike uncompensated (0.17 sigma in `accel.gamma.zz` on a
+    /// noiseless run).
+    pub fn set_motion_before(&mut self, omega_body: Vector3<f64>, f_body: Vector3<f64>) {
+        self.prev_compensated = Some(CompensatedMeans { omega_body, f_body });
+        self.prev_jacobian = Some((omega_body, f_body));
     }
 
     /// Process one IMU record (on `line` of its file).
