@@ -56,6 +56,9 @@ enum Command {
         /// Seeds of the negative control (101, 102, ...).
         #[arg(long, default_value_t = 20)]
         control_seeds: u64,
+        /// Run only the case of this name (e.g. "size effect").
+        #[arg(long)]
+        case: Option<String>,
     },
 }
 
@@ -67,7 +70,10 @@ fn main() -> ExitCode {
             paper_sweep();
             ExitCode::SUCCESS
         }
-        Command::HiddenEffects { control_seeds } => hidden::hidden_effects(control_seeds),
+        Command::HiddenEffects {
+            control_seeds,
+            case,
+        } => hidden::hidden_effects(control_seeds, case.as_deref()),
         Command::NavBudget => match nav_budget() {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {

@@ -72,7 +72,10 @@ impl Proposal {
             self.description, self.duration_s
         );
         for (name, sigma, prior) in &self.sigmas {
-            s += &format!("#   {name:<22} {sigma:.3e}  (prior {prior:.3e}, ratio {:.3})\n", sigma / prior);
+            s += &format!(
+                "#   {name:<22} {sigma:.3e}  (prior {prior:.3e}, ratio {:.3})\n",
+                sigma / prior
+            );
         }
         s += &toml::to_string(&self.program).unwrap_or_else(|e| format!("# cannot write: {e}\n"));
         s
@@ -170,7 +173,10 @@ pub fn candidate_programs(base: &ProgramSpec) -> Vec<(String, ProgramSpec)> {
             "turns about the vertical at +-10 deg/s with each axis up, 180 s each way",
             vec![vertical_turns(180.0)],
         ),
-        extend("the program's turns again at twice the rate", vec![faster_turns(base)]),
+        extend(
+            "the program's turns again at twice the rate",
+            vec![faster_turns(base)],
+        ),
         extend(
             "six static positions and turns about the vertical",
             vec![six_positions(60.0), vertical_turns(180.0)],
@@ -181,7 +187,11 @@ pub fn candidate_programs(base: &ProgramSpec) -> Vec<(String, ProgramSpec)> {
         ),
         extend(
             "six static positions, turns about the vertical and at twice the rate",
-            vec![six_positions(60.0), vertical_turns(180.0), faster_turns(base)],
+            vec![
+                six_positions(60.0),
+                vertical_turns(180.0),
+                faster_turns(base),
+            ],
         ),
     ]
 }
@@ -210,7 +220,13 @@ pub fn evaluate(
     let sep_terms = terms
         .iter()
         .map(|t| {
-            let s = separability(&post.names, &post.prior_sigma, &post.cov, &t.param_names(), &base);
+            let s = separability(
+                &post.names,
+                &post.prior_sigma,
+                &post.cov,
+                &t.param_names(),
+                &base,
+            );
             (t.id().to_string(), s)
         })
         .collect();
@@ -218,7 +234,11 @@ pub fn evaluate(
         .iter()
         .filter_map(|n| {
             let i = post.names.iter().position(|m| m == n)?;
-            Some((n.clone(), post.cov[(i, i)].max(0.0).sqrt(), post.prior_sigma[i]))
+            Some((
+                n.clone(),
+                post.cov[(i, i)].max(0.0).sqrt(),
+                post.prior_sigma[i],
+            ))
         })
         .collect();
     Ok(Proposal {
@@ -250,7 +270,14 @@ pub fn design(
         .filter(|t| *t != Candidate::GyroBiasDrift)
         .collect();
     let base = config.program_spec()?;
-    let recorded = evaluate(config, with_turntable, &ext, &terms, "the recorded program", base.clone())?;
+    let recorded = evaluate(
+        config,
+        with_turntable,
+        &ext,
+        &terms,
+        "the recorded program",
+        base.clone(),
+    )?;
     let mut proposals = Vec::new();
     for (name, p) in candidate_programs(&base) {
         proposals.push(evaluate(config, with_turntable, &ext, &terms, &name, p)?);
@@ -277,10 +304,16 @@ mod tests {
     #[test]
     fn proposals_compile_and_grow_the_program() {
         let base = RunConfig::paper().program_spec().unwrap();
-        let base_len = turntable::program::Program::compile(&base, "base").unwrap().duration();
+        let base_len = turntable::program::Program::compile(&base, "base")
+            .unwrap()
+            .duration();
         for (name, p) in candidate_programs(&base) {
             let prog = turntable::program::Program::compile(&p, &name).unwrap();
-            assert!(prog.duration() > base_len + 300.0, "{name}: {}", prog.duration());
+            assert!(
+                prog.duration() > base_len + 300.0,
+                "{name}: {}",
+                prog.duration()
+            );
             // The TOML written for the user reads back as the same program.
             let text = toml::to_string(&p).unwrap();
             let back: ProgramSpec = toml::from_str(&text).unwrap();

@@ -253,10 +253,16 @@ impl Context<'_> {
         let est = &fit.estimate;
         let idx: Vec<usize> = names
             .iter()
-            .map(|n| est.names.iter().position(|m| m == n).expect("term in layout"))
+            .map(|n| {
+                est.names
+                    .iter()
+                    .position(|m| m == n)
+                    .expect("term in layout")
+            })
             .collect();
         let theta: Vec<f64> = idx.iter().map(|&i| est.values[i]).collect();
-        let cov = nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| est.cov[(idx[a], idx[b])]);
+        let cov =
+            nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| est.cov[(idx[a], idx[b])]);
         let s0: Vec<f64> = idx.iter().map(|&i| est.prior_sigma[i]).collect();
         let ScoreTest {
             statistic,
@@ -299,7 +305,10 @@ impl Context<'_> {
             let mut ext = current.extension.clone();
             ext.gyro_drift = Some([q; 3]);
             let fit = self.fit(&ext)?;
-            if best.as_ref().is_none_or(|(_, b)| fit.log_likelihood > b.log_likelihood) {
+            if best
+                .as_ref()
+                .is_none_or(|(_, b)| fit.log_likelihood > b.log_likelihood)
+            {
                 best = Some((q, fit));
             }
         }
@@ -310,11 +319,14 @@ impl Context<'_> {
         let mut values = [q; 3];
         let mut sigmas = [f64::NAN; 3];
         if p_value < self.settings.level {
+            let common = fit.log_likelihood;
             for axis in 0..3 {
-                let (v, s, f) = self.refine_axis(current, &values, axis, &fit)?;
-                (values[axis], sigmas[axis]) = (v, s);
-                fit = f;
+                (values[axis], sigmas[axis]) = self.refine_axis(current, q, common, axis)?;
             }
+            let mut ext = current.extension.clone();
+            ext.gyro_drift = Some(values);
+            (self.progress)("fitting with the per-axis random walk");
+            fit = self.fit(&ext)?;
         }
         let estimate = (0..3)
             .map(|i| ParameterValue {
@@ -338,50 +350,53 @@ impl Context<'_> {
         ))
     }
 
-    /// Maximise the likelihood over one axis's intensity on a factor-of-two ladder around the
-    /// current value, and take the sigma from a parabola through the best three points.
+    /// One axis's intensity, the others at the common value `q`: the log-likelihood at 0, q/2,
+    /// q (known: `at_q`) and 2q, a parabola through the best point and its neighbours (the
+    /// three lowest or highest at an end of the ladder), its vertex kept within [0, 2q] as the
+    /// estimate and its curvature as the sigma.
     fn refine_axis(
         &mut self,
         current: &Fit,
-        values: &[f64; 3],
+        q: f64,
+        at_q: f64,
         axis: usize,
-        at: &Fit,
-    ) -> Result<(f64, f64, Fit), LoopError> {
-        let mut pts: Vec<(f64, f64, Option<Fit>)> = vec![(values[axis], at.log_likelihood, None)];
+    ) -> Result<(f64, f64), LoopError> {
+        let mut pts: Vec<(f64, f64)> = vec![(q, at_q)];
         for factor in [0.0, 0.5, 2.0] {
-            let mut v = *values;
+            let mut v = [q; 3];
             v[axis] *= factor;
             let mut ext = current.extension.clone();
             ext.gyro_drift = Some(v);
-            let fit = self.fit(&ext)?;
-            pts.push((v[axis], fit.log_likelihood, Some(fit)));
+            pts.push((v[axis], self.fit(&ext)?.log_likelihood));
         }
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let k = (0..pts.len())
+        let best = (0..pts.len())
             .max_by(|&a, &b| pts[a].1.total_cmp(&pts[b].1))
             .expect("points");
-        let sigma = if k > 0 && k + 1 < pts.len() {
-            curvature_sigma(&pts[k - 1..=k + 1])
+        let mid = best.clamp(1, pts.len() - 2);
+        let (vertex, sigma) = parabola(&pts[mid - 1..=mid + 1]);
+        let estimate = if vertex.is_finite() {
+            vertex.clamp(0.0, 2.0 * q)
         } else {
-            f64::NAN
+            pts[best].0
         };
-        let (v, _, fit) = pts.swap_remove(k);
-        Ok((v, sigma, fit.unwrap_or_else(|| at.clone())))
+        Ok((estimate, sigma))
     }
 }
 
-/// Sigma `1 / sqrt(-l'')` from the parabola through three (value, log-likelihood) points.
-fn curvature_sigma(p: &[(f64, f64, Option<Fit>)]) -> f64 {
-    let (x0, y0) = (p[0].0, p[0].1);
-    let (x1, y1) = (p[1].0, p[1].1);
-    let (x2, y2) = (p[2].0, p[2].1);
+/// Vertex and `1 / sqrt(-l'')` of the parabola through three (value, log-likelihood) points
+/// (NaN when it opens upwards).
+fn parabola(p: &[(f64, f64)]) -> (f64, f64) {
+    let ((x0, y0), (x1, y1), (x2, y2)) = (p[0], p[1], p[2]);
     let d1 = (y1 - y0) / (x1 - x0);
     let d2 = (y2 - y1) / (x2 - x1);
     let second = 2.0 * (d2 - d1) / (x2 - x0);
     if second < 0.0 {
-        (-1.0 / second).sqrt()
+        // l(x) = l1 + slope (x - x1) + second / 2 (x - x1)^2, slope at x1 from the two chords.
+        let slope = d1 + 0.5 * second * (x1 - x0);
+        (x1 - slope / second, (-1.0 / second).sqrt())
     } else {
-        f64::NAN
+        (f64::NAN, f64::NAN)
     }
 }
 
@@ -471,7 +486,11 @@ pub fn run_loop(
         };
         let (e, fit) = evidence.swap_remove(k);
         let added = fit.estimate.names.len() - current.estimate.names.len();
-        let added = if e.term == Candidate::GyroBiasDrift.id() { 3 } else { added };
+        let added = if e.term == Candidate::GyroBiasDrift.id() {
+            3
+        } else {
+            added
+        };
         gains.insert(e.term.clone(), gain(&current, &fit, added));
         round.accepted = Some(e.term.clone());
         accepted.push(e.term.clone());
@@ -485,4 +504,21 @@ pub fn run_loop(
         base,
         last: current,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parabola;
+
+    #[test]
+    fn parabola_vertex_and_curvature() {
+        // l(x) = -(x - 3)^2 / (2 * 0.5^2): vertex 3, sigma 0.5.
+        let l = |x: f64| -(x - 3.0f64).powi(2) / 0.5;
+        let (v, s) = parabola(&[(1.0, l(1.0)), (2.5, l(2.5)), (4.0, l(4.0))]);
+        assert!(
+            (v - 3.0).abs() < 1e-12 && (s - 0.5).abs() < 1e-12,
+            "{v} {s}"
+        );
+        assert!(parabola(&[(0.0, 0.0), (1.0, 1.0), (2.0, 4.0)]).0.is_nan());
+    }
 }

@@ -27,9 +27,13 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, _) = load_config(&args.config)?;
     let terms = parse_terms(&args.terms)?;
-    let (recorded, proposals, chosen) = calib::design::design(&config, args.with_turntable, &terms)?;
+    let (recorded, proposals, chosen) =
+        calib::design::design(&config, args.with_turntable, &terms)?;
     let mut s = String::new();
-    let _ = writeln!(s, "# Separability (posterior sigma / prior sigma, separable at <= 0.5):");
+    let _ = writeln!(
+        s,
+        "# Separability (posterior sigma / prior sigma, separable at <= 0.5):"
+    );
     for p in std::iter::once(&recorded).chain(&proposals) {
         let _ = writeln!(
             s,
@@ -41,7 +45,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
         );
     }
     if recorded.separates() {
-        let _ = writeln!(s, "# The recorded program already separates every requested term.");
+        let _ = writeln!(
+            s,
+            "# The recorded program already separates every requested term."
+        );
     }
     let best = &proposals[chosen];
     if !best.separates() {

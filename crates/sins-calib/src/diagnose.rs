@@ -106,10 +106,9 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
     let j = LoopJson {
         accepted_terms: &r.accepted_terms,
         base_model_fits: r.base_fits(),
-        candidates: r
-            .rounds
-            .last()
-            .map_or(Vec::new(), |l| l.candidates.iter().map(candidate_json).collect()),
+        candidates: r.rounds.last().map_or(Vec::new(), |l| {
+            l.candidates.iter().map(candidate_json).collect()
+        }),
         gain: &r.gain,
         parameters,
         rounds: &r.rounds,
@@ -127,9 +126,17 @@ pub fn summary(r: &LoopResult) -> String {
             k + 1,
             round.threshold
         );
-        let _ = writeln!(s, "  {:<24} {:>12} {:>4} {:>10}  separable", "term", "statistic", "dof", "p");
+        let _ = writeln!(
+            s,
+            "  {:<24} {:>12} {:>4} {:>10}  separable",
+            "term", "statistic", "dof", "p"
+        );
         for c in &round.candidates {
-            let conf = c.separation.as_ref().map(|x| x.confounded()).unwrap_or_default();
+            let conf = c
+                .separation
+                .as_ref()
+                .map(|x| x.confounded())
+                .unwrap_or_default();
             let sep = if c.separable {
                 "yes".to_string()
             } else if conf.is_empty() {
@@ -166,7 +173,10 @@ pub fn summary(r: &LoopResult) -> String {
     }
     let calls = r.inseparable_calls();
     if r.base_fits() {
-        let _ = writeln!(s, "verdict: the paper's model fits these data; no term is called for.");
+        let _ = writeln!(
+            s,
+            "verdict: the paper's model fits these data; no term is called for."
+        );
     } else if r.accepted_terms.is_empty() && calls.is_empty() {
         let _ = writeln!(
             s,
@@ -174,7 +184,11 @@ pub fn summary(r: &LoopResult) -> String {
             r.base.diagnostics.failures.join("; ")
         );
     } else {
-        let _ = writeln!(s, "verdict: terms accepted: {}", r.accepted_terms.join(", "));
+        let _ = writeln!(
+            s,
+            "verdict: terms accepted: {}",
+            r.accepted_terms.join(", ")
+        );
     }
     for c in calls {
         let _ = writeln!(
@@ -205,14 +219,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     let imu = read_imu_csv(&args.imu)?;
     let imu_file = args.imu.display().to_string();
-    let tt = args.turntable.as_deref().map(read_turntable_csv).transpose()?;
+    let tt = args
+        .turntable
+        .as_deref()
+        .map(read_turntable_csv)
+        .transpose()?;
     let tt_file = args.turntable.as_ref().map(|p| p.display().to_string());
     let data = RunData {
         imu: &imu,
         imu_file: &imu_file,
         turntable: tt.as_ref().zip(tt_file.as_deref()),
     };
-    let result = run_loop(&config, &data, &settings, &mut |what| eprintln!("diagnose: {what}"))?;
+    let result = run_loop(&config, &data, &settings, &mut |what| {
+        eprintln!("diagnose: {what}")
+    })?;
     let text = summary(&result);
     print(&text)?;
     if let Some(path) = &args.json {

@@ -52,7 +52,9 @@ pub fn write(dir: &Path, r: &LoopResult, summary: &str) -> Result<(), Error> {
     }
     let _ = writeln!(md, "## Plots\n");
     for p in plots {
-        let name = p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let name = p
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
         let _ = writeln!(md, "![{name}]({name})\n");
     }
     let path = dir.join("report.md");
