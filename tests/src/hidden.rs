@@ -18,10 +18,23 @@ use turntable::program::ProgramSpec;
 /// Which program a case runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ProgramChoice {
-    /// The paper's three cycles.
+    /// The paper's three cycles (every candidate is separable there with the turntable angles:
+    /// `sins-calib design --config paper --with-turntable --terms ...`).
     Paper,
-    /// The program `sins-calib design` proposes for the case's terms.
+    /// Only the paper's first cycle (turns about instrument x), which cannot separate a term
+    /// that needs turns about the other axes.
+    FirstCycle,
+    /// The program `sins-calib design` proposes for the case's terms, starting from the first
+    /// cycle.
     Designed,
+}
+
+/// The paper's first cycle: its first two segments (+-10 deg/s about instrument x).
+pub fn first_cycle(config: &RunConfig) -> ProgramSpec {
+    let mut p = config.program_spec().expect("the paper's program");
+    p.segments.truncate(2);
+    p.name = "the paper's first cycle".into();
+    p
 }
 
 /// One hidden-effect case.
@@ -50,9 +63,15 @@ fn v(name: &str, value: f64) -> (String, f64) {
     (name.to_string(), value)
 }
 
-/// The cases of the issue: each candidate alone, one with two effects. Seeds are the case's
-/// number (fixed in advance).
+/// The cases of the issue: each candidate alone, one with two effects, one on a designed
+/// program. Seeds are the case's number (fixed in advance).
 pub fn cases() -> Vec<HiddenCase> {
+    let mut c = cases_base();
+    c.push(designed_asymmetry());
+    c
+}
+
+fn cases_base() -> Vec<HiddenCase> {
     use Candidate::*;
     vec![
         HiddenCase {
@@ -94,7 +113,7 @@ pub fn cases() -> Vec<HiddenCase> {
             drift: None,
             source: "Honeywell QA-2000 quartz accelerometer: second-order coefficient below \
                      20 ug/g^2 (2e-6 per m/s^2); 2e-5 per m/s^2 (200 ug/g^2) is a tactical MEMS unit",
-            program: ProgramChoice::Designed,
+            program: ProgramChoice::Paper,
             seed: 3,
         },
         HiddenCase {
@@ -108,7 +127,7 @@ pub fn cases() -> Vec<HiddenCase> {
             drift: None,
             source: "accelerometer proof masses of a navigation-grade triad sit about 10 mm \
                      from the common point (the issue's measured case)",
-            program: ProgramChoice::Designed,
+            program: ProgramChoice::Paper,
             seed: 4,
         },
         HiddenCase {
@@ -148,6 +167,32 @@ pub fn cases() -> Vec<HiddenCase> {
     ]
 }
 
+/// Scale asymmetry on the program `design` proposes from the paper's first cycle (which turns
+/// only about instrument x and leaves the y and z asymmetries confounded with the biases).
+pub fn designed_asymmetry() -> HiddenCase {
+    let mut c = asymmetry_case();
+    c.name = "scale asymmetry, designed program";
+    c.program = ProgramChoice::Designed;
+    c.seed = 8;
+    c
+}
+
+/// The scale-asymmetry case on the paper's first cycle alone.
+pub fn first_cycle_asymmetry() -> HiddenCase {
+    let mut c = asymmetry_case();
+    c.name = "scale asymmetry, first cycle only";
+    c.program = ProgramChoice::FirstCycle;
+    c.seed = 8;
+    c
+}
+
+fn asymmetry_case() -> HiddenCase {
+    cases_base()
+        .into_iter()
+        .find(|c| c.name == "scale asymmetry")
+        .expect("the asymmetry case")
+}
+
 /// The negative control: no hidden effect, seed `seed`.
 pub fn negative_control(seed: u64) -> HiddenCase {
     HiddenCase {
@@ -169,13 +214,18 @@ pub fn case_config(case: &HiddenCase) -> RunConfig {
     c.truth.imu_rate_hz = 25.0;
     c.truth.turntable_rate_hz = 25.0;
     c.truth.seed = case.seed;
-    if case.program == ProgramChoice::Designed {
-        c.inline_program = Some(designed_program(&c, &case.terms));
+    match case.program {
+        ProgramChoice::Paper => {}
+        ProgramChoice::FirstCycle => c.inline_program = Some(first_cycle(&c)),
+        ProgramChoice::Designed => {
+            c.inline_program = Some(first_cycle(&c));
+            c.inline_program = Some(designed_program(&c, &case.terms));
+        }
     }
     c
 }
 
-/// The program `design` proposes for `terms` on `config`.
+/// The program `design` proposes for `terms` on `config` (with the turntable angles).
 pub fn designed_program(config: &RunConfig, terms: &[Candidate]) -> ProgramSpec {
     let (_, proposals, k) = calib::design::design(config, true, terms).expect("design");
     proposals[k].program.clone()

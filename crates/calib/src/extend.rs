@@ -12,9 +12,11 @@
 //! 2. a covariance analysis of the extended model on the recorded program
 //!    ([`crate::covariance::covariance_analysis_ext`]) says whether each candidate is separable
 //!    from the parameters already in the model ([`crate::evidence::separability`]);
-//! 3. the separable candidate with the smallest p-value is accepted if that p-value is below
-//!    the level divided by the number of candidates tested in the round (Bonferroni: the
-//!    family-wise chance of accepting a term the data do not call for stays under the level);
+//! 3. the candidate with the smallest p-value is accepted if that p-value is below the level
+//!    divided by the number of candidates tested in the round (Bonferroni: the family-wise
+//!    chance of accepting a term the data do not call for stays under the level) and it is
+//!    separable; when it is significant but not separable the loop stops there rather than
+//!    accept a weaker candidate that would absorb part of its effect;
 //! 4. the gain of the accepted term is measured against the model before it: innovation
 //!    log-likelihood, AIC and BIC, the mean NIS of each measurement kind and the diagnostics'
 //!    verdict.
@@ -182,7 +184,7 @@ impl LoopResult {
         self.rounds.last().map_or(Vec::new(), |r| {
             r.candidates
                 .iter()
-                .filter(|c| !c.separable && c.p_value < r.threshold)
+                .filter(|c| !c.separable && c.ln_p_value < r.threshold.ln())
                 .collect()
         })
     }
@@ -471,9 +473,13 @@ pub fn run_loop(
         }
         evidence.sort_by(|a, b| a.0.ln_p_value.total_cmp(&b.0.ln_p_value));
         let threshold = settings.level / evidence.len().max(1) as f64;
+        // Only the best-supported candidate may be accepted: when it is significant but not
+        // separable, a weaker separable candidate accepted in its place would absorb part of its
+        // effect and be reported as the cause. The loop stops and says so instead.
         let pick = evidence
-            .iter()
-            .position(|(e, _)| e.separable && e.p_value < threshold)
+            .first()
+            .filter(|(e, _)| e.separable && e.ln_p_value < threshold.ln())
+            .map(|_| 0)
             .filter(|_| accepted.len() < settings.max_terms);
         let mut round = Round {
             candidates: evidence.iter().map(|(e, _)| e.clone()).collect(),

@@ -190,6 +190,29 @@ pub fn summary(r: &LoopResult) -> String {
             r.accepted_terms.join(", ")
         );
     }
+    let inseparable: Vec<String> = r.rounds.last().map_or(Vec::new(), |l| {
+        l.candidates
+            .iter()
+            .filter(|c| !c.separable)
+            .map(|c| {
+                let conf = c
+                    .separation
+                    .as_ref()
+                    .map(|x| x.confounded())
+                    .unwrap_or_default();
+                format!("{} (confounded with {})", c.term, conf.join(", "))
+            })
+            .collect()
+    });
+    if !inseparable.is_empty() {
+        let _ = writeln!(
+            s,
+            "note: this program cannot separate {}: the base parameters would absorb such an \
+             effect without a trace in the innovations; `sins-calib design` proposes a program \
+             that separates them.",
+            inseparable.join("; ")
+        );
+    }
     for c in calls {
         let _ = writeln!(
             s,

@@ -10,7 +10,7 @@ use std::path::Path;
 pub fn write(dir: &Path, r: &LoopResult, summary: &str) -> Result<(), Error> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
     let after = (!r.accepted_terms.is_empty())
-        .then(|| (&r.last.diagnostics, r.last.estimate.innovations.as_slice()));
+        .then_some((&r.last.diagnostics, r.last.estimate.innovations.as_slice()));
     let plots = crate::diagnostic_plots::write_diagnostic_plots(
         dir,
         &r.base.diagnostics,
