@@ -1,0 +1,118 @@
+//! `sins-calib diagnose` and `sins-calib design` end to end: on a simulated run with no hidden
+//! effect the loop accepts nothing and says the paper's model fits; `design` prints a program
+//! that the turntable code reads back; bad term ids are refused with the valid ones named.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_sins-calib");
+
+fn run(args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("sins-calib-diagnose")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch directory");
+    dir
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// `examples/run.toml` (seed 1, the paper's whole program) with the IMU and the angles at
+/// 25 Hz: the loop fits the model a dozen times.
+fn config_25_hz(dir: &Path) -> PathBuf {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/run.toml");
+    let text = std::fs::read_to_string(&example).expect("examples/run.toml");
+    for line in ["imu_rate_hz = 100.0", "turntable_rate_hz = 50.0"] {
+        assert!(text.contains(line), "examples/run.toml no longer has `{line}`");
+    }
+    let path = dir.join("run25.toml");
+    let text = text
+        .replace("imu_rate_hz = 100.0", "imu_rate_hz = 25.0")
+        .replace("turntable_rate_hz = 50.0", "turntable_rate_hz = 25.0");
+    std::fs::write(&path, text).expect("config");
+    path
+}
+
+#[test]
+fn diagnose_accepts_nothing_on_a_run_without_hidden_effects() {
+    let dir = scratch("clean");
+    let config = config_25_hz(&dir);
+    let out = run(&["simulate", "--config", s(&config), "--out", s(&dir)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (json, report) = (dir.join("loop.json"), dir.join("report"));
+    let out = run(&[
+        "diagnose",
+        "--imu",
+        s(&dir.join("imu.csv")),
+        "--turntable",
+        s(&dir.join("turntable.csv")),
+        "--config",
+        s(&config),
+        "--json",
+        s(&json),
+        "--report",
+        s(&report),
+    ]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    assert!(stdout.contains("the paper's model fits these data"), "{stdout}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(j["accepted_terms"], serde_json::json!([]));
+    assert_eq!(j["base_model_fits"], serde_json::json!(true));
+    let candidates = j["candidates"].as_array().expect("candidates");
+    assert_eq!(candidates.len(), 6);
+    for c in candidates {
+        for key in ["term", "statistic", "p_value", "separable"] {
+            assert!(c.get(key).is_some(), "{c}");
+        }
+    }
+    assert!(j["parameters"].as_array().is_some_and(|p| p.len() == 25));
+    let md = std::fs::read_to_string(report.join("report.md")).expect("report.md");
+    assert!(md.contains("Terms accepted: none"), "{md}");
+    assert!(report.join("innovations_turntable.png").is_file());
+}
+
+#[test]
+fn design_prints_a_program_that_reads_back() {
+    let dir = scratch("design");
+    let out_file = dir.join("designed.toml");
+    let out = run(&[
+        "design",
+        "--config",
+        "paper",
+        "--terms",
+        "gyro_scale_asymmetry",
+        "--with-turntable",
+        "--out",
+        s(&out_file),
+    ]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    assert!(stdout.contains("the recorded program"), "{stdout}");
+    assert!(stdout.contains("gyro.asym.x"), "{stdout}");
+    let program = turntable::program::Program::from_file(&out_file).expect("reads back");
+    assert!(program.duration() > turntable::program::Program::paper().duration());
+}
+
+#[test]
+fn unknown_terms_are_refused_naming_the_valid_ones() {
+    let out = run(&["design", "--config", "paper", "--terms", "gyro_magic"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = text(&out.stderr);
+    assert!(err.contains("gyro_magic") && err.contains("gyro_g_sensitivity"), "{err}");
+}
