@@ -15,6 +15,7 @@
 //! - [`covariance`]: covariance analysis of a program;
 //! - [`evidence`]: the statistics of model extension (score test, separability, gain);
 //! - [`extend`]: the model-extension loop (fit, test the candidate terms, accept, measure);
+//! - [`extend_free`]: the same loop on free-motion recordings;
 //! - [`design`]: programs that separate candidate terms the recorded program cannot;
 //! - [`estimate`]: calibration from recorded data (`imu.csv`, `turntable.csv`);
 //! - [`extension`]: candidate terms beyond the paper's model for the filter
@@ -54,6 +55,7 @@ pub mod engine;
 pub mod estimate;
 pub mod evidence;
 pub mod extend;
+pub mod extend_free;
 pub mod extension;
 pub mod free_motion;
 pub mod io;

@@ -22,9 +22,33 @@ pub struct Args {
     /// Turntable angle records (as for `calibrate`); without them the IMU-only model is used.
     #[arg(long, value_name = "FILE")]
     pub turntable: Option<PathBuf>,
-    /// Run configuration (a TOML file, or `paper` / `paper-reconciled`).
-    #[arg(long, value_name = "FILE|NAME")]
-    pub config: String,
+    /// Run configuration (a TOML file, or `paper` / `paper-reconciled`). Required unless
+    /// --free-motion; with it optional (its `[site]` and `[priors]`).
+    #[arg(
+        long,
+        value_name = "FILE|NAME",
+        required_unless_present = "free_motion"
+    )]
+    pub config: Option<String>,
+    /// A hand-turned multi-position recording (no program, no turntable): the loop runs on the
+    /// free-motion fit (`calibrate --free-motion`) with its candidate terms, gyro g-sensitivity
+    /// and scale-factor asymmetry, and measures the gain on held-out intervals.
+    #[arg(long, conflicts_with_all = ["turntable", "program_start", "report"])]
+    pub free_motion: bool,
+    /// With --free-motion: the section list written by `import` (known turns).
+    #[arg(long, value_name = "FILE", requires = "free_motion")]
+    pub sections: Option<PathBuf>,
+    /// With --free-motion: leave every K-th static interval out and measure the gain there.
+    #[arg(long, value_name = "K", requires = "free_motion")]
+    pub holdout: Option<usize>,
+    /// With --free-motion and no --config: latitude of the site (deg).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "free_motion",
+        allow_negative_numbers = true
+    )]
+    pub latitude: Option<f64>,
     /// Write the loop's result as JSON: accepted_terms, candidates (last round), gain,
     /// parameters (docs/formats.md).
     #[arg(long, value_name = "FILE")]
@@ -229,7 +253,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
     for p in [&args.json, &args.report].into_iter().flatten() {
         check_output_path(p)?;
     }
-    let (mut config, _) = load_config(&args.config)?;
+    if args.free_motion {
+        return crate::diagnose_free::run(args);
+    }
+    let (mut config, _) = load_config(args.config.as_deref().unwrap_or("paper"))?;
     if let Some(t) = args.program_start {
         config.filter.program_start_s = Some(t);
     }

@@ -76,8 +76,11 @@ struct ValidationJson {
 }
 
 /// Gravity and priors from the configuration, or the defaults.
-fn settings_of(args: &Args) -> Result<(FreeMotionSettings, String), Error> {
-    match &args.config {
+pub(crate) fn settings_of(
+    config: Option<&str>,
+    latitude: Option<f64>,
+) -> Result<(FreeMotionSettings, String), Error> {
+    match config {
         Some(name) => {
             let (config, origin) = load_config(name)?;
             let g = config.site().normal_gravity();
@@ -86,7 +89,7 @@ fn settings_of(args: &Args) -> Result<(FreeMotionSettings, String), Error> {
             Ok((s, format!("{origin}: [site] and [priors]")))
         }
         None => {
-            let lat = args.latitude.unwrap_or(DEFAULT_LATITUDE_DEG);
+            let lat = latitude.unwrap_or(DEFAULT_LATITUDE_DEG);
             if !(-90.0..=90.0).contains(&lat) {
                 return Err(format!("--latitude {lat}: expected -90 .. 90 deg").into());
             }
@@ -102,7 +105,7 @@ fn settings_of(args: &Args) -> Result<(FreeMotionSettings, String), Error> {
 /// Known turns of a section list: its rotations with an expected angle, each widened to the
 /// whole motion between the static intervals around it (a list's bounds may cut off the start
 /// or end of the turn; the rest on either side adds only the bias, which is calibrated).
-fn known_turns(sections: &SectionsFile, intervals: &[Interval]) -> Vec<KnownTurn> {
+pub(crate) fn known_turns(sections: &SectionsFile, intervals: &[Interval]) -> Vec<KnownTurn> {
     sections
         .sections
         .iter()
@@ -129,6 +132,23 @@ fn known_turns(sections: &SectionsFile, intervals: &[Interval]) -> Vec<KnownTurn
         .collect()
 }
 
+/// The static intervals of a recording by the default detector.
+pub(crate) fn static_intervals(
+    data: &calib::io::ImuData,
+    file: &str,
+) -> Result<(::import::detect::Segmentation, Vec<Interval>), Error> {
+    let seg = segment(data, &DetectorSettings::default()).map_err(|e| format!("{file}: {e}"))?;
+    let intervals = seg
+        .static_intervals
+        .iter()
+        .map(|s| Interval {
+            first_record: s.first_record,
+            last_record: s.last_record,
+        })
+        .collect();
+    Ok((seg, intervals))
+}
+
 /// Run `calibrate --free-motion`.
 pub fn run(args: &Args) -> Result<Outcome, Error> {
     if args.turntable.is_some() || args.program_start.is_some() || args.truth.is_some() {
@@ -141,19 +161,11 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     for path in args.json.iter().chain(&args.plot) {
         check_output_path(path)?;
     }
-    let (mut settings, origin) = settings_of(args)?;
+    let (mut settings, origin) = settings_of(args.config.as_deref(), args.latitude)?;
     settings.holdout = args.holdout;
     let data = read_imu_csv(&args.imu)?;
     let file = args.imu.display().to_string();
-    let seg = segment(&data, &DetectorSettings::default()).map_err(|e| format!("{file}: {e}"))?;
-    let intervals: Vec<Interval> = seg
-        .static_intervals
-        .iter()
-        .map(|s| Interval {
-            first_record: s.first_record,
-            last_record: s.last_record,
-        })
-        .collect();
+    let (seg, intervals) = static_intervals(&data, &file)?;
     let turns = match &args.sections {
         Some(p) => known_turns(&SectionsFile::read(p)?, &intervals),
         None => Vec::new(),

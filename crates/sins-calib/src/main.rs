@@ -18,6 +18,7 @@ mod analyse;
 mod calibrate;
 mod design;
 mod diagnose;
+mod diagnose_free;
 mod diagnose_report;
 mod diagnostic_plots;
 mod free_motion;

@@ -37,7 +37,10 @@ fn config_25_hz(dir: &Path) -> PathBuf {
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/run.toml");
     let text = std::fs::read_to_string(&example).expect("examples/run.toml");
     for line in ["imu_rate_hz = 100.0", "turntable_rate_hz = 50.0"] {
-        assert!(text.contains(line), "examples/run.toml no longer has `{line}`");
+        assert!(
+            text.contains(line),
+            "examples/run.toml no longer has `{line}`"
+        );
     }
     let path = dir.join("run25.toml");
     let text = text
@@ -69,7 +72,10 @@ fn diagnose_accepts_nothing_on_a_run_without_hidden_effects() {
     ]);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
-    assert!(stdout.contains("the paper's model fits these data"), "{stdout}");
+    assert!(
+        stdout.contains("the paper's model fits these data"),
+        "{stdout}"
+    );
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(j["accepted_terms"], serde_json::json!([]));
@@ -114,5 +120,8 @@ fn unknown_terms_are_refused_naming_the_valid_ones() {
     let out = run(&["design", "--config", "paper", "--terms", "gyro_magic"]);
     assert_eq!(out.status.code(), Some(1));
     let err = text(&out.stderr);
-    assert!(err.contains("gyro_magic") && err.contains("gyro_g_sensitivity"), "{err}");
+    assert!(
+        err.contains("gyro_magic") && err.contains("gyro_g_sensitivity"),
+        "{err}"
+    );
 }

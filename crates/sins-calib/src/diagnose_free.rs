@@ -1,0 +1,105 @@
+//! `sins-calib diagnose --free-motion`: the model-extension loop on a hand-turned recording
+//! (`calib::extend_free`).
+
+use crate::diagnose::Args;
+use crate::free_motion::{known_turns, settings_of, static_intervals};
+use crate::{Error, print};
+use ::import::sections::SectionsFile;
+use calib::extend_free::{FreeLoop, free_motion_loop};
+use calib::io::read_imu_csv;
+use serde::Serialize;
+use std::fmt::Write as _;
+
+#[derive(Serialize)]
+struct FreeLoopJson<'a> {
+    accepted_terms: &'a [String],
+    base_model_fits: bool,
+    candidates: &'a [calib::extend_free::FreeCandidate],
+    gain: &'a std::collections::BTreeMap<String, calib::extend_free::FreeGain>,
+    parameters: &'a [calib::io::ResultParameter],
+    rounds: &'a [calib::extend_free::FreeRound],
+}
+
+fn summary(r: &FreeLoop) -> String {
+    let mut s = String::new();
+    for (k, round) in r.rounds.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "round {}: candidates by evidence (accept below p = {:.2e} if separable)",
+            k + 1,
+            round.threshold
+        );
+        for c in &round.candidates {
+            let _ = writeln!(
+                s,
+                "  {:<24} statistic {:>10.2} dof {:>2} p {:>9.2e}  separable {} (worst sigma/prior {:.3})",
+                c.term,
+                c.statistic,
+                c.dof,
+                c.p_value,
+                if c.separable { "yes" } else { "no" },
+                c.worst_sigma_ratio
+            );
+        }
+        match &round.accepted {
+            Some(t) => {
+                let g = &r.gain[t];
+                let _ = writeln!(
+                    s,
+                    "  accepted {t}: reduced chi2 {:.3} -> {:.3}; held out: rotation {:.3} -> {:.3} deg, static {:.5} -> {:.5} m/s^2",
+                    g.reduced_chi2.0,
+                    g.reduced_chi2.1,
+                    g.held_out_rotation_deg.0,
+                    g.held_out_rotation_deg.1,
+                    g.held_out_static_m_s2.0,
+                    g.held_out_static_m_s2.1
+                );
+            }
+            None => {
+                let _ = writeln!(s, "  nothing accepted");
+            }
+        }
+    }
+    if r.accepted_terms.is_empty() {
+        let _ = writeln!(
+            s,
+            "verdict: the paper's model fits these data; no term is called for."
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "verdict: terms accepted: {}",
+            r.accepted_terms.join(", ")
+        );
+    }
+    s
+}
+
+/// Run `diagnose --free-motion`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let (mut settings, _) = settings_of(args.config.as_deref(), args.latitude)?;
+    settings.holdout = args.holdout;
+    let data = read_imu_csv(&args.imu)?;
+    let file = args.imu.display().to_string();
+    let (_, intervals) = static_intervals(&data, &file)?;
+    let turns = match &args.sections {
+        Some(p) => known_turns(&SectionsFile::read(p)?, &intervals),
+        None => Vec::new(),
+    };
+    let r = free_motion_loop(&data, &intervals, &turns, &settings, args.level)
+        .map_err(|e| format!("{file}: {e}"))?;
+    print(&summary(&r))?;
+    if let Some(path) = &args.json {
+        let j = FreeLoopJson {
+            accepted_terms: &r.accepted_terms,
+            base_model_fits: r.accepted_terms.is_empty(),
+            candidates: r.rounds.last().map_or(&[][..], |l| &l.candidates[..]),
+            gain: &r.gain,
+            parameters: &r.last.parameters,
+            rounds: &r.rounds,
+        };
+        std::fs::write(path, serde_json::to_string_pretty(&j)?)
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    }
+    Ok(())
+}
