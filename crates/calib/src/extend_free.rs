@@ -84,7 +84,7 @@ fn with_term(
     c: Candidate,
     base: &FreeMotionSettings,
 ) -> FreeMotionSettings {
-    let mut s = settings.clone();
+    let mut s = *settings;
     match c {
         Candidate::GyroGSensitivity => s.g_sensitivity_prior = base.g_sensitivity_prior,
         Candidate::GyroScaleAsymmetry => s.scale_asymmetry_prior = base.scale_asymmetry_prior,
@@ -147,7 +147,7 @@ pub fn free_motion_loop(
     settings: &FreeMotionSettings,
     level: f64,
 ) -> Result<FreeLoop, FreeMotionError> {
-    let mut cur_settings = settings.clone();
+    let mut cur_settings = *settings;
     cur_settings.g_sensitivity_prior = None;
     cur_settings.scale_asymmetry_prior = None;
     let base = calibrate_free_motion(data, intervals, turns, &cur_settings)?;
