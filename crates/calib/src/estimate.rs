@@ -595,6 +595,54 @@ fn first_linearisation_point(
     }))
 }
 
+/// The filter at the start of a pass: the prior covariance about the program's start attitude
+/// (aligned or from the installation), the prior means of the errors of the linearisation
+/// point `totals`, and the start attitude (the program's with the nominal mounting, or the
+/// estimate of the pass before), which it returns with the filter.
+fn start_filter(
+    config: &RunConfig,
+    layout: &StateLayout,
+    scan: &Scan,
+    program: &turntable::program::Program,
+    nominal: Option<&Nominal>,
+    totals: &[f64],
+) -> Result<(kalman::KalmanFilter, Matrix3<f64>), EstimateError> {
+    let dt = 1.0 / config.filter.imu_rate_hz;
+    let (k0, _) = program.state(scan.span.0 - dt - scan.program_start);
+    let install_hat = layout.install.map_or(Vector3::zeros(), |k| {
+        Vector3::new(totals[k], totals[k + 1], totals[k + 2])
+    });
+    let (c_program, p0) = start_prior(
+        config,
+        layout,
+        scan,
+        program,
+        c_platform_to_base(&k0),
+        &install_hat,
+    );
+    let mut filter = prior_filter(&p0).map_err(|source| EstimateError::Filter {
+        t: scan.span.0,
+        line: 0,
+        source,
+    })?;
+    // The prior means are zero: as errors of the nominal values they are -nominal.
+    for (k, v) in totals.iter().enumerate().skip(StateLayout::INSTRUMENT) {
+        filter.set_state(k, -v);
+    }
+    // The start attitude: the program's with the nominal mounting, or the estimate of the pass
+    // before. The prior is about the program's start attitude, so relative to the estimate the
+    // start attitude error (and its copy) has the prior mean `log(C_program C_start^T)`.
+    let c0 = nominal.map_or(c_program, |n| n.c_start);
+    let beta_prior = log_so3(&(c_program * c0.transpose()));
+    for k in 0..3 {
+        filter.set_state(k, beta_prior[k]);
+        if let Some(s) = layout.start_attitude {
+            filter.set_state(s + k, beta_prior[k]);
+        }
+    }
+    Ok((filter, c0))
+}
+
 /// One pass over the data, linearised about `nominal` (the prior means and the program's
 /// start attitude if `None`): compensation, turntable reading and start attitude with the
 /// nominal values, the prior mean of each error state the prior mean less the nominal value.
@@ -623,39 +671,8 @@ fn run_pass(
         _ => (None, None),
     };
     let program = config.program()?;
-    let (k0, _) = program.state(scan.span.0 - dt - scan.program_start);
     let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());
-    let install_hat = layout.install.map_or(Vector3::zeros(), |k| {
-        Vector3::new(totals[k], totals[k + 1], totals[k + 2])
-    });
-    let (c_program, p0) = start_prior(
-        config,
-        layout,
-        scan,
-        &program,
-        c_platform_to_base(&k0),
-        &install_hat,
-    );
-    let mut filter = prior_filter(&p0).map_err(|source| EstimateError::Filter {
-        t: scan.span.0,
-        line: 0,
-        source,
-    })?;
-    // The prior means are zero: as errors of the nominal values they are -nominal.
-    for (k, v) in totals.iter().enumerate().skip(StateLayout::INSTRUMENT) {
-        filter.set_state(k, -v);
-    }
-    // The start attitude: the program's with the nominal mounting, or the estimate of the pass
-    // before. The prior is about the program's start attitude, so relative to the estimate the
-    // start attitude error (and its copy) has the prior mean `log(C_program C_start^T)`.
-    let c0 = nominal.map_or(c_program, |n| n.c_start);
-    let beta_prior = log_so3(&(c_program * c0.transpose()));
-    for k in 0..3 {
-        filter.set_state(k, beta_prior[k]);
-        if let Some(s) = layout.start_attitude {
-            filter.set_state(s + k, beta_prior[k]);
-        }
-    }
+    let (filter, c0) = start_filter(config, layout, scan, &program, nominal, &totals)?;
     let noise = MeasurementNoise {
         accel_psd: config.accel_psd(),
         angle_var_per_record: angle_var,
