@@ -185,11 +185,21 @@ impl Default for TruthConfig {
     }
 }
 
+/// The `program` value that reads the program from the turntable's angle records.
+pub const PROGRAM_FROM_ANGLES: &str = "from-angles";
+
+fn program_from_angles() -> String {
+    PROGRAM_FROM_ANGLES.to_string()
+}
+
 /// A whole run configuration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunConfig {
-    /// `"paper"` for the embedded program, or a path relative to the configuration file.
+    /// `"paper"` for the embedded program, a path relative to the configuration file, or
+    /// `"from-angles"` (also when absent): the program is read from the turntable's angle
+    /// records ([`crate::angles_program`]), so a turntable file is needed.
+    #[serde(default = "program_from_angles")]
     pub program: String,
     /// Site.
     pub site: SiteConfig,
@@ -399,6 +409,7 @@ impl RunConfig {
         if let Some(spec) = &self.inline_program {
             return Ok(Program::compile(spec, "<inline program>")?);
         }
+        self.check_program_given()?;
         if self.program == "paper" {
             return Ok(Program::paper());
         }
@@ -409,11 +420,31 @@ impl RunConfig {
         Ok(Program::from_file(&p)?)
     }
 
+    /// Whether the program is to be read from the turntable's angle records.
+    pub fn program_from_angles(&self) -> bool {
+        self.inline_program.is_none() && self.program == PROGRAM_FROM_ANGLES
+    }
+
+    fn check_program_given(&self) -> Result<(), ConfigError> {
+        if self.program_from_angles() {
+            return Err(ConfigError::Invalid {
+                origin: "program".into(),
+                message: format!(
+                    "program = \"{PROGRAM_FROM_ANGLES}\" (or no program): the program is read \
+                     from the turntable's angle records, so a turntable file is needed; without \
+                     one give the program (\"paper\" or a file), or use --free-motion"
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// The rotation program as written (the segments before compilation).
     pub fn program_spec(&self) -> Result<ProgramSpec, ConfigError> {
         if let Some(spec) = &self.inline_program {
             return Ok(spec.clone());
         }
+        self.check_program_given()?;
         let (text, origin) = if self.program == "paper" {
             (
                 PAPER_PROGRAM_TOML.to_string(),

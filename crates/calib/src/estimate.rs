@@ -358,6 +358,9 @@ pub fn estimate_from(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let mut scan = scan_imu(imu, config.filter.imu_rate_hz, progress)?;
+    let imu_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
+    let resolved = crate::angles_program::resolve_program(config, turntable, Some(imu_start))?;
+    let config = resolved.as_ref().unwrap_or(config);
     let program = config.program()?;
     let turns = program.pieces().iter().any(|p| p.rate != [0.0; 3]);
     check_gyros_alive(&scan.bins, turns, imu.file())?;

@@ -449,6 +449,14 @@ pub fn run_loop(
     settings: &LoopSettings,
     progress: &mut dyn FnMut(&str),
 ) -> Result<LoopResult, LoopError> {
+    let imu_start = data
+        .imu
+        .records
+        .first()
+        .map(|r| r.t - 1.0 / config.filter.imu_rate_hz);
+    let resolved = crate::angles_program::resolve_program(config, data.turntable, imu_start)
+        .map_err(EstimateError::from)?;
+    let config = resolved.as_ref().unwrap_or(config);
     let mut cx = Context {
         config,
         data,

@@ -20,6 +20,7 @@
 //! - [`estimate`]: calibration from recorded data (`imu.csv`, `turntable.csv`);
 //! - [`extension`]: candidate terms beyond the paper's model for the filter
 //!   ([`extension::ModelExtension`]) and the simulator ([`extension::HiddenEffects`]);
+//! - [`angles_program`]: the program read from the turntable's angle records;
 //! - [`align`]: coarse alignment of the start attitude to the program's rotations;
 //! - [`program_start`]: where the program starts on the IMU clock;
 //! - [`data_checks`]: checks of the IMU data before any filter;
@@ -46,6 +47,7 @@
 #![warn(missing_docs)]
 
 pub mod align;
+pub mod angles_program;
 pub mod config;
 pub mod covariance;
 pub mod data_checks;

@@ -336,8 +336,6 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
     if let Some(t) = args.program_start {
         config.filter.program_start_s = Some(t);
     }
-    let program = config.program()?;
-    let program = (program.name.clone(), program.duration());
     // Read the truth first: a wrong path should not cost a whole run.
     let truth = args.truth.as_deref().map(read_result_json).transpose()?;
     // The IMU file is streamed (read once per pass, kept in memory only when short).
@@ -349,6 +347,17 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
         .as_deref()
         .map(read_turntable_csv)
         .transpose()?;
+    // Without a program in the configuration the turntable's angles give it (the estimation
+    // reads it again, taking its first piece back to the first IMU record).
+    let program = match calib::angles_program::resolve_program(
+        &config,
+        tt.as_ref().zip(tt_file.as_deref()),
+        None,
+    )? {
+        Some(c) => c.program()?,
+        None => config.program()?,
+    };
+    let program = (program.name.clone(), program.duration());
     Ok(Inputs {
         config,
         origin,
