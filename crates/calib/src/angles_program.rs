@@ -101,11 +101,54 @@ pub fn program_from_angles(
             2.0 * RATE_WINDOW_S
         )));
     }
-    // Window rates (deg/s), centred; None within half a window of the ends.
+    let rates = window_rates(&t, &k);
+    let pieces = steady_pieces(&t, &k, &rates);
+    if pieces.is_empty() {
+        return Err(refuse(
+            "no stretch of steady gimbal rates in the angle records".into(),
+        ));
+    }
+    let bounds = boundaries(&pieces, t[0], t[n - 1], imu_start);
+    let start = pieces[0].at(bounds[0]);
+    let mut segments = Vec::with_capacity(pieces.len());
+    for (idx, p) in pieces.iter().enumerate() {
+        let duration_s = bounds[idx + 1] - bounds[idx];
+        if duration_s <= 0.0 {
+            continue;
+        }
+        let moving: Vec<usize> = (0..3).filter(|&g| p.b[g] != 0.0).collect();
+        segments.push(match moving.as_slice() {
+            [] => Segment::Dwell { duration_s },
+            [g] => Segment::Rotate {
+                gimbal: (*g + 1) as u8,
+                rate_deg_s: p.b[*g],
+                duration_s,
+            },
+            _ => {
+                return Err(refuse(format!(
+                    "gimbals {} turn together from t = {:.3} s (IMU clock): a program of one-gimbal \
+                     turns and dwells cannot describe it; give the program in the configuration",
+                    moving.iter().map(|g| (g + 1).to_string()).collect::<Vec<_>>().join(" and "),
+                    p.t_first
+                )));
+            }
+        });
+    }
+    Ok(ProgramSpec {
+        name: format!("read from the angle records of {file}"),
+        start_deg: start,
+        segments,
+    })
+}
+
+/// Each record's gimbal rates (deg/s) over a window centred on it, when steady (`None` within
+/// half a window of a change of rate or of the ends).
+fn window_rates(t: &[f64], k: &[[f64; 3]]) -> Vec<Option<[f64; 3]>> {
+    let n = t.len();
     let half = 0.5 * RATE_WINDOW_S;
     let mut lo = 0;
     let mut hi = 0;
-    let rates: Vec<Option<[f64; 3]>> = (0..n)
+    (0..n)
         .map(|i| {
             while t[i] - t[lo] > half {
                 lo += 1;
@@ -124,8 +167,13 @@ pub fn program_from_angles(
                 });
             steady.then(|| [0, 1, 2].map(|g| (k[hi][g] - k[lo][g]) / (left + right)))
         })
-        .collect();
-    // Runs of steady rates.
+        .collect()
+}
+
+/// Maximal runs of steady records with rates within the tolerance of the run's first, each
+/// fitted with a line per gimbal.
+fn steady_pieces(t: &[f64], k: &[[f64; 3]], rates: &[Option<[f64; 3]>]) -> Vec<Piece> {
+    let n = t.len();
     let mut pieces: Vec<Piece> = Vec::new();
     let mut i = 0;
     while i < n {
@@ -164,18 +212,20 @@ pub fn program_from_angles(
         }
         i = j + 1;
     }
-    if pieces.is_empty() {
-        return Err(refuse(
-            "no stretch of steady gimbal rates in the angle records".into(),
-        ));
-    }
-    // Boundaries: where the lines of the gimbal whose rate changes most meet.
+    pieces
+}
+
+/// The program's boundaries: its start (before the first record, see
+/// [`program_from_angles`]), where the lines of the gimbal whose rate changes most meet between
+/// consecutive pieces, and the last record.
+fn boundaries(pieces: &[Piece], t_first: f64, t_last: f64, imu_start: Option<f64>) -> Vec<f64> {
+    let half = 0.5 * RATE_WINDOW_S;
     // The first piece starts a little before the first record (and the IMU data): the records
     // hold the angles tau earlier or later than their stamps, and a program that starts after
     // the IMU data would take the first records as taken at rest while the platform turns (a
     // 0.3-deg start error at 10 deg/s and tau = -31 ms). The start finder accepts a program
     // starting up to half a rate bin (0.05 s) before the data.
-    let mut bounds = vec![imu_start.map_or(t[0], |s| s.min(t[0])) - START_MARGIN_S];
+    let mut bounds = vec![imu_start.map_or(t_first, |s| s.min(t_first)) - START_MARGIN_S];
     for w in pieces.windows(2) {
         let (p, q) = (&w[0], &w[1]);
         let g = (0..3)
@@ -190,37 +240,8 @@ pub fn program_from_angles(
         };
         bounds.push(tb.clamp(p.t_last - half, q.t_first + half));
     }
-    bounds.push(t[n - 1]);
-    let start = pieces[0].at(bounds[0]);
-    let mut segments = Vec::with_capacity(pieces.len());
-    for (idx, p) in pieces.iter().enumerate() {
-        let duration_s = bounds[idx + 1] - bounds[idx];
-        if duration_s <= 0.0 {
-            continue;
-        }
-        let moving: Vec<usize> = (0..3).filter(|&g| p.b[g] != 0.0).collect();
-        segments.push(match moving.as_slice() {
-            [] => Segment::Dwell { duration_s },
-            [g] => Segment::Rotate {
-                gimbal: (*g + 1) as u8,
-                rate_deg_s: p.b[*g],
-                duration_s,
-            },
-            _ => {
-                return Err(refuse(format!(
-                    "gimbals {} turn together from t = {:.3} s (IMU clock): a program of one-gimbal \
-                     turns and dwells cannot describe it; give the program in the configuration",
-                    moving.iter().map(|g| (g + 1).to_string()).collect::<Vec<_>>().join(" and "),
-                    p.t_first
-                )));
-            }
-        });
-    }
-    Ok(ProgramSpec {
-        name: format!("read from the angle records of {file}"),
-        start_deg: start,
-        segments,
-    })
+    bounds.push(t_last);
+    bounds
 }
 
 /// `config` with its program read from the turntable records when it says `"from-angles"`
