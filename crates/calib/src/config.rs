@@ -38,15 +38,78 @@ pub enum ConfigError {
     Program(#[from] turntable::program::ProgramError),
 }
 
+/// Range checks run while the TOML is read, so that a value out of range is reported with the
+/// line and column of the file (toml attaches them to a deserializer's error). `validate`
+/// repeats them for configurations built in code.
+mod values {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    fn in_range<'de, D: Deserializer<'de>>(
+        d: D,
+        lo: f64,
+        hi: f64,
+        what: &str,
+    ) -> Result<f64, D::Error> {
+        let v = f64::deserialize(d)?;
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(v)
+        } else {
+            Err(D::Error::custom(format!("{v}: expected {what}")))
+        }
+    }
+
+    /// A finite number above zero (a sigma, a rate).
+    pub fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        let v = f64::deserialize(d)?;
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(D::Error::custom(format!(
+                "{v}: expected a finite positive number"
+            )))
+        }
+    }
+
+    /// An IMU rate: above zero, at most 100 kHz (no IMU's; it would only exhaust memory).
+    pub fn rate_hz<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        let v = positive(d)?;
+        if v <= 1e5 {
+            Ok(v)
+        } else {
+            Err(D::Error::custom(format!(
+                "{v}: expected a rate of at most 1e5 Hz"
+            )))
+        }
+    }
+
+    /// A latitude in degrees.
+    pub fn latitude_deg<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        in_range(d, -90.0, 90.0, "a latitude in -90 .. 90 deg")
+    }
+
+    /// A longitude in degrees.
+    pub fn longitude_deg<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        in_range(d, -180.0, 360.0, "a longitude in -180 .. 360 deg")
+    }
+
+    /// A height: from the Dead Sea shore to above any laboratory on a mountain.
+    pub fn height_m<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        in_range(d, -500.0, 10_000.0, "a height in -500 .. 10000 m")
+    }
+}
+
 /// Site of the turntable.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SiteConfig {
     /// Geodetic latitude (deg).
+    #[serde(deserialize_with = "values::latitude_deg")]
     pub latitude_deg: f64,
     /// Longitude (deg).
+    #[serde(deserialize_with = "values::longitude_deg")]
     pub longitude_deg: f64,
     /// Height (m).
+    #[serde(deserialize_with = "values::height_m")]
     pub height_m: f64,
 }
 
@@ -55,26 +118,37 @@ pub struct SiteConfig {
 #[serde(deny_unknown_fields)]
 pub struct PriorsConfig {
     /// Gyro bias (deg/h).
+    #[serde(deserialize_with = "values::positive")]
     pub gyro_bias_deg_h: f64,
     /// Gyro scale-factor errors (-).
+    #[serde(deserialize_with = "values::positive")]
     pub gyro_scale: f64,
     /// Gyro misalignments (arcmin).
+    #[serde(deserialize_with = "values::positive")]
     pub gyro_misalignment_arcmin: f64,
     /// Accelerometer bias (m/s^2).
+    #[serde(deserialize_with = "values::positive")]
     pub accel_bias_m_s2: f64,
     /// Accelerometer scale-factor errors (-).
+    #[serde(deserialize_with = "values::positive")]
     pub accel_scale: f64,
     /// Accelerometer non-orthogonality (arcmin).
+    #[serde(deserialize_with = "values::positive")]
     pub accel_misalignment_arcmin: f64,
     /// Installation misalignment delta_z (deg).
+    #[serde(deserialize_with = "values::positive")]
     pub install_misalignment_deg: f64,
     /// Turntable data delay tau (s).
+    #[serde(deserialize_with = "values::positive")]
     pub tau_s: f64,
     /// Initial attitude error of the computed frame about the horizontal axes (tilt) (deg).
+    #[serde(deserialize_with = "values::positive")]
     pub initial_tilt_deg: f64,
     /// Initial attitude error of the computed frame about the vertical (heading) (deg).
+    #[serde(deserialize_with = "values::positive")]
     pub initial_heading_deg: f64,
     /// Base misalignment gamma_p (arcsec).
+    #[serde(deserialize_with = "values::positive")]
     pub base_misalignment_arcsec: f64,
 }
 
@@ -97,10 +171,13 @@ pub struct NoiseConfig {
     /// How measurements read the accelerometer and angle-sensor noise.
     pub reading: NoiseReading,
     /// Gyro noise (deg/h at 1 Hz).
+    #[serde(deserialize_with = "values::positive")]
     pub gyro_deg_h: f64,
     /// Accelerometer noise (m/s^2 at 1 Hz).
+    #[serde(deserialize_with = "values::positive")]
     pub accel_m_s2: f64,
     /// Angle-sensor noise, each gimbal (arcsec at 1 Hz).
+    #[serde(deserialize_with = "values::positive")]
     pub angle_arcsec: f64,
 }
 
@@ -124,10 +201,13 @@ pub enum AttitudePrior {
 #[serde(deny_unknown_fields)]
 pub struct FilterConfig {
     /// IMU integration rate (Hz).
+    #[serde(deserialize_with = "values::rate_hz")]
     pub imu_rate_hz: f64,
     /// Specific-force measurement rate (Hz).
+    #[serde(deserialize_with = "values::positive")]
     pub accel_rate_hz: f64,
     /// Turntable-angle measurement rate (Hz).
+    #[serde(deserialize_with = "values::positive")]
     pub turntable_rate_hz: f64,
     /// Estimate the base misalignment gamma_p (3 more states).
     pub estimate_base_misalignment: bool,
@@ -533,10 +613,30 @@ mod tests {
         let e = RunConfig::from_toml_str(&text, "run.toml")
             .unwrap_err()
             .to_string();
+        // Read with the line and column of the value (toml's span), and the field named.
+        let line = PAPER_CONFIG_TOML
+            .lines()
+            .position(|l| l.starts_with("gyro_scale = 1e-3"))
+            .expect("the embedded config has the line")
+            + 1;
         assert!(
-            e.contains("run.toml") && e.contains("priors.gyro_scale"),
+            e.contains("run.toml")
+                && e.contains(&format!("line {line}, column"))
+                && e.contains("gyro_scale = -1.0")
+                && e.contains("expected a finite positive number"),
             "{e}"
         );
+        for (from, to) in [
+            ("latitude_deg = 55.7", "latitude_deg = 95.7"),
+            ("imu_rate_hz = 100.0", "imu_rate_hz = 1e7"),
+            ("gyro_deg_h = 0.1", "gyro_deg_h = nan"),
+        ] {
+            assert!(PAPER_CONFIG_TOML.contains(from), "{from}");
+            let e = RunConfig::from_toml_str(&PAPER_CONFIG_TOML.replace(from, to), "run.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("line") && e.contains("expected"), "{to}: {e}");
+        }
         let text = PAPER_CONFIG_TOML.replace("accel_rate_hz = 1.0", "accel_rate_hz = 3.0");
         let e = RunConfig::from_toml_str(&text, "run.toml")
             .unwrap_err()
