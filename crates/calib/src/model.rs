@@ -21,7 +21,7 @@ use crate::layout::StateLayout;
 use faer::{Mat, MatRef};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::errors;
-use sins_model::terms::{Sensor, SensorInput};
+use sins_model::terms::{AxisJacobian, Sensor, SensorInput};
 
 /// Weighted sum of `phi_top` over the sample instants of a measurement window, kept relative to
 /// the last filter instant and re-expressed at every predict (`PhiMean::rebase`).
@@ -118,6 +118,11 @@ pub struct LinearModel {
     dynamic: Vec<usize>,
     /// The gyro terms' parameter ranges (indices into the instrument parameters).
     gyro_params: Vec<std::ops::Range<usize>>,
+    /// The gyro and accelerometer Jacobians in axis-column form, when the model's terms give
+    /// it: then a sub-step adds `C dt e_axis feature` per column, with no call through the
+    /// terms and no products with zero columns.
+    gyro_axis: Option<AxisJacobian>,
+    accel_axis: Option<AxisJacobian>,
     /// IMU steps since the last reset of the transition: `q_top = steps * psd dt I`, since the
     /// Earth-rate rotation leaves a multiple of the identity unchanged.
     q_steps: usize,
@@ -251,6 +256,8 @@ impl LinearModel {
             psd_gyro,
             dynamic,
             gyro_params,
+            gyro_axis: layout.model.axis_jacobian(Sensor::Gyro),
+            accel_axis: layout.model.axis_jacobian(Sensor::Accel),
             q_steps: 0,
             phi_top: vec![Vector3::zeros(); n],
             jac: vec![Vector3::zeros(); n_instr],
@@ -362,27 +369,39 @@ impl LinearModel {
             self.phi_top[k] = a * self.phi_top[k];
         }
         let off = StateLayout::INSTRUMENT;
-        layout.model.jacobian(Sensor::Gyro, p, input, &mut self.jac);
-        for range in &self.gyro_params {
-            for i in range.clone() {
-                let j = &self.jac[i];
-                if *j != Vector3::zeros() {
-                    self.phi_top[off + i] += c_body_to_enu * j * dt;
+        let c_dt = c_body_to_enu * dt;
+        let features = AxisJacobian::features(input);
+        match &self.gyro_axis {
+            Some(ax) => ax.add_product(&c_dt, &features, &mut self.phi_top[off..]),
+            None => {
+                layout.model.jacobian(Sensor::Gyro, p, input, &mut self.jac);
+                for range in &self.gyro_params {
+                    for i in range.clone() {
+                        let j = &self.jac[i];
+                        if *j != Vector3::zeros() {
+                            self.phi_top[off + i] += c_dt * j;
+                        }
+                    }
                 }
             }
         }
         self.q_steps += 1;
         if let Some(d) = &mut self.drift {
-            d.step(&a, &(c_body_to_enu * dt), self.psd_gyro * dt, dt);
+            d.step(&a, &c_dt, self.psd_gyro * dt, dt);
         }
         if let Some(dv) = accel_dv_enu {
             self.acc.beta.add(&self.phi_top, &self.dynamic, 0.5 * dt);
-            layout
-                .model
-                .jacobian(Sensor::Accel, p, input, &mut self.jac);
-            for (i, j) in self.jac.iter().enumerate() {
-                if *j != Vector3::zeros() {
-                    self.acc.c_jac[i] += c_body_to_enu * j * dt;
+            match &self.accel_axis {
+                Some(ax) => ax.add_product(&c_dt, &features, &mut self.acc.c_jac),
+                None => {
+                    layout
+                        .model
+                        .jacobian(Sensor::Accel, p, input, &mut self.jac);
+                    for (i, j) in self.jac.iter().enumerate() {
+                        if *j != Vector3::zeros() {
+                            self.acc.c_jac[i] += c_dt * j;
+                        }
+                    }
                 }
             }
             self.acc.dv_enu += dv;

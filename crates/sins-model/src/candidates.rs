@@ -17,7 +17,7 @@
 //! | `gyro_accel_time_offset` | `time.gyro_accel` (1) | s | `f'(t) = f(t - d)`: `df -= d df/dt` | 1e-3 |
 
 use crate::names;
-use crate::terms::{ErrorTerm, ParamSpec, Sensor, SensorInput, Unit};
+use crate::terms::{AxisColumn, ErrorTerm, Feature, ParamSpec, Sensor, SensorInput, Unit};
 use nalgebra::{Matrix3, Vector3};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -185,6 +185,13 @@ impl ErrorTerm for GyroGSensitivity {
                 out[3 * i + j] = col;
             }
         }
+    }
+    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
+        Some(
+            (0..9)
+                .map(|k| AxisColumn::new(k / 3, Feature::Force(k % 3)))
+                .collect(),
+        )
     }
 }
 

@@ -158,11 +158,87 @@ pub trait ErrorTerm: Debug + Send + Sync {
     fn is_affine(&self) -> bool {
         false
     }
+    /// The Jacobian's columns as [`AxisColumn`]s (column `k` is the unit vector of an axis times
+    /// one input feature, whatever the parameters), when they have that form. The estimator
+    /// then accumulates the rotated Jacobian column by column without calling
+    /// [`ErrorTerm::jacobian`] at every IMU step ([`AxisJacobian`]). `None` (the default) keeps
+    /// the general path; a term that says `Some` is checked against its `jacobian` by the tests.
+    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
+        None
+    }
     /// Whether the error depends on [`SensorInput::omega_dot_body`] or
     /// [`SensorInput::f_dot_body`] (then affine in them, see [`SensorInput`]). False unless a
     /// term says otherwise.
     fn uses_rate_derivatives(&self) -> bool {
         false
+    }
+}
+
+/// An input quantity a Jacobian column can be proportional to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feature {
+    /// The constant 1 (a bias).
+    One,
+    /// Component `j` of [`SensorInput::omega_body`].
+    Omega(usize),
+    /// Component `j` of [`SensorInput::f_body`].
+    Force(usize),
+}
+
+impl Feature {
+    /// Index of the feature in [`AxisJacobian::features`].
+    fn slot(self) -> usize {
+        match self {
+            Feature::One => 0,
+            Feature::Omega(j) => 1 + j,
+            Feature::Force(j) => 4 + j,
+        }
+    }
+}
+
+/// A Jacobian column `e_axis * feature(input)`: one sensor axis, scaled by one input feature.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AxisColumn {
+    /// The sensor axis (0, 1, 2) the parameter acts on.
+    pub axis: usize,
+    /// The input feature it scales with.
+    pub feature: Feature,
+}
+
+impl AxisColumn {
+    /// `e_axis * feature`.
+    pub fn new(axis: usize, feature: Feature) -> Self {
+        Self { axis, feature }
+    }
+}
+
+/// The Jacobian of one triad's error in a model whose terms all have [`AxisColumn`]s
+/// ([`ErrorModel::axis_jacobian`]): the non-zero columns as (parameter index in the model,
+/// axis, feature slot). `M J` for any 3x3 `M` is then `M e_axis * feature` per column, with no
+/// per-step call through the terms and no products with zero columns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AxisJacobian {
+    columns: Vec<(usize, usize, usize)>,
+}
+
+impl AxisJacobian {
+    /// The features of `input` in slot order: 1, `omega_body`, `f_body`.
+    pub fn features(input: &SensorInput) -> [f64; 7] {
+        let (w, f) = (input.omega_body, input.f_body);
+        [1.0, w.x, w.y, w.z, f.x, f.y, f.z]
+    }
+
+    /// Add `m * J_k` to `out[k]` for every non-zero column `k` (`out` indexed by the model's
+    /// parameters), with `features` from [`AxisJacobian::features`].
+    pub fn add_product(&self, m: &Matrix3<f64>, features: &[f64; 7], out: &mut [Vector3<f64>]) {
+        for &(k, axis, slot) in &self.columns {
+            out[k] += m.column(axis) * features[slot];
+        }
+    }
+
+    /// The columns: (parameter index in the model, axis, feature slot).
+    pub fn columns(&self) -> &[(usize, usize, usize)] {
+        &self.columns
     }
 }
 
@@ -233,6 +309,9 @@ impl ErrorTerm for Bias {
         out[1] = Vector3::y();
         out[2] = Vector3::z();
     }
+    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
+        Some((0..3).map(|i| AxisColumn::new(i, Feature::One)).collect())
+    }
 }
 
 /// Gyro scale-factor and misalignment matrix `Theta` (full 3x3, row-major parameters
@@ -294,6 +373,13 @@ impl ErrorTerm for GyroMatrix {
             }
         }
     }
+    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
+        Some(
+            (0..9)
+                .map(|k| AxisColumn::new(k / 3, Feature::Omega(k % 3)))
+                .collect(),
+        )
+    }
 }
 
 /// Accelerometer lower-triangular matrix `Gamma` (6 parameters `accel.gamma.xx, .yx, .yy, .zx,
@@ -352,6 +438,14 @@ impl ErrorTerm for AccelLowerTriangular {
             col[i] = f[j];
             out[k] = col;
         }
+    }
+    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
+        Some(
+            GAMMA_INDEX
+                .iter()
+                .map(|&(i, j)| AxisColumn::new(i, Feature::Force(j)))
+                .collect(),
+        )
     }
 }
 
@@ -487,6 +581,21 @@ impl ErrorModel {
         })
     }
 
+    /// The Jacobian of `sensor`'s error as [`AxisColumn`]s, when every term of that sensor gives
+    /// them ([`ErrorTerm::axis_columns`]); `None` otherwise.
+    pub fn axis_jacobian(&self, sensor: Sensor) -> Option<AxisJacobian> {
+        let mut columns = Vec::new();
+        for (t, &o) in self.terms.iter().zip(&self.offsets) {
+            if t.sensor() != sensor {
+                continue;
+            }
+            for (k, c) in t.axis_columns()?.into_iter().enumerate() {
+                columns.push((o + k, c.axis, c.feature.slot()));
+            }
+        }
+        Some(AxisJacobian { columns })
+    }
+
     /// Whether any term uses the rate derivatives ([`ErrorTerm::uses_rate_derivatives`]).
     pub fn uses_rate_derivatives(&self) -> bool {
         self.terms.iter().any(|t| t.uses_rate_derivatives())
@@ -549,6 +658,39 @@ mod tests {
             f_body: Vector3::new(1.2, -3.4, 8.9),
             ..SensorInput::default()
         }
+    }
+
+    /// Where a model's terms give their Jacobian as axis columns (the paper's four terms, and
+    /// with the g-sensitivity), `M J` from [`AxisJacobian::add_product`] equals `M` times the
+    /// Jacobian the terms compute, for each sensor; a model with a term that gives none has no
+    /// axis Jacobian.
+    #[test]
+    fn axis_jacobians_equal_the_terms_jacobians() {
+        use crate::candidates::Candidate;
+        let inp = input();
+        let m = Matrix3::new(0.3, -1.1, 0.4, 2.0, 0.7, -0.2, -0.9, 0.5, 1.3);
+        let mut model = ErrorModel::paper(&PaperPriors::paper());
+        let g = Candidate::GyroGSensitivity;
+        model.push(g.term(g.default_prior_sigma()).expect("a constant term"));
+        let p: Vec<f64> = (0..model.n_params())
+            .map(|i| (1.0 + i as f64).sin())
+            .collect();
+        for sensor in [Sensor::Gyro, Sensor::Accel] {
+            let ax = model
+                .axis_jacobian(sensor)
+                .expect("all terms give axis columns");
+            let mut jac = vec![Vector3::zeros(); model.n_params()];
+            model.jacobian(sensor, &p, &inp, &mut jac);
+            let mut got = vec![Vector3::zeros(); model.n_params()];
+            ax.add_product(&m, &AxisJacobian::features(&inp), &mut got);
+            for (k, j) in jac.iter().enumerate() {
+                assert!((got[k] - m * j).norm() < 1e-14, "{sensor:?} parameter {k}");
+            }
+        }
+        let q = Candidate::AccelQuadratic;
+        model.push(q.term(q.default_prior_sigma()).expect("a constant term"));
+        assert!(model.axis_jacobian(Sensor::Accel).is_none());
+        assert!(model.axis_jacobian(Sensor::Gyro).is_some());
     }
 
     /// Every term's Jacobian equals central finite differences of its effect.

@@ -36,6 +36,16 @@ pub fn gimbal_jacobian(k: &[f64; 3]) -> Matrix3<f64> {
     Matrix3::from_columns(&[a1, a2, a3])
 }
 
+/// [`c_platform_to_base`] and [`gimbal_jacobian`] of the same angles, with each angle's sine and
+/// cosine taken once (the estimator needs both at every IMU step; bit for bit what the two
+/// functions give).
+pub fn gimbal_frame(k: &[f64; 3]) -> (Matrix3<f64>, Matrix3<f64>) {
+    let (r1, r2, r3) = (rot_z(k[0]), rot_x(k[1]), rot_y(k[2]));
+    let r12 = r1 * r2;
+    let j = Matrix3::from_columns(&[Vector3::z(), r1 * Vector3::x(), r12 * Vector3::y()]);
+    (r12 * r3, j)
+}
+
 /// Platform angular rate relative to the base, in base axes (rad/s).
 pub fn platform_rate_base(k: &[f64; 3], k_dot: &[f64; 3]) -> Vector3<f64> {
     gimbal_jacobian(k) * Vector3::from(*k_dot)
@@ -52,6 +62,19 @@ mod tests {
         // k1 = 90 deg turns the platform's x axis (East) to North.
         let c = c_platform_to_base(&[90f64.to_radians(), 0.0, 0.0]);
         assert!((c * Vector3::x() - Vector3::y()).norm() < 1e-15);
+    }
+
+    #[test]
+    fn gimbal_frame_is_both_functions_bit_for_bit() {
+        for k in [
+            [0.3, -0.4, 1.2],
+            [1.0, std::f64::consts::FRAC_PI_2, -0.7],
+            [-2.0, 2.5, 0.1],
+        ] {
+            let (c, j) = gimbal_frame(&k);
+            assert_eq!(c, c_platform_to_base(&k));
+            assert_eq!(j, gimbal_jacobian(&k));
+        }
     }
 
     #[test]
