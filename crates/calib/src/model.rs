@@ -28,6 +28,8 @@ use sins_model::terms::{AxisJacobian, Sensor, SensorInput};
 #[derive(Clone, Debug)]
 pub struct PhiMean {
     sum: Vec<Vector3<f64>>,
+    /// Space for the re-expressed sum (no allocation per predict).
+    spare: Vec<Vector3<f64>>,
     weight: f64,
 }
 
@@ -35,6 +37,7 @@ impl PhiMean {
     fn new(n: usize) -> Self {
         Self {
             sum: vec![Vector3::zeros(); n],
+            spare: vec![Vector3::zeros(); n],
             weight: 0.0,
         }
     }
@@ -69,9 +72,9 @@ impl PhiMean {
 
     /// Re-express the sum in the state at the end of `phi_end` (called before a predict).
     fn rebase(&mut self, phi_end: &[Vector3<f64>]) {
-        let mut out = vec![Vector3::zeros(); self.sum.len()];
+        let mut out = std::mem::take(&mut self.spare);
         self.expressed_at(phi_end, &mut out);
-        self.sum = out;
+        self.spare = std::mem::replace(&mut self.sum, out);
     }
 }
 

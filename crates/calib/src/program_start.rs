@@ -94,13 +94,15 @@ impl Profile {
     /// Mean rate over the program-time interval `(a, b)`: each piece's (constant) rate weighted
     /// by its share of the interval.
     fn mean(&self, a: f64, b: f64) -> nalgebra::Vector3<f64> {
-        let mut cuts = vec![a];
+        // The cuts a, the edges inside (a, b), b, walked without collecting them (this runs
+        // for every bin at every trial start).
         let k = self.edges.partition_point(|&e| e <= a);
-        cuts.extend(self.edges[k..].iter().copied().take_while(|&e| e < b));
-        cuts.push(b);
+        let inner = self.edges[k..].iter().copied().take_while(|&e| e < b);
         let mut sum = nalgebra::Vector3::zeros();
-        for w in cuts.windows(2) {
-            sum += self.kin.sample(0.5 * (w[0] + w[1])).omega_body * (w[1] - w[0]);
+        let mut lo = a;
+        for hi in inner.chain(std::iter::once(b)) {
+            sum += self.kin.sample(0.5 * (lo + hi)).omega_body * (hi - lo);
+            lo = hi;
         }
         sum / (b - a)
     }

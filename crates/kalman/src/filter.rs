@@ -184,6 +184,17 @@ impl KalmanFilter {
         self.x.iter().zip(&self.scale).map(|(x, s)| x * s).collect()
     }
 
+    /// [`KalmanFilter::state`] written into `out` (length `n`), without allocating.
+    ///
+    /// # Panics
+    /// If `out.len() != n`.
+    pub fn state_into(&self, out: &mut [f64]) {
+        assert_eq!(out.len(), self.x.len(), "state_into: wrong length");
+        for ((o, x), s) in out.iter_mut().zip(&self.x).zip(&self.scale) {
+            *o = x * s;
+        }
+    }
+
     /// Sets state component `i` to `value`, e.g. to zero an attitude error after feeding it
     /// back into the navigation solution.
     ///

@@ -68,16 +68,17 @@ pub fn log_so3(c: &Matrix3<f64>) -> Vector3<f64> {
             c[(0, 2)] - c[(2, 0)],
             c[(1, 0)] - c[(0, 1)],
         );
-    let s = v.norm();
     let co = 0.5 * (c.trace() - 1.0);
-    if co > 0.0 && s < 1e-2 * co {
+    let s2 = v.norm_squared();
+    if co > 0.0 && s2 < 1e-4 * co * co {
         // Small angles (the estimator takes one per IMU step): t = atan(r) with r = s / co, and
         // t / s = (atan(r) / r) / co by its series; the first omitted term, r^10 / 11, is
-        // under 1e-21.
-        let r2 = (s / co) * (s / co);
+        // under 1e-21. No square root, no atan2.
+        let r2 = s2 / (co * co);
         let series = 1.0 - r2 * (1.0 / 3.0 - r2 * (1.0 / 5.0 - r2 * (1.0 / 7.0 - r2 / 9.0)));
         return v * (series / co);
     }
+    let s = s2.sqrt();
     let t = s.atan2(co);
     if t < 3.0 {
         if s < 1e-300 {

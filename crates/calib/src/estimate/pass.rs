@@ -323,6 +323,8 @@ pub(super) struct Pass<'a> {
     /// The step before, as the error Jacobians took it: the mean rate and the specific force
     /// from the computed attitude (the rate derivatives of the Jacobians are differences to it).
     prev_jacobian: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// Space for the filter state at a feedback (no allocation per measurement instant).
+    state: Vec<f64>,
 }
 
 impl<'a> Pass<'a> {
@@ -354,6 +356,7 @@ impl<'a> Pass<'a> {
             j: 0,
             prev_compensated: None,
             prev_jacobian: None,
+            state: vec![0.0; layout.dim()],
         }
     }
 
@@ -535,9 +538,10 @@ impl<'a> Pass<'a> {
         if !self.settings.full_feedback {
             return;
         }
-        let x = self.engine.filter.state();
+        let x = &mut self.state;
+        self.engine.filter.state_into(x);
         self.nav.correct(&Vector3::new(x[0], x[1], x[2]));
-        self.lin.absorb(self.layout, &x);
+        self.lin.absorb(self.layout, x);
         self.engine.filter.reset_state();
         // The copy of the start attitude error is estimated, not fed back anywhere.
         if let Some(s) = self.layout.start_attitude {
