@@ -40,7 +40,16 @@ pub fn gimbal_jacobian(k: &[f64; 3]) -> Matrix3<f64> {
 /// cosine taken once (the estimator needs both at every IMU step; bit for bit what the two
 /// functions give).
 pub fn gimbal_frame(k: &[f64; 3]) -> (Matrix3<f64>, Matrix3<f64>) {
-    let (r1, r2, r3) = (rot_z(k[0]), rot_x(k[1]), rot_y(k[2]));
+    gimbal_frame_sin_cos(&k.map(f64::sin_cos))
+}
+
+/// [`gimbal_frame`] from each angle's `(sin, cos)`.
+pub fn gimbal_frame_sin_cos(sc: &[(f64, f64); 3]) -> (Matrix3<f64>, Matrix3<f64>) {
+    let [(s1, c1), (s2, c2), (s3, c3)] = *sc;
+    // rot_z, rot_x and rot_y of sins_model::attitude, written out.
+    let r1 = Matrix3::new(c1, -s1, 0.0, s1, c1, 0.0, 0.0, 0.0, 1.0);
+    let r2 = Matrix3::new(1.0, 0.0, 0.0, 0.0, c2, -s2, 0.0, s2, c2);
+    let r3 = Matrix3::new(c3, 0.0, s3, 0.0, 1.0, 0.0, -s3, 0.0, c3);
     let r12 = r1 * r2;
     let j = Matrix3::from_columns(&[Vector3::z(), r1 * Vector3::x(), r12 * Vector3::y()]);
     (r12 * r3, j)

@@ -18,6 +18,20 @@ pub(crate) struct AngleSet {
     pub records: [(usize, f64); 2],
     /// IMU-clock times of the two records (s).
     pub t_records_imu: [f64; 2],
+    /// `(sin, cos)` of each angle of `k`.
+    pub sin_cos: [(f64, f64); 3],
+}
+
+/// `(sin, cos)` of `a + d` from those of `a` and a small `d` (|d| <= 1e-2 rad: the first
+/// omitted terms of the series are under 1e-24), else directly.
+fn sin_cos_near(a: (f64, f64), d: f64, direct: f64) -> (f64, f64) {
+    if d.abs() > 1e-2 {
+        return direct.sin_cos();
+    }
+    let d2 = d * d;
+    let sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0)));
+    let cd = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0)));
+    (a.0 * cd + a.1 * sd, a.1 * cd - a.0 * sd)
 }
 
 /// Interpolates the turntable records at IMU times (linearly, wrap-aware in the angles).
@@ -29,6 +43,10 @@ pub(crate) struct AngleInterpolator<'a> {
     cursor: usize,
     /// Largest record spacing (turntable clock) still interpolated across.
     max_gap: f64,
+    /// The record whose angles' `(sin, cos)` are kept, and those: records are interpolated
+    /// from at several IMU steps, and between them the angles move by milliradians, so the
+    /// sines and cosines come from these by a short series (no trigonometry per IMU step).
+    trig: Option<(usize, [f64; 3], [(f64, f64); 3])>,
 }
 
 impl<'a> AngleInterpolator<'a> {
@@ -40,6 +58,7 @@ impl<'a> AngleInterpolator<'a> {
             clock,
             cursor: 0,
             max_gap: 2.5 * median_interval,
+            trig: None,
         }
     }
 
@@ -63,11 +82,23 @@ impl<'a> AngleInterpolator<'a> {
             return None;
         }
         let w = ((t_tt - a.t) / span).clamp(0.0, 1.0);
-        let k = std::array::from_fn(|g| {
+        let k: [f64; 3] = std::array::from_fn(|g| {
             (a.k_deg[g] + w * wrap_deg(b.k_deg[g] - a.k_deg[g])).to_radians()
         });
+        let cursor = self.cursor;
+        let (k_a, sc_a) = match self.trig {
+            Some((i, k_a, sc_a)) if i == cursor => (k_a, sc_a),
+            _ => {
+                let k_a = a.k_deg.map(f64::to_radians);
+                let sc_a = k_a.map(f64::sin_cos);
+                self.trig = Some((cursor, k_a, sc_a));
+                (k_a, sc_a)
+            }
+        };
+        let sin_cos = std::array::from_fn(|g| sin_cos_near(sc_a[g], k[g] - k_a[g], k[g]));
         Some(AngleSet {
             k,
+            sin_cos,
             records: [(self.cursor, 1.0 - w), (self.cursor + 1, w)],
             t_records_imu: [self.clock.imu_time(a.t), self.clock.imu_time(b.t)],
         })
@@ -88,6 +119,17 @@ pub(crate) fn median_interval(times: impl Iterator<Item = f64>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sines_and_cosines_near_a_known_angle_equal_the_direct_ones() {
+        for a in [-3.0, -0.4, 0.0, 1.2, 2.9] {
+            for d in [-1e-2, -3e-3, -1e-7, 0.0, 2e-5, 4e-3, 1e-2, 0.3] {
+                let (s, c) = sin_cos_near(f64::sin_cos(a), d, a + d);
+                let (s0, c0) = (a + d).sin_cos();
+                assert!((s - s0).abs() < 4e-16 && (c - c0).abs() < 4e-16, "{a} {d}");
+            }
+        }
+    }
 
     #[test]
     fn angle_differences_wrap_the_short_way() {

@@ -12,7 +12,7 @@ use crate::model::{AngleSample, MeasurementKind};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use sins_model::attitude::{attitude_error, exp_so3, log_so3, orthonormalize, right_jacobian_inv};
 use sins_model::terms::{AffineError, ErrorModel, Sensor, SensorInput};
-use turntable::gimbal::gimbal_frame;
+use turntable::gimbal::gimbal_frame_sin_cos;
 
 /// The point the pass linearises about: the current totals of every non-attitude state.
 #[derive(Clone, Debug)]
@@ -486,7 +486,7 @@ impl<'a> Pass<'a> {
             return;
         }
         let c = self.nav.c;
-        let (c_platform, gimbal_jacobian) = gimbal_frame(&set.k);
+        let (c_platform, gimbal_jacobian) = gimbal_frame_sin_cos(&set.sin_cos);
         let c_tt = self.lin.c_base * c_platform * self.lin.c_install;
         self.engine.model.add_angle_sample(&AngleSample {
             y: attitude_error(&c, &c_tt),
