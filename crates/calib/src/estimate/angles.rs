@@ -22,6 +22,9 @@ pub(crate) struct AngleSet {
     pub sin_cos: [(f64, f64); 3],
 }
 
+/// A record's index, its angles (rad) and their `(sin, cos)`.
+type RecordTrig = (usize, [f64; 3], [(f64, f64); 3]);
+
 /// `(sin, cos)` of `a + d` from those of `a` and a small `d` (|d| <= 1e-2 rad: the first
 /// omitted terms of the series are under 1e-24), else directly.
 fn sin_cos_near(a: (f64, f64), d: f64, direct: f64) -> (f64, f64) {
@@ -46,7 +49,7 @@ pub(crate) struct AngleInterpolator<'a> {
     /// The record whose angles' `(sin, cos)` are kept, and those: records are interpolated
     /// from at several IMU steps, and between them the angles move by milliradians, so the
     /// sines and cosines come from these by a short series (no trigonometry per IMU step).
-    trig: Option<(usize, [f64; 3], [(f64, f64); 3])>,
+    trig: Option<RecordTrig>,
 }
 
 impl<'a> AngleInterpolator<'a> {
