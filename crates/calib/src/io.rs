@@ -11,10 +11,16 @@
 //! Bad input is refused with an [`IoError`] naming the file, the 1-based line (the header is
 //! line 1) and what was expected; nothing is dropped silently. Writers use the shortest text that
 //! reads back to the identical `f64`.
+//!
+//! The CSV files are split into records by the `csv` crate, set up to accept no more than the
+//! format allows (`docs/formats.md`): no quoting and no comments, `\n` or `\r\n` line ends,
+//! fields trimmed of spaces; the checks of every line (UTF-8, blank lines, a line end after the
+//! last one, number of fields, numbers) are made here, with the line numbers the csv reader's
+//! positions give.
 
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
-use std::io::BufRead;
+use std::io::{BufRead, Read};
 use std::path::Path;
 use turntable::simulate::{ImuSample, Truth, TurntableSample};
 
@@ -202,72 +208,118 @@ fn excerpt(field: &str) -> String {
     }
 }
 
-/// Lines of a delimited text file read one at a time, numbered from 1, with the checks every
-/// line needs: valid UTF-8, no blank line before data, and a line end after the last line (a
-/// last line without one is taken as a file cut off in the middle of a row).
-struct Lines {
-    reader: Box<dyn BufRead>,
-    file: String,
-    buf: Vec<u8>,
-    /// Number of the line in `buf`.
+/// The reader under the csv crate: passes the bytes on and remembers how many came and the last
+/// of them, so that the end of the last record can be told from the end of a line.
+struct Tail<R> {
+    inner: R,
+    /// Bytes read so far.
+    total: u64,
+    /// The last byte read so far.
+    last: Option<u8>,
+}
+
+impl<R: Read> Read for Tail<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        if let Some(&b) = buf.get(..n).and_then(<[u8]>::last) {
+            self.last = Some(b);
+        }
+        self.total += n as u64;
+        Ok(n)
+    }
+}
+
+/// One non-blank line: its number, the file's name and its fields (not trimmed).
+struct Row<'a> {
     line: usize,
+    file: &'a str,
+    fields: &'a csv::StringRecord,
+}
+
+/// The lines of a comma-separated file read one record at a time with the csv crate, numbered
+/// from 1, with the checks every line needs: valid UTF-8, no blank line before data, and a line
+/// end after the last line (a last line without one is taken as a file cut off in the middle of
+/// a row).
+///
+/// The csv reader is set up to take the file as the format defines it and nothing more: no
+/// quoting (a `"` is an ordinary character, so a quoted field is refused as not a number), no
+/// comments, a line end only at `\n` (a `\r` before it is trimmed off the last field with the
+/// spaces; a lone `\r` is not a line end), any number of fields per line (the caller checks the
+/// count and says what was expected; the csv crate's own check would also refuse a line of
+/// spaces, which is a blank line here), and no trimming (fields are trimmed with [`str::trim`],
+/// which knows all of Unicode's spaces). Records are read into a reused `ByteRecord` and checked
+/// for UTF-8 by turning them into a `StringRecord` (an ASCII fast path, no copy), which keeps the
+/// bytes of a bad record to name the byte of the line.
+struct Rows<R: Read> {
+    csv: csv::Reader<Tail<R>>,
+    file: String,
+    /// The record last read, kept to be read into again (no allocation per record).
+    record: Option<csv::StringRecord>,
+    /// No record has been read yet (a byte-order mark is skipped at the start of line 1).
+    first: bool,
     /// First blank line not yet followed by data (blank lines at the very end are fine).
     blank: Option<usize>,
 }
 
-impl Lines {
-    fn new(reader: Box<dyn BufRead>, file: &str) -> Self {
+impl<R: Read> Rows<R> {
+    fn new(reader: R, file: &str) -> Self {
+        let csv = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .quoting(false)
+            .terminator(csv::Terminator::Any(b'\n'))
+            .buffer_capacity(1 << 16)
+            .from_reader(Tail {
+                inner: reader,
+                total: 0,
+                last: None,
+            });
         Self {
-            reader,
+            csv,
             file: file.to_string(),
-            buf: Vec::with_capacity(256),
-            line: 0,
+            record: None,
+            first: true,
             blank: None,
         }
     }
 
-    /// The next non-blank line and its number; `None` at the end of the file.
-    fn next_line(&mut self) -> Result<Option<(usize, &str)>, IoError> {
-        let (start, end) = loop {
-            self.buf.clear();
-            let n = self
-                .reader
-                .read_until(b'\n', &mut self.buf)
-                .map_err(|source| IoError::Read {
-                    file: self.file.clone(),
-                    source,
-                })?;
-            if n == 0 {
+    /// The next non-blank line; `None` at the end of the file.
+    fn next_row(&mut self) -> Result<Option<Row<'_>>, IoError> {
+        let mut bytes = self
+            .record
+            .take()
+            .map(csv::StringRecord::into_byte_record)
+            .unwrap_or_default();
+        loop {
+            let more = self
+                .csv
+                .read_byte_record(&mut bytes)
+                .map_err(|e| csv_error(&self.file, e))?;
+            if !more {
                 return Ok(None);
             }
-            self.line += 1;
-            let ended = self.buf.last() == Some(&b'\n');
-            let bom = "\u{feff}".as_bytes();
-            let start = if self.line == 1 && self.buf.starts_with(bom) {
-                bom.len()
-            } else {
-                0
-            };
-            let mut end = self.buf.len();
-            while end > start && matches!(self.buf[end - 1], b'\n' | b'\r') {
-                end -= 1;
-            }
-            let text = match std::str::from_utf8(&self.buf[start..end]) {
-                Ok(t) => t,
-                Err(e) => {
-                    return Err(line_error(
-                        &self.file,
-                        self.line,
-                        format!(
-                            "not UTF-8 text (byte {} of the line): expected a text file of \
-                             numbers",
-                            e.valid_up_to() + 1
-                        ),
-                    ));
+            // The csv reader skips empty lines without a record: the record's position is where
+            // reading began (the line after the previous record), the reader's where it ended.
+            let start = bytes.position().map_or(1, csv::Position::line) as usize;
+            let (after, tail) = (self.csv.position(), self.csv.get_ref());
+            let ended = after.byte() < tail.total || tail.last == Some(b'\n');
+            let line = (after.line() as usize).saturating_sub(usize::from(ended));
+            // csv-core takes a byte-order mark off the start of the file when its first buffer
+            // holds all of it: the bytes it consumed beyond the record and its line end tell.
+            if std::mem::take(&mut self.first) && line == 1 {
+                let record = bytes.as_slice().len() + bytes.len().saturating_sub(1);
+                if after.byte() as usize <= record + usize::from(ended) {
+                    bytes = without_bom(bytes);
                 }
-            };
-            if text.trim().is_empty() {
-                self.blank.get_or_insert(self.line);
+            }
+            let record = csv::StringRecord::from_byte_record(bytes)
+                .map_err(|e| not_utf8(&self.file, line, e))?;
+            if line > start {
+                self.blank.get_or_insert(start);
+            }
+            if record.len() == 1 && record.get(0).is_some_and(|f| f.trim().is_empty()) {
+                self.blank.get_or_insert(line);
+                bytes = record.into_byte_record();
                 continue;
             }
             if let Some(b) = self.blank {
@@ -278,20 +330,73 @@ impl Lines {
                 ));
             }
             if !ended {
+                let text = record.iter().collect::<Vec<_>>().join(",");
                 return Err(line_error(
                     &self.file,
-                    self.line,
+                    line,
                     format!(
                         "the last line has no line end: the file looks cut off in the middle of \
                          a row (`{}`); expected every row to end with a line end",
-                        excerpt(text)
+                        excerpt(text.trim_end_matches('\r'))
                     ),
                 ));
             }
-            break (start, end);
-        };
-        let text = std::str::from_utf8(&self.buf[start..end]).expect("checked in the loop");
-        Ok(Some((self.line, text)))
+            return Ok(Some(Row {
+                line,
+                file: &self.file,
+                fields: self.record.insert(record),
+            }));
+        }
+    }
+}
+
+/// The record with a UTF-8 byte-order mark taken off the start of its first field.
+fn without_bom(bytes: csv::ByteRecord) -> csv::ByteRecord {
+    let bom = "\u{feff}".as_bytes();
+    match bytes.get(0).and_then(|f| f.strip_prefix(bom)) {
+        None => bytes,
+        Some(first) => {
+            let mut out = csv::ByteRecord::new();
+            out.push_field(first);
+            for f in bytes.iter().skip(1) {
+                out.push_field(f);
+            }
+            out
+        }
+    }
+}
+
+/// The refusal of a line that is not UTF-8, naming the byte of the line (1-based).
+fn not_utf8(file: &str, line: usize, e: csv::FromUtf8Error) -> IoError {
+    let (field, valid) = (e.utf8_error().field(), e.utf8_error().valid_up_to());
+    let before: usize = e
+        .into_byte_record()
+        .iter()
+        .take(field)
+        .map(|f| f.len() + 1)
+        .sum();
+    line_error(
+        file,
+        line,
+        format!(
+            "not UTF-8 text (byte {} of the line): expected a text file of numbers",
+            before + valid + 1
+        ),
+    )
+}
+
+/// A csv reader's error: reading failed (the others cannot happen with the reader set up as
+/// [`Rows`] does; they are reported, not unwrapped).
+fn csv_error(file: &str, e: csv::Error) -> IoError {
+    match e.into_kind() {
+        csv::ErrorKind::Io(source) => IoError::Read {
+            file: file.to_string(),
+            source,
+        },
+        other => IoError::File {
+            file: file.to_string(),
+            message: format!("cannot read as comma-separated text: {other:?}"),
+        },
     }
 }
 
@@ -304,29 +409,18 @@ fn open_reader(path: &Path) -> Result<Box<dyn BufRead>, IoError> {
 }
 
 /// Parse one data row into its numbers (`out`, as many as `names`).
-fn parse_row(
-    file: &str,
-    line: usize,
-    text: &str,
-    names: &[String],
-    out: &mut [f64],
-) -> Result<(), IoError> {
-    let mut count = 0;
-    for (k, f) in text.split(',').enumerate() {
-        count = k + 1;
-        if k >= names.len() {
-            continue;
-        }
+fn parse_row(row: &Row<'_>, names: &[String], out: &mut [f64]) -> Result<(), IoError> {
+    let (file, line) = (row.file, row.line);
+    for ((f, name), slot) in row.fields.iter().zip(names).zip(out.iter_mut()) {
         let f = f.trim();
-        out[k] = match f.parse::<f64>() {
+        *slot = match f.parse::<f64>() {
             Ok(v) if v.is_finite() => v,
             Ok(_) => {
                 return Err(line_error(
                     file,
                     line,
                     format!(
-                        "column `{}`: expected a finite number, found `{}`",
-                        names[k],
+                        "column `{name}`: expected a finite number, found `{}`",
                         excerpt(f)
                     ),
                 ));
@@ -335,15 +429,12 @@ fn parse_row(
                 return Err(line_error(
                     file,
                     line,
-                    format!(
-                        "column `{}`: expected a number, found `{}`",
-                        names[k],
-                        excerpt(f)
-                    ),
+                    format!("column `{name}`: expected a number, found `{}`", excerpt(f)),
                 ));
             }
         };
     }
+    let count = row.fields.len();
     if count != names.len() {
         return Err(line_error(
             file,
@@ -359,20 +450,20 @@ fn parse_row(
 }
 
 /// Header names, trimmed; refuses duplicates and empty names.
-fn header(lines: &mut Lines, expected: &str) -> Result<(usize, Vec<String>), IoError> {
-    let file = lines.file.clone();
-    let Some((n, text)) = lines.next_line()? else {
+fn header<R: Read>(rows: &mut Rows<R>, expected: &str) -> Result<(usize, Vec<String>), IoError> {
+    let Some(row) = rows.next_row()? else {
         return Err(line_error(
-            &file,
+            &rows.file,
             1,
             format!("empty file: expected a header row `{expected}` and data rows"),
         ));
     };
-    let names: Vec<String> = text.split(',').map(|s| s.trim().to_string()).collect();
+    let (file, n) = (row.file, row.line);
+    let names: Vec<String> = row.fields.iter().map(|s| s.trim().to_string()).collect();
     for (i, name) in names.iter().enumerate() {
         if name.is_empty() {
             return Err(line_error(
-                &file,
+                file,
                 n,
                 format!(
                     "header column {} is empty: expected a header row `{expected}`",
@@ -382,7 +473,7 @@ fn header(lines: &mut Lines, expected: &str) -> Result<(usize, Vec<String>), IoE
         }
         if names[..i].contains(name) {
             return Err(line_error(
-                &file,
+                file,
                 n,
                 format!(
                     "header names column `{}` twice: expected `{expected}`",
@@ -479,10 +570,10 @@ fn imu_columns(
     Ok((kind, cols, index("temp")))
 }
 
-/// An `imu.csv` read record by record, every record checked as it comes (numbers, time order),
-/// so that a calibration never holds the whole file.
-pub struct ImuReader {
-    lines: Lines,
+/// The reading of an `imu.csv` from any reader: [`ImuReader`] over a file or a boxed reader,
+/// [`parse_imu_csv`] over text in memory (without a copy).
+struct ImuRows<R: Read> {
+    rows: Rows<R>,
     names: Vec<String>,
     kind: ImuKind,
     cols: [usize; 7],
@@ -494,12 +585,75 @@ pub struct ImuReader {
     line: usize,
 }
 
+impl<R: Read> ImuRows<R> {
+    fn new(reader: R, file: &str) -> Result<Self, IoError> {
+        let mut rows = Rows::new(reader, file);
+        let (hline, names) = header(&mut rows, IMU_EXPECTED)?;
+        let (kind, cols, temp) = imu_columns(file, hline, &names)?;
+        Ok(Self {
+            values: vec![0.0; names.len()],
+            rows,
+            names,
+            kind,
+            cols,
+            temp,
+            previous: None,
+            records: 0,
+            line: hline,
+        })
+    }
+
+    fn next_record(&mut self) -> Result<Option<ImuRecord>, IoError> {
+        let Some(row) = self.rows.next_row()? else {
+            if self.records == 0 {
+                return Err(line_error(
+                    &self.rows.file,
+                    self.line + 1,
+                    "expected at least one data row after the header, found none".into(),
+                ));
+            }
+            return Ok(None);
+        };
+        parse_row(&row, &self.names, &mut self.values)?;
+        let v = &self.values;
+        let c = &self.cols;
+        let t = v[c[0]];
+        check_time(row.file, row.line, t, self.previous)?;
+        self.previous = Some(t);
+        self.records += 1;
+        self.line = row.line;
+        Ok(Some(ImuRecord {
+            t,
+            gyro: [v[c[1]], v[c[2]], v[c[3]]],
+            accel: [v[c[4]], v[c[5]], v[c[6]]],
+            temp: self.temp.map(|i| v[i]),
+        }))
+    }
+
+    fn collect(mut self) -> Result<ImuData, IoError> {
+        let mut records = Vec::new();
+        while let Some(r) = self.next_record()? {
+            records.push(r);
+        }
+        Ok(ImuData {
+            kind: self.kind,
+            records,
+        })
+    }
+}
+
+/// An `imu.csv` read record by record, every record checked as it comes (numbers, time order),
+/// so that a calibration never holds the whole file.
+pub struct ImuReader {
+    rows: ImuRows<Box<dyn BufRead>>,
+}
+
 impl std::fmt::Debug for ImuReader {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ImuReader")
-            .field("file", &self.lines.file)
-            .field("kind", &self.kind)
-            .field("line", &self.line)
+            .field("file", &self.rows.rows.file)
+            .field("kind", &self.rows.kind)
+            .field("line", &self.rows.line)
             .finish()
     }
 }
@@ -512,107 +666,56 @@ impl ImuReader {
 
     /// Read an `imu.csv` from any buffered reader; `file` names it in errors.
     pub fn from_reader(reader: Box<dyn BufRead>, file: &str) -> Result<Self, IoError> {
-        let mut lines = Lines::new(reader, file);
-        let (hline, names) = header(&mut lines, IMU_EXPECTED)?;
-        let (kind, cols, temp) = imu_columns(file, hline, &names)?;
         Ok(Self {
-            values: vec![0.0; names.len()],
-            lines,
-            names,
-            kind,
-            cols,
-            temp,
-            previous: None,
-            records: 0,
-            line: hline,
+            rows: ImuRows::new(reader, file)?,
         })
     }
 
     /// Increments or rates.
     pub fn kind(&self) -> ImuKind {
-        self.kind
+        self.rows.kind
     }
 
     /// Whether the file has a `temp` column.
     pub fn has_temp(&self) -> bool {
-        self.temp.is_some()
+        self.rows.temp.is_some()
     }
 
     /// The file name used in messages.
     pub fn file(&self) -> &str {
-        &self.lines.file
+        &self.rows.rows.file
     }
 
     /// The line of the record last returned (1-based; the header is line 1).
     pub fn line(&self) -> usize {
-        self.line
+        self.rows.line
     }
 
     /// The next record; `None` at the end (a file without records is refused).
     pub fn next_record(&mut self) -> Result<Option<ImuRecord>, IoError> {
-        let file = self.lines.file.clone();
-        let Some((n, text)) = self.lines.next_line()? else {
-            if self.records == 0 {
-                return Err(line_error(
-                    &file,
-                    self.line + 1,
-                    "expected at least one data row after the header, found none".into(),
-                ));
-            }
-            return Ok(None);
-        };
-        parse_row(&file, n, text, &self.names, &mut self.values)?;
-        let v = &self.values;
-        let c = &self.cols;
-        let t = v[c[0]];
-        check_time(&file, n, t, self.previous)?;
-        self.previous = Some(t);
-        self.records += 1;
-        self.line = n;
-        Ok(Some(ImuRecord {
-            t,
-            gyro: [v[c[1]], v[c[2]], v[c[3]]],
-            accel: [v[c[4]], v[c[5]], v[c[6]]],
-            temp: self.temp.map(|i| v[i]),
-        }))
+        self.rows.next_record()
     }
 }
 
 /// Parse the text of an `imu.csv`; `file` names it in errors.
 pub fn parse_imu_csv(text: &str, file: &str) -> Result<ImuData, IoError> {
-    let bytes = text.as_bytes().to_vec();
-    collect_imu(ImuReader::from_reader(
-        Box::new(std::io::Cursor::new(bytes)),
-        file,
-    )?)
-}
-
-fn collect_imu(mut reader: ImuReader) -> Result<ImuData, IoError> {
-    let mut records = Vec::new();
-    while let Some(r) = reader.next_record()? {
-        records.push(r);
-    }
-    Ok(ImuData {
-        kind: reader.kind(),
-        records,
-    })
+    ImuRows::new(text.as_bytes(), file)?.collect()
 }
 
 /// Read an `imu.csv` whole (a calibration streams it instead: [`ImuReader`]).
 pub fn read_imu_csv(path: &Path) -> Result<ImuData, IoError> {
-    collect_imu(ImuReader::open(path)?)
+    ImuReader::open(path)?.rows.collect()
 }
 
 /// Parse the text of a `turntable.csv`; `file` names it in errors.
 pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoError> {
-    let bytes = text.as_bytes().to_vec();
-    read_turntable(Box::new(std::io::Cursor::new(bytes)), file)
+    read_turntable(text.as_bytes(), file)
 }
 
-fn read_turntable(reader: Box<dyn BufRead>, file: &str) -> Result<TurntableData, IoError> {
-    let mut lines = Lines::new(reader, file);
+fn read_turntable<R: Read>(reader: R, file: &str) -> Result<TurntableData, IoError> {
+    let mut rows = Rows::new(reader, file);
     let expected = TURNTABLE_COLUMNS.join(",");
-    let (hline, names) = header(&mut lines, &expected)?;
+    let (hline, names) = header(&mut rows, &expected)?;
     if let Some(n) = names
         .iter()
         .find(|n| !TURNTABLE_COLUMNS.contains(&n.as_str()))
@@ -639,10 +742,10 @@ fn read_turntable(reader: Box<dyn BufRead>, file: &str) -> Result<TurntableData,
     let mut records = Vec::new();
     let mut previous = None;
     let mut v = vec![0.0; names.len()];
-    while let Some((n, text)) = lines.next_line()? {
-        parse_row(file, n, text, &names, &mut v)?;
+    while let Some(row) = rows.next_row()? {
+        parse_row(&row, &names, &mut v)?;
         let t = v[cols[0]];
-        check_time(file, n, t, previous)?;
+        check_time(file, row.line, t, previous)?;
         previous = Some(t);
         records.push(TurntableRecord {
             t,

@@ -417,3 +417,81 @@ fn simulator_output_converts_and_writes() {
     let msg = format_imu_csv(&d, "imu.csv").unwrap_err().to_string();
     assert!(msg.contains("imu.csv") && msg.contains("record 4"), "{msg}");
 }
+
+/// A reader that hands out one byte at a time (the csv crate then never sees a byte-order mark
+/// whole in its first buffer).
+struct OneByte(std::io::Cursor<Vec<u8>>);
+
+impl std::io::Read for OneByte {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = buf.len().min(1);
+        self.0.read(&mut buf[..n])
+    }
+}
+
+/// The records and the line of each, through `ImuReader`, the bytes read whole or one at a time.
+fn imu_lines(bytes: &[u8], one_at_a_time: bool) -> Result<Vec<(ImuRecord, usize)>, IoError> {
+    let cursor = std::io::Cursor::new(bytes.to_vec());
+    let reader: Box<dyn std::io::BufRead> = if one_at_a_time {
+        Box::new(std::io::BufReader::with_capacity(1, OneByte(cursor)))
+    } else {
+        Box::new(cursor)
+    };
+    let mut r = calib::io::ImuReader::from_reader(reader, "edge.csv")?;
+    let mut out = Vec::new();
+    while let Some(rec) = r.next_record()? {
+        out.push((rec, r.line()));
+    }
+    Ok(out)
+}
+
+#[test]
+fn the_csv_reader_keeps_the_line_rules() {
+    let f = "edge.csv";
+    let h = "t,dthx,dthy,dthz,dvx,dvy,dvz";
+    for one in [false, true] {
+        // A byte-order mark is skipped however the bytes arrive; CRLF line ends; lines counted.
+        let text = format!("\u{feff}{h}\r\n0.01,1,2,3,4,5,6\r\n 0.02 ,1,2,3,4,5,6\r\n\r\n  \n");
+        let rows = imu_lines(text.as_bytes(), one).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!((rows[0].1, rows[1].1), (2, 3));
+        assert_eq!(rows[1].0.t, 0.02);
+        // Two marks: the second is part of the first name.
+        let text = format!("\u{feff}\u{feff}{h}\n0.01,1,2,3,4,5,6\n");
+        assert_refused(imu_lines(text.as_bytes(), one), f, 1, &["unknown column"]);
+        // Empty and all-space lines before more data, before the header too.
+        for gap in ["\n", "\n\n", "  \r\n", "\r\n\n"] {
+            let text = format!("{h}\n0.01,1,2,3,4,5,6\n{gap}0.02,1,2,3,4,5,6\n");
+            assert_refused(imu_lines(text.as_bytes(), one), f, 3, &["empty line"]);
+            let text = format!("{gap}{h}\n0.01,1,2,3,4,5,6\n");
+            assert_refused(imu_lines(text.as_bytes(), one), f, 1, &["empty line"]);
+        }
+        // No quoting: a quoted number is not a number; a lone CR is not a line end.
+        let text = format!("{h}\n\"0.01\",1,2,3,4,5,6\n");
+        assert_refused(
+            imu_lines(text.as_bytes(), one),
+            f,
+            2,
+            &["column `t`", "found `\"0.01\"`"],
+        );
+        let text = format!("{h}\n0.01,1,2\r3,4,5,6\n");
+        assert_refused(imu_lines(text.as_bytes(), one), f, 2, &["column `dthy`"]);
+        // Not UTF-8: the byte of the line is named.
+        let mut bytes = format!("{h}\n0.01,1,2,3,4,5,6\n0.02,1,2").into_bytes();
+        bytes.extend_from_slice(b"\xff,4,5,6,7\n");
+        assert_refused(
+            imu_lines(&bytes, one),
+            f,
+            3,
+            &["not UTF-8 text (byte 9 of the line)"],
+        );
+        // The last line without its line end (CRLF file): cut off, quoted without the CR.
+        let text = format!("{h}\r\n0.01,1,2,3,4,5,6\r\n0.02,1,2,3,4\r");
+        let msg = imu_lines(text.as_bytes(), one).unwrap_err().to_string();
+        assert!(
+            msg.contains("line 3: the last line has no line end")
+                && msg.contains("(`0.02,1,2,3,4`)"),
+            "{msg}"
+        );
+    }
+}
