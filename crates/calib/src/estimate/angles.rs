@@ -22,8 +22,20 @@ pub(crate) struct AngleSet {
     pub sin_cos: [(f64, f64); 3],
 }
 
-/// A record's index, its angles (rad) and their `(sin, cos)`.
-type RecordTrig = (usize, [f64; 3], [(f64, f64); 3]);
+/// What the interpolation needs of the pair of records at the cursor, worked out once per pair
+/// (each pair serves several IMU steps).
+#[derive(Clone, Copy, Debug)]
+struct PairCache {
+    /// Index of the first record.
+    index: usize,
+    /// The first record's angles (rad) and their `(sin, cos)`.
+    k_a: [f64; 3],
+    sin_cos_a: [(f64, f64); 3],
+    /// The angle differences to the second record, wrapped the short way (deg).
+    d_deg: [f64; 3],
+    /// IMU-clock times of the two records (s).
+    t_imu: [f64; 2],
+}
 
 /// `(sin, cos)` of `a + d` from those of `a` and a small `d` (|d| <= 1e-2 rad: the first
 /// omitted terms of the series are under 1e-24), else directly.
@@ -46,10 +58,10 @@ pub(crate) struct AngleInterpolator<'a> {
     cursor: usize,
     /// Largest record spacing (turntable clock) still interpolated across.
     max_gap: f64,
-    /// The record whose angles' `(sin, cos)` are kept, and those: records are interpolated
-    /// from at several IMU steps, and between them the angles move by milliradians, so the
-    /// sines and cosines come from these by a short series (no trigonometry per IMU step).
-    trig: Option<RecordTrig>,
+    /// The pair of records at the cursor: records are interpolated from at several IMU steps,
+    /// and between them the angles move by milliradians, so the sines and cosines come from
+    /// the first record's by a short series (no trigonometry per IMU step).
+    pair: Option<PairCache>,
 }
 
 impl<'a> AngleInterpolator<'a> {
@@ -61,7 +73,7 @@ impl<'a> AngleInterpolator<'a> {
             clock,
             cursor: 0,
             max_gap: 2.5 * median_interval,
-            trig: None,
+            pair: None,
         }
     }
 
@@ -85,25 +97,30 @@ impl<'a> AngleInterpolator<'a> {
             return None;
         }
         let w = ((t_tt - a.t) / span).clamp(0.0, 1.0);
-        let k: [f64; 3] = std::array::from_fn(|g| {
-            (a.k_deg[g] + w * wrap_deg(b.k_deg[g] - a.k_deg[g])).to_radians()
-        });
         let cursor = self.cursor;
-        let (k_a, sc_a) = match self.trig {
-            Some((i, k_a, sc_a)) if i == cursor => (k_a, sc_a),
+        let pair = match self.pair {
+            Some(p) if p.index == cursor => p,
             _ => {
                 let k_a = a.k_deg.map(f64::to_radians);
-                let sc_a = k_a.map(f64::sin_cos);
-                self.trig = Some((cursor, k_a, sc_a));
-                (k_a, sc_a)
+                let p = PairCache {
+                    index: cursor,
+                    k_a,
+                    sin_cos_a: k_a.map(f64::sin_cos),
+                    d_deg: std::array::from_fn(|g| wrap_deg(b.k_deg[g] - a.k_deg[g])),
+                    t_imu: [self.clock.imu_time(a.t), self.clock.imu_time(b.t)],
+                };
+                self.pair = Some(p);
+                p
             }
         };
-        let sin_cos = std::array::from_fn(|g| sin_cos_near(sc_a[g], k[g] - k_a[g], k[g]));
+        let k: [f64; 3] = std::array::from_fn(|g| (a.k_deg[g] + w * pair.d_deg[g]).to_radians());
+        let sin_cos =
+            std::array::from_fn(|g| sin_cos_near(pair.sin_cos_a[g], k[g] - pair.k_a[g], k[g]));
         Some(AngleSet {
             k,
             sin_cos,
-            records: [(self.cursor, 1.0 - w), (self.cursor + 1, w)],
-            t_records_imu: [self.clock.imu_time(a.t), self.clock.imu_time(b.t)],
+            records: [(cursor, 1.0 - w), (cursor + 1, w)],
+            t_records_imu: pair.t_imu,
         })
     }
 }
