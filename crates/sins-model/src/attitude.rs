@@ -47,9 +47,10 @@ pub fn exp_so3(phi: &Vector3<f64>) -> Matrix3<f64> {
     // milliradian increments of an IMU step. Below t = 1e-2 rad the first omitted terms
     // (t^8 / 9!, t^8 / 10!) are under 3e-22, far below the rounding of the kept ones.
     let (a, b) = if t2 < 1e-4 {
+        // Products with the reciprocals rather than divisions (one IMU step each).
         (
-            1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0)),
-            0.5 - t2 / 24.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0)),
+            1.0 - t2 * (1.0 / 6.0) * (1.0 - t2 * (1.0 / 20.0) * (1.0 - t2 * (1.0 / 42.0))),
+            0.5 - t2 * (1.0 / 24.0) * (1.0 - t2 * (1.0 / 30.0) * (1.0 - t2 * (1.0 / 56.0))),
         )
     } else {
         let t = t2.sqrt();
@@ -75,7 +76,8 @@ pub fn log_so3(c: &Matrix3<f64>) -> Vector3<f64> {
         // t / s = (atan(r) / r) / co by its series; the first omitted term, r^10 / 11, is
         // under 1e-21. No square root, no atan2.
         let r2 = s2 / (co * co);
-        let series = 1.0 - r2 * (1.0 / 3.0 - r2 * (1.0 / 5.0 - r2 * (1.0 / 7.0 - r2 / 9.0)));
+        let series =
+            1.0 - r2 * (1.0 / 3.0 - r2 * (1.0 / 5.0 - r2 * (1.0 / 7.0 - r2 * (1.0 / 9.0))));
         return v * (series / co);
     }
     let s = s2.sqrt();

@@ -44,8 +44,11 @@ fn sin_cos_near(a: (f64, f64), d: f64, direct: f64) -> (f64, f64) {
         return direct.sin_cos();
     }
     let d2 = d * d;
-    let sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0)));
-    let cd = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0)));
+    // Products with the reciprocals rather than divisions (this runs at every IMU step).
+    let sd = d * (1.0 - d2 * (1.0 / 6.0) * (1.0 - d2 * (1.0 / 20.0) * (1.0 - d2 * (1.0 / 42.0))));
+    let cd = 1.0
+        - d2 * 0.5
+            * (1.0 - d2 * (1.0 / 12.0) * (1.0 - d2 * (1.0 / 30.0) * (1.0 - d2 * (1.0 / 56.0))));
     (a.0 * cd + a.1 * sd, a.1 * cd - a.0 * sd)
 }
 

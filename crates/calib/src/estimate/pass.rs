@@ -117,7 +117,9 @@ impl Strapdown {
         // The previous-sample coning and sculling corrections assume rates that vary smoothly
         // across the two samples; across a jump of the rate (a reversal or the start or stop of
         // a turn) they are wrong by (w dt)^2-sized terms, so that step goes without them.
-        if (dth - self.dth_prev).norm() > 0.1 * dth.norm().max(self.dth_prev.norm()) {
+        // (Squared norms: no square roots per step.)
+        let jump2 = (dth - self.dth_prev).norm_squared();
+        if jump2 > 0.01 * dth.norm_squared().max(self.dth_prev.norm_squared()) {
             self.dth_prev = Vector3::zeros();
             self.dv_prev = Vector3::zeros();
         }
