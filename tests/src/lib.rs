@@ -80,11 +80,16 @@ impl MonteCarlo {
     /// Add one run.
     pub fn add(&mut self, config: &RunConfig, sim: &Simulation, est: &Estimate) {
         let (e, s) = state_errors(config, sim, est);
+        self.add_errors(est, &e, &s);
+    }
+
+    /// Add one run from its state errors and sigmas ([`state_errors`]).
+    pub fn add_errors(&mut self, est: &Estimate, e: &[f64], s: &[f64]) {
         let n = e.len();
         let cov = nalgebra::DMatrix::from_fn(n, n, |i, j| est.cov[(i, j)]);
         self.nees
             .push(calib::stats::nees(&e, &cov).expect("posterior positive definite"));
-        self.z.push(e.iter().zip(&s).map(|(e, s)| e / s).collect());
+        self.z.push(e.iter().zip(s).map(|(e, s)| e / s).collect());
         self.names = est.names.clone();
     }
 
@@ -151,29 +156,67 @@ impl MonteCarlo {
 pub fn monte_carlo_both_models(
     label: &str,
     seeds: std::ops::RangeInclusive<u64>,
-    config: impl Fn(u64) -> RunConfig,
+    config: impl Fn(u64) -> RunConfig + Sync,
     mut inspect: impl FnMut(bool, &Estimate),
 ) {
     use calib::estimate::{RunData, estimate};
     use calib::io::{ImuData, TurntableData};
-    let (mut imu_only, mut with_turntable) = (MonteCarlo::default(), MonteCarlo::default());
-    for seed in seeds {
+    // The runs are independent: they go in parallel, and their results are taken in seed
+    // order, so the figures do not depend on the number of threads.
+    let runs = parallel_map(&seeds.collect::<Vec<_>>(), |&seed| {
         let config = config(seed);
         let sim = calib::simulate::simulate_run(&config, label).unwrap();
         let imu = ImuData::from_samples(&sim.imu);
         let tt = TurntableData::from_samples(&sim.turntable);
-        for (with_tt, mc) in [(false, &mut imu_only), (true, &mut with_turntable)] {
+        [false, true].map(|with_tt| {
             let data = RunData {
                 imu: &imu,
                 imu_file: "imu.csv",
                 turntable: with_tt.then_some((&tt, "turntable.csv")),
             };
             let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
+            let (e, s) = state_errors(&config, &sim, &est);
+            (est, e, s)
+        })
+    });
+    let (mut imu_only, mut with_turntable) = (MonteCarlo::default(), MonteCarlo::default());
+    for run in runs {
+        for ((est, e, s), (with_tt, mc)) in run
+            .into_iter()
+            .zip([(false, &mut imu_only), (true, &mut with_turntable)])
+        {
             inspect(with_tt, &est);
-            mc.add(&config, &sim, &est);
+            mc.add_errors(&est, &e, &s);
         }
     }
     let mut failures = imu_only.check(&format!("{label}, 24 states"));
     failures.extend(with_turntable.check(&format!("{label}, 28 states")));
     assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// `f` of every item, on as many threads as the machine has cores, in the items' order.
+pub fn parallel_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, std::num::NonZeroUsize::get)
+        .min(items.len())
+        .max(1);
+    let mut out: Vec<(usize, R)> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|w| {
+                let f = &f;
+                scope.spawn(move || {
+                    (w..items.len())
+                        .step_by(threads)
+                        .map(|i| (i, f(&items[i])))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|h| h.join().expect("a Monte-Carlo run panicked"))
+            .collect()
+    });
+    out.sort_by_key(|(i, _)| *i);
+    out.into_iter().map(|(_, r)| r).collect()
 }
