@@ -88,7 +88,7 @@ impl MonteCarlo {
         let n = e.len();
         let cov = nalgebra::DMatrix::from_fn(n, n, |i, j| est.cov[(i, j)]);
         self.nees
-            .push(calib::stats::nees(&e, &cov).expect("posterior positive definite"));
+            .push(calib::stats::nees(e, &cov).expect("posterior positive definite"));
         self.z.push(e.iter().zip(s).map(|(e, s)| e / s).collect());
         self.names = est.names.clone();
     }
