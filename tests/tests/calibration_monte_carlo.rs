@@ -5,7 +5,7 @@
 //!
 //! The seed sets and the checks were fixed before the runs were looked at: seeds 1-10 in CI
 //! (`monte_carlo_10_seeds`), seeds 100-149 behind `--ignored` (`monte_carlo_50_seeds`,
-//! `cargo test --release -p workspace-tests --test calibration_monte_carlo -- --ignored`). For
+//! `cargo test --release -p workspace-tests --test integration calibration_monte_carlo:: -- --ignored`). For
 //! each model: the NEES summed over the runs inside the two-sided 95 % band of its chi-square
 //! distribution, and no state's mean normalised error beyond the Bonferroni bound for the number
 //! of states at a family-wise 5 % ([`workspace_tests::MonteCarlo::check`]).

@@ -5,7 +5,7 @@
 //! hidden effect the loop accepts nothing in at least 19 of 20 seeds.
 //!
 //! Cases, magnitudes and seeds are fixed in `workspace_tests::hidden` (before any run). CI runs
-//! a fast subset; the whole set: `cargo test --release -p workspace-tests --test hidden_effects
+//! a fast subset; the whole set: `cargo test --release -p workspace-tests --test integration hidden_effects::
 //! -- --ignored`, or `cargo xtask hidden-effects` for the table.
 
 use workspace_tests::hidden::{HiddenCase, cases, negative_control, run_case, term_errors};

@@ -7,7 +7,7 @@
 //! - an error-free unit (every parameter zero, no noise): |error| < 0.02 sigma.
 //!
 //! The CI test runs the two hardest cases and the error-free run; the whole grid is behind
-//! `--ignored` (`cargo test --release -p workspace-tests --test noiseless -- --ignored`).
+//! `--ignored` (`cargo test --release -p workspace-tests --test integration noiseless:: -- --ignored`).
 
 use calib::config::RunConfig;
 use calib::estimate::{RunData, estimate};

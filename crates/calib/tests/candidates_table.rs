@@ -1,5 +1,5 @@
 //! The separability of each candidate term under the paper's program, by covariance analysis
-//! (printed; `cargo test --release -p calib --test candidates_table -- --ignored --nocapture`).
+//! (printed; `cargo test --release -p calib --test integration candidates_table:: -- --ignored --nocapture`).
 
 use calib::config::RunConfig;
 use calib::covariance::covariance_analysis_ext;

@@ -7,7 +7,7 @@
 //! sins-calib segment --imu out/xsens/imu.csv --json out/xsens/segments.json
 //! sins-calib import --profile examples/ferraris_session.toml --out out/ferraris
 //! sins-calib segment --imu out/ferraris/imu.csv --json out/ferraris/segments.json
-//! cargo test --release -p calib --test free_motion_real -- --ignored --nocapture
+//! cargo test --release -p calib --test integration free_motion_real:: -- --ignored --nocapture
 //! ```
 
 use calib::free_motion::{FreeMotionSettings, Interval, KnownTurn, calibrate_free_motion};

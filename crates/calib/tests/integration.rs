@@ -1,0 +1,11 @@
+//! The integration tests of this crate in one test binary (one link, and the tests of all
+//! files run in parallel): each file of this directory is a module. Run one file's tests with
+//! `cargo test --release -p calib --test integration <file>::`.
+
+mod arbitrary_input;
+mod candidates;
+mod candidates_table;
+mod diagnostics;
+mod free_motion_real;
+mod io;
+mod jacobians;

@@ -1,0 +1,10 @@
+//! The integration tests of this crate in one test binary (one link, and the tests of all
+//! files run in parallel): each file of this directory is a module. Run one file's tests with
+//! `cargo test --release -p sins-calib --test integration <file>::`.
+
+mod arbitrary_input;
+mod cli;
+mod diagnose;
+mod free_motion;
+mod import;
+mod refusals;
