@@ -27,7 +27,7 @@ fn monte_carlo_10_seeds() {
 }
 
 #[test]
-#[ignore = "50 seeds x 2 models, about three minutes in release"]
+#[ignore = "50 seeds x 2 models, about half a minute in release on 2 cores"]
 fn monte_carlo_50_seeds() {
     run(100..=149);
 }

@@ -54,7 +54,7 @@ fn static_runs_report_honest_sigmas_10_seeds() {
 }
 
 #[test]
-#[ignore = "50 static runs x 2 models, about a minute in release"]
+#[ignore = "50 static runs x 2 models, a few seconds in release on 2 cores"]
 fn static_runs_report_honest_sigmas_50_seeds() {
     run(400..=449);
 }
