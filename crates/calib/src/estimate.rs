@@ -244,8 +244,8 @@ const BIN_S: f64 = 0.1;
 
 /// Read the IMU data once: count the records and check that they come at the configured rate
 /// (within 5 %), naming the first line that does not.
-fn scan_imu<I: ImuSource + ?Sized>(
-    imu: &mut I,
+fn scan_imu(
+    imu: &mut dyn ImuSource,
     rate_hz: f64,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Scan, EstimateError> {
@@ -341,8 +341,7 @@ pub fn estimate_with(
 }
 
 /// Calibrate from any IMU source (e.g. a file read record by record, twice) and the turntable
-/// records, with the state layout `layout`. Generic over the source, so that reading a record
-/// is no dynamic call per IMU step (a `&mut dyn ImuSource` is accepted too).
+/// records, with the state layout `layout`.
 ///
 /// Two passes over the data. The first feeds every estimate back as it goes (closed loop) and
 /// starts from the prior means; its linearisation errors are products of the current errors,
@@ -351,10 +350,10 @@ pub fn estimate_with(
 /// linearises about the first pass's estimates (the increments are compensated with them, the
 /// turntable angles read with their delay and installation) and keeps the same prior, so only
 /// the attitude is fed back and the parameter errors stay in the filter state.
-pub fn estimate_from<I: ImuSource + ?Sized>(
+pub fn estimate_from(
     config: &RunConfig,
     layout: &StateLayout,
-    imu: &mut I,
+    imu: &mut dyn ImuSource,
     turntable: Option<(&TurntableData, &str)>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
@@ -652,10 +651,10 @@ fn start_filter(
 /// nominal values, the prior mean of each error state the prior mean less the nominal value.
 /// A `closed_loop` pass feeds every estimate back as it goes; otherwise only the attitude.
 #[allow(clippy::too_many_arguments)]
-fn run_pass<I: ImuSource + ?Sized>(
+fn run_pass(
     config: &RunConfig,
     layout: &StateLayout,
-    imu: &mut I,
+    imu: &mut dyn ImuSource,
     turntable: Option<(&TurntableData, &str)>,
     scan: &Scan,
     nominal: Option<&Nominal>,
