@@ -715,13 +715,19 @@ fn run_pass(
     imu.rewind()?;
     let mut j = 0;
     let mut final_time = scan.span.0;
-    while let Some((rec, line)) = imu.next_record()? {
-        pass.step(&rec, line)?;
-        j += 1;
-        final_time = rec.t;
-        if j % PROGRESS_EVERY == 0 || j == scan.n {
-            progress(j);
+    // Records in chunks of PROGRESS_EVERY: one call through the source per chunk.
+    let mut chunk = Vec::with_capacity(PROGRESS_EVERY);
+    loop {
+        imu.next_chunk(&mut chunk, PROGRESS_EVERY)?;
+        if chunk.is_empty() {
+            break;
         }
+        for (rec, line) in &chunk {
+            pass.step(rec, *line)?;
+            final_time = rec.t;
+        }
+        j += chunk.len();
+        progress(j);
     }
     let PassResult {
         values,

@@ -17,6 +17,19 @@ pub trait ImuSource {
     fn len_hint(&self) -> Option<usize> {
         None
     }
+    /// Replace the contents of `out` with up to `max` next records and their lines; empty at
+    /// the end. The passes read in chunks, so that a source behind `dyn ImuSource` costs one
+    /// dynamic call per chunk, not one per IMU step.
+    fn next_chunk(&mut self, out: &mut Vec<(ImuRecord, usize)>, max: usize) -> Result<(), IoError> {
+        out.clear();
+        while out.len() < max {
+            match self.next_record()? {
+                Some(r) => out.push(r),
+                None => break,
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Records already in memory (a parsed file or a simulation).
@@ -57,6 +70,14 @@ impl ImuSource for MemoryImu<'_> {
     }
     fn len_hint(&self) -> Option<usize> {
         Some(self.data.records.len())
+    }
+    fn next_chunk(&mut self, out: &mut Vec<(ImuRecord, usize)>, max: usize) -> Result<(), IoError> {
+        out.clear();
+        let start = self.next.min(self.data.records.len());
+        let end = (start + max).min(self.data.records.len());
+        out.extend((start..end).map(|i| (self.data.records[i], i + 2)));
+        self.next = end;
+        Ok(())
     }
 }
 
@@ -151,5 +172,22 @@ impl ImuSource for FileImu {
         } else {
             self.size_hint
         }
+    }
+    fn next_chunk(&mut self, out: &mut Vec<(ImuRecord, usize)>, max: usize) -> Result<(), IoError> {
+        out.clear();
+        if self.cached {
+            let start = self.next.min(self.cache.len());
+            let end = (start + max).min(self.cache.len());
+            out.extend_from_slice(&self.cache[start..end]);
+            self.next = end;
+            return Ok(());
+        }
+        while out.len() < max {
+            match self.next_record()? {
+                Some(r) => out.push(r),
+                None => break,
+            }
+        }
+        Ok(())
     }
 }
