@@ -3,12 +3,11 @@
 //! line doubled) never panics: it calibrates (exit 0, or 3 when the fit fails its band) or
 //! refuses with exit status 1 and a message that names the mutated file. The seed is fixed.
 
+use crate::common::BIN;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-
-const BIN: &str = env!("CARGO_BIN_EXE_sins-calib");
 
 /// A 30-s run of the example configuration, simulated once: (dir, config).
 fn base_run() -> &'static (PathBuf, PathBuf) {

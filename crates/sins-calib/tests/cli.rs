@@ -1,30 +1,12 @@
 //! The command-line program end to end: help, a short simulate + calibrate round trip, refusals
 //! of bad input, the covariance analysis.
 
+use crate::common::{self, run, s, text};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-const BIN: &str = env!("CARGO_BIN_EXE_sins-calib");
-
-fn run(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
 
 /// A fresh directory for one test.
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("sins-calib-cli")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch directory");
-    dir
+    common::scratch("sins-calib-cli", name)
 }
 
 /// `examples/run.toml` with a 120-s run, written into `dir`.
@@ -39,10 +21,6 @@ fn short_config(dir: &Path) -> PathBuf {
     let path = dir.join("short.toml");
     std::fs::write(&path, text.replace(commented, "duration_s = 120.0")).expect("config");
     path
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
 }
 
 #[test]

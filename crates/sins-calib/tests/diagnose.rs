@@ -2,33 +2,11 @@
 //! effect the loop accepts nothing and says the paper's model fits; `design` prints a program
 //! that the turntable code reads back; bad term ids are refused with the valid ones named.
 
+use crate::common::{self, run, s, text};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-const BIN: &str = env!("CARGO_BIN_EXE_sins-calib");
-
-fn run(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("sins-calib-diagnose")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch directory");
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
+    common::scratch("sins-calib-diagnose", name)
 }
 
 /// `examples/run.toml` (seed 1, the paper's whole program) with the IMU and the angles at

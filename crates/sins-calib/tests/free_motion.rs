@@ -1,10 +1,9 @@
 //! `calibrate --free-motion` on the two real recordings shipped in `data/real` (import, then
 //! calibrate with a hold-out): the acceptance targets of the free-motion calibration.
 
+use crate::common::{self, BIN, s};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-const BIN: &str = env!("CARGO_BIN_EXE_sins-calib");
 
 fn run(args: &[&str]) -> Output {
     let o = Command::new(BIN)
@@ -20,16 +19,7 @@ fn run(args: &[&str]) -> Output {
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("sins-calib-free-motion")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch directory");
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
+    common::scratch("sins-calib-free-motion", name)
 }
 
 fn import(profile: &str, dir: &Path) {

@@ -4,6 +4,7 @@
 
 mod arbitrary_input;
 mod cli;
+mod common;
 mod diagnose;
 mod free_motion;
 mod import;

@@ -235,11 +235,6 @@ impl AxisJacobian {
             out[k] += m.column(axis) * features[slot];
         }
     }
-
-    /// The columns: (parameter index in the model, axis, feature slot).
-    pub fn columns(&self) -> &[(usize, usize, usize)] {
-        &self.columns
-    }
 }
 
 /// A triad's error as an affine function of the input, for fixed parameters:

@@ -36,14 +36,9 @@ pub fn gimbal_jacobian(k: &[f64; 3]) -> Matrix3<f64> {
     Matrix3::from_columns(&[a1, a2, a3])
 }
 
-/// [`c_platform_to_base`] and [`gimbal_jacobian`] of the same angles, with each angle's sine and
-/// cosine taken once (the estimator needs both at every IMU step; bit for bit what the two
-/// functions give).
-pub fn gimbal_frame(k: &[f64; 3]) -> (Matrix3<f64>, Matrix3<f64>) {
-    gimbal_frame_sin_cos(&k.map(f64::sin_cos))
-}
-
-/// [`gimbal_frame`] from each angle's `(sin, cos)`.
+/// [`c_platform_to_base`] and [`gimbal_jacobian`] of the same angles from each angle's
+/// `(sin, cos)` (the estimator needs both at every IMU step and has the sines and cosines
+/// already; bit for bit what the two functions give).
 pub fn gimbal_frame_sin_cos(sc: &[(f64, f64); 3]) -> (Matrix3<f64>, Matrix3<f64>) {
     let [(s1, c1), (s2, c2), (s3, c3)] = *sc;
     // rot_z, rot_x and rot_y of sins_model::attitude, written out.
@@ -80,7 +75,7 @@ mod tests {
             [1.0, std::f64::consts::FRAC_PI_2, -0.7],
             [-2.0, 2.5, 0.1],
         ] {
-            let (c, j) = gimbal_frame(&k);
+            let (c, j) = gimbal_frame_sin_cos(&k.map(f64::sin_cos));
             assert_eq!(c, c_platform_to_base(&k));
             assert_eq!(j, gimbal_jacobian(&k));
         }

@@ -12,13 +12,11 @@ pub(crate) fn wrap_deg(d: f64) -> f64 {
 /// One interpolated set of gimbal angles.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct AngleSet {
-    /// Gimbal angles (rad).
-    pub k: [f64; 3],
     /// The two records interpolated between, with their weights.
     pub records: [(usize, f64); 2],
     /// IMU-clock times of the two records (s).
     pub t_records_imu: [f64; 2],
-    /// `(sin, cos)` of each angle of `k`.
+    /// `(sin, cos)` of each gimbal angle.
     pub sin_cos: [(f64, f64); 3],
 }
 
@@ -120,7 +118,6 @@ impl<'a> AngleInterpolator<'a> {
         let sin_cos =
             std::array::from_fn(|g| sin_cos_near(pair.sin_cos_a[g], k[g] - pair.k_a[g], k[g]));
         Some(AngleSet {
-            k,
             sin_cos,
             records: [(cursor, 1.0 - w), (cursor + 1, w)],
             t_records_imu: pair.t_imu,

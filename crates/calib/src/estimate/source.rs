@@ -21,15 +21,24 @@ pub trait ImuSource {
     /// the end. The passes read in chunks, so that a source behind `dyn ImuSource` costs one
     /// dynamic call per chunk, not one per IMU step.
     fn next_chunk(&mut self, out: &mut Vec<(ImuRecord, usize)>, max: usize) -> Result<(), IoError> {
-        out.clear();
-        while out.len() < max {
-            match self.next_record()? {
-                Some(r) => out.push(r),
-                None => break,
-            }
-        }
-        Ok(())
+        fill_chunk(self, out, max)
     }
+}
+
+/// [`ImuSource::next_chunk`] record by record.
+fn fill_chunk<S: ImuSource + ?Sized>(
+    source: &mut S,
+    out: &mut Vec<(ImuRecord, usize)>,
+    max: usize,
+) -> Result<(), IoError> {
+    out.clear();
+    while out.len() < max {
+        match source.next_record()? {
+            Some(r) => out.push(r),
+            None => break,
+        }
+    }
+    Ok(())
 }
 
 /// Records already in memory (a parsed file or a simulation).
@@ -174,20 +183,14 @@ impl ImuSource for FileImu {
         }
     }
     fn next_chunk(&mut self, out: &mut Vec<(ImuRecord, usize)>, max: usize) -> Result<(), IoError> {
-        out.clear();
         if self.cached {
+            out.clear();
             let start = self.next.min(self.cache.len());
             let end = (start + max).min(self.cache.len());
             out.extend_from_slice(&self.cache[start..end]);
             self.next = end;
             return Ok(());
         }
-        while out.len() < max {
-            match self.next_record()? {
-                Some(r) => out.push(r),
-                None => break,
-            }
-        }
-        Ok(())
+        fill_chunk(self, out, max)
     }
 }
