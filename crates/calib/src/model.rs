@@ -23,58 +23,130 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::errors;
 use sins_model::terms::{AxisJacobian, Sensor, SensorInput};
 
+/// The columns of `phi_top` that can be non-zero (the layout's dynamic columns, in order), held
+/// as three rows of consecutive values: the work at every IMU step on them (the Earth-rate
+/// rotation, the window sums) is then a loop over contiguous slices, which the compiler turns
+/// into vector instructions, rather than one 3-vector per column.
+#[derive(Clone, Debug, PartialEq)]
+struct DynamicRows {
+    /// Row 0, row 1, row 2, each `len` long.
+    v: Vec<f64>,
+    len: usize,
+}
+
+impl DynamicRows {
+    fn zeros(len: usize) -> Self {
+        Self {
+            v: vec![0.0; 3 * len],
+            len,
+        }
+    }
+
+    fn rows(&self) -> [&[f64]; 3] {
+        let (r0, rest) = self.v.split_at(self.len);
+        let (r1, r2) = rest.split_at(self.len);
+        [r0, r1, r2]
+    }
+
+    fn rows_mut(&mut self) -> [&mut [f64]; 3] {
+        let (r0, rest) = self.v.split_at_mut(self.len);
+        let (r1, r2) = rest.split_at_mut(self.len);
+        [r0, r1, r2]
+    }
+
+    fn col(&self, c: usize) -> Vector3<f64> {
+        Vector3::new(self.v[c], self.v[self.len + c], self.v[2 * self.len + c])
+    }
+
+    fn set_col(&mut self, c: usize, x: &Vector3<f64>) {
+        for (i, x) in x.iter().enumerate() {
+            self.v[i * self.len + c] = *x;
+        }
+    }
+
+    /// `self = a * self`.
+    fn rotate(&mut self, a: &Matrix3<f64>) {
+        let [r0, r1, r2] = self.rows_mut();
+        for ((x, y), z) in r0.iter_mut().zip(r1.iter_mut()).zip(r2.iter_mut()) {
+            let (x0, y0, z0) = (*x, *y, *z);
+            *x = a[(0, 0)] * x0 + a[(0, 1)] * y0 + a[(0, 2)] * z0;
+            *y = a[(1, 0)] * x0 + a[(1, 1)] * y0 + a[(1, 2)] * z0;
+            *z = a[(2, 0)] * x0 + a[(2, 1)] * y0 + a[(2, 2)] * z0;
+        }
+    }
+
+    /// `self += w * other`.
+    fn add_scaled(&mut self, other: &DynamicRows, w: f64) {
+        for (s, o) in self.v.iter_mut().zip(&other.v) {
+            *s += o * w;
+        }
+    }
+
+    /// Add `m * J` for a Jacobian in axis-column form whose columns are given by their index
+    /// here (`(column, axis, feature slot)`).
+    fn add_axis_product(&mut self, columns: &[(usize, usize, usize)], m: &Matrix3<f64>, f: &[f64; 7]) {
+        let [r0, r1, r2] = self.rows_mut();
+        for &(c, axis, slot) in columns {
+            let x = f[slot];
+            r0[c] += m[(0, axis)] * x;
+            r1[c] += m[(1, axis)] * x;
+            r2[c] += m[(2, axis)] * x;
+        }
+    }
+}
+
 /// Weighted sum of `phi_top` over the sample instants of a measurement window, kept relative to
 /// the last filter instant and re-expressed at every predict (`PhiMean::rebase`).
 #[derive(Clone, Debug)]
 pub struct PhiMean {
-    sum: Vec<Vector3<f64>>,
+    sum: DynamicRows,
     /// Space for the re-expressed sum (no allocation per predict).
-    spare: Vec<Vector3<f64>>,
+    spare: DynamicRows,
     weight: f64,
 }
 
 impl PhiMean {
-    fn new(n: usize) -> Self {
+    fn new(n_dynamic: usize) -> Self {
         Self {
-            sum: vec![Vector3::zeros(); n],
-            spare: vec![Vector3::zeros(); n],
+            sum: DynamicRows::zeros(n_dynamic),
+            spare: DynamicRows::zeros(n_dynamic),
             weight: 0.0,
         }
     }
 
     fn clear(&mut self) {
-        self.sum.fill(Vector3::zeros());
+        self.sum.v.fill(0.0);
         self.weight = 0.0;
     }
 
-    /// Add `w` times the columns `active` of `phi` (the others are zero).
-    fn add(&mut self, phi: &[Vector3<f64>], active: &[usize], w: f64) {
-        for &j in active {
-            self.sum[j] += phi[j] * w;
-        }
+    /// Add `w` times `phi`.
+    fn add(&mut self, phi: &DynamicRows, w: f64) {
+        self.sum.add_scaled(phi, w);
         self.weight += w;
     }
 
     /// The sum in terms of the state at the end of `phi_end` (the transition from the last
     /// filter instant): with `phi_end = [A | B]` and `x_0 = [A^T (beta_end - B p); p]`,
     /// `sum [A_i | B_i] x_0 = [S_A A^T | S_B - S_A A^T B] x_end` (A is a rotation).
-    fn expressed_at(&self, phi_end: &[Vector3<f64>], out: &mut [Vector3<f64>]) {
-        let a = Matrix3::from_columns(&phi_end[..3]);
-        let s_a = Matrix3::from_columns(&self.sum[..3]);
-        let m = s_a * a.transpose();
-        for (i, o) in out.iter_mut().take(3).enumerate() {
-            *o = m.column(i).into_owned();
+    fn expressed_at(&self, phi_end: &DynamicRows, out: &mut DynamicRows) {
+        Self::express(&self.sum, phi_end, out);
+    }
+
+    fn express(sum: &DynamicRows, phi_end: &DynamicRows, out: &mut DynamicRows) {
+        let col3 = |r: &DynamicRows| Matrix3::from_columns(&[r.col(0), r.col(1), r.col(2)]);
+        let m = col3(sum) * col3(phi_end).transpose();
+        for i in 0..3 {
+            out.set_col(i, &m.column(i).into_owned());
         }
-        for j in 3..self.sum.len() {
-            out[j] = self.sum[j] - m * phi_end[j];
+        for c in 3..sum.len {
+            out.set_col(c, &(sum.col(c) - m * phi_end.col(c)));
         }
     }
 
     /// Re-express the sum in the state at the end of `phi_end` (called before a predict).
-    fn rebase(&mut self, phi_end: &[Vector3<f64>]) {
-        let mut out = std::mem::take(&mut self.spare);
-        self.expressed_at(phi_end, &mut out);
-        self.spare = std::mem::replace(&mut self.sum, out);
+    fn rebase(&mut self, phi_end: &DynamicRows) {
+        Self::express(&self.sum, phi_end, &mut self.spare);
+        std::mem::swap(&mut self.sum, &mut self.spare);
     }
 }
 
@@ -117,24 +189,27 @@ pub struct LinearModel {
     /// Gyro white-noise PSD (rad^2/s).
     psd_gyro: f64,
     /// The columns of `phi_top` that can be non-zero: the attitude errors and the parameters
-    /// of the gyro terms (nothing else drives `beta`). The others are never touched.
+    /// of the gyro terms (nothing else drives `beta`), in order. The others are always zero
+    /// and are not stored ([`DynamicRows`]).
     dynamic: Vec<usize>,
-    /// The gyro terms' parameter ranges (indices into the instrument parameters).
-    gyro_params: Vec<std::ops::Range<usize>>,
+    /// The gyro terms' parameters: (index into the instrument parameters, column of
+    /// `phi_top` among the dynamic ones).
+    gyro_params: Vec<(usize, usize)>,
     /// The gyro and accelerometer Jacobians in axis-column form, when the model's terms give
     /// it: then a sub-step adds `C dt e_axis feature` per column, with no call through the
-    /// terms and no products with zero columns.
-    gyro_axis: Option<AxisJacobian>,
+    /// terms and no products with zero columns. The gyro's columns are given by their
+    /// dynamic column: `(column, axis, feature slot)`.
+    gyro_axis: Option<Vec<(usize, usize, usize)>>,
     accel_axis: Option<AxisJacobian>,
     /// IMU steps since the last reset of the transition: `q_top = steps * psd dt I`, since the
     /// Earth-rate rotation leaves a multiple of the identity unchanged.
     q_steps: usize,
-    phi_top: Vec<Vector3<f64>>,
+    phi_top: DynamicRows,
     jac: Vec<Vector3<f64>>,
     dt: f64,
     acc: AccelWindow,
     tt: TurntableWindow,
-    scratch: Vec<Vector3<f64>>,
+    scratch: DynamicRows,
     /// `phi_top` and `q_top` as dense matrices for the filter (filled at each predict).
     phi_mat: Mat<f64>,
     q_mat: Mat<f64>,
@@ -222,20 +297,28 @@ impl LinearModel {
     pub fn new(layout: &StateLayout, dt: f64, u_enu: &Vector3<f64>, psd_gyro: f64) -> Self {
         let n = layout.dim();
         let n_instr = layout.n_instrument();
-        let gyro_params: Vec<_> = (0..layout.model.terms().len())
+        let gyro_params: Vec<(usize, usize)> = (0..layout.model.terms().len())
             .filter(|&k| layout.model.terms()[k].sensor() == Sensor::Gyro)
-            .map(|k| {
+            .flat_map(|k| {
                 let o = layout.model.offset(k);
                 o..o + layout.model.terms()[k].params().len()
             })
+            .enumerate()
+            .map(|(c, i)| (i, 3 + c))
             .collect();
-        let dynamic = (0..3)
-            .chain(
-                gyro_params
-                    .iter()
-                    .flat_map(|r| r.clone().map(|i| StateLayout::INSTRUMENT + i)),
-            )
+        let dynamic: Vec<usize> = (0..3)
+            .chain(gyro_params.iter().map(|&(i, _)| StateLayout::INSTRUMENT + i))
             .collect();
+        let nd = dynamic.len();
+        let gyro_axis = layout.model.axis_jacobian(Sensor::Gyro).map(|ax| {
+            ax.entries()
+                .iter()
+                .map(|&(k, axis, slot)| {
+                    let c = gyro_params.iter().find(|p| p.0 == k).expect("a gyro parameter").1;
+                    (c, axis, slot)
+                })
+                .collect()
+        });
         let drift = layout.gyro_drift.map(|d| {
             let bias = layout.index(sins_model::names::GYRO_BIAS[0]);
             assert_eq!(
@@ -259,20 +342,20 @@ impl LinearModel {
             psd_gyro,
             dynamic,
             gyro_params,
-            gyro_axis: layout.model.axis_jacobian(Sensor::Gyro),
+            gyro_axis,
             accel_axis: layout.model.axis_jacobian(Sensor::Accel),
             q_steps: 0,
-            phi_top: vec![Vector3::zeros(); n],
+            phi_top: DynamicRows::zeros(nd),
             jac: vec![Vector3::zeros(); n_instr],
             dt,
             acc: AccelWindow {
-                beta: PhiMean::new(n),
+                beta: PhiMean::new(nd),
                 c_jac: vec![Vector3::zeros(); n_instr],
                 dv_enu: Vector3::zeros(),
                 t: 0.0,
             },
             tt: TurntableWindow {
-                beta: PhiMean::new(n),
+                beta: PhiMean::new(nd),
                 c_sum: Matrix3::zeros(),
                 omega_sum: Vector3::zeros(),
                 y_sum: Vector3::zeros(),
@@ -281,7 +364,7 @@ impl LinearModel {
                 prev_records: Vec::with_capacity(64),
                 prev_count: 0,
             },
-            scratch: vec![Vector3::zeros(); n],
+            scratch: DynamicRows::zeros(nd),
             phi_mat: Mat::zeros(k, n),
             q_mat: Mat::zeros(k, k),
             h_accel: Mat::zeros(3, n),
@@ -306,9 +389,9 @@ impl LinearModel {
         if self.tt.beta.weight > 0.0 {
             self.tt.beta.rebase(&self.phi_top);
         }
-        self.phi_top.fill(Vector3::zeros());
+        self.phi_top.v.fill(0.0);
         for i in 0..3 {
-            self.phi_top[i][i] = 1.0;
+            self.phi_top.v[i * self.phi_top.len + i] = 1.0;
         }
         self.q_steps = 0;
         if let Some(d) = &mut self.drift {
@@ -365,25 +448,21 @@ impl LinearModel {
         let in_acc = accel_dv_enu.is_some();
         if in_acc {
             // Midpoint rule for the window mean of beta: half weight before, half after.
-            self.acc.beta.add(&self.phi_top, &self.dynamic, 0.5 * dt);
+            self.acc.beta.add(&self.phi_top, 0.5 * dt);
         }
         let a = self.a_step;
-        for &k in &self.dynamic {
-            self.phi_top[k] = a * self.phi_top[k];
-        }
-        let off = StateLayout::INSTRUMENT;
+        self.phi_top.rotate(&a);
         let c_dt = c_body_to_enu * dt;
         let features = AxisJacobian::features(input);
         match &self.gyro_axis {
-            Some(ax) => ax.add_product(&c_dt, &features, &mut self.phi_top[off..]),
+            Some(columns) => self.phi_top.add_axis_product(columns, &c_dt, &features),
             None => {
                 layout.model.jacobian(Sensor::Gyro, p, input, &mut self.jac);
-                for range in &self.gyro_params {
-                    for i in range.clone() {
-                        let j = &self.jac[i];
-                        if *j != Vector3::zeros() {
-                            self.phi_top[off + i] += c_dt * j;
-                        }
+                for &(i, c) in &self.gyro_params {
+                    let j = &self.jac[i];
+                    if *j != Vector3::zeros() {
+                        let col = self.phi_top.col(c) + c_dt * j;
+                        self.phi_top.set_col(c, &col);
                     }
                 }
             }
@@ -393,7 +472,7 @@ impl LinearModel {
             d.step(&a, &c_dt, self.psd_gyro * dt, dt);
         }
         if let Some(dv) = accel_dv_enu {
-            self.acc.beta.add(&self.phi_top, &self.dynamic, 0.5 * dt);
+            self.acc.beta.add(&self.phi_top, 0.5 * dt);
             match &self.accel_axis {
                 Some(ax) => ax.add_product(&c_dt, &features, &mut self.acc.c_jac),
                 None => {
@@ -415,7 +494,7 @@ impl LinearModel {
     /// Add a turntable-angle sample at the end of the last [`Self::substep`].
     pub fn add_angle_sample(&mut self, s: &AngleSample) {
         let w = &mut self.tt;
-        w.beta.add(&self.phi_top, &self.dynamic, 1.0);
+        w.beta.add(&self.phi_top, 1.0);
         w.c_sum += s.c_body_to_enu;
         w.omega_sum += s.platform_rate_enu;
         w.y_sum += s.y;
@@ -430,16 +509,20 @@ impl LinearModel {
 
     /// The accumulated `phi_top` as a dense 3 x n matrix.
     pub fn phi_top(&self) -> DMatrix<f64> {
-        DMatrix::from_fn(3, self.n, |i, j| self.phi_top[j][i])
+        let mut m = DMatrix::zeros(3, self.n);
+        for (c, &j) in self.dynamic.iter().enumerate() {
+            m.set_column(j, &self.phi_top.col(c));
+        }
+        m
     }
 
     /// The accumulated transition `phi_top` (3 x n) and attitude process noise `q_top` (3 x 3)
     /// as views for the filter (no allocation). With drifting gyro biases the dynamic rows are
     /// six: the attitude error and the biases (identity rows), `q_top` their joint noise.
     pub fn transition(&mut self) -> (MatRef<'_, f64>, MatRef<'_, f64>) {
-        for (j, col) in self.phi_top.iter().enumerate() {
-            for i in 0..3 {
-                self.phi_mat[(i, j)] = col[i];
+        for (row, p) in self.phi_top.rows().into_iter().enumerate() {
+            for (&j, x) in self.dynamic.iter().zip(p) {
+                self.phi_mat[(row, j)] = *x;
             }
         }
         match &self.drift {
@@ -503,8 +586,9 @@ impl LinearModel {
         let h = &mut self.h_accel;
         self.acc.beta.expressed_at(&self.phi_top, &mut self.scratch);
         let sf = errors::specific_force_beta_jacobian(f_enu) / self.acc.beta.weight;
-        for (j, col) in self.scratch.iter().enumerate() {
-            let v = sf * col;
+        h.fill(0.0);
+        for (c, &j) in self.dynamic.iter().enumerate() {
+            let v = sf * self.scratch.col(c);
             for r in 0..3 {
                 h[(r, j)] = v[r];
             }
@@ -539,7 +623,9 @@ impl LinearModel {
         let nf = w.count as f64;
         let h = &mut self.h_turntable;
         w.beta.expressed_at(&self.phi_top, &mut self.scratch);
-        for (j, col) in self.scratch.iter().enumerate() {
+        h.fill(0.0);
+        for (c, &j) in self.dynamic.iter().enumerate() {
+            let col = self.scratch.col(c);
             for r in 0..3 {
                 h[(r, j)] = col[r] / w.beta.weight;
             }

@@ -223,13 +223,21 @@ pub struct AxisJacobian {
 
 impl AxisJacobian {
     /// The features of `input` in slot order: 1, `omega_body`, `f_body`.
+    #[inline]
     pub fn features(input: &SensorInput) -> [f64; 7] {
         let (w, f) = (input.omega_body, input.f_body);
         [1.0, w.x, w.y, w.z, f.x, f.y, f.z]
     }
 
+    /// The non-zero columns: (parameter index in the model, sensor axis, feature slot in
+    /// [`AxisJacobian::features`]). For callers that hold the product in another layout.
+    pub fn entries(&self) -> &[(usize, usize, usize)] {
+        &self.columns
+    }
+
     /// Add `m * J_k` to `out[k]` for every non-zero column `k` (`out` indexed by the model's
     /// parameters), with `features` from [`AxisJacobian::features`].
+    #[inline]
     pub fn add_product(&self, m: &Matrix3<f64>, features: &[f64; 7], out: &mut [Vector3<f64>]) {
         for &(k, axis, slot) in &self.columns {
             out[k] += m.column(axis) * features[slot];
