@@ -20,7 +20,7 @@
 //!   it matters (`consider`).
 
 use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
-use crate::config::{AttitudePrior, ConfigError, RunConfig};
+use crate::config::{AttitudePrior, ClockConfig, ConfigError, RunConfig};
 use crate::data_checks::{check_gyros_alive, check_record, check_specific_force};
 use crate::diagnostics::{self, Innovation};
 use crate::engine::prior_filter;
@@ -46,7 +46,7 @@ mod pass;
 mod source;
 
 pub(crate) use angles::wrap_deg;
-use angles::{AngleInterpolator, median_interval};
+use angles::{AngleInterpolator, RecordTable, median_interval};
 use pass::{AngleReader, Linearisation, Pass, PassResult, PassSettings, Strapdown};
 pub use source::{FileImu, ImuSource, MemoryImu};
 
@@ -368,6 +368,10 @@ pub fn estimate_from(
     check_specific_force(&scan.bins, g, imu.file())?;
     locate_program(config, &mut scan, imu.file())?;
     let n = scan.n;
+    let tt_setup = match (layout.install.is_some(), turntable) {
+        (true, Some((tt, file))) => Some(TurntableSetup::new(config, tt, file, &scan)?),
+        _ => None,
+    };
     // Every pass carries a constant copy of the start attitude error, so that the next pass can
     // start from the estimate of the start attitude (a fixed-point smoother).
     let smoother = layout.with_start_attitude();
@@ -383,7 +387,7 @@ pub fn estimate_from(
             config,
             &smoother,
             imu,
-            turntable,
+            tt_setup.as_ref(),
             &scan,
             nominal.as_ref(),
             pass == 0,
@@ -412,7 +416,7 @@ pub fn estimate_from(
                 config,
                 &smoother,
                 imu,
-                turntable,
+                tt_setup.as_ref(),
                 &scan,
                 Some(nominal),
                 false,
@@ -470,55 +474,90 @@ const MAX_PASSES: usize = 4;
 /// from the pass before ends the iteration.
 const CONVERGED_SIGMA: f64 = 0.02;
 
-/// The turntable side of a pass: checks the records against the IMU span and sets up the
-/// interpolation; returns the reader and the variance of one angle record.
-fn angle_reader<'a>(
-    config: &RunConfig,
-    tt: &'a TurntableData,
-    file: &str,
-    scan: &Scan,
-    stats: &mut FitStatistics,
-) -> Result<(AngleReader<'a>, f64), EstimateError> {
-    let clock = config.clock;
-    let dt = 1.0 / config.filter.imu_rate_hz;
-    let span = tt.span().ok_or_else(|| IoError::File {
-        file: file.to_string(),
-        message: "expected turntable records, found none".into(),
-    })?;
-    check_overlap(
-        (scan.span.0 - dt, scan.span.1),
-        (clock.imu_time(span.0), clock.imu_time(span.1)),
-        file,
-    )?;
-    let med = median_interval(tt.records.iter().map(|r| r.t));
-    if !(med.is_finite() && med > 0.0) {
-        return Err(IoError::File {
+/// The turntable side of the estimation, set up once for every pass: the records checked
+/// against the IMU span and the clock relation, their median spacing and rate, and what the
+/// interpolation needs of each record ([`RecordTable`]).
+struct TurntableSetup<'a> {
+    data: &'a TurntableData,
+    table: RecordTable,
+    clock: ClockConfig,
+    median_interval: f64,
+    /// Record rate on the IMU clock (Hz).
+    record_rate_hz: f64,
+    /// One sample per record rather than one per IMU step ([`AngleReader::per_record`]).
+    per_record: bool,
+    /// Variance of one angle record (rad^2).
+    angle_var: f64,
+    rate_changes: RateChanges,
+}
+
+impl<'a> TurntableSetup<'a> {
+    /// Check the records of `file` against the IMU span and the clock relation.
+    fn new(
+        config: &RunConfig,
+        tt: &'a TurntableData,
+        file: &str,
+        scan: &Scan,
+    ) -> Result<Self, EstimateError> {
+        let clock = config.clock;
+        let dt = 1.0 / config.filter.imu_rate_hz;
+        let span = tt.span().ok_or_else(|| IoError::File {
             file: file.to_string(),
-            message: "expected at least two turntable records".into(),
+            message: "expected turntable records, found none".into(),
+        })?;
+        check_overlap(
+            (scan.span.0 - dt, scan.span.1),
+            (clock.imu_time(span.0), clock.imu_time(span.1)),
+            file,
+        )?;
+        let med = median_interval(tt.records.iter().map(|r| r.t));
+        if !(med.is_finite() && med > 0.0) {
+            return Err(IoError::File {
+                file: file.to_string(),
+                message: "expected at least two turntable records".into(),
+            }
+            .into());
         }
-        .into());
+        let record_rate_hz = (1.0 + clock.turntable_rate_error) / med;
+        let program = config.program()?;
+        // The delay is searched within its prior (three sigma).
+        check_turntable_clock(
+            &tt.records,
+            &clock,
+            &program,
+            scan.program_start,
+            3.0 * config.priors.tau_s,
+        )
+        .map_err(|source| EstimateError::TurntableClock {
+            file: file.to_string(),
+            source,
+        })?;
+        Ok(Self {
+            data: tt,
+            table: RecordTable::new(tt),
+            clock,
+            median_interval: med,
+            record_rate_hz,
+            per_record: 1.0 / record_rate_hz > 2.0 * dt,
+            angle_var: config.angle_psd() * record_rate_hz,
+            rate_changes: RateChanges::new(&program),
+        })
     }
-    stats.turntable_record_rate_hz = (1.0 + clock.turntable_rate_error) / med;
-    let program = config.program()?;
-    // The delay is searched within its prior (three sigma).
-    check_turntable_clock(
-        &tt.records,
-        &clock,
-        &program,
-        scan.program_start,
-        3.0 * config.priors.tau_s,
-    )
-    .map_err(|source| EstimateError::TurntableClock {
-        file: file.to_string(),
-        source,
-    })?;
-    let reader = AngleReader {
-        interp: AngleInterpolator::new(tt, clock, med),
-        rate_changes: RateChanges::new(&program),
-        program_start: scan.program_start,
-        per_record: 1.0 / stats.turntable_record_rate_hz > 2.0 * dt,
-    };
-    Ok((reader, config.angle_psd() * stats.turntable_record_rate_hz))
+
+    /// The reader of one pass, for a program starting at `program_start` (IMU clock).
+    fn reader(&self, program_start: f64) -> AngleReader<'_> {
+        AngleReader {
+            interp: AngleInterpolator::new(
+                self.data,
+                &self.table,
+                self.clock,
+                self.median_interval,
+            ),
+            rate_changes: &self.rate_changes,
+            program_start,
+            per_record: self.per_record,
+        }
+    }
 }
 
 /// The start attitude the prior is about, and the prior covariance of all states. With the
@@ -655,7 +694,7 @@ fn run_pass(
     config: &RunConfig,
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
-    turntable: Option<(&TurntableData, &str)>,
+    turntable: Option<&TurntableSetup>,
     scan: &Scan,
     nominal: Option<&Nominal>,
     closed_loop: bool,
@@ -667,9 +706,9 @@ fn run_pass(
     let u_enu = site.earth_rate_enu();
     let mut stats = FitStatistics::default();
     let (angles, angle_var) = match (layout.install.is_some(), turntable) {
-        (true, Some((tt, file))) => {
-            let (reader, var) = angle_reader(config, tt, file, scan, &mut stats)?;
-            (Some(reader), Some(var))
+        (true, Some(tt)) => {
+            stats.turntable_record_rate_hz = tt.record_rate_hz;
+            (Some(tt.reader(scan.program_start)), Some(tt.angle_var))
         }
         _ => (None, None),
     };

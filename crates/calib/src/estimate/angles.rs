@@ -50,10 +50,36 @@ fn sin_cos_near(a: (f64, f64), d: f64, direct: f64) -> (f64, f64) {
     (a.0 * cd + a.1 * sd, a.1 * cd - a.0 * sd)
 }
 
+/// What the interpolation needs of each record, worked out once for all passes: the sines and
+/// cosines of its angles and the angle differences to the next record, wrapped the short way
+/// (trigonometry and a floating-point remainder per record and pass were 4 % of a calibration).
+#[derive(Clone, Debug)]
+pub(crate) struct RecordTable {
+    sin_cos: Vec<[(f64, f64); 3]>,
+    /// Zero after the last record.
+    d_deg: Vec<[f64; 3]>,
+}
+
+impl RecordTable {
+    pub fn new(data: &TurntableData) -> Self {
+        let r = &data.records;
+        Self {
+            sin_cos: r.iter().map(|a| a.k_deg.map(|k| k.to_radians().sin_cos())).collect(),
+            d_deg: (0..r.len())
+                .map(|i| match r.get(i + 1) {
+                    Some(b) => std::array::from_fn(|g| wrap_deg(b.k_deg[g] - r[i].k_deg[g])),
+                    None => [0.0; 3],
+                })
+                .collect(),
+        }
+    }
+}
+
 /// Interpolates the turntable records at IMU times (linearly, wrap-aware in the angles).
 #[derive(Clone, Debug)]
 pub(crate) struct AngleInterpolator<'a> {
     data: &'a TurntableData,
+    table: &'a RecordTable,
     clock: ClockConfig,
     /// Index of the record at or before the last query.
     cursor: usize,
@@ -66,11 +92,17 @@ pub(crate) struct AngleInterpolator<'a> {
 }
 
 impl<'a> AngleInterpolator<'a> {
-    /// Records `data` on the turntable clock `clock`; spacings above 2.5 median spacings are
-    /// gaps and not interpolated across.
-    pub fn new(data: &'a TurntableData, clock: ClockConfig, median_interval: f64) -> Self {
+    /// Records `data` (with their [`RecordTable`]) on the turntable clock `clock`; spacings
+    /// above 2.5 median spacings are gaps and not interpolated across.
+    pub fn new(
+        data: &'a TurntableData,
+        table: &'a RecordTable,
+        clock: ClockConfig,
+        median_interval: f64,
+    ) -> Self {
         Self {
             data,
+            table,
             clock,
             cursor: 0,
             max_gap: 2.5 * median_interval,
@@ -102,12 +134,11 @@ impl<'a> AngleInterpolator<'a> {
         let pair = match self.pair {
             Some(p) if p.index == cursor => p,
             _ => {
-                let k_a = a.k_deg.map(f64::to_radians);
                 let p = PairCache {
                     index: cursor,
-                    k_a,
-                    sin_cos_a: k_a.map(f64::sin_cos),
-                    d_deg: std::array::from_fn(|g| wrap_deg(b.k_deg[g] - a.k_deg[g])),
+                    k_a: a.k_deg.map(f64::to_radians),
+                    sin_cos_a: self.table.sin_cos[cursor],
+                    d_deg: self.table.d_deg[cursor],
                     t_imu: [self.clock.imu_time(a.t), self.clock.imu_time(b.t)],
                 };
                 self.pair = Some(p);

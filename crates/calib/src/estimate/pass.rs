@@ -286,7 +286,7 @@ impl Compensation {
 pub(super) struct AngleReader<'a> {
     pub interp: AngleInterpolator<'a>,
     /// The platform's rate changes (program time) and the program's start on the IMU clock.
-    pub rate_changes: RateChanges,
+    pub rate_changes: &'a RateChanges,
     pub program_start: f64,
     /// Take one sample per angle record (at the IMU step nearest to the time the record holds)
     /// rather than one per IMU step: set when the records are more than two IMU steps apart.
