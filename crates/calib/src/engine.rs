@@ -37,25 +37,71 @@ impl Schedule {
         }
     }
 
+    /// Where step `j` (from 1) falls in the two cycles.
+    pub fn phase_of(&self, j: usize) -> Phase {
+        Phase {
+            accel: (j - 1) % self.accel_interval,
+            turntable: (j - 1) % self.turntable_interval,
+        }
+    }
+
+    /// The phase of the step after one at `p`.
+    pub fn next_phase(&self, p: Phase) -> Phase {
+        let wrap = |k: usize, n: usize| if k + 1 == n { 0 } else { k + 1 };
+        Phase {
+            accel: wrap(p.accel, self.accel_interval),
+            turntable: wrap(p.turntable, self.turntable_interval),
+        }
+    }
+
+    /// A step at phase `p` belongs to a specific-force window.
+    pub fn in_accel_window_at(&self, p: Phase) -> bool {
+        p.accel >= self.accel_interval - self.accel_window
+    }
+
+    /// A step at phase `p` belongs to a turntable-angle window.
+    pub fn in_turntable_window_at(&self, p: Phase) -> bool {
+        p.turntable >= self.turntable_interval - self.turntable_window
+    }
+
+    /// A specific-force measurement is taken at the end of a step at phase `p`.
+    pub fn accel_due_at(&self, p: Phase) -> bool {
+        p.accel + 1 == self.accel_interval
+    }
+
+    /// A turntable-angle measurement is taken at the end of a step at phase `p`.
+    pub fn turntable_due_at(&self, p: Phase) -> bool {
+        p.turntable + 1 == self.turntable_interval
+    }
+
     /// Step `j` belongs to a specific-force window.
     pub fn in_accel_window(&self, j: usize) -> bool {
-        (j - 1) % self.accel_interval >= self.accel_interval - self.accel_window
+        self.in_accel_window_at(self.phase_of(j))
     }
 
     /// Step `j` belongs to a turntable-angle window.
     pub fn in_turntable_window(&self, j: usize) -> bool {
-        (j - 1) % self.turntable_interval >= self.turntable_interval - self.turntable_window
+        self.in_turntable_window_at(self.phase_of(j))
     }
 
     /// A specific-force measurement is taken at the end of step `j`.
     pub fn accel_due(&self, j: usize) -> bool {
-        j.is_multiple_of(self.accel_interval)
+        self.accel_due_at(self.phase_of(j))
     }
 
     /// A turntable-angle measurement is taken at the end of step `j`.
     pub fn turntable_due(&self, j: usize) -> bool {
-        j.is_multiple_of(self.turntable_interval)
+        self.turntable_due_at(self.phase_of(j))
     }
+}
+
+/// Where an IMU step falls in the two measurement cycles: `(j - 1) % interval` of each kind
+/// for step `j`. A pass keeps it by counting ([`Schedule::next_phase`]), so that the schedule
+/// costs no integer division at every IMU step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Phase {
+    accel: usize,
+    turntable: usize,
 }
 
 /// The instants at which the platform rate changes (segment boundaries of the program where
@@ -304,5 +350,11 @@ mod tests {
         assert_eq!(acc, vec![13, 14, 15, 16, 29, 30, 31, 32]);
         assert!(s.accel_due(16) && !s.accel_due(15));
         assert!((1..=8).all(|j| s.in_turntable_window(j)));
+        // Counting gives the phases the divisions give.
+        let mut p = s.phase_of(1);
+        for j in 1..200 {
+            assert_eq!(p, s.phase_of(j));
+            p = s.next_phase(p);
+        }
     }
 }

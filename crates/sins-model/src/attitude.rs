@@ -12,6 +12,7 @@
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
 /// Ordinary cross-product matrix: `skew(a) * b == a.cross(&b)`.
+#[inline]
 pub fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
@@ -40,6 +41,7 @@ pub fn rot_z(angle: f64) -> Matrix3<f64> {
 }
 
 /// Rotation matrix of the rotation vector `phi` (Rodrigues): `exp(skew(phi))`.
+#[inline]
 pub fn exp_so3(phi: &Vector3<f64>) -> Matrix3<f64> {
     let t2 = phi.norm_squared();
     let k = skew(phi);
@@ -60,6 +62,7 @@ pub fn exp_so3(phi: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// Rotation vector of a rotation matrix (inverse of [`exp_so3`] for angles below pi).
+#[inline]
 pub fn log_so3(c: &Matrix3<f64>) -> Vector3<f64> {
     // sin(t) * axis from the antisymmetric part, cos(t) from the trace; atan2 keeps precision
     // for tiny angles, where acos of the trace would not.
@@ -135,6 +138,7 @@ pub fn paper_l(c_body_to_enu: &Matrix3<f64>) -> Matrix3<f64> {
 /// Small-angle attitude error `beta` (x frame) between a computed and a true body-to-ENU DCM,
 /// with the paper's sign: the computed DCM is `exp(-skew(beta)) * c_true`, so that the computed
 /// specific force in ENU is `f_x + f_x x beta` to first order.
+#[inline]
 pub fn attitude_error(c_computed: &Matrix3<f64>, c_true: &Matrix3<f64>) -> Vector3<f64> {
     -log_so3(&(c_computed * c_true.transpose()))
 }

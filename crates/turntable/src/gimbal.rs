@@ -39,6 +39,7 @@ pub fn gimbal_jacobian(k: &[f64; 3]) -> Matrix3<f64> {
 /// [`c_platform_to_base`] and [`gimbal_jacobian`] of the same angles from each angle's
 /// `(sin, cos)` (the estimator needs both at every IMU step and has the sines and cosines
 /// already; bit for bit what the two functions give).
+#[inline]
 pub fn gimbal_frame_sin_cos(sc: &[(f64, f64); 3]) -> (Matrix3<f64>, Matrix3<f64>) {
     let [(s1, c1), (s2, c2), (s3, c3)] = *sc;
     // rot_z, rot_x and rot_y of sins_model::attitude, written out.

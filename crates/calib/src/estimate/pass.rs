@@ -5,7 +5,7 @@
 use super::angles::AngleInterpolator;
 use super::{EstimateError, FitStatistics};
 use crate::diagnostics::Innovation;
-use crate::engine::{Engine, InstantReport, RateChanges};
+use crate::engine::{Engine, InstantReport, Phase, RateChanges};
 use crate::io::{ImuKind, ImuRecord};
 use crate::layout::StateLayout;
 use crate::model::{AngleSample, MeasurementKind};
@@ -320,6 +320,11 @@ pub(super) struct Pass<'a> {
     innovations: Vec<Innovation>,
     /// Steps done.
     j: usize,
+    /// The phase of the next step in the measurement cycles.
+    phase: Phase,
+    /// The filter's sigma of the delay (s), read again after every predict and update (a
+    /// turntable sample needs it at every IMU step).
+    tau_sigma: f64,
     /// The step before, as the compensation of the rate-derivative terms takes it.
     prev_compensated: Option<CompensatedMeans>,
     /// The step before, as the error Jacobians took it: the mean rate and the specific force
@@ -345,7 +350,10 @@ impl<'a> Pass<'a> {
                 .as_ref()
                 .map_or(0, |_| settings.n_steps / sched.turntable_interval.max(1))
             + 2;
+        let tau_sigma = layout.tau.map_or(0.0, |k| engine.filter.std_dev(k));
         Self {
+            phase: engine.schedule.phase_of(1),
+            tau_sigma,
             layout,
             settings,
             engine,
@@ -375,12 +383,18 @@ impl<'a> Pass<'a> {
     /// Process one IMU record (on `line` of its file).
     pub fn step(&mut self, rec: &ImuRecord, line: usize) -> Result<(), EstimateError> {
         self.j += 1;
+        let phase = self.phase;
+        self.phase = self.engine.schedule.next_phase(phase);
         let (dth, dv) = self.compensate(rec);
-        let input = self.propagate(&dth, &dv);
-        if self.angles.is_some() && self.engine.schedule.in_turntable_window(self.j) {
+        let input = self.propagate(&dth, &dv, phase);
+        if self.angles.is_some() && self.engine.schedule.in_turntable_window_at(phase) {
             self.read_angles(rec.t, &input);
         }
         let last = self.j == self.settings.n_steps;
+        let sched = &self.engine.schedule;
+        if !(last || sched.accel_due_at(phase) || sched.turntable_due_at(phase)) {
+            return Ok(());
+        }
         let report = self
             .engine
             .measurement_instant(self.layout, self.j, &self.settings.f_enu, last)
@@ -390,6 +404,9 @@ impl<'a> Pass<'a> {
                 source,
             })?;
         self.count(&report, rec.t);
+        if let Some(k) = self.layout.tau {
+            self.tau_sigma = self.engine.filter.std_dev(k);
+        }
         let model = &self.engine.model;
         if (report.updated() || last) && !model.accel_open() && !model.turntable_open() {
             self.feed_back();
@@ -417,7 +434,7 @@ impl<'a> Pass<'a> {
     }
 
     /// Strapdown step and the error model's sub-step; returns the step's mean rate and force.
-    fn propagate(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>) -> SensorInput {
+    fn propagate(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>, phase: Phase) -> SensorInput {
         let dt = self.settings.dt;
         let step = self.nav.advance(dth, dv);
         // The error Jacobians take the specific force the unit is known to feel (gravity, turned
@@ -439,7 +456,7 @@ impl<'a> Pass<'a> {
         let in_acc = self
             .engine
             .schedule
-            .in_accel_window(self.j)
+            .in_accel_window_at(phase)
             .then_some(&step.dv_enu);
         self.engine
             .model
@@ -474,8 +491,7 @@ impl<'a> Pass<'a> {
                 return;
             }
         }
-        let tau_index = self.layout.tau.expect("turntable layout");
-        let band = 3.0 * self.engine.filter.std_dev(tau_index) + dt;
+        let band = 3.0 * self.tau_sigma + dt;
         // The two records hold the angles at their stamps less the delay: linear interpolation
         // between them is exact only where the program's rate is constant over that span (the
         // span of the stamps themselves is off by tau: at 1-Hz records and a 0.1-s delay that
