@@ -446,8 +446,10 @@ impl LinearModel {
     ) {
         let dt = self.dt;
         let in_acc = accel_dv_enu.is_some();
-        if in_acc {
-            // Midpoint rule for the window mean of beta: half weight before, half after.
+        if in_acc && self.acc.t == 0.0 {
+            // Trapezoid rule for the window mean of beta, `dt / 2 (beta_{s-1} + beta_s)` per
+            // step: `dt` times every step's end below, plus half a step at the window's start
+            // here, less half a step at its end ([`Self::accel_measurement`]).
             self.acc.beta.add(&self.phi_top, 0.5 * dt);
         }
         let a = self.a_step;
@@ -472,7 +474,7 @@ impl LinearModel {
             d.step(&a, &c_dt, self.psd_gyro * dt, dt);
         }
         if let Some(dv) = accel_dv_enu {
-            self.acc.beta.add(&self.phi_top, 0.5 * dt);
+            self.acc.beta.add(&self.phi_top, dt);
             match &self.accel_axis {
                 Some(ax) => ax.add_product(&c_dt, &features, &mut self.acc.c_jac),
                 None => {
@@ -585,7 +587,13 @@ impl LinearModel {
         }
         let h = &mut self.h_accel;
         self.acc.beta.expressed_at(&self.phi_top, &mut self.scratch);
-        let sf = errors::specific_force_beta_jacobian(f_enu) / self.acc.beta.weight;
+        // Less the trapezoid's half step at the window's end (see `substep`): `phi_top`
+        // expressed at itself is `[I | 0]`.
+        let half = 0.5 * self.dt;
+        for i in 0..3 {
+            self.scratch.v[i * self.scratch.len + i] -= half;
+        }
+        let sf = errors::specific_force_beta_jacobian(f_enu) / (self.acc.beta.weight - half);
         h.fill(0.0);
         for (c, &j) in self.dynamic.iter().enumerate() {
             let v = sf * self.scratch.col(c);
@@ -662,7 +670,14 @@ impl LinearModel {
         // 1 Hz against 1-s windows every record sits in two windows, and without this the
         // 28-state NEES came out 36.6 per run for 28 states.
         let np = w.prev_count.max(1) as f64;
+        // Only the first record or two of a window were in the window before: the search is
+        // skipped for records past the last of those (it made this function quadratic in the
+        // records per window).
+        let prev_last = w.prev_records.iter().map(|(i, _)| *i).max();
         for (k, m) in &w.records {
+            if prev_last.is_none_or(|last| *k > last) {
+                continue;
+            }
             if let Some((_, mp)) = w.prev_records.iter().find(|(i, _)| i == k) {
                 let c = mp * m.transpose() * (var_per_record / (np * nf));
                 r += c + c.transpose();
