@@ -26,6 +26,8 @@ pub(crate) struct AngleSet {
 struct PairCache {
     /// Index of the first record.
     index: usize,
+    /// The reciprocal of the spacing of the two records; `None` across a gap.
+    inv_span: Option<f64>,
     /// The first record's angles (rad) and their `(sin, cos)`.
     k_a: [f64; 3],
     sin_cos_a: [(f64, f64); 3],
@@ -125,17 +127,14 @@ impl<'a> AngleInterpolator<'a> {
             self.cursor += 1;
         }
         let (a, b) = (&r[self.cursor], &r[self.cursor + 1]);
-        let span = b.t - a.t;
-        if span > self.max_gap {
-            return None;
-        }
-        let w = ((t_tt - a.t) / span).clamp(0.0, 1.0);
         let cursor = self.cursor;
         let pair = match self.pair {
             Some(p) if p.index == cursor => p,
             _ => {
+                let span = b.t - a.t;
                 let p = PairCache {
                     index: cursor,
+                    inv_span: (span <= self.max_gap).then(|| 1.0 / span),
                     k_a: a.k_deg.map(f64::to_radians),
                     sin_cos_a: self.table.sin_cos[cursor],
                     d_deg: self.table.d_deg[cursor],
@@ -145,6 +144,8 @@ impl<'a> AngleInterpolator<'a> {
                 p
             }
         };
+        // Beyond the largest spacing interpolated across: a gap.
+        let w = ((t_tt - a.t) * pair.inv_span?).clamp(0.0, 1.0);
         let k: [f64; 3] = std::array::from_fn(|g| (a.k_deg[g] + w * pair.d_deg[g]).to_radians());
         let sin_cos =
             std::array::from_fn(|g| sin_cos_near(pair.sin_cos_a[g], k[g] - pair.k_a[g], k[g]));
