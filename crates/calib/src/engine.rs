@@ -151,6 +151,21 @@ impl RateChanges {
         let k = self.times.partition_point(|&c| c <= t0);
         self.times.get(k).is_none_or(|&c| c >= t1)
     }
+
+    /// [`Self::clear`] for intervals that move forward a little at a time (one per IMU step):
+    /// `hint` holds the index of the first rate change after the last `t0` and is walked from
+    /// there, in place of a binary search per step. Any `hint` gives the right answer.
+    pub fn clear_near(&self, hint: &mut usize, t0: f64, t1: f64) -> bool {
+        let mut k = (*hint).min(self.times.len());
+        while k > 0 && self.times[k - 1] > t0 {
+            k -= 1;
+        }
+        while k < self.times.len() && self.times[k] <= t0 {
+            k += 1;
+        }
+        *hint = k;
+        self.times.get(k).is_none_or(|&c| c >= t1)
+    }
 }
 
 /// Noise levels of the measurements.
@@ -337,6 +352,25 @@ impl Engine {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_walked_rate_change_search_answers_as_the_binary_one() {
+        let rc = RateChanges {
+            times: vec![1.0, 2.0, 2.0, 3.5, 7.0],
+        };
+        let mut hint = 0;
+        for i in 0..400 {
+            // Forward in small steps, with jumps back and forth now and then.
+            let t0 = 0.025 * i as f64 - if i % 37 == 0 { 3.0 } else { 0.0 };
+            for len in [0.0, 0.01, 0.5, 2.0] {
+                for start_hint in [hint, 0, 99] {
+                    let mut h = start_hint;
+                    assert_eq!(rc.clear_near(&mut h, t0, t0 + len), rc.clear(t0, t0 + len));
+                }
+            }
+            rc.clear_near(&mut hint, t0, t0 + 0.1);
+        }
+    }
 
     #[test]
     fn windows_end_at_their_measurement_instants() {

@@ -556,6 +556,7 @@ impl<'a> TurntableSetup<'a> {
             rate_changes: &self.rate_changes,
             program_start,
             per_record: self.per_record,
+            rate_change_hint: 0,
         }
     }
 }
@@ -724,6 +725,7 @@ fn run_pass(
     let settings = PassSettings {
         kind: imu.kind(),
         dt,
+        inv_dt: 1.0 / dt,
         u_enu,
         f_enu: site.specific_force_at_rest_enu() + f_offset_enu,
         full_feedback: closed_loop,

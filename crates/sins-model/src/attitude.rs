@@ -78,10 +78,11 @@ pub fn log_so3(c: &Matrix3<f64>) -> Vector3<f64> {
         // Small angles (the estimator takes one per IMU step): t = atan(r) with r = s / co, and
         // t / s = (atan(r) / r) / co by its series; the first omitted term, r^10 / 11, is
         // under 1e-21. No square root, no atan2.
-        let r2 = s2 / (co * co);
+        let inv_co = 1.0 / co;
+        let r2 = s2 * inv_co * inv_co;
         let series =
             1.0 - r2 * (1.0 / 3.0 - r2 * (1.0 / 5.0 - r2 * (1.0 / 7.0 - r2 * (1.0 / 9.0))));
-        return v * (series / co);
+        return v * (series * inv_co);
     }
     let s = s2.sqrt();
     let t = s.atan2(co);

@@ -123,15 +123,18 @@ impl Strapdown {
             self.dth_prev = Vector3::zeros();
             self.dv_prev = Vector3::zeros();
         }
-        let phi = dth + self.dth_prev.cross(dth) / 12.0;
+        // Products with reciprocal constants rather than divisions (one step each).
+        const TWELFTH: f64 = 1.0 / 12.0;
+        const SIXTH: f64 = 1.0 / 6.0;
+        let phi = dth + self.dth_prev.cross(dth) * TWELFTH;
         // The rotation of the velocity increment to the step's start frame in full
         // (`exp(skew(dth) s)` integrated over the step: `dv + dth x dv / 2 + dth x (dth x dv) / 6`;
         // without the last term every accelerometer scale factor came out (w dt)^2 / 6 off,
         // 5e-7 at 10 deg/s and 100 Hz), and the sculling term.
         let dv_body = dv
             + 0.5 * dth.cross(dv)
-            + dth.cross(&dth.cross(dv)) / 6.0
-            + (self.dth_prev.cross(dv) + self.dv_prev.cross(dth)) / 12.0;
+            + dth.cross(&dth.cross(dv)) * SIXTH
+            + (self.dth_prev.cross(dv) + self.dv_prev.cross(dth)) * TWELFTH;
         let c_prev = self.c;
         self.c = self.a_step * c_prev * exp_so3(&phi);
         (self.dth_prev, self.dv_prev) = (*dth, *dv);
@@ -291,12 +294,17 @@ pub(super) struct AngleReader<'a> {
     /// Take one sample per angle record (at the IMU step nearest to the time the record holds)
     /// rather than one per IMU step: set when the records are more than two IMU steps apart.
     pub per_record: bool,
+    /// Where the last sample's span fell among the rate changes
+    /// ([`RateChanges::clear_near`]).
+    pub rate_change_hint: usize,
 }
 
 /// Fixed settings of a pass.
 pub(super) struct PassSettings {
     pub kind: ImuKind,
     pub dt: f64,
+    /// `1 / dt`.
+    pub inv_dt: f64,
     pub u_enu: Vector3<f64>,
     pub f_enu: Vector3<f64>,
     /// Feed every estimate back (closed loop, the first pass) or nothing (a pass linearised
@@ -435,23 +443,23 @@ impl<'a> Pass<'a> {
 
     /// Strapdown step and the error model's sub-step; returns the step's mean rate and force.
     fn propagate(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>, phase: Phase) -> SensorInput {
-        let dt = self.settings.dt;
         let step = self.nav.advance(dth, dv);
         // The error Jacobians take the specific force the unit is known to feel (gravity, turned
         // into the body by the computed attitude), not the measured one: the measured one
         // carries the same noise as the residual, and regressing the residual on it biased an
         // accelerometer scale factor whose axis lay near the horizontal by sigma^2 / f^2 (0.6
         // prior sigma on static runs).
+        let inv_dt = self.settings.inv_dt;
         let mut input = SensorInput {
-            omega_body: dth / dt,
+            omega_body: dth * inv_dt,
             f_body: step.c_mid.transpose() * self.settings.f_enu,
             ..SensorInput::default()
         };
         // The rate derivatives as the compensation takes them (differences to the step before),
         // the specific force's from the noise-free one the Jacobians take.
         if let Some((w, f)) = self.prev_jacobian.replace((input.omega_body, input.f_body)) {
-            input.omega_dot_body = (input.omega_body - w) / dt;
-            input.f_dot_body = (input.f_body - f) / dt;
+            input.omega_dot_body = (input.omega_body - w) * inv_dt;
+            input.f_dot_body = (input.f_body - f) * inv_dt;
         }
         let in_acc = self
             .engine
@@ -499,7 +507,10 @@ impl<'a> Pass<'a> {
         let lo = t.min(set.t_records_imu[0] - self.lin.tau - band);
         let hi = t.max(set.t_records_imu[1] - self.lin.tau + band);
         let ps = reader.program_start;
-        if !reader.rate_changes.clear(lo - ps, hi - ps) {
+        if !reader
+            .rate_changes
+            .clear_near(&mut reader.rate_change_hint, lo - ps, hi - ps)
+        {
             self.stats.turntable_samples_near_rate_changes += 1;
             return;
         }
