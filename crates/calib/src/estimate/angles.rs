@@ -128,22 +128,18 @@ impl<'a> AngleInterpolator<'a> {
         }
         let (a, b) = (&r[self.cursor], &r[self.cursor + 1]);
         let cursor = self.cursor;
-        let pair = match self.pair {
-            Some(p) if p.index == cursor => p,
-            _ => {
-                let span = b.t - a.t;
-                let p = PairCache {
-                    index: cursor,
-                    inv_span: (span <= self.max_gap).then(|| 1.0 / span),
-                    k_a: a.k_deg.map(f64::to_radians),
-                    sin_cos_a: self.table.sin_cos[cursor],
-                    d_deg: self.table.d_deg[cursor],
-                    t_imu: [self.clock.imu_time(a.t), self.clock.imu_time(b.t)],
-                };
-                self.pair = Some(p);
-                p
-            }
-        };
+        if self.pair.as_ref().is_none_or(|p| p.index != cursor) {
+            let span = b.t - a.t;
+            self.pair = Some(PairCache {
+                index: cursor,
+                inv_span: (span <= self.max_gap).then(|| 1.0 / span),
+                k_a: a.k_deg.map(f64::to_radians),
+                sin_cos_a: self.table.sin_cos[cursor],
+                d_deg: self.table.d_deg[cursor],
+                t_imu: [self.clock.imu_time(a.t), self.clock.imu_time(b.t)],
+            });
+        }
+        let pair = self.pair.as_ref().expect("set above");
         // Beyond the largest spacing interpolated across: a gap.
         let w = ((t_tt - a.t) * pair.inv_span?).clamp(0.0, 1.0);
         let k: [f64; 3] = std::array::from_fn(|g| (a.k_deg[g] + w * pair.d_deg[g]).to_radians());
