@@ -44,7 +44,6 @@ pub fn rot_z(angle: f64) -> Matrix3<f64> {
 #[inline]
 pub fn exp_so3(phi: &Vector3<f64>) -> Matrix3<f64> {
     let t2 = phi.norm_squared();
-    let k = skew(phi);
     // Series for small angles: full precision near zero, and no trigonometry for the
     // milliradian increments of an IMU step. Below t = 1e-2 rad the first omitted terms
     // (t^8 / 9!, t^8 / 10!) are under 3e-22, far below the rounding of the kept ones.
@@ -58,7 +57,22 @@ pub fn exp_so3(phi: &Vector3<f64>) -> Matrix3<f64> {
         let t = t2.sqrt();
         (t.sin() / t, (1.0 - t.cos()) / t2)
     };
-    Matrix3::identity() + k * a + k * k * b
+    // I + a K + b K^2 with K = skew(phi) and K^2 = phi phi^T - t^2 I, written out (no 3x3
+    // product; this runs at every IMU step).
+    let (x, y, z) = (phi.x, phi.y, phi.z);
+    let (bxy, bxz, byz) = (b * x * y, b * x * z, b * y * z);
+    let (ax, ay, az) = (a * x, a * y, a * z);
+    Matrix3::new(
+        1.0 - b * (y * y + z * z),
+        bxy - az,
+        bxz + ay,
+        bxy + az,
+        1.0 - b * (x * x + z * z),
+        byz - ax,
+        bxz - ay,
+        byz + ax,
+        1.0 - b * (x * x + y * y),
+    )
 }
 
 /// Rotation vector of a rotation matrix (inverse of [`exp_so3`] for angles below pi).
