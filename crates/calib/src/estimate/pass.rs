@@ -516,7 +516,11 @@ impl<'a> Pass<'a> {
         }
         let c = self.nav.c;
         let (c_platform, gimbal_jacobian) = gimbal_frame_sin_cos(&set.sin_cos);
-        let c_tt = self.lin.c_base * c_platform * self.lin.c_install;
+        // Without a base misalignment state its rotation is the identity: one product fewer.
+        let c_tt = match self.layout.base {
+            Some(_) => self.lin.c_base * c_platform * self.lin.c_install,
+            None => c_platform * self.lin.c_install,
+        };
         self.engine.model.add_angle_sample(&AngleSample {
             y: attitude_error(&c, &c_tt),
             c_body_to_enu: c,
