@@ -262,6 +262,8 @@ struct Rows<R: Read> {
     eof: bool,
     /// Number of the line last taken (0 before the first).
     line: usize,
+    /// Bytes of the line last taken, its line end included.
+    line_bytes: usize,
     /// First blank line not yet followed by data (blank lines at the very end are fine).
     blank: Option<usize>,
 }
@@ -278,6 +280,7 @@ impl<R: Read> Rows<R> {
             checked: 0,
             eof: false,
             line: 0,
+            line_bytes: 0,
             blank: None,
         }
     }
@@ -366,6 +369,7 @@ impl<R: Read> Rows<R> {
                 return Ok(None);
             };
             self.line += 1;
+            self.line_bytes = stop - start + usize::from(ended);
             let line = self.line;
             if line == 1 && self.buf.get(start..stop).is_some_and(|b| b.starts_with(BOM)) {
                 start += BOM.len();
@@ -415,6 +419,17 @@ impl<R: Read> Rows<R> {
     }
 }
 
+impl<R: Read> Rows<R> {
+    /// About how many records a file of `bytes` bytes holds if its lines are as long as the
+    /// last one taken, and a quarter more: the records of a whole file are reserved at once
+    /// from it rather than grown by doubling, which copied them (`docs/performance.md`,
+    /// "readers"); what is reserved beyond them is never touched, so it takes no memory.
+    fn records_hint(&self, bytes: usize) -> usize {
+        let n = bytes / self.line_bytes.max(1);
+        n + n / 4
+    }
+}
+
 /// Whether `str::trim` takes this byte off (the ASCII characters with Unicode's `White_Space`).
 fn is_space(b: u8) -> bool {
     matches!(b, b' ' | b'\t'..=b'\r')
@@ -441,6 +456,11 @@ fn trim(field: &[u8]) -> &[u8] {
         }
         _ => f,
     }
+}
+
+/// The size of a file in bytes, to reserve its records from (0 if unknown: nothing reserved).
+pub(crate) fn file_size(path: &Path) -> usize {
+    std::fs::metadata(path).map_or(0, |m| usize::try_from(m.len()).unwrap_or(usize::MAX))
 }
 
 /// A file opened for [`Rows`], which reads it in large blocks itself (a `BufReader` would only
@@ -709,9 +729,13 @@ impl<R: Read> ImuRows<R> {
         }))
     }
 
-    fn collect(mut self) -> Result<ImuData, IoError> {
+    /// The records of a file of about `bytes` bytes.
+    fn collect(mut self, bytes: usize) -> Result<ImuData, IoError> {
         let mut records = Vec::new();
         while let Some(r) = self.next_record()? {
+            if records.is_empty() {
+                records.reserve(self.rows.records_hint(bytes));
+            }
             records.push(r);
         }
         Ok(ImuData {
@@ -774,6 +798,12 @@ impl ImuReader {
         self.rows.line
     }
 
+    /// About how many records a file of `bytes` bytes holds, from the length of the line last
+    /// read (an allowance of a quarter for longer lines further on).
+    pub(crate) fn records_hint(&self, bytes: usize) -> usize {
+        self.rows.rows.records_hint(bytes)
+    }
+
     /// The next record; `None` at the end (a file without records is refused).
     pub fn next_record(&mut self) -> Result<Option<ImuRecord>, IoError> {
         self.rows.next_record()
@@ -782,20 +812,21 @@ impl ImuReader {
 
 /// Parse the text of an `imu.csv`; `file` names it in errors.
 pub fn parse_imu_csv(text: &str, file: &str) -> Result<ImuData, IoError> {
-    ImuRows::new(text.as_bytes(), file)?.collect()
+    ImuRows::new(text.as_bytes(), file)?.collect(text.len())
 }
 
 /// Read an `imu.csv` whole (a calibration streams it instead: [`ImuReader`]).
 pub fn read_imu_csv(path: &Path) -> Result<ImuData, IoError> {
-    ImuReader::open(path)?.rows.collect()
+    ImuReader::open(path)?.rows.collect(file_size(path))
 }
 
 /// Parse the text of a `turntable.csv`; `file` names it in errors.
 pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoError> {
-    read_turntable(text.as_bytes(), file)
+    read_turntable(text.as_bytes(), file, text.len())
 }
 
-fn read_turntable<R: Read>(reader: R, file: &str) -> Result<TurntableData, IoError> {
+/// Read a `turntable.csv` of about `bytes` bytes (the records are reserved from it).
+fn read_turntable<R: Read>(reader: R, file: &str, bytes: usize) -> Result<TurntableData, IoError> {
     let mut rows = Rows::new(reader, file);
     let expected = TURNTABLE_COLUMNS.join(",");
     let (hline, names) = header(&mut rows, &expected)?;
@@ -830,6 +861,9 @@ fn read_turntable<R: Read>(reader: R, file: &str) -> Result<TurntableData, IoErr
         let t = v[cols[0]];
         check_time(file, row.line, t, previous)?;
         previous = Some(t);
+        if records.is_empty() {
+            records.reserve(rows.records_hint(bytes));
+        }
         records.push(TurntableRecord {
             t,
             k_deg: [v[cols[1]], v[cols[2]], v[cols[3]]],
@@ -848,7 +882,7 @@ fn read_turntable<R: Read>(reader: R, file: &str) -> Result<TurntableData, IoErr
 /// Read a `turntable.csv` (12 bytes of memory per record on the IMU clock's side: small next
 /// to the IMU file, which is streamed).
 pub fn read_turntable_csv(path: &Path) -> Result<TurntableData, IoError> {
-    read_turntable(open_reader(path)?, &path.display().to_string())
+    read_turntable(open_reader(path)?, &path.display().to_string(), file_size(path))
 }
 
 /// Shortest text that parses back to the identical `f64` (plain or exponent form).
