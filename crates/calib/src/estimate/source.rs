@@ -165,6 +165,12 @@ impl ImuSource for FileImu {
             return Ok(None);
         };
         let item = (rec, reader.line());
+        if self.cache.is_empty() && !self.overflowed && !self.cached {
+            // Reserved at once from the file's size rather than grown by doubling, which
+            // copied the records (`docs/performance.md`, "readers").
+            let hint = reader.records_hint(crate::io::file_size(&self.path));
+            self.cache.reserve(hint.min(Self::CACHE_RECORDS));
+        }
         if !self.overflowed {
             if self.cache.len() < Self::CACHE_RECORDS {
                 self.cache.push(item);
