@@ -76,7 +76,9 @@ fn bench(c: &mut Criterion) {
     let old = csv_reader::parse_imu_csv(&text, "imu.csv").unwrap();
     let bits = |d: &ImuData| -> Vec<u64> {
         let r = d.records.iter();
-        r.flat_map(|r| [r.t].into_iter().chain(r.gyro).chain(r.accel)).map(f64::to_bits).collect()
+        r.flat_map(|r| [r.t].into_iter().chain(r.gyro).chain(r.accel))
+            .map(f64::to_bits)
+            .collect()
     };
     assert_eq!(bits(&old), bits(&data));
     let records = data.records.len();
@@ -105,7 +107,9 @@ fn bench(c: &mut Criterion) {
     let old = csv_reader::parse_turntable_csv(&turntable, "turntable.csv").unwrap();
     let bits = |d: &TurntableData| -> Vec<u64> {
         let r = d.records.iter();
-        r.flat_map(|r| [r.t].into_iter().chain(r.k_deg)).map(f64::to_bits).collect()
+        r.flat_map(|r| [r.t].into_iter().chain(r.k_deg))
+            .map(f64::to_bits)
+            .collect()
     };
     assert_eq!(bits(&old), bits(&data));
     let mut g = c.benchmark_group(format!(
@@ -118,7 +122,9 @@ fn bench(c: &mut Criterion) {
         b.iter(|| black_box(parse_turntable_csv(black_box(&turntable), "t.csv").unwrap()))
     });
     g.bench_function("csv-crate reader (before)", |b| {
-        b.iter(|| black_box(csv_reader::parse_turntable_csv(black_box(&turntable), "t.csv").unwrap()))
+        b.iter(|| {
+            black_box(csv_reader::parse_turntable_csv(black_box(&turntable), "t.csv").unwrap())
+        })
     });
     g.bench_function("floor (memchr, fast-float2, no checks)", |b| {
         b.iter(|| black_box(floor(black_box(&turntable))))

@@ -371,7 +371,12 @@ impl<R: Read> Rows<R> {
             self.line += 1;
             self.line_bytes = stop - start + usize::from(ended);
             let line = self.line;
-            if line == 1 && self.buf.get(start..stop).is_some_and(|b| b.starts_with(BOM)) {
+            if line == 1
+                && self
+                    .buf
+                    .get(start..stop)
+                    .is_some_and(|b| b.starts_with(BOM))
+            {
                 start += BOM.len();
             }
             if let Err(bad) = self.check_utf8(start, stop) {
@@ -557,7 +562,11 @@ fn header<R: Read>(rows: &mut Rows<R>, expected: &str) -> Result<(usize, Vec<Str
         ));
     };
     let (file, n) = (row.file, row.line);
-    let names: Vec<String> = row.text().split(',').map(|s| s.trim().to_string()).collect();
+    let names: Vec<String> = row
+        .text()
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .collect();
     for (i, name) in names.iter().enumerate() {
         if name.is_empty() {
             return Err(line_error(
@@ -882,7 +891,11 @@ fn read_turntable<R: Read>(reader: R, file: &str, bytes: usize) -> Result<Turnta
 /// Read a `turntable.csv` (12 bytes of memory per record on the IMU clock's side: small next
 /// to the IMU file, which is streamed).
 pub fn read_turntable_csv(path: &Path) -> Result<TurntableData, IoError> {
-    read_turntable(open_reader(path)?, &path.display().to_string(), file_size(path))
+    read_turntable(
+        open_reader(path)?,
+        &path.display().to_string(),
+        file_size(path),
+    )
 }
 
 /// Shortest text that parses back to the identical `f64` (plain or exponent form).

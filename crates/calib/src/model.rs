@@ -84,7 +84,12 @@ impl DynamicRows {
 
     /// Add `m * J` for a Jacobian in axis-column form whose columns are given by their index
     /// here (`(column, axis, feature slot)`).
-    fn add_axis_product(&mut self, columns: &[(usize, usize, usize)], m: &Matrix3<f64>, f: &[f64; 7]) {
+    fn add_axis_product(
+        &mut self,
+        columns: &[(usize, usize, usize)],
+        m: &Matrix3<f64>,
+        f: &[f64; 7],
+    ) {
         let [r0, r1, r2] = self.rows_mut();
         for &(c, axis, slot) in columns {
             let x = f[slot];
@@ -307,14 +312,22 @@ impl LinearModel {
             .map(|(c, i)| (i, 3 + c))
             .collect();
         let dynamic: Vec<usize> = (0..3)
-            .chain(gyro_params.iter().map(|&(i, _)| StateLayout::INSTRUMENT + i))
+            .chain(
+                gyro_params
+                    .iter()
+                    .map(|&(i, _)| StateLayout::INSTRUMENT + i),
+            )
             .collect();
         let nd = dynamic.len();
         let gyro_axis = layout.model.axis_jacobian(Sensor::Gyro).map(|ax| {
             ax.entries()
                 .iter()
                 .map(|&(k, axis, slot)| {
-                    let c = gyro_params.iter().find(|p| p.0 == k).expect("a gyro parameter").1;
+                    let c = gyro_params
+                        .iter()
+                        .find(|p| p.0 == k)
+                        .expect("a gyro parameter")
+                        .1;
                     (c, axis, slot)
                 })
                 .collect()

@@ -93,9 +93,8 @@ pub fn log_so3(c: &Matrix3<f64>) -> Vector3<f64> {
         // pi / 2, and t / s = asin(s) / s by its series; with s^2 < 1e-4 the first omitted
         // term, 63 s^10 / 2816, is under 3e-22. No square root, no atan2, no division (a
         // division on this path was 6 % of an estimation pass's own time).
-        let series = 1.0
-            + s2 * (1.0 / 6.0
-                + s2 * (3.0 / 40.0 + s2 * (5.0 / 112.0 + s2 * (35.0 / 1152.0))));
+        let series =
+            1.0 + s2 * (1.0 / 6.0 + s2 * (3.0 / 40.0 + s2 * (5.0 / 112.0 + s2 * (35.0 / 1152.0))));
         return v * series;
     }
     let s = s2.sqrt();

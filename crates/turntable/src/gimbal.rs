@@ -45,20 +45,14 @@ pub fn gimbal_frame_sin_cos(sc: &[(f64, f64); 3]) -> (Matrix3<f64>, Matrix3<f64>
     // rot_z(k1) rot_x(k2) rot_y(k3) of sins_model::attitude multiplied out: the products of
     // the full matrices add only exact zeros and multiply only by exact ones, so this is
     // the same to the bit with 16 multiplications instead of 54.
-    let r12 = Matrix3::new(
-        c1,
-        -s1 * c2,
-        s1 * s2,
-        s1,
-        c1 * c2,
-        -(c1 * s2),
-        0.0,
-        s2,
-        c2,
-    );
+    let r12 = Matrix3::new(c1, -s1 * c2, s1 * s2, s1, c1 * c2, -(c1 * s2), 0.0, s2, c2);
     let (x, z) = (r12.column(0), r12.column(2));
     let c = Matrix3::from_columns(&[x * c3 - z * s3, r12.column(1).into(), x * s3 + z * c3]);
-    let j = Matrix3::from_columns(&[Vector3::z(), Vector3::new(c1, s1, 0.0), r12.column(1).into()]);
+    let j = Matrix3::from_columns(&[
+        Vector3::z(),
+        Vector3::new(c1, s1, 0.0),
+        r12.column(1).into(),
+    ]);
     (c, j)
 }
 

@@ -5,7 +5,9 @@
 
 #![allow(dead_code)]
 
-use calib::io::{ImuData, ImuKind, ImuRecord, IoError, TURNTABLE_COLUMNS, TurntableData, TurntableRecord};
+use calib::io::{
+    ImuData, ImuKind, ImuRecord, IoError, TURNTABLE_COLUMNS, TurntableData, TurntableRecord,
+};
 use std::io::Read;
 
 fn line_error(file: &str, line: usize, message: String) -> IoError {
@@ -15,7 +17,6 @@ fn line_error(file: &str, line: usize, message: String) -> IoError {
         message,
     }
 }
-
 
 /// At most this many characters of a field are echoed in a message (a 10-MB field is not).
 const ECHO_CHARS: usize = 60;
@@ -522,4 +523,3 @@ fn read_turntable<R: Read>(reader: R, file: &str) -> Result<TurntableData, IoErr
     }
     Ok(TurntableData { records })
 }
-

@@ -66,7 +66,10 @@ impl RecordTable {
     pub fn new(data: &TurntableData) -> Self {
         let r = &data.records;
         Self {
-            sin_cos: r.iter().map(|a| a.k_deg.map(|k| k.to_radians().sin_cos())).collect(),
+            sin_cos: r
+                .iter()
+                .map(|a| a.k_deg.map(|k| k.to_radians().sin_cos()))
+                .collect(),
             d_deg: (0..r.len())
                 .map(|i| match r.get(i + 1) {
                     Some(b) => std::array::from_fn(|g| wrap_deg(b.k_deg[g] - r[i].k_deg[g])),
