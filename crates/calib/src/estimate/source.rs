@@ -145,8 +145,13 @@ impl ImuSource for FileImu {
         self.next = 0;
         if self.cached {
             self.reader = None;
-        } else if self.reader.as_ref().is_none_or(|r| r.line() > 1) {
-            self.reader = Some(ImuReader::open(&self.path)?);
+        } else {
+            // A reading stopped before the end left the first part of the file in the cache:
+            // the cache starts again with the file.
+            self.cache.clear();
+            if self.reader.as_ref().is_none_or(|r| r.line() > 1) {
+                self.reader = Some(ImuReader::open(&self.path)?);
+            }
         }
         Ok(())
     }
@@ -198,5 +203,41 @@ impl ImuSource for FileImu {
             return Ok(());
         }
         fill_chunk(self, out, max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reading stopped part of the way and started again must not leave the records it read
+    /// in the cache twice.
+    #[test]
+    fn a_reading_started_again_caches_every_record_once() {
+        let dir = std::env::temp_dir().join(format!("file-imu-rewind-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("imu.csv");
+        let mut text = String::from("t,dthx,dthy,dthz,dvx,dvy,dvz\n");
+        for k in 1..=5 {
+            text.push_str(&format!("{}.0,0,0,0,0,0,0.098\n", k));
+        }
+        std::fs::write(&path, text).unwrap();
+        let mut imu = FileImu::open(&path).unwrap();
+        let times = |imu: &mut FileImu| {
+            imu.rewind().unwrap();
+            let mut t = Vec::new();
+            while let Some((r, _)) = imu.next_record().unwrap() {
+                t.push(r.t);
+            }
+            t
+        };
+        imu.rewind().unwrap();
+        imu.next_record().unwrap();
+        imu.next_record().unwrap();
+        let all = vec![1.0, 2.0, 3.0, 4.0, 5.0];
+        assert_eq!(times(&mut imu), all);
+        // Now from the cache.
+        assert_eq!(times(&mut imu), all);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
