@@ -418,8 +418,8 @@ fn simulator_output_converts_and_writes() {
     assert!(msg.contains("imu.csv") && msg.contains("record 4"), "{msg}");
 }
 
-/// A reader that hands out one byte at a time (the csv crate then never sees a byte-order mark
-/// whole in its first buffer).
+/// A reader that hands out one byte at a time (the reader then never sees a byte-order mark or
+/// a line whole in its first read).
 struct OneByte(std::io::Cursor<Vec<u8>>);
 
 impl std::io::Read for OneByte {
