@@ -163,8 +163,10 @@ pub(crate) fn median_interval(times: impl Iterator<Item = f64>) -> f64 {
     if d.is_empty() {
         return f64::NAN;
     }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2]
+    // The element a sort would put there, without the sort (linear time; the sort of a long
+    // run's spacings was 1 % of a calibration).
+    let mid = d.len() / 2;
+    *d.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 #[cfg(test)]
@@ -180,6 +182,15 @@ mod tests {
                 assert!((s - s0).abs() < 4e-16 && (c - c0).abs() < 4e-16, "{a} {d}");
             }
         }
+    }
+
+    #[test]
+    fn the_median_spacing_is_the_sorted_one() {
+        let times = [0.0, 0.02, 0.05, 0.06, 0.1, 0.13, 0.2, 0.21];
+        let mut d: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(f64::total_cmp);
+        assert_eq!(median_interval(times.into_iter()), d[d.len() / 2]);
+        assert!(median_interval([1.0].into_iter()).is_nan());
     }
 
     #[test]
