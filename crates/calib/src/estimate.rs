@@ -706,12 +706,13 @@ fn run_pass(
     let site = config.site();
     let u_enu = site.earth_rate_enu();
     let mut stats = FitStatistics::default();
-    let (angles, angle_var) = match (layout.install.is_some(), turntable) {
-        (true, Some(tt)) => {
+    // `turntable` is set up only for a layout with the mounting states (`estimate_from`).
+    let (angles, angle_var) = match turntable {
+        Some(tt) => {
             stats.turntable_record_rate_hz = tt.record_rate_hz;
             (Some(tt.reader(scan.program_start)), Some(tt.angle_var))
         }
-        _ => (None, None),
+        None => (None, None),
     };
     let program = config.program()?;
     let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());

@@ -422,9 +422,7 @@ impl<R: Read> Rows<R> {
         }
         Ok(Some(row))
     }
-}
 
-impl<R: Read> Rows<R> {
     /// About how many records a file of `bytes` bytes holds if its lines are as long as the
     /// last one taken, and a quarter more: the records of a whole file are reserved at once
     /// from it rather than grown by doubling, which copied them (`docs/performance.md`,

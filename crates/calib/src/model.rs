@@ -24,9 +24,10 @@ use sins_model::errors;
 use sins_model::terms::{AxisJacobian, Sensor, SensorInput};
 
 /// The columns of `phi_top` that can be non-zero (the layout's dynamic columns, in order), held
-/// as three rows of consecutive values: the work at every IMU step on them (the Earth-rate
-/// rotation, the window sums) is then a loop over contiguous slices, which the compiler turns
-/// into vector instructions, rather than one 3-vector per column.
+/// as three rows of consecutive values: the others are always zero and are not stored, and the
+/// work at every IMU step (the Earth-rate rotation, the window sums) is a loop over contiguous
+/// slices with no index list. (Measured: about as fast as one 3-vector per column; the change
+/// was kept for the smaller state, not for speed.)
 #[derive(Clone, Debug, PartialEq)]
 struct DynamicRows {
     /// Row 0, row 1, row 2, each `len` long.
@@ -56,6 +57,11 @@ impl DynamicRows {
 
     fn col(&self, c: usize) -> Vector3<f64> {
         Vector3::new(self.v[c], self.v[self.len + c], self.v[2 * self.len + c])
+    }
+
+    /// Entry `(row, c)`.
+    fn at_mut(&mut self, row: usize, c: usize) -> &mut f64 {
+        &mut self.v[row * self.len + c]
     }
 
     fn set_col(&mut self, c: usize, x: &Vector3<f64>) {
@@ -404,7 +410,7 @@ impl LinearModel {
         }
         self.phi_top.v.fill(0.0);
         for i in 0..3 {
-            self.phi_top.v[i * self.phi_top.len + i] = 1.0;
+            *self.phi_top.at_mut(i, i) = 1.0;
         }
         self.q_steps = 0;
         if let Some(d) = &mut self.drift {
@@ -604,7 +610,7 @@ impl LinearModel {
         // expressed at itself is `[I | 0]`.
         let half = 0.5 * self.dt;
         for i in 0..3 {
-            self.scratch.v[i * self.scratch.len + i] -= half;
+            *self.scratch.at_mut(i, i) -= half;
         }
         let sf = errors::specific_force_beta_jacobian(f_enu) / (self.acc.beta.weight - half);
         h.fill(0.0);
