@@ -764,8 +764,18 @@ fn run_pass(
         if chunk.is_empty() {
             break;
         }
-        for (rec, line) in &chunk {
-            pass.step(rec, *line)?;
+        // The steps compiled for the processor's vector extensions too (AVX2 and FMA where it
+        // has them), chosen at run time: `Pass::step` and what it calls are inlined here.
+        pulp::Arch::new().dispatch(
+            #[inline(always)]
+            || {
+                for (rec, line) in &chunk {
+                    pass.step(rec, *line)?;
+                }
+                Ok::<(), EstimateError>(())
+            },
+        )?;
+        if let Some((rec, _)) = chunk.last() {
             final_time = rec.t;
         }
         j += chunk.len();

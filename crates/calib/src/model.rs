@@ -455,6 +455,7 @@ impl LinearModel {
     /// its midpoint, and the current parameter estimate `p` (instrument part). When
     /// `accel_dv_enu` is given the step belongs to the specific-force window, with that
     /// measured velocity increment in ENU (zero in a covariance analysis).
+    #[inline(always)]
     pub fn substep(
         &mut self,
         layout: &StateLayout,
@@ -513,6 +514,7 @@ impl LinearModel {
     }
 
     /// Add a turntable-angle sample at the end of the last [`Self::substep`].
+    #[inline(always)]
     pub fn add_angle_sample(&mut self, s: &AngleSample) {
         let w = &mut self.tt;
         w.beta.add(&self.phi_top, 1.0);

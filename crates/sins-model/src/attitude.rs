@@ -130,7 +130,13 @@ pub fn right_jacobian_inv(phi: &Vector3<f64>) -> Matrix3<f64> {
 
 /// Re-orthonormalise a nearly orthogonal matrix (nearest rotation, via the quaternion).
 pub fn orthonormalize(c: &Matrix3<f64>) -> Matrix3<f64> {
-    let q = UnitQuaternion::from_matrix_eps(c, 1e-15, 50, UnitQuaternion::identity());
+    // The iteration starts from the quaternion of `c` itself, a rounding away from the answer
+    // for the nearly orthogonal matrices this is for: a step or two instead of the dozens from
+    // the identity (11 000 instructions a call, 1 % of a calibration's time).
+    // (Normalised: built from a matrix that is not quite orthogonal, it is not quite unit, and
+    // the iteration keeps a guess that already meets its tolerance as it is.)
+    let guess = UnitQuaternion::new_normalize(*dcm_to_quat(c).quaternion());
+    let q = UnitQuaternion::from_matrix_eps(c, 1e-15, 50, guess);
     q.to_rotation_matrix().into_inner()
 }
 
@@ -165,6 +171,28 @@ pub fn apply_attitude_error(beta: &Vector3<f64>, c_true: &Matrix3<f64>) -> Matri
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn orthonormalize_gives_the_nearest_rotation() {
+        let r = exp_so3(&Vector3::new(0.4, -2.1, 1.3));
+        let e = Matrix3::new(0.3, -0.8, 0.1, 0.5, 0.2, -0.6, -0.9, 0.4, 0.7);
+        for size in [0.0, 1e-15, 1e-9, 1e-4] {
+            let c = r * (Matrix3::identity() + e * size);
+            let o = orthonormalize(&c);
+            assert!(
+                (o.transpose() * o - Matrix3::identity()).norm() < 4e-15,
+                "{size}"
+            );
+            // The nearest rotation is the polar factor U V^T of the SVD.
+            let svd = c.svd(true, true);
+            let polar = svd.u.unwrap() * svd.v_t.unwrap();
+            assert!(
+                (o - polar).norm() < 1e-14,
+                "{size}: {:e}",
+                (o - polar).norm()
+            );
+        }
+    }
 
     #[test]
     fn skew_is_the_cross_product_and_paper_hat_its_negative() {

@@ -113,6 +113,7 @@ impl Strapdown {
     }
 
     /// Advance by the true increments of one step.
+    #[inline(always)]
     pub fn advance(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>) -> StepKinematics {
         // The previous-sample coning and sculling corrections assume rates that vary smoothly
         // across the two samples; across a jump of the rate (a reversal or the start or stop of
@@ -222,6 +223,7 @@ impl Compensation {
     /// The true increments of the raw increments `raw_dth`, `raw_dv` over `dt`. `prev` holds the
     /// previous step's [`CompensatedMeans`] (`None` at the first step: no derivative terms) and
     /// is replaced by this step's.
+    #[inline(always)]
     pub fn apply(
         &self,
         model: &ErrorModel,
@@ -389,6 +391,7 @@ impl<'a> Pass<'a> {
     }
 
     /// Process one IMU record (on `line` of its file).
+    #[inline(always)]
     pub fn step(&mut self, rec: &ImuRecord, line: usize) -> Result<(), EstimateError> {
         self.j += 1;
         let phase = self.phase;
@@ -423,6 +426,7 @@ impl<'a> Pass<'a> {
     }
 
     /// The true increments of a record under the current parameter estimates.
+    #[inline(always)]
     fn compensate(&mut self, rec: &ImuRecord) -> (Vector3<f64>, Vector3<f64>) {
         let (g, a) = (Vector3::from(rec.gyro), Vector3::from(rec.accel));
         let dt = self.settings.dt;
@@ -442,6 +446,7 @@ impl<'a> Pass<'a> {
     }
 
     /// Strapdown step and the error model's sub-step; returns the step's mean rate and force.
+    #[inline(always)]
     fn propagate(&mut self, dth: &Vector3<f64>, dv: &Vector3<f64>, phase: Phase) -> SensorInput {
         let step = self.nav.advance(dth, dv);
         // The error Jacobians take the specific force the unit is known to feel (gravity, turned
@@ -474,6 +479,7 @@ impl<'a> Pass<'a> {
 
     /// A turntable-angle sample at the end of the step at IMU time `t`, unless it straddles a
     /// change of the platform rate ([`RateChanges`]).
+    #[inline(always)]
     fn read_angles(&mut self, t: f64, input: &SensorInput) {
         let reader = self.angles.as_mut().expect("checked by the caller");
         let t_query = t + self.lin.tau;
