@@ -466,6 +466,28 @@ fn locate_program(config: &RunConfig, scan: &mut Scan, file: &str) -> Result<(),
     Ok(())
 }
 
+/// IMU records through [`Pass::step`], compiled for every instruction set pulp dispatches to
+/// (AVX2 and FMA, AVX-512, or the baseline) and run with the one the processor has: `step` and
+/// what it calls are inlined into [`pulp::WithSimd::with_simd`], which pulp monomorphises inside
+/// a function with those target features (no unsafe code here). Rust does not contract `a * b + c`
+/// into a fused multiply-add, so every path gives the same bits.
+struct Steps<'p, 'a, 'c> {
+    pass: &'p mut Pass<'a>,
+    chunk: &'c [(crate::io::ImuRecord, usize)],
+}
+
+impl pulp::WithSimd for Steps<'_, '_, '_> {
+    type Output = Result<(), EstimateError>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Self::Output {
+        for (rec, line) in self.chunk {
+            self.pass.step(rec, *line)?;
+        }
+        Ok(())
+    }
+}
+
 /// Passes over the data at most: the first closed loop, each further one linearised about the
 /// one before (parameters and start attitude).
 const MAX_PASSES: usize = 4;
@@ -764,17 +786,10 @@ fn run_pass(
         if chunk.is_empty() {
             break;
         }
-        // The steps compiled for the processor's vector extensions too (AVX2 and FMA where it
-        // has them), chosen at run time: `Pass::step` and what it calls are inlined here.
-        pulp::Arch::new().dispatch(
-            #[inline(always)]
-            || {
-                for (rec, line) in &chunk {
-                    pass.step(rec, *line)?;
-                }
-                Ok::<(), EstimateError>(())
-            },
-        )?;
+        pulp::Arch::new().dispatch(Steps {
+            pass: &mut pass,
+            chunk: &chunk,
+        })?;
         if let Some((rec, _)) = chunk.last() {
             final_time = rec.t;
         }
