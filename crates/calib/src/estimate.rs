@@ -466,6 +466,17 @@ fn locate_program(config: &RunConfig, scan: &mut Scan, file: &str) -> Result<(),
     Ok(())
 }
 
+/// Set by [`force_baseline_instructions`].
+static BASELINE_ONLY: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Run the IMU steps of every later estimation in this process with the baseline instruction
+/// set only (`true`), or with the best the processor has (`false`, the default). For checking
+/// that the paths give the same bits: the steps are compiled for each (AVX2 and the baseline on
+/// x86-64) and chosen at run time.
+pub fn force_baseline_instructions(on: bool) {
+    BASELINE_ONLY.store(on, std::sync::atomic::Ordering::Relaxed);
+}
+
 /// IMU records through [`Pass::step`], compiled for every instruction set pulp dispatches to
 /// (AVX2 and FMA, AVX-512, or the baseline) and run with the one the processor has: `step` and
 /// what it calls are inlined into [`pulp::WithSimd::with_simd`], which pulp monomorphises inside
@@ -786,7 +797,12 @@ fn run_pass(
         if chunk.is_empty() {
             break;
         }
-        pulp::Arch::new().dispatch(Steps {
+        let arch = if BASELINE_ONLY.load(std::sync::atomic::Ordering::Relaxed) {
+            pulp::Arch::Scalar
+        } else {
+            pulp::Arch::new()
+        };
+        arch.dispatch(Steps {
             pass: &mut pass,
             chunk: &chunk,
         })?;

@@ -6,6 +6,7 @@ mod arbitrary_input;
 mod candidates;
 mod candidates_table;
 mod diagnostics;
+mod dispatch;
 mod free_motion_real;
 mod io;
 mod jacobians;
