@@ -58,6 +58,7 @@
 mod error;
 mod filter;
 mod predict;
+mod small;
 mod update;
 
 pub use error::KalmanError;

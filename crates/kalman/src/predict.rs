@@ -23,11 +23,12 @@ use faer::prelude::*;
 use faer::{Accum, MatMut, MatRef, Par};
 
 use crate::error::{KalmanError, check_finite_mat, check_shape};
+use crate::small;
 
 /// Scratch of [`predict`] for `n` states (any `k <= n`).
 pub(crate) fn predict_scratch(n: usize) -> StackReq {
     StackReq::all_of(&[
-        temp_mat_scratch::<f64>(n, n), // normalised phi_top, k x n
+        temp_mat_scratch::<f64>(n, n), // normalised phi_top, transposed: n x k
         temp_mat_scratch::<f64>(n, n), // normalised q_top, k x k
         temp_mat_scratch::<f64>(n, n), // T^T = P phi_top^T, n x k
         temp_mat_scratch::<f64>(n, 1), // phi_top x
@@ -50,15 +51,16 @@ pub(crate) fn predict(
     let k = phi_top.nrows();
     check_shape("phi_top", (k, phi_top.ncols()), (k.min(n), n))?;
     check_shape("q_top", (q_top.nrows(), q_top.ncols()), (k, k))?;
-    // Phi_s = D^-1 Phi D on the top rows, Q_s = D^-1 Q D^-1 on the top block.
-    let (mut phi, stack) = temp_mat_zeroed::<f64, _, _>(k, n, stack);
-    let mut phi = phi.as_mat_mut();
+    // Phi_s = D^-1 Phi D on the top rows (held transposed, n x k: each row a contiguous
+    // column for the loops of `small`), Q_s = D^-1 Q D^-1 on the top block.
+    let (mut phi_t, stack) = temp_mat_zeroed::<f64, _, _>(n, k, stack);
+    let mut phi_t = phi_t.as_mat_mut();
     for j in 0..n {
         for i in 0..k {
-            phi[(i, j)] = phi_top[(i, j)] * scale[j] / scale[i];
+            phi_t[(j, i)] = phi_top[(i, j)] * scale[j] / scale[i];
         }
     }
-    check_finite_mat("phi_top", phi.rb())?;
+    check_finite_mat("phi_top", phi_t.rb().transpose())?;
     let (mut q, stack) = temp_mat_zeroed::<f64, _, _>(k, k, stack);
     let mut q = q.as_mat_mut();
     for j in 0..k {
@@ -70,16 +72,21 @@ pub(crate) fn predict(
     if k == 0 {
         return Ok(());
     }
+    let (phi_t, q) = (phi_t.rb(), q.rb());
     let (mut tt, stack) = temp_mat_zeroed::<f64, _, _>(n, k, stack);
     let mut tt = tt.as_mat_mut();
-    matmul(
-        tt.rb_mut(),
-        Accum::Replace,
-        p.rb(),
-        phi.rb().transpose(),
-        1.0,
-        Par::Seq,
-    );
+    if n <= small::SMALL_STATES {
+        pulp::Arch::new().dispatch(small::PredictProducts {
+            phi_t,
+            q,
+            tt: tt.rb_mut(),
+            p: p.rb_mut(),
+            x,
+        });
+        symmetrise(p.submatrix_mut(0, 0, k, k));
+        return Ok(());
+    }
+    matmul(tt.rb_mut(), Accum::Replace, p.rb(), phi_t, 1.0, Par::Seq);
     let tt = tt.rb();
     p.rb_mut()
         .submatrix_mut(k, 0, n - k, k)
@@ -88,17 +95,25 @@ pub(crate) fn predict(
         .submatrix_mut(0, k, k, n - k)
         .copy_from(tt.subrows(k, n - k).transpose());
     let mut p11 = p.rb_mut().submatrix_mut(0, 0, k, k);
-    p11.copy_from(q.rb());
-    matmul(p11.rb_mut(), Accum::Add, phi.rb(), tt, 1.0, Par::Seq);
+    p11.copy_from(q);
+    matmul(
+        p11.rb_mut(),
+        Accum::Add,
+        phi_t.transpose(),
+        tt,
+        1.0,
+        Par::Seq,
+    );
     symmetrise(p11);
     if let Some(x) = x {
         let (mut top, _) = temp_mat_zeroed::<f64, _, _>(k, 1, stack);
         let mut top = top.as_mat_mut();
+        let x_col = ColRef::from_slice(x).as_mat();
         matmul(
             top.rb_mut(),
             Accum::Replace,
-            phi.rb(),
-            ColRef::from_slice(x).as_mat(),
+            phi_t.transpose(),
+            x_col,
             1.0,
             Par::Seq,
         );

@@ -20,15 +20,16 @@ use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::linalg::{temp_mat_scratch, temp_mat_zeroed};
 use faer::mat::AsMatMut;
 use faer::prelude::*;
-use faer::{Accum, MatMut, MatRef, Par, unzip, zip};
+use faer::{Accum, MatMut, MatRef, Par};
 
 use crate::error::{KalmanError, check_finite_mat};
 use crate::predict::symmetrise;
+use crate::small;
 
 /// Scratch of [`update`] for `n` states and measurements of up to `m_max` components.
 pub(crate) fn update_scratch(n: usize, m_max: usize) -> StackReq {
     StackReq::all_of(&[
-        temp_mat_scratch::<f64>(m_max, n), // normalised H
+        temp_mat_scratch::<f64>(n, m_max), // normalised H, transposed
         temp_mat_scratch::<f64>(m_max, 1), // L^-1 nu
     ])
 }
@@ -65,46 +66,67 @@ pub(crate) fn update(
     stack: &mut MemStack,
 ) -> Result<(f64, f64), KalmanError> {
     let (m, n) = (h.nrows(), h.ncols());
-    // H_s = H D
-    let (mut hs, stack) = temp_mat_zeroed::<f64, _, _>(m, n, stack);
-    let mut hs = hs.as_mat_mut();
+    // H_s = H D, held transposed (n x m: each row a contiguous column for the loops of
+    // `small`).
+    let (mut h_t, stack) = temp_mat_zeroed::<f64, _, _>(n, m, stack);
+    let mut h_t = h_t.as_mat_mut();
     for (j, &sj) in scale.iter().enumerate() {
-        zip!(hs.rb_mut().col_mut(j), h.col(j)).for_each(|unzip!(d, x)| *d = *x * sj);
+        for i in 0..m {
+            h_t[(j, i)] = h[(i, j)] * sj;
+        }
     }
-    check_finite_mat("H", hs.rb())?;
+    check_finite_mat("H", h_t.rb().transpose())?;
     check_finite_mat("R", r)?;
     let Outputs { p, mut w, s, mut l } = out;
-    let log_det_s = covariance(p, w.rb_mut(), s, l.rb_mut(), hs.rb(), r)?;
+    let log_det_s = covariance(p, w.rb_mut(), s, l.rb_mut(), h_t.rb(), r)?;
     let nis = match state {
-        Some(state) => update_state(state, hs.rb(), w.rb(), l.rb(), stack),
+        Some(state) => update_state(state, h_t.rb(), w.rb(), l.rb(), stack),
         None => 0.0,
     };
     Ok((log_det_s, nis))
 }
 
 /// `B = P H^T` (into `w`), `S = H B + R`, `L`, then `W = B L^-T` and `P <- P - W W^T`; returns
-/// `ln det S`. `p` is untouched when `S` is not positive definite.
+/// `ln det S`. `h_t` is `H^T`. `p` is untouched when `S` is not positive definite.
 fn covariance(
     mut p: MatMut<'_, f64>,
     mut w: MatMut<'_, f64>,
     mut s: MatMut<'_, f64>,
     mut l: MatMut<'_, f64>,
-    h: MatRef<'_, f64>,
+    h_t: MatRef<'_, f64>,
     r: MatRef<'_, f64>,
 ) -> Result<f64, KalmanError> {
     let seq = Par::Seq;
-    matmul(w.rb_mut(), Accum::Replace, p.rb(), h.transpose(), 1.0, seq);
+    let small = p.nrows() <= small::SMALL_STATES;
     s.copy_from(r);
-    matmul(s.rb_mut(), Accum::Add, h, w.rb(), 1.0, seq);
+    if small {
+        pulp::Arch::new().dispatch(small::InnovationProducts {
+            p: p.rb(),
+            h_t,
+            w: w.rb_mut(),
+            s: s.rb_mut(),
+        });
+    } else {
+        matmul(w.rb_mut(), Accum::Replace, p.rb(), h_t, 1.0, seq);
+        matmul(s.rb_mut(), Accum::Add, h_t.transpose(), w.rb(), 1.0, seq);
+    }
     symmetrise(s.rb_mut());
     l.copy_from(s.rb());
     let log_det_s = cholesky_in_place(l.rb_mut()).map_err(|(pivot, value)| {
         KalmanError::NotPositiveDefinite {
-            m: h.nrows(),
+            m: h_t.ncols(),
             pivot,
             value,
         }
     })?;
+    if small {
+        pulp::Arch::new().dispatch(small::GainProducts {
+            l: l.rb(),
+            w: w.rb_mut(),
+            p: p.rb_mut(),
+        });
+        return Ok(log_det_s);
+    }
     // W = B L^-T, that is L W^T = B^T
     solve_lower_triangular_in_place(l.rb(), w.rb_mut().transpose_mut(), seq);
     // P <- P - W W^T on the lower triangle, then mirrored.
@@ -129,28 +151,51 @@ fn covariance(
     Ok(log_det_s)
 }
 
-/// `nu = z - H x` (into the innovation; `H_s x_s = H x`), `e = L^-1 nu`, `x <- x + W e`;
-/// returns the NIS `|e|^2`.
+/// `nu = z - H x` (into the innovation; `H_s x_s = H x`; `h_t` is `H_s^T`), `e = L^-1 nu`,
+/// `x <- x + W e`; returns the NIS `|e|^2`.
 fn update_state(
     state: StatePart<'_>,
-    h: MatRef<'_, f64>,
+    h_t: MatRef<'_, f64>,
     w: MatRef<'_, f64>,
     l: MatRef<'_, f64>,
     stack: &mut MemStack,
 ) -> f64 {
     let StatePart { x, z, innovation } = state;
     let seq = Par::Seq;
-    let mut nu = ColMut::from_slice_mut(innovation);
-    nu.copy_from(ColRef::from_slice(z));
-    let x_prior = ColRef::from_slice(x).as_mat();
-    matmul(nu.rb_mut().as_mat_mut(), Accum::Add, h, x_prior, -1.0, seq);
-    let (mut e, _) = temp_mat_zeroed::<f64, _, _>(nu.nrows(), 1, stack);
+    let small = x.len() <= small::SMALL_STATES;
+    if small {
+        pulp::Arch::new().dispatch(small::Innovation {
+            h_t,
+            x,
+            z,
+            innovation,
+        });
+    } else {
+        let mut nu = ColMut::from_slice_mut(innovation).as_mat_mut();
+        nu.copy_from(ColRef::from_slice(z).as_mat());
+        let x_prior = ColRef::from_slice(x).as_mat();
+        matmul(nu, Accum::Add, h_t.transpose(), x_prior, -1.0, seq);
+    }
+    let (mut e, _) = temp_mat_zeroed::<f64, _, _>(innovation.len(), 1, stack);
     let mut e = e.as_mat_mut();
-    e.copy_from(nu.rb().as_mat());
+    e.copy_from(ColRef::from_slice(innovation).as_mat());
     solve_lower_triangular_in_place(l, e.rb_mut(), seq);
-    let x = ColMut::from_slice_mut(x).as_mat_mut();
-    matmul(x, Accum::Add, w, e.rb(), 1.0, seq);
-    e.rb().col(0).squared_norm_l2()
+    let e = e.rb();
+    if small {
+        let e = e
+            .col(0)
+            .try_as_col_major()
+            .expect("scratch is column-major");
+        pulp::Arch::new().dispatch(small::StateCorrection {
+            w,
+            e: e.as_slice(),
+            x,
+        });
+    } else {
+        let x = ColMut::from_slice_mut(x).as_mat_mut();
+        matmul(x, Accum::Add, w, e, 1.0, seq);
+    }
+    e.col(0).squared_norm_l2()
 }
 
 /// In-place lower Cholesky factor of the small symmetric `a` (lower triangle read, strict upper
