@@ -30,6 +30,12 @@
 //! ([`Par::Seq`](faer::Par)) on the calling thread, and checks its inputs before it writes
 //! anything: after an error the filter is unchanged.
 //!
+//! **Small problems.** Up to 32 states the products of both stages are the engine's own column
+//! loops (faer's fixed cost per product call is most of a step at these sizes), compiled for
+//! AVX2 as well and chosen at run time through pulp's safe dispatch; above 32 states they are
+//! faer's. The two give the same results to rounding (tested against a naive reference on both
+//! sides of the switch).
+//!
 //! Performance figures and the commands that measure them are in `docs/performance.md` of the
 //! repository.
 //!

@@ -22,7 +22,7 @@ use faer::{MatMut, MatRef};
 use pulp::{Simd, WithSimd};
 
 /// Largest state dimension for which these loops are used.
-pub(crate) const SMALL_STATES: usize = 64;
+pub(crate) const SMALL_STATES: usize = 32;
 
 /// Column `j` of a column-major matrix as a slice.
 #[inline(always)]
@@ -229,7 +229,7 @@ impl WithSimd for PredictProducts<'_> {
         p11.copy_from(q);
         add_transpose_times(p11, phi_t, tt);
         if let Some(x) = x {
-            // Each new x_i reads the old x: all k first, then written (k <= n, at most 64 here).
+            // Each new x_i reads the old x: all k first, then written (k <= n <= SMALL_STATES here).
             let mut top = [0.0; SMALL_STATES];
             for (i, t) in top.iter_mut().enumerate().take(k) {
                 *t = dot(col(phi_t, i), x);
