@@ -4,24 +4,12 @@
 //! baseline with itself. (Other tests of this binary may run their estimations on the baseline
 //! path meanwhile: the same bits, only slower.)
 
-use calib::config::{AttitudePrior, RunConfig};
+use crate::paper_20hz::paper_20hz_run;
 use calib::estimate::{RunData, estimate, force_baseline_instructions};
-use calib::io::{ImuData, TurntableData};
-use calib::simulate::simulate_run;
 
 #[test]
 fn every_instruction_set_gives_the_same_estimates() {
-    let mut c = RunConfig::paper();
-    c.filter.attitude_prior = AttitudePrior::Installation;
-    c.priors.initial_tilt_deg = 0.01;
-    c.priors.initial_heading_deg = 0.01;
-    c.truth.imu_rate_hz = 20.0;
-    c.filter.imu_rate_hz = 20.0;
-    c.truth.turntable_rate_hz = 10.0;
-    c.truth.seed = 3;
-    let sim = simulate_run(&c, "test").unwrap();
-    let imu = ImuData::from_samples(&sim.imu);
-    let tt = TurntableData::from_samples(&sim.turntable);
+    let (c, imu, tt) = paper_20hz_run(3);
     let data = RunData {
         imu: &imu,
         imu_file: "imu.csv",

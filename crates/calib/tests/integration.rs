@@ -10,3 +10,4 @@ mod dispatch;
 mod free_motion_real;
 mod io;
 mod jacobians;
+mod paper_20hz;

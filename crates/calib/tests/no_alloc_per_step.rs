@@ -9,10 +9,13 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use calib::config::{AttitudePrior, RunConfig};
+use calib::config::RunConfig;
 use calib::estimate::{FitStatistics, RunData, estimate};
 use calib::io::{ImuData, TurntableData};
-use calib::simulate::simulate_run;
+
+#[path = "paper_20hz.rs"]
+mod paper_20hz;
+use paper_20hz::paper_20hz_run;
 
 struct Counting;
 
@@ -49,17 +52,7 @@ fn count(c: &RunConfig, imu: &ImuData, tt: &TurntableData) -> (usize, FitStatist
 
 #[test]
 fn a_calibration_allocates_nothing_per_step_or_instant() {
-    let mut c = RunConfig::paper();
-    c.filter.attitude_prior = AttitudePrior::Installation;
-    c.priors.initial_tilt_deg = 0.01;
-    c.priors.initial_heading_deg = 0.01;
-    c.truth.imu_rate_hz = 20.0;
-    c.filter.imu_rate_hz = 20.0;
-    c.truth.turntable_rate_hz = 10.0;
-    c.truth.seed = 7;
-    let sim = simulate_run(&c, "test").unwrap();
-    let imu = ImuData::from_samples(&sim.imu);
-    let tt = TurntableData::from_samples(&sim.turntable);
+    let (c, imu, tt) = paper_20hz_run(7);
     let (a, sa) = count(&c, &imu, &tt);
     // The same data with twice the measurement instants.
     let mut twice = c.clone();
