@@ -478,10 +478,11 @@ pub fn force_baseline_instructions(on: bool) {
 }
 
 /// IMU records through [`Pass::step`], compiled for every instruction set pulp dispatches to
-/// (AVX2 and FMA, AVX-512, or the baseline) and run with the one the processor has: `step` and
-/// what it calls are inlined into [`pulp::WithSimd::with_simd`], which pulp monomorphises inside
-/// a function with those target features (no unsafe code here). Rust does not contract `a * b + c`
-/// into a fused multiply-add, so every path gives the same bits.
+/// (on x86-64 AVX2 with FMA, and the baseline; NEON on aarch64) and run with the one the
+/// processor has: `step` and what it calls are inlined into [`pulp::WithSimd::with_simd`], which
+/// pulp monomorphises inside a function with those target features (no unsafe code here). Rust
+/// does not contract `a * b + c` into a fused multiply-add, so every path gives the same bits.
+/// (A closure handed to `dispatch` would not do: pulp inlines the call, not the closure's body.)
 struct Steps<'p, 'a, 'c> {
     pass: &'p mut Pass<'a>,
     chunk: &'c [(crate::io::ImuRecord, usize)],
