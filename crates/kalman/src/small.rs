@@ -238,3 +238,80 @@ impl WithSimd for PredictProducts<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Mat;
+
+    /// A deterministic matrix with some exact zeros (the loops skip them).
+    fn mat(r: usize, c: usize, seed: u64) -> Mat<f64> {
+        Mat::from_fn(r, c, |i, j| {
+            let k = (i * 31 + j * 17) as u64 + seed;
+            if k.is_multiple_of(5) {
+                0.0
+            } else {
+                ((k * 2654435761) % 1000) as f64 / 997.0 - 0.4
+            }
+        })
+    }
+
+    /// Every group of products gives the same bits on the baseline path as on the one the
+    /// processor picks (AVX2 here): the same operations in the same order, and Rust does not
+    /// fuse multiply-adds.
+    #[test]
+    fn every_instruction_set_gives_the_same_bits() {
+        let (n, m, k) = (29, 3, 3);
+        let p0 = {
+            let a = mat(n, n, 1);
+            &a * a.transpose()
+        };
+        let (h_t, phi_t, q) = (mat(n, m, 2), mat(n, k, 3), mat(k, k, 4));
+        let l = Mat::from_fn(m, m, |i, j| match i.cmp(&j) {
+            std::cmp::Ordering::Less => 0.0,
+            std::cmp::Ordering::Equal => 2.0 + i as f64,
+            std::cmp::Ordering::Greater => 0.3,
+        });
+        let x0: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+        let run = |arch: pulp::Arch| {
+            let (mut p, mut w, mut s) = (p0.clone(), Mat::zeros(n, m), Mat::identity(m, m));
+            arch.dispatch(InnovationProducts {
+                p: p.as_ref(),
+                h_t: h_t.as_ref(),
+                w: w.as_mut(),
+                s: s.as_mut(),
+            });
+            arch.dispatch(GainProducts {
+                l: l.as_ref(),
+                w: w.as_mut(),
+                p: p.as_mut(),
+            });
+            let (z, mut nu, mut x) = ([0.5, -1.0, 2.0], [0.0; 3], x0.clone());
+            arch.dispatch(Innovation {
+                h_t: h_t.as_ref(),
+                x: &x,
+                z: &z,
+                innovation: &mut nu,
+            });
+            arch.dispatch(StateCorrection {
+                w: w.as_ref(),
+                e: &nu,
+                x: &mut x,
+            });
+            let mut tt = Mat::zeros(n, k);
+            arch.dispatch(PredictProducts {
+                phi_t: phi_t.as_ref(),
+                q: q.as_ref(),
+                tt: tt.as_mut(),
+                p: p.as_mut(),
+                x: Some(&mut x),
+            });
+            (p, w, s, nu, x)
+        };
+        let (best, baseline) = (run(pulp::Arch::new()), run(pulp::Arch::Scalar));
+        assert!(best.0 == baseline.0 && best.1 == baseline.1 && best.2 == baseline.2);
+        assert_eq!((best.3, &best.4), (baseline.3, &baseline.4));
+        // And they did something.
+        assert!(best.0 != p0 && best.4 != x0);
+    }
+}
