@@ -8,5 +8,6 @@ mod hidden_effects;
 mod noiseless;
 mod program_from_angles;
 mod program_start;
+mod rests;
 mod static_runs;
 mod turntable_record_rates;

@@ -315,6 +315,19 @@ impl Engine {
         Ok(report)
     }
 
+    /// Predict to the end of the last step without an update (the end of a recording whose
+    /// last window was not used).
+    pub fn predict_to_now(&mut self) -> Result<(), KalmanError> {
+        let (phi, q) = self.model.transition();
+        if self.covariance_only {
+            self.filter.predict_covariance(phi, q)?;
+        } else {
+            self.filter.predict(phi, q)?;
+        }
+        self.model.reset_transition();
+        Ok(())
+    }
+
     /// The update with `m`; in an estimation, with the innovation and its covariance (copied
     /// from the filter, nothing allocated).
     fn update(&mut self, m: &Measurement) -> Result<Option<UpdateRecord>, KalmanError> {

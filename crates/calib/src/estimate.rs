@@ -35,6 +35,7 @@ use crate::program_start::{
     ProgramStart, ProgramStartError, TurntableClockError, check_program_start,
     check_turntable_clock, find_program_start,
 };
+use crate::rests::{Rest, RestError};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{exp_so3, log_so3};
 use sins_model::terms::Unit;
@@ -53,6 +54,14 @@ pub use source::{FileImu, ImuSource, MemoryImu};
 /// Errors of an estimation run.
 #[derive(Debug, thiserror::Error)]
 pub enum EstimateError {
+    /// The rests of a recording without a program cannot carry a calibration.
+    #[error("{file}: {source}")]
+    Rests {
+        /// IMU file.
+        file: String,
+        /// What is wrong with the rests.
+        source: RestError,
+    },
     /// Configuration problem.
     #[error(transparent)]
     Config(#[from] ConfigError),
@@ -134,6 +143,9 @@ pub struct FitStatistics {
     pub second_order_accel_sigma: f64,
     /// Extra passes made to carry that error into the posterior covariance.
     pub consider_passes: usize,
+    /// Specific-force windows left out because the unit moved in them (a recording of rests;
+    /// zero with a program, where the specific force is known throughout).
+    pub accel_windows_in_motion: usize,
 }
 
 /// A parameter whose posterior sigma is above this fraction of its prior sigma is reported as
@@ -366,18 +378,123 @@ pub fn estimate_from(
     check_gyros_alive(&scan.bins, turns, imu.file())?;
     let g = config.site().specific_force_at_rest_enu().norm();
     check_specific_force(&scan.bins, g, imu.file())?;
-    locate_program(config, &mut scan, imu.file())?;
-    let n = scan.n;
+    locate_program(config, &mut scan, &program, imu.file())?;
     let tt_setup = match (layout.install.is_some(), turntable) {
-        (true, Some((tt, file))) => Some(TurntableSetup::new(config, tt, file, &scan)?),
+        (true, Some((tt, file))) => Some(TurntableSetup::new(config, tt, file, &scan, &program)?),
         _ => None,
     };
+    let motion = Motion::Program(program);
+    let first = first_linearisation_point(config, layout, &scan, &motion);
+    iterate_passes(
+        config,
+        layout,
+        imu,
+        tt_setup.as_ref(),
+        &scan,
+        &motion,
+        first,
+        progress,
+    )
+}
+
+/// Calibrate a recording without a program or turntable angles: the unit rests in several
+/// orientations (`rests`, on the IMU clock, in time order) and is turned between them in any
+/// way. The same filter as for a program ([`estimate_from`]), with the specific force measured
+/// only where every step of a window lies in a rest (less [`crate::rests::REST_MARGIN_S`] at
+/// both ends), the start attitude levelled in the first rest (and gyrocompassed where the gyros
+/// resolve the Earth rate), and the attitude carried by the gyros through every motion
+/// ([`crate::rests`]). The layout must be an IMU-only one.
+pub fn estimate_at_rests(
+    config: &RunConfig,
+    layout: &StateLayout,
+    imu: &mut dyn ImuSource,
+    rests: &[Rest],
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Estimate, EstimateError> {
+    if layout.install.is_some() {
+        return Err(EstimateError::Rests {
+            file: imu.file().to_string(),
+            source: RestError::WithTurntable,
+        });
+    }
+    let mut scan = scan_imu(imu, config.filter.imu_rate_hz, progress)?;
+    let dt = 1.0 / config.filter.imu_rate_hz;
+    check_gyros_alive(&scan.bins, true, imu.file())?;
+    let g = config.site().specific_force_at_rest_enu().norm();
+    check_specific_force(&scan.bins, g, imu.file())?;
+    let refuse = |source| EstimateError::Rests {
+        file: imu.file().to_string(),
+        source,
+    };
+    crate::rests::check_rests(rests, scan.span.0 - dt, dt).map_err(refuse)?;
+    scan.program_start = scan.span.0 - dt;
+    scan.program_start_found = false;
+    let usable = crate::rests::usable(rests);
+    let first = usable
+        .first()
+        .copied()
+        .ok_or_else(|| refuse(RestError::None))?;
+    let pri = layout.prior_sigma();
+    let align = crate::rests::align_in_rest(
+        &scan.bins,
+        &first,
+        &config.site(),
+        &layout.model,
+        &pri[StateLayout::INSTRUMENT..StateLayout::INSTRUMENT + layout.n_instrument()],
+        config.gyro_psd(),
+        config.accel_psd(),
+    )
+    .ok_or_else(|| {
+        refuse(RestError::NoData {
+            t0: first.t0,
+            t1: first.t1,
+        })
+    })?;
+    let motion = Motion::Rests {
+        rests: rests.to_vec(),
+        usable,
+        align,
+    };
+    iterate_passes(config, layout, imu, None, &scan, &motion, None, progress)
+}
+
+/// What the unit did during the recording: what the start attitude, the specific-force
+/// measurements and the diagnostics' segments come from.
+enum Motion {
+    /// A turntable program (given, or read from the angle records).
+    Program(turntable::program::Program),
+    /// Rests between motions that are not known ([`crate::rests`]).
+    Rests {
+        /// The rests as given.
+        rests: Vec<Rest>,
+        /// Less their margins.
+        usable: Vec<Rest>,
+        /// The start attitude from the first.
+        align: crate::rests::RestAlignment,
+    },
+}
+
+/// The passes over the data: a closed-loop first pass from `first` (or the prior), then passes
+/// linearised about the one before until no parameter moves by more than
+/// [`CONVERGED_SIGMA`], then the consider passes of the second-order specific-force error.
+#[allow(clippy::too_many_arguments)]
+fn iterate_passes(
+    config: &RunConfig,
+    layout: &StateLayout,
+    imu: &mut dyn ImuSource,
+    tt_setup: Option<&TurntableSetup>,
+    scan: &Scan,
+    motion: &Motion,
+    first: Option<Nominal>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Estimate, EstimateError> {
+    let n = scan.n;
     // Every pass carries a constant copy of the start attitude error, so that the next pass can
     // start from the estimate of the start attitude (a fixed-point smoother).
     let smoother = layout.with_start_attitude();
     let s = smoother.start_attitude.expect("set by with_start_attitude");
     let total = (1 + MAX_PASSES) * n;
-    let mut nominal = first_linearisation_point(config, layout, &scan)?;
+    let mut nominal = first;
     let mut shift = f64::INFINITY;
     let mut pass = 0;
     let mut linearised_about;
@@ -387,8 +504,9 @@ pub fn estimate_from(
             config,
             &smoother,
             imu,
-            tt_setup.as_ref(),
-            &scan,
+            tt_setup,
+            scan,
+            motion,
             nominal.as_ref(),
             pass == 0,
             &Vector3::zeros(),
@@ -416,8 +534,9 @@ pub fn estimate_from(
                 config,
                 &smoother,
                 imu,
-                tt_setup.as_ref(),
-                &scan,
+                tt_setup,
+                scan,
+                motion,
                 Some(nominal),
                 false,
                 offset,
@@ -436,8 +555,12 @@ pub fn estimate_from(
 
 /// Find (or check) where the program starts on the IMU clock. A program that never turns has
 /// no start to find: it is taken to start with the data.
-fn locate_program(config: &RunConfig, scan: &mut Scan, file: &str) -> Result<(), EstimateError> {
-    let program = config.program()?;
+fn locate_program(
+    config: &RunConfig,
+    scan: &mut Scan,
+    program: &turntable::program::Program,
+    file: &str,
+) -> Result<(), EstimateError> {
     let site = config.site();
     let dt = 1.0 / config.filter.imu_rate_hz;
     let refuse = |source| EstimateError::ProgramStart {
@@ -447,15 +570,15 @@ fn locate_program(config: &RunConfig, scan: &mut Scan, file: &str) -> Result<(),
     let found = match config.filter.program_start_s {
         // A start a millisecond off already shows in the fit (mean NIS 4.5 for 4 ms on the
         // paper's program): the data must put the rate changes within a tenth of a step.
-        Some(t) => check_program_start(&scan.bins, &program, &site, t, 0.1 * dt).map_err(refuse)?,
-        None => match find_program_start(&scan.bins, &program, &site) {
+        Some(t) => check_program_start(&scan.bins, program, &site, t, 0.1 * dt).map_err(refuse)?,
+        None => match find_program_start(&scan.bins, program, &site) {
             Err(ProgramStartError::NoRotation) => ProgramStart {
                 t_imu_s: scan.span.0 - dt,
                 rms_misfit: 0.0,
             },
             // A recording of part of a program is taken to start with it, and checked.
             Err(ProgramStartError::TooShort { .. }) => {
-                check_program_start(&scan.bins, &program, &site, scan.span.0 - dt, 0.1 * dt)
+                check_program_start(&scan.bins, program, &site, scan.span.0 - dt, 0.1 * dt)
                     .map_err(refuse)?
             }
             other => other.map_err(refuse)?,
@@ -532,6 +655,7 @@ impl<'a> TurntableSetup<'a> {
         tt: &'a TurntableData,
         file: &str,
         scan: &Scan,
+        program: &turntable::program::Program,
     ) -> Result<Self, EstimateError> {
         let clock = config.clock;
         let dt = 1.0 / config.filter.imu_rate_hz;
@@ -553,12 +677,11 @@ impl<'a> TurntableSetup<'a> {
             .into());
         }
         let record_rate_hz = (1.0 + clock.turntable_rate_error) / med;
-        let program = config.program()?;
         // The delay is searched within its prior (three sigma).
         check_turntable_clock(
             &tt.records,
             &clock,
-            &program,
+            program,
             scan.program_start,
             3.0 * config.priors.tau_s,
         )
@@ -574,7 +697,7 @@ impl<'a> TurntableSetup<'a> {
             record_rate_hz,
             per_record: 1.0 / record_rate_hz > 2.0 * dt,
             angle_var: config.angle_psd() * record_rate_hz,
-            rate_changes: RateChanges::new(&program),
+            rate_changes: RateChanges::new(program),
         })
     }
 
@@ -605,10 +728,21 @@ fn start_prior(
     config: &RunConfig,
     layout: &StateLayout,
     scan: &Scan,
-    program: &turntable::program::Program,
-    c_nominal: Matrix3<f64>,
+    motion: &Motion,
     install_hat: &Vector3<f64>,
 ) -> (Matrix3<f64>, DMatrix<f64>) {
+    let program = match motion {
+        Motion::Program(program) => program,
+        Motion::Rests { align, .. } => {
+            let p = initial_covariance(config, layout, &align.c_start);
+            let mut p = crate::rests::rest_covariance(&p, align);
+            crate::layout::copy_start_attitude(&mut p, layout);
+            return (align.c_start, p);
+        }
+    };
+    let dt = 1.0 / config.filter.imu_rate_hz;
+    let (k0, _) = program.state(scan.span.0 - dt - scan.program_start);
+    let c_nominal = c_platform_to_base(&k0);
     // The start attitude error is tied to the installation error as a perturbation of the
     // mounting about its linearisation point: C_true = C_p exp(dz_hat) exp(d) gives
     // beta_0 = C_p exp(dz_hat) d + eps, so the correlation is with the attitude of that mounting,
@@ -620,7 +754,6 @@ fn start_prior(
     if layout.install.is_some() || config.filter.attitude_prior == AttitudePrior::Independent {
         return nominal();
     }
-    let dt = 1.0 / config.filter.imu_rate_hz;
     let start = scan.program_start;
     aligned_prior(config, layout, &scan.bins, program, start, scan.span.0 - dt)
         .unwrap_or_else(nominal)
@@ -645,11 +778,11 @@ fn first_linearisation_point(
     config: &RunConfig,
     layout: &StateLayout,
     scan: &Scan,
-) -> Result<Option<Nominal>, EstimateError> {
-    let Some(k) = layout.install else {
-        return Ok(None);
+    motion: &Motion,
+) -> Option<Nominal> {
+    let (Some(k), Motion::Program(program)) = (layout.install, motion) else {
+        return None;
     };
-    let program = config.program()?;
     let pri = config.priors_si();
     let errors = DirectionErrors {
         gyro_bias: pri.gyro_bias,
@@ -659,17 +792,15 @@ fn first_linearisation_point(
         mounting: config.install_sigma(),
     };
     let start = scan.program_start;
-    let Some(m) = fit_mounting(&scan.bins, &program, &config.site(), start, &errors) else {
-        return Ok(None);
-    };
+    let m = fit_mounting(&scan.bins, program, &config.site(), start, &errors)?;
     let dt = 1.0 / config.filter.imu_rate_hz;
     let (k0, _) = program.state(scan.span.0 - dt - start);
     let mut totals = vec![0.0; layout.dim()];
     totals[k..k + 3].copy_from_slice(log_so3(&m).as_slice());
-    Ok(Some(Nominal {
+    Some(Nominal {
         totals,
         c_start: c_platform_to_base(&k0) * m,
-    }))
+    })
 }
 
 /// The filter at the start of a pass: the prior covariance about the program's start attitude
@@ -680,23 +811,14 @@ fn start_filter(
     config: &RunConfig,
     layout: &StateLayout,
     scan: &Scan,
-    program: &turntable::program::Program,
+    motion: &Motion,
     nominal: Option<&Nominal>,
     totals: &[f64],
 ) -> Result<(kalman::KalmanFilter, Matrix3<f64>), EstimateError> {
-    let dt = 1.0 / config.filter.imu_rate_hz;
-    let (k0, _) = program.state(scan.span.0 - dt - scan.program_start);
     let install_hat = layout.install.map_or(Vector3::zeros(), |k| {
         Vector3::new(totals[k], totals[k + 1], totals[k + 2])
     });
-    let (c_program, p0) = start_prior(
-        config,
-        layout,
-        scan,
-        program,
-        c_platform_to_base(&k0),
-        &install_hat,
-    );
+    let (c_program, p0) = start_prior(config, layout, scan, motion, &install_hat);
     let mut filter = prior_filter(&p0).map_err(|source| EstimateError::Filter {
         t: scan.span.0,
         line: 0,
@@ -731,6 +853,7 @@ fn run_pass(
     imu: &mut dyn ImuSource,
     turntable: Option<&TurntableSetup>,
     scan: &Scan,
+    motion: &Motion,
     nominal: Option<&Nominal>,
     closed_loop: bool,
     f_offset_enu: &Vector3<f64>,
@@ -748,9 +871,8 @@ fn run_pass(
         }
         None => (None, None),
     };
-    let program = config.program()?;
     let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());
-    let (filter, c0) = start_filter(config, layout, scan, &program, nominal, &totals)?;
+    let (filter, c0) = start_filter(config, layout, scan, motion, nominal, &totals)?;
     let noise = MeasurementNoise {
         accel_psd: config.accel_psd(),
         angle_var_per_record: angle_var,
@@ -776,13 +898,22 @@ fn run_pass(
         angles,
     );
     pass.stats = stats;
+    if let Motion::Rests { usable, .. } = motion {
+        pass.rest_gate = Some(crate::rests::RestGate::new(usable.clone()));
+    }
     if layout.model.uses_rate_derivatives() {
-        // The program's motion in the middle of the interval before the first record, in the
-        // body through the start attitude (the middle: the program's start is found to a few
-        // microseconds, and a jump at the first record's start must fall after it).
-        let t_before = scan.span.0 - 1.5 * dt - scan.program_start;
-        let (k, k_dot) = program.state(t_before);
-        let platform = turntable::gimbal::platform_rate_base(&k, &k_dot);
+        // The motion in the middle of the interval before the first record, in the body through
+        // the start attitude (the middle: the program's start is found to a few microseconds,
+        // and a jump at the first record's start must fall after it). A recording of rests
+        // starts at rest.
+        let platform = match motion {
+            Motion::Program(program) => {
+                let t_before = scan.span.0 - 1.5 * dt - scan.program_start;
+                let (k, k_dot) = program.state(t_before);
+                turntable::gimbal::platform_rate_base(&k, &k_dot)
+            }
+            Motion::Rests { .. } => Vector3::zeros(),
+        };
         pass.set_motion_before(
             c0.transpose() * (u_enu + platform),
             c0.transpose() * site.specific_force_at_rest_enu(),
@@ -820,7 +951,10 @@ fn run_pass(
         cov,
         mut innovations,
     } = pass.finish();
-    let segments = diagnostics::segments(&program, scan.program_start);
+    let segments = match motion {
+        Motion::Program(program) => diagnostics::segments(program, scan.program_start),
+        Motion::Rests { rests, .. } => crate::rests::segments(rests),
+    };
     diagnostics::assign_segments(&mut innovations, &segments);
     let estimate = Estimate {
         names: layout.entries().iter().map(|e| e.name.clone()).collect(),

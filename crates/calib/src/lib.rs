@@ -23,6 +23,7 @@
 //! - [`angles_program`]: the program read from the turntable's angle records;
 //! - [`align`]: coarse alignment of the start attitude to the program's rotations;
 //! - [`program_start`]: where the program starts on the IMU clock;
+//! - [`rests`]: recordings without a program: the rests in place of the program;
 //! - [`data_checks`]: checks of the IMU data before any filter;
 //! - [`free_motion`]: calibration from a hand-turned multi-position recording (no turntable);
 //! - [`io`]: the interchange files (readers with file and line in every error, writers);
@@ -66,5 +67,6 @@ pub mod model;
 pub mod paper;
 pub mod program_start;
 pub mod report;
+pub mod rests;
 pub mod simulate;
 pub mod stats;

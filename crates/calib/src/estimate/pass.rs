@@ -9,6 +9,7 @@ use crate::engine::{Engine, InstantReport, Phase, RateChanges};
 use crate::io::{ImuKind, ImuRecord};
 use crate::layout::StateLayout;
 use crate::model::{AngleSample, MeasurementKind};
+use crate::rests::RestGate;
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use sins_model::attitude::{attitude_error, exp_so3, log_so3, orthonormalize, right_jacobian_inv};
 use sins_model::terms::{AffineError, ErrorModel, Sensor, SensorInput};
@@ -325,6 +326,11 @@ pub(super) struct Pass<'a> {
     pub lin: Linearisation,
     pub angles: Option<AngleReader<'a>>,
     pub stats: FitStatistics,
+    /// A recording of rests: the specific force is measured only in windows that lie wholly
+    /// in a rest ([`crate::rests`]); `None` for a program, where it is known throughout.
+    pub rest_gate: Option<RestGate>,
+    /// Whether every step of the open specific-force window so far lay in a rest.
+    window_at_rest: bool,
     nis_sum: (f64, f64),
     /// Every update of the pass in order (segments assigned by the caller).
     innovations: Vec<Innovation>,
@@ -371,6 +377,8 @@ impl<'a> Pass<'a> {
             lin,
             angles,
             stats: FitStatistics::default(),
+            rest_gate: None,
+            window_at_rest: true,
             nis_sum: (0.0, 0.0),
             innovations: Vec::with_capacity(updates),
             j: 0,
@@ -402,6 +410,28 @@ impl<'a> Pass<'a> {
             self.read_angles(rec.t, &input);
         }
         let last = self.j == self.settings.n_steps;
+        let sched = &self.engine.schedule;
+        if let Some(gate) = &mut self.rest_gate {
+            if sched.in_accel_window_at(phase) && !gate.step_at_rest(rec.t, self.settings.dt) {
+                self.window_at_rest = false;
+            }
+            if (sched.accel_due_at(phase) || last) && !self.window_at_rest {
+                // A window that saw motion is no measurement of the specific force at rest.
+                self.engine.model.reset_accel();
+                self.window_at_rest = true;
+                self.stats.accel_windows_in_motion += 1;
+                if last {
+                    self.engine
+                        .predict_to_now()
+                        .map_err(|source| EstimateError::Filter {
+                            t: rec.t,
+                            line,
+                            source,
+                        })?;
+                }
+                return Ok(());
+            }
+        }
         let sched = &self.engine.schedule;
         if !(last || sched.accel_due_at(phase) || sched.turntable_due_at(phase)) {
             return Ok(());
