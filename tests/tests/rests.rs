@@ -98,6 +98,7 @@ fn run(seeds: std::ops::RangeInclusive<u64>) {
             &layout,
             &mut source,
             &rests(&config),
+            None,
             &mut |_, _| {},
         )
         .unwrap();

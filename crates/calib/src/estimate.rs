@@ -21,7 +21,9 @@
 
 use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
 use crate::config::{AttitudePrior, ClockConfig, ConfigError, RunConfig};
-use crate::data_checks::{check_gyros_alive, check_record, check_specific_force};
+use crate::data_checks::{
+    check_gyros_alive, check_record, check_specific_force, check_specific_force_within,
+};
 use crate::diagnostics::{self, Innovation};
 use crate::engine::prior_filter;
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
@@ -48,7 +50,7 @@ mod source;
 
 pub(crate) use angles::wrap_deg;
 use angles::{AngleInterpolator, RecordTable, median_interval};
-use pass::{AngleReader, Linearisation, Pass, PassResult, PassSettings, Strapdown};
+use pass::{AngleReader, Feedback, Linearisation, Pass, PassResult, PassSettings, Strapdown};
 pub use source::{FileImu, ImuSource, MemoryImu};
 
 /// Errors of an estimation run.
@@ -182,6 +184,13 @@ pub struct Estimate {
     /// Every update of the reported pass in order: innovation, its covariance, IMU time and the
     /// program segment ([`crate::diagnostics`]).
     pub innovations: Vec<Innovation>,
+    /// The segments the innovations are assigned to: the program's pieces, or the rests and
+    /// the motions between them.
+    pub segments: Vec<diagnostics::Segment>,
+    /// A recording without a program: its rests ([`estimate_at_rests`]); empty with a program.
+    pub rests: Vec<Rest>,
+    /// A recording without a program: how its start attitude was found; `None` with a program.
+    pub start_alignment: Option<crate::rests::RestAlignment>,
 }
 
 impl Estimate {
@@ -254,11 +263,30 @@ struct Scan {
 /// Length of the rate bins of the scan (s).
 const BIN_S: f64 = 0.1;
 
+/// How far one record's interval may be from the configured one, as a fraction: a programmed
+/// run's records come at a fixed rate (5 %); a recording of rests may have jittered time stamps
+/// (each record is then integrated over its own interval), but no gaps (50 %).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Spacing {
+    Fixed,
+    Jittered,
+}
+
+impl Spacing {
+    fn tolerance(self) -> f64 {
+        match self {
+            Spacing::Fixed => 0.05,
+            Spacing::Jittered => 0.5,
+        }
+    }
+}
+
 /// Read the IMU data once: count the records and check that they come at the configured rate
-/// (within 5 %), naming the first line that does not.
+/// (within the `spacing`'s tolerance), naming the first line that does not.
 fn scan_imu(
     imu: &mut dyn ImuSource,
     rate_hz: f64,
+    spacing: Spacing,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Scan, EstimateError> {
     let dt = 1.0 / rate_hz;
@@ -278,14 +306,16 @@ fn scan_imu(
             first = rec.t;
         } else {
             let d = rec.t - prev;
-            if (d / dt - 1.0).abs() > 0.05 {
+            let tol = spacing.tolerance();
+            if (d / dt - 1.0).abs() > tol {
                 return Err(IoError::Line {
                     file: imu.file().to_string(),
                     line,
                     message: format!(
                         "the interval to the previous record is {d} s: expected {dt} s \
-                         (filter.imu_rate_hz = {rate_hz}) within 5 %; gaps and other rates are \
-                         not interpolated"
+                         (filter.imu_rate_hz = {rate_hz}) within {} %; gaps and other rates are \
+                         not interpolated",
+                        100.0 * tol
                     ),
                 }
                 .into());
@@ -369,7 +399,7 @@ pub fn estimate_from(
     turntable: Option<(&TurntableData, &str)>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
-    let mut scan = scan_imu(imu, config.filter.imu_rate_hz, progress)?;
+    let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Fixed, progress)?;
     let imu_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
     let resolved = crate::angles_program::resolve_program(config, turntable, Some(imu_start))?;
     let config = resolved.as_ref().unwrap_or(config);
@@ -393,6 +423,7 @@ pub fn estimate_from(
         &scan,
         &motion,
         first,
+        Feedback::All,
         progress,
     )
 }
@@ -404,11 +435,16 @@ pub fn estimate_from(
 /// both ends), the start attitude levelled in the first rest (and gyrocompassed where the gyros
 /// resolve the Earth rate), and the attitude carried by the gyros through every motion
 /// ([`crate::rests`]). The layout must be an IMU-only one.
+///
+/// `coarse` is where the first pass starts: the totals of the instrument parameters (in the
+/// layout's order), or `None` for the prior means. Units whose errors are large (per-cent scale
+/// factors, degrees per second of bias) need one ([`calibrate_rests`] makes it).
 pub fn estimate_at_rests(
     config: &RunConfig,
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
     rests: &[Rest],
+    coarse: Option<&[f64]>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     if layout.install.is_some() {
@@ -417,11 +453,29 @@ pub fn estimate_at_rests(
             source: RestError::WithTurntable,
         });
     }
-    let mut scan = scan_imu(imu, config.filter.imu_rate_hz, progress)?;
+    let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Jittered, progress)?;
     let dt = 1.0 / config.filter.imu_rate_hz;
+    // Jittered stamps are integrated as they are, but their mean rate must be the configured
+    // one: the filter's transitions and the Earth rate step at it.
+    let mean_dt = (scan.span.1 - scan.span.0) / (scan.n - 1) as f64;
+    if (mean_dt / dt - 1.0).abs() > MEAN_INTERVAL_TOLERANCE {
+        return Err(IoError::File {
+            file: imu.file().to_string(),
+            message: format!(
+                "the records come every {mean_dt} s on average: expected {dt} s \
+                 (filter.imu_rate_hz = {}) within {} %",
+                config.filter.imu_rate_hz,
+                100.0 * MEAN_INTERVAL_TOLERANCE
+            ),
+        }
+        .into());
+    }
     check_gyros_alive(&scan.bins, true, imu.file())?;
     let g = config.site().specific_force_at_rest_enu().norm();
-    check_specific_force(&scan.bins, g, imu.file())?;
+    // Three sigma of what the priors allow the magnitude to be off by.
+    let p = config.priors_si();
+    let tol = 3.0 * (p.accel_scale + p.accel_bias / g);
+    check_specific_force_within(&scan.bins, g, tol, imu.file())?;
     let refuse = |source| EstimateError::Rests {
         file: imu.file().to_string(),
         source,
@@ -435,12 +489,27 @@ pub fn estimate_at_rests(
         .copied()
         .ok_or_else(|| refuse(RestError::None))?;
     let pri = layout.prior_sigma();
+    let instrument = StateLayout::INSTRUMENT..StateLayout::INSTRUMENT + layout.n_instrument();
+    let p0 = match coarse {
+        Some(c) if c.len() == instrument.len() => c.to_vec(),
+        Some(c) => {
+            return Err(EstimateError::Rests {
+                file: imu.file().to_string(),
+                source: RestError::CoarseStart {
+                    got: c.len(),
+                    expected: instrument.len(),
+                },
+            });
+        }
+        None => vec![0.0; instrument.len()],
+    };
     let align = crate::rests::align_in_rest(
         &scan.bins,
         &first,
         &config.site(),
         &layout.model,
-        &pri[StateLayout::INSTRUMENT..StateLayout::INSTRUMENT + layout.n_instrument()],
+        &p0,
+        &pri[instrument.clone()],
         config.gyro_psd(),
         config.accel_psd(),
     )
@@ -450,13 +519,129 @@ pub fn estimate_at_rests(
             t1: first.t1,
         })
     })?;
+    // With a coarse start the first pass linearises about it, from the start attitude levelled
+    // with it.
+    let first_point = coarse.map(|_| {
+        let mut totals = vec![0.0; layout.dim()];
+        totals[instrument.clone()].copy_from_slice(&p0);
+        Nominal {
+            totals,
+            c_start: align.c_start,
+        }
+    });
     let motion = Motion::Rests {
         rests: rests.to_vec(),
         usable,
         align,
+        coarse: coarse.map(<[f64]>::to_vec),
     };
-    iterate_passes(config, layout, imu, None, &scan, &motion, None, progress)
+    // A coarse start is good enough to linearise the parameters about, not to feed the
+    // poorly observed ones back as the first updates move them (closed loop from the Xsens
+    // recording's coarse start, the vertical accelerometer's bias and scale factor went to
+    // -8.6 m/s^2 and 0.87 within 7 s of its first rest).
+    let feedback = match first_point {
+        Some(_) => Feedback::Attitude,
+        None => Feedback::All,
+    };
+    iterate_passes(
+        config,
+        layout,
+        imu,
+        None,
+        &scan,
+        &motion,
+        first_point,
+        feedback,
+        progress,
+    )
 }
+
+/// [`estimate_at_rests`] on records in memory, with a coarse start where the priors call for
+/// one ([`needs_coarse_start`]): the batch fit of [`crate::free_motion`] (the paper's 21
+/// parameters from the rests' mean specific forces and the rotations between them), whose
+/// values the filter's first pass linearises about. Without it the first closed-loop pass
+/// runs away on a consumer-grade unit: on the shipped Xsens recording the accelerometer bias
+/// and scale factor of the vertical axis, which one rest cannot tell apart, went to
+/// -19.8 m/s^2 and +2.0 within the first rest, and the filter diverged after the first turn.
+pub fn calibrate_rests(
+    config: &RunConfig,
+    layout: &StateLayout,
+    data: &ImuData,
+    file: &str,
+    rests: &[Rest],
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Estimate, EstimateError> {
+    let coarse = if needs_coarse_start(config) {
+        Some(coarse_start(config, layout, data, file, rests)?)
+    } else {
+        None
+    };
+    let mut imu = MemoryImu::new(data, file);
+    estimate_at_rests(config, layout, &mut imu, rests, coarse.as_deref(), progress)
+}
+
+/// Whether the priors are wide enough that the first pass needs a coarse start: a gyro or
+/// accelerometer scale factor above 1 %, a misalignment above 10 arcmin, a gyro bias above
+/// 0.1 deg/s or an accelerometer bias above 0.1 m/s^2. The paper's priors (1e-3, 3 arcmin,
+/// 0.5 deg/h, 0.02 m/s^2) need none (tests/tests/rests.rs).
+pub fn needs_coarse_start(config: &RunConfig) -> bool {
+    let p = &config.priors;
+    p.gyro_scale > 0.01
+        || p.accel_scale > 0.01
+        || p.gyro_misalignment_arcmin > 10.0
+        || p.accel_misalignment_arcmin > 10.0
+        || p.gyro_bias_deg_h > 360.0
+        || p.accel_bias_m_s2 > 0.1
+}
+
+/// The coarse start of [`calibrate_rests`]: the batch fit's values of the paper's parameters
+/// (by name; the extension terms at zero).
+fn coarse_start(
+    config: &RunConfig,
+    layout: &StateLayout,
+    data: &ImuData,
+    file: &str,
+    rests: &[Rest],
+) -> Result<Vec<f64>, EstimateError> {
+    use crate::free_motion::{FreeMotionSettings, Interval, calibrate_free_motion};
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    let intervals: Vec<Interval> = rests
+        .iter()
+        .filter_map(|r| {
+            // Records whose whole interval lies in the rest.
+            let first = t.partition_point(|&x| x <= r.t0) + 1;
+            let last = t.partition_point(|&x| x <= r.t1).checked_sub(1)?;
+            (first < last && last < t.len()).then_some(Interval {
+                first_record: first,
+                last_record: last,
+            })
+        })
+        .collect();
+    let mut settings = FreeMotionSettings::new(config.site().specific_force_at_rest_enu().norm());
+    settings.priors = config.priors_si();
+    settings.g_sensitivity_prior = None;
+    settings.scale_asymmetry_prior = None;
+    let fit = calibrate_free_motion(data, &intervals, &[], &settings).map_err(|e| {
+        EstimateError::Rests {
+            file: file.to_string(),
+            source: RestError::CoarseFit(e.to_string()),
+        }
+    })?;
+    let names = layout.entries();
+    Ok(
+        (StateLayout::INSTRUMENT..StateLayout::INSTRUMENT + layout.n_instrument())
+            .map(|i| {
+                fit.parameters
+                    .iter()
+                    .find(|p| p.name == names[i].name)
+                    .map_or(0.0, |p| p.value)
+            })
+            .collect(),
+    )
+}
+
+/// How far the mean record interval of a recording of rests may be from the configured one.
+const MEAN_INTERVAL_TOLERANCE: f64 = 0.01;
 
 /// What the unit did during the recording: what the start attitude, the specific-force
 /// measurements and the diagnostics' segments come from.
@@ -471,10 +656,13 @@ enum Motion {
         usable: Vec<Rest>,
         /// The start attitude from the first.
         align: crate::rests::RestAlignment,
+        /// The coarse start, the prior mean of the instrument parameters in place of zero.
+        coarse: Option<Vec<f64>>,
     },
 }
 
-/// The passes over the data: a closed-loop first pass from `first` (or the prior), then passes
+/// The passes over the data: a first pass from `first` (or the prior) that feeds back
+/// `first_feedback` (everything: closed loop), then passes
 /// linearised about the one before until no parameter moves by more than
 /// [`CONVERGED_SIGMA`], then the consider passes of the second-order specific-force error.
 #[allow(clippy::too_many_arguments)]
@@ -486,9 +674,13 @@ fn iterate_passes(
     scan: &Scan,
     motion: &Motion,
     first: Option<Nominal>,
+    first_feedback: Feedback,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let n = scan.n;
+    // Later passes keep their trajectory. (Feeding the attitude back in them too was tried on
+    // recordings of rests: the simulated consumer-grade 19-position runs, consistent without
+    // it, then diverged.)
     // Every pass carries a constant copy of the start attitude error, so that the next pass can
     // start from the estimate of the start attitude (a fixed-point smoother).
     let smoother = layout.with_start_attitude();
@@ -508,7 +700,11 @@ fn iterate_passes(
             scan,
             motion,
             nominal.as_ref(),
-            pass == 0,
+            if pass == 0 {
+                first_feedback
+            } else {
+                Feedback::None
+            },
             &Vector3::zeros(),
             &mut |j| progress(done + j, total),
         )?;
@@ -538,7 +734,7 @@ fn iterate_passes(
                 scan,
                 motion,
                 Some(nominal),
-                false,
+                Feedback::None,
                 offset,
                 &mut |_| {},
             )
@@ -824,9 +1020,16 @@ fn start_filter(
         line: 0,
         source,
     })?;
-    // The prior means are zero: as errors of the nominal values they are -nominal.
+    // The prior means are zero (or a recording's coarse start): as errors of the nominal values
+    // they are the prior mean less the nominal value.
+    let prior_mean = |k: usize| match motion {
+        Motion::Rests {
+            coarse: Some(c), ..
+        } => c.get(k - StateLayout::INSTRUMENT).copied().unwrap_or(0.0),
+        _ => 0.0,
+    };
     for (k, v) in totals.iter().enumerate().skip(StateLayout::INSTRUMENT) {
-        filter.set_state(k, -v);
+        filter.set_state(k, prior_mean(k) - v);
     }
     // The start attitude: the program's with the nominal mounting, or the estimate of the pass
     // before. The prior is about the program's start attitude, so relative to the estimate the
@@ -845,7 +1048,7 @@ fn start_filter(
 /// One pass over the data, linearised about `nominal` (the prior means and the program's
 /// start attitude if `None`): compensation, turntable reading and start attitude with the
 /// nominal values, the prior mean of each error state the prior mean less the nominal value.
-/// A `closed_loop` pass feeds every estimate back as it goes; otherwise only the attitude.
+/// `feedback` says what the pass feeds back as it goes ([`Feedback`]).
 #[allow(clippy::too_many_arguments)]
 fn run_pass(
     config: &RunConfig,
@@ -855,7 +1058,7 @@ fn run_pass(
     scan: &Scan,
     motion: &Motion,
     nominal: Option<&Nominal>,
-    closed_loop: bool,
+    feedback: Feedback,
     f_offset_enu: &Vector3<f64>,
     progress: &mut dyn FnMut(usize),
 ) -> Result<(Estimate, Matrix3<f64>), EstimateError> {
@@ -885,8 +1088,9 @@ fn run_pass(
         inv_dt: 1.0 / dt,
         u_enu,
         f_enu: site.specific_force_at_rest_enu() + f_offset_enu,
-        full_feedback: closed_loop,
+        feedback,
         n_steps: scan.n,
+        own_intervals: matches!(motion, Motion::Rests { .. }),
     };
     let lin = Linearisation::from_totals(layout, &totals);
     let mut pass = Pass::new(
@@ -956,6 +1160,10 @@ fn run_pass(
         Motion::Rests { rests, .. } => crate::rests::segments(rests),
     };
     diagnostics::assign_segments(&mut innovations, &segments);
+    let (rests, start_alignment) = match motion {
+        Motion::Program(_) => (vec![], None),
+        Motion::Rests { rests, align, .. } => (rests.clone(), Some(align.clone())),
+    };
     let estimate = Estimate {
         names: layout.entries().iter().map(|e| e.name.clone()).collect(),
         units: layout.entries().iter().map(|e| e.unit).collect(),
@@ -970,6 +1178,9 @@ fn run_pass(
         program_start_s: scan.program_start,
         program_start_found: scan.program_start_found,
         innovations,
+        segments,
+        rests,
+        start_alignment,
     };
     Ok((estimate, c0))
 }

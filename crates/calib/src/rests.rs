@@ -89,6 +89,17 @@ pub enum RestError {
         /// End (s).
         t1: f64,
     },
+    /// A coarse start of the wrong length.
+    #[error("a coarse start of {got} parameters: expected {expected}")]
+    CoarseStart {
+        /// Given.
+        got: usize,
+        /// The layout's instrument parameters.
+        expected: usize,
+    },
+    /// The batch fit that gives the coarse start failed.
+    #[error("the coarse start (batch fit of the rests) failed: {0}")]
+    CoarseFit(String),
     /// The first rest is too short to level in.
     #[error(
         "the first rest ({t0} .. {t1} s) is shorter than {min} s after its margins of \
@@ -231,19 +242,26 @@ pub struct RestAlignment {
     pub heading_prior_rad: f64,
 }
 
+/// The widest prior of the start tilt (rad): the specific-force measurement is linear in the
+/// tilt only for small ones.
+pub const MAX_TILT_PRIOR_RAD: f64 = 0.01;
+
 /// How much wider than the levelling's and gyrocompassing's own sigmas the start attitude's
 /// prior is ([`RestAlignment`]).
 pub const PRIOR_WIDENING: f64 = 10.0;
 
 /// Level and gyrocompass in `rest` ([`RestAlignment`]): `rest` is the first rest with its
-/// margins cut, `bins` the data's rate bins, `prior_sigma` the instrument parameters' prior
-/// sigmas, the noise levels PSDs (`(rad/s)^2 s`, `(m/s^2)^2 s`). `None` when no bin of the data
-/// lies in the rest or the specific force there is zero.
+/// margins cut, `bins` the data's rate bins, `p0` the instrument parameters the mean rate and
+/// specific force are compensated with (the sensor models inverted), `prior_sigma` the
+/// instrument parameters' prior sigmas, the noise levels PSDs (`(rad/s)^2 s`, `(m/s^2)^2 s`).
+/// `None` when no bin of the data lies in the rest or the specific force there is zero.
+#[allow(clippy::too_many_arguments)]
 pub fn align_in_rest(
     bins: &[RateBin],
     rest: &Rest,
     site: &Site,
     model: &ErrorModel,
+    p0: &[f64],
     prior_sigma: &[f64],
     gyro_psd: f64,
     accel_psd: f64,
@@ -258,7 +276,19 @@ pub fn align_in_rest(
     if t <= 0.0 {
         return None;
     }
-    let (w, f) = (w / t, f / t);
+    let (raw_w, raw_f) = (w / t, f / t);
+    // The sensor models inverted at p0 by fixed-point iteration: w' = w - nu(w, f),
+    // f' = f + df(w, f).
+    let (mut w, mut f) = (raw_w, raw_f);
+    for _ in 0..20 {
+        let input = SensorInput {
+            omega_body: w,
+            f_body: f,
+            ..SensorInput::default()
+        };
+        w = raw_w + model.error(Sensor::Gyro, p0, &input);
+        f = raw_f - model.error(Sensor::Accel, p0, &input);
+    }
     let up = f.try_normalize(0.0)?;
     let g = site.specific_force_at_rest_enu().norm();
     let omega_h = site.earth_rate_enu().y.abs().max(1e-300);
@@ -292,7 +322,7 @@ pub fn align_in_rest(
         c_start,
         gyrocompassed,
         gyrocompass_sigma_rad,
-        tilt_prior_rad: (PRIOR_WIDENING * tilt_sigma).max(1e-6),
+        tilt_prior_rad: (PRIOR_WIDENING * tilt_sigma).clamp(1e-6, MAX_TILT_PRIOR_RAD),
         heading_prior_rad,
     })
 }

@@ -4,9 +4,14 @@ use crate::diagnostic_plots::write_diagnostic_plots;
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, print};
 use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
-use calib::estimate::{Estimate, FileImu, FitStatistics, ImuSource as _, estimate_from};
-use calib::io::{ImuKind, ResultFile, ResultParameter, read_result_json, read_turntable_csv};
+use calib::estimate::{
+    Estimate, FileImu, FitStatistics, ImuSource as _, calibrate_rests, estimate_from,
+};
+use calib::io::{
+    ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json, read_turntable_csv,
+};
 use calib::layout::layout_for;
+use calib::rests::Rest;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -34,7 +39,10 @@ pub struct Args {
     pub turntable: Option<PathBuf>,
     /// Run configuration: a TOML file (docs/formats.md), or `paper` / `paper-reconciled` for the
     /// embedded configurations. Its program must be the one the turntable ran; `[priors]`,
-    /// `[noise]`, `[filter]` and `[clock]` set up the filter (`[truth]` is not read). Required
+    /// `[noise]`, `[filter]` and `[clock]` set up the filter (`[truth]` is not read). A
+    /// configuration without a program and no --turntable calibrate a recording of rests
+    /// joined by any motion (a hand-turned unit): the same filter, with the specific force
+    /// measured in the rests the data show (docs/estimation.md, "Without a program"). Required
     /// unless --free-motion; with it optional: its `[priors]` and `[site]` (for g) replace the
     /// defaults.
     #[arg(long, value_name = "FILE|NAME")]
@@ -253,16 +261,33 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         )?;
     }
     let bar = progress_bar(input.imu.len_hint().unwrap_or(0));
-    let result = estimate_from(
-        &input.config,
-        &layout,
-        &mut input.imu,
-        turntable,
-        &mut |done, total| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
-        },
-    );
+    let mut progress = |done: usize, total: usize| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    };
+    let result = match &input.program {
+        Some(_) => estimate_from(
+            &input.config,
+            &layout,
+            &mut input.imu,
+            turntable,
+            &mut progress,
+        ),
+        None => {
+            // No program: the rests the data show stand in for it. The records are read into
+            // memory for the detector (recordings of rests are short).
+            let data = read_imu_csv(&args.imu)?;
+            let rests = detect_rests(&data, &input.imu_file)?;
+            calibrate_rests(
+                &input.config,
+                &layout,
+                &data,
+                &input.imu_file,
+                &rests,
+                &mut progress,
+            )
+        }
+    };
     bar.finish_and_clear();
     let est = result?;
 
@@ -276,7 +301,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         s += &truth_report(&est, truth, path, &input.config.clock);
     }
     let diagnostics = match &args.diagnostics {
-        Some(dir) => Some(diagnostics_stage(dir, &input, &est, &mut s)?),
+        Some(dir) => Some(diagnostics_stage(dir, &est, &mut s)?),
         None => None,
     };
     if let Some(path) = &args.json {
@@ -316,8 +341,8 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
 struct Inputs {
     config: calib::config::RunConfig,
     origin: String,
-    /// The program's name and duration (s).
-    program: (String, f64),
+    /// The program's name and duration (s); `None` for a recording of rests without one.
+    program: Option<(String, f64)>,
     truth: Option<ResultFile>,
     imu: FileImu,
     imu_file: String,
@@ -354,10 +379,12 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
         tt.as_ref().zip(tt_file.as_deref()),
         None,
     )? {
-        Some(c) => c.program()?,
-        None => config.program()?,
+        Some(c) => Some(c.program()?),
+        // Neither a program nor angles: a recording of rests.
+        None if tt.is_none() && config.program_from_angles() => None,
+        None => Some(config.program()?),
     };
-    let program = (program.name.clone(), program.duration());
+    let program = program.map(|p| (p.name.clone(), p.duration()));
     Ok(Inputs {
         config,
         origin,
@@ -372,16 +399,27 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
 
 /// The head of the report: configuration, data, model, program start.
 fn header_report(input: &Inputs, est: &Estimate) -> String {
-    let (config, (program_name, duration)) = (&input.config, &input.program);
+    let config = &input.config;
     let mut s = String::new();
     let _ = writeln!(s, "sins-calib calibrate");
-    let _ = writeln!(
-        s,
-        "  configuration   {}: program \"{}\" ({} s)",
-        input.origin,
-        program_name,
-        table::compact(*duration)
-    );
+    match &input.program {
+        Some((name, duration)) => {
+            let _ = writeln!(
+                s,
+                "  configuration   {}: program \"{}\" ({} s)",
+                input.origin,
+                name,
+                table::compact(*duration)
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  configuration   {}: no program (a recording of rests)",
+                input.origin
+            );
+        }
+    }
     let (t0, t1) = est.imu_span;
     let _ = writeln!(
         s,
@@ -414,18 +452,66 @@ fn header_report(input: &Inputs, est: &Estimate) -> String {
         est.names.len(),
         est.names.len() - 3
     );
-    let _ = writeln!(
-        s,
-        "  program start   t = {} s on the IMU clock ({})",
-        table::compact(est.program_start_s),
-        if est.program_start_found {
-            "found from the data"
-        } else {
-            "given, checked against the data"
+    match &est.start_alignment {
+        None => {
+            let _ = writeln!(
+                s,
+                "  program start   t = {} s on the IMU clock ({})",
+                table::compact(est.program_start_s),
+                if est.program_start_found {
+                    "found from the data"
+                } else {
+                    "given, checked against the data"
+                }
+            );
         }
-    );
+        Some(al) => {
+            let at_rest: f64 = est.rests.iter().map(|r| r.t1 - r.t0).sum();
+            let _ = writeln!(
+                s,
+                "  rests           {} found in the data, {} s in all; the specific force is \
+                 measured in them only ({} windows with motion left out)",
+                est.rests.len(),
+                table::compact(at_rest),
+                est.stats.accel_windows_in_motion
+            );
+            let _ = writeln!(
+                s,
+                "  start attitude  levelled in the first rest; heading {}",
+                if al.gyrocompassed {
+                    format!(
+                        "from the Earth rate (gyrocompassing, sigma {} deg from the gyro priors)",
+                        table::compact(al.gyrocompass_sigma_rad.to_degrees())
+                    )
+                } else {
+                    format!(
+                        "free (the gyro priors allow {} deg of gyrocompassing error): not \
+                         observed",
+                        table::compact(al.gyrocompass_sigma_rad.to_degrees())
+                    )
+                }
+            );
+        }
+    }
     s.push('\n');
     s
+}
+
+/// The rests of a recording without a program, by the static detector of `segment` (its
+/// default settings), on the IMU clock: each from the start of its first record's interval to
+/// its last record's time stamp.
+fn detect_rests(data: &calib::io::ImuData, file: &str) -> Result<Vec<Rest>, Error> {
+    let seg = ::import::detect::segment(data, &::import::detect::DetectorSettings::default())
+        .map_err(|e| format!("{file}: {e}"))?;
+    let dt = seg.median_interval_s;
+    Ok(seg
+        .static_intervals
+        .iter()
+        .map(|r| Rest {
+            t0: r.start_s - dt,
+            t1: r.end_s,
+        })
+        .collect())
 }
 
 /// Make the diagnostics directory (one level) if it is not there; refuse a file.
@@ -451,14 +537,12 @@ fn prepare_diagnostics_dir(dir: &Path) -> Result<(), Error> {
 
 /// The diagnostics of the fit: their summary appended to the report, the plots written to
 /// `dir`.
-fn diagnostics_stage(
-    dir: &Path,
-    input: &Inputs,
-    est: &Estimate,
-    s: &mut String,
-) -> Result<Diagnostics, Error> {
-    let segments = diagnostics::segments(&input.config.program()?, est.program_start_s);
-    let d = diagnostics::diagnose(&est.innovations, &segments, &DiagnosticSettings::default());
+fn diagnostics_stage(dir: &Path, est: &Estimate, s: &mut String) -> Result<Diagnostics, Error> {
+    let d = diagnostics::diagnose(
+        &est.innovations,
+        &est.segments,
+        &DiagnosticSettings::default(),
+    );
     let _ = writeln!(s, "\nDiagnostics (docs/estimation.md, \"Diagnostics\")");
     s.push_str(&d.summary());
     let files = write_diagnostic_plots(dir, &d, &est.innovations, None)?;

@@ -302,6 +302,20 @@ pub(super) struct AngleReader<'a> {
     pub rate_change_hint: usize,
 }
 
+/// What a pass feeds back after each update.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Feedback {
+    /// Every estimate: the attitude error into the attitude, the others into their totals
+    /// (closed loop: the first pass from the prior).
+    All,
+    /// The attitude error only: the parameters stay errors about the linearisation point (the
+    /// first pass from a coarse start, whose parameters are good enough to linearise about but
+    /// whose attitude drifts).
+    Attitude,
+    /// Nothing: a pass linearised about the pass before keeps its trajectory.
+    None,
+}
+
 /// Fixed settings of a pass.
 pub(super) struct PassSettings {
     pub kind: ImuKind,
@@ -312,9 +326,12 @@ pub(super) struct PassSettings {
     pub f_enu: Vector3<f64>,
     /// Feed every estimate back (closed loop, the first pass) or nothing (a pass linearised
     /// about the one before).
-    pub full_feedback: bool,
+    pub feedback: Feedback,
     /// Number of IMU records.
     pub n_steps: usize,
+    /// Integrate each record over its own interval (from the time stamp before; the first over
+    /// `dt`): a recording with jittered time stamps. Otherwise every record spans `dt`.
+    pub own_intervals: bool,
 }
 
 /// One pass over the data.
@@ -348,6 +365,8 @@ pub(super) struct Pass<'a> {
     prev_jacobian: Option<(Vector3<f64>, Vector3<f64>)>,
     /// Space for the filter state at a feedback (no allocation per measurement instant).
     state: Vec<f64>,
+    /// Time stamp of the record before (s; NaN before the first).
+    prev_t: f64,
 }
 
 impl<'a> Pass<'a> {
@@ -385,6 +404,7 @@ impl<'a> Pass<'a> {
             prev_compensated: None,
             prev_jacobian: None,
             state: vec![0.0; layout.dim()],
+            prev_t: f64::NAN,
         }
     }
 
@@ -459,7 +479,14 @@ impl<'a> Pass<'a> {
     #[inline(always)]
     fn compensate(&mut self, rec: &ImuRecord) -> (Vector3<f64>, Vector3<f64>) {
         let (g, a) = (Vector3::from(rec.gyro), Vector3::from(rec.accel));
-        let dt = self.settings.dt;
+        let mut dt = self.settings.dt;
+        if self.settings.own_intervals {
+            let own = rec.t - self.prev_t;
+            if own.is_finite() {
+                dt = own;
+            }
+            self.prev_t = rec.t;
+        }
         let (raw_dth, raw_dv) = match self.settings.kind {
             ImuKind::Increments => (g, a),
             ImuKind::Rates => (g * dt, a * dt),
@@ -604,10 +631,19 @@ impl<'a> Pass<'a> {
     /// estimate, which is already right (it did, by 1.3 sigma of a gyro misalignment on a
     /// noiseless run with a 120-s dwell before the program).
     fn feed_back(&mut self) {
-        if !self.settings.full_feedback {
-            return;
-        }
         let x = &mut self.state;
+        match self.settings.feedback {
+            Feedback::None => return,
+            Feedback::Attitude => {
+                self.engine.filter.state_into(x);
+                self.nav.correct(&Vector3::new(x[0], x[1], x[2]));
+                for k in 0..3 {
+                    self.engine.filter.set_state(k, 0.0);
+                }
+                return;
+            }
+            Feedback::All => {}
+        }
         self.engine.filter.state_into(x);
         self.nav.correct(&Vector3::new(x[0], x[1], x[2]));
         self.lin.absorb(self.layout, x);
