@@ -19,8 +19,8 @@
 //!
 //! The averaging factors are octaves, `m = 1, 2, 4, ...` up to half the longest interval: each
 //! costs one pass over the data, `O(N log N)` in all (1.44 million records, 20 octaves, in
-//! about 0.1 s). Octave spacing also keeps neighbouring estimates only moderately correlated,
-//! which the fit ([`crate::fit`]) takes as independent.
+//! about 0.1 s). Octave spacing also keeps neighbouring estimates less correlated than a
+//! denser spacing would; the fit ([`crate::fit`]) accounts for the correlation that remains.
 
 use crate::NoiseError;
 use crate::edf::{self, NoiseType};

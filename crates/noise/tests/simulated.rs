@@ -113,39 +113,60 @@ fn seed_set() -> Vec<NoiseFit> {
 /// within 1 sigma (a binomial with p = 0.683 has mean 41 and standard deviation 3.6: the band
 /// is about 3 standard deviations each way).
 ///
-/// Ignored because it fails (first run, thresholds unchanged): the walk comes out at 0 (the
-/// fit prefers a bias instability) in 9 of 30 fits and up to 4.7 of its stated sigmas low, and
-/// the white level about 1 sigma low on average. The fit takes neighbouring octave estimates as
-/// independent; they share data and are positively correlated at long tau, so the stated
-/// sigmas of the long-tau terms are too small (docs/noise.md, "What the checks say").
+/// Ignored because it fails (thresholds and seeds unchanged since they were written). First
+/// version (octave estimates taken as independent): the walk left out of the fit in 9 of 30
+/// fits, errors down to -4.7 sigma, the white level about 1 sigma low on average. Now
+/// (generalised least squares with the octave correlations): 29 of 60 within 1 sigma, but the
+/// fit picks a bias instability instead of the walk in 17 of the 30 two-hour recordings (the
+/// two differ only over the last few, strongly correlated octaves), and where it keeps the walk
+/// at a chance low value its first-order sigma is too small (fit 27: 0.44 of the truth, -8
+/// sigma). docs/noise.md, "What the checks say".
 #[test]
-#[ignore = "fails: stated sigmas of the walk too small (octave correlation), docs/noise.md"]
+#[ignore = "fails: the term selection confuses walk and instability on 2-h records, docs/noise.md"]
 fn seed_set_levels_within_stated_uncertainties() {
     let fits = seed_set();
     let mut within_one = 0;
-    let mut worst: f64 = 0.0;
+    let mut worst: (f64, String) = (0.0, String::new());
+    let mut left_out = 0;
     for (i, f) in fits.iter().enumerate() {
         for (term, truth) in [(Term::White, WHITE), (Term::RandomWalk, WALK)] {
             let e = f.term(term);
             let z = (e.value - truth) / e.sigma;
             println!(
-                "fit {i:2} {term:?}: {:.5} (true {:.5}), error {z:+.2} sigma",
+                "fit {i:2} {term:?}: {:.5} of the truth, error {z:+.2} sigma{}",
                 e.value / truth,
-                1.0
+                if e.included {
+                    String::new()
+                } else {
+                    format!(
+                        " (not in the fit; fit has {:?}, chi2 {:.1}/{})",
+                        f.terms
+                            .iter()
+                            .filter(|t| t.included)
+                            .map(|t| t.term)
+                            .collect::<Vec<_>>(),
+                        f.chi2,
+                        f.dof
+                    )
+                }
             );
-            assert!(
-                z.abs() < 4.0,
-                "fit {i} {term:?}: value {} truth {truth} sigma {}: {z} sigma",
-                e.value,
-                e.sigma
-            );
-            worst = worst.max(z.abs());
+            if !e.included {
+                left_out += 1;
+            }
+            if z.abs() > worst.0 {
+                worst = (z.abs(), format!("fit {i} {term:?}"));
+            }
             if z.abs() <= 1.0 {
                 within_one += 1;
             }
         }
     }
-    println!("{within_one} of 60 within 1 sigma, largest error {worst:.2} sigma");
+    println!(
+        "{within_one} of 60 within 1 sigma, largest error {:.2} sigma ({}), {left_out} terms \
+         left out of their fit",
+        worst.0, worst.1
+    );
+    assert!(worst.0 < 4.0, "{}: {} sigma", worst.1, worst.0);
     assert!(
         (30..=51).contains(&within_one),
         "{within_one} of 60 within one sigma: expected 30 to 51"
