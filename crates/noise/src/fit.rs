@@ -326,6 +326,9 @@ fn solve(w: &Whitened, mask: u32) -> Option<SubsetFit> {
     Some(out)
 }
 
+/// Penalty per term of the selection (Akaike: 2).
+const PENALTY: f64 = 2.0;
+
 /// The feasible subset (all coefficients positive) with the smallest `chi2 + 2 k`.
 fn select(w: &Whitened) -> Option<SubsetFit> {
     let m = w.a.nrows();
@@ -341,10 +344,10 @@ fn select(w: &Whitened) -> Option<SubsetFit> {
         if (0..5).any(|j| mask & (1 << j) != 0 && (f.coef[j].is_nan() || f.coef[j] <= 0.0)) {
             continue;
         }
-        let score = f.chi2 + 2.0 * f.k as f64;
+        let score = f.chi2 + PENALTY * f.k as f64;
         if best
             .as_ref()
-            .is_none_or(|b| score < b.chi2 + 2.0 * b.k as f64)
+            .is_none_or(|b| score < b.chi2 + PENALTY * b.k as f64)
         {
             best = Some(f);
         }
