@@ -165,3 +165,43 @@ fn refusals_name_the_file_and_the_axis() {
         text(&out.stderr)
     );
 }
+
+/// `analyse` with a gyro walk in `[noise]` says so, and the gyro biases' posterior sigmas grow
+/// (the walk is process noise on them).
+#[test]
+fn analyse_carries_the_configured_walk() {
+    let dir = scratch("noise", "analyse");
+    let base = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/run.toml"),
+    )
+    .unwrap();
+    let sigma = |text: &str, name: &str| -> f64 {
+        text.lines()
+            .find(|l| l.trim_start().starts_with(name))
+            .and_then(|l| l.split_whitespace().nth(2))
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("{name} in {text}"))
+    };
+    let mut outs = Vec::new();
+    for (k, walk) in ["", "gyro_bias_walk_deg_h_sqrt_h = 0.037\n"]
+        .iter()
+        .enumerate()
+    {
+        let path = dir.join(format!("run{k}.toml"));
+        std::fs::write(
+            &path,
+            base.replace("[noise]\n", &format!("[noise]\n{walk}")),
+        )
+        .unwrap();
+        let out = run(&["analyse", "--config", s(&path)]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        outs.push(text(&out.stdout));
+    }
+    assert!(!outs[0].contains("bias random walks"));
+    assert!(outs[1].contains("with the bias random walks of [noise] as process noise (gyro 0.037"));
+    let (a, b) = (
+        sigma(&outs[0], "gyro.bias.x"),
+        sigma(&outs[1], "gyro.bias.x"),
+    );
+    assert!(b > 3.0 * a, "{a} -> {b}");
+}
