@@ -1,5 +1,5 @@
 //! PNG plot of `sins-calib noise`: per gyro and accelerometer axis the measured Allan deviation
-//! with its 68 % confidence interval, the fitted terms and their sum, and the configured noise
+//! with its 68 % confidence band, the fitted terms and their sum, and the configured noise
 //! model; one legend for all panels, below them, so that it covers no data.
 
 use crate::Error;
@@ -124,6 +124,22 @@ fn panel(
             .draw_series(DashedLineSeries::new(c, 10, 5, CONFIG.stroke_width(2)))
             .map_err(|e| perr(&e))?;
     }
+    // The 68 % confidence band, then each point's interval over it.
+    let band: Vec<(f64, f64)> = p
+        .iter()
+        .map(|x| (x.tau_s, (x.upper * factor).min(hi)))
+        .chain(
+            p.iter()
+                .rev()
+                .map(|x| (x.tau_s, (x.lower * factor).max(lo))),
+        )
+        .collect();
+    chart
+        .draw_series(std::iter::once(Polygon::new(
+            band,
+            MEASURED.mix(0.18).filled(),
+        )))
+        .map_err(|e| perr(&e))?;
     chart
         .draw_series(p.iter().map(|x| {
             PathElement::new(
@@ -170,7 +186,7 @@ fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
             a.draw(&Circle::new((x + 12, y), 4, MEASURED.filled()))
                 .map_err(|e| perr(&e))
         },
-        "measured, 68 % interval",
+        "measured, 68 % confidence band",
     )?;
     entry(
         area,
