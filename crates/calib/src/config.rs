@@ -70,6 +70,11 @@ mod values {
         }
     }
 
+    /// A finite number, zero or above (a level that may be absent).
+    pub fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        in_range(d, 0.0, f64::MAX, "a finite number, 0 or more")
+    }
+
     /// An IMU rate: above zero, at most 100 kHz (no IMU's; it would only exhaust memory).
     pub fn rate_hz<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         let v = positive(d)?;
@@ -179,6 +184,44 @@ pub struct NoiseConfig {
     /// Angle-sensor noise, each gimbal (arcsec at 1 Hz).
     #[serde(deserialize_with = "values::positive")]
     pub angle_arcsec: f64,
+    /// Random walk of each gyro bias (deg/h/sqrt(h)): after an hour a bias has moved by this
+    /// much (one sigma). Optional, default 0 (constant biases). Simulated in the truth, process
+    /// noise on the gyro-bias states of the filter and of the covariance analysis.
+    #[serde(
+        default,
+        deserialize_with = "values::non_negative",
+        skip_serializing_if = "is_zero"
+    )]
+    pub gyro_bias_walk_deg_h_sqrt_h: f64,
+    /// Random walk of each accelerometer bias (m/s^2/sqrt(s)): after a second a bias has moved
+    /// by this much (one sigma). Optional, default 0. Simulated in the truth, process noise on
+    /// the accelerometer-bias states.
+    #[serde(
+        default,
+        deserialize_with = "values::non_negative",
+        skip_serializing_if = "is_zero"
+    )]
+    pub accel_bias_walk_m_s2_sqrt_s: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+impl NoiseConfig {
+    /// The gyro-bias random walk in SI (rad/s/sqrt(s)): `d(nu0)/dt` white with this square
+    /// root of its PSD; `None` when zero (or not a finite positive number).
+    pub fn gyro_bias_walk(&self) -> Option<[f64; 3]> {
+        let q = self.gyro_bias_walk_deg_h_sqrt_h * DEG_H / 60.0;
+        (q.is_finite() && q > 0.0).then_some([q; 3])
+    }
+
+    /// The accelerometer-bias random walk in SI (m/s^2/sqrt(s)); `None` when zero (or not a
+    /// finite positive number).
+    pub fn accel_bias_walk(&self) -> Option<[f64; 3]> {
+        let q = self.accel_bias_walk_m_s2_sqrt_s;
+        (q.is_finite() && q > 0.0).then_some([q; 3])
+    }
 }
 
 /// How the prior of the initial attitude error is formed.

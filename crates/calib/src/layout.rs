@@ -35,6 +35,9 @@ pub struct StateLayout {
     /// Random-walk intensity of each gyro bias (rad/s/sqrt(s)): process noise on the states
     /// `gyro.bias.*` ([`crate::extension::ModelExtension::gyro_drift`]); `None`: constant biases.
     pub gyro_drift: Option<[f64; 3]>,
+    /// Random-walk intensity of each accelerometer bias (m/s^2/sqrt(s)): process noise on the
+    /// states `accel.bias.*` (`[noise] accel_bias_walk_m_s2_sqrt_s`); `None`: constant biases.
+    pub accel_drift: Option<[f64; 3]>,
 }
 
 /// Prior sigmas of the states that are not instrument errors.
@@ -96,6 +99,7 @@ impl StateLayout {
             tau,
             base,
             gyro_drift: None,
+            accel_drift: None,
         }
     }
 
@@ -120,6 +124,7 @@ impl StateLayout {
             tau: self.tau,
             base: self.base,
             gyro_drift: self.gyro_drift,
+            accel_drift: self.accel_drift,
         }
     }
 
@@ -172,7 +177,10 @@ pub fn layout_for(config: &RunConfig, with_turntable: bool) -> StateLayout {
 /// The layout of the paper's model extended by `ext`: the paper's instrument parameters first,
 /// the extra terms' parameters after them (in the order of [`ModelExtension::terms`]), then the
 /// turntable states as in [`layout_for`]. The drift is carried as process noise
-/// ([`StateLayout::gyro_drift`]).
+/// ([`StateLayout::gyro_drift`]): the extension's when it has one, else the configured
+/// `[noise] gyro_bias_walk_deg_h_sqrt_h` when that is above 0; the configured
+/// `accel_bias_walk_m_s2_sqrt_s` likewise on the accelerometer biases
+/// ([`StateLayout::accel_drift`]). With both walks 0 (the default) the layout is the paper's.
 pub fn layout_with(config: &RunConfig, with_turntable: bool, ext: &ModelExtension) -> StateLayout {
     let mut model = ErrorModel::paper(&config.priors_si());
     ext.extend(&mut model);
@@ -182,7 +190,8 @@ pub fn layout_with(config: &RunConfig, with_turntable: bool, ext: &ModelExtensio
         with_turntable,
         config.filter.estimate_base_misalignment,
     );
-    layout.gyro_drift = ext.gyro_drift;
+    layout.gyro_drift = ext.gyro_drift.or(config.noise.gyro_bias_walk());
+    layout.accel_drift = config.noise.accel_bias_walk();
     layout
 }
 

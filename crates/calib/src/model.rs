@@ -229,6 +229,11 @@ pub struct LinearModel {
     h_turntable: Mat<f64>,
     /// The gyro biases' random walk, when the layout carries one.
     drift: Option<DriftNoise>,
+    /// The accelerometer biases' random walk, when the layout carries one: the index of the
+    /// state `accel.bias.x` and the PSD of each bias's walk ((m/s^2)^2/s). The biases do not
+    /// drive the attitude error, so their process noise is `q T` on their diagonal over an
+    /// interval `T`, uncorrelated with the rest.
+    accel_drift: Option<(usize, Vector3<f64>)>,
 }
 
 /// Process noise of the attitude error and the drifting gyro biases (states 3..6) over one
@@ -352,8 +357,19 @@ impl LinearModel {
                 q_beta_beta: Matrix3::zeros(),
             }
         });
-        // The dynamic rows: the attitude error, and the drifting biases with it.
-        let k = if drift.is_some() { 6 } else { 3 };
+        let accel_drift = layout.accel_drift.map(|d| {
+            let bias = layout
+                .index(sins_model::names::ACCEL_BIAS[0])
+                .expect("a drifting accelerometer bias needs the states accel.bias.*");
+            (bias, Vector3::from(d).component_mul(&Vector3::from(d)))
+        });
+        // The dynamic rows: the attitude error, and the drifting biases with it (the
+        // transition's rows down to the last drifting bias; the rows between are identity).
+        let k = match (&accel_drift, drift.is_some()) {
+            (Some((a, _)), _) => a + 3,
+            (None, true) => 6,
+            (None, false) => 3,
+        };
         let mut m = Self {
             n,
             n_instr,
@@ -389,7 +405,11 @@ impl LinearModel {
             h_accel: Mat::zeros(3, n),
             h_turntable: Mat::zeros(3, n),
             drift,
+            accel_drift,
         };
+        for i in 3..k {
+            m.phi_mat[(i, i)] = 1.0;
+        }
         m.reset_transition();
         m
     }
@@ -567,6 +587,12 @@ impl LinearModel {
                         self.q_mat[(b + i, b + j)] = d.q_bb[(i, j)];
                     }
                 }
+            }
+        }
+        if let Some((a, q)) = &self.accel_drift {
+            let t = self.q_steps as f64 * self.dt;
+            for i in 0..3 {
+                self.q_mat[(a + i, a + i)] = q[i] * t;
             }
         }
         (self.phi_mat.as_ref(), self.q_mat.as_ref())

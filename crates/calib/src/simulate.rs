@@ -12,7 +12,8 @@ use sins_model::terms::Unit;
 use turntable::kinematics::{Kinematics, Mounting};
 use turntable::sensor::AngleSensor;
 use turntable::simulate::{
-    GyroDrift, SimConfig, SimRng, SimulateError, Simulation, TruthParameter, simulate_drifting,
+    AccelDrift, GyroDrift, SimConfig, SimRng, SimulateError, Simulation, TruthParameter,
+    simulate_walking,
 };
 
 /// Errors of a simulation.
@@ -87,12 +88,23 @@ pub fn drift_seed(config: &RunConfig) -> u64 {
     config.truth.seed ^ 0x0d21_f7ba_5e5d_0001
 }
 
+/// Seed of the accelerometer drift's own random stream, from the run's seed.
+pub fn accel_drift_seed(config: &RunConfig) -> u64 {
+    config.truth.seed ^ 0x0acc_d21f_7ba5_0002
+}
+
 /// [`simulate_run`] with extra effects the paper's model does not have: the named extra terms'
 /// true values (the other parameters of their terms zero) and a random walk of the gyro biases
 /// (seeded from [`drift_seed`], its own stream). The paper's parameters, the turntable records
 /// and every noise draw are those of the run without the effects. The truth lists the paper's
 /// parameters, then the extra terms' (in [`sins_model::candidates::Candidate::ALL`] order),
-/// then the turntable's, then the drift intensities (`gyro.drift.*`) when drifting.
+/// then the turntable's, then the drift intensities (`gyro.drift.*`, `accel.drift.*`) when
+/// drifting.
+///
+/// The configuration's `[noise] gyro_bias_walk_deg_h_sqrt_h` and
+/// `accel_bias_walk_m_s2_sqrt_s` are part of the truth too: the gyro walk is `hidden`'s when it
+/// has one, else the configured one; the accelerometer walk (its own stream, seeded from
+/// [`accel_drift_seed`]) is the configured one. Both are off when `truth.noise` is false.
 pub fn simulate_run_hidden(
     config: &RunConfig,
     origin: &str,
@@ -153,18 +165,44 @@ pub fn simulate_run_hidden(
         seed: t.seed,
         ..SimConfig::default()
     };
-    let drift = hidden.gyro_drift.map(|intensity| GyroDrift {
+    let configured = |walk: Option<[f64; 3]>| walk.filter(|_| t.noise);
+    let gyro_walk = hidden
+        .gyro_drift
+        .or(configured(config.noise.gyro_bias_walk()));
+    let accel_walk = configured(config.noise.accel_bias_walk());
+    let drift = gyro_walk.map(|intensity| GyroDrift {
         intensity,
         seed: drift_seed(config),
     });
-    let mut out = simulate_drifting(&kin, &layout.model, &p_true, &sensor, &sim, drift.as_ref())?;
-    if let Some(d) = hidden.gyro_drift {
-        for (n, v) in names::GYRO_DRIFT.iter().zip(d) {
-            out.truth.parameters.push(TruthParameter {
-                name: n.to_string(),
-                value: v,
-                unit: Unit::RadPerSecondPerSqrtSecond.si_name().to_string(),
-            });
+    let accel_drift = accel_walk.map(|intensity| AccelDrift {
+        intensity,
+        seed: accel_drift_seed(config),
+    });
+    let mut out = simulate_walking(
+        &kin,
+        &layout.model,
+        &p_true,
+        &sensor,
+        &sim,
+        drift.as_ref(),
+        accel_drift.as_ref(),
+    )?;
+    for (walk, names, unit) in [
+        (
+            gyro_walk,
+            names::GYRO_DRIFT,
+            Unit::RadPerSecondPerSqrtSecond.si_name(),
+        ),
+        (accel_walk, names::ACCEL_DRIFT, "m/s^2/sqrt(s)"),
+    ] {
+        if let Some(d) = walk {
+            for (n, v) in names.iter().zip(d) {
+                out.truth.parameters.push(TruthParameter {
+                    name: n.to_string(),
+                    value: v,
+                    unit: unit.to_string(),
+                });
+            }
         }
     }
     Ok(out)

@@ -3,6 +3,7 @@
 //! `cargo test --release -p calib --test integration <file>::`.
 
 mod arbitrary_input;
+mod bias_walk;
 mod candidates;
 mod candidates_table;
 mod diagnostics;

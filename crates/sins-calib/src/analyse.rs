@@ -59,6 +59,15 @@ pub fn run(args: &Args) -> Result<(), Error> {
             "IMU data alone"
         }
     );
+    let n = &config.noise;
+    if n.gyro_bias_walk_deg_h_sqrt_h > 0.0 || n.accel_bias_walk_m_s2_sqrt_s > 0.0 {
+        let _ = writeln!(
+            s,
+            "  with the bias random walks of [noise] as process noise (gyro {} deg/h/sqrt(h),              accelerometer {} m/s^2/sqrt(s)): the bias sigmas are those of the biases at the              end of the program; set the walks to 0 to see what they cost",
+            table::compact(n.gyro_bias_walk_deg_h_sqrt_h),
+            table::compact(n.accel_bias_walk_m_s2_sqrt_s)
+        );
+    }
     s.push('\n');
     let mut t = Table::new(&[
         ("parameter", Align::Left),

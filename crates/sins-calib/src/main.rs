@@ -6,6 +6,7 @@
 //! - `analyse`: covariance analysis of a run configuration, without data;
 //! - `import`: a recording in another layout turned into `imu.csv` by an import profile;
 //! - `segment`: an `imu.csv` split into static intervals and motion;
+//! - `noise`: the sensors' noise from data at rest (Allan deviation, fitted noise terms);
 //! - `diagnose`: what the model gets wrong, and the terms that fix it (model-extension loop);
 //! - `design`: a program that separates candidate terms.
 //!
@@ -23,6 +24,8 @@ mod diagnose_report;
 mod diagnostic_plots;
 mod free_motion;
 mod import;
+mod noise;
+mod noise_plot;
 mod plot;
 mod segment;
 mod simulate;
@@ -83,6 +86,14 @@ enum Command {
     /// specific force and of the rate and the magnitude of the mean rate are below thresholds;
     /// runs of static records at least --min-duration long are the static intervals.
     Segment(segment::Args),
+    /// The sensors' noise from data at rest: overlapping Allan deviation of every gyro and
+    /// accelerometer axis with confidence intervals, the fitted noise terms (quantisation, white
+    /// noise, bias instability, bias random walk, rate ramp) with their uncertainties, and a
+    /// `[noise]` block to paste (docs/noise.md).
+    ///
+    /// Uses the static intervals the detector finds (as `segment`), or the whole recording with
+    /// --all-at-rest; the longest interval bounds the longest averaging time.
+    Noise(noise::Args),
     /// Find what the paper's model gets wrong: fit it, test every candidate error term against
     /// the innovations, add the best-supported one the program can separate, measure the gain,
     /// and repeat while it is significant (docs/model-extension.md).
@@ -130,6 +141,7 @@ fn main() -> ExitCode {
         Command::Analyse(args) => analyse::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Import(args) => import::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Segment(args) => segment::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Noise(args) => noise::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Diagnose(args) => diagnose::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Design(args) => design::run(&args).map(|()| ExitCode::SUCCESS),
     };

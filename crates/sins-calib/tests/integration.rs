@@ -8,4 +8,5 @@ mod common;
 mod diagnose;
 mod free_motion;
 mod import;
+mod noise;
 mod refusals;

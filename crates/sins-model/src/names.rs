@@ -42,6 +42,11 @@ pub const ACCEL_LEVER_PREFIX: &str = "accel.lever.";
 pub const TIME_GYRO_ACCEL: &str = "time.gyro_accel";
 /// Random-walk intensities of the gyro biases (rad/s/sqrt(s)); model options, not states.
 pub const GYRO_DRIFT: [&str; 3] = ["gyro.drift.x", "gyro.drift.y", "gyro.drift.z"];
+/// Accelerometer biases `df0` (the paper's model).
+pub const ACCEL_BIAS: [&str; 3] = ["accel.bias.x", "accel.bias.y", "accel.bias.z"];
+/// Random-walk intensities of the accelerometer biases, as listed in a truth file
+/// (m/s^2/sqrt(s)).
+pub const ACCEL_DRIFT: [&str; 3] = ["accel.drift.x", "accel.drift.y", "accel.drift.z"];
 
 /// Unit of the mounting and attitude states.
 pub const ANGLE_UNIT: Unit = Unit::SmallAngle;

@@ -329,11 +329,32 @@ pub struct GyroDrift {
     pub seed: u64,
 }
 
+/// A random walk of the accelerometer biases on top of the constant ones: `d(df0_i)/dt` white
+/// with PSD `intensity_i^2` ((m/s^2)^2/s), from zero at `t = 0`, drawn from its own random
+/// stream.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AccelDrift {
+    /// Random-walk intensity of each accelerometer's bias (m/s^2/sqrt(s)).
+    pub intensity: [f64; 3],
+    /// Seed of the walk's own random stream.
+    pub seed: u64,
+}
+
 /// The drifting part of the gyro biases at `i * dt`, `i = 0..=n` (zero at 0): independent
 /// increments of variance `intensity_i^2 dt`.
 pub fn gyro_bias_walk(drift: &GyroDrift, dt: f64, n: usize) -> Vec<Vector3<f64>> {
-    let mut rng = SimRng::seed_from_u64(drift.seed);
-    let s = Vector3::from(drift.intensity) * dt.sqrt();
+    bias_walk(drift.intensity, drift.seed, dt, n)
+}
+
+/// The drifting part of the accelerometer biases at `i * dt`, `i = 0..=n` (zero at 0), as
+/// [`gyro_bias_walk`].
+pub fn accel_bias_walk(drift: &AccelDrift, dt: f64, n: usize) -> Vec<Vector3<f64>> {
+    bias_walk(drift.intensity, drift.seed, dt, n)
+}
+
+fn bias_walk(intensity: [f64; 3], seed: u64, dt: f64, n: usize) -> Vec<Vector3<f64>> {
+    let mut rng = SimRng::seed_from_u64(seed);
+    let s = Vector3::from(intensity) * dt.sqrt();
     let mut b = Vector3::zeros();
     let mut out = Vec::with_capacity(n + 1);
     out.push(b);
@@ -408,6 +429,22 @@ pub fn simulate_imu_drifting<R: Rng + ?Sized>(
     drift: Option<&GyroDrift>,
     rng: &mut R,
 ) -> Result<Vec<ImuSample>, SimulateError> {
+    simulate_imu_walking(kin, model, p_true, config, drift, None, rng)
+}
+
+/// [`simulate_imu_drifting`] with the accelerometer biases drifting too ([`accel_bias_walk`];
+/// its integral over each interval by the trapezoid rule, added to the velocity increment).
+/// The noise draws from `rng` and the gyro walk are those of the run without the
+/// accelerometer walk.
+pub fn simulate_imu_walking<R: Rng + ?Sized>(
+    kin: &Kinematics,
+    model: &ErrorModel,
+    p_true: &[f64],
+    config: &SimConfig,
+    drift: Option<&GyroDrift>,
+    accel_drift: Option<&AccelDrift>,
+    rng: &mut R,
+) -> Result<Vec<ImuSample>, SimulateError> {
     let (rule, dt) = check(model, p_true, config)?;
     let duration = run_duration(kin, config);
     if !(duration.is_finite() && duration > 0.0) {
@@ -426,13 +463,25 @@ pub fn simulate_imu_drifting<R: Rng + ?Sized>(
             d.intensity
         )));
     }
+    if let Some(d) = accel_drift
+        && d.intensity.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+    {
+        return Err(SimulateError::Invalid(format!(
+            "accelerometer drift intensities must be >= 0, got {:?}",
+            d.intensity
+        )));
+    }
     let walk = drift.map(|d| gyro_bias_walk(d, dt, n));
+    let accel_walk = accel_drift.map(|d| accel_bias_walk(d, dt, n));
     let mut out = Vec::with_capacity(n);
     for i in 1..=n {
         let t = i as f64 * dt;
         let (mut dtheta, mut dv) = increments(kin, model, p_true, &rule, (i - 1) as f64 * dt, t);
         if let Some(b) = &walk {
             dtheta -= (b[i - 1] + b[i]) * (0.5 * dt);
+        }
+        if let Some(b) = &accel_walk {
+            dv += (b[i - 1] + b[i]) * (0.5 * dt);
         }
         if sg > 0.0 {
             dtheta += normal3(rng) * sg;
@@ -525,8 +574,22 @@ pub fn simulate_drifting(
     config: &SimConfig,
     drift: Option<&GyroDrift>,
 ) -> Result<Simulation, SimulateError> {
+    simulate_walking(kin, model, p_true, sensor, config, drift, None)
+}
+
+/// [`simulate_drifting`] with the accelerometer biases drifting too
+/// ([`simulate_imu_walking`]).
+pub fn simulate_walking(
+    kin: &Kinematics,
+    model: &ErrorModel,
+    p_true: &[f64],
+    sensor: &AngleSensor,
+    config: &SimConfig,
+    drift: Option<&GyroDrift>,
+    accel_drift: Option<&AccelDrift>,
+) -> Result<Simulation, SimulateError> {
     let mut rng = SimRng::seed_from_u64(config.seed);
-    let imu = simulate_imu_drifting(kin, model, p_true, config, drift, &mut rng)?;
+    let imu = simulate_imu_walking(kin, model, p_true, config, drift, accel_drift, &mut rng)?;
     let duration = imu.last().map_or(0.0, |s| s.t);
     let turntable = simulate_turntable(kin, sensor, duration, &mut rng)?;
     Ok(Simulation {

