@@ -5,6 +5,7 @@
 mod arbitrary_input;
 mod candidates;
 mod candidates_table;
+mod correction;
 mod diagnostics;
 mod dispatch;
 mod free_motion_real;
