@@ -296,3 +296,54 @@ fn extension_terms_round_trip() {
         }
     }
 }
+
+/// The filter's result file carries the full posterior (the correlation of every parameter
+/// pair, from the covariance) and its correction block (the exact inverse of the estimate).
+#[test]
+fn filter_result_carries_correlation_and_correction() {
+    let (c, imu, tt) = crate::paper_20hz::paper_20hz_run(4);
+    let data = calib::estimate::RunData {
+        imu: &imu,
+        imu_file: "imu.csv",
+        turntable: Some((&tt, "turntable.csv")),
+    };
+    let est = calib::estimate::estimate(&c, &data, &mut |_, _| {}).expect("estimate");
+    let r = est.to_result_file();
+    let n = r.parameters.len();
+    assert_eq!(n, 25);
+    let corr = r.correlation.as_ref().expect("correlation");
+    let off = est.values.len() - n; // the attitude errors come first
+    for (i, row) in corr.iter().enumerate() {
+        assert_eq!(row[i], 1.0);
+        for (j, &x) in row.iter().enumerate() {
+            let (a, b) = (i + off, j + off);
+            let exact = est.cov[(a, b)] / (est.cov[(a, a)] * est.cov[(b, b)]).sqrt();
+            assert!((x - exact).abs() <= 0.5e-6 + 1e-15, "{i} {j}");
+            assert_eq!(x, corr[j][i]);
+        }
+    }
+    // Strongly correlated pairs exist (what navigation gains from them).
+    assert!(corr.iter().flatten().any(|x| x.abs() > 0.9 && *x != 1.0));
+    let block = r.correction.as_ref().expect("correction");
+    assert_eq!(block.extension_inputs, ExtensionInputs::True);
+    let theta = nalgebra::Matrix3::from_fn(|i, j| {
+        r.get(&format!(
+            "gyro.theta.{}{}",
+            ["x", "y", "z"][i],
+            ["x", "y", "z"][j]
+        ))
+        .expect("theta")
+        .value
+    });
+    let m = nalgebra::Matrix3::from_fn(|i, j| block.gyro.matrix[i][j]);
+    assert!(
+        ((nalgebra::Matrix3::identity() - theta) * m - nalgebra::Matrix3::identity()).norm()
+            < 1e-15
+    );
+    assert_eq!(block.gyro.offset[1], r.get("gyro.bias.y").unwrap().value);
+    assert_eq!(block.accel.offset[2], -r.get("accel.bias.z").unwrap().value);
+    // Written and read back unchanged.
+    let text = serde_json::to_string(&r).unwrap();
+    let back: ResultFile = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, r);
+}
