@@ -17,7 +17,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub imu: PathBuf,
     /// Corrected records: the same form, time stamps and temp column (written to a temporary
-    /// file beside it, then renamed; never the --imu file).
+    /// file beside it, then renamed; neither the --imu nor the --calibration file).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
 }
@@ -130,6 +130,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
         return Err(format!(
             "{}: --out is the --imu file: expected another file for the corrected records (the \
              raw ones are kept)",
+            args.out.display()
+        )
+        .into());
+    }
+    if same_file(&args.calibration, &args.out) {
+        return Err(format!(
+            "{}: --out is the --calibration file: expected another file for the corrected records",
             args.out.display()
         )
         .into());

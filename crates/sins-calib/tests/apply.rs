@@ -305,6 +305,19 @@ fn refusals_name_the_file_and_leave_nothing_behind() {
         ],
         &["--out is the --imu file"],
     );
+    fails(
+        &[
+            "apply",
+            "--calibration",
+            s(&truth),
+            "--imu",
+            s(&imu),
+            "--out",
+            s(&truth),
+        ],
+        &["--out is the --calibration file"],
+    );
+    assert!(read_result_json(&truth).is_ok());
     // Unknown and incomplete parameters.
     let mut v = json(&truth);
     v["parameters"]
