@@ -387,35 +387,51 @@ impl Correction {
             }
             (self.gyro_matrix * gr, f_new)
         };
+        let finite = |v: &Vector3<f64>| v.iter().all(|x| x.is_finite());
+        // A genuine solution: finite, and a further step moves it by rounding only (relative
+        // to the magnitudes that enter the formulas, so that a rate near zero is no exception).
+        let solved = |w: &Vector3<f64>, f: &Vector3<f64>| {
+            let (w2, f2) = step(w, f);
+            let tol = 1e-12;
+            finite(w)
+                && finite(f)
+                && (w2 - w).norm() <= tol * (w.norm() + gyro_rhs.norm())
+                && (f2 - f).norm() <= tol * (f.norm() + accel_rhs.norm())
+        };
+        let no_fixed_point = CorrectionError::NoFixedPoint {
+            gyro: [gyro.x, gyro.y, gyro.z],
+            accel: [accel.x, accel.y, accel.z],
+        };
         let (mut w, mut f) = self.linear(gyro, accel);
         let mut last_change = f64::INFINITY;
         let mut stalled = 0;
         for _ in 0..MAX_ITERATIONS {
             let (w_new, f_new) = step(&w, &f);
+            if !(finite(&w_new) && finite(&f_new)) {
+                return Err(no_fixed_point);
+            }
             let dw = (w_new - w).norm();
             let df = (f_new - f).norm();
             (w, f) = (w_new, f_new);
             let settled_w = dw <= FIXED_POINT_TOLERANCE * w.norm();
             let settled_f = df <= FIXED_POINT_TOLERANCE * f.norm();
-            if settled_w && settled_f {
-                return Ok((w, f));
-            }
-            // Rounding may keep the last bit moving: stop once the change no longer shrinks
-            // and is at the level of rounding.
+            // Rounding may keep the last bit moving: stop also once the change no longer
+            // shrinks and is at the level of rounding.
             let change = dw.max(df);
             let rounding = 8.0 * f64::EPSILON * w.norm().max(f.norm());
             if change >= last_change && change <= rounding {
                 stalled += 1;
-                if stalled >= 3 {
-                    return Ok((w, f));
-                }
+            }
+            if (settled_w && settled_f) || stalled >= 3 {
+                return if solved(&w, &f) {
+                    Ok((w, f))
+                } else {
+                    Err(no_fixed_point)
+                };
             }
             last_change = change;
         }
-        Err(CorrectionError::NoFixedPoint {
-            gyro: [gyro.x, gyro.y, gyro.z],
-            accel: [accel.x, accel.y, accel.z],
-        })
+        Err(no_fixed_point)
     }
 
     /// The correction as the `correction` block of a result file.
@@ -708,6 +724,68 @@ mod tests {
             Correction::from_parameters(&singular, ExtensionInputs::True),
             Err(CorrectionError::Singular(_))
         ));
+    }
+
+    /// Terms too large for the record (here `k2 f^2` beyond `f`) have no fixed point to
+    /// settle on: an error naming the record's values, no panic and no NaN out.
+    #[test]
+    fn a_fixed_point_that_does_not_settle_is_an_error() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let mut params = parameters(&m, &[0.0; 21]);
+        for a in ["x", "y", "z"] {
+            params.push(ResultParameter {
+                name: format!("accel.k2.{a}"),
+                value: 1.0,
+                sigma: None,
+                unit: "1/(m/s^2)".into(),
+            });
+        }
+        let c = Correction::from_parameters(&params, ExtensionInputs::True).unwrap();
+        let e = c
+            .apply_rates(&Vector3::zeros(), &Vector3::new(0.0, 0.0, 9.8), None)
+            .unwrap_err();
+        assert!(matches!(e, CorrectionError::NoFixedPoint { .. }), "{e}");
+        assert!(e.to_string().contains("9.8"), "{e}");
+        // Small values of the same term settle.
+        for p in params
+            .iter_mut()
+            .filter(|p| p.name.starts_with("accel.k2."))
+        {
+            p.value = 1e-4;
+        }
+        let c = Correction::from_parameters(&params, ExtensionInputs::True).unwrap();
+        let (_, f) = c
+            .apply_rates(&Vector3::zeros(), &Vector3::new(0.0, 0.0, 9.8), None)
+            .unwrap();
+        assert!((f.z + 1e-4 * f.z * f.z - 9.8).abs() < 1e-14);
+    }
+
+    /// A true rate of zero with a non-linear gyro term: settles on zero (the relative tests
+    /// do not stall on it).
+    #[test]
+    fn zero_rate_settles() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let mut p = vec![0.0; 21];
+        p[0] = 1e-5; // gyro bias x
+        let mut params = parameters(&m, &p);
+        for a in ["x", "y", "z"] {
+            params.push(ResultParameter {
+                name: format!("gyro.asym.{a}"),
+                value: 1e-3,
+                sigma: None,
+                unit: "1".into(),
+            });
+        }
+        let c = Correction::from_parameters(&params, ExtensionInputs::True).unwrap();
+        // w' = w - nu0 at w = 0.
+        let (w, _) = c
+            .apply_rates(
+                &Vector3::new(-1e-5, 0.0, 0.0),
+                &Vector3::new(0.0, 0.0, 9.8),
+                None,
+            )
+            .unwrap();
+        assert!(w.norm() < 1e-20, "{w}");
     }
 
     /// The block reads back to itself and carries what the correction holds.
