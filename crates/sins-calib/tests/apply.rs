@@ -376,6 +376,27 @@ fn refusals_name_the_file_and_leave_nothing_behind() {
         ],
         &[s(&partial), "accel_quadratic", "accel.k2.y"],
     );
+    // Terms too large to invert for these records: the first record's line is named.
+    let mut v = json(&truth);
+    for a in ["x", "y", "z"] {
+        v["parameters"].as_array_mut().unwrap().push(
+            serde_json::json!({"name": format!("accel.k2.{a}"), "value": 1.0, "unit": "1/(m/s^2)"}),
+        );
+    }
+    let huge = dir.join("huge.json");
+    std::fs::write(&huge, v.to_string()).unwrap();
+    fails(
+        &[
+            "apply",
+            "--calibration",
+            s(&huge),
+            "--imu",
+            s(&imu),
+            "--out",
+            s(&out),
+        ],
+        &[s(&imu), "line 2", "do not settle"],
+    );
     // A bad record in the middle: the line is named, no output is left.
     let good = std::fs::read_to_string(&imu).unwrap();
     let mut lines: Vec<&str> = good.lines().collect();
