@@ -49,6 +49,14 @@ enum Command {
     /// Print the navigation error budget of both calibrations and the sweeps behind
     /// docs/navsim.md (correlations kept or dropped, the paper's diagonal tables, sensor noise).
     NavBudget,
+    /// The navigation position error after 1 h of the default snake flight (docs/navsim.md)
+    /// that a calibration result buys: its sigmas and its posterior correlations (the
+    /// `correlation` block of the result file), and its sigmas alone for comparison.
+    NavError {
+        /// Result file of `sins-calib calibrate --json` (parameters with sigmas; correlation).
+        #[arg(long)]
+        result: PathBuf,
+    },
     /// Run every hidden-effect case of the model-extension loop and the negative control, and
     /// print the table of docs/model-extension.md (effect, accepted term, estimate against
     /// truth, gain). Exits non-zero when a case fails its checks.
@@ -74,6 +82,13 @@ fn main() -> ExitCode {
             control_seeds,
             case,
         } => hidden::hidden_effects(control_seeds, case.as_deref()),
+        Command::NavError { result } => match nav_error(&result) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Command::NavBudget => match nav_budget() {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -449,6 +464,101 @@ fn paper_sweep() {
     sweep_row("estimate gamma_p, 10 arcsec prior", &c);
 }
 
+/// The instrument covariance of a result file: the parameters navigation models (the paper's
+/// 21), their sigmas and, when `correlations` and the file has them, their correlations (else
+/// diagonal). Also the names left out (extension terms navigation does not model; the
+/// turntable's and mounting terms, which do not act on navigation, are not listed).
+fn result_covariance(
+    result: &calib::io::ResultFile,
+    file: &str,
+    correlations: bool,
+) -> Result<(navsim::InstrumentCovariance, Vec<String>), String> {
+    let mut idx = Vec::new();
+    let mut left_out = Vec::new();
+    for (i, p) in result.parameters.iter().enumerate() {
+        if navsim::INSTRUMENT_NAMES.contains(&p.name.as_str()) {
+            idx.push(i);
+        } else if !navsim::instruments::IGNORED_PREFIXES
+            .iter()
+            .any(|x| p.name.starts_with(x))
+        {
+            left_out.push(p.name.clone());
+        }
+    }
+    let mut sigmas = Vec::with_capacity(idx.len());
+    for &i in &idx {
+        let p = &result.parameters[i];
+        sigmas.push(p.sigma.ok_or_else(|| {
+            format!(
+                "{file}: parameter `{}` has no sigma: expected a calibration result (a truth \
+                 file has none)",
+                p.name
+            )
+        })?);
+    }
+    let names: Vec<String> = idx
+        .iter()
+        .map(|&i| result.parameters[i].name.clone())
+        .collect();
+    let correlation: Vec<Vec<f64>> = match (&result.correlation, correlations) {
+        (Some(r), true) => idx
+            .iter()
+            .map(|&i| idx.iter().map(|&j| r[i][j]).collect())
+            .collect(),
+        _ => (0..idx.len())
+            .map(|i| {
+                (0..idx.len())
+                    .map(|j| if i == j { 1.0 } else { 0.0 })
+                    .collect()
+            })
+            .collect(),
+    };
+    let cov =
+        navsim::InstrumentCovariance::from_sigmas_and_correlation(names, &sigmas, &correlation)
+            .map_err(|e| format!("{file}: {e}"))?;
+    Ok((cov, left_out))
+}
+
+/// rho after 1 h of the default snake flight (m) from a result file, with or without its
+/// correlations.
+fn nav_error_m(
+    result: &calib::io::ResultFile,
+    file: &str,
+    correlations: bool,
+) -> Result<f64, String> {
+    let (cov, _) = result_covariance(result, file, correlations)?;
+    navigation(&cov)
+        .map(|r| r.final_rho_m())
+        .map_err(|e| format!("{file}: {e}"))
+}
+
+fn nav_error(path: &Path) -> Result<(), String> {
+    let file = path.display().to_string();
+    let result = calib::io::read_result_json(path).map_err(|e| e.to_string())?;
+    let (_, left_out) = result_covariance(&result, &file, false)?;
+    println!(
+        "navigation error rho after 1 h of the default snake flight (docs/navsim.md), from {file}"
+    );
+    match result.correlation {
+        Some(_) => println!(
+            "  sigmas and posterior correlations  {:8.0} m",
+            nav_error_m(&result, &file, true)?
+        ),
+        None => println!("  (the file has no `correlation` block: sigmas only)"),
+    }
+    println!(
+        "  sigmas alone, correlations dropped {:8.0} m",
+        nav_error_m(&result, &file, false)?
+    );
+    if !left_out.is_empty() {
+        println!(
+            "  left out (navigation models the paper's 21 parameters only): {}",
+            left_out.join(", ")
+        );
+    }
+    Ok(())
+}
+
 /// The covariance with its off-diagonal elements dropped.
 fn diagonal_only(c: &navsim::InstrumentCovariance) -> navsim::InstrumentCovariance {
     let d = nalgebra::DMatrix::from_diagonal(&c.cov.diagonal());
@@ -575,4 +685,53 @@ fn nav_budget() -> Result<(), String> {
     }
     println!("| total | {:.0} | {:.0} |", ba.total_m, bb.total_m);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The reconciled calibration with the turntable angles as a result file (parameters with
+    /// sigmas, the correlation block rounded as written), read back: its navigation figure is
+    /// 713 m with the correlations and 1082 m without (docs/navsim.md).
+    #[test]
+    fn correlations_in_the_result_file_change_the_navigation_figure() {
+        let p = covariance_analysis(&calib::paper::reconciled(), true).expect("analysis");
+        let keep: Vec<usize> = (0..p.names.len())
+            .filter(|&i| !p.names[i].starts_with("attitude."))
+            .collect();
+        let parameters = keep
+            .iter()
+            .map(|&i| calib::io::ResultParameter {
+                name: p.names[i].clone(),
+                value: 0.0,
+                sigma: Some(p.cov[(i, i)].sqrt()),
+                unit: p.units[i].si_name().into(),
+            })
+            .collect();
+        let k = keep.clone();
+        let correlation =
+            calib::posterior::correlation(keep.len(), 0..keep.len(), |a, b| p.cov[(k[a], k[b])]);
+        let result = calib::io::ResultFile {
+            parameters,
+            correlation: Some(correlation),
+            correction: None,
+        };
+        let dir = std::env::temp_dir().join(format!("xtask-nav-error-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("result.json");
+        calib::io::write_result_json(&path, &result).unwrap();
+        let back = calib::io::read_result_json(&path).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let with = nav_error_m(&back, "result.json", true).unwrap();
+        let without = nav_error_m(&back, "result.json", false).unwrap();
+        println!("with correlations {with:.1} m, without {without:.1} m");
+        // The full posterior's own figure (paper-check), from the unrounded covariance.
+        let full = navigation(&instrument_covariance(&p).unwrap())
+            .unwrap()
+            .final_rho_m();
+        assert!((with / full - 1.0).abs() < 1e-3, "{with} vs {full}");
+        assert!((with / 713.0 - 1.0).abs() < 0.01, "{with}");
+        assert!((without / 1082.0 - 1.0).abs() < 0.01, "{without}");
+    }
 }

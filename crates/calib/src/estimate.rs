@@ -232,16 +232,22 @@ impl Estimate {
 
     /// The parameters (every state but the attitude errors) as a result file.
     pub fn to_result_file(&self) -> ResultFile {
-        ResultFile {
-            parameters: (StateLayout::INSTRUMENT..self.names.len())
-                .map(|i| ResultParameter {
-                    name: self.names[i].clone(),
-                    value: self.values[i],
-                    sigma: Some(self.cov[(i, i)].max(0.0).sqrt()),
-                    unit: self.units[i].si_name().to_string(),
-                })
-                .collect(),
-        }
+        let parameters = (StateLayout::INSTRUMENT..self.names.len())
+            .map(|i| ResultParameter {
+                name: self.names[i].clone(),
+                value: self.values[i],
+                sigma: Some(self.cov[(i, i)].max(0.0).sqrt()),
+                unit: self.units[i].si_name().to_string(),
+            })
+            .collect();
+        let range = StateLayout::INSTRUMENT..self.names.len();
+        let correlation =
+            crate::posterior::correlation(self.names.len(), range, |i, j| self.cov[(i, j)]);
+        crate::correction::result_file(
+            parameters,
+            correlation,
+            crate::correction::ExtensionInputs::True,
+        )
     }
 }
 

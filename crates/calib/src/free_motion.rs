@@ -236,6 +236,9 @@ pub struct FreeMotionResult {
     pub parameters: Vec<ResultParameter>,
     /// Prior sigma of each parameter (SI), in the same order.
     pub prior_sigma: Vec<f64>,
+    /// Posterior correlation matrix of the parameters, in their order
+    /// ([`crate::posterior::correlation`]).
+    pub correlation: Vec<Vec<f64>>,
     /// Accelerometer stage (`|f| = g` alone; its parameters are the starting point of the
     /// joint stage, which gives the reported values).
     pub accel_fit: StageFit,
@@ -251,6 +254,17 @@ pub struct FreeMotionResult {
 }
 
 impl FreeMotionResult {
+    /// The result file of the calibration: parameters, correlation and the correction block,
+    /// whose g-sensitivity and asymmetry act on the measured specific force and rate as in this
+    /// fit ([`crate::correction::ExtensionInputs::Measured`]).
+    pub fn to_result_file(&self) -> crate::io::ResultFile {
+        crate::correction::result_file(
+            self.parameters.clone(),
+            self.correlation.clone(),
+            crate::correction::ExtensionInputs::Measured,
+        )
+    }
+
     /// Parameters the data leave at their prior: `(name, posterior sigma / prior sigma)` for
     /// those above [`UNOBSERVED_RATIO`].
     pub fn unobserved(&self) -> Vec<(String, f64)> {
@@ -591,9 +605,12 @@ pub fn calibrate_free_motion(
     let validation = settings
         .holdout
         .map(|_| validate(&inc, intervals, &stats, &poses, &accel_cal, &gyro_cal));
+    let correlation =
+        crate::posterior::correlation(prior.len(), 0..prior.len(), |i, j| joint.cov[(i, j)]);
     Ok(FreeMotionResult {
         parameters,
         prior_sigma: prior,
+        correlation,
         accel_fit: accel.fit,
         gyro_fit: joint.fit,
         poses,

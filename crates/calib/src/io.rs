@@ -1008,11 +1008,20 @@ pub struct ResultParameter {
     pub unit: String,
 }
 
-/// A result (or truth) file: `{"parameters": [...]}`.
+/// A result (or truth) file: `{"parameters": [...]}`, and in a calibration's result the
+/// posterior `correlation` and the `correction` block (absent in older files and in truth
+/// files; other keys such as `fit` are ignored when reading).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ResultFile {
     /// Parameters in state order.
     pub parameters: Vec<ResultParameter>,
+    /// Correlation matrix of the parameters (rows and columns in the order of `parameters`),
+    /// [`crate::posterior::correlation`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<Vec<Vec<f64>>>,
+    /// The estimated model inverted, in matrix form ([`crate::correction`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correction: Option<crate::correction::CorrectionBlock>,
 }
 
 impl ResultFile {
@@ -1035,6 +1044,8 @@ impl From<&Truth> for ResultFile {
                     unit: p.unit.clone(),
                 })
                 .collect(),
+            correlation: None,
+            correction: None,
         }
     }
 }
@@ -1077,6 +1088,10 @@ pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
                 ),
             });
         }
+    }
+    if let Some(r) = &result.correlation {
+        crate::posterior::check_correlation(r, result.parameters.len())
+            .map_err(|message| IoError::File { file, message })?;
     }
     Ok(result)
 }

@@ -8,6 +8,8 @@
 //! the delay between the two data streams).
 //!
 //! - [`config`]: run configuration (site, priors, noises, filter rates, clock) from TOML;
+//! - [`correction`]: the estimated model inverted, to correct raw IMU records;
+//! - [`posterior`]: correlation matrices of posterior covariances for result files;
 //! - [`layout`]: the state vector assembled from the error terms, and the prior;
 //! - [`model`]: transition and measurement matrices built from IMU-rate samples;
 //! - [`engine`]: the measurement schedule and the predict/update loop shared by the covariance
@@ -50,6 +52,7 @@
 pub mod align;
 pub mod angles_program;
 pub mod config;
+pub mod correction;
 pub mod covariance;
 pub mod data_checks;
 pub mod design;
@@ -65,6 +68,7 @@ pub mod io;
 pub mod layout;
 pub mod model;
 pub mod paper;
+pub mod posterior;
 pub mod program_start;
 pub mod report;
 pub mod rests;

@@ -6,6 +6,7 @@ mod arbitrary_input;
 mod bias_walk;
 mod candidates;
 mod candidates_table;
+mod correction;
 mod diagnostics;
 mod dispatch;
 mod free_motion_real;

@@ -357,6 +357,7 @@ fn result_and_truth_json_follow_the_design_format() {
                 unit: "s".into(),
             },
         ],
+        ..ResultFile::default()
     };
     let path = temp_path("result.json");
     write_result_json(&path, &result).unwrap();

@@ -83,6 +83,37 @@ impl InstrumentCovariance {
         Ok(c)
     }
 
+    /// The covariance `D R D` of standard deviations `D` and a correlation matrix `R` (rows and
+    /// columns in the order of `names`), as a calibration result file gives them; checked like
+    /// [`InstrumentCovariance::new`], and `R` must be square of the names' size with entries in
+    /// [-1, 1].
+    pub fn from_sigmas_and_correlation(
+        names: Vec<String>,
+        sigmas: &[f64],
+        correlation: &[Vec<f64>],
+    ) -> Result<Self, NavError> {
+        let n = names.len();
+        if sigmas.len() != n || correlation.len() != n || correlation.iter().any(|r| r.len() != n) {
+            return Err(NavError::BadCovariance(format!(
+                "{n} names, {} sigmas and a correlation matrix of {} rows: expected one of each \
+                 per parameter",
+                sigmas.len(),
+                correlation.len()
+            )));
+        }
+        if let Some((i, j)) = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .find(|&(i, j)| !(correlation[i][j].is_finite() && correlation[i][j].abs() <= 1.0))
+        {
+            return Err(NavError::BadCovariance(format!(
+                "correlation of `{}` and `{}` is {}: expected a value in [-1, 1]",
+                names[i], names[j], correlation[i][j]
+            )));
+        }
+        let cov = DMatrix::from_fn(n, n, |i, j| sigmas[i] * correlation[i][j] * sigmas[j]);
+        Self::new(names, cov)
+    }
+
     /// A diagonal covariance from per-parameter standard deviations.
     pub fn from_sigmas(names_and_sigmas: &[(&str, f64)]) -> Self {
         let names = names_and_sigmas
@@ -261,6 +292,22 @@ mod tests {
         let model = sins_model::terms::ErrorModel::paper(&sins_model::terms::PaperPriors::paper());
         let names: Vec<String> = model.params().into_iter().map(|p| p.name).collect();
         assert_eq!(names, INSTRUMENT_NAMES.map(String::from).to_vec());
+    }
+
+    #[test]
+    fn sigmas_and_correlation_make_the_covariance() {
+        let names = vec!["gyro.bias.x".to_string(), "gyro.bias.y".to_string()];
+        let r = vec![vec![1.0, -0.5], vec![-0.5, 1.0]];
+        let c = InstrumentCovariance::from_sigmas_and_correlation(names.clone(), &[2.0, 3.0], &r)
+            .unwrap();
+        assert_eq!(c.cov[(0, 1)], -3.0);
+        assert_eq!(c.cov[(1, 1)], 9.0);
+        let bad = vec![vec![1.0, 1.5], vec![1.5, 1.0]];
+        assert!(
+            InstrumentCovariance::from_sigmas_and_correlation(names.clone(), &[2.0, 3.0], &bad)
+                .is_err()
+        );
+        assert!(InstrumentCovariance::from_sigmas_and_correlation(names, &[2.0], &r).is_err());
     }
 
     #[test]

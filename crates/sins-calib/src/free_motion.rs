@@ -24,6 +24,9 @@ pub const DEFAULT_LATITUDE_DEG: f64 = 45.0;
 #[derive(Serialize)]
 struct FreeMotionJson<'a> {
     parameters: &'a [ResultParameter],
+    correlation: Option<Vec<Vec<f64>>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    correction: Option<calib::correction::CorrectionBlock>,
     fit: FitJson,
     #[serde(skip_serializing_if = "Option::is_none")]
     validation: Option<ValidationJson>,
@@ -227,8 +230,11 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         );
     }
     if let Some(path) = &args.json {
+        let file = result.to_result_file();
         let json = FreeMotionJson {
             parameters: &result.parameters,
+            correlation: file.correlation,
+            correction: file.correction,
             fit: fit_json(&result, &settings, intervals.len()),
             validation,
         };

@@ -8,7 +8,8 @@
 //! - `segment`: an `imu.csv` split into static intervals and motion;
 //! - `noise`: the sensors' noise from data at rest (Allan deviation, fitted noise terms);
 //! - `diagnose`: what the model gets wrong, and the terms that fix it (model-extension loop);
-//! - `design`: a program that separates candidate terms.
+//! - `design`: a program that separates candidate terms;
+//! - `apply`: raw IMU records corrected with a calibration result.
 //!
 //! The work is done by the `calib` library; this crate only reads arguments, reports and exits.
 //! File formats: `docs/formats.md`.
@@ -16,6 +17,7 @@
 #![forbid(unsafe_code)]
 
 mod analyse;
+mod apply;
 mod calibrate;
 mod design;
 mod diagnose;
@@ -101,6 +103,13 @@ enum Command {
     /// Propose a rotation program that separates the given candidate terms from the paper's
     /// parameters, printed as TOML with its predicted sigmas.
     Design(design::Args),
+    /// Correct raw IMU records with a calibration result: the estimated model inverted record
+    /// by record (every estimated extension term included), written in the same form.
+    ///
+    /// Rates or increments, time stamps and an optional temp column are kept. The result's
+    /// parameters say which terms to invert; unknown or incomplete ones are refused. The
+    /// formulas: docs/formats.md, "Correction".
+    Apply(apply::Args),
 }
 
 /// Read a run configuration by name (`paper`, `paper-reconciled`) or path; returns it with the
@@ -144,6 +153,7 @@ fn main() -> ExitCode {
         Command::Noise(args) => noise::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Diagnose(args) => diagnose::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Design(args) => design::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Apply(args) => apply::run(&args).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,

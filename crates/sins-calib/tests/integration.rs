@@ -2,6 +2,7 @@
 //! files run in parallel): each file of this directory is a module. Run one file's tests with
 //! `cargo test --release -p sins-calib --test integration <file>::`.
 
+mod apply;
 mod arbitrary_input;
 mod cli;
 mod common;

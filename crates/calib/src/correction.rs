@@ -1,0 +1,804 @@
+//! The estimated instrument model inverted: raw IMU output in, corrected output out.
+//!
+//! A calibration estimates how the sensors corrupt the true rate `w` and specific force `f`
+//! (`docs/formats.md`, "Correction"): `w' = w - nu`, `f' = f + df` with
+//!
+//! ```text
+//! nu = nu0 + Theta w + G f + diag(a) |w|
+//! df = df0 + Gamma f + diag(k2) (f o f) + s(w, dw/dt) - d df/dt
+//! ```
+//!
+//! (`Theta` full, `Gamma` lower-triangular, and the extension terms of
+//! [`sins_model::candidates`] where the result names them: g-sensitivity `G`, scale asymmetry `a`,
+//! quadratic `k2`, size effect `s_i = e_i . ((skew(dw/dt) + skew(w)^2) r_i)`, time offset `d`).
+//! A [`Correction`] solves these exactly for `w` and `f`:
+//!
+//! ```text
+//! w = M_g (w' + b_g + G f + diag(a) |w|),                       M_g = (I - Theta)^-1, b_g = nu0
+//! f = M_a (f' + b_a - diag(k2) (f o f) - s(w, dw/dt) + d df/dt), M_a = (I + Gamma)^-1, b_a = -df0
+//! ```
+//!
+//! The linear part is the exact inverse (no first-order expansion). Terms that make the inverse
+//! non-linear (scale asymmetry, quadratic, the size effect's `w x (w x r)`, and the
+//! g-sensitivity, whose `f` is the corrected one) are solved by fixed-point iteration on both
+//! triads together until the change is below 1e-15 of the values ([`FIXED_POINT_TOLERANCE`]).
+//!
+//! A free-motion calibration (`calibrate --free-motion`) fits the g-sensitivity on the *measured*
+//! specific force and the asymmetry on the *measured* rate (`nu = nu0 + Theta w + G f' +
+//! diag(a) |w'|`); its correction is then `w = M_g (w' + b_g + G f' + diag(a) |w'|)`, linear in
+//! the unknown ([`ExtensionInputs::Measured`]).
+//!
+//! Records: a rate record is the mean over its interval; an increment record is corrected as
+//! its mean rate (`dth / dt`, `dv / dt`, `dt` the interval to the previous record's time stamp;
+//! the first record takes the interval to the second) corrected and times `dt`. This is exact
+//! for the terms linear in the rate and specific force; for the non-linear ones it neglects the
+//! difference between the mean of the term over the interval and the term of the mean (e.g.
+//! `k2 var(f)` over the interval; zero at rest and, for the asymmetry, while no rate changes
+//! sign within the interval). The derivative terms (size effect's `dw/dt x r`, the time offset)
+//! take `dw/dt` and `df/dt` from the neighbouring records' linearly corrected mean rates
+//! ([`correct_records`]): a central difference, first order.
+
+use crate::io::{ImuKind, ImuRecord, ResultParameter};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+use sins_model::candidates::Candidate;
+use sins_model::names;
+use sins_model::terms::GAMMA_INDEX;
+
+/// Relative change below which the fixed-point iteration stops.
+pub const FIXED_POINT_TOLERANCE: f64 = 1e-15;
+
+/// Iterations after which a fixed point that has not settled is an error.
+const MAX_ITERATIONS: usize = 200;
+
+/// Why a correction cannot be built or applied.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CorrectionError {
+    /// A parameter the correction does not know.
+    #[error(
+        "parameter `{0}` is not an instrument parameter this program can correct: expected the \
+         paper's (gyro.bias, gyro.theta, accel.bias, accel.gamma), the extension terms \
+         (gyro.gsens, gyro.asym, accel.k2, accel.lever, time.gyro_accel) or parameters that do \
+         not act on the sensor output (install.delta, turntable.*, base.gamma, gyro.drift)"
+    )]
+    Unknown(String),
+    /// A required parameter, or one of a term's, is missing.
+    #[error("{group}: parameter(s) {missing} missing: expected {expected}")]
+    Incomplete {
+        /// The group (`the paper's model`, or a term's id).
+        group: String,
+        /// The missing names.
+        missing: String,
+        /// What was expected.
+        expected: String,
+    },
+    /// A parameter in a unit other than its SI unit.
+    #[error(
+        "parameter `{name}` is in `{unit}`: expected `{expected}` (result files hold SI values)"
+    )]
+    Unit {
+        /// Parameter.
+        name: String,
+        /// Unit found.
+        unit: String,
+        /// SI unit expected.
+        expected: String,
+    },
+    /// A parameter value is not a finite number.
+    #[error("parameter `{0}`: expected a finite value")]
+    NotFinite(String),
+    /// A sensor matrix `I - Theta` or `I + Gamma` cannot be inverted.
+    #[error("the {0} matrix cannot be inverted: expected scale factors well away from -1")]
+    Singular(&'static str),
+    /// The fixed-point iteration of the non-linear terms does not settle for a record.
+    #[error(
+        "the non-linear terms do not settle at w' = {gyro:?}, f' = {accel:?}: the extension \
+         terms are too large for the record's rate and specific force"
+    )]
+    NoFixedPoint {
+        /// Raw rate (rad/s).
+        gyro: [f64; 3],
+        /// Raw specific force (m/s^2).
+        accel: [f64; 3],
+    },
+    /// Increments need an interval for the first record.
+    #[error(
+        "an increments file needs at least two records (the first record's interval is the one to the second)"
+    )]
+    TooFewRecords,
+}
+
+/// What the gyro extension terms (`G`, `a`) are evaluated at.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ExtensionInputs {
+    /// The true (corrected) specific force and rate, as the filter and the simulator model them
+    /// (`nu = ... + G f + diag(a) |w|`).
+    #[default]
+    True,
+    /// The measured ones, as the free-motion fit models them (`nu = ... + G f' + diag(a) |w'|`).
+    Measured,
+}
+
+/// The inverse of an estimated instrument model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Correction {
+    /// `M_g = (I - Theta)^-1`.
+    pub gyro_matrix: Matrix3<f64>,
+    /// `b_g = nu0` (rad/s).
+    pub gyro_offset: Vector3<f64>,
+    /// g-sensitivity `G` (rad/s per m/s^2), when estimated.
+    pub gyro_gsens: Option<Matrix3<f64>>,
+    /// Scale-factor asymmetry `a`, when estimated.
+    pub gyro_asym: Option<Vector3<f64>>,
+    /// `M_a = (I + Gamma)^-1`.
+    pub accel_matrix: Matrix3<f64>,
+    /// `b_a = -df0` (m/s^2).
+    pub accel_offset: Vector3<f64>,
+    /// Quadratic coefficients `k2` (1/(m/s^2)), when estimated.
+    pub accel_k2: Option<Vector3<f64>>,
+    /// Size effect: row `i` is the offset `r_i` (m) of accelerometer `i`, when estimated.
+    pub accel_lever: Option<Matrix3<f64>>,
+    /// Delay `d` of the accelerometer samples against the gyros' (s), when estimated.
+    pub time_offset_s: Option<f64>,
+    /// What the gyro extension terms are evaluated at.
+    pub extension_inputs: ExtensionInputs,
+}
+
+/// The `correction` block of a result file: the [`Correction`] in matrix form, rows of the
+/// matrices as arrays (`docs/formats.md`, "Correction").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CorrectionBlock {
+    /// The formulas the numbers belong to, for a reader of the file.
+    pub convention: String,
+    /// What the gyro extension terms are evaluated at (`true` or `measured`).
+    pub extension_inputs: ExtensionInputs,
+    /// Gyro triad.
+    pub gyro: GyroBlock,
+    /// Accelerometer triad.
+    pub accel: AccelBlock,
+}
+
+/// The gyro part of a [`CorrectionBlock`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GyroBlock {
+    /// `M_g`, row by row.
+    pub matrix: [[f64; 3]; 3],
+    /// `b_g` (rad/s).
+    pub offset: [f64; 3],
+    /// `G` (rad/s per m/s^2), row by row.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gsens: Option<[[f64; 3]; 3]>,
+    /// `a`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub asym: Option<[f64; 3]>,
+}
+
+/// The accelerometer part of a [`CorrectionBlock`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AccelBlock {
+    /// `M_a`, row by row.
+    pub matrix: [[f64; 3]; 3],
+    /// `b_a` (m/s^2).
+    pub offset: [f64; 3],
+    /// `k2` (1/(m/s^2)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k2: Option<[f64; 3]>,
+    /// Row `i`: the offset `r_i` (m) of accelerometer `i`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lever: Option<[[f64; 3]; 3]>,
+    /// `d` (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_offset_s: Option<f64>,
+}
+
+/// The formulas of a [`CorrectionBlock`], written into it.
+pub const CONVENTION_TRUE: &str = "w = M_g (w' + b_g + G f + diag(a) |w|); f = M_a (f' + b_a - \
+     diag(k2) (f o f) - s(w, dw/dt) + d df/dt), s_i = e_i . ((skew(dw/dt) + skew(w)^2) r_i), r_i = \
+     row i of lever; absent terms zero";
+/// The formulas of a [`CorrectionBlock`] with [`ExtensionInputs::Measured`].
+pub const CONVENTION_MEASURED: &str = "w = M_g (w' + b_g + G f' + diag(a) |w'|); f = M_a (f' + \
+     b_a - diag(k2) (f o f) - s(w, dw/dt) + d df/dt), s_i = e_i . ((skew(dw/dt) + skew(w)^2) \
+     r_i), r_i = row i of lever; absent terms zero";
+
+fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
+}
+
+/// Expected SI unit of every parameter the correction uses.
+fn expected_unit(name: &str) -> Option<&'static str> {
+    let paper = sins_model::terms::ErrorModel::paper(&sins_model::terms::PaperPriors::paper());
+    if let Some(p) = paper.params().into_iter().find(|p| p.name == name) {
+        return Some(p.unit.si_name());
+    }
+    Candidate::ALL
+        .into_iter()
+        .filter(|c| *c != Candidate::GyroBiasDrift)
+        .find(|c| c.param_names().iter().any(|n| n == name))
+        .map(|c| c.unit().si_name())
+}
+
+/// Whether a parameter does not act on the sensor output (turntable, mounting, drift intensity).
+fn is_inert(name: &str) -> bool {
+    name.starts_with(names::INSTALL_PREFIX)
+        || name.starts_with(names::TURNTABLE_PREFIX)
+        || name.starts_with(names::BASE_PREFIX)
+        || names::GYRO_DRIFT.contains(&name)
+}
+
+impl Correction {
+    /// The correction of the parameters of a result file (SI; names of `docs/formats.md`).
+    /// The paper's 21 parameters are required; an extension term is used when any of its
+    /// parameters is given, and then all of them must be. Parameters that do not act on the
+    /// sensor output (`install.delta.*`, `turntable.*`, `base.gamma.*`, `gyro.drift.*`) are
+    /// ignored; any other name is refused.
+    pub fn from_parameters(
+        parameters: &[ResultParameter],
+        inputs: ExtensionInputs,
+    ) -> Result<Self, CorrectionError> {
+        for p in parameters {
+            if is_inert(&p.name) {
+                continue;
+            }
+            let unit =
+                expected_unit(&p.name).ok_or_else(|| CorrectionError::Unknown(p.name.clone()))?;
+            if p.unit != unit {
+                return Err(CorrectionError::Unit {
+                    name: p.name.clone(),
+                    unit: p.unit.clone(),
+                    expected: unit.into(),
+                });
+            }
+            if !p.value.is_finite() {
+                return Err(CorrectionError::NotFinite(p.name.clone()));
+            }
+        }
+        let value = |n: &str| parameters.iter().find(|p| p.name == n).map(|p| p.value);
+        // All of a group, none of it (None), or an error naming the missing ones.
+        let group = |group: &str,
+                     list: &[String],
+                     required: bool|
+         -> Result<Option<Vec<f64>>, CorrectionError> {
+            let got: Vec<Option<f64>> = list.iter().map(|n| value(n)).collect();
+            if !required && got.iter().all(Option::is_none) {
+                return Ok(None);
+            }
+            let missing: Vec<&str> = list
+                .iter()
+                .zip(&got)
+                .filter(|(_, v)| v.is_none())
+                .map(|(n, _)| n.as_str())
+                .collect();
+            if !missing.is_empty() {
+                return Err(CorrectionError::Incomplete {
+                    group: group.into(),
+                    missing: missing.join(", "),
+                    expected: format!("all of {}", list.join(", ")),
+                });
+            }
+            Ok(Some(got.into_iter().flatten().collect()))
+        };
+        let paper: Vec<String> =
+            sins_model::terms::ErrorModel::paper(&sins_model::terms::PaperPriors::paper())
+                .params()
+                .into_iter()
+                .map(|p| p.name)
+                .collect();
+        let p = group("the paper's model", &paper, true)?.unwrap_or_default();
+        let term = |c: Candidate| group(c.id(), &c.param_names(), false);
+        let mut theta = Matrix3::identity();
+        for i in 0..3 {
+            for j in 0..3 {
+                theta[(i, j)] -= p[3 + 3 * i + j];
+            }
+        }
+        let mut gamma = Matrix3::identity();
+        for (k, &(i, j)) in GAMMA_INDEX.iter().enumerate() {
+            gamma[(i, j)] += p[15 + k];
+        }
+        let gyro_matrix = invert(&theta).ok_or(CorrectionError::Singular("gyro I - Theta"))?;
+        let accel_matrix =
+            invert(&gamma).ok_or(CorrectionError::Singular("accelerometer I + Gamma"))?;
+        Ok(Self {
+            gyro_matrix,
+            gyro_offset: Vector3::new(p[0], p[1], p[2]),
+            gyro_gsens: term(Candidate::GyroGSensitivity)?.map(|v| Matrix3::from_row_slice(&v)),
+            gyro_asym: term(Candidate::GyroScaleAsymmetry)?.map(|v| Vector3::from_column_slice(&v)),
+            accel_matrix,
+            accel_offset: -Vector3::new(p[12], p[13], p[14]),
+            accel_k2: term(Candidate::AccelQuadratic)?.map(|v| Vector3::from_column_slice(&v)),
+            accel_lever: term(Candidate::AccelSizeEffect)?.map(|v| Matrix3::from_row_slice(&v)),
+            time_offset_s: term(Candidate::GyroAccelTimeOffset)?.map(|v| v[0]),
+            extension_inputs: inputs,
+        })
+    }
+
+    /// Whether the inverse needs the fixed-point iteration (a term not linear in the unknowns).
+    pub fn is_nonlinear(&self) -> bool {
+        let gyro_on_true =
+            self.extension_inputs == ExtensionInputs::True && self.gyro_asym.is_some();
+        gyro_on_true || self.accel_k2.is_some() || self.accel_lever.is_some()
+    }
+
+    /// Whether the correction uses the rate derivatives (size effect, time offset).
+    pub fn uses_derivatives(&self) -> bool {
+        self.accel_lever.is_some() || self.time_offset_s.is_some()
+    }
+
+    /// The linear part alone: `(M_g (w' + b_g), M_a (f' + b_a))`.
+    pub fn linear(
+        &self,
+        gyro: &Vector3<f64>,
+        accel: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        (
+            self.gyro_matrix * (gyro + self.gyro_offset),
+            self.accel_matrix * (accel + self.accel_offset),
+        )
+    }
+
+    /// Correct one rate record: measured mean rate `w'` (rad/s) and specific force `f'`
+    /// (m/s^2) in, `(w, f)` out. `derivatives` are `(dw/dt, df/dt)` (true, body axes), used only
+    /// by the size effect and the time offset (zero when `None`).
+    pub fn apply_rates(
+        &self,
+        gyro: &Vector3<f64>,
+        accel: &Vector3<f64>,
+        derivatives: Option<(Vector3<f64>, Vector3<f64>)>,
+    ) -> Result<(Vector3<f64>, Vector3<f64>), CorrectionError> {
+        let (w_dot, f_dot) = derivatives.unwrap_or_default();
+        let measured = self.extension_inputs == ExtensionInputs::Measured;
+        // The part of each right-hand side that does not depend on the unknowns.
+        let mut gyro_rhs = gyro + self.gyro_offset;
+        if measured {
+            if let Some(g) = &self.gyro_gsens {
+                gyro_rhs += g * accel;
+            }
+            if let Some(a) = &self.gyro_asym {
+                gyro_rhs += a.component_mul(&gyro.abs());
+            }
+        }
+        let mut accel_rhs = accel + self.accel_offset;
+        if let Some(d) = self.time_offset_s {
+            accel_rhs += f_dot * d;
+        }
+        let step = |w: &Vector3<f64>, f: &Vector3<f64>| {
+            let mut fr = accel_rhs;
+            if let Some(k2) = &self.accel_k2 {
+                fr -= k2.component_mul(&f.component_mul(f));
+            }
+            if let Some(r) = &self.accel_lever {
+                let sw = w.cross_matrix();
+                let m = w_dot.cross_matrix() + sw * sw;
+                fr -= Vector3::from_fn(|i, _| (0..3).map(|j| m[(i, j)] * r[(i, j)]).sum());
+            }
+            let f_new = self.accel_matrix * fr;
+            let mut gr = gyro_rhs;
+            if !measured {
+                if let Some(g) = &self.gyro_gsens {
+                    gr += g * f_new;
+                }
+                if let Some(a) = &self.gyro_asym {
+                    gr += a.component_mul(&w.abs());
+                }
+            }
+            (self.gyro_matrix * gr, f_new)
+        };
+        let finite = |v: &Vector3<f64>| v.iter().all(|x| x.is_finite());
+        // A genuine solution: finite, and a further step moves it by rounding only (relative
+        // to the magnitudes that enter the formulas, so that a rate near zero is no exception).
+        let solved = |w: &Vector3<f64>, f: &Vector3<f64>| {
+            let (w2, f2) = step(w, f);
+            let tol = 1e-12;
+            finite(w)
+                && finite(f)
+                && (w2 - w).norm() <= tol * (w.norm() + gyro_rhs.norm())
+                && (f2 - f).norm() <= tol * (f.norm() + accel_rhs.norm())
+        };
+        let no_fixed_point = CorrectionError::NoFixedPoint {
+            gyro: [gyro.x, gyro.y, gyro.z],
+            accel: [accel.x, accel.y, accel.z],
+        };
+        let (mut w, mut f) = self.linear(gyro, accel);
+        let mut last_change = f64::INFINITY;
+        let mut stalled = 0;
+        for _ in 0..MAX_ITERATIONS {
+            let (w_new, f_new) = step(&w, &f);
+            if !(finite(&w_new) && finite(&f_new)) {
+                return Err(no_fixed_point);
+            }
+            let dw = (w_new - w).norm();
+            let df = (f_new - f).norm();
+            (w, f) = (w_new, f_new);
+            let settled_w = dw <= FIXED_POINT_TOLERANCE * w.norm();
+            let settled_f = df <= FIXED_POINT_TOLERANCE * f.norm();
+            // Rounding may keep the last bit moving: stop also once the change no longer
+            // shrinks and is at the level of rounding.
+            let change = dw.max(df);
+            let rounding = 8.0 * f64::EPSILON * w.norm().max(f.norm());
+            if change >= last_change && change <= rounding {
+                stalled += 1;
+            }
+            if (settled_w && settled_f) || stalled >= 3 {
+                return if solved(&w, &f) {
+                    Ok((w, f))
+                } else {
+                    Err(no_fixed_point)
+                };
+            }
+            last_change = change;
+        }
+        Err(no_fixed_point)
+    }
+
+    /// The correction as the `correction` block of a result file.
+    pub fn block(&self) -> CorrectionBlock {
+        CorrectionBlock {
+            convention: match self.extension_inputs {
+                ExtensionInputs::True => CONVENTION_TRUE,
+                ExtensionInputs::Measured => CONVENTION_MEASURED,
+            }
+            .to_string(),
+            extension_inputs: self.extension_inputs,
+            gyro: GyroBlock {
+                matrix: rows(&self.gyro_matrix),
+                offset: self.gyro_offset.into(),
+                gsens: self.gyro_gsens.as_ref().map(rows),
+                asym: self.gyro_asym.map(Into::into),
+            },
+            accel: AccelBlock {
+                matrix: rows(&self.accel_matrix),
+                offset: self.accel_offset.into(),
+                k2: self.accel_k2.map(Into::into),
+                lever: self.accel_lever.as_ref().map(rows),
+                time_offset_s: self.time_offset_s,
+            },
+        }
+    }
+}
+
+/// Inverse of a sensor matrix, `None` when singular or badly conditioned.
+fn invert(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let inv = m.try_inverse()?;
+    let cond = m.norm() * inv.norm();
+    (cond.is_finite() && cond < 1e8).then_some(inv)
+}
+
+/// A record's interval (s): to the previous record, the first record's to the second.
+fn interval(records: &[ImuRecord], k: usize) -> f64 {
+    if k == 0 {
+        records[1].t - records[0].t
+    } else {
+        records[k].t - records[k - 1].t
+    }
+}
+
+/// The mean rate and specific force of record `k` (rates as they are, increments over their
+/// interval).
+fn mean_rates(kind: ImuKind, records: &[ImuRecord], k: usize) -> (Vector3<f64>, Vector3<f64>) {
+    let (g, a) = (
+        Vector3::from(records[k].gyro),
+        Vector3::from(records[k].accel),
+    );
+    match kind {
+        ImuKind::Rates => (g, a),
+        ImuKind::Increments => {
+            let dt = interval(records, k);
+            (g / dt, a / dt)
+        }
+    }
+}
+
+/// Correct a window of records: record `k` of `records`, with its neighbours for the rate
+/// derivatives when the correction needs them. Same form as the input (rates or increments,
+/// time stamp and temperature kept). `Err` carries the record's index for the caller's message.
+pub fn correct_record(
+    correction: &Correction,
+    kind: ImuKind,
+    records: &[ImuRecord],
+    k: usize,
+) -> Result<ImuRecord, CorrectionError> {
+    if kind == ImuKind::Increments && records.len() < 2 {
+        return Err(CorrectionError::TooFewRecords);
+    }
+    let (g, a) = mean_rates(kind, records, k);
+    let derivatives = if correction.uses_derivatives() && records.len() >= 2 {
+        let (lo, hi) = (k.saturating_sub(1), (k + 1).min(records.len() - 1));
+        // Time of the middle of an interval (rates: the stamp stands for its interval too).
+        let centre = |j: usize| records[j].t - 0.5 * interval(records, j);
+        let (gl, al) = mean_rates(kind, records, lo);
+        let (gh, ah) = mean_rates(kind, records, hi);
+        let (wl, fl) = correction.linear(&gl, &al);
+        let (wh, fh) = correction.linear(&gh, &ah);
+        let span = centre(hi) - centre(lo);
+        Some(((wh - wl) / span, (fh - fl) / span))
+    } else {
+        None
+    };
+    let (w, f) = correction.apply_rates(&g, &a, derivatives)?;
+    let scale = match kind {
+        ImuKind::Rates => 1.0,
+        ImuKind::Increments => interval(records, k),
+    };
+    Ok(ImuRecord {
+        t: records[k].t,
+        gyro: (w * scale).into(),
+        accel: (f * scale).into(),
+        temp: records[k].temp,
+    })
+}
+
+/// Correct every record of a file's contents ([`correct_record`] for each); `Err` gives the
+/// 0-based index of the record that failed.
+pub fn correct_records(
+    correction: &Correction,
+    kind: ImuKind,
+    records: &[ImuRecord],
+) -> Result<Vec<ImuRecord>, (usize, CorrectionError)> {
+    (0..records.len())
+        .map(|k| correct_record(correction, kind, records, k).map_err(|e| (k, e)))
+        .collect()
+}
+
+/// A calibration's result file: its parameters, their correlation matrix and, when the
+/// parameters make a correction (the paper's model complete, no unknown term), its
+/// [`CorrectionBlock`] with the extension terms evaluated at `inputs`.
+pub fn result_file(
+    parameters: Vec<ResultParameter>,
+    correlation: Vec<Vec<f64>>,
+    inputs: ExtensionInputs,
+) -> crate::io::ResultFile {
+    let correction = Correction::from_parameters(&parameters, inputs)
+        .ok()
+        .map(|c| c.block());
+    crate::io::ResultFile {
+        parameters,
+        correlation: Some(correlation),
+        correction,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sins_model::terms::{ErrorModel, PaperPriors, Sensor, SensorInput};
+
+    /// The paper's model with every extension term, and parameter values of several times
+    /// their priors' size (so that the non-linear terms matter).
+    fn full_model() -> (ErrorModel, Vec<f64>) {
+        let mut m = ErrorModel::paper(&PaperPriors::paper());
+        for c in Candidate::ALL {
+            if let Some(t) = c.term(c.default_prior_sigma()) {
+                m.push(t);
+            }
+        }
+        let p = m
+            .params()
+            .iter()
+            .enumerate()
+            .map(|(k, s)| 30.0 * s.prior_sigma * (1.7 + k as f64 * 0.37).sin())
+            .collect();
+        (m, p)
+    }
+
+    fn parameters(m: &ErrorModel, p: &[f64]) -> Vec<ResultParameter> {
+        m.params()
+            .into_iter()
+            .zip(p)
+            .map(|(s, &value)| ResultParameter {
+                name: s.name,
+                value,
+                sigma: None,
+                unit: s.unit.si_name().into(),
+            })
+            .collect()
+    }
+
+    /// The inverse of the terms' own effects (the simulator's model) is exact: the true rate
+    /// and specific force come back to rounding, linear part and every extension term.
+    #[test]
+    fn inverts_the_terms_effects_exactly() {
+        let (m, p) = full_model();
+        let c = Correction::from_parameters(&parameters(&m, &p), ExtensionInputs::True)
+            .expect("complete parameters");
+        assert!(c.is_nonlinear() && c.uses_derivatives());
+        for k in 0..50 {
+            let x = k as f64;
+            let input = SensorInput {
+                omega_body: Vector3::new((0.3 * x).sin(), -(0.7 * x).cos(), 0.2 * (x - 25.0)) * 1.5,
+                f_body: Vector3::new(3.0 * (0.1 * x).cos(), -9.0 * (0.2 * x).sin(), 9.8),
+                omega_dot_body: Vector3::new(0.4, -1.0, 0.3) * (0.5 * x).sin(),
+                f_dot_body: Vector3::new(-2.0, 0.5, 1.0) * (0.9 * x).cos(),
+            };
+            let w_raw = input.omega_body - m.error(Sensor::Gyro, &p, &input);
+            let f_raw = input.f_body + m.error(Sensor::Accel, &p, &input);
+            let (w, f) = c
+                .apply_rates(
+                    &w_raw,
+                    &f_raw,
+                    Some((input.omega_dot_body, input.f_dot_body)),
+                )
+                .expect("settles");
+            let ew = (w - input.omega_body).norm() / input.omega_body.norm();
+            let ef = (f - input.f_body).norm() / input.f_body.norm();
+            assert!(ew < 1e-14 && ef < 1e-14, "record {k}: {ew:e} {ef:e}");
+            // The first-order inverse would be wrong by far more.
+            let (wl, _) = c.linear(&w_raw, &f_raw);
+            assert!((wl - input.omega_body).norm() > 1e3 * (w - input.omega_body).norm());
+        }
+    }
+
+    /// The linear part is `(I - Theta)^-1` and `(I + Gamma)^-1` exactly, not `I + Theta`.
+    #[test]
+    fn linear_part_is_the_exact_inverse() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let p: Vec<f64> = (0..21).map(|k| 0.05 * (1.0 + k as f64).cos()).collect();
+        let c = Correction::from_parameters(&parameters(&m, &p), ExtensionInputs::True).unwrap();
+        assert!(!c.is_nonlinear() && !c.uses_derivatives());
+        let theta = Matrix3::from_row_slice(&p[3..12]);
+        let i = Matrix3::identity();
+        assert!(((i - theta) * c.gyro_matrix - i).norm() < 1e-15);
+        assert!((c.gyro_matrix - (i + theta)).norm() > 1e-3);
+        let mut gamma = Matrix3::zeros();
+        for (k, &(r, col)) in GAMMA_INDEX.iter().enumerate() {
+            gamma[(r, col)] = p[15 + k];
+        }
+        assert!(((i + gamma) * c.accel_matrix - i).norm() < 1e-15);
+        assert_eq!(c.gyro_offset, Vector3::new(p[0], p[1], p[2]));
+        assert_eq!(c.accel_offset, -Vector3::new(p[12], p[13], p[14]));
+    }
+
+    /// The free-motion form evaluates `G` and `a` at the measured values: its inverse is
+    /// `M_g (w' + nu0 + G f' + diag(a) |w'|)`, the fit's own calibrated rate.
+    #[test]
+    fn measured_inputs_are_the_free_motion_form() {
+        let (m, p) = full_model();
+        let params: Vec<ResultParameter> = parameters(&m, &p)
+            .into_iter()
+            .filter(|q| {
+                q.name.starts_with("gyro.")
+                    || q.name.starts_with("accel.bias")
+                    || q.name.starts_with("accel.gamma")
+            })
+            .collect();
+        let c = Correction::from_parameters(&params, ExtensionInputs::Measured).unwrap();
+        assert!(!c.is_nonlinear());
+        let (w_raw, f_raw) = (Vector3::new(0.5, -1.0, 0.25), Vector3::new(1.0, -2.0, 9.5));
+        let (w, f) = c.apply_rates(&w_raw, &f_raw, None).unwrap();
+        let g = c.gyro_gsens.unwrap();
+        let a = c.gyro_asym.unwrap();
+        let expect =
+            c.gyro_matrix * (w_raw + c.gyro_offset + g * f_raw + a.component_mul(&w_raw.abs()));
+        assert!((w - expect).norm() < 1e-15 * w.norm());
+        assert!((f - c.accel_matrix * (f_raw + c.accel_offset)).norm() < 1e-15 * f.norm());
+    }
+
+    #[test]
+    fn refuses_unknown_incomplete_and_wrong_units() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let good = parameters(&m, &[0.0; 21]);
+        let mut bad = good.clone();
+        bad.push(ResultParameter {
+            name: "gyro.wobble.x".into(),
+            value: 0.0,
+            sigma: None,
+            unit: "1".into(),
+        });
+        let e = Correction::from_parameters(&bad, ExtensionInputs::True).unwrap_err();
+        assert!(e.to_string().contains("`gyro.wobble.x`"), "{e}");
+        let e = Correction::from_parameters(&good[1..], ExtensionInputs::True).unwrap_err();
+        assert!(e.to_string().contains("gyro.bias.x"), "{e}");
+        let mut partial = good.clone();
+        partial.push(ResultParameter {
+            name: "accel.k2.y".into(),
+            value: 1e-5,
+            sigma: None,
+            unit: "1/(m/s^2)".into(),
+        });
+        let e = Correction::from_parameters(&partial, ExtensionInputs::True).unwrap_err();
+        let s = e.to_string();
+        assert!(
+            s.contains("accel_quadratic") && s.contains("accel.k2.x") && s.contains("accel.k2.z"),
+            "{s}"
+        );
+        let mut unit = good.clone();
+        unit[0].unit = "deg/h".into();
+        assert!(matches!(
+            Correction::from_parameters(&unit, ExtensionInputs::True),
+            Err(CorrectionError::Unit { .. })
+        ));
+        let mut inert = good.clone();
+        inert.push(ResultParameter {
+            name: "turntable.tau".into(),
+            value: 0.02,
+            sigma: None,
+            unit: "s".into(),
+        });
+        assert!(Correction::from_parameters(&inert, ExtensionInputs::True).is_ok());
+        let mut singular = good;
+        singular[3].value = 1.0; // Theta_xx = 1: the gyro reads nothing
+        assert!(matches!(
+            Correction::from_parameters(&singular, ExtensionInputs::True),
+            Err(CorrectionError::Singular(_))
+        ));
+    }
+
+    /// Terms too large for the record (here `k2 f^2` beyond `f`) have no fixed point to
+    /// settle on: an error naming the record's values, no panic and no NaN out.
+    #[test]
+    fn a_fixed_point_that_does_not_settle_is_an_error() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let mut params = parameters(&m, &[0.0; 21]);
+        for a in ["x", "y", "z"] {
+            params.push(ResultParameter {
+                name: format!("accel.k2.{a}"),
+                value: 1.0,
+                sigma: None,
+                unit: "1/(m/s^2)".into(),
+            });
+        }
+        let c = Correction::from_parameters(&params, ExtensionInputs::True).unwrap();
+        let e = c
+            .apply_rates(&Vector3::zeros(), &Vector3::new(0.0, 0.0, 9.8), None)
+            .unwrap_err();
+        assert!(matches!(e, CorrectionError::NoFixedPoint { .. }), "{e}");
+        assert!(e.to_string().contains("9.8"), "{e}");
+        // Small values of the same term settle.
+        for p in params
+            .iter_mut()
+            .filter(|p| p.name.starts_with("accel.k2."))
+        {
+            p.value = 1e-4;
+        }
+        let c = Correction::from_parameters(&params, ExtensionInputs::True).unwrap();
+        let (_, f) = c
+            .apply_rates(&Vector3::zeros(), &Vector3::new(0.0, 0.0, 9.8), None)
+            .unwrap();
+        assert!((f.z + 1e-4 * f.z * f.z - 9.8).abs() < 1e-14);
+    }
+
+    /// A true rate of zero with a non-linear gyro term: settles on zero (the relative tests
+    /// do not stall on it).
+    #[test]
+    fn zero_rate_settles() {
+        let m = ErrorModel::paper(&PaperPriors::paper());
+        let mut p = vec![0.0; 21];
+        p[0] = 1e-5; // gyro bias x
+        let mut params = parameters(&m, &p);
+        for a in ["x", "y", "z"] {
+            params.push(ResultParameter {
+                name: format!("gyro.asym.{a}"),
+                value: 1e-3,
+                sigma: None,
+                unit: "1".into(),
+            });
+        }
+        let c = Correction::from_parameters(&params, ExtensionInputs::True).unwrap();
+        // w' = w - nu0 at w = 0.
+        let (w, _) = c
+            .apply_rates(
+                &Vector3::new(-1e-5, 0.0, 0.0),
+                &Vector3::new(0.0, 0.0, 9.8),
+                None,
+            )
+            .unwrap();
+        assert!(w.norm() < 1e-20, "{w}");
+    }
+
+    /// The block reads back to itself and carries what the correction holds.
+    #[test]
+    fn block_round_trips_through_json() {
+        let (m, p) = full_model();
+        let c = Correction::from_parameters(&parameters(&m, &p), ExtensionInputs::True).unwrap();
+        let b = c.block();
+        let text = serde_json::to_string(&b).unwrap();
+        let back: CorrectionBlock = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, b);
+        assert_eq!(b.gyro.matrix[0][1], c.gyro_matrix[(0, 1)]);
+        assert_eq!(b.accel.lever.unwrap()[2][0], c.accel_lever.unwrap()[(2, 0)]);
+        assert!(text.contains("\"extension_inputs\":\"true\""), "{text}");
+    }
+}

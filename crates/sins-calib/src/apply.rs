@@ -1,0 +1,206 @@
+//! `sins-calib apply`: raw IMU records corrected with a calibration result (the estimated model
+//! inverted record by record, `calib::correction`), written in the form they came in.
+
+use crate::{Error, print};
+use calib::correction::{Correction, ExtensionInputs, correct_record};
+use calib::io::{ImuKind, ImuReader, ImuRecord, format_f64, read_result_json};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `apply`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Calibration result (JSON of `calibrate --json`, with or without --free-motion; a truth
+    /// file of `simulate` also serves): its parameters say which terms to invert.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: PathBuf,
+    /// Raw IMU records (imu.csv, rates or increments, optional temp column).
+    #[arg(long, value_name = "FILE")]
+    pub imu: PathBuf,
+    /// Corrected records: the same form, time stamps and temp column (written to a temporary
+    /// file beside it, then renamed; neither the --imu nor the --calibration file).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+}
+
+/// The same file, whether or not `b` exists yet.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let canon = |p: &Path| -> Option<PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        Some(dir.canonicalize().ok()?.join(p.file_name()?))
+    };
+    matches!((canon(a), canon(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// The terms a correction inverts, for the report.
+fn terms(c: &Correction) -> String {
+    let mut t = vec!["the paper's model (nu0, Theta, df0, Gamma)"];
+    for (on, name) in [
+        (c.gyro_gsens.is_some(), "g-sensitivity"),
+        (c.gyro_asym.is_some(), "scale asymmetry"),
+        (c.accel_k2.is_some(), "accelerometer quadratic term"),
+        (c.accel_lever.is_some(), "size effect"),
+        (c.time_offset_s.is_some(), "gyro-accelerometer time offset"),
+    ] {
+        if on {
+            t.push(name);
+        }
+    }
+    t.join(", ")
+}
+
+/// Write one record as a CSV line.
+fn line(r: &ImuRecord, out: &mut String) {
+    out.clear();
+    out.push_str(&format_f64(r.t));
+    for v in r.gyro.iter().chain(&r.accel) {
+        out.push(',');
+        out.push_str(&format_f64(*v));
+    }
+    if let Some(temp) = r.temp {
+        out.push(',');
+        out.push_str(&format_f64(temp));
+    }
+    out.push('\n');
+}
+
+/// Correct every record of `reader` into `sink`; returns the number of records.
+fn correct_stream(
+    reader: &mut ImuReader,
+    correction: &Correction,
+    sink: &mut dyn std::io::Write,
+    sink_name: &str,
+) -> Result<usize, Error> {
+    let kind = reader.kind();
+    let file = reader.file().to_string();
+    let mut header = String::from("t,");
+    header += &kind.columns().join(",");
+    if reader.has_temp() {
+        header += ",temp";
+    }
+    header.push('\n');
+    let write_err =
+        |e: std::io::Error| -> Error { format!("{sink_name}: cannot write: {e}").into() };
+    sink.write_all(header.as_bytes()).map_err(write_err)?;
+    // A window of up to four records (two before the one corrected, one after) with their
+    // lines: the intervals and the neighbours' rates the correction of a record needs.
+    let mut window: Vec<(ImuRecord, usize)> = Vec::with_capacity(4);
+    let mut text = String::new();
+    let mut count = 0;
+    let mut flush = |window: &[(ImuRecord, usize)], k: usize, count: &mut usize| {
+        let records: Vec<ImuRecord> = window.iter().map(|(r, _)| *r).collect();
+        let r = correct_record(correction, kind, &records, k)
+            .map_err(|e| -> Error { format!("{file}: line {}: {e}", window[k].1).into() })?;
+        line(&r, &mut text);
+        sink.write_all(text.as_bytes()).map_err(write_err)?;
+        *count += 1;
+        Ok::<(), Error>(())
+    };
+    while let Some(r) = reader.next_record()? {
+        window.push((r, reader.line()));
+        if window.len() > 4 {
+            window.remove(0);
+        }
+        // The record before the newest now has its successor.
+        if window.len() >= 2 {
+            let k = window.len() - 2;
+            flush(&window, k, &mut count)?;
+        }
+    }
+    if kind == ImuKind::Increments && window.len() < 2 {
+        return Err(format!(
+            "{file}: one record only: expected at least two in an increments file (the first \
+             record's interval is the one to the second)"
+        )
+        .into());
+    }
+    let k = window.len() - 1;
+    flush(&window, k, &mut count)?;
+    Ok(count)
+}
+
+/// Run `apply`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    if same_file(&args.imu, &args.out) {
+        return Err(format!(
+            "{}: --out is the --imu file: expected another file for the corrected records (the \
+             raw ones are kept)",
+            args.out.display()
+        )
+        .into());
+    }
+    if same_file(&args.calibration, &args.out) {
+        return Err(format!(
+            "{}: --out is the --calibration file: expected another file for the corrected records",
+            args.out.display()
+        )
+        .into());
+    }
+    let cal_file = args.calibration.display().to_string();
+    let result = read_result_json(&args.calibration)?;
+    let inputs = result
+        .correction
+        .as_ref()
+        .map_or(ExtensionInputs::True, |b| b.extension_inputs);
+    let correction = Correction::from_parameters(&result.parameters, inputs).map_err(|e| {
+        format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
+    })?;
+    crate::calibrate::check_output_path(&args.out)?;
+    let mut reader = ImuReader::open(&args.imu)?;
+    let kind = reader.kind();
+
+    let out = &args.out;
+    let dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = out
+        .file_name()
+        .ok_or_else(|| format!("{}: expected a file name", out.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let written = (|| -> Result<usize, Error> {
+        let f = std::fs::File::create(&tmp)
+            .map_err(|e| format!("{}: cannot write: {e}", tmp.display()))?;
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
+        let n = correct_stream(&mut reader, &correction, &mut w, &tmp.display().to_string())?;
+        let f = w
+            .into_inner()
+            .map_err(|e| format!("{}: cannot write: {}", tmp.display(), e.error()))?;
+        f.sync_all()
+            .map_err(|e| format!("{}: cannot write: {e}", tmp.display()))?;
+        std::fs::rename(&tmp, out).map_err(|e| format!("{}: cannot write: {e}", out.display()))?;
+        Ok(n)
+    })();
+    let n = match written {
+        Ok(n) => n,
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
+    };
+    let mut s = String::new();
+    let form = match kind {
+        ImuKind::Rates => "rates",
+        ImuKind::Increments => "increments",
+    };
+    s += &format!(
+        "sins-calib apply\n  calibration  {cal_file}: {}{}\n  wrote        {}: {n} records ({form}), corrected\n",
+        terms(&correction),
+        match inputs {
+            ExtensionInputs::True => "",
+            ExtensionInputs::Measured =>
+                " (g-sensitivity and asymmetry on the measured values, as fitted)",
+        },
+        out.display()
+    );
+    print(&s)
+}
