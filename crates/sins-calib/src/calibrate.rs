@@ -99,6 +99,12 @@ pub struct Args {
 #[derive(Serialize)]
 struct ResultJson<'a> {
     parameters: &'a [ResultParameter],
+    /// The posterior correlation of the parameters (docs/formats.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    correlation: Option<&'a Vec<Vec<f64>>>,
+    /// The estimated model inverted (`calib::correction`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    correction: Option<&'a calib::correction::CorrectionBlock>,
     fit: FitJson,
     /// With --diagnostics: `calib::diagnostics::Diagnostics`.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -308,6 +314,8 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         let result = est.to_result_file();
         let json = ResultJson {
             parameters: &result.parameters,
+            correlation: result.correlation.as_ref(),
+            correction: result.correction.as_ref(),
             fit: fit_json(&est, turntable.is_some()),
             diagnostics: diagnostics.as_ref(),
         };
