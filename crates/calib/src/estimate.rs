@@ -269,9 +269,11 @@ struct Scan {
 /// Length of the rate bins of the scan (s).
 const BIN_S: f64 = 0.1;
 
-/// How far one record's interval may be from the configured one, as a fraction: a programmed
-/// run's records come at a fixed rate (5 %); a recording of rests may have jittered time stamps
-/// (each record is then integrated over its own interval), but no gaps (50 %).
+/// How far one record's interval may be from the configured one: a programmed run's records
+/// come at a fixed rate (within 5 %); a recording of rests may have jittered time stamps (each
+/// record is then integrated over its own interval: within 50 %) and, in rate form, a few
+/// dropped records (a rate record integrated over up to five intervals; an increment record
+/// lost is a rotation lost).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Spacing {
     Fixed,
@@ -279,10 +281,12 @@ enum Spacing {
 }
 
 impl Spacing {
-    fn tolerance(self) -> f64 {
-        match self {
-            Spacing::Fixed => 0.05,
-            Spacing::Jittered => 0.5,
+    /// The accepted range of `interval / configured interval`.
+    fn range(self, kind: ImuKind) -> (f64, f64) {
+        match (self, kind) {
+            (Spacing::Fixed, _) => (0.95, 1.05),
+            (Spacing::Jittered, ImuKind::Increments) => (0.5, 1.5),
+            (Spacing::Jittered, ImuKind::Rates) => (0.5, 5.0),
         }
     }
 }
@@ -312,16 +316,22 @@ fn scan_imu(
             first = rec.t;
         } else {
             let d = rec.t - prev;
-            let tol = spacing.tolerance();
-            if (d / dt - 1.0).abs() > tol {
+            let (lo, hi) = spacing.range(kind);
+            if !(lo..=hi).contains(&(d / dt)) {
+                let expected = match spacing {
+                    Spacing::Fixed => format!("{dt} s (filter.imu_rate_hz = {rate_hz}) within 5 %"),
+                    Spacing::Jittered => format!(
+                        "{} to {} s (filter.imu_rate_hz = {rate_hz}: {lo} to {hi} intervals)",
+                        lo * dt,
+                        hi * dt
+                    ),
+                };
                 return Err(IoError::Line {
                     file: imu.file().to_string(),
                     line,
                     message: format!(
-                        "the interval to the previous record is {d} s: expected {dt} s \
-                         (filter.imu_rate_hz = {rate_hz}) within {} %; gaps and other rates are \
-                         not interpolated",
-                        100.0 * tol
+                        "the interval to the previous record is {d} s: expected {expected}; \
+                         gaps and other rates are not interpolated"
                     ),
                 }
                 .into());

@@ -36,7 +36,37 @@ pub struct DetectorSettings {
     pub min_duration_s: f64,
     /// An interval between records longer than this many median intervals is a gap. Default 1.5.
     pub gap_factor: f64,
+    /// The two standard-deviation thresholds are at least this many times the recording's own
+    /// noise floor ([`Segmentation::noise_floor_f_m_s2`]): a noisy unit's rests pass for rest
+    /// (as imu_tk scales its threshold by the variance of an initial rest, Tedaldi et al.
+    /// 2014). 0 turns it off. Default 3.
+    #[serde(default = "default_noise_factor")]
+    pub noise_factor: f64,
+    /// Two static intervals separated only by a gap of at most [`MERGE_GAP_INTERVALS`] median
+    /// intervals (a dropped sample or a few) whose mean specific forces agree within
+    /// [`MERGE_MAX_ANGLE_RAD`] are one pose, one interval. Default true.
+    #[serde(default = "default_true")]
+    pub merge_across_short_gaps: bool,
 }
+
+fn default_noise_factor() -> f64 {
+    3.0
+}
+
+fn default_true() -> bool {
+    true
+}
+
+/// The longest gap (in median intervals) that two static intervals of one pose may straddle.
+pub const MERGE_GAP_INTERVALS: f64 = 5.0;
+
+/// Largest angle between the mean specific forces of two static intervals of one pose (rad,
+/// 1 deg).
+pub const MERGE_MAX_ANGLE_RAD: f64 = 0.017453292519943295;
+
+/// The quantile of the windowed standard deviations taken as the noise floor: at least a
+/// tenth of any recording worth segmenting is at rest.
+pub const NOISE_FLOOR_QUANTILE: f64 = 0.1;
 
 impl Default for DetectorSettings {
     fn default() -> Self {
@@ -47,6 +77,8 @@ impl Default for DetectorSettings {
             max_rate_rad_s: 0.1,
             min_duration_s: 2.0,
             gap_factor: 1.5,
+            noise_factor: default_noise_factor(),
+            merge_across_short_gaps: true,
         }
     }
 }
@@ -69,6 +101,12 @@ impl DetectorSettings {
             return Err(format!(
                 "min_duration_s = {}: expected a number of seconds, 0 or more",
                 self.min_duration_s
+            ));
+        }
+        if !(self.noise_factor.is_finite() && self.noise_factor >= 0.0) {
+            return Err(format!(
+                "noise_factor = {}: expected a number, 0 (off) or more",
+                self.noise_factor
             ));
         }
         if !(self.gap_factor.is_finite() && self.gap_factor > 1.0) {
@@ -157,8 +195,19 @@ pub struct Segmentation {
     pub static_intervals: Vec<StaticInterval>,
     /// Everything else, between and around the static intervals, in time order.
     pub motion: Vec<Span>,
-    /// Gaps (static intervals never span one).
+    /// Gaps (a static interval spans one only when it joins two parts of one pose:
+    /// [`DetectorSettings::merge_across_short_gaps`]).
     pub gaps: Vec<Gap>,
+    /// The recording's noise floor of the specific force: the [`NOISE_FLOOR_QUANTILE`] of the
+    /// windowed standard deviations (m/s^2).
+    pub noise_floor_f_m_s2: f64,
+    /// The same for the angular rate (rad/s).
+    pub noise_floor_w_rad_s: f64,
+    /// The threshold on the specific force's standard deviation in force: the setting, or
+    /// `noise_factor` times the noise floor where that is larger (m/s^2).
+    pub threshold_std_f_m_s2: f64,
+    /// The same for the angular rate (rad/s).
+    pub threshold_std_w_rad_s: f64,
 }
 
 impl Segmentation {
@@ -272,9 +321,15 @@ pub fn detect_static(
     let blocks = timing::blocks(n, &gaps);
     let h = half_window(settings.window_s, median);
     let win = windowed(w, f, &blocks, h);
+    let floor_f = quantile(&win.std_f, NOISE_FLOOR_QUANTILE);
+    let floor_w = quantile(&win.std_w, NOISE_FLOOR_QUANTILE);
+    let max_std_f = settings.max_std_f_m_s2.max(settings.noise_factor * floor_f);
+    let max_std_w = settings
+        .max_std_w_rad_s
+        .max(settings.noise_factor * floor_w);
     let is_static = |i: usize| {
-        win.std_f[i] < settings.max_std_f_m_s2
-            && win.std_w[i] < settings.max_std_w_rad_s
+        win.std_f[i] < max_std_f
+            && win.std_w[i] < max_std_w
             && win.rate[i] < settings.max_rate_rad_s
     };
     let mut intervals = Vec::new();
@@ -289,12 +344,25 @@ pub fn detect_static(
             while j + 1 < b1 && is_static(j + 1) {
                 j += 1;
             }
-            if t[j] - t[i] >= settings.min_duration_s {
+            // A run ending at a short gap may continue after it: judged when merged.
+            let at_short_gap = settings.merge_across_short_gaps
+                && j + 1 == b1
+                && b1 < n
+                && t[b1] - t[j] <= MERGE_GAP_INTERVALS * median;
+            let starts_after_short_gap = settings.merge_across_short_gaps
+                && i == b0
+                && b0 > 0
+                && t[b0] - t[b0 - 1] <= MERGE_GAP_INTERVALS * median;
+            if t[j] - t[i] >= settings.min_duration_s || at_short_gap || starts_after_short_gap {
                 intervals.push(interval(t, w, f, i, j));
             }
             i = j + 1;
         }
     }
+    if settings.merge_across_short_gaps {
+        intervals = merge_across_gaps(t, w, f, intervals, median);
+    }
+    intervals.retain(|s| s.duration_s >= settings.min_duration_s);
     let mut motion = Vec::new();
     let mut next = 0;
     for s in &intervals {
@@ -316,7 +384,50 @@ pub fn detect_static(
         static_intervals: intervals,
         motion,
         gaps: gaps.iter().map(gap).collect(),
+        noise_floor_f_m_s2: floor_f,
+        noise_floor_w_rad_s: floor_w,
+        threshold_std_f_m_s2: max_std_f,
+        threshold_std_w_rad_s: max_std_w,
     })
+}
+
+/// The `q` quantile of `v` (by selection; NaN for an empty slice).
+fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut c = v.to_vec();
+    let k = ((c.len() - 1) as f64 * q).round() as usize;
+    let (_, x, _) = c.select_nth_unstable_by(k, f64::total_cmp);
+    *x
+}
+
+/// Join consecutive static intervals that one short gap separates and whose mean specific
+/// forces agree: one pose whose records lost a sample or a few.
+fn merge_across_gaps(
+    t: &[f64],
+    w: &[[f64; 3]],
+    f: &[[f64; 3]],
+    intervals: Vec<StaticInterval>,
+    median: f64,
+) -> Vec<StaticInterval> {
+    let mut out: Vec<StaticInterval> = Vec::with_capacity(intervals.len());
+    for s in intervals {
+        if let Some(prev) = out.last() {
+            let adjacent = s.first_record == prev.last_record + 1
+                && t[s.first_record] - t[prev.last_record] <= MERGE_GAP_INTERVALS * median;
+            let (a, b) = (prev.mean_f_m_s2, s.mean_f_m_s2);
+            let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (norm(a) * norm(b));
+            if adjacent && cos >= MERGE_MAX_ANGLE_RAD.cos() {
+                let first = prev.first_record;
+                out.pop();
+                out.push(interval(t, w, f, first, s.last_record));
+                continue;
+            }
+        }
+        out.push(s);
+    }
+    out
 }
 
 fn gap(g: &GapAt) -> Gap {
@@ -446,6 +557,89 @@ mod tests {
             f.push([0.0, 9.81 * angle.sin(), 9.81 * angle.cos()]);
         }
         (t, w, f)
+    }
+
+    /// Six poses of 4 s joined by 1.5-s turns of 90 degrees about x at 200 Hz, with white noise
+    /// of `sigma_f` (m/s^2) and `sigma_w` (rad/s) per sample (a fixed pseudo-random stream).
+    fn noisy_poses(sigma_f: f64, sigma_w: f64) -> (Vec<f64>, Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut gauss = move || {
+            // Box-Muller on a xorshift stream.
+            let mut u = || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (a, b) = (u(), u());
+            (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+        };
+        let (mut t, mut w, mut f) = (vec![], vec![], vec![]);
+        let (rest, turn, dt) = (4.0, 1.5, 0.005);
+        let rate = std::f64::consts::FRAC_PI_2 / turn;
+        let n = ((6.0 * rest + 5.0 * turn) / dt) as usize;
+        for i in 0..n {
+            let ti = i as f64 * dt;
+            let k = (ti / (rest + turn)).floor();
+            let phase = ti - k * (rest + turn);
+            let moving = phase >= rest && k < 5.0;
+            let angle = rate * (k * turn + if moving { phase - rest } else { 0.0 });
+            t.push(ti);
+            let wx = if moving { rate } else { 0.0 };
+            w.push([wx + sigma_w * gauss(), sigma_w * gauss(), sigma_w * gauss()]);
+            f.push([
+                sigma_f * gauss(),
+                9.81 * angle.sin() + sigma_f * gauss(),
+                9.81 * angle.cos() + sigma_f * gauss(),
+            ]);
+        }
+        (t, w, f)
+    }
+
+    #[test]
+    fn a_noisy_units_rests_are_found_with_thresholds_from_its_noise() {
+        // Accelerometer noise per sample at the fixed threshold (a consumer unit, 0.12 m/s^2).
+        let (t, w, f) = noisy_poses(0.12, 0.01);
+        let fixed = DetectorSettings {
+            noise_factor: 0.0,
+            ..DetectorSettings::default()
+        };
+        let s = detect_static(&t, &w, &f, &fixed).unwrap();
+        assert!(s.static_intervals.len() < 6, "{}", s.static_intervals.len());
+        let s = detect_static(&t, &w, &f, &DetectorSettings::default()).unwrap();
+        assert_eq!(s.static_intervals.len(), 6, "{s:?}");
+        assert!((s.noise_floor_f_m_s2 / (0.12 * 3f64.sqrt()) - 1.0).abs() < 0.1);
+        assert!(s.threshold_std_f_m_s2 > 0.3, "{}", s.threshold_std_f_m_s2);
+        // No rest reaches into a turn.
+        for r in &s.static_intervals {
+            let k = (r.start_s / 5.5).floor();
+            assert!(
+                r.start_s >= k * 5.5 - 1e-9 && r.end_s <= k * 5.5 + 4.0 + 1e-9,
+                "{r:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_pose_that_lost_a_sample_is_one_interval() {
+        let (mut t, mut w, mut f) = noisy_poses(0.01, 0.001);
+        // Drop one sample in the middle of the third pose (t = 13 s).
+        let k = t.iter().position(|&x| x >= 13.0).unwrap();
+        t.remove(k);
+        w.remove(k);
+        f.remove(k);
+        let s = detect_static(&t, &w, &f, &DetectorSettings::default()).unwrap();
+        assert_eq!(s.gaps.len(), 1);
+        assert_eq!(s.static_intervals.len(), 6, "{:?}", s.static_intervals);
+        let third = &s.static_intervals[2];
+        assert!(third.start_s < 13.0 && third.end_s > 13.0, "{third:?}");
+        // Without merging the pose is two runs of 1.5 s, each too short: the pose is lost.
+        let split = DetectorSettings {
+            merge_across_short_gaps: false,
+            ..DetectorSettings::default()
+        };
+        let s = detect_static(&t, &w, &f, &split).unwrap();
+        assert_eq!(s.static_intervals.len(), 5, "{:?}", s.static_intervals);
     }
 
     #[test]

@@ -92,6 +92,9 @@ pub struct Args {
     /// block. A failing verdict (family-wise level 1 %) ends with exit status 3.
     #[arg(long, value_name = "DIR")]
     pub diagnostics: Option<PathBuf>,
+    /// How rests are found in a recording without a program (and with --free-motion).
+    #[command(flatten)]
+    pub detector: crate::detector_args::DetectorArgs,
 }
 
 /// The JSON result: the parameters as `calib::io::ResultFile` writes them, plus the fit
@@ -252,6 +255,14 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         prepare_diagnostics_dir(dir)?;
     }
     let mut input = load_inputs(args)?;
+    if input.program.is_some() && args.detector.any() {
+        return Err(
+            "calibrate: the --rest-* options set how rests are found in a recording \
+                    without a program; this configuration has a program (or --turntable gives \
+                    one), which says where the unit rests"
+                .into(),
+        );
+    }
     let turntable = match (&input.tt, &input.tt_file) {
         (Some(d), Some(f)) => Some((d, f.as_str())),
         _ => None,
@@ -283,7 +294,11 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
             // No program: the rests the data show stand in for it. The records are read into
             // memory for the detector (recordings of rests are short).
             let data = read_imu_csv(&args.imu)?;
-            let rests = detect_rests(&data, &input.imu_file)?;
+            let settings = args
+                .detector
+                .settings()
+                .map_err(|e| format!("calibrate: {e}"))?;
+            let rests = detect_rests(&data, &input.imu_file, &settings)?;
             calibrate_rests(
                 &input.config,
                 &layout,
@@ -505,12 +520,15 @@ fn header_report(input: &Inputs, est: &Estimate) -> String {
     s
 }
 
-/// The rests of a recording without a program, by the static detector of `segment` (its
-/// default settings), on the IMU clock: each from the start of its first record's interval to
-/// its last record's time stamp.
-fn detect_rests(data: &calib::io::ImuData, file: &str) -> Result<Vec<Rest>, Error> {
-    let seg = ::import::detect::segment(data, &::import::detect::DetectorSettings::default())
-        .map_err(|e| format!("{file}: {e}"))?;
+/// The rests of a recording without a program, by the static detector of `segment`, on the
+/// IMU clock: each from the start of its first record's interval to its last record's time
+/// stamp.
+fn detect_rests(
+    data: &calib::io::ImuData,
+    file: &str,
+    settings: &::import::detect::DetectorSettings,
+) -> Result<Vec<Rest>, Error> {
+    let seg = ::import::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
     let dt = seg.median_interval_s;
     Ok(seg
         .static_intervals

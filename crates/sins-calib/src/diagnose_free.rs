@@ -81,7 +81,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
     settings.holdout = args.holdout;
     let data = read_imu_csv(&args.imu)?;
     let file = args.imu.display().to_string();
-    let (_, intervals) = static_intervals(&data, &file)?;
+    let (_, intervals) =
+        static_intervals(&data, &file, &::import::detect::DetectorSettings::default())?;
     let turns = match &args.sections {
         Some(p) => known_turns(&SectionsFile::read(p)?, &intervals),
         None => Vec::new(),

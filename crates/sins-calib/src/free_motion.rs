@@ -135,12 +135,13 @@ pub(crate) fn known_turns(sections: &SectionsFile, intervals: &[Interval]) -> Ve
         .collect()
 }
 
-/// The static intervals of a recording by the default detector.
+/// The static intervals of a recording by the detector with `settings`.
 pub(crate) fn static_intervals(
     data: &calib::io::ImuData,
     file: &str,
+    settings: &DetectorSettings,
 ) -> Result<(::import::detect::Segmentation, Vec<Interval>), Error> {
-    let seg = segment(data, &DetectorSettings::default()).map_err(|e| format!("{file}: {e}"))?;
+    let seg = segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
     let intervals = seg
         .static_intervals
         .iter()
@@ -168,7 +169,11 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     settings.holdout = args.holdout;
     let data = read_imu_csv(&args.imu)?;
     let file = args.imu.display().to_string();
-    let (seg, intervals) = static_intervals(&data, &file)?;
+    let detector = args
+        .detector
+        .settings()
+        .map_err(|e| format!("calibrate --free-motion: {e}"))?;
+    let (seg, intervals) = static_intervals(&data, &file, &detector)?;
     let turns = match &args.sections {
         Some(p) => known_turns(&SectionsFile::read(p)?, &intervals),
         None => Vec::new(),

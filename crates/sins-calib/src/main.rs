@@ -20,6 +20,7 @@ mod analyse;
 mod apply;
 mod calibrate;
 mod design;
+mod detector_args;
 mod diagnose;
 mod diagnose_free;
 mod diagnose_report;

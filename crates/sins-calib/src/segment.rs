@@ -59,6 +59,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         max_rate_rad_s: args.max_rate,
         min_duration_s: args.min_duration,
         gap_factor: args.gap_factor,
+        ..DetectorSettings::default()
     };
     settings
         .check()

@@ -1,0 +1,80 @@
+//! The static detector's settings as command-line options, shared by every command that finds
+//! rests in a recording (`calibrate` without a program, `calibrate --free-motion`).
+
+use ::import::detect::DetectorSettings;
+
+/// Options of the static detector (`import::detect`; the defaults are
+/// `DetectorSettings::default()`).
+#[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Static detection (recordings without a program)")]
+pub struct DetectorArgs {
+    /// Length of the sliding window centred on each record, in seconds.
+    #[arg(long = "rest-window", value_name = "SECONDS")]
+    pub window: Option<f64>,
+    /// Largest standard deviation of the specific force over the window (root of the summed
+    /// variances of the three axes), m/s^2; raised to --rest-noise-factor times the
+    /// recording's own noise floor where that is larger.
+    #[arg(long = "rest-max-std-f", value_name = "M_S2")]
+    pub max_std_f: Option<f64>,
+    /// Largest standard deviation of the angular rate over the window, rad/s (raised likewise).
+    #[arg(long = "rest-max-std-w", value_name = "RAD_S")]
+    pub max_std_w: Option<f64>,
+    /// Largest magnitude of the mean angular rate over the window, rad/s.
+    #[arg(long = "rest-max-rate", value_name = "RAD_S")]
+    pub max_rate: Option<f64>,
+    /// Shortest rest, in seconds.
+    #[arg(long = "rest-min-duration", value_name = "SECONDS")]
+    pub min_duration: Option<f64>,
+    /// The deviation thresholds are at least this many times the recording's noise floor (the
+    /// tenth percentile of the windowed deviations); 0 keeps them as given.
+    #[arg(long = "rest-noise-factor", value_name = "FACTOR")]
+    pub noise_factor: Option<f64>,
+}
+
+impl DetectorArgs {
+    /// Whether any option was given.
+    pub fn any(&self) -> bool {
+        [
+            self.window,
+            self.max_std_f,
+            self.max_std_w,
+            self.max_rate,
+            self.min_duration,
+            self.noise_factor,
+        ]
+        .iter()
+        .any(Option::is_some)
+    }
+
+    /// The settings: the defaults with the options given, checked (the message names the
+    /// option).
+    pub fn settings(&self) -> Result<DetectorSettings, String> {
+        let d = DetectorSettings::default();
+        let s = DetectorSettings {
+            window_s: self.window.unwrap_or(d.window_s),
+            max_std_f_m_s2: self.max_std_f.unwrap_or(d.max_std_f_m_s2),
+            max_std_w_rad_s: self.max_std_w.unwrap_or(d.max_std_w_rad_s),
+            max_rate_rad_s: self.max_rate.unwrap_or(d.max_rate_rad_s),
+            min_duration_s: self.min_duration.unwrap_or(d.min_duration_s),
+            noise_factor: self.noise_factor.unwrap_or(d.noise_factor),
+            ..d
+        };
+        s.check().map_err(|e| {
+            let option = e
+                .split(' ')
+                .next()
+                .map(|setting| match setting {
+                    "window_s" => "--rest-window",
+                    "max_std_f_m_s2" => "--rest-max-std-f",
+                    "max_std_w_rad_s" => "--rest-max-std-w",
+                    "max_rate_rad_s" => "--rest-max-rate",
+                    "min_duration_s" => "--rest-min-duration",
+                    "noise_factor" => "--rest-noise-factor",
+                    _ => "a detector option",
+                })
+                .unwrap_or("a detector option");
+            format!("{option}: {e}")
+        })?;
+        Ok(s)
+    }
+}

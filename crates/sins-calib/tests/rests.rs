@@ -1,0 +1,108 @@
+//! `calibrate` on a recording of rests without a program: a simulated hand-placed run of a
+//! navigation-grade unit through the command line (the rests found by the detector), and the
+//! refusal of the detector options where a program says where the unit rests.
+
+use crate::common::{self, run, s, text};
+use std::path::{Path, PathBuf};
+
+fn scratch(name: &str) -> PathBuf {
+    common::scratch("sins-calib-rests", name)
+}
+
+/// A six-position program (20-s rests joined by 90-degree turns at 10 deg/s, every face up
+/// once) and two configurations into `dir`: `examples/run.toml` with it (for `simulate`), and
+/// the same without a program (for `calibrate`).
+fn configs(dir: &Path) -> (PathBuf, PathBuf) {
+    let mut program =
+        "name = \"six faces\"\nstart_deg = [0.0, 0.0, 0.0]\n\n[[segment]]\nkind = \"dwell\"\nduration_s = 20.0\n"
+            .to_string();
+    for (gimbal, rate) in [(3, 10.0), (3, 10.0), (3, 10.0), (2, 10.0), (2, 20.0)] {
+        let duration = 90.0 / f64::abs(rate) * if rate > 15.0 { 2.0 } else { 1.0 };
+        program.push_str(&format!(
+            "\n[[segment]]\nkind = \"rotate\"\ngimbal = {gimbal}\nrate_deg_s = {rate}\nduration_s = {duration}\n\n[[segment]]\nkind = \"dwell\"\nduration_s = 20.0\n"
+        ));
+    }
+    std::fs::write(dir.join("six.toml"), program).expect("program");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/run.toml");
+    let text = std::fs::read_to_string(&example).expect("examples/run.toml");
+    let line = "program = \"paper\"";
+    assert!(
+        text.contains(line),
+        "examples/run.toml no longer has `{line}`"
+    );
+    let with = dir.join("with-program.toml");
+    std::fs::write(&with, text.replace(line, "program = \"six.toml\"")).expect("config");
+    let without = dir.join("rests.toml");
+    std::fs::write(&without, text.replace(line, "")).expect("config");
+    (with, without)
+}
+
+#[test]
+fn a_recording_of_rests_is_calibrated_without_its_program() {
+    let dir = scratch("six");
+    let (with, without) = configs(&dir);
+    let out = dir.join("run");
+    let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
+    assert!(sim.status.success(), "{}", text(&sim.stderr));
+    let imu = out.join("imu.csv");
+    let json = dir.join("result.json");
+    let cal = run(&[
+        "calibrate",
+        "--imu",
+        s(&imu),
+        "--config",
+        s(&without),
+        "--truth",
+        s(&out.join("truth.json")),
+        "--json",
+        s(&json),
+    ]);
+    let report = text(&cal.stdout);
+    assert!(cal.status.success(), "{report}\n{}", text(&cal.stderr));
+    assert!(
+        report.contains("no program (a recording of rests)"),
+        "{report}"
+    );
+    assert!(
+        report.contains("rests           6 found in the data"),
+        "{report}"
+    );
+    assert!(report.contains("heading from the Earth rate"), "{report}");
+    // Every parameter within 4 sigma of the truth (24 parameters: a 1-in-400 bound each).
+    let worst = report
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("largest error "))
+        .expect("a largest error line");
+    let sigma: f64 = worst
+        .split_whitespace()
+        .next()
+        .and_then(|v| v.parse().ok())
+        .expect("a number of sigmas");
+    assert!(sigma.abs() < 4.0, "{report}");
+    let result = std::fs::read_to_string(&json).expect("result written");
+    assert!(result.contains("\"correlation\""), "{result}");
+}
+
+#[test]
+fn detector_options_are_refused_where_a_program_says_where_the_unit_rests() {
+    let dir = scratch("refused");
+    let (with, _) = configs(&dir);
+    let out = dir.join("run");
+    let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
+    assert!(sim.status.success(), "{}", text(&sim.stderr));
+    let cal = run(&[
+        "calibrate",
+        "--imu",
+        s(&out.join("imu.csv")),
+        "--config",
+        s(&with),
+        "--rest-window",
+        "2",
+    ]);
+    assert_eq!(cal.status.code(), Some(1));
+    assert!(
+        text(&cal.stderr).contains("--rest-*"),
+        "{}",
+        text(&cal.stderr)
+    );
+}
