@@ -9,5 +9,6 @@ mod noiseless;
 mod program_from_angles;
 mod program_start;
 mod rests;
+mod rests_loop;
 mod static_runs;
 mod turntable_record_rates;

@@ -58,7 +58,7 @@ fn nineteen_positions() -> String {
     t
 }
 
-fn config(seed: u64) -> RunConfig {
+pub fn config(seed: u64) -> RunConfig {
     let dir = std::env::temp_dir().join(format!("sins-rests-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(format!("program-{seed}.toml"));
@@ -70,7 +70,7 @@ fn config(seed: u64) -> RunConfig {
 }
 
 /// The dwells of the program, on the IMU clock (the simulated program starts at 0).
-fn rests(config: &RunConfig) -> Vec<Rest> {
+pub fn rests(config: &RunConfig) -> Vec<Rest> {
     let program = config.program().unwrap();
     program
         .pieces()

@@ -27,7 +27,7 @@
 
 use crate::config::RunConfig;
 use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
-use crate::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose, segments};
+use crate::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose};
 use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
 use crate::evidence::{
     InformationGain, ScoreTest, Separability, chi_bar_square_sf, ln_chi_square_sf, score_test,
@@ -214,16 +214,30 @@ pub fn log_likelihood(innovations: &[Innovation]) -> (f64, usize) {
 struct Context<'a> {
     config: &'a RunConfig,
     data: &'a RunData<'a>,
+    /// A recording of rests without a program ([`run_loop_at_rests`]).
+    rests: Option<&'a [crate::rests::Rest]>,
     settings: &'a LoopSettings,
     progress: &'a mut dyn FnMut(&str),
 }
 
 impl Context<'_> {
     fn fit(&mut self, ext: &ModelExtension) -> Result<Fit, LoopError> {
-        let estimate = estimate_ext(self.config, *self.data, ext)?;
-        let program = self.config.program().map_err(EstimateError::from)?;
-        let segs = segments(&program, estimate.program_start_s);
-        let diagnostics = diagnose(&estimate.innovations, &segs, &self.settings.diagnostics);
+        let estimate = match self.rests {
+            None => estimate_ext(self.config, *self.data, ext)?,
+            Some(rests) => crate::estimate::calibrate_rests(
+                self.config,
+                &crate::layout::layout_with(self.config, false, ext),
+                self.data.imu,
+                self.data.imu_file,
+                rests,
+                &mut |_, _| {},
+            )?,
+        };
+        let diagnostics = diagnose(
+            &estimate.innovations,
+            &estimate.segments,
+            &self.settings.diagnostics,
+        );
         let (log_likelihood, observations) = log_likelihood(&estimate.innovations);
         Ok(Fit {
             extension: ext.clone(),
@@ -272,7 +286,17 @@ impl Context<'_> {
             p_value,
             ln_p_value,
         } = score_test(&theta, &cov, &s0);
-        let post = self.analyse(&ext)?;
+        // Without a program there is no motion to analyse along: the fit's own posterior says
+        // what the recording separates (a term it cannot observe keeps its prior).
+        let post = match self.rests {
+            None => self.analyse(&ext)?,
+            Some(_) => Posterior {
+                names: est.names.clone(),
+                units: est.units.clone(),
+                prior_sigma: est.prior_sigma.clone(),
+                cov: est.cov.clone(),
+            },
+        };
         let base: Vec<String> = parameter_names(&current.estimate);
         let sep = separability(&post.names, &post.prior_sigma, &post.cov, &names, &base);
         let estimate = idx
@@ -457,12 +481,41 @@ pub fn run_loop(
     let resolved = crate::angles_program::resolve_program(config, data.turntable, imu_start)
         .map_err(EstimateError::from)?;
     let config = resolved.as_ref().unwrap_or(config);
-    let mut cx = Context {
+    let cx = Context {
         config,
         data,
+        rests: None,
         settings,
         progress,
     };
+    loop_in(cx)
+}
+
+/// [`run_loop`] on a recording of rests without a program or turntable angles
+/// ([`crate::estimate::calibrate_rests`]): the same candidates, tests and decisions, with each
+/// candidate's separability from the fit's own posterior (no program to analyse along). A time
+/// offset or the inner lever arms need specific force measured during rotation, which such a
+/// recording does not have: their posterior stays at the prior and they are not separable.
+pub fn run_loop_at_rests(
+    config: &RunConfig,
+    data: &RunData,
+    rests: &[crate::rests::Rest],
+    settings: &LoopSettings,
+    progress: &mut dyn FnMut(&str),
+) -> Result<LoopResult, LoopError> {
+    let cx = Context {
+        config,
+        data,
+        rests: Some(rests),
+        settings,
+        progress,
+    };
+    loop_in(cx)
+}
+
+/// The loop itself, on a context.
+fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
+    let settings = cx.settings;
     (cx.progress)("fitting the paper's model");
     let base = cx.fit(&ModelExtension::default())?;
     let mut current = base.clone();

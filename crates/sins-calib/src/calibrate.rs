@@ -523,7 +523,7 @@ fn header_report(input: &Inputs, est: &Estimate) -> String {
 /// The rests of a recording without a program, by the static detector of `segment`, on the
 /// IMU clock: each from the start of its first record's interval to its last record's time
 /// stamp.
-fn detect_rests(
+pub(crate) fn detect_rests(
     data: &calib::io::ImuData,
     file: &str,
     settings: &::import::detect::DetectorSettings,

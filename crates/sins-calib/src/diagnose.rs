@@ -5,7 +5,9 @@
 use crate::calibrate::check_output_path;
 use crate::{Error, load_config, print};
 use calib::estimate::RunData;
-use calib::extend::{CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop};
+use calib::extend::{
+    CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop, run_loop_at_rests,
+};
 use calib::io::{ResultParameter, read_imu_csv, read_turntable_csv};
 use serde::Serialize;
 use sins_model::candidates::Candidate;
@@ -68,6 +70,11 @@ pub struct Args {
     /// IMU time (s) at which the rotation program starts (as for `calibrate`).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub program_start: Option<f64>,
+    /// How rests are found in a recording without a program (a configuration without
+    /// `program` and no --turntable: the loop then runs on the filter of `calibrate` for such
+    /// recordings, each candidate's separability from the fit's own posterior).
+    #[command(flatten)]
+    pub detector: crate::detector_args::DetectorArgs,
 }
 
 /// Parse candidate ids, naming the valid ones on a bad id.
@@ -224,23 +231,31 @@ pub fn summary(r: &LoopResult) -> String {
                     .as_ref()
                     .map(|x| x.confounded())
                     .unwrap_or_default();
-                format!("{} (confounded with {})", c.term, conf.join(", "))
+                if conf.is_empty() {
+                    format!(
+                        "{} (not observed: its posterior stays near its prior)",
+                        c.term
+                    )
+                } else {
+                    format!("{} (confounded with {})", c.term, conf.join(", "))
+                }
             })
             .collect()
     });
     if !inseparable.is_empty() {
         let _ = writeln!(
             s,
-            "note: this program cannot separate {}: the base parameters would absorb such an \
-             effect without a trace in the innovations; `sins-calib design` proposes a program \
-             that separates them.",
+            "note: this recording cannot separate {}: the base parameters would absorb such an \
+             effect, or the motion does not excite it (a time offset and the inner lever arms \
+             need specific force measured while the unit turns); `sins-calib design` proposes a \
+             turntable program that separates them.",
             inseparable.join("; ")
         );
     }
     for c in calls {
         let _ = writeln!(
             s,
-            "note: the data call for {} (p = {:.2e}) but this program cannot separate it; run \
+            "note: the data call for {} (p = {:.2e}) but this recording cannot separate it; run \
              `sins-calib design --config ... --terms {}` for a program that does.",
             c.term, c.p_value, c.term
         );
@@ -280,9 +295,26 @@ pub fn run(args: &Args) -> Result<(), Error> {
         imu_file: &imu_file,
         turntable: tt.as_ref().zip(tt_file.as_deref()),
     };
-    let result = run_loop(&config, &data, &settings, &mut |what| {
-        eprintln!("diagnose: {what}")
-    })?;
+    let mut progress = |what: &str| eprintln!("diagnose: {what}");
+    let rests_mode = tt.is_none() && config.program_from_angles();
+    if !rests_mode && args.detector.any() {
+        return Err(
+            "diagnose: the --rest-* options set how rests are found in a recording \
+                    without a program; this configuration has a program (or --turntable gives \
+                    one), which says where the unit rests"
+                .into(),
+        );
+    }
+    let result = if rests_mode {
+        let detector = args
+            .detector
+            .settings()
+            .map_err(|e| format!("diagnose: {e}"))?;
+        let rests = crate::calibrate::detect_rests(&imu, &imu_file, &detector)?;
+        run_loop_at_rests(&config, &data, &rests, &settings, &mut progress)?
+    } else {
+        run_loop(&config, &data, &settings, &mut progress)?
+    };
     let text = summary(&result);
     print(&text)?;
     if let Some(path) = &args.json {

@@ -1,0 +1,63 @@
+//! The model-extension loop on recordings of rests without a program
+//! (`calib::extend::run_loop_at_rests`): the 19-position run of `rests.rs` at 25 Hz with a
+//! hidden accelerometer quadratic term, and a clean control.
+//!
+//! Fixed before the runs were looked at: the quadratic term of a tactical MEMS unit
+//! (2e-5 per m/s^2 on each axis, signs +, -, +; `workspace_tests::hidden`), seed 700; the
+//! control seed 701. The loop must accept `accel_quadratic` (and nothing else) on the first,
+//! nothing on the second.
+
+use calib::config::RunConfig;
+use calib::estimate::RunData;
+use calib::extend::{LoopSettings, run_loop_at_rests};
+use calib::extension::HiddenEffects;
+use calib::io::ImuData;
+use calib::rests::Rest;
+
+fn config(seed: u64) -> RunConfig {
+    let mut c = crate::rests::config(seed);
+    c.truth.imu_rate_hz = 25.0;
+    c.filter.imu_rate_hz = 25.0;
+    c
+}
+
+fn accepted(seed: u64, hidden: &HiddenEffects) -> Vec<String> {
+    let config = config(seed);
+    let rests: Vec<Rest> = crate::rests::rests(&config);
+    let sim = calib::simulate::simulate_run_hidden(&config, "19 positions", hidden).unwrap();
+    let imu = ImuData::from_samples(&sim.imu);
+    let data = RunData {
+        imu: &imu,
+        imu_file: "imu.csv",
+        turntable: None,
+    };
+    let result = run_loop_at_rests(
+        &config,
+        &data,
+        &rests,
+        &LoopSettings::default(),
+        &mut |_| {},
+    )
+    .unwrap();
+    let terms = result.accepted_terms.clone();
+    println!("seed {seed}: accepted {terms:?}");
+    terms
+}
+
+#[test]
+fn the_loop_finds_an_accelerometer_quadratic_term_without_a_program() {
+    let hidden = HiddenEffects {
+        values: vec![
+            ("accel.k2.x".into(), 2e-5),
+            ("accel.k2.y".into(), -2e-5),
+            ("accel.k2.z".into(), 2e-5),
+        ],
+        gyro_drift: None,
+    };
+    assert_eq!(accepted(700, &hidden), vec!["accel_quadratic".to_string()]);
+}
+
+#[test]
+fn the_loop_accepts_nothing_on_a_clean_recording_of_rests() {
+    assert!(accepted(701, &HiddenEffects::default()).is_empty());
+}
