@@ -5,7 +5,8 @@
 //! Fixed before the runs were looked at: the quadratic term of a tactical MEMS unit
 //! (2e-5 per m/s^2 on each axis, signs +, -, +; `workspace_tests::hidden`), seed 700; the
 //! control seed 701. The loop must accept `accel_quadratic` (and nothing else) on the first,
-//! nothing on the second.
+//! nothing on the second. The negative control of issue 19: no term accepted on at least 19
+//! of the 20 clean runs of seeds 710-729.
 
 use calib::config::RunConfig;
 use calib::estimate::RunData;
@@ -60,4 +61,16 @@ fn the_loop_finds_an_accelerometer_quadratic_term_without_a_program() {
 #[test]
 fn the_loop_accepts_nothing_on_a_clean_recording_of_rests() {
     assert!(accepted(701, &HiddenEffects::default()).is_empty());
+}
+
+#[test]
+fn the_loop_accepts_nothing_on_19_of_20_clean_recordings_of_rests() {
+    let seeds: Vec<u64> = (710..730).collect();
+    let runs =
+        workspace_tests::parallel_map(&seeds, |&seed| accepted(seed, &HiddenEffects::default()));
+    let false_calls = runs.iter().filter(|t| !t.is_empty()).count();
+    assert!(
+        false_calls <= 1,
+        "terms accepted on {false_calls} of 20 clean runs: {runs:?}"
+    );
 }
