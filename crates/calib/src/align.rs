@@ -328,6 +328,19 @@ pub fn ideal_bins(kin: &Kinematics, bin_s: f64) -> Vec<RateBin> {
         .collect()
 }
 
+/// `p` with the rows and columns of the attitude error (the first three states) zero.
+pub fn without_attitude(p: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut p = p.clone();
+    let n = p.nrows();
+    for i in 0..3 {
+        for j in 0..n {
+            p[(i, j)] = 0.0;
+            p[(j, i)] = 0.0;
+        }
+    }
+    p
+}
+
 /// The prior covariance of all states with the start attitude error tied to the alignment:
 /// `beta_0 = B p + eps`, `cov(beta_0) = B P_p B^T + sigma_eps^2 I`, `cov(beta_0, p) = B P_p`,
 /// `beta_0` uncorrelated with the other states. `p0` is the prior covariance without it.
@@ -336,14 +349,7 @@ pub fn aligned_covariance(
     instrument: std::ops::Range<usize>,
     alignment: &Alignment,
 ) -> DMatrix<f64> {
-    let mut p = p0.clone();
-    let n = p.nrows();
-    for i in 0..3 {
-        for j in 0..n {
-            p[(i, j)] = 0.0;
-            p[(j, i)] = 0.0;
-        }
-    }
+    let mut p = without_attitude(p0);
     let p_pp = p0.view(
         (instrument.start, instrument.start),
         (instrument.len(), instrument.len()),

@@ -356,14 +356,7 @@ pub fn level(w: &Vector3<f64>, f: &Vector3<f64>, gyrocompass: bool) -> Option<Ma
 /// The prior covariance of all states with the start attitude error of a rest alignment:
 /// independent of the other states, with the alignment's tilt and heading sigmas.
 pub fn rest_covariance(p0: &DMatrix<f64>, al: &RestAlignment) -> DMatrix<f64> {
-    let mut p = p0.clone();
-    let n = p.nrows();
-    for i in 0..3 {
-        for j in 0..n {
-            p[(i, j)] = 0.0;
-            p[(j, i)] = 0.0;
-        }
-    }
+    let mut p = crate::align::without_attitude(p0);
     p[(0, 0)] = al.tilt_prior_rad.powi(2);
     p[(1, 1)] = al.tilt_prior_rad.powi(2);
     p[(2, 2)] = al.heading_prior_rad.powi(2);
