@@ -208,18 +208,31 @@ pub fn summary(r: &LoopResult) -> String {
             s,
             "verdict: the paper's model fits these data; no term is called for."
         );
-    } else if r.accepted_terms.is_empty() && calls.is_empty() {
+    } else if r.accepted_terms.is_empty() && !r.last.diagnostics.fits {
         let _ = writeln!(
             s,
-            "verdict: no candidate term is called for, but the diagnostics fail: {}",
-            r.base.diagnostics.failures.join("; ")
+            "verdict: THE MODEL DOES NOT FIT THESE DATA, AND NO CANDIDATE TERM THAT THIS \
+             RECORDING SEPARATES EXPLAINS THE MISFIT (exit status 3). Failing tests:"
         );
+        s += &failure_lines(&r.last.diagnostics.failures);
     } else {
         let _ = writeln!(
             s,
             "verdict: terms accepted: {}",
-            r.accepted_terms.join(", ")
+            if r.accepted_terms.is_empty() {
+                "none".to_string()
+            } else {
+                r.accepted_terms.join(", ")
+            }
         );
+        if !r.last.diagnostics.fits {
+            let _ = writeln!(
+                s,
+                "  the extended model still does not fit these data (exit status 3). Failing \
+                 tests:"
+            );
+            s += &failure_lines(&r.last.diagnostics.failures);
+        }
     }
     let inseparable: Vec<String> = r.rounds.last().map_or(Vec::new(), |l| {
         l.candidates
@@ -263,13 +276,32 @@ pub fn summary(r: &LoopResult) -> String {
     s
 }
 
-/// Run `diagnose`.
-pub fn run(args: &Args) -> Result<(), Error> {
+/// The failing tests one per line, the first ten and how many more.
+fn failure_lines(failures: &[String]) -> String {
+    const SHOWN: usize = 10;
+    let mut s = String::new();
+    for f in failures.iter().take(SHOWN) {
+        let _ = writeln!(s, "    {f}");
+    }
+    if failures.len() > SHOWN {
+        let _ = writeln!(
+            s,
+            "    ... and {} more (all of them in --json)",
+            failures.len() - SHOWN
+        );
+    }
+    s
+}
+
+/// Run `diagnose`; returns whether the final model fits the data (its diagnostics pass).
+pub fn run(args: &Args) -> Result<bool, Error> {
     for p in [&args.json, &args.report].into_iter().flatten() {
         check_output_path(p)?;
     }
     if args.free_motion {
-        return crate::diagnose_free::run(args);
+        // The free-motion loop has its own verdict in its report (issue 19: to be merged into
+        // this one).
+        return crate::diagnose_free::run(args).map(|()| true);
     }
     let (mut config, _) = load_config(args.config.as_deref().unwrap_or("paper"))?;
     if let Some(t) = args.program_start {
@@ -324,5 +356,5 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(dir) = &args.report {
         crate::diagnose_report::write(dir, &result, &text)?;
     }
-    Ok(())
+    Ok(result.last.diagnostics.fits)
 }

@@ -100,6 +100,10 @@ enum Command {
     /// Find what the paper's model gets wrong: fit it, test every candidate error term against
     /// the innovations, add the best-supported one the program can separate, measure the gain,
     /// and repeat while it is significant (docs/model-extension.md).
+    ///
+    /// Exit status: 0 when the final model fits the data (its diagnostics pass), 3 when it does
+    /// not (with or without accepted terms: the misfit is then one no candidate explains), 1
+    /// for refused input or another error, 2 for a malformed command line.
     Diagnose(diagnose::Args),
     /// Propose a rotation program that separates the given candidate terms from the paper's
     /// parameters, printed as TOML with its predicted sigmas.
@@ -152,7 +156,13 @@ fn main() -> ExitCode {
         Command::Import(args) => import::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Segment(args) => segment::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Noise(args) => noise::run(&args).map(|()| ExitCode::SUCCESS),
-        Command::Diagnose(args) => diagnose::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Diagnose(args) => diagnose::run(&args).map(|fits| {
+            if fits {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(MODEL_DOES_NOT_FIT)
+            }
+        }),
         Command::Design(args) => design::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Apply(args) => apply::run(&args).map(|()| ExitCode::SUCCESS),
     };

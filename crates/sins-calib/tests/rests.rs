@@ -138,3 +138,35 @@ fn diagnose_runs_its_loop_on_a_recording_of_rests() {
         "{report}"
     );
 }
+
+#[test]
+fn diagnose_exits_3_when_no_candidate_explains_the_misfit() {
+    let dir = scratch("misfit");
+    let (with, without) = configs(&dir);
+    let out = dir.join("run");
+    let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
+    assert!(sim.status.success(), "{}", text(&sim.stderr));
+    // The configuration claims accelerometers ten times quieter than the simulated ones: no
+    // candidate term explains that.
+    let line = "accel_m_s2 = 0.001 ";
+    let config = std::fs::read_to_string(&without).expect("config");
+    assert!(
+        config.contains(line),
+        "examples/run.toml no longer has `{line}`"
+    );
+    let quiet = dir.join("quiet.toml");
+    std::fs::write(&quiet, config.replace(line, "accel_m_s2 = 0.0001 ")).expect("config");
+    let d = run(&[
+        "diagnose",
+        "--imu",
+        s(&out.join("imu.csv")),
+        "--config",
+        s(&quiet),
+    ]);
+    let report = text(&d.stdout);
+    assert_eq!(d.status.code(), Some(3), "{report}\n{}", text(&d.stderr));
+    assert!(
+        report.contains("NO CANDIDATE TERM THAT THIS RECORDING SEPARATES EXPLAINS"),
+        "{report}"
+    );
+}
