@@ -11,3 +11,4 @@ mod free_motion;
 mod import;
 mod noise;
 mod refusals;
+mod robust;
