@@ -41,6 +41,12 @@ fn check_size(
 ) -> Result<(), Error> {
     let t = &config.truth;
     let duration = t.duration_s.unwrap_or(program_s);
+    // Absurd durations in exponent form (1e300 has 301 digits).
+    let shown = if duration < 1e7 {
+        format!("{duration}")
+    } else {
+        format!("{duration:e}")
+    };
     for (name, rate, least) in [
         ("truth.imu_rate_hz", t.imu_rate_hz, 2.0),
         ("truth.turntable_rate_hz", t.turntable_rate_hz, 2.0),
@@ -48,14 +54,14 @@ fn check_size(
         let n = duration * rate;
         if n < least {
             return Err(format!(
-                "{origin}: {duration} s at {name} = {rate} gives {n:.3} records: expected a run of \
+                "{origin}: {shown} s at {name} = {rate} gives {n:.3} records: expected a run of \
                  at least {least} records (nothing would be written that calibrate can read)"
             )
             .into());
         }
         if n > MAX_RECORDS {
             return Err(format!(
-                "{origin}: {duration} s at {name} = {rate} gives {n:.3e} records: simulate keeps \
+                "{origin}: {shown} s at {name} = {rate} gives {n:.3e} records: simulate keeps \
                  the run in memory (about 200 bytes a record) and accepts at most {MAX_RECORDS:.0e} \
                  records; shorten truth.duration_s or lower the rate"
             )

@@ -123,6 +123,21 @@ fn imu_steps_are_bounded_before_any_allocation() {
         s(&dir.join("out")),
     ]);
     refused(&o, &["records", "at most"]);
+    // So does a run longer than its program.
+    let long_run = config(&dir, "long_run.toml", |t| {
+        t.replace("# duration_s = 600.0", "duration_s = 1e300")
+    });
+    let o = run(&[
+        "simulate",
+        "--config",
+        s(&long_run),
+        "--out",
+        s(&dir.join("out")),
+    ]);
+    refused(
+        &o,
+        &["long_run.toml", "1e300 s at truth.imu_rate_hz", "at most"],
+    );
     // Design runs seven analyses: 2 days of program at 100 Hz is too much for it, not for one.
     let two_days = dwell_config(&dir, "172800.0").0;
     let o = run(&[
