@@ -6,11 +6,14 @@
 //! - [`write_file`]: the text goes to a temporary file in the same directory, then is renamed
 //!   onto the path, so the path holds either the old file or the whole new one.
 //! - [`DirOutput`]: a directory of outputs (`simulate`, `import`) is written into a temporary
-//!   sibling directory; on [`DirOutput::commit`] a directory that did not exist is renamed into
-//!   place whole, and into an existing one each file is renamed over its old version and the
-//!   command's other output names left from an earlier run are removed (files of other names,
-//!   e.g. a result written there later, are kept). On failure (or drop without commit) the
-//!   temporary directory is removed and the old outputs stay as they were.
+//!   sibling directory and swapped in whole on [`DirOutput::commit`]: a directory that did not
+//!   exist, or that holds nothing but the command's own outputs of an earlier run, is replaced
+//!   by renaming (the old one renamed aside first, then removed), so no stale output survives
+//!   and the outputs change together. A directory holding other files too (a result written
+//!   there later, the user's notes) is not taken over: each output is renamed over its old
+//!   version and the command's output names this run did not write are removed, the other
+//!   files kept. On failure (or drop without commit) the temporary directory is removed and the
+//!   old outputs stay as they were.
 
 use crate::Error;
 use std::path::{Path, PathBuf};
@@ -155,6 +158,20 @@ impl DirOutput {
         })
     }
 
+    /// Whether the existing directory is a real directory (not a link to one) holding nothing
+    /// but files of the command's output names.
+    fn only_outputs(&self) -> bool {
+        let real = std::fs::symlink_metadata(&self.dir).is_ok_and(|m| m.file_type().is_dir());
+        real && std::fs::read_dir(&self.dir).is_ok_and(|entries| {
+            entries.into_iter().all(|e| {
+                e.is_ok_and(|e| {
+                    e.file_type().is_ok_and(|t| t.is_file())
+                        && self.names.iter().any(|n| e.file_name() == *n)
+                })
+            })
+        })
+    }
+
     /// Where to write output `name` now (inside the temporary directory).
     pub fn path(&self, name: &str) -> PathBuf {
         self.tmp.join(name)
@@ -178,6 +195,21 @@ impl DirOutput {
         };
         if !self.dir.exists() {
             std::fs::rename(&self.tmp, &self.dir).map_err(|e| fail(&self.dir, e))?;
+            self.committed = true;
+            return Ok(());
+        }
+        if self.only_outputs() {
+            let aside = (0..100)
+                .map(|n| temporary_beside(&self.dir, 100 + n))
+                .find(|p| !p.exists())
+                .ok_or_else(|| fail(&self.dir, std::io::ErrorKind::AlreadyExists.into()))?;
+            std::fs::rename(&self.dir, &aside).map_err(|e| fail(&self.dir, e))?;
+            if let Err(e) = std::fs::rename(&self.tmp, &self.dir) {
+                // Put the old outputs back.
+                let _ = std::fs::rename(&aside, &self.dir);
+                return Err(fail(&self.dir, e));
+            }
+            let _ = std::fs::remove_dir_all(&aside);
             self.committed = true;
             return Ok(());
         }
@@ -265,6 +297,18 @@ mod tests {
         std::fs::write(w.path("a.csv"), "1").unwrap();
         std::fs::write(w.path("b.json"), "1").unwrap();
         w.commit().unwrap();
+        // Only outputs there: swapped whole, the old b.json gone.
+        let w = DirOutput::begin(&out, &names).unwrap();
+        std::fs::write(w.path("a.csv"), "2").unwrap();
+        w.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(out.join("a.csv")).unwrap(), "2");
+        assert!(!out.join("b.json").exists());
+        assert_eq!(
+            std::fs::read_dir(&d).unwrap().count(),
+            1,
+            "nothing left beside it"
+        );
+        std::fs::write(out.join("b.json"), "1").unwrap();
         std::fs::write(out.join("mine.txt"), "keep").unwrap();
         // A run that writes only a.csv removes the old b.json and keeps other files.
         let w = DirOutput::begin(&out, &names).unwrap();
