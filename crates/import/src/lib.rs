@@ -627,10 +627,11 @@ fn check_time_base(profile: &Profile, gs: &Source, median: f64) -> Result<(), Im
         &gs.table.file,
         gs.table.lines[0],
         format!(
-            "the time stamps (profile {}) advance by a median {} s ({} Hz) between records:              expected {lo} .. {hi} s, and an IMU recording at 10 Hz or more; {cause}",
+            "the time stamps (profile {}) advance by a median {} s ({} Hz) between records: \
+             expected {lo} .. {hi} s, and an IMU recording at 10 Hz or more; {cause}",
             profile.origin,
-            round_sig(median),
-            round_sig(1.0 / median)
+            show_number(median),
+            show_number(1.0 / median)
         ),
     ))
 }
@@ -778,6 +779,16 @@ fn round_to(x: f64, digits: i32) -> f64 {
         return x;
     }
     (x * scale).round() / scale
+}
+
+/// A number for messages: 4 significant digits, in exponent form when very large or small
+/// (`1e300` rather than 301 digits).
+fn show_number(x: f64) -> String {
+    if x != 0.0 && !(1e-4..1e7).contains(&x.abs()) {
+        format!("{x:.3e}")
+    } else {
+        format!("{}", round_sig(x))
+    }
 }
 
 /// A time stamp for messages: 10 significant digits.

@@ -310,6 +310,7 @@ fn import_refuses_implausible_profiles_and_data() {
     let dir = scratch("import");
     recording(&dir.join("recording.csv"), 3000, 1.0);
     recording(&dir.join("recording_ms.csv"), 3000, 1000.0);
+    recording(&dir.join("recording_huge.csv"), 3000, 1e290);
     let out = dir.join("out");
     let good = profile(&dir, "good.toml", |t| t);
     let o = run(&["import", "--profile", s(&good), "--out", s(&out)]);
@@ -365,6 +366,15 @@ fn import_refuses_implausible_profiles_and_data() {
             ],
         ),
         (
+            "huge_t.toml",
+            |t| t.replace("recording.csv", "recording_huge.csv"),
+            &[
+                "recording_huge.csv",
+                "median 1.000e288 s",
+                "check [time] column and unit",
+            ],
+        ),
+        (
             "sensitivity.toml",
             |t| {
                 t.replace(
@@ -414,7 +424,7 @@ fn import_refuses_implausible_profiles_and_data() {
         let o = run(&["import", "--profile", s(&p), "--out", s(&out)]);
         let mut all = vec![*name];
         all.extend_from_slice(needles);
-        if *name == "ms.toml" || *name == "sensitivity.toml" {
+        if ["ms.toml", "sensitivity.toml", "huge_t.toml"].contains(name) {
             // Named by data file and line, with the profile in the message.
             all.push("recording");
         }
