@@ -75,7 +75,7 @@ fn check_plausible(data: &calib::io::ImuData, file: &str, window_s: f64) -> Resu
     let span = t[n - 1] - t[0];
     if window_s > span {
         return Err(format!(
-            "--window {window_s}: longer than the recording in {file} ({span} s): expected a \
+            "--window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
              window of a few records up to the recording's length"
         )
         .into());

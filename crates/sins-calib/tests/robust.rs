@@ -494,6 +494,10 @@ fn segment_refuses_data_no_imu_gives() {
     recording(&good, 3000, 1.0);
     let o = run(&["segment", "--imu", s(&good)]);
     assert!(o.status.success(), "{}", text(&o.stderr));
+    refused(
+        &run(&["segment", "--imu", s(&good), "--window", "1e300"]),
+        &["--window 1e300", "longer than the recording", "good.csv"],
+    );
     let edit = |name: &str, f: &dyn Fn(usize, &mut Vec<String>)| {
         let text = std::fs::read_to_string(&good).unwrap();
         let mut lines = text.lines();
