@@ -252,7 +252,7 @@ fn read_source(
     {
         layout.angles = Some(want(&mut wanted, "angle", &a.columns, ["k1", "k2", "k3"]));
     }
-    let table = read_table(path, &profile.input, &wanted)?;
+    let table = read_table(path, &profile.input, &wanted, &profile.origin)?;
     let t = times(&table, layout.time, profile)?;
     Ok((Source { role, table, t }, layout))
 }

@@ -327,6 +327,17 @@ fn import_refuses_implausible_profiles_and_data() {
             ],
         ),
         (
+            "by_name.toml",
+            |t| {
+                t.replace("skip_lines = 1", "skip_lines = 1\nheader_line = 1")
+                    .replace("columns = [2, 3, 4]", "columns = [\"wx\", \"wy\", 2]")
+            },
+            &[
+                "recording.csv: line 1",
+                "gyro x (column `wx`) and gyro z (column 2) are the same field 2",
+            ],
+        ),
+        (
             "time_as_gyro.toml",
             |t| t.replace("columns = [2, 3, 4]", "columns = [1, 3, 4]"),
             &[
