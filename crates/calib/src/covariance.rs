@@ -17,12 +17,35 @@ use sins_model::terms::{SensorInput, Unit};
 use turntable::gimbal::gimbal_jacobian;
 use turntable::kinematics::{Kinematics, Mounting};
 
+/// The most IMU steps a covariance analysis runs (duration times `filter.imu_rate_hz`): 1e8,
+/// ten days of program at 100 Hz with room to spare. Each step propagates the full covariance
+/// (about a microsecond at 28 states), so the bound keeps an analysis under a few minutes;
+/// longer ones are refused before anything is allocated.
+pub const MAX_ANALYSIS_STEPS: f64 = 1e8;
+
 /// Errors of the analysis.
 #[derive(Debug, thiserror::Error)]
 pub enum AnalysisError {
     /// Configuration problem.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The program at the configured rate needs more than [`MAX_ANALYSIS_STEPS`] steps.
+    #[error(
+        "{origin}: a program of {duration_s} s at filter.imu_rate_hz = {rate_hz} Hz needs \
+         {steps:.3e} IMU steps: expected at most {max:.0e} (the covariance analysis steps at the \
+         IMU rate); shorten the program or lower filter.imu_rate_hz",
+        max = MAX_ANALYSIS_STEPS
+    )]
+    TooManySteps {
+        /// The program's origin (file, or `<inline program>`).
+        origin: String,
+        /// Program duration (s).
+        duration_s: f64,
+        /// IMU rate (Hz).
+        rate_hz: f64,
+        /// Steps it would take.
+        steps: f64,
+    },
     /// The filter refused a step.
     #[error("Kalman filter at t = {t:.3} s: {source}")]
     Filter {
@@ -92,6 +115,27 @@ pub fn covariance_analysis_ext(
     covariance_analysis_with(config, &layout, &Mounting::default())
 }
 
+/// Refuse a program whose steps at the IMU rate exceed [`MAX_ANALYSIS_STEPS`] (also a
+/// duration or rate that is not finite).
+pub fn check_steps(config: &RunConfig, duration_s: f64) -> Result<(), AnalysisError> {
+    let rate_hz = config.filter.imu_rate_hz;
+    let steps = duration_s * rate_hz;
+    if steps.is_finite() && steps <= MAX_ANALYSIS_STEPS {
+        return Ok(());
+    }
+    let origin = if config.inline_program.is_some() {
+        "<inline program>".to_string()
+    } else {
+        format!("program \"{}\"", config.program)
+    };
+    Err(AnalysisError::TooManySteps {
+        origin,
+        duration_s,
+        rate_hz,
+        steps,
+    })
+}
+
 /// Run the covariance analysis for any layout and (nominal) mounting.
 pub fn covariance_analysis_with(
     config: &RunConfig,
@@ -99,6 +143,7 @@ pub fn covariance_analysis_with(
     mounting: &Mounting,
 ) -> Result<Posterior, AnalysisError> {
     let program = config.program()?;
+    check_steps(config, program.duration())?;
     let rate_changes = RateChanges::new(&program);
     let site = config.site();
     let kin = Kinematics::new(program, *mounting, site);

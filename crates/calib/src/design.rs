@@ -29,6 +29,33 @@ pub enum DesignError {
     /// The configuration's program cannot be read.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// A proposal extends the program beyond what a program may be.
+    #[error("the proposal \"{description}\": {source}")]
+    Proposal {
+        /// What the proposal adds.
+        description: String,
+        /// Why its program is refused.
+        source: ConfigError,
+    },
+    /// The analyses of all proposals together would take too many IMU steps.
+    #[error(
+        "{origin}: designing runs {programs} covariance analyses of {total_s} s of programs in \
+         all, {steps:.3e} IMU steps at filter.imu_rate_hz = {rate_hz} Hz: expected at most \
+         {max:.0e}; design with a shorter program or a lower filter.imu_rate_hz",
+        max = crate::covariance::MAX_ANALYSIS_STEPS
+    )]
+    TooManySteps {
+        /// The configuration's program.
+        origin: String,
+        /// Programs analysed (the recorded one and the proposals).
+        programs: usize,
+        /// Their total duration (s).
+        total_s: f64,
+        /// IMU rate (Hz).
+        rate_hz: f64,
+        /// Total steps.
+        steps: f64,
+    },
     /// A covariance analysis failed.
     #[error(transparent)]
     Analysis(#[from] AnalysisError),
@@ -269,7 +296,33 @@ pub fn design(
         .copied()
         .filter(|t| *t != Candidate::GyroBiasDrift)
         .collect();
+    // The program as read (file and segment in its errors), and every proposal compiled and
+    // counted before any analysis runs.
+    let base_program = config.program()?;
     let base = config.program_spec()?;
+    let menu = candidate_programs(&base);
+    let mut total_s = base_program.duration();
+    for (description, p) in &menu {
+        let program =
+            turntable::program::Program::compile(p, "<proposed program>").map_err(|e| {
+                DesignError::Proposal {
+                    description: description.clone(),
+                    source: e.into(),
+                }
+            })?;
+        total_s += program.duration();
+    }
+    let rate_hz = config.filter.imu_rate_hz;
+    let steps = total_s * rate_hz;
+    if !(steps.is_finite() && steps <= crate::covariance::MAX_ANALYSIS_STEPS) {
+        return Err(DesignError::TooManySteps {
+            origin: format!("program \"{}\"", config.program),
+            programs: menu.len() + 1,
+            total_s,
+            rate_hz,
+            steps,
+        });
+    }
     let recorded = evaluate(
         config,
         with_turntable,
@@ -279,7 +332,7 @@ pub fn design(
         base.clone(),
     )?;
     let mut proposals = Vec::new();
-    for (name, p) in candidate_programs(&base) {
+    for (name, p) in menu {
         proposals.push(evaluate(config, with_turntable, &ext, &terms, &name, p)?);
     }
     let chosen = proposals

@@ -54,6 +54,17 @@ use timing::{GapAt, Timing};
 /// standard gravity, over the quietest window of the recording.
 pub const G_BAND: (f64, f64) = (0.8, 1.2);
 
+/// The median interval between records must lie in this band (s): from 100 kHz down to one
+/// record every ten seconds.
+pub const MEDIAN_INTERVAL_RANGE_S: (f64, f64) = (1e-5, 10.0);
+
+/// Largest plausible angular rate after conversion (rad/s, about 5700 deg/s, above the range
+/// of any gyro on a turntable or in a hand).
+pub const MAX_GYRO_RAD_S: f64 = 100.0;
+
+/// Largest plausible specific force after conversion (m/s^2, about 200 g).
+pub const MAX_ACCEL_M_S2: f64 = 2000.0;
+
 /// Length of the window in which the specific force at rest is checked (s).
 pub const QUIET_WINDOW_S: f64 = 1.0;
 
@@ -241,7 +252,7 @@ fn read_source(
     {
         layout.angles = Some(want(&mut wanted, "angle", &a.columns, ["k1", "k2", "k3"]));
     }
-    let table = read_table(path, &profile.input, &wanted)?;
+    let table = read_table(path, &profile.input, &wanted, &profile.origin)?;
     let t = times(&table, layout.time, profile)?;
     Ok((Source { role, table, t }, layout))
 }
@@ -299,6 +310,18 @@ fn join(profile: &Profile, g: &Source, a: &Source) -> Result<(), ImportError> {
         .join_tolerance_s
         .unwrap_or_else(|| 0.1 * timing::median_interval(&g.t));
     let tol = if tol.is_finite() { tol } else { 0.0 };
+    let median = timing::median_interval(&g.t);
+    if profile.input.join_tolerance_s.is_some() && tol >= 0.5 * median {
+        return Err(ImportError::profile(
+            &profile.origin,
+            format!(
+                "[input] join_tolerance_s = {tol}: expected less than half the median interval \
+                 of {} ({} s), so that a row pairs only with the row of its own time",
+                g.table.file,
+                round_sig(median)
+            ),
+        ));
+    }
     let n = g.t.len().min(a.t.len());
     let has_time = profile.time.column.is_some() || profile.time.counter_column.is_some();
     match profile.input.join {
@@ -422,6 +445,7 @@ pub fn import_recording(
     let n = gs.t.len();
     let t = &gs.t;
     let (timing, gaps, gap_reports) = check_timing(profile, options, gs)?;
+    check_magnitudes(profile, &imu, timing.median_interval_s, [gs, as_])?;
     let static_force = check_static_force(profile, &imu, &gaps, as_)?;
     let saturation = saturation_reports(profile, [(&sat_g, gs), (&sat_a, as_)]);
     let turntable = turntable_of(profile, gs, gl);
@@ -526,6 +550,7 @@ fn check_timing(
         ));
     }
     let (timing, gaps) = timing::analyse(t, profile.checks.gap_factor);
+    check_time_base(profile, gs, timing.median_interval_s)?;
     let gap_reports: Vec<GapReport> = gaps
         .iter()
         .map(|g| GapReport {
@@ -563,6 +588,128 @@ fn check_timing(
         ));
     }
     Ok((timing, gaps, gap_reports))
+}
+
+/// The median interval must be plausible for an IMU; stamps in milliseconds (or micro-,
+/// nanoseconds) declared as seconds are named as such.
+fn check_time_base(profile: &Profile, gs: &Source, median: f64) -> Result<(), ImportError> {
+    let (lo, hi) = MEDIAN_INTERVAL_RANGE_S;
+    let time = &profile.time;
+    let seconds = time.column.is_some() && time.unit.unwrap_or_default() == profile::TimeUnit::S;
+    // An IMU records at 10 Hz .. 10 kHz: stamps declared in seconds that advance a thousand
+    // (million, billion) times that interval are in a smaller unit.
+    let smaller = [(1e3, "ms"), (1e6, "us"), (1e9, "ns")]
+        .into_iter()
+        .find(|(f, _)| (1e-4..=0.1).contains(&(median / f)));
+    let cause = match (seconds, smaller) {
+        (true, Some((f, unit))) if median >= 1.0 => format!(
+            "the stamps look like {unit} declared as seconds (in {unit} the interval would be {} \
+             s, {} Hz): set [time] unit = \"{unit}\"",
+            round_sig(median / f),
+            round_sig(f / median)
+        ),
+        _ if (lo..=hi).contains(&median) => return Ok(()),
+        _ if time.column.is_some() => format!(
+            "check [time] column and unit (unit = \"{}\")",
+            match time.unit.unwrap_or_default() {
+                profile::TimeUnit::S => "s",
+                profile::TimeUnit::Ms => "ms",
+                profile::TimeUnit::Us => "us",
+                profile::TimeUnit::Ns => "ns",
+            }
+        ),
+        _ => format!(
+            "check [time] rate_hz = {} (and counter_column)",
+            time.rate_hz.unwrap_or(f64::NAN)
+        ),
+    };
+    Err(ImportError::line(
+        &gs.table.file,
+        gs.table.lines[0],
+        format!(
+            "the time stamps (profile {}) advance by a median {} s ({} Hz) between records: \
+             expected {lo} .. {hi} s, and an IMU recording at 10 Hz or more; {cause}",
+            profile.origin,
+            show_number(median),
+            show_number(1.0 / median)
+        ),
+    ))
+}
+
+/// Every converted rate and specific force (increments over their own interval) must be below
+/// [`MAX_GYRO_RAD_S`] and [`MAX_ACCEL_M_S2`]: the first one beyond is refused with its column,
+/// line and the likely cause.
+fn check_magnitudes(
+    profile: &Profile,
+    imu: &ImuData,
+    median: f64,
+    sources: [&Source; 2],
+) -> Result<(), ImportError> {
+    let increments = profile.form == Form::Increments;
+    let mut previous: Option<f64> = None;
+    for (k, r) in imu.records.iter().enumerate() {
+        let dt = previous.map_or(median, |p| r.t - p);
+        previous = Some(r.t);
+        let scale = if increments { 1.0 / dt } else { 1.0 };
+        for (name, sensor, values, max, unit, src) in [
+            (
+                "gyro",
+                &profile.gyro,
+                r.gyro,
+                MAX_GYRO_RAD_S,
+                "rad/s",
+                sources[0],
+            ),
+            (
+                "accel",
+                &profile.accel,
+                r.accel,
+                MAX_ACCEL_M_S2,
+                "m/s^2",
+                sources[1],
+            ),
+        ] {
+            for (i, v) in values.iter().enumerate() {
+                let v = v * scale;
+                if v.abs() < max {
+                    continue;
+                }
+                let source = sensor.axes[i].source;
+                let conversion = if sensor.unit == Unit::Counts {
+                    format!(
+                        "check [{name}] offset and sensitivity (counts per {}, here {:e}) and \
+                         sensitivity_unit",
+                        sensor.sensitivity_unit.map_or("?", Unit::name),
+                        sensor.sensitivity.map_or(f64::NAN, |s| s[source])
+                    )
+                } else {
+                    format!(
+                        "the values look like raw counts: set [{name}] unit = \"counts\" with \
+                         offset and sensitivity (unit is \"{}\")",
+                        sensor.unit.name()
+                    )
+                };
+                return Err(ImportError::line(
+                    &src.table.file,
+                    src.table.lines[k],
+                    format!(
+                        "{name} {} ({}) gives {:.4e} {unit}{} after conversion: expected a magnitude \
+                         below {max} {unit}; {conversion}; check the columns in {}",
+                        ["x", "y", "z"][i],
+                        sensor.columns[source],
+                        v,
+                        if increments {
+                            " (increment over its interval)"
+                        } else {
+                            ""
+                        },
+                        profile.origin
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Stage 4: the saturation reports of the sensors with a range (gyro, then accelerometer).
@@ -632,6 +779,16 @@ fn round_to(x: f64, digits: i32) -> f64 {
         return x;
     }
     (x * scale).round() / scale
+}
+
+/// A number for messages: 4 significant digits, in exponent form when very large or small
+/// (`1e300` rather than 301 digits).
+fn show_number(x: f64) -> String {
+    if x != 0.0 && !(1e-4..1e7).contains(&x.abs()) {
+        format!("{x:.3e}")
+    } else {
+        format!("{}", round_sig(x))
+    }
 }
 
 /// A time stamp for messages: 10 significant digits.

@@ -415,27 +415,52 @@ impl<'de> Deserialize<'de> for Axis {
 #[serde(deny_unknown_fields)]
 pub struct Sensor {
     /// The x, y, z columns of the source (in the gyro or accelerometer file with two files).
+    #[serde(deserialize_with = "exactly")]
     pub columns: [Column; 3],
     /// Unit of the values: for rates `"rad/s"`, `"deg/s"` (gyro), `"m/s^2"`, `"g"` (accel); for
     /// increments `"rad"`, `"deg"` (gyro), `"m/s"` (accel); or `"counts"`.
     pub unit: Unit,
     /// Counts only: the reading at zero, per source axis (counts).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "some_exactly")]
     pub offset: Option<[f64; 3]>,
     /// Counts only: counts per `sensitivity_unit`, per source axis.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "some_exactly")]
     pub sensitivity: Option<[f64; 3]>,
     /// Counts only: the physical unit the sensitivity is given per (one of the units above).
     #[serde(default)]
     pub sensitivity_unit: Option<Unit>,
     /// Output axes x, y, z from the source axes, with sign flips, e.g. `["+y", "+x", "-z"]`: the
     /// output x is the source y, the output z the negated source z. Default `["+x","+y","+z"]`.
-    #[serde(default = "identity_axes")]
+    #[serde(default = "identity_axes", deserialize_with = "exactly")]
     pub axes: [Axis; 3],
     /// The sensor's range `[lowest, highest]` in the file's values (counts for counts): a record
     /// with any axis at or beyond either end is counted as saturated.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "some_exactly")]
     pub range: Option<[f64; 2]>,
+}
+
+/// A list of exactly `N` values (a longer or shorter one is refused, not cut or padded).
+fn exactly<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    let v = Vec::<T>::deserialize(d)?;
+    let n = v.len();
+    v.try_into().map_err(|_| {
+        serde::de::Error::custom(format!(
+            "a list of {n} values: expected exactly {N} (one per axis)"
+        ))
+    })
+}
+
+/// [`exactly`] for an optional field.
+fn some_exactly<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    exactly(d).map(Some)
 }
 
 fn identity_axes() -> [Axis; 3] {
@@ -572,6 +597,7 @@ impl Sensor {
 #[serde(deny_unknown_fields)]
 pub struct Angles {
     /// Heading, bank and pitch gimbal-angle columns (`k1, k2, k3`).
+    #[serde(deserialize_with = "exactly")]
     pub columns: [Column; 3],
     /// `"deg"` or `"rad"`.
     pub unit: AngleUnit,
@@ -637,7 +663,68 @@ impl Default for Checks {
     }
 }
 
+/// Bounds of `[time] rate_hz` (Hz): a record rate from a tenth of a hertz, or the tick rate of
+/// a sample counter up to a nanosecond clock.
+pub const RATE_HZ_RANGE: (f64, f64) = (1e-3, 1e9);
+
+/// The largest `[input] join_tolerance_s` (s): records of an IMU come at least once every ten
+/// seconds (the time-base check), so a tolerance of a second or more pairs unrelated rows.
+pub const MAX_JOIN_TOLERANCE_S: f64 = 1.0;
+
 impl Profile {
+    /// Each column of each input file used for one thing only (the time column is in every
+    /// file; with two files the gyro and angle columns are in the gyro file, the accelerometer
+    /// columns in the accelerometer file).
+    fn check_columns_used_once(&self) -> Result<(), ImportError> {
+        let mut time: Vec<(String, &Column)> = Vec::new();
+        if let Some(c) = &self.time.column {
+            time.push(("[time] column".into(), c));
+        }
+        if let Some(c) = &self.time.counter_column {
+            time.push(("[time] counter_column".into(), c));
+        }
+        fn triad<'a>(
+            table: &str,
+            columns: &'a [Column; 3],
+            names: [&str; 3],
+        ) -> Vec<(String, &'a Column)> {
+            columns
+                .iter()
+                .zip(names)
+                .map(|(c, a)| (format!("[{table}] columns ({a})"), c))
+                .collect()
+        }
+        let xyz = ["x", "y", "z"];
+        let mut gyro_file = time.clone();
+        gyro_file.extend(triad("gyro", &self.gyro.columns, xyz));
+        if let Some(a) = &self.angles {
+            gyro_file.extend(triad("angles", &a.columns, ["k1", "k2", "k3"]));
+        }
+        let accel = triad("accel", &self.accel.columns, xyz);
+        let files = if self.input.file.is_some() {
+            gyro_file.extend(accel);
+            vec![gyro_file]
+        } else {
+            let mut accel_file = time;
+            accel_file.extend(accel);
+            vec![gyro_file, accel_file]
+        };
+        for uses in &files {
+            for (i, (what, c)) in uses.iter().enumerate() {
+                if let Some((first, _)) = uses[..i].iter().find(|(_, d)| d == c) {
+                    return Err(ImportError::profile(
+                        &self.origin,
+                        format!(
+                            "{c} is used twice, as {first} and as {what}: expected each column \
+                             to hold one quantity (check the column numbers or names)"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Read and check a profile; relative paths in it resolve against its directory.
     pub fn load(path: &Path) -> Result<Self, ImportError> {
         let file = path.display().to_string();
@@ -718,10 +805,12 @@ impl Profile {
             ));
         }
         if let Some(t) = i.join_tolerance_s
-            && !(t.is_finite() && t > 0.0)
+            && !(t.is_finite() && t > 0.0 && t <= MAX_JOIN_TOLERANCE_S)
         {
             return err(format!(
-                "[input] join_tolerance_s = {t}: expected a positive number of seconds"
+                "[input] join_tolerance_s = {t:e}: expected a positive number of seconds, at most \
+                 {MAX_JOIN_TOLERANCE_S} s (and below half the records' interval: it pairs each \
+                 gyro row with the accelerometer row of the same time)"
             ));
         }
         let t = &self.time;
@@ -753,9 +842,13 @@ impl Profile {
             );
         }
         if let Some(r) = t.rate_hz
-            && !(r.is_finite() && r > 0.0)
+            && !(r.is_finite() && (RATE_HZ_RANGE.0..=RATE_HZ_RANGE.1).contains(&r))
         {
-            return err(format!("[time] rate_hz = {r}: expected a positive rate"));
+            return err(format!(
+                "[time] rate_hz = {r:e}: expected a rate of {} .. {} Hz (the record rate, or the \
+                 tick rate of a sample counter up to a nanosecond clock)",
+                RATE_HZ_RANGE.0, RATE_HZ_RANGE.1
+            ));
         }
         self.gyro.check(SensorKind::Gyro, self.form, file)?;
         self.accel.check(SensorKind::Accel, self.form, file)?;
@@ -768,6 +861,7 @@ impl Profile {
         if let Some(a) = &self.angles {
             columns.extend(a.columns.iter());
         }
+        self.check_columns_used_once()?;
         if let Some(c) = columns.iter().find(|c| named(c))
             && i.header_line.is_none()
         {

@@ -91,6 +91,39 @@ impl SectionsFile {
     }
 }
 
+/// The entries of a JSON object in file order, a key given twice refused (a map would keep
+/// the last one silently).
+struct Entries(Vec<(String, serde_json::Value)>);
+
+impl<'de> Deserialize<'de> for Entries {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Entries;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a JSON object of sections")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut m: A,
+            ) -> Result<Entries, A::Error> {
+                let mut v: Vec<(String, serde_json::Value)> = Vec::new();
+                while let Some((k, value)) = m.next_entry::<String, serde_json::Value>()? {
+                    if v.iter().any(|(n, _)| *n == k) {
+                        return Err(serde::de::Error::custom(format!(
+                            "section `{}` is listed twice: expected each section once",
+                            excerpt(&k)
+                        )));
+                    }
+                    v.push((k, value));
+                }
+                Ok(Entries(v))
+            }
+        }
+        d.deserialize_map(V)
+    }
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Bounds {
@@ -130,17 +163,16 @@ pub(crate) fn carry(
         file: file.clone(),
         source,
     })?;
-    let list: serde_json::Map<String, serde_json::Value> =
-        serde_json::from_str(&text).map_err(|e| {
-            ImportError::line(
-                &file,
-                e.line(),
-                format!(
-                    "expected an imucal section list, a JSON object {{\"x_p\": {{\"start\": 540, \
+    let Entries(list) = serde_json::from_str(&text).map_err(|e| {
+        ImportError::line(
+            &file,
+            e.line(),
+            format!(
+                "expected an imucal section list, a JSON object {{\"x_p\": {{\"start\": 540, \
                      \"end\": 1271}}, ...}}: {e}"
-                ),
-            )
-        })?;
+            ),
+        )
+    })?;
     let n = data.records.len();
     let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     let median = crate::timing::median_interval(&t);

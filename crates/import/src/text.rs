@@ -110,15 +110,33 @@ impl Lines {
     }
 }
 
-/// Read the wanted columns of every data row of `path` laid out as `input` says.
+/// Read the wanted columns of every data row of `path` laid out as `input` says (`profile`
+/// names the profile in messages).
 pub(crate) fn read_table(
     path: &Path,
     input: &Input,
     wanted: &[Wanted<'_>],
+    profile: &str,
 ) -> Result<Table, ImportError> {
     let mut lines = open_lines(path)?;
     let file = lines.file.clone();
     let index = column_indices(&mut lines, input, wanted)?;
+    // A column named once by number and once by name is still one column.
+    for (i, a) in index.iter().enumerate() {
+        if let Some(j) = index[..i].iter().position(|b| b == a) {
+            return Err(ImportError::line(
+                &file,
+                input.header_line.unwrap_or(1),
+                format!(
+                    "the profile's {} and {} are the same field {} of the header line: expected \
+                     each column to hold one quantity (check the columns in {profile})",
+                    wanted[j].what,
+                    wanted[i].what,
+                    a + 1
+                ),
+            ));
+        }
+    }
     let needed = index.iter().max().map_or(0, |m| m + 1);
     let mut table = Table {
         file: file.clone(),

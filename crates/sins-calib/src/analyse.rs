@@ -1,7 +1,7 @@
 //! `sins-calib analyse`: covariance analysis of a run configuration.
 
 use crate::table::{self, Align, Table};
-use crate::{Error, load_config, print};
+use crate::{Error, load_config, output, print};
 use calib::covariance::covariance_analysis;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -41,6 +41,9 @@ struct AnalysisParameter {
 /// Run `analyse`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, origin) = load_config(&args.config)?;
+    if let Some(path) = &args.json {
+        output::check_file(path, "--json", &[std::path::Path::new(&args.config)])?;
+    }
     let program = config.program()?;
     let with_turntable = !args.imu_only;
     let post = covariance_analysis(&config, with_turntable)?;
@@ -106,7 +109,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             parameters,
         };
         let text = serde_json::to_string_pretty(&json)? + "\n";
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        output::write_file(path, text.as_bytes())?;
         let _ = writeln!(s, "\nwrote {}", path.display());
     }
     print(&s)

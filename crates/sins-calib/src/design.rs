@@ -2,7 +2,7 @@
 //! parameters, printed as TOML with its predicted sigmas (`calib::design`).
 
 use crate::diagnose::parse_terms;
-use crate::{Error, load_config, print};
+use crate::{Error, load_config, output, print};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -18,14 +18,33 @@ pub struct Args {
     /// Analyse with the turntable angles (28-state model and more); default: the IMU alone.
     #[arg(long)]
     pub with_turntable: bool,
-    /// Write the proposed program to this TOML file (also printed).
+    /// Write the proposed program to this TOML file (also printed); checked before the design
+    /// runs (not a directory, not the configuration), written whole or not at all.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+}
+
+/// Refuse a term given twice in --terms.
+fn check_distinct_terms(ids: &[String]) -> Result<(), Error> {
+    for (i, id) in ids.iter().enumerate() {
+        if ids[..i].contains(id) {
+            return Err(format!(
+                "--terms {}: `{id}` is given twice: expected each candidate term once",
+                ids.join(" ")
+            )
+            .into());
+        }
+    }
+    Ok(())
 }
 
 /// Run `design`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, _) = load_config(&args.config)?;
+    if let Some(path) = &args.out {
+        output::check_file(path, "--out", &[std::path::Path::new(&args.config)])?;
+    }
+    check_distinct_terms(&args.terms)?;
     let terms = parse_terms(&args.terms)?;
     let (recorded, proposals, chosen) =
         calib::design::design(&config, args.with_turntable, &terms)?;
@@ -61,7 +80,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     s += &toml;
     print(&s)?;
     if let Some(path) = &args.out {
-        std::fs::write(path, toml).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        output::write_file(path, toml.as_bytes())?;
     }
     Ok(())
 }

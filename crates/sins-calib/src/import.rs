@@ -2,7 +2,7 @@
 //! `turntable.csv`, `sections.json`) by an import profile; the work is the `import` crate's.
 
 use crate::table;
-use crate::{Error, print};
+use crate::{Error, output, print};
 use ::import::profile::Profile;
 use ::import::{ImportOptions, ImportReport, Imported, Written, import_recording, write_outputs};
 use std::fmt::Write as _;
@@ -18,7 +18,10 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub profile: PathBuf,
     /// Directory to write imu.csv, import.json and, where the source has them, turntable.csv and
-    /// sections.json into; created when missing, files already there are overwritten.
+    /// sections.json into; created when missing. Nothing is written when the import is refused;
+    /// otherwise the files of an earlier import are replaced together (a turntable.csv or
+    /// sections.json this import does not write is removed, other files are kept). A directory
+    /// holding the import's own input under one of these names is refused.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Import a recording with gaps (intervals longer than the profile's checks.gap_factor,
@@ -29,14 +32,32 @@ pub struct Args {
     pub allow_gaps: bool,
 }
 
+/// Every file `import` may write into its directory.
+const OUTPUTS: [&str; 4] = ["imu.csv", "turntable.csv", "sections.json", "import.json"];
+
 /// Run `import`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let profile = Profile::load(&args.profile)?;
+    let mut inputs: Vec<PathBuf> = profile.input_files().into_iter().map(|(_, p)| p).collect();
+    inputs.push(args.profile.clone());
+    if let Some(s) = &profile.sections {
+        inputs.push(profile.resolve(&s.file));
+    }
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+    output::check_dir(&args.out, "--out", &OUTPUTS, &inputs)?;
     let options = ImportOptions {
         allow_gaps: args.allow_gaps,
     };
     let imported = import_recording(&profile, &options)?;
-    let written = write_outputs(&imported, &args.out)?;
+    let out = output::DirOutput::begin(&args.out, &OUTPUTS)?;
+    let tmp = write_outputs(&imported, out.tmp_dir())?;
+    let written = Written {
+        imu: out.final_path("imu.csv"),
+        turntable: tmp.turntable.map(|_| out.final_path("turntable.csv")),
+        sections: tmp.sections.map(|_| out.final_path("sections.json")),
+        report: out.final_path("import.json"),
+    };
+    out.commit()?;
     let r = &imported.report;
     let c = table::compact;
 

@@ -29,6 +29,7 @@ mod free_motion;
 mod import;
 mod noise;
 mod noise_plot;
+mod output;
 mod plot;
 mod segment;
 mod simulate;

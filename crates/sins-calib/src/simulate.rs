@@ -1,6 +1,6 @@
 //! `sins-calib simulate`: a simulated run written as interchange files.
 
-use crate::{Error, load_config, print};
+use crate::{Error, load_config, output, print};
 use calib::io::{ImuData, TurntableData, write_imu_csv, write_truth_json, write_turntable_csv};
 use calib::simulate::simulate_run;
 use std::fmt::Write as _;
@@ -15,8 +15,9 @@ pub struct Args {
     /// `[priors]` unless given); `[noise]` the sensor noises; `[clock]` the turntable clock.
     #[arg(long, value_name = "FILE|NAME")]
     pub config: String,
-    /// Directory to write imu.csv, turntable.csv and truth.json into; created when missing,
-    /// files already there are overwritten.
+    /// Directory to write imu.csv, turntable.csv and truth.json into; created when missing.
+    /// The three files are written whole or not at all: those of an earlier run are replaced
+    /// (other files there are kept); a file at this path is refused.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Seed of the random generator (parameter draws and noise), instead of the configuration's
@@ -24,6 +25,9 @@ pub struct Args {
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
 }
+
+/// The files `simulate` writes into its directory.
+const OUTPUTS: [&str; 3] = ["imu.csv", "turntable.csv", "truth.json"];
 
 /// Records a simulation may hold: it keeps the whole run in memory, about 200 bytes a record
 /// (50 million records: 139 h at 100 Hz, 10 GB).
@@ -37,6 +41,12 @@ fn check_size(
 ) -> Result<(), Error> {
     let t = &config.truth;
     let duration = t.duration_s.unwrap_or(program_s);
+    // Absurd durations in exponent form (1e300 has 301 digits).
+    let shown = if duration < 1e7 {
+        format!("{duration}")
+    } else {
+        format!("{duration:e}")
+    };
     for (name, rate, least) in [
         ("truth.imu_rate_hz", t.imu_rate_hz, 2.0),
         ("truth.turntable_rate_hz", t.turntable_rate_hz, 2.0),
@@ -44,14 +54,14 @@ fn check_size(
         let n = duration * rate;
         if n < least {
             return Err(format!(
-                "{origin}: {duration} s at {name} = {rate} gives {n:.3} records: expected a run of \
+                "{origin}: {shown} s at {name} = {rate} gives {n:.3} records: expected a run of \
                  at least {least} records (nothing would be written that calibrate can read)"
             )
             .into());
         }
         if n > MAX_RECORDS {
             return Err(format!(
-                "{origin}: {duration} s at {name} = {rate} gives {n:.3e} records: simulate keeps \
+                "{origin}: {shown} s at {name} = {rate} gives {n:.3e} records: simulate keeps \
                  the run in memory (about 200 bytes a record) and accepts at most {MAX_RECORDS:.0e} \
                  records; shorten truth.duration_s or lower the rate"
             )
@@ -69,18 +79,21 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     let program = config.program()?;
     check_size(&config, program.duration(), &origin)?;
+    let config_file = std::path::Path::new(&args.config);
+    output::check_dir(&args.out, "--out", &OUTPUTS, &[config_file])?;
     let sim = simulate_run(&config, &origin)?;
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| format!("{}: cannot create the directory: {e}", args.out.display()))?;
 
-    let imu_path = args.out.join("imu.csv");
-    let tt_path = args.out.join("turntable.csv");
-    let truth_path = args.out.join("truth.json");
+    let out = output::DirOutput::begin(&args.out, &OUTPUTS)?;
+    let [imu_name, tt_name, truth_name] = OUTPUTS;
     let imu = ImuData::from_samples(&sim.imu);
     let tt = TurntableData::from_samples(&sim.turntable);
-    write_imu_csv(&imu_path, &imu)?;
-    write_turntable_csv(&tt_path, &tt)?;
-    write_truth_json(&truth_path, &sim.truth)?;
+    write_imu_csv(&out.path(imu_name), &imu)?;
+    write_turntable_csv(&out.path(tt_name), &tt)?;
+    write_truth_json(&out.path(truth_name), &sim.truth)?;
+    let imu_path = out.final_path(imu_name);
+    let tt_path = out.final_path(tt_name);
+    let truth_path = out.final_path(truth_name);
+    out.commit()?;
 
     let t = &config.truth;
     let mut s = String::new();

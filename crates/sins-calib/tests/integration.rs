@@ -12,3 +12,4 @@ mod import;
 mod noise;
 mod refusals;
 mod rests;
+mod robust;

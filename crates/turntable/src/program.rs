@@ -27,6 +27,16 @@ use std::path::Path;
 /// The paper's three-cycle program, embedded.
 pub const PAPER_PROGRAM_TOML: &str = include_str!("../programs/paper.toml");
 
+/// The longest program accepted (s): 10 days.
+///
+/// Turntable programs last minutes to hours (the paper's three cycles take 2727 s; a bias
+/// stability or thermal run a day or two). Ten days is far above any of them and keeps every
+/// command that works along the program (the covariance analysis and the simulator step at the
+/// IMU rate, `8.64e7` steps at 100 Hz) within hours of work and gigabytes of memory; a longer
+/// total is a typing error (`1e12` for `1e2`) or a unit mistake, refused when the program is
+/// compiled with the file and the segment where the total passes the bound.
+pub const MAX_PROGRAM_DURATION_S: f64 = 864_000.0;
+
 /// Errors reading a program.
 #[derive(Debug, thiserror::Error)]
 pub enum ProgramError {
@@ -211,6 +221,7 @@ impl Program {
             if let Some(message) = segment_problem(seg) {
                 return Err(err(i, seg, message));
             }
+            let t_before = t;
             match *seg {
                 Segment::Rotate {
                     gimbal,
@@ -260,6 +271,19 @@ impl Program {
                         t += d;
                     }
                 }
+            }
+            if t > MAX_PROGRAM_DURATION_S {
+                return Err(err(
+                    i,
+                    seg,
+                    format!(
+                        "the program's total duration reaches {t:.6e} s here (this segment takes \
+                         {:.6e} s, the segments before it {t_before} s): expected at most \
+                         {MAX_PROGRAM_DURATION_S} s (10 days) in all; check duration_s (and \
+                         rate_deg_s of moves) for a typing error or a unit mistake",
+                        t - t_before
+                    ),
+                ));
             }
         }
         if pieces.is_empty() {
@@ -373,6 +397,42 @@ mod tests {
         let (k_end, _) = p.state(p.duration());
         assert!((k_end[2] - 90f64.to_radians()).abs() < 1e-9);
         assert!(k_end[1].abs() < 1e-9 && k_end[0].abs() < 1e-9);
+    }
+
+    #[test]
+    fn programs_longer_than_ten_days_are_refused_at_their_segment() {
+        let prog = |d1: f64, d2: f64| {
+            format!(
+                "name = \"x\"\nstart_deg = [0.0, 0.0, 0.0]\n[[segment]]\nkind = \"dwell\"\n\
+                 duration_s = {d1:?}\n[[segment]]\nkind = \"rotate\"\ngimbal = 2\n\
+                 rate_deg_s = 10.0\nduration_s = {d2:?}\n"
+            )
+        };
+        for (d1, d2, index) in [(1e300, 1.0, 1), (1.0, 1e12, 2), (500_000.0, 500_000.0, 2)] {
+            let e = Program::from_toml_str(&prog(d1, d2), "long.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("long.toml")
+                    && e.contains(&format!("segment {index}"))
+                    && e.contains("864000"),
+                "{e}"
+            );
+        }
+        // A move at a crawl is as long as its angle over its rate.
+        let e = Program::from_toml_str(
+            "name = \"x\"\nstart_deg = [0.0, 0.0, 0.0]\n[[segment]]\nkind = \"move\"\n\
+             target_deg = [90.0, 0.0, 0.0]\nrate_deg_s = 1e-9\n",
+            "slow.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("slow.toml") && e.contains("segment 1 (move)"),
+            "{e}"
+        );
+        let p = Program::from_toml_str(&prog(432_000.0, 432_000.0), "ten.toml").unwrap();
+        assert_eq!(p.duration(), MAX_PROGRAM_DURATION_S);
     }
 
     #[test]
