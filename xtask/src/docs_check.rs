@@ -29,6 +29,11 @@
 //! each text block begins after the end of the one before. So every number a text block shows
 //! is checked, and a line the output gained or lost inside an excerpt fails it.
 //!
+//! JSON examples: a `json` block preceded by `<!-- docs-check: json PATH -->` is compared,
+//! after the file's commands have run, with the file PATH (relative to the working directory)
+//! they wrote: every number the example shows must be in the file, as written, in the same
+//! order (string literals are not compared; `...` and left-out keys are allowed).
+//!
 //! The last line printed is `docs-check: N passed, M failed, K skipped`; the exit status is
 //! non-zero when anything failed.
 
@@ -47,6 +52,8 @@ pub struct Block {
     pub body: Vec<String>,
     /// `Some(reason)` when a `<!-- docs-check: skip (reason) -->` comment precedes the fence.
     pub skip: Option<String>,
+    /// `Some(path)` when a `<!-- docs-check: json PATH -->` comment precedes the fence.
+    pub json_file: Option<String>,
 }
 
 /// One item of a Markdown file for the check: a fenced block or a heading (which ends the text
@@ -83,11 +90,13 @@ pub fn parse_markdown(text: &str) -> Vec<Item> {
                 .unwrap_or("")
                 .to_string();
             let skip = last_nonblank.as_deref().and_then(skip_reason);
+            let json_file = last_nonblank.as_deref().and_then(json_file);
             let block = Block {
                 line: i + 1,
                 lang,
                 body: Vec::new(),
                 skip,
+                json_file,
             };
             open = Some((fence, block));
             continue;
@@ -102,11 +111,21 @@ pub fn parse_markdown(text: &str) -> Vec<Item> {
     items
 }
 
+/// What a `<!-- docs-check: ... -->` line says.
+fn directive(line: &str) -> Option<&str> {
+    let inner = line.strip_prefix("<!--")?.strip_suffix("-->")?.trim();
+    Some(inner.strip_prefix("docs-check:")?.trim())
+}
+
+/// The file of a `<!-- docs-check: json PATH -->` line.
+fn json_file(line: &str) -> Option<String> {
+    let path = directive(line)?.strip_prefix("json ")?.trim();
+    (!path.is_empty()).then(|| path.to_string())
+}
+
 /// The reason of a `<!-- docs-check: skip (reason) -->` line.
 fn skip_reason(line: &str) -> Option<String> {
-    let inner = line.strip_prefix("<!--")?.strip_suffix("-->")?.trim();
-    let rest = inner.strip_prefix("docs-check:")?.trim();
-    let rest = rest.strip_prefix("skip")?.trim();
+    let rest = directive(line)?.strip_prefix("skip")?.trim();
     let reason = rest
         .strip_prefix('(')
         .and_then(|r| r.strip_suffix(')'))
@@ -210,6 +229,64 @@ pub fn match_excerpt(excerpt: &[String], output: &[String], from: usize) -> Resu
         }
     }
     Ok(pos)
+}
+
+/// The numbers of a JSON text, as written, in order (string literals left out).
+pub fn json_numbers(text: &str) -> Vec<String> {
+    let mut numbers = Vec::new();
+    let mut chars = text.chars().peekable();
+    let mut current = String::new();
+    let mut flush = |current: &mut String| {
+        if current.chars().any(|c| c.is_ascii_digit()) {
+            numbers.push(std::mem::take(current));
+        } else {
+            current.clear();
+        }
+    };
+    while let Some(c) = chars.next() {
+        if c == '"' {
+            flush(&mut current);
+            while let Some(d) = chars.next() {
+                match d {
+                    '\\' => {
+                        chars.next();
+                    }
+                    '"' => break,
+                    _ => {}
+                }
+            }
+        } else if c.is_ascii_digit()
+            || (matches!(c, '-' | '+' | '.' | 'e' | 'E') && !current.is_empty())
+            || (c == '-' && current.is_empty())
+        {
+            current.push(c);
+        } else {
+            flush(&mut current);
+        }
+    }
+    flush(&mut current);
+    numbers
+}
+
+/// Checks that the numbers of a JSON example appear in the file's JSON in the same order (the
+/// example may leave anything out with `...`). Returns the count checked or a message naming the
+/// first number not found.
+pub fn match_json_numbers(example: &str, file: &str) -> Result<usize, String> {
+    let (want, have) = (json_numbers(example), json_numbers(file));
+    let mut pos = 0;
+    for (k, n) in want.iter().enumerate() {
+        match have[pos..].iter().position(|h| h == n) {
+            Some(i) => pos += i + 1,
+            None => {
+                let near = have.get(pos).map_or("(end of file)", String::as_str);
+                return Err(format!(
+                    "number {} of the example, {n}, is not in the file after the number before it (the file has {near} next)",
+                    k + 1
+                ));
+            }
+        }
+    }
+    Ok(want.len())
 }
 
 /// The script that runs a `sh` block: the prelude and the block with its substitutions.
@@ -336,7 +413,8 @@ pub fn docs_check(only: &[String], keep: bool) -> ExitCode {
                 continue;
             }
         };
-        let cases = cases(&parse_markdown(&text));
+        let items = parse_markdown(&text);
+        let cases = cases(&items);
         if cases.is_empty() {
             continue;
         }
@@ -424,6 +502,30 @@ pub fn docs_check(only: &[String], keep: bool) -> ExitCode {
                 }
             }
         }
+        // The JSON examples, against the files the commands wrote.
+        for item in &items {
+            let Item::Block(block) = item else { continue };
+            let Some(path) = &block.json_file else {
+                continue;
+            };
+            let at = format!("{rel}:{}", block.line);
+            match std::fs::read_to_string(work.join(path)) {
+                Ok(file) => match match_json_numbers(&block.body.join("\n"), &file) {
+                    Ok(n) => {
+                        println!("ok   {at}: JSON example's {n} numbers as in {path}");
+                        tally.passed += 1;
+                    }
+                    Err(why) => {
+                        println!("FAIL {at}: JSON example differs from {path}: {why}");
+                        tally.failed += 1;
+                    }
+                },
+                Err(e) => {
+                    println!("FAIL {at}: {path}: cannot read (written by no command before?): {e}");
+                    tally.failed += 1;
+                }
+            }
+        }
         if !keep {
             let _ = std::fs::remove_dir_all(&work);
         }
@@ -481,5 +583,27 @@ mod tests {
         // Out of order fails; a second excerpt starts after the first.
         assert!(match_excerpt(&lines("c 3.0\n...\na 1.0"), &out, 0).is_err());
         assert!(match_excerpt(&lines("a 1.0"), &out, 3).is_err());
+    }
+
+    #[test]
+    fn json_examples_compare_their_numbers() {
+        let file = r#"{"a": [1.5e-6, -2, {"s": "x 16 y"}], "b": 0.000010343, "c": 3.0}"#;
+        assert_eq!(
+            json_numbers(file),
+            vec!["1.5e-6", "-2", "0.000010343", "3.0"]
+        );
+        assert_eq!(
+            match_json_numbers(r#"{"a": [1.5e-6, ...], "c": 3.0}"#, file),
+            Ok(2)
+        );
+        assert!(match_json_numbers(r#"{"c": 3.0, "a": [1.5e-6]}"#, file).is_err());
+        let e = match_json_numbers(r#"{"b": 0.000010344}"#, file).unwrap_err();
+        assert!(e.contains("0.000010344"), "{e}");
+        let md = "<!-- docs-check: json out/r.json -->\n```json\n{}\n```\n";
+        let items = parse_markdown(md);
+        let Item::Block(b) = &items[0] else {
+            panic!("{items:?}")
+        };
+        assert_eq!(b.json_file.as_deref(), Some("out/r.json"));
     }
 }
