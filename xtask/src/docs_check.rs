@@ -34,6 +34,9 @@
 //! they wrote: every number the example shows must be in the file, as written, in the same
 //! order (string literals are not compared; `...` and left-out keys are allowed).
 //!
+//! The files are independent (each has its own working copy) and are checked `--jobs` (2) at a
+//! time; the report lists them in order.
+//!
 //! The last line printed is `docs-check: N passed, M failed, K skipped`; the exit status is
 //! non-zero when anything failed.
 
@@ -358,8 +361,141 @@ struct Tally {
     skipped: usize,
 }
 
+/// Runs the blocks of one file in the working copy `work`; returns the report and the counts.
+fn check_file(rel: &str, file: &Path, work: &Path, root: &Path, bin_dir: &Path) -> (String, Tally) {
+    let mut report = String::new();
+    let mut tally = Tally::default();
+    macro_rules! say {
+        ($($arg:tt)*) => {{
+            report.push_str(&format!($($arg)*));
+            report.push('\n');
+        }};
+    }
+    let text = match std::fs::read_to_string(file) {
+        Ok(t) => t,
+        Err(e) => {
+            say!("FAIL {rel}: cannot read: {e}");
+            tally.failed += 1;
+            return (report, tally);
+        }
+    };
+    let items = parse_markdown(&text);
+    let cases = cases(&items);
+    if cases.is_empty() {
+        return (report, tally);
+    }
+    if let Err(e) = copy_repository(root, work).and_then(|_| {
+        let _ = std::fs::remove_dir_all(work.join("tmp"));
+        std::fs::create_dir_all(work.join("tmp"))
+    }) {
+        say!(
+            "FAIL {rel}: cannot copy the repository to {}: {e}",
+            work.display()
+        );
+        tally.failed += 1;
+        return (report, tally);
+    }
+    let tmp = work.join("tmp");
+    for case in &cases {
+        let at = format!("{rel}:{}", case.command.line);
+        if let Some(reason) = &case.command.skip {
+            say!(
+                "skip {at} ({reason}){}",
+                if case.outputs.is_empty() {
+                    String::new()
+                } else {
+                    format!(", and its {} output block(s)", case.outputs.len())
+                }
+            );
+            tally.skipped += 1 + case.outputs.len();
+            continue;
+        }
+        let t = Instant::now();
+        let out = Command::new("bash")
+            .arg("-c")
+            .arg(script(&case.command.body, &tmp, root, bin_dir))
+            .current_dir(work)
+            .stdin(Stdio::null())
+            .stderr(Stdio::inherit())
+            .output();
+        let secs = t.elapsed().as_secs_f64();
+        let out = match out {
+            Ok(o) => o,
+            Err(e) => {
+                say!("FAIL {at}: cannot run bash: {e}");
+                tally.failed += 1 + case.outputs.len();
+                continue;
+            }
+        };
+        let printed =
+            String::from_utf8_lossy(&out.stdout).replace(&format!("{}/", tmp.display()), "/tmp/");
+        if !out.status.success() {
+            say!(
+                "FAIL {at}: the commands exited with {} after {secs:.1} s; their last output:",
+                out.status
+            );
+            let lines: Vec<&str> = printed.lines().collect();
+            for l in &lines[lines.len().saturating_sub(15)..] {
+                say!("      | {l}");
+            }
+            tally.failed += 1 + case.outputs.len();
+            continue;
+        }
+        say!("ok   {at}: ran in {secs:.1} s");
+        tally.passed += 1;
+        let output = normalised_lines(printed.lines());
+        let mut pos = 0;
+        for block in &case.outputs {
+            let excerpt = normalised_lines(block.body.iter().map(String::as_str));
+            match match_excerpt(&excerpt, &output, pos) {
+                Ok(next) => {
+                    say!(
+                        "ok   {rel}:{}: output as shown ({} lines)",
+                        block.line,
+                        excerpt.iter().filter(|l| *l != "...").count()
+                    );
+                    tally.passed += 1;
+                    pos = next;
+                }
+                Err(why) => {
+                    say!(
+                        "FAIL {rel}:{}: output differs from the command's ({at}):\n      {why}",
+                        block.line
+                    );
+                    tally.failed += 1;
+                }
+            }
+        }
+    }
+    // The JSON examples, against the files the commands wrote.
+    for item in &items {
+        let Item::Block(block) = item else { continue };
+        let Some(path) = &block.json_file else {
+            continue;
+        };
+        let at = format!("{rel}:{}", block.line);
+        match std::fs::read_to_string(work.join(path)) {
+            Ok(file) => match match_json_numbers(&block.body.join("\n"), &file) {
+                Ok(n) => {
+                    say!("ok   {at}: JSON example's {n} numbers as in {path}");
+                    tally.passed += 1;
+                }
+                Err(why) => {
+                    say!("FAIL {at}: JSON example differs from {path}: {why}");
+                    tally.failed += 1;
+                }
+            },
+            Err(e) => {
+                say!("FAIL {at}: {path}: cannot read (written by no command before?): {e}");
+                tally.failed += 1;
+            }
+        }
+    }
+    (report, tally)
+}
+
 /// `cargo xtask docs-check`: see the module's documentation.
-pub fn docs_check(only: &[String], keep: bool) -> ExitCode {
+pub fn docs_check(only: &[String], keep: bool, jobs: usize) -> ExitCode {
     let t0 = Instant::now();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -395,141 +531,58 @@ pub fn docs_check(only: &[String], keep: bool) -> ExitCode {
         }
     };
     let scratch = std::env::temp_dir().join(format!("docs-check-{}", std::process::id()));
+    let selected: Vec<(usize, &PathBuf, String)> = files
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            let rel = f.strip_prefix(&root).unwrap_or(f).display().to_string();
+            (k, f, rel)
+        })
+        .filter(|(_, _, rel)| {
+            only.is_empty() || only.iter().any(|o| rel == o || rel.ends_with(o.as_str()))
+        })
+        .collect();
+    // The files are independent (each its own working copy): `jobs` of them at a time, their
+    // reports printed in the files' order.
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let (send, receive) = std::sync::mpsc::channel::<(usize, String, Tally)>();
     let mut tally = Tally::default();
-    for (k, file) in files.iter().enumerate() {
-        let rel = file
-            .strip_prefix(&root)
-            .unwrap_or(file)
-            .display()
-            .to_string();
-        if !only.is_empty() && !only.iter().any(|o| rel == *o || rel.ends_with(o.as_str())) {
-            continue;
-        }
-        let text = match std::fs::read_to_string(file) {
-            Ok(t) => t,
-            Err(e) => {
-                println!("FAIL {rel}: cannot read: {e}");
-                tally.failed += 1;
-                continue;
-            }
-        };
-        let items = parse_markdown(&text);
-        let cases = cases(&items);
-        if cases.is_empty() {
-            continue;
-        }
-        let work = scratch.join(format!("{k}"));
-        if let Err(e) = copy_repository(&root, &work).and_then(|_| {
-            let _ = std::fs::remove_dir_all(work.join("tmp"));
-            std::fs::create_dir_all(work.join("tmp"))
-        }) {
-            println!(
-                "FAIL {rel}: cannot copy the repository to {}: {e}",
-                work.display()
-            );
-            tally.failed += 1;
-            continue;
-        }
-        let tmp = work.join("tmp");
-        for case in &cases {
-            let at = format!("{rel}:{}", case.command.line);
-            if let Some(reason) = &case.command.skip {
-                println!(
-                    "skip {at} ({reason}){}",
-                    if case.outputs.is_empty() {
-                        String::new()
-                    } else {
-                        format!(", and its {} output block(s)", case.outputs.len())
+    std::thread::scope(|s| {
+        for _ in 0..jobs.max(1) {
+            let send = send.clone();
+            let (next, selected, scratch, root, bin_dir) =
+                (&next, &selected, &scratch, &root, &bin_dir);
+            s.spawn(move || {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    let Some((k, file, rel)) = selected.get(i) else {
+                        break;
+                    };
+                    let work = scratch.join(format!("{k}"));
+                    let (report, t) = check_file(rel, file, &work, root, bin_dir);
+                    if !keep {
+                        let _ = std::fs::remove_dir_all(&work);
                     }
-                );
-                tally.skipped += 1 + case.outputs.len();
-                continue;
-            }
-            let t = Instant::now();
-            let out = Command::new("bash")
-                .arg("-c")
-                .arg(script(&case.command.body, &tmp, &root, &bin_dir))
-                .current_dir(&work)
-                .stdin(Stdio::null())
-                .stderr(Stdio::inherit())
-                .output();
-            let secs = t.elapsed().as_secs_f64();
-            let out = match out {
-                Ok(o) => o,
-                Err(e) => {
-                    println!("FAIL {at}: cannot run bash: {e}");
-                    tally.failed += 1 + case.outputs.len();
-                    continue;
-                }
-            };
-            let printed = String::from_utf8_lossy(&out.stdout)
-                .replace(&format!("{}/", tmp.display()), "/tmp/");
-            if !out.status.success() {
-                println!(
-                    "FAIL {at}: the commands exited with {} after {secs:.1} s; their last output:",
-                    out.status
-                );
-                let lines: Vec<&str> = printed.lines().collect();
-                for l in &lines[lines.len().saturating_sub(15)..] {
-                    println!("      | {l}");
-                }
-                tally.failed += 1 + case.outputs.len();
-                continue;
-            }
-            println!("ok   {at}: ran in {secs:.1} s");
-            tally.passed += 1;
-            let output = normalised_lines(printed.lines());
-            let mut pos = 0;
-            for block in &case.outputs {
-                let excerpt = normalised_lines(block.body.iter().map(String::as_str));
-                match match_excerpt(&excerpt, &output, pos) {
-                    Ok(next) => {
-                        println!(
-                            "ok   {rel}:{}: output as shown ({} lines)",
-                            block.line,
-                            excerpt.iter().filter(|l| *l != "...").count()
-                        );
-                        tally.passed += 1;
-                        pos = next;
-                    }
-                    Err(why) => {
-                        println!(
-                            "FAIL {rel}:{}: output differs from the command's ({at}):\n      {why}",
-                            block.line
-                        );
-                        tally.failed += 1;
+                    if send.send((i, report, t)).is_err() {
+                        break;
                     }
                 }
+            });
+        }
+        drop(send);
+        let mut done = std::collections::BTreeMap::new();
+        let mut printed = 0;
+        for (i, report, t) in receive {
+            done.insert(i, (report, t));
+            while let Some((report, t)) = done.remove(&printed) {
+                print!("{report}");
+                tally.passed += t.passed;
+                tally.failed += t.failed;
+                tally.skipped += t.skipped;
+                printed += 1;
             }
         }
-        // The JSON examples, against the files the commands wrote.
-        for item in &items {
-            let Item::Block(block) = item else { continue };
-            let Some(path) = &block.json_file else {
-                continue;
-            };
-            let at = format!("{rel}:{}", block.line);
-            match std::fs::read_to_string(work.join(path)) {
-                Ok(file) => match match_json_numbers(&block.body.join("\n"), &file) {
-                    Ok(n) => {
-                        println!("ok   {at}: JSON example's {n} numbers as in {path}");
-                        tally.passed += 1;
-                    }
-                    Err(why) => {
-                        println!("FAIL {at}: JSON example differs from {path}: {why}");
-                        tally.failed += 1;
-                    }
-                },
-                Err(e) => {
-                    println!("FAIL {at}: {path}: cannot read (written by no command before?): {e}");
-                    tally.failed += 1;
-                }
-            }
-        }
-        if !keep {
-            let _ = std::fs::remove_dir_all(&work);
-        }
-    }
+    });
     if keep {
         println!("working copies kept in {}", scratch.display());
     } else {

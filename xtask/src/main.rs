@@ -80,6 +80,9 @@ enum Command {
         /// Keep the temporary working copies (their path is printed).
         #[arg(long)]
         keep: bool,
+        /// Files checked at the same time (each in its own working copy).
+        #[arg(long, default_value_t = 2)]
+        jobs: usize,
     },
 }
 
@@ -95,7 +98,7 @@ fn main() -> ExitCode {
             control_seeds,
             case,
         } => hidden::hidden_effects(control_seeds, case.as_deref()),
-        Command::DocsCheck { files, keep } => docs_check::docs_check(&files, keep),
+        Command::DocsCheck { files, keep, jobs } => docs_check::docs_check(&files, keep, jobs),
         Command::NavError { result } => match nav_error(&result) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
