@@ -639,6 +639,35 @@ mod tests {
     }
 
     #[test]
+    fn scripts_run_the_workspace_binary_and_redirect_tmp() {
+        let body = vec![
+            "cargo run --release -p sins-calib -- simulate --out /tmp/run".to_string(),
+            "sins-calib calibrate --imu /tmp/run/imu.csv".to_string(),
+        ];
+        let s = script(
+            &body,
+            Path::new("/w/tmp"),
+            Path::new("/repo"),
+            Path::new("/repo/target/release"),
+        );
+        assert!(
+            s.contains("\nsins-calib simulate --out /w/tmp/run\n"),
+            "{s}"
+        );
+        assert!(
+            s.contains("\nsins-calib calibrate --imu /w/tmp/run/imu.csv\n"),
+            "{s}"
+        );
+        assert!(s.contains("export PATH='/repo/target/release':"), "{s}");
+        assert!(s.starts_with("set -e -o pipefail\nexec 2>&1\n"), "{s}");
+        assert_eq!(
+            skip_reason("<!-- docs-check: skip (takes 3 min) -->").as_deref(),
+            Some("takes 3 min")
+        );
+        assert_eq!(skip_reason("<!-- other -->"), None);
+    }
+
+    #[test]
     fn json_examples_compare_their_numbers() {
         let file = r#"{"a": [1.5e-6, -2, {"s": "x 16 y"}], "b": 0.000010343, "c": 3.0}"#;
         assert_eq!(
