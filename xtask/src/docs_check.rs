@@ -37,8 +37,11 @@
 //! The files are independent (each has its own working copy) and are checked `--jobs` (2) at a
 //! time; the report lists them in order.
 //!
-//! The last line printed is `docs-check: N passed, M failed, K skipped`; the exit status is
-//! non-zero when anything failed.
+//! The last line printed is `docs-check: N passed, M failed, K skipped` (each command block, each
+//! text block and each JSON example counts once; a failed command block fails its text blocks
+//! too); the exit status is non-zero when anything failed. With `--keep` the working copies stay,
+//! and in each the output of every command block, `docs-check-<file>-<line>.out`, to update a
+//! document from.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
@@ -429,6 +432,11 @@ fn check_file(rel: &str, file: &Path, work: &Path, root: &Path, bin_dir: &Path) 
         };
         let printed =
             String::from_utf8_lossy(&out.stdout).replace(&format!("{}/", tmp.display()), "/tmp/");
+        // What the block printed, for updating the documentation from it (`--keep`).
+        let _ = std::fs::write(
+            work.join(format!("docs-check-{}.out", at.replace(['/', ':'], "-"))),
+            printed.as_bytes(),
+        );
         if !out.status.success() {
             say!(
                 "FAIL {at}: the commands exited with {} after {secs:.1} s; their last output:",
