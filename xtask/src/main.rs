@@ -1,4 +1,5 @@
-//! Project automation: `cargo xtask paper-check` reproduces the paper's tables.
+//! Project automation: `cargo xtask paper-check` reproduces the paper's tables; `cargo xtask
+//! docs-check` runs the documentation's commands and compares their output with the documents.
 
 #![forbid(unsafe_code)]
 
@@ -10,6 +11,7 @@ use serde_json::{Map, Value, json};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod docs_check;
 mod hidden;
 mod plot;
 
@@ -68,6 +70,20 @@ enum Command {
         #[arg(long)]
         case: Option<String>,
     },
+    /// Run every `sh` block of README.md and docs/*.md as written (sins-calib: the release
+    /// binary; from a temporary copy of the repository; /tmp/ redirected) and compare the
+    /// `text` blocks after each with its output (excerpt rule: xtask/src/docs_check.rs).
+    /// Ends with `docs-check: N passed, M failed, K skipped`; exits non-zero on a failure.
+    DocsCheck {
+        /// Check only these files (paths relative to the repository, e.g. README.md).
+        files: Vec<String>,
+        /// Keep the temporary working copies (their path is printed).
+        #[arg(long)]
+        keep: bool,
+        /// Files checked at the same time (each in its own working copy).
+        #[arg(long, default_value_t = 2)]
+        jobs: usize,
+    },
 }
 
 fn main() -> ExitCode {
@@ -82,6 +98,7 @@ fn main() -> ExitCode {
             control_seeds,
             case,
         } => hidden::hidden_effects(control_seeds, case.as_deref()),
+        Command::DocsCheck { files, keep, jobs } => docs_check::docs_check(&files, keep, jobs),
         Command::NavError { result } => match nav_error(&result) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
