@@ -68,6 +68,7 @@ pub struct Args {
         long,
         value_name = "DEG",
         requires = "free_motion",
+        conflicts_with = "config",
         allow_negative_numbers = true
     )]
     pub latitude: Option<f64>,
@@ -243,13 +244,25 @@ pub fn check_output_path(path: &Path) -> Result<(), Error> {
     Ok(())
 }
 
+/// The files `calibrate` reads (an output must be none of them).
+pub(crate) fn input_paths(args: &Args) -> Vec<&Path> {
+    let mut v: Vec<&Path> = vec![args.imu.as_path()];
+    v.extend(args.turntable.as_deref());
+    v.extend(args.truth.as_deref());
+    v.extend(args.sections.as_deref());
+    if let Some(c) = args.config.as_deref() {
+        v.push(Path::new(c));
+    }
+    v
+}
+
 /// Run `calibrate`.
 pub fn run(args: &Args) -> Result<Outcome, Error> {
     if args.free_motion {
         return crate::free_motion::run(args);
     }
     if let Some(path) = &args.json {
-        check_output_path(path)?;
+        crate::output::check_file(path, "--json", &input_paths(args))?;
     }
     if let Some(dir) = &args.diagnostics {
         prepare_diagnostics_dir(dir)?;
@@ -335,7 +348,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
             diagnostics: diagnostics.as_ref(),
         };
         let text = serde_json::to_string_pretty(&json)? + "\n";
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        crate::output::write_file(path, text.as_bytes())?;
         let _ = writeln!(s, "\nwrote {}", path.display());
     }
     print(&s)?;

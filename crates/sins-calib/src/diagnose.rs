@@ -48,6 +48,7 @@ pub struct Args {
         long,
         value_name = "DEG",
         requires = "free_motion",
+        conflicts_with = "config",
         allow_negative_numbers = true
     )]
     pub latitude: Option<f64>,
@@ -77,8 +78,18 @@ pub struct Args {
     pub detector: crate::detector_args::DetectorArgs,
 }
 
-/// Parse candidate ids, naming the valid ones on a bad id.
+/// Parse candidate ids, naming the valid ones on a bad id and refusing one given twice (it
+/// would be tested twice and halve every Bonferroni threshold).
 pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
+    for (i, id) in ids.iter().enumerate() {
+        if ids[..i].contains(id) {
+            return Err(format!(
+                "--terms {}: `{id}` is given twice: expected each candidate term once",
+                ids.join(" ")
+            )
+            .into());
+        }
+    }
     ids.iter()
         .map(|id| {
             Candidate::from_id(id).ok_or_else(|| {
@@ -295,8 +306,32 @@ fn failure_lines(failures: &[String]) -> String {
 
 /// Run `diagnose`; returns whether the final model fits the data (its diagnostics pass).
 pub fn run(args: &Args) -> Result<bool, Error> {
-    for p in [&args.json, &args.report].into_iter().flatten() {
+    let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
+    inputs.extend(args.turntable.as_deref());
+    inputs.extend(args.sections.as_deref());
+    if let Some(c) = args.config.as_deref() {
+        inputs.push(std::path::Path::new(c));
+    }
+    if let Some(p) = &args.json {
+        crate::output::check_file(p, "--json", &inputs)?;
+    }
+    if let Some(p) = &args.report {
         check_output_path(p)?;
+        if p.is_file() {
+            return Err(format!(
+                "--report {}: is a file: expected a directory to write the report into",
+                p.display()
+            )
+            .into());
+        }
+    }
+    // The family-wise level of a decision: a probability, and one that means something.
+    if !(args.level.is_finite() && args.level > 0.0 && args.level <= 0.5) {
+        return Err(format!(
+            "--level {}: expected a family-wise level above 0 and at most 0.5 (0.01 by default)",
+            args.level
+        )
+        .into());
     }
     if args.free_motion {
         // The free-motion loop has its own verdict in its report (issue 19: to be merged into
@@ -350,8 +385,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     let text = summary(&result);
     print(&text)?;
     if let Some(path) = &args.json {
-        std::fs::write(path, to_json(&result)?)
-            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        crate::output::write_file(path, to_json(&result)?.as_bytes())?;
     }
     if let Some(dir) = &args.report {
         crate::diagnose_report::write(dir, &result, &text)?;

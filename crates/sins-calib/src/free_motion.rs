@@ -244,7 +244,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
             validation,
         };
         let text = serde_json::to_string_pretty(&json)? + "\n";
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        crate::output::write_file(path, text.as_bytes())?;
         let _ = writeln!(s, "\nwrote {}", path.display());
     }
     if let Some(path) = &args.plot {

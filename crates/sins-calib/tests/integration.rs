@@ -5,6 +5,7 @@
 mod apply;
 mod arbitrary_input;
 mod cli;
+mod cli_options;
 mod common;
 mod diagnose;
 mod free_motion;
