@@ -30,8 +30,8 @@ use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
 use crate::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose};
 use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
 use crate::evidence::{
-    InformationGain, ScoreTest, Separability, chi_bar_square_sf, ln_chi_square_sf, score_test,
-    separability,
+    InformationGain, SEPARATED_SIGMA_RATIO, ScoreTest, Separability, chi_bar_square_sf,
+    ln_chi_square_sf, score_test, separability,
 };
 use crate::extension::ModelExtension;
 use crate::layout::StateLayout;
@@ -298,7 +298,21 @@ impl Context<'_> {
             },
         };
         let base: Vec<String> = parameter_names(&current.estimate);
-        let sep = separability(&post.names, &post.prior_sigma, &post.cov, &names, &base);
+        let mut sep = separability(&post.names, &post.prior_sigma, &post.cov, &names, &base);
+        if self.rests.is_some() {
+            // A recording of rests sees some entries of a term only through the Earth rate
+            // (those acting on the vertical gyro of every pose): they keep their prior but are
+            // confounded with nothing. The term is separable when some entry is separated and
+            // none is confounded with the base parameters (with every entry required, a
+            // g-sensitivity the data called for at p = 7.6e-25 was refused).
+            sep.separable = sep
+                .parameters
+                .iter()
+                .any(|p| p.sigma_ratio <= SEPARATED_SIGMA_RATIO)
+                && sep.parameters.iter().all(|p| {
+                    p.sigma_ratio <= SEPARATED_SIGMA_RATIO || p.confounded_with.is_empty()
+                });
+        }
         let estimate = idx
             .iter()
             .map(|&i| ParameterValue {
