@@ -395,6 +395,12 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
     )?;
     let (mut config, origin) = load_config(name)?;
     if let Some(t) = args.program_start {
+        if !t.is_finite() {
+            return Err(format!(
+                "--program-start {t}: expected the IMU time (s) at which the program starts"
+            )
+            .into());
+        }
         config.filter.program_start_s = Some(t);
     }
     // Read the truth first: a wrong path should not cost a whole run.

@@ -340,6 +340,12 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     }
     let (mut config, _) = load_config(args.config.as_deref().unwrap_or("paper"))?;
     if let Some(t) = args.program_start {
+        if !t.is_finite() {
+            return Err(format!(
+                "--program-start {t}: expected the IMU time (s) at which the program starts"
+            )
+            .into());
+        }
         config.filter.program_start_s = Some(t);
     }
     let mut settings = LoopSettings {

@@ -2,7 +2,7 @@
 //! (no rotation program, no turntable) by `calib::free_motion`, with the static intervals of the
 //! `import` crate's detector.
 
-use crate::calibrate::{Args, Outcome, check_output_path};
+use crate::calibrate::{Args, Outcome};
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, print};
 use ::import::detect::{DetectorSettings, segment};
@@ -162,8 +162,12 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 .into(),
         );
     }
-    for path in args.json.iter().chain(&args.plot) {
-        check_output_path(path)?;
+    let inputs = crate::calibrate::input_paths(args);
+    if let Some(path) = &args.json {
+        crate::output::check_file(path, "--json", &inputs)?;
+    }
+    if let Some(path) = &args.plot {
+        crate::output::check_png(path, "--plot", &inputs)?;
     }
     let (mut settings, origin) = settings_of(args.config.as_deref(), args.latitude)?;
     settings.holdout = args.holdout;

@@ -49,6 +49,10 @@ pub type Error = Box<dyn std::error::Error>;
 /// Simulate a calibration run, calibrate an IMU from recorded data, or analyse how well a rotation
 /// program calibrates before booking the turntable. File formats: docs/formats.md. Values in files
 /// are SI; reports are in the paper's units (deg/h, arcmin, m/s^2).
+///
+/// Exit status: 0 success; 1 refused input or another error (the message names the file, line
+/// or option); 2 a malformed command line; 3 (calibrate, diagnose) the model does not fit the
+/// data: the results were computed and written, but are not to be trusted.
 #[derive(Debug, Parser)]
 #[command(name = "sins-calib", version)]
 struct Cli {

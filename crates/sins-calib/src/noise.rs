@@ -141,6 +141,17 @@ pub(crate) fn configured(noise: &NoiseConfig, gyro: bool) -> [(Term, f64); 2] {
 
 /// Run `noise`.
 pub fn run(args: &Args) -> Result<(), Error> {
+    // Outputs checked before the work: never onto an input, plots as PNG.
+    let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
+    if let Some(c) = args.config.as_deref() {
+        inputs.push(std::path::Path::new(c));
+    }
+    if let Some(p) = &args.json {
+        crate::output::check_file(p, "--json", &inputs)?;
+    }
+    if let Some(p) = &args.plot {
+        crate::output::check_png(p, "--plot", &inputs)?;
+    }
     let config = args.config.as_deref().map(load_config).transpose()?;
     let data = calib::io::read_imu_csv(&args.imu)?;
     let file = args.imu.display().to_string();

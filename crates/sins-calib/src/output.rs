@@ -39,6 +39,23 @@ fn parent_of(path: &Path) -> PathBuf {
     }
 }
 
+/// Check, before any work, that `path` (given by `option`) names a PNG file that can be
+/// written ([`check_file`]): the plots are PNG only.
+pub fn check_png(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Error> {
+    let png = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if !png {
+        return Err(format!(
+            "{option} {}: expected a .png file (plots are written as PNG)",
+            path.display()
+        )
+        .into());
+    }
+    check_file(path, option, inputs)
+}
+
 /// Check, before any work, that `path` (given by `option`) can take an output file: not a
 /// directory, in an existing directory, and none of `inputs`.
 pub fn check_file(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Error> {
