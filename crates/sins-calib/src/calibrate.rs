@@ -2,7 +2,7 @@
 
 use crate::diagnostic_plots::write_diagnostic_plots;
 use crate::table::{self, Align, Table};
-use crate::{Error, load_config, print};
+use crate::{Error, load_config};
 use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
 use calib::estimate::{
     Estimate, FileImu, FitStatistics, ImuSource as _, calibrate_rests, estimate_from,
@@ -349,9 +349,11 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         };
         let text = serde_json::to_string_pretty(&json)? + "\n";
         crate::output::write_file(path, text.as_bytes())?;
-        let _ = writeln!(s, "\nwrote {}", path.display());
+        if !crate::output::is_stdout(path) {
+            let _ = writeln!(s, "\nwrote {}", path.display());
+        }
     }
-    print(&s)?;
+    crate::report(&s, args.json.as_deref())?;
     let mut bad = misfits(&est.stats, turntable.is_some());
     if let Some(d) = diagnostics.as_ref().filter(|d| !d.fits) {
         bad.push(format!(

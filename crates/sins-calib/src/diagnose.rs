@@ -3,7 +3,7 @@
 //! (`calib::extend`; method in docs/model-extension.md).
 
 use crate::calibrate::check_output_path;
-use crate::{Error, load_config, print};
+use crate::{Error, load_config};
 use calib::estimate::RunData;
 use calib::extend::{
     CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop, run_loop_at_rests,
@@ -389,7 +389,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         run_loop(&config, &data, &settings, &mut progress)?
     };
     let text = summary(&result);
-    print(&text)?;
+    crate::report(&text, args.json.as_deref())?;
     if let Some(path) = &args.json {
         crate::output::write_file(path, to_json(&result)?.as_bytes())?;
     }

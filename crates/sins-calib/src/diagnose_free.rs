@@ -1,9 +1,9 @@
 //! `sins-calib diagnose --free-motion`: the model-extension loop on a hand-turned recording
 //! (`calib::extend_free`).
 
+use crate::Error;
 use crate::diagnose::Args;
 use crate::free_motion::{known_turns, settings_of, static_intervals};
-use crate::{Error, print};
 use ::import::sections::SectionsFile;
 use calib::extend_free::{FreeLoop, free_motion_loop};
 use calib::io::read_imu_csv;
@@ -89,7 +89,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     };
     let r = free_motion_loop(&data, &intervals, &turns, &settings, args.level)
         .map_err(|e| format!("{file}: {e}"))?;
-    print(&summary(&r))?;
+    crate::report(&summary(&r), args.json.as_deref())?;
     if let Some(path) = &args.json {
         let j = FreeLoopJson {
             accepted_terms: &r.accepted_terms,
@@ -99,8 +99,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             parameters: &r.last.parameters,
             rounds: &r.rounds,
         };
-        std::fs::write(path, serde_json::to_string_pretty(&j)?)
-            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        crate::output::write_file(path, serde_json::to_string_pretty(&j)?.as_bytes())?;
     }
     Ok(())
 }

@@ -4,7 +4,7 @@
 
 use crate::calibrate::{Args, Outcome};
 use crate::table::{self, Align, Table};
-use crate::{Error, load_config, print};
+use crate::{Error, load_config};
 use ::import::detect::{DetectorSettings, segment};
 use ::import::sections::{SectionKind, SectionsFile};
 use calib::free_motion::{
@@ -249,13 +249,15 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         };
         let text = serde_json::to_string_pretty(&json)? + "\n";
         crate::output::write_file(path, text.as_bytes())?;
-        let _ = writeln!(s, "\nwrote {}", path.display());
+        if !crate::output::is_stdout(path) {
+            let _ = writeln!(s, "\nwrote {}", path.display());
+        }
     }
     if let Some(path) = &args.plot {
         crate::plot::static_residuals_png(path, &file, &result.poses)?;
         let _ = writeln!(s, "wrote {}", path.display());
     }
-    print(&s)?;
+    crate::report(&s, args.json.as_deref())?;
     Ok(Outcome::Fits)
 }
 

@@ -133,6 +133,16 @@ pub fn load_config(name: &str) -> Result<(RunConfig, String), Error> {
     Ok((config, origin))
 }
 
+/// Write the human report: to stdout, or to stderr when the JSON goes to stdout (`--json -`).
+pub fn report(text: &str, json: Option<&std::path::Path>) -> Result<(), Error> {
+    if json.is_some_and(output::is_stdout) {
+        eprint!("{text}");
+        Ok(())
+    } else {
+        print(text)
+    }
+}
+
 /// Write a report to stdout; a closed pipe (e.g. `| head`) is not an error.
 pub fn print(text: &str) -> Result<(), Error> {
     let mut out = std::io::stdout().lock();

@@ -59,6 +59,9 @@ pub fn check_png(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Erro
 /// Check, before any work, that `path` (given by `option`) can take an output file: not a
 /// directory, in an existing directory, and none of `inputs`.
 pub fn check_file(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Error> {
+    if is_stdout(path) {
+        return Ok(());
+    }
     let shown = path.display();
     if path.is_dir() {
         return Err(format!(
@@ -131,8 +134,17 @@ fn temporary_beside(path: &Path, n: usize) -> PathBuf {
     parent_of(path).join(format!(".{name}.tmp-{}-{n}", std::process::id()))
 }
 
-/// Write `text` to `path` atomically: a temporary file in the same directory, renamed onto it.
+/// Whether an output path is `-`: standard output.
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// Write `text` to `path` atomically: a temporary file in the same directory, renamed onto it;
+/// `-` writes it to standard output.
 pub fn write_file(path: &Path, text: &[u8]) -> Result<(), Error> {
+    if is_stdout(path) {
+        return crate::print(&String::from_utf8_lossy(text));
+    }
     let tmp = (0..100)
         .map(|n| temporary_beside(path, n))
         .find(|p| !p.exists())

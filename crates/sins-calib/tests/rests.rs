@@ -170,3 +170,30 @@ fn diagnose_exits_3_when_no_candidate_explains_the_misfit() {
         "{report}"
     );
 }
+
+#[test]
+fn json_to_standard_output_keeps_the_report_on_standard_error() {
+    let dir = scratch("stdout");
+    let (with, without) = configs(&dir);
+    let out = dir.join("run");
+    let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
+    assert!(sim.status.success(), "{}", text(&sim.stderr));
+    let cal = run(&[
+        "calibrate",
+        "--imu",
+        s(&out.join("imu.csv")),
+        "--config",
+        s(&without),
+        "--json",
+        "-",
+    ]);
+    assert!(cal.status.success(), "{}", text(&cal.stderr));
+    let json: serde_json::Value =
+        serde_json::from_slice(&cal.stdout).expect("standard output is the JSON alone");
+    assert_eq!(json["parameters"].as_array().map(Vec::len), Some(21));
+    assert!(text(&cal.stderr).contains("sins-calib calibrate"));
+    assert!(
+        !std::path::Path::new("-").exists(),
+        "a file named - was written"
+    );
+}
