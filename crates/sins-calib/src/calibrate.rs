@@ -109,10 +109,22 @@ struct ResultJson<'a> {
     /// The estimated model inverted (`calib::correction`).
     #[serde(skip_serializing_if = "Option::is_none")]
     correction: Option<&'a calib::correction::CorrectionBlock>,
+    /// Whether the model fits the data, with the reasons when it does not.
+    verdict: VerdictJson,
     fit: FitJson,
     /// With --diagnostics: `calib::diagnostics::Diagnostics`.
     #[serde(skip_serializing_if = "Option::is_none")]
     diagnostics: Option<&'a Diagnostics>,
+}
+
+/// The verdict in the JSON result: `fits` false (and exit status 3) when a mean NIS is outside
+/// its band or the diagnostics fail.
+#[derive(Serialize)]
+struct VerdictJson {
+    fits: bool,
+    exit_status: u8,
+    /// One line per reason (empty when the model fits).
+    reasons: Vec<String>,
 }
 
 /// Fit statistics in the JSON result.
@@ -338,12 +350,30 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         Some(dir) => Some(diagnostics_stage(dir, &est, &mut s)?),
         None => None,
     };
+    let mut bad = misfits(&est.stats, turntable.is_some());
+    if let Some(d) = diagnostics.as_ref().filter(|d| !d.fits) {
+        bad.push(format!(
+            "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
+            d.failures.len(),
+            d.tests.len(),
+            100.0 * d.settings.alpha
+        ));
+    }
     if let Some(path) = &args.json {
         let result = est.to_result_file();
         let json = ResultJson {
             parameters: &result.parameters,
             correlation: result.correlation.as_ref(),
             correction: result.correction.as_ref(),
+            verdict: VerdictJson {
+                fits: bad.is_empty(),
+                exit_status: if bad.is_empty() {
+                    0
+                } else {
+                    crate::MODEL_DOES_NOT_FIT
+                },
+                reasons: bad.clone(),
+            },
             fit: fit_json(&est, turntable.is_some()),
             diagnostics: diagnostics.as_ref(),
         };
@@ -354,15 +384,6 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         }
     }
     crate::report(&s, args.json.as_deref())?;
-    let mut bad = misfits(&est.stats, turntable.is_some());
-    if let Some(d) = diagnostics.as_ref().filter(|d| !d.fits) {
-        bad.push(format!(
-            "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
-            d.failures.len(),
-            d.tests.len(),
-            100.0 * d.settings.alpha
-        ));
-    }
     if bad.is_empty() {
         return Ok(Outcome::Fits);
     }

@@ -165,6 +165,22 @@ fn diagnose_exits_3_when_no_candidate_explains_the_misfit() {
     ]);
     let report = text(&d.stdout);
     assert_eq!(d.status.code(), Some(3), "{report}\n{}", text(&d.stderr));
+    // calibrate says so too, in its exit status and in the JSON's verdict.
+    let json = dir.join("quiet.json");
+    let cal = run(&[
+        "calibrate",
+        "--imu",
+        s(&out.join("imu.csv")),
+        "--config",
+        s(&quiet),
+        "--json",
+        s(&json),
+    ]);
+    assert_eq!(cal.status.code(), Some(3), "{}", text(&cal.stderr));
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("written")).expect("JSON");
+    assert_eq!(result["verdict"]["fits"], serde_json::Value::Bool(false));
+    assert_eq!(result["verdict"]["exit_status"], 3);
     assert!(
         report.contains("NO CANDIDATE TERM THAT THIS RECORDING SEPARATES EXPLAINS"),
         "{report}"
