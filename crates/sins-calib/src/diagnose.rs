@@ -212,6 +212,9 @@ pub fn summary(r: &LoopResult) -> String {
                 let _ = writeln!(s, "  nothing accepted");
             }
         }
+        if let Some(t) = &round.accepted {
+            s += &size_line(t, &round.candidates);
+        }
     }
     let calls = r.inseparable_calls();
     if r.base_fits() {
@@ -285,6 +288,37 @@ pub fn summary(r: &LoopResult) -> String {
         );
     }
     s
+}
+
+/// An accepted term's largest estimate in the report's units, against typical magnitudes for
+/// units of each grade.
+fn size_line(term: &str, candidates: &[CandidateEvidence]) -> String {
+    let (Some(c), Some(e)) = (
+        Candidate::from_id(term),
+        candidates.iter().find(|e| e.term == term),
+    ) else {
+        return String::new();
+    };
+    let Some(largest) = e
+        .estimate
+        .iter()
+        .max_by(|a, b| a.value.abs().total_cmp(&b.value.abs()))
+    else {
+        return String::new();
+    };
+    let unit = match c {
+        // The drift's estimate is an intensity, in its own unit.
+        Candidate::GyroBiasDrift => sins_model::terms::Unit::RadPerSecondPerSqrtSecond,
+        _ => c.unit(),
+    };
+    format!(
+        "  size: largest {} = {:.3e} {} (+- {:.1e}); typical: {}\n",
+        largest.name,
+        largest.value * unit.report_factor(),
+        unit.report_name(),
+        largest.sigma * unit.report_factor(),
+        c.typical()
+    )
 }
 
 /// The failing tests one per line, the first ten and how many more.
@@ -397,4 +431,39 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         crate::diagnose_report::write(dir, &result, &text)?;
     }
     Ok(result.last.diagnostics.fits)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use calib::extend::ParameterValue;
+
+    #[test]
+    fn an_accepted_terms_size_is_set_against_typical_values() {
+        let e = CandidateEvidence {
+            term: "accel_quadratic".into(),
+            statistic: 40.0,
+            dof: 3,
+            p_value: 1e-8,
+            ln_p_value: 1e-8f64.ln(),
+            separable: true,
+            separation: None,
+            estimate: [
+                ("accel.k2.x", 1.9e-5),
+                ("accel.k2.y", -2.2e-5),
+                ("accel.k2.z", 2.0e-5),
+            ]
+            .iter()
+            .map(|(n, v)| ParameterValue {
+                name: n.to_string(),
+                value: *v,
+                sigma: 1e-6,
+            })
+            .collect(),
+        };
+        let line = size_line("accel_quadratic", &[e]);
+        assert!(line.contains("largest accel.k2.y"), "{line}");
+        assert!(line.contains("typical: pendulous quartz"), "{line}");
+        assert!(size_line("gyro_g_sensitivity", &[]).is_empty());
+    }
 }

@@ -135,6 +135,37 @@ impl Candidate {
         }
     }
 
+    /// Typical magnitudes of the term by grade of unit, with where they come from, for reports
+    /// that set an estimate against them (the same sources as [`Candidate::default_prior_sigma`]).
+    pub fn typical(self) -> &'static str {
+        match self {
+            Candidate::GyroGSensitivity => {
+                "ring lasers well below 0.1 deg/h/g; dynamically tuned gyros and FOGs 0.1 to 10 \
+                 deg/h/g (5e-8 to 5e-6 rad/s per m/s^2); MEMS gyros 0.01 to 0.1 deg/s/g \
+                 (data sheets)"
+            }
+            Candidate::GyroScaleAsymmetry => {
+                "RLG/FOG data sheets 1 to 50 ppm; tactical MEMS 100 to 1000 ppm"
+            }
+            Candidate::AccelQuadratic => {
+                "pendulous quartz accelerometers 10 to 100 micro-g/g^2 uncompensated (1e-6 to \
+                 1e-5 per m/s^2); tactical MEMS about 200 micro-g/g^2 (2e-5 per m/s^2)"
+            }
+            Candidate::AccelSizeEffect => {
+                "proof-mass offsets of a few centimetres in a navigation-grade cluster; \
+                 millimetres in a MEMS package"
+            }
+            Candidate::GyroBiasDrift => {
+                "navigation grade 0.001 to 0.01 deg/h/sqrt(h); tactical about 0.1 to 1; \
+                 consumer MEMS tens"
+            }
+            Candidate::GyroAccelTimeOffset => {
+                "a sample at the output rate (1 ms at 1 kHz) or the group-delay difference of \
+                 the two channels' anti-alias filters"
+            }
+        }
+    }
+
     /// The candidate's error term with `prior_sigma` on every parameter; `None` for the drift,
     /// which is process noise, not a term.
     pub fn term(self, prior_sigma: f64) -> Option<Box<dyn ErrorTerm>> {
