@@ -350,35 +350,9 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         Some(dir) => Some(diagnostics_stage(dir, &est, &mut s)?),
         None => None,
     };
-    let mut bad = misfits(&est.stats, turntable.is_some());
-    if let Some(d) = diagnostics.as_ref().filter(|d| !d.fits) {
-        bad.push(format!(
-            "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
-            d.failures.len(),
-            d.tests.len(),
-            100.0 * d.settings.alpha
-        ));
-    }
+    let bad = misfit_reasons(&est, diagnostics.as_ref(), turntable.is_some());
     if let Some(path) = &args.json {
-        let result = est.to_result_file();
-        let json = ResultJson {
-            parameters: &result.parameters,
-            correlation: result.correlation.as_ref(),
-            correction: result.correction.as_ref(),
-            verdict: VerdictJson {
-                fits: bad.is_empty(),
-                exit_status: if bad.is_empty() {
-                    0
-                } else {
-                    crate::MODEL_DOES_NOT_FIT
-                },
-                reasons: bad.clone(),
-            },
-            fit: fit_json(&est, turntable.is_some()),
-            diagnostics: diagnostics.as_ref(),
-        };
-        let text = serde_json::to_string_pretty(&json)? + "\n";
-        crate::output::write_file(path, text.as_bytes())?;
+        write_result_json(path, &est, diagnostics.as_ref(), turntable.is_some(), &bad)?;
         if !crate::output::is_stdout(path) {
             let _ = writeln!(s, "\nwrote {}", path.display());
         }
@@ -394,6 +368,50 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         bad.join("\n  ")
     );
     Ok(Outcome::DoesNotFit)
+}
+
+/// Why the model does not fit: a mean NIS outside its band, failing diagnostics (empty: it
+/// fits).
+fn misfit_reasons(est: &Estimate, diagnostics: Option<&Diagnostics>, with_tt: bool) -> Vec<String> {
+    let mut bad = misfits(&est.stats, with_tt);
+    if let Some(d) = diagnostics.filter(|d| !d.fits) {
+        bad.push(format!(
+            "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
+            d.failures.len(),
+            d.tests.len(),
+            100.0 * d.settings.alpha
+        ));
+    }
+    bad
+}
+
+/// The result JSON (docs/formats.md), written atomically (or to standard output for `-`).
+fn write_result_json(
+    path: &Path,
+    est: &Estimate,
+    diagnostics: Option<&Diagnostics>,
+    with_tt: bool,
+    bad: &[String],
+) -> Result<(), Error> {
+    let result = est.to_result_file();
+    let json = ResultJson {
+        parameters: &result.parameters,
+        correlation: result.correlation.as_ref(),
+        correction: result.correction.as_ref(),
+        verdict: VerdictJson {
+            fits: bad.is_empty(),
+            exit_status: if bad.is_empty() {
+                0
+            } else {
+                crate::MODEL_DOES_NOT_FIT
+            },
+            reasons: bad.to_vec(),
+        },
+        fit: fit_json(est, with_tt),
+        diagnostics,
+    };
+    let text = serde_json::to_string_pretty(&json)? + "\n";
+    crate::output::write_file(path, text.as_bytes())
 }
 
 /// What `calibrate` reads before the filter runs.

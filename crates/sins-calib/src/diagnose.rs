@@ -158,63 +158,71 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
     Ok(serde_json::to_string_pretty(&j)?)
 }
 
+/// One round of the loop: its candidates with their evidence and separability, what was
+/// accepted with its gain, and the accepted term's size.
+fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "round {}: candidates by evidence (accept below p = {:.2e} if separable)",
+        k + 1,
+        round.threshold
+    );
+    let _ = writeln!(
+        s,
+        "  {:<24} {:>12} {:>4} {:>10}  separable",
+        "term", "statistic", "dof", "p"
+    );
+    for c in &round.candidates {
+        let conf = c
+            .separation
+            .as_ref()
+            .map(|x| x.confounded())
+            .unwrap_or_default();
+        let sep = if c.separable {
+            "yes".to_string()
+        } else if conf.is_empty() {
+            "no (posterior sigma near the prior)".to_string()
+        } else {
+            format!("no: confounded with {}", conf.join(", "))
+        };
+        let _ = writeln!(
+            s,
+            "  {:<24} {:>12.2} {:>4} {:>10.2e}  {sep}",
+            c.term, c.statistic, c.dof, c.p_value
+        );
+    }
+    match &round.accepted {
+        Some(t) => {
+            let g = &r.gain[t];
+            let _ = writeln!(
+                s,
+                "  accepted {t}: log-likelihood +{:.1}, AIC {:+.1}, BIC {:+.1}, mean NIS \
+                 accel {:.3} -> {:.3}, turntable {:.3} -> {:.3}",
+                g.information.log_likelihood,
+                g.information.delta_aic,
+                g.information.delta_bic,
+                g.accel_mean_nis.0,
+                g.accel_mean_nis.1,
+                g.turntable_mean_nis.0,
+                g.turntable_mean_nis.1
+            );
+        }
+        None => {
+            let _ = writeln!(s, "  nothing accepted");
+        }
+    }
+    if let Some(t) = &round.accepted {
+        s += &size_line(t, &round.candidates);
+    }
+    s
+}
+
 /// The summary printed (and heading the Markdown report).
 pub fn summary(r: &LoopResult) -> String {
     let mut s = String::new();
     for (k, round) in r.rounds.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "round {}: candidates by evidence (accept below p = {:.2e} if separable)",
-            k + 1,
-            round.threshold
-        );
-        let _ = writeln!(
-            s,
-            "  {:<24} {:>12} {:>4} {:>10}  separable",
-            "term", "statistic", "dof", "p"
-        );
-        for c in &round.candidates {
-            let conf = c
-                .separation
-                .as_ref()
-                .map(|x| x.confounded())
-                .unwrap_or_default();
-            let sep = if c.separable {
-                "yes".to_string()
-            } else if conf.is_empty() {
-                "no (posterior sigma near the prior)".to_string()
-            } else {
-                format!("no: confounded with {}", conf.join(", "))
-            };
-            let _ = writeln!(
-                s,
-                "  {:<24} {:>12.2} {:>4} {:>10.2e}  {sep}",
-                c.term, c.statistic, c.dof, c.p_value
-            );
-        }
-        match &round.accepted {
-            Some(t) => {
-                let g = &r.gain[t];
-                let _ = writeln!(
-                    s,
-                    "  accepted {t}: log-likelihood +{:.1}, AIC {:+.1}, BIC {:+.1}, mean NIS \
-                     accel {:.3} -> {:.3}, turntable {:.3} -> {:.3}",
-                    g.information.log_likelihood,
-                    g.information.delta_aic,
-                    g.information.delta_bic,
-                    g.accel_mean_nis.0,
-                    g.accel_mean_nis.1,
-                    g.turntable_mean_nis.0,
-                    g.turntable_mean_nis.1
-                );
-            }
-            None => {
-                let _ = writeln!(s, "  nothing accepted");
-            }
-        }
-        if let Some(t) = &round.accepted {
-            s += &size_line(t, &round.candidates);
-        }
+        s += &round_lines(r, k, round);
     }
     let calls = r.inseparable_calls();
     if r.base_fits() {

@@ -139,9 +139,8 @@ pub(crate) fn configured(noise: &NoiseConfig, gyro: bool) -> [(Term, f64); 2] {
     }
 }
 
-/// Run `noise`.
-pub fn run(args: &Args) -> Result<(), Error> {
-    // Outputs checked before the work: never onto an input, plots as PNG.
+/// The outputs checked before the work: never onto an input, plots as PNG.
+fn check_outputs(args: &Args) -> Result<(), Error> {
     let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
     if let Some(c) = args.config.as_deref() {
         inputs.push(std::path::Path::new(c));
@@ -152,23 +151,18 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(p) = &args.plot {
         crate::output::check_png(p, "--plot", &inputs)?;
     }
-    let config = args.config.as_deref().map(load_config).transpose()?;
-    let data = calib::io::read_imu_csv(&args.imu)?;
-    let file = args.imu.display().to_string();
-    let n = data.records.len();
-    let settings = DetectorSettings {
-        min_duration_s: args.min_duration,
-        ..DetectorSettings::default()
-    };
-    settings
-        .check()
-        .map_err(|e| format!("noise: --min-duration: {e}"))?;
-    let seg = segment(&data, &settings).map_err(|e| format!("{file}: {e}"))?;
-    let median = seg.median_interval_s;
-    let whole = args.all_at_rest
-        || (seg.static_intervals.len() == 1
-            && seg.static_intervals[0].first_record == 0
-            && seg.static_intervals[0].last_record + 1 == n);
+    Ok(())
+}
+
+/// The record ranges the Allan variance is taken over: the whole recording split at its gaps,
+/// or the detector's static intervals; refused when there is none.
+fn intervals_of(
+    seg: &::import::detect::Segmentation,
+    whole: bool,
+    n: usize,
+    settings: &DetectorSettings,
+    file: &str,
+) -> Result<Vec<Range<usize>>, Error> {
     let intervals: Vec<Range<usize>> = if whole {
         // Every record, split at the gaps (the Allan variance is not defined across one).
         let mut cuts: Vec<usize> = seg.gaps.iter().map(|g| g.record).collect();
@@ -202,6 +196,30 @@ pub fn run(args: &Args) -> Result<(), Error> {
         )
         .into());
     }
+    Ok(intervals)
+}
+
+/// Run `noise`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    check_outputs(args)?;
+    let config = args.config.as_deref().map(load_config).transpose()?;
+    let data = calib::io::read_imu_csv(&args.imu)?;
+    let file = args.imu.display().to_string();
+    let n = data.records.len();
+    let settings = DetectorSettings {
+        min_duration_s: args.min_duration,
+        ..DetectorSettings::default()
+    };
+    settings
+        .check()
+        .map_err(|e| format!("noise: --min-duration: {e}"))?;
+    let seg = segment(&data, &settings).map_err(|e| format!("{file}: {e}"))?;
+    let median = seg.median_interval_s;
+    let whole = args.all_at_rest
+        || (seg.static_intervals.len() == 1
+            && seg.static_intervals[0].first_record == 0
+            && seg.static_intervals[0].last_record + 1 == n);
+    let intervals = intervals_of(&seg, whole, n, &settings, &file)?;
     // Increments of every record: as they are, or rate times the median interval. The records
     // are taken as evenly spaced at the median interval (the Allan variance needs a fixed tau0;
     // gaps end the intervals): a rate times its record's jittered interval would add the jitter
@@ -295,7 +313,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(path) = &args.json {
         let json = json_of(&file, whole, &intervals, &t, median, &sensors, &block);
         let text = serde_json::to_string_pretty(&json)? + "\n";
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        crate::output::write_file(path, text.as_bytes())?;
         let _ = writeln!(out, "wrote {}", path.display());
     }
     print(&out)
