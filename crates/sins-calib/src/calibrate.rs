@@ -11,7 +11,6 @@ use calib::io::{
     ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json, read_turntable_csv,
 };
 use calib::layout::layout_for;
-use calib::rests::Rest;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -323,7 +322,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 .detector
                 .settings()
                 .map_err(|e| format!("calibrate: {e}"))?;
-            let rests = detect_rests(&data, &input.imu_file, &settings)?;
+            let rests = crate::detector_args::rests(&data, &input.imu_file, &settings)?;
             calibrate_rests(
                 &input.config,
                 &layout,
@@ -578,26 +577,6 @@ fn header_report(input: &Inputs, est: &Estimate) -> String {
     }
     s.push('\n');
     s
-}
-
-/// The rests of a recording without a program, by the static detector of `segment`, on the
-/// IMU clock: each from the start of its first record's interval to its last record's time
-/// stamp.
-pub(crate) fn detect_rests(
-    data: &calib::io::ImuData,
-    file: &str,
-    settings: &::import::detect::DetectorSettings,
-) -> Result<Vec<Rest>, Error> {
-    let seg = ::import::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
-    let dt = seg.median_interval_s;
-    Ok(seg
-        .static_intervals
-        .iter()
-        .map(|r| Rest {
-            t0: r.start_s - dt,
-            t1: r.end_s,
-        })
-        .collect())
 }
 
 /// Make the diagnostics directory (one level) if it is not there; refuse a file.

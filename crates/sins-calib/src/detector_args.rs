@@ -2,6 +2,7 @@
 //! rests in a recording (`calibrate` without a program, `calibrate --free-motion`).
 
 use ::import::detect::DetectorSettings;
+use calib::rests::Rest;
 
 /// Options of the static detector (`import::detect`; the defaults are
 /// `DetectorSettings::default()`).
@@ -77,4 +78,24 @@ impl DetectorArgs {
         })?;
         Ok(s)
     }
+}
+
+/// The rests of a recording without a program, by the static detector with `settings`, on the
+/// IMU clock: each from the start of its first record's interval to its last record's time
+/// stamp.
+pub fn rests(
+    data: &calib::io::ImuData,
+    file: &str,
+    settings: &DetectorSettings,
+) -> Result<Vec<Rest>, String> {
+    let seg = ::import::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
+    let dt = seg.median_interval_s;
+    Ok(seg
+        .static_intervals
+        .iter()
+        .map(|r| Rest {
+            t0: r.start_s - dt,
+            t1: r.end_s,
+        })
+        .collect())
 }

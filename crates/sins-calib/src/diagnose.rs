@@ -425,7 +425,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
             .detector
             .settings()
             .map_err(|e| format!("diagnose: {e}"))?;
-        let rests = crate::calibrate::detect_rests(&imu, &imu_file, &detector)?;
+        let rests = crate::detector_args::rests(&imu, &imu_file, &detector)?;
         run_loop_at_rests(&config, &data, &rests, &settings, &mut progress)?
     } else {
         run_loop(&config, &data, &settings, &mut progress)?

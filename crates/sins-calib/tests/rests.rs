@@ -37,13 +37,19 @@ fn configs(dir: &Path) -> (PathBuf, PathBuf) {
     (with, without)
 }
 
-#[test]
-fn a_recording_of_rests_is_calibrated_without_its_program() {
-    let dir = scratch("six");
-    let (with, without) = configs(&dir);
+/// The two configurations of [`configs`] and a run simulated with the program into `dir/run`.
+fn simulated(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let (with, without) = configs(dir);
     let out = dir.join("run");
     let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
     assert!(sim.status.success(), "{}", text(&sim.stderr));
+    (with, without, out)
+}
+
+#[test]
+fn a_recording_of_rests_is_calibrated_without_its_program() {
+    let dir = scratch("six");
+    let (_, without, out) = simulated(&dir);
     let imu = out.join("imu.csv");
     let json = dir.join("result.json");
     let cal = run(&[
@@ -86,10 +92,7 @@ fn a_recording_of_rests_is_calibrated_without_its_program() {
 #[test]
 fn detector_options_are_refused_where_a_program_says_where_the_unit_rests() {
     let dir = scratch("refused");
-    let (with, _) = configs(&dir);
-    let out = dir.join("run");
-    let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
-    assert!(sim.status.success(), "{}", text(&sim.stderr));
+    let (with, _, out) = simulated(&dir);
     let cal = run(&[
         "calibrate",
         "--imu",
@@ -110,10 +113,7 @@ fn detector_options_are_refused_where_a_program_says_where_the_unit_rests() {
 #[test]
 fn diagnose_runs_its_loop_on_a_recording_of_rests() {
     let dir = scratch("diagnose");
-    let (with, without) = configs(&dir);
-    let out = dir.join("run");
-    let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
-    assert!(sim.status.success(), "{}", text(&sim.stderr));
+    let (_, without, out) = simulated(&dir);
     let d = run(&[
         "diagnose",
         "--imu",
@@ -142,10 +142,7 @@ fn diagnose_runs_its_loop_on_a_recording_of_rests() {
 #[test]
 fn diagnose_exits_3_when_no_candidate_explains_the_misfit() {
     let dir = scratch("misfit");
-    let (with, without) = configs(&dir);
-    let out = dir.join("run");
-    let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
-    assert!(sim.status.success(), "{}", text(&sim.stderr));
+    let (_, without, out) = simulated(&dir);
     // The configuration claims accelerometers ten times quieter than the simulated ones: no
     // candidate term explains that.
     let line = "accel_m_s2 = 0.001 ";
@@ -190,10 +187,7 @@ fn diagnose_exits_3_when_no_candidate_explains_the_misfit() {
 #[test]
 fn json_to_standard_output_keeps_the_report_on_standard_error() {
     let dir = scratch("stdout");
-    let (with, without) = configs(&dir);
-    let out = dir.join("run");
-    let sim = run(&["simulate", "--config", s(&with), "--out", s(&out)]);
-    assert!(sim.status.success(), "{}", text(&sim.stderr));
+    let (_, without, out) = simulated(&dir);
     let cal = run(&[
         "calibrate",
         "--imu",
