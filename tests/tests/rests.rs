@@ -158,3 +158,73 @@ fn nineteen_positions_without_the_program_10_seeds() {
 fn nineteen_positions_without_the_program_50_seeds() {
     run(600..=649);
 }
+
+/// A consumer-grade unit on the same 19-position recording: per-cent scale factors, a degree of
+/// misalignment, a degree per second of gyro bias, 0.3 m/s^2 of accelerometer bias, and the
+/// noise of a MEMS unit (120 deg/h and 0.0012 m/s^2, each the sigma of a 1-s average; the Xsens
+/// MTi of `docs/real-data.md` is of this order). `calibrate_rests` starts it from the coarse
+/// batch fit (`needs_coarse_start`).
+///
+/// Fixed before the runs were looked at: seeds 800-809 and 850-899, the same consistency
+/// figures as the navigation-grade runs. Both FAIL today and are behind `--ignored` as the
+/// measure of what is open (issue 19): NEES 29.1 per run for 24 states on 800-809 (sum 291.0,
+/// band [199.0, 284.8]) and 32.6 on 850-899 (largest mean error -3.26 SEM, accel.gamma.xx),
+/// down from 75 and a 3-sigma vertical scale-factor bias before the window noise was
+/// correlated with the state (`calib::model::WindowNoise`) and the tilt fed back in later
+/// passes. The heading, which such a unit cannot gyrocompass, is the largest normalised error
+/// (rms 1.3): the linear model's first-order heading is the suspect.
+pub fn consumer_config(seed: u64) -> RunConfig {
+    let mut c = config(seed);
+    c.priors.gyro_bias_deg_h = 3600.0;
+    c.priors.gyro_scale = 0.02;
+    c.priors.gyro_misalignment_arcmin = 60.0;
+    c.priors.accel_bias_m_s2 = 0.3;
+    c.priors.accel_scale = 0.02;
+    c.priors.accel_misalignment_arcmin = 60.0;
+    c.noise.gyro_deg_h = 120.0;
+    c.noise.accel_m_s2 = 0.0012;
+    c
+}
+
+fn run_consumer(seeds: std::ops::RangeInclusive<u64>) {
+    let runs = parallel_map(&seeds.collect::<Vec<_>>(), |&seed| {
+        let config = consumer_config(seed);
+        assert!(calib::estimate::needs_coarse_start(&config));
+        let sim = calib::simulate::simulate_run(&config, "19 positions").unwrap();
+        let imu = ImuData::from_samples(&sim.imu);
+        let layout = layout_for(&config, false);
+        let est = calib::estimate::calibrate_rests(
+            &config,
+            &layout,
+            &imu,
+            "imu.csv",
+            &rests(&config),
+            &mut |_, _| {},
+        )
+        .unwrap();
+        let (e, s) = state_errors(&config, &sim, &est);
+        (est, e, s)
+    });
+    let mut mc = MonteCarlo::default();
+    for (est, e, s) in &runs {
+        println!(
+            "accel mean NIS {:.3} over {} updates",
+            est.stats.accel_mean_nis, est.stats.accel_updates
+        );
+        mc.add_errors(est, e, s);
+    }
+    let failures = mc.check("19 positions, consumer grade, rests only, 24 states");
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+#[test]
+#[ignore = "known to fail (NEES 29.1 per run for 24), see consumer_config; about 30 s"]
+fn consumer_grade_without_the_program_10_seeds() {
+    run_consumer(800..=809);
+}
+
+#[test]
+#[ignore = "known to fail (NEES 32.6 per run for 24), see consumer_config; 50 runs, about 2 minutes"]
+fn consumer_grade_without_the_program_50_seeds() {
+    run_consumer(850..=899);
+}

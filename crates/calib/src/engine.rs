@@ -237,6 +237,9 @@ pub struct Engine {
     covariance_only: bool,
     /// Scratch for the measurement noise as a faer matrix.
     r: Mat<f64>,
+    /// Scratch for the cross-covariance of the state's error and the measurement noise
+    /// (`n x 3`; only the attitude rows are ever non-zero).
+    cross: Mat<f64>,
 }
 
 impl Engine {
@@ -248,6 +251,7 @@ impl Engine {
         noise: MeasurementNoise,
         covariance_only: bool,
     ) -> Self {
+        let n = filter.dim();
         Self {
             filter,
             model,
@@ -255,6 +259,7 @@ impl Engine {
             noise,
             covariance_only,
             r: Mat::zeros(3, 3),
+            cross: Mat::zeros(n, 3),
         }
     }
 
@@ -334,14 +339,16 @@ impl Engine {
         for i in 0..3 {
             for k in 0..3 {
                 self.r[(i, k)] = m.r[(i, k)];
+                self.cross[(i, k)] = m.cross_beta[(i, k)];
             }
         }
         let h = self.model.h(m.kind);
+        let (r, cross) = (self.r.as_ref(), self.cross.as_ref());
         if self.covariance_only {
-            self.filter.update_covariance(h, self.r.as_ref())?;
+            self.filter.update_covariance_correlated(h, r, cross)?;
             Ok(None)
         } else {
-            let info = self.filter.update(m.z.as_slice(), h, self.r.as_ref())?;
+            let info = self.filter.update_correlated(m.z.as_slice(), h, r, cross)?;
             let (nu, s) = (
                 self.filter.innovation(),
                 self.filter.innovation_covariance(),

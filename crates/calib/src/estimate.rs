@@ -694,9 +694,14 @@ fn iterate_passes(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let n = scan.n;
-    // Later passes keep their trajectory. (Feeding the attitude back in them too was tried on
-    // recordings of rests: the simulated consumer-grade 19-position runs, consistent without
-    // it, then diverged.)
+    // Later passes keep their trajectory on a program. On a recording of rests they feed the
+    // tilt back: their trajectory is the pass before's, integrated with its estimates, and the
+    // gyro noise of a MEMS unit (120 deg/h in a 1-s average) walks its tilt by about a degree
+    // over nine minutes, whose second-order specific-force error `-g |beta_h|^2 / 2` read as a
+    // vertical accelerometer scale factor 3e-5 low on every consumer-grade run (3 sigma; NEES
+    // 75 per run for 24 states, tests/tests/rests.rs; 29 with the tilt fed back). The heading
+    // is not fed back: feeding the whole attitude back diverged on those runs, and the
+    // heading, which such a unit cannot gyrocompass, does not enter the specific force at rest.
     // Every pass carries a constant copy of the start attitude error, so that the next pass can
     // start from the estimate of the start attitude (a fixed-point smoother).
     let smoother = layout.with_start_attitude();
@@ -708,6 +713,7 @@ fn iterate_passes(
         Motion::Rests { .. } => MAX_PASSES_RESTS,
     };
     let total = (1 + max_passes) * n;
+    let tilt_walks = gyro_noise_walks_the_tilt(config, n as f64 / config.filter.imu_rate_hz);
     let mut nominal = first;
     let mut shift = f64::INFINITY;
     let mut pass = 0;
@@ -724,6 +730,8 @@ fn iterate_passes(
             nominal.as_ref(),
             if pass == 0 {
                 first_feedback
+            } else if matches!(motion, Motion::Rests { .. }) && tilt_walks {
+                Feedback::Tilt
             } else {
                 Feedback::None
             },
@@ -769,6 +777,21 @@ fn iterate_passes(
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
+}
+
+/// Whether the gyro noise walks the tilt of a trajectory integrated over `run_s` far enough
+/// that its second-order specific-force error (`g sigma^2 / 2`, `sigma^2 = q run_s`) exceeds
+/// a tenth of the noise of one specific-force measurement: then later passes on a recording of
+/// rests feed the tilt back ([`Feedback::Tilt`]). A MEMS gyro (120 deg/h in a 1-s average)
+/// over nine minutes: 9e-4 m/s^2 against 1.2e-3; the paper's (0.1 deg/h): 6e-10 against 1e-3.
+/// Not on every recording: on one whose configured accelerometer noise is ten times too low
+/// (crates/sins-calib/tests/rests.rs) the fed-back tilt ran away (mean NIS 6.4e6 against 281
+/// without).
+fn gyro_noise_walks_the_tilt(config: &RunConfig, run_s: f64) -> bool {
+    let g = config.site().specific_force_at_rest_enu().norm();
+    let second_order = 0.5 * g * config.gyro_psd() * run_s;
+    let one_measurement = (config.accel_psd() * config.filter.accel_rate_hz).sqrt();
+    second_order > 0.1 * one_measurement
 }
 
 /// Find (or check) where the program starts on the IMU clock. A program that never turns has

@@ -16,6 +16,16 @@
 //!   `y = beta - gamma_p - C delta_z - Omega_x tau + J rho` at each sample, averaged over the
 //!   window; `J` is the gimbal Jacobian and `rho` the angle-sensor noise, which reaches a sample
 //!   through the interpolation weights of the records it was interpolated from.
+//!
+//! The window mean of `beta` is not a function of the state at the instant alone: the gyro
+//! white noise `n_i` of each step moves `beta` after the samples before it, so that
+//! `mean(beta) = (the above) - sum_i c_i n_i`, `c_i` the share of the window's weight before
+//! step `i` ([`WindowNoise`]). That part is measurement noise (variance `sum c_i^2 q_i` per
+//! axis) correlated with the state's error, which holds every `n_i` (cross-covariance
+//! `-sum c_i q_i` on the attitude rows). Left out, the filter counts the window's gyro noise
+//! in full against a measurement that sees only part of it: on a MEMS unit (120 deg/h in a 1-s
+//! average, ten times the accelerometer noise in tilt) the mean NIS of the specific force came out
+//! 2.2-2.7 for 3 and the NEES 71 per run for 24 states (tests/tests/rests.rs, consumer grade).
 
 use crate::layout::StateLayout;
 use faer::{Mat, MatRef};
@@ -161,10 +171,34 @@ impl PhiMean {
     }
 }
 
+/// The gyro white noise of a measurement window's steps as the window mean of `beta` sees it:
+/// `sum q_i w_i` and `sum q_i w_i^2`, with `q_i` the noise variance of step `i` and `w_i` the
+/// window's weight of the samples before it (divided by the total weight at the end: `c_i`).
+/// The Earth-rate rotation of the noise within one window (7e-5 rad over 1 s) is neglected.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WindowNoise {
+    q_w: f64,
+    q_w2: f64,
+}
+
+impl WindowNoise {
+    fn add(&mut self, q: f64, weight_before: f64) {
+        self.q_w += q * weight_before;
+        self.q_w2 += q * weight_before * weight_before;
+    }
+
+    /// `(sum c_i q_i, sum c_i^2 q_i)` for a window of total weight `total`.
+    pub fn moments(&self, total: f64) -> (f64, f64) {
+        (self.q_w / total, self.q_w2 / (total * total))
+    }
+}
+
 /// Accumulators of the specific-force measurement window.
 #[derive(Clone, Debug)]
 struct AccelWindow {
     beta: PhiMean,
+    /// The gyro noise of the window's steps ([`WindowNoise`]).
+    noise: WindowNoise,
     /// `sum C dDf/dp dt` over the window (instrument parameters).
     c_jac: Vec<Vector3<f64>>,
     /// `sum C f' dt`: the measured velocity increment in ENU (estimation only).
@@ -177,6 +211,8 @@ struct AccelWindow {
 #[derive(Clone, Debug)]
 struct TurntableWindow {
     beta: PhiMean,
+    /// The gyro noise of the window's steps ([`WindowNoise`]; sample counts as weights).
+    noise: WindowNoise,
     c_sum: Matrix3<f64>,
     omega_sum: Vector3<f64>,
     y_sum: Vector3<f64>,
@@ -291,6 +327,9 @@ pub struct Measurement {
     pub r: Matrix3<f64>,
     /// Number of IMU steps (specific force) or angle samples (turntable) averaged.
     pub samples: usize,
+    /// Cross-covariance `E[beta v^T]` of the attitude error at the instant and the noise (the
+    /// gyro noise within the window: module docs); the other states' rows are zero.
+    pub cross_beta: Matrix3<f64>,
 }
 
 /// One turntable-angle sample at the end of an IMU step.
@@ -385,12 +424,14 @@ impl LinearModel {
             dt,
             acc: AccelWindow {
                 beta: PhiMean::new(nd),
+                noise: WindowNoise::default(),
                 c_jac: vec![Vector3::zeros(); n_instr],
                 dv_enu: Vector3::zeros(),
                 t: 0.0,
             },
             tt: TurntableWindow {
                 beta: PhiMean::new(nd),
+                noise: WindowNoise::default(),
                 c_sum: Matrix3::zeros(),
                 omega_sum: Vector3::zeros(),
                 y_sum: Vector3::zeros(),
@@ -441,6 +482,7 @@ impl LinearModel {
     /// Start a new specific-force window.
     pub fn reset_accel(&mut self) {
         self.acc.beta.clear();
+        self.acc.noise = WindowNoise::default();
         self.acc.c_jac.fill(Vector3::zeros());
         self.acc.dv_enu = Vector3::zeros();
         self.acc.t = 0.0;
@@ -450,6 +492,7 @@ impl LinearModel {
     pub fn reset_turntable(&mut self) {
         let w = &mut self.tt;
         w.beta.clear();
+        w.noise = WindowNoise::default();
         w.c_sum = Matrix3::zeros();
         w.omega_sum = Vector3::zeros();
         w.y_sum = Vector3::zeros();
@@ -512,6 +555,14 @@ impl LinearModel {
         self.q_steps += 1;
         if let Some(d) = &mut self.drift {
             d.step(&a, &c_dt, self.psd_gyro * dt, dt);
+        }
+        let q_step = self.psd_gyro * dt;
+        if in_acc {
+            // Before this step's end is added below: the samples this step's noise misses.
+            self.acc.noise.add(q_step, self.acc.beta.weight);
+        }
+        if self.tt.count > 0 {
+            self.tt.noise.add(q_step, self.tt.count as f64);
         }
         if let Some(dv) = accel_dv_enu {
             self.acc.beta.add(&self.phi_top, dt);
@@ -640,7 +691,9 @@ impl LinearModel {
         for i in 0..3 {
             *self.scratch.at_mut(i, i) -= half;
         }
-        let sf = errors::specific_force_beta_jacobian(f_enu) / (self.acc.beta.weight - half);
+        let weight = self.acc.beta.weight - half;
+        let f_beta = errors::specific_force_beta_jacobian(f_enu);
+        let sf = f_beta / weight;
         h.fill(0.0);
         for (c, &j) in self.dynamic.iter().enumerate() {
             let v = sf * self.scratch.col(c);
@@ -653,11 +706,13 @@ impl LinearModel {
                 h[(r, StateLayout::INSTRUMENT + i)] += self.acc.c_jac[i][r] / t;
             }
         }
+        let (c1, c2) = self.acc.noise.moments(weight);
         Some(Measurement {
             kind: MeasurementKind::Accel,
             z: self.acc.dv_enu / t - f_enu,
-            r: Matrix3::identity() * (psd_accel / t),
+            r: Matrix3::identity() * (psd_accel / t) + f_beta * f_beta.transpose() * c2,
             samples: (t / self.dt).round() as usize,
+            cross_beta: -f_beta.transpose() * c1,
         })
     }
 
@@ -730,11 +785,15 @@ impl LinearModel {
                 r += c + c.transpose();
             }
         }
+        // The samples' `beta` (weight 1 each) with the noise of the steps after them.
+        let (c1, c2) = w.noise.moments(nf);
+        r += Matrix3::identity() * c2;
         Some(Measurement {
             kind: MeasurementKind::Turntable,
             z: w.y_sum / nf,
             r,
             samples: w.count,
+            cross_beta: -Matrix3::identity() * c1,
         })
     }
 
@@ -760,5 +819,60 @@ impl LinearModel {
                 .copy_from(&(-Matrix3::identity()));
         }
         h
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    /// The window's gyro noise as [`LinearModel::substep`] accumulates it (trapezoid weights:
+    /// half a step at the window's start, a step at every step's end, less half a step at the
+    /// end) against the sampled scalar walk: `mean(beta) - beta_end` has variance
+    /// `sum c_i^2 q` and covariance `-sum c_i q` with the walk over the window (`beta_end -
+    /// beta_start`). 40 000 windows of 10 steps, seed 1, fixed in advance: each figure within
+    /// 4 standard errors.
+    #[test]
+    fn window_noise_moments_match_the_sampled_walk() {
+        let (steps, dt, q) = (10usize, 0.1, 2.0);
+        let mut noise = WindowNoise::default();
+        let mut weight = 0.5 * dt;
+        for _ in 0..steps {
+            noise.add(q, weight);
+            weight += dt;
+        }
+        let (c1, c2) = noise.moments(weight - 0.5 * dt);
+        // Closed form for equal steps: c_i = (i - 1/2) / N.
+        let n = steps as f64;
+        assert!((c1 - q * n / 2.0).abs() < 1e-12);
+        assert!((c2 - q * (n / 3.0 - 1.0 / (12.0 * n))).abs() < 1e-12);
+
+        let mut rng = rand::rngs::StdRng::seed_from_u64(1);
+        let normal = Normal::new(0.0, q.sqrt()).unwrap();
+        let runs = 40_000;
+        let (mut var, mut cov, mut var_walk) = (0.0, 0.0, 0.0);
+        for _ in 0..runs {
+            // The walk starts at 0 (the window's first instant, weight dt / 2, adds nothing).
+            let (mut beta, mut sum) = (0.0, 0.0);
+            for i in 0..steps {
+                beta += normal.sample(&mut rng);
+                sum += if i + 1 == steps { 0.5 * dt } else { dt } * beta;
+            }
+            let delta = sum / (n * dt) - beta;
+            var += delta * delta;
+            cov += delta * beta;
+            var_walk += beta * beta;
+        }
+        let (var, cov, var_walk) = (var / runs as f64, cov / runs as f64, var_walk / runs as f64);
+        let se = |v: f64| 4.0 * v * (2.0 / runs as f64).sqrt();
+        assert!((var - c2).abs() < se(c2), "variance {var} against {c2}");
+        assert!(
+            (cov + c1).abs() < se(var_walk),
+            "covariance {cov} against {}",
+            -c1
+        );
+        assert!((var_walk - q * n).abs() < se(q * n), "walk {var_walk}");
     }
 }

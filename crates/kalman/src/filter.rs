@@ -287,12 +287,47 @@ impl KalmanFilter {
         let m = z.len();
         check_shape("H", (h.nrows(), h.ncols()), (m, self.dim()))?;
         check_finite_slice("z", z)?;
-        let (log_det_s, nis) = self.update_inner(h, r, Some(z))?;
+        let (log_det_s, nis) = self.update_inner(h, r, None, Some(z))?;
         Ok(UpdateInfo {
             nis,
             log_det_s,
             dim: m,
         })
+    }
+
+    /// [`update`](Self::update) with measurement noise correlated with the state's error:
+    /// `cross = E[e v^T]` (`n x m`, where `e` is the prior error of the state), as when `v`
+    /// holds process noise of the interval just predicted over. The gain becomes
+    /// `(P H^T + M) S^-1` with `S = H P H^T + H M + M^T H^T + R`, and the covariance
+    /// `P - K S K^T`; `cross = 0` is [`update`](Self::update).
+    pub fn update_correlated(
+        &mut self,
+        z: &[f64],
+        h: MatRef<'_, f64>,
+        r: MatRef<'_, f64>,
+        cross: MatRef<'_, f64>,
+    ) -> Result<UpdateInfo, KalmanError> {
+        let m = z.len();
+        check_shape("H", (h.nrows(), h.ncols()), (m, self.dim()))?;
+        check_shape("M", (cross.nrows(), cross.ncols()), (self.dim(), m))?;
+        check_finite_slice("z", z)?;
+        let (log_det_s, nis) = self.update_inner(h, r, Some(cross), Some(z))?;
+        Ok(UpdateInfo {
+            nis,
+            log_det_s,
+            dim: m,
+        })
+    }
+
+    /// The covariance part of [`update_correlated`](Self::update_correlated).
+    pub fn update_covariance_correlated(
+        &mut self,
+        h: MatRef<'_, f64>,
+        r: MatRef<'_, f64>,
+        cross: MatRef<'_, f64>,
+    ) -> Result<(), KalmanError> {
+        check_shape("M", (cross.nrows(), cross.ncols()), (self.dim(), h.nrows()))?;
+        self.update_inner(h, r, Some(cross), None).map(drop)
     }
 
     /// Measurement update of the covariance only (covariance analysis: no measurement value,
@@ -303,13 +338,14 @@ impl KalmanFilter {
         h: MatRef<'_, f64>,
         r: MatRef<'_, f64>,
     ) -> Result<(), KalmanError> {
-        self.update_inner(h, r, None).map(drop)
+        self.update_inner(h, r, None, None).map(drop)
     }
 
     fn update_inner(
         &mut self,
         h: MatRef<'_, f64>,
         r: MatRef<'_, f64>,
+        cross: Option<MatRef<'_, f64>>,
         z: Option<&[f64]>,
     ) -> Result<(f64, f64), KalmanError> {
         let (n, m) = (self.dim(), h.nrows());
@@ -333,7 +369,7 @@ impl KalmanFilter {
             innovation: &mut self.innovation[..m],
         });
         let stack = MemStack::new(&mut self.work);
-        let result = update(out, state, &self.scale, h, r, stack);
+        let result = update(out, state, &self.scale, h, r, cross, stack);
         if !matches!(result, Err(KalmanError::NonFinite { .. })) {
             // From here on the diagnostics describe this update, also if `S` was not PD.
             self.m_last = m;

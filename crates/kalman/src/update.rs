@@ -8,6 +8,10 @@
 //! NIS = nu^T S^-1 nu = |L^-1 nu|^2,   ln det S = 2 sum ln L_jj
 //! ```
 //!
+//! When the measurement noise is correlated with the state's error (`M = E[e v^T]`, `n x m`, as
+//! when `v` holds process noise of the interval just predicted over), `B = P H^T + M` and
+//! `S = H P H^T + H M + M^T H^T + R`; the rest is unchanged.
+//!
 //! `W W^T` is formed on the lower triangle only (faer's triangular product) and mirrored, so the
 //! updated covariance is exactly symmetric; no gain matrix is formed. The `m x m` Cholesky
 //! factorisation is a plain loop: it rejects pivots lost to rounding (not larger than
@@ -52,7 +56,9 @@ pub(crate) struct StatePart<'a> {
 }
 
 /// The measurement update with `h` (`m x n`) in the caller's units (normalised here with
-/// `scale`) and `r` (`m x m`); returns `(ln det S, NIS)` (NIS 0 without a state part).
+/// `scale`), `r` (`m x m`) and, when given, the cross-covariance `cross = E[e v^T]` (`n x m`,
+/// caller's units) of the state error and the measurement noise; returns `(ln det S, NIS)`
+/// (NIS 0 without a state part).
 ///
 /// Shapes are checked by the caller. `h` and `r` are checked for finiteness before anything is
 /// written. When `S` is not positive definite, `out.s` holds it and `out.p` and the state are
@@ -63,6 +69,7 @@ pub(crate) fn update(
     scale: &[f64],
     h: MatRef<'_, f64>,
     r: MatRef<'_, f64>,
+    cross: Option<MatRef<'_, f64>>,
     stack: &mut MemStack,
 ) -> Result<(f64, f64), KalmanError> {
     let (m, n) = (h.nrows(), h.ncols());
@@ -77,8 +84,12 @@ pub(crate) fn update(
     }
     check_finite_mat("H", h_t.rb().transpose())?;
     check_finite_mat("R", r)?;
+    if let Some(c) = cross {
+        check_finite_mat("M", c)?;
+    }
     let Outputs { p, mut w, s, mut l } = out;
-    let log_det_s = covariance(p, w.rb_mut(), s, l.rb_mut(), h_t.rb(), r)?;
+    let correlation = cross.map(|c| Correlation { cross: c, scale });
+    let log_det_s = covariance(p, w.rb_mut(), s, l.rb_mut(), h_t.rb(), r, correlation)?;
     let nis = match state {
         Some(state) => update_state(state, h_t.rb(), w.rb(), l.rb(), stack),
         None => 0.0,
@@ -86,8 +97,38 @@ pub(crate) fn update(
     Ok((log_det_s, nis))
 }
 
-/// `B = P H^T` (into `w`), `S = H B + R`, `L`, then `W = B L^-T` and `P <- P - W W^T`; returns
-/// `ln det S`. `h_t` is `H^T`. `p` is untouched when `S` is not positive definite.
+/// The cross-covariance of a correlated update, in the caller's units, and the states' scale.
+#[derive(Clone, Copy)]
+struct Correlation<'a> {
+    cross: MatRef<'a, f64>,
+    scale: &'a [f64],
+}
+
+impl Correlation<'_> {
+    /// `B <- B + M_s` and `S <- S + H_s M_s + M_s^T H_s^T` with `M_s = D^-1 M` (`h_t` is
+    /// `H_s^T = D H^T`, so `H_s M_s = H M`).
+    fn add_to(&self, mut w: MatMut<'_, f64>, mut s: MatMut<'_, f64>, h_t: MatRef<'_, f64>) {
+        let m = w.ncols();
+        for (i, &si) in self.scale.iter().enumerate() {
+            for b in 0..m {
+                let c = self.cross[(i, b)] / si;
+                if c == 0.0 {
+                    continue;
+                }
+                w[(i, b)] += c;
+                for a in 0..m {
+                    let hc = h_t[(i, a)] * c;
+                    s[(a, b)] += hc;
+                    s[(b, a)] += hc;
+                }
+            }
+        }
+    }
+}
+
+/// `B = P H^T (+ M)` (into `w`), `S = H B + R (+ M^T H^T)`, `L`, then `W = B L^-T` and
+/// `P <- P - W W^T`; returns `ln det S`. `h_t` is `H^T`. `p` is untouched when `S` is not
+/// positive definite.
 fn covariance(
     mut p: MatMut<'_, f64>,
     mut w: MatMut<'_, f64>,
@@ -95,6 +136,7 @@ fn covariance(
     mut l: MatMut<'_, f64>,
     h_t: MatRef<'_, f64>,
     r: MatRef<'_, f64>,
+    correlation: Option<Correlation<'_>>,
 ) -> Result<f64, KalmanError> {
     let seq = Par::Seq;
     let small = p.nrows() <= small::SMALL_STATES;
@@ -109,6 +151,9 @@ fn covariance(
     } else {
         matmul(w.rb_mut(), Accum::Replace, p.rb(), h_t, 1.0, seq);
         matmul(s.rb_mut(), Accum::Add, h_t.transpose(), w.rb(), 1.0, seq);
+    }
+    if let Some(c) = correlation {
+        c.add_to(w.rb_mut(), s.rb_mut(), h_t);
     }
     symmetrise(s.rb_mut());
     l.copy_from(s.rb());

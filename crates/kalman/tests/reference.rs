@@ -320,3 +320,69 @@ fn dense_baseline_matches_naive_loops() {
         }
     }
 }
+
+/// A measurement whose noise is correlated with the state's error, against the textbook update
+/// of the augmented state `[x; v]` (joint covariance `[[P, M], [M^T, R]]`) measured without
+/// noise through `[H I]`: the posterior of `x` is the top block. Sizes on both sides of the
+/// engine's switch to faer's products; full and covariance-only mode; and `M = 0` gives the
+/// plain update bit for bit.
+#[test]
+fn correlated_update_matches_the_augmented_state() {
+    for (n, m) in [(1usize, 1usize), (3, 3), (24, 3), (33, 3), (60, 6)] {
+        let what = format!("n = {n}, m = {m}");
+        let mut rng = Rng::new(500 + (n * 10 + m) as u64);
+        let joint = rng.spd(n + m);
+        let p0 = Mat::from_fn(n, n, |i, j| joint[(i, j)]);
+        let cross = Mat::from_fn(n, m, |i, j| joint[(i, n + j)]);
+        let r = Mat::from_fn(m, m, |i, j| joint[(n + i, n + j)]);
+        let (x0, h, z) = (rng.vec(n), rng.mat(m, n), rng.vec(m));
+
+        let h_aug = Mat::from_fn(m, n + m, |a, j| {
+            if j < n {
+                h[(a, j)]
+            } else if j - n == a {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        let (s_ref, k_aug, log_det_ref) = reference_update(&joint, &h_aug, &Mat::zeros(m, m));
+        let p_aug = &joint - &k_aug * (&h_aug * &joint);
+        let p_ref = Mat::from_fn(n, n, |i, j| p_aug[(i, j)]);
+        let nu: Vec<f64> = (0..m)
+            .map(|a| z[a] - (0..n).map(|j| h[(a, j)] * x0[j]).sum::<f64>())
+            .collect();
+        let x_ref: Vec<f64> = (0..n)
+            .map(|i| x0[i] + (0..m).map(|a| k_aug[(i, a)] * nu[a]).sum::<f64>())
+            .collect();
+
+        let mut kf = KalmanFilter::new(&x0, p0.as_ref(), m).unwrap();
+        let info = kf
+            .update_correlated(&z, h.as_ref(), r.as_ref(), cross.as_ref())
+            .unwrap();
+        let dp = rel_diff(&kf.covariance(), &p_ref);
+        assert!(dp < 1e-10, "{what}: P differs by {dp:e}");
+        assert_symmetric(&kf.covariance(), &what);
+        let dx = rel_diff_vec(&kf.state(), &x_ref);
+        assert!(dx < 1e-10, "{what}: x differs by {dx:e}");
+        assert!(rel_diff(&kf.innovation_covariance().to_owned(), &s_ref) < 1e-12);
+        assert!((info.log_det_s - log_det_ref).abs() <= 1e-10 * log_det_ref.abs().max(1.0));
+        let k_ref = Mat::from_fn(n, m, |i, a| k_aug[(i, a)]);
+        assert!(rel_diff(&kf.gain(), &k_ref) < 1e-10, "{what}: gain");
+        // The correlation matters here (the test would pass a plain update otherwise).
+        let mut plain = KalmanFilter::new(&x0, p0.as_ref(), m).unwrap();
+        plain.update(&z, h.as_ref(), r.as_ref()).unwrap();
+        assert!(rel_diff(&plain.covariance(), &p_ref) > 1e-6, "{what}");
+
+        let mut cov = KalmanFilter::new(&x0, p0.as_ref(), m).unwrap();
+        cov.update_covariance_correlated(h.as_ref(), r.as_ref(), cross.as_ref())
+            .unwrap();
+        assert_eq!(cov.covariance(), kf.covariance(), "{what}: covariance-only");
+
+        let mut zero = KalmanFilter::new(&x0, p0.as_ref(), m).unwrap();
+        zero.update_correlated(&z, h.as_ref(), r.as_ref(), Mat::zeros(n, m).as_ref())
+            .unwrap();
+        assert_eq!(zero.covariance(), plain.covariance(), "{what}: M = 0");
+        assert_eq!(zero.state(), plain.state(), "{what}: M = 0");
+    }
+}

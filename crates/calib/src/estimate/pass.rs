@@ -330,6 +330,9 @@ pub(super) enum Feedback {
     Attitude,
     /// Nothing: a pass linearised about the pass before keeps its trajectory.
     None,
+    /// The tilt only (the horizontal attitude errors): a pass linearised about the pass before
+    /// on a recording of rests, whose trajectory the gyro noise walks (`iterate_passes`).
+    Tilt,
 }
 
 /// Fixed settings of a pass.
@@ -650,6 +653,14 @@ impl<'a> Pass<'a> {
         let x = &mut self.state;
         match self.settings.feedback {
             Feedback::None => return,
+            Feedback::Tilt => {
+                self.engine.filter.state_into(x);
+                self.nav.correct(&Vector3::new(x[0], x[1], 0.0));
+                for k in 0..2 {
+                    self.engine.filter.set_state(k, 0.0);
+                }
+                return;
+            }
             Feedback::Attitude => {
                 self.engine.filter.state_into(x);
                 self.nav.correct(&Vector3::new(x[0], x[1], x[2]));
