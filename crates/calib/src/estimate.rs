@@ -29,7 +29,7 @@ use crate::engine::prior_filter;
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
 use crate::extension::ModelExtension;
 use crate::io::{
-    ImuData, ImuKind, IoError, ResultFile, ResultParameter, TurntableData, check_overlap,
+    ImuData, ImuKind, ImuRecord, IoError, ResultFile, ResultParameter, TurntableData, check_overlap,
 };
 use crate::layout::{StateLayout, initial_covariance, layout_for, layout_with};
 use crate::model::LinearModel;
@@ -620,6 +620,8 @@ fn coarse_start(
     rests: &[Rest],
 ) -> Result<Vec<f64>, EstimateError> {
     use crate::free_motion::{FreeMotionSettings, Interval, calibrate_free_motion};
+    let grouped = coarse_records(data);
+    let data = &grouped;
     let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     let intervals: Vec<Interval> = rests
         .iter()
@@ -777,6 +779,57 @@ fn iterate_passes(
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
+}
+
+/// Length of the record groups of the coarse start (s).
+const COARSE_GROUP_S: f64 = 0.05;
+
+/// The records of `data` combined in groups of about [`COARSE_GROUP_S`], for the coarse start:
+/// the batch fit integrates every record about 25 times per Gauss-Newton iteration (a central
+/// difference per gyro parameter), which was most of a consumer-grade calibration's time (0.47 s
+/// of CPU for a 324-s, 200-Hz recording: 150 times `wc -l`). A group's rotation is the exact
+/// product of its records' raw rotations, its velocity increment their sum, stamped with its
+/// last record's time. The calibration is then applied to the group rather than to each record:
+/// the difference is the commutator of the calibration error with the rotation within a group,
+/// at 100 deg/s and 5 % about 2e-4 rad per group, well inside the linear reach of the filter
+/// passes that follow (they see every record).
+fn coarse_records(data: &ImuData) -> ImuData {
+    let dt = median_interval(data.records.iter().map(|r| r.t));
+    let size = if dt.is_finite() && dt > 0.0 {
+        ((COARSE_GROUP_S / dt).round() as usize).max(1)
+    } else {
+        1
+    };
+    if size == 1 {
+        return data.clone();
+    }
+    let increments = matches!(data.kind, ImuKind::Increments);
+    let mut records = Vec::with_capacity(data.records.len() / size + 1);
+    let mut t_prev = data.records.first().map_or(0.0, |r| r.t - dt);
+    for group in data.records.chunks(size) {
+        let mut c = Matrix3::identity();
+        let mut dv = Vector3::zeros();
+        let mut t0 = t_prev;
+        for r in group {
+            let h = if increments { 1.0 } else { r.t - t0 };
+            c *= exp_so3(&(Vector3::from(r.gyro) * h));
+            dv += Vector3::from(r.accel) * h;
+            t0 = r.t;
+        }
+        let last = group.last().expect("chunks are not empty");
+        let span = if increments { 1.0 } else { last.t - t_prev };
+        t_prev = last.t;
+        records.push(ImuRecord {
+            t: last.t,
+            gyro: (log_so3(&c) / span).into(),
+            accel: (dv / span).into(),
+            temp: last.temp,
+        });
+    }
+    ImuData {
+        kind: data.kind,
+        records,
+    }
 }
 
 /// Whether the gyro noise walks the tilt of a trajectory integrated over `run_s` far enough
@@ -1231,4 +1284,73 @@ fn run_pass(
         start_alignment,
     };
     Ok((estimate, c0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Records of a tumbling body at 200 Hz with jittered stamps, as increments and as rates.
+    fn tumbling(kind: ImuKind) -> ImuData {
+        let mut t = 0.0;
+        let records = (0..997)
+            .map(|k| {
+                let h = 0.005 * (1.0 + 0.2 * ((k as f64) * 0.7).sin());
+                t += h;
+                let w = [
+                    1.5 * (t * 0.9).sin(),
+                    -0.8 + 0.3 * t.cos(),
+                    2.0 * (t * 0.4).cos(),
+                ];
+                let f = [0.3 * t.sin(), 0.1, 9.8 + 0.01 * t];
+                let scale = if matches!(kind, ImuKind::Increments) {
+                    h
+                } else {
+                    1.0
+                };
+                ImuRecord {
+                    t,
+                    gyro: w.map(|x| x * scale),
+                    accel: f.map(|x| x * scale),
+                    temp: None,
+                }
+            })
+            .collect();
+        ImuData { kind, records }
+    }
+
+    /// The whole rotation and velocity change of the grouped records equal those of the
+    /// records (to rounding), for increments and rates alike; the last group is a remainder.
+    #[test]
+    fn grouped_records_keep_the_rotation_and_the_velocity_change() {
+        for kind in [ImuKind::Increments, ImuKind::Rates] {
+            let data = tumbling(kind);
+            let grouped = coarse_records(&data);
+            assert_eq!(grouped.records.len(), 997usize.div_ceil(10), "{kind:?}");
+            // Both start where the first record's interval starts (one median interval back).
+            let start = data.records[0].t - median_interval(data.records.iter().map(|r| r.t));
+            let total = |d: &ImuData| {
+                let (mut c, mut dv) = (Matrix3::<f64>::identity(), Vector3::<f64>::zeros());
+                let mut t0 = start;
+                for r in &d.records {
+                    let h = if matches!(d.kind, ImuKind::Increments) {
+                        1.0
+                    } else {
+                        r.t - t0
+                    };
+                    c *= exp_so3(&(Vector3::from(r.gyro) * h));
+                    dv += Vector3::from(r.accel) * h;
+                    t0 = r.t;
+                }
+                (c, dv)
+            };
+            let ((c1, v1), (c2, v2)) = (total(&data), total(&grouped));
+            assert!((c1 - c2).norm() < 1e-12, "{kind:?}: rotation");
+            assert!((v1 - v2).norm() < 1e-9 * v1.norm(), "{kind:?}: velocity");
+            assert_eq!(
+                grouped.records.last().map(|r| r.t),
+                data.records.last().map(|r| r.t)
+            );
+        }
+    }
 }
