@@ -742,7 +742,15 @@ fn iterate_passes(
         )?;
         linearised_about = nominal.clone();
         pass += 1;
-        let beta = Vector3::new(est.values[s], est.values[s + 1], est.values[s + 2]);
+        let mut beta = Vector3::new(est.values[s], est.values[s + 1], est.values[s + 2]);
+        // A start heading the data do not resolve is not moved: its linear estimate, with a
+        // sigma near a radian, reached +-3 rad on a consumer-grade recording of rests and
+        // turned the next pass's heading half a turn, the one after back (a period-2 cycle of
+        // the passes at 0.5 sigma in the gyro biases, all eight passes run). Tilt is always
+        // resolved by the first rest.
+        if est.cov[(s + 2, s + 2)].sqrt() > HEADING_UNRESOLVED_RAD {
+            beta.z = 0.0;
+        }
         if let (Some(prev), true) = (&nominal, pass > 1) {
             shift = (StateLayout::INSTRUMENT..layout.dim())
                 .map(|i| (est.values[i] - prev.totals[i]).abs() / est.cov[(i, i)].sqrt())
@@ -780,6 +788,10 @@ fn iterate_passes(
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
 }
+
+/// The start heading's posterior sigma above which a pass does not move the next pass's start
+/// heading (rad): the gyrocompassing threshold of [`crate::rests`].
+const HEADING_UNRESOLVED_RAD: f64 = crate::rests::GYROCOMPASS_MAX_SIGMA_RAD;
 
 /// Length of the record groups of the coarse start (s).
 const COARSE_GROUP_S: f64 = 0.05;
