@@ -9,6 +9,7 @@ use calib::extend::{
     CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop, run_loop_at_rests,
 };
 use calib::io::{ResultParameter, read_imu_csv, read_turntable_csv};
+use calib::stats::format_p;
 use serde::Serialize;
 use sins_model::candidates::Candidate;
 use std::collections::BTreeMap;
@@ -164,9 +165,9 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "round {}: candidates by evidence (accept below p = {:.2e} if separable)",
+        "round {}: candidates by evidence (accept below p = {} if separable)",
         k + 1,
-        round.threshold
+        format_p(round.threshold)
     );
     let _ = writeln!(
         s,
@@ -188,8 +189,11 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
         };
         let _ = writeln!(
             s,
-            "  {:<24} {:>12.2} {:>4} {:>10.2e}  {sep}",
-            c.term, c.statistic, c.dof, c.p_value
+            "  {:<24} {:>12.2} {:>4} {:>10}  {sep}",
+            c.term,
+            c.statistic,
+            c.dof,
+            format_p(c.p_value)
         );
     }
     match &round.accepted {
@@ -290,9 +294,11 @@ pub fn summary(r: &LoopResult) -> String {
     for c in calls {
         let _ = writeln!(
             s,
-            "note: the data call for {} (p = {:.2e}) but this recording cannot separate it; run \
+            "note: the data call for {} (p = {}) but this recording cannot separate it; run \
              `sins-calib design --config ... --terms {}` for a program that does.",
-            c.term, c.p_value, c.term
+            c.term,
+            format_p(c.p_value),
+            c.term
         );
     }
     s
