@@ -13,9 +13,12 @@
 //!   `S = H B + R = L L^T` and `W = B L^{-T}`, the covariance becomes `P - W W^T` (the Joseph
 //!   form for the optimal gain), computed on the lower triangle and mirrored, so it is exactly
 //!   symmetric. The update returns the normalised innovation squared (NIS) and `ln det S`.
+//!   [`KalmanFilter::update_correlated`] takes measurement noise correlated with the state's
+//!   error (`M = E[e v^T]`): `B = P H^T + M`, `S = H B + R + M^T H^T`, the rest the same.
 //!
 //! Both stages have a covariance-only form ([`KalmanFilter::predict_covariance`],
-//! [`KalmanFilter::update_covariance`]) for covariance analysis without data.
+//! [`KalmanFilter::update_covariance`], [`KalmanFilter::update_covariance_correlated`]) for
+//! covariance analysis without data.
 //!
 //! **Normalised states.** The filter holds a scale factor `sigma_i` per state (by default the
 //! prior standard deviation) and works on `x_i / sigma_i` inside, so that states of very
