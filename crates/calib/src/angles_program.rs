@@ -56,7 +56,7 @@ fn unwrap(records: &[[f64; 3]]) -> Vec<[f64; 3]> {
     for k in records {
         let next = match out.last() {
             None => *k,
-            Some(prev) => [0, 1, 2].map(|g| prev[g] + crate::estimate::wrap_deg(k[g] - prev[g])),
+            Some(prev) => [0, 1, 2].map(|g| prev[g] + turntable::gimbal::wrap_deg(k[g] - prev[g])),
         };
         out.push(next);
     }

@@ -48,7 +48,6 @@ mod consider;
 mod pass;
 mod source;
 
-pub(crate) use angles::wrap_deg;
 use angles::{AngleInterpolator, RecordTable, median_interval};
 use pass::{AngleReader, Feedback, Linearisation, Pass, PassResult, PassSettings, Strapdown};
 pub use source::{FileImu, ImuSource, MemoryImu};

@@ -450,7 +450,7 @@ pub fn check_turntable_clock(
                 continue;
             }
             for (recorded, expected) in r.k_deg.iter().zip(prog_deg(t)) {
-                let d = crate::estimate::wrap_deg(scale * recorded - expected);
+                let d = turntable::gimbal::wrap_deg(scale * recorded - expected);
                 sse += d * d;
             }
             n += 3;

@@ -13,6 +13,12 @@
 use nalgebra::{Matrix3, Vector3};
 use sins_model::attitude::{rot_x, rot_y, rot_z};
 
+/// Wrap a difference of gimbal angles into (-180, 180] degrees.
+pub fn wrap_deg(d: f64) -> f64 {
+    let w = d.rem_euclid(360.0);
+    if w > 180.0 { w - 360.0 } else { w }
+}
+
 /// `c_platform_to_base` of gimbal angles `k` (rad).
 pub fn c_platform_to_base(k: &[f64; 3]) -> Matrix3<f64> {
     rot_z(k[0]) * rot_x(k[1]) * rot_y(k[2])
@@ -63,6 +69,14 @@ pub fn platform_rate_base(k: &[f64; 3], k_dot: &[f64; 3]) -> Vector3<f64> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn angle_differences_wrap_the_short_way() {
+        assert_eq!(wrap_deg(350.0), -10.0);
+        assert_eq!(wrap_deg(-350.0), 10.0);
+        assert_eq!(wrap_deg(180.0), 180.0);
+        assert_eq!(wrap_deg(10.0), 10.0);
+    }
     use super::*;
     use sins_model::attitude::{log_so3, skew};
 

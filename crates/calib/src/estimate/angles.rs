@@ -2,12 +2,7 @@
 
 use crate::config::ClockConfig;
 use crate::io::TurntableData;
-
-/// Wrap an angle difference into (-180, 180] degrees.
-pub(crate) fn wrap_deg(d: f64) -> f64 {
-    let w = d.rem_euclid(360.0);
-    if w > 180.0 { w - 360.0 } else { w }
-}
+use turntable::gimbal::wrap_deg;
 
 /// One interpolated set of gimbal angles.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -241,13 +236,5 @@ mod tests {
         d.sort_by(f64::total_cmp);
         assert_eq!(median_interval(times.into_iter()), d[d.len() / 2]);
         assert!(median_interval([1.0].into_iter()).is_nan());
-    }
-
-    #[test]
-    fn angle_differences_wrap_the_short_way() {
-        assert_eq!(wrap_deg(350.0), -10.0);
-        assert_eq!(wrap_deg(-350.0), 10.0);
-        assert_eq!(wrap_deg(180.0), 180.0);
-        assert_eq!(wrap_deg(10.0), 10.0);
     }
 }
