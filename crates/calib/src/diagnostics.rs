@@ -17,6 +17,7 @@
 //! correction; [`regression_test`] tests candidate regressors (unmodelled terms).
 
 use crate::model::MeasurementKind;
+use crate::report::p_value_text;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
@@ -635,8 +636,12 @@ pub fn diagnose(
         t.fails = t.p_value.is_nan() || t.p_value < per_test_level;
         if t.fails {
             failures.push(format!(
-                "{}: statistic {:.4} ({} dof), p = {:.3e} < {:.3e}",
-                t.name, t.statistic, t.dof, t.p_value, per_test_level
+                "{}: statistic {:.4} ({} dof), p = {} < {}",
+                t.name,
+                t.statistic,
+                t.dof,
+                p_value_text(t.p_value),
+                p_value_text(per_test_level)
             ));
         }
     }
@@ -673,14 +678,19 @@ impl Diagnostics {
             let (lo, hi) = k.nis.band;
             let _ = writeln!(
                 s,
-                "  {name}: {} updates; NIS sum {:.1} for {} dof (band {:.1} .. {:.1}, p = {:.3})",
-                k.updates, k.nis.sum, k.nis.dof, lo, hi, k.nis.p_value
+                "  {name}: {} updates; NIS sum {:.1} for {} dof (band {:.1} .. {:.1}, p = {})",
+                k.updates,
+                k.nis.sum,
+                k.nis.dof,
+                lo,
+                hi,
+                p_value_text(k.nis.p_value)
             );
             let lb: Vec<String> = k
                 .whiteness
                 .iter()
                 .zip(["x", "y", "z"])
-                .map(|(w, a)| format!("{a} {:.1} (p = {:.3})", w.ljung_box, w.p_value))
+                .map(|(w, a)| format!("{a} {:.1} (p = {})", w.ljung_box, p_value_text(w.p_value)))
                 .collect();
             let _ = writeln!(
                 s,
@@ -696,12 +706,12 @@ impl Diagnostics {
             if let Some((l, a)) = worst_line {
                 let _ = writeln!(
                     s,
-                    "    strongest program line: {:.5} Hz ({}), axis {}, power {:.2} (p = {:.3e}) of {} lines",
+                    "    strongest program line: {:.5} Hz ({}), axis {}, power {:.2} (p = {}) of {} lines",
                     l.frequency_hz,
                     l.source,
                     ["x", "y", "z"][a],
                     l.power[a],
-                    l.p_value[a],
+                    p_value_text(l.p_value[a]),
                     k.lines.len()
                 );
             }
@@ -712,8 +722,12 @@ impl Diagnostics {
             if let Some(g) = worst_seg {
                 let _ = writeln!(
                     s,
-                    "    least likely segment: {} ({}), NIS {:.1} for {} dof (p = {:.3e})",
-                    g.segment, g.label, g.nis.sum, g.nis.dof, g.nis.p_value
+                    "    least likely segment: {} ({}), NIS {:.1} for {} dof (p = {})",
+                    g.segment,
+                    g.label,
+                    g.nis.sum,
+                    g.nis.dof,
+                    p_value_text(g.nis.p_value)
                 );
             }
         }
@@ -721,19 +735,19 @@ impl Diagnostics {
         if self.fits {
             let _ = writeln!(
                 s,
-                "  verdict: the innovations fit the model ({} tests, family-wise level {} %, each at {:.2e})",
+                "  verdict: the innovations fit the model ({} tests, family-wise level {} %, each at {})",
                 self.tests.len(),
                 100.0 * self.settings.alpha,
-                self.per_test_level
+                p_value_text(self.per_test_level)
             );
         } else {
             let _ = writeln!(
                 s,
-                "  verdict: THE INNOVATIONS DO NOT FIT THE MODEL: {} of {} tests fail (family-wise level {} %, each at {:.2e})",
+                "  verdict: THE INNOVATIONS DO NOT FIT THE MODEL: {} of {} tests fail (family-wise level {} %, each at {})",
                 self.failures.len(),
                 self.tests.len(),
                 100.0 * self.settings.alpha,
-                self.per_test_level
+                p_value_text(self.per_test_level)
             );
             for f in self.failures.iter().take(10) {
                 let _ = writeln!(s, "    {f}");

@@ -7,6 +7,7 @@ use crate::free_motion::{known_turns, settings_of, static_intervals};
 use ::import::sections::SectionsFile;
 use calib::extend_free::{FreeLoop, free_motion_loop};
 use calib::io::read_imu_csv;
+use calib::report::p_value_text;
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -25,18 +26,18 @@ fn summary(r: &FreeLoop) -> String {
     for (k, round) in r.rounds.iter().enumerate() {
         let _ = writeln!(
             s,
-            "round {}: candidates by evidence (accept below p = {:.2e} if separable)",
+            "round {}: candidates by evidence (accept below p = {} if separable)",
             k + 1,
-            round.threshold
+            p_value_text(round.threshold)
         );
         for c in &round.candidates {
             let _ = writeln!(
                 s,
-                "  {:<24} statistic {:>10.2} dof {:>2} p {:>9.2e}  separable {} (worst sigma/prior {:.3})",
+                "  {:<24} statistic {:>10.2} dof {:>2} p {:>9}  separable {} (worst sigma/prior {:.3})",
                 c.term,
                 c.statistic,
                 c.dof,
-                c.p_value,
+                p_value_text(c.p_value),
                 if c.separable { "yes" } else { "no" },
                 c.worst_sigma_ratio
             );
