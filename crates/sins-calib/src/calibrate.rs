@@ -201,12 +201,10 @@ fn progress_bar(records: usize) -> ProgressBar {
     }
     // The length is set from the library's (done, total) reports.
     let bar = ProgressBar::with_draw_target(Some(records as u64), ProgressDrawTarget::stderr());
-    if let Ok(style) =
-        ProgressStyle::with_template(
+    if let Ok(style) = ProgressStyle::with_template(
         "calibrating [{bar:30}] {human_pos}/{human_len} IMU records read over all passes \
          ({percent:>3} %), {elapsed} elapsed, about {eta} left",
-    )
-    {
+    ) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar
@@ -290,7 +288,12 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         prepare_diagnostics_dir(dir)?;
     }
     if let Some(dir) = &args.report {
-        crate::output::check_dir(dir, "--report", &crate::lab_report::NAMES, &input_paths(args))?;
+        crate::output::check_dir(
+            dir,
+            "--report",
+            &crate::lab_report::NAMES,
+            &input_paths(args),
+        )?;
     }
     let mut input = load_inputs(args)?;
     if input.program.is_some() && args.detector.any() {

@@ -122,7 +122,10 @@ fn extension_md(r: &LoopResult) -> String {
                 g.accel_mean_nis.0,
                 g.accel_mean_nis.1,
                 if g.turntable_mean_nis.0 > 0.0 {
-                    format!("{:.3} -> {:.3}", g.turntable_mean_nis.0, g.turntable_mean_nis.1)
+                    format!(
+                        "{:.3} -> {:.3}",
+                        g.turntable_mean_nis.0, g.turntable_mean_nis.1
+                    )
                 } else {
                     "-".to_string()
                 }

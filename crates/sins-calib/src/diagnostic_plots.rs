@@ -65,7 +65,11 @@ pub fn write_plots(
         diag: before,
         innov: innov_before,
         colour: BEFORE,
-        name: if after.is_some() { "paper's model" } else { "fit" },
+        name: if after.is_some() {
+            "paper's model"
+        } else {
+            "fit"
+        },
     }];
     if let Some((diag, innov)) = after {
         fits.push(Fit {

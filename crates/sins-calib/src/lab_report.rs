@@ -110,9 +110,7 @@ pub fn identify(
 /// The program file a configuration names (none for the embedded program, an inline one, or
 /// one read from the angles).
 fn program_file(config: &RunConfig) -> Option<PathBuf> {
-    if config.inline_program.is_some()
-        || config.program == "paper"
-        || config.program_from_angles()
+    if config.inline_program.is_some() || config.program == "paper" || config.program_from_angles()
     {
         return None;
     }
@@ -268,7 +266,8 @@ pub fn write_calibration(
                 crate::MODEL_DOES_NOT_FIT
             },
             reasons: bad.to_vec(),
-            rule: "The model fits when the mean NIS of every measurement is inside its band and                    no test of the innovations fails.",
+            rule: "The model fits when the mean NIS of every measurement is inside its band and \
+                   no test of the innovations fails.",
         },
         fit: FitView {
             est,
@@ -293,7 +292,10 @@ fn identification_md(id: &Identification) -> String {
         id.date_utc,
         id.command_line.replace('|', "\\|").replace('`', "'")
     );
-    let _ = writeln!(s, "Input files:\n\n| role | file | bytes | SHA-256 |\n|---|---|---:|---|");
+    let _ = writeln!(
+        s,
+        "Input files:\n\n| role | file | bytes | SHA-256 |\n|---|---|---:|---|"
+    );
     for f in &id.inputs {
         let _ = writeln!(
             s,
@@ -310,7 +312,11 @@ fn identification_md(id: &Identification) -> String {
         id.config_shown,
         id.config_sha256,
         id.config_text,
-        if id.config_text.ends_with('\n') { "" } else { "\n" }
+        if id.config_text.ends_with('\n') {
+            ""
+        } else {
+            "\n"
+        }
     );
     s
 }
@@ -372,7 +378,10 @@ fn failing_tests_md(d: &Diagnostics) -> String {
     if failing.is_empty() {
         return s;
     }
-    let _ = writeln!(s, "| failing test | statistic | dof | p |\n|---|---:|---:|---:|");
+    let _ = writeln!(
+        s,
+        "| failing test | statistic | dof | p |\n|---|---:|---:|---:|"
+    );
     for t in failing.iter().take(FAILING_TESTS_SHOWN) {
         let _ = writeln!(
             s,
@@ -411,7 +420,11 @@ fn parameters_md(report: &Report<'_>) -> String {
     let names: Vec<String> = est.names.clone();
     let first = calib::layout::StateLayout::INSTRUMENT;
     for (title, members) in table::grouped(&names) {
-        let _ = writeln!(s, "| **{title}** | | | |{}", if truth.is_some() { " | |" } else { "" });
+        let _ = writeln!(
+            s,
+            "| **{title}** | | | |{}",
+            if truth.is_some() { " | |" } else { "" }
+        );
         for i in members {
             let r = &rows[i - first];
             let _ = write!(
@@ -539,7 +552,7 @@ fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<Str
         );
         for r in rows.iter().filter(|r| r.kind == kind) {
             let span = r.span_s.map_or("-".into(), |(a, b)| {
-                format!("{} .. {}", table::compact(a), table::compact(b))
+                format!("{} .. {}", seconds(a), seconds(b))
             });
             let _ = writeln!(
                 s,
@@ -557,6 +570,11 @@ fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<Str
         s.push('\n');
     }
     Ok(s)
+}
+
+/// A time on the IMU clock to the millisecond, without trailing zeros.
+fn seconds(t: f64) -> String {
+    table::compact((t * 1e3).round() / 1e3 + 0.0)
 }
 
 /// Diagnostic plots of the reported fit (and the paper's model beside it) into `dir`; their

@@ -161,7 +161,9 @@ fn palette(rgb: &[u8]) -> (Vec<[u8; 3]>, Vec<u8>) {
     by_count.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
     let colours: Vec<[u8; 3]> = by_count.iter().take(256).map(|c| c.0).collect();
     let distance = |a: &[u8; 3], b: &[u8; 3]| -> i32 {
-        (0..3).map(|k| (i32::from(a[k]) - i32::from(b[k])).pow(2)).sum()
+        (0..3)
+            .map(|k| (i32::from(a[k]) - i32::from(b[k])).pow(2))
+            .sum()
     };
     let index: HashMap<[u8; 3], u8> = by_count
         .iter()
@@ -200,7 +202,10 @@ mod tests {
         // Every pixel within a few levels of its colour.
         for (p, &i) in rgb.chunks_exact(3).zip(&indices) {
             let c = colours[i as usize];
-            assert!((0..3).all(|k| (i32::from(p[k]) - i32::from(c[k])).abs() <= 4), "{p:?} {c:?}");
+            assert!(
+                (0..3).all(|k| (i32::from(p[k]) - i32::from(c[k])).abs() <= 4),
+                "{p:?} {c:?}"
+            );
         }
     }
 }

@@ -3,8 +3,8 @@
 //! and the posterior correlation matrix as a heat map.
 
 use crate::Error;
-use crate::table;
 use crate::plot::write_png;
+use crate::table;
 use calib::diagnostics::{Segment, kind_label};
 use calib::model::MeasurementKind;
 use calib::report::lab::{Residual, residual_unit};
@@ -51,7 +51,7 @@ pub fn residuals_png(
 ) -> Result<(), Error> {
     let (unit, _) = residual_unit(kind);
     let title = format!(
-        "{} residuals z - Hx [{unit}]; grey: +-1 sigma of S; red: segment fails",
+        "{} residuals z - Hx [{unit}]; grey: +-1 sigma of S; red: segment fails; off scale: at the edge",
         kind_label(kind)
     );
     write_png(path, (800, 600), |root| {
@@ -80,10 +80,16 @@ fn residual_panel(
         (Some(a), Some(b)) if b.t > a.t => (a.t, b.t),
         _ => (0.0, 1.0),
     };
-    // The scale holds 99.5 % of the residuals and the typical band; the first updates of a
-    // fit, with their large prior, may go off it.
-    let y = quantile_abs(residuals.iter().map(|r| r.value[axis]), 0.995)
-        .max(quantile_abs(residuals.iter().map(|r| r.sigma[axis]), 0.5) * 3.0)
+    // The scale holds 99.5 % of the residuals of updates with a typical band (at most twice
+    // the median sigma) and three median sigmas; updates with a wider band (the first of a fit
+    // or after a motion between rests) may go off it and are drawn at its edge.
+    let typical_sigma = quantile_abs(residuals.iter().map(|r| r.sigma[axis]), 0.5);
+    let typical = residuals
+        .iter()
+        .filter(|r| r.sigma[axis] <= 2.0 * typical_sigma)
+        .map(|r| r.value[axis]);
+    let y = quantile_abs(typical, 0.995)
+        .max(3.0 * typical_sigma)
         .max(1e-9)
         * 1.25;
     let mut chart = ChartBuilder::on(panel)
@@ -144,7 +150,9 @@ fn residual_panel(
             .draw_series(
                 spans
                     .filter(|(_, a, b)| (b - a) / (t1 - t0) * width_px >= 18.0)
-                    .map(|(i, a, b)| Text::new(i.to_string(), (0.5 * (a + b), 0.97 * y), style.clone())),
+                    .map(|(i, a, b)| {
+                        Text::new(i.to_string(), (0.5 * (a + b), 0.97 * y), style.clone())
+                    }),
             )
             .map_err(|e| pe(&e))?;
     }
@@ -153,7 +161,11 @@ fn residual_panel(
 
 /// A correlation as a colour: blue for -1, white for 0, red for +1.
 fn correlation_colour(r: f64) -> RGBColor {
-    let r = if r.is_finite() { r.clamp(-1.0, 1.0) } else { 0.0 };
+    let r = if r.is_finite() {
+        r.clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
     let (end, a) = if r >= 0.0 {
         ((178.0, 24.0, 43.0), r)
     } else {
@@ -218,8 +230,12 @@ fn draw_correlation(
     let bottom = top + n * side;
     for (k, name) in names.iter().enumerate() {
         let c = k as i32 * side + side / 2;
-        root.draw(&Text::new(name.as_str(), (left - 4, top + c), row_style.clone()))
-            .map_err(|e| pe(&e))?;
+        root.draw(&Text::new(
+            name.as_str(),
+            (left - 4, top + c),
+            row_style.clone(),
+        ))
+        .map_err(|e| pe(&e))?;
         // Rotated text grows upwards from its anchor: anchor it at the name's length below.
         let len = root
             .estimate_text_size(name, &TextStyle::from(("sans-serif", font).into_font()))
@@ -253,7 +269,13 @@ fn colour_bar(root: &Area<'_>, x: i32, top: i32, height: i32) -> Result<(), Stri
     let style = TextStyle::from(("sans-serif", 12).into_font())
         .color(&BLACK)
         .pos(Pos::new(HPos::Left, VPos::Center));
-    for (v, label) in [(1.0, "+1"), (0.5, "+0.5"), (0.0, "0"), (-0.5, "-0.5"), (-1.0, "-1")] {
+    for (v, label) in [
+        (1.0, "+1"),
+        (0.5, "+0.5"),
+        (0.0, "0"),
+        (-0.5, "-0.5"),
+        (-1.0, "-1"),
+    ] {
         let y = top + ((1.0 - v) / 2.0 * (height - 1) as f64).round() as i32;
         root.draw(&Text::new(label, (x + 22, y), style.clone()))
             .map_err(|e| pe(&e))?;

@@ -136,7 +136,12 @@ pub fn of_bytes(data: &[u8]) -> String {
 
 /// The SHA-256 (hex) and the size (bytes) of a file, read in blocks.
 pub fn of_file(path: &Path) -> Result<(String, u64), crate::Error> {
-    let err = |e: std::io::Error| format!("{}: cannot read it to take its SHA-256: {e}", path.display());
+    let err = |e: std::io::Error| {
+        format!(
+            "{}: cannot read it to take its SHA-256: {e}",
+            path.display()
+        )
+    };
     let mut file = std::fs::File::open(path).map_err(err)?;
     let mut h = Sha256::new();
     let mut buf = vec![0u8; 1 << 16];

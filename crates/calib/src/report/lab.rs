@@ -256,11 +256,7 @@ mod tests {
             t: 1.0,
             kind: MeasurementKind::Accel,
             nu: Vector3::new(2.0 * g, -g, 0.0),
-            s: Matrix3::from_diagonal(&Vector3::new(
-                (3.0 * g).powi(2),
-                (4.0 * g).powi(2),
-                g * g,
-            )),
+            s: Matrix3::from_diagonal(&Vector3::new((3.0 * g).powi(2), (4.0 * g).powi(2), g * g)),
             segment: 2,
         };
         let mut bad = i;
@@ -319,7 +315,9 @@ mod tests {
             .map(|t| t.name.as_str())
             .collect();
         assert!(
-            failing_names.iter().any(|n| n.contains("segment 1 (rest 2)")),
+            failing_names
+                .iter()
+                .any(|n| n.contains("segment 1 (rest 2)")),
             "{failing_names:?}"
         );
     }
