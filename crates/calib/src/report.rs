@@ -9,12 +9,13 @@ use sins_model::terms::GAMMA_INDEX;
 pub mod lab;
 
 /// A p-value as every report prints it: `{:.3}` from 1e-3 up, `{:.2e}` below (three figures
-/// that mean something either way), `< 1e-300` for one that underflowed to 0.
+/// that mean something either way), `0` for one computed as exactly 0 (an underflow, or a
+/// `1 - F` that lost every digit: how small it is, the caller's method says).
 pub fn p_value_text(p: f64) -> String {
     if p.is_nan() {
         "NaN".into()
     } else if p == 0.0 {
-        "< 1e-300".into()
+        "0".into()
     } else if p.abs() >= 1e-3 {
         format!("{p:.3}")
     } else {
@@ -169,7 +170,7 @@ mod tests {
         assert_eq!(p_value_text(1e-3), "0.001");
         assert_eq!(p_value_text(9.99e-4), "9.99e-4");
         assert_eq!(p_value_text(3.14159e-12), "3.14e-12");
-        assert_eq!(p_value_text(0.0), "< 1e-300");
+        assert_eq!(p_value_text(0.0), "0");
         assert_eq!(p_value_text(f64::NAN), "NaN");
     }
 }
