@@ -68,7 +68,7 @@ fn diagnose_accepts_nothing_on_a_run_without_hidden_effects() {
     assert!(j["parameters"].as_array().is_some_and(|p| p.len() == 25));
     let md = std::fs::read_to_string(report.join("report.md")).expect("report.md");
     assert!(md.contains("Terms accepted: none"), "{md}");
-    assert!(report.join("innovations_turntable.png").is_file());
+    assert!(report.join("residuals_turntable.png").is_file());
 }
 
 #[test]
