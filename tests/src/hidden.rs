@@ -227,8 +227,12 @@ pub fn case_config(case: &HiddenCase) -> RunConfig {
 
 /// The program `design` proposes for `terms` on `config` (with the turntable angles).
 pub fn designed_program(config: &RunConfig, terms: &[Candidate]) -> ProgramSpec {
-    let (_, proposals, k) = calib::design::design(config, true, terms).expect("design");
-    proposals[k].program.clone()
+    let (recorded, proposals, k) = calib::design::design(config, true, terms).expect("design");
+    match k {
+        Some(k) => proposals[k].program.clone(),
+        // The program already separates the terms: `design` keeps it.
+        None => recorded.program,
+    }
 }
 
 /// A case's truth for an extended parameter.

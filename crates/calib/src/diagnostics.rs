@@ -17,7 +17,7 @@
 //! correction; [`regression_test`] tests candidate regressors (unmodelled terms).
 
 use crate::model::MeasurementKind;
-use crate::stats::format_p;
+use crate::report::p_value_text;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
@@ -640,8 +640,8 @@ pub fn diagnose(
                 t.name,
                 t.statistic,
                 t.dof,
-                format_p(t.p_value),
-                format_p(per_test_level)
+                p_value_text(t.p_value),
+                p_value_text(per_test_level)
             ));
         }
     }
@@ -684,13 +684,13 @@ impl Diagnostics {
                 k.nis.dof,
                 lo,
                 hi,
-                format_p(k.nis.p_value)
+                p_value_text(k.nis.p_value)
             );
             let lb: Vec<String> = k
                 .whiteness
                 .iter()
                 .zip(["x", "y", "z"])
-                .map(|(w, a)| format!("{a} {:.1} (p = {})", w.ljung_box, format_p(w.p_value)))
+                .map(|(w, a)| format!("{a} {:.1} (p = {})", w.ljung_box, p_value_text(w.p_value)))
                 .collect();
             let _ = writeln!(
                 s,
@@ -711,7 +711,7 @@ impl Diagnostics {
                     l.source,
                     ["x", "y", "z"][a],
                     l.power[a],
-                    format_p(l.p_value[a]),
+                    p_value_text(l.p_value[a]),
                     k.lines.len()
                 );
             }
@@ -727,7 +727,7 @@ impl Diagnostics {
                     g.label,
                     g.nis.sum,
                     g.nis.dof,
-                    format_p(g.nis.p_value)
+                    p_value_text(g.nis.p_value)
                 );
             }
         }
@@ -738,7 +738,7 @@ impl Diagnostics {
                 "  verdict: the innovations fit the model ({} tests, family-wise level {} %, each at {})",
                 self.tests.len(),
                 100.0 * self.settings.alpha,
-                format_p(self.per_test_level)
+                p_value_text(self.per_test_level)
             );
         } else {
             let _ = writeln!(
@@ -747,7 +747,7 @@ impl Diagnostics {
                 self.failures.len(),
                 self.tests.len(),
                 100.0 * self.settings.alpha,
-                format_p(self.per_test_level)
+                p_value_text(self.per_test_level)
             );
             for f in self.failures.iter().take(10) {
                 let _ = writeln!(s, "    {f}");

@@ -341,7 +341,11 @@ impl Context<'_> {
     fn drift(&mut self, current: &Fit) -> Result<(CandidateEvidence, Fit), LoopError> {
         let mut best: Option<(f64, Fit)> = None;
         for &q in &self.settings.drift_grid {
-            (self.progress)(&format!("fitting with a gyro bias random walk of {q:.2e}"));
+            // q in rad/s/sqrt(s); shown in the unit of `[noise] gyro_bias_walk_deg_h_sqrt_h`.
+            let shown = q * 60.0 / sins_model::units::DEG_PER_HOUR;
+            (self.progress)(&format!(
+                "fitting with a gyro bias random walk of {shown:.3} deg/h/sqrt(h)"
+            ));
             let mut ext = current.extension.clone();
             ext.gyro_drift = Some([q; 3]);
             let fit = self.fit(&ext)?;

@@ -66,36 +66,3 @@ mod tests {
         assert!(nees(&e, &DMatrix::zeros(2, 2)).is_none());
     }
 }
-
-/// A p-value (or a significance level) as every report prints it: three decimals from 0.001 up
-/// (`0.476`, `0.050`), three significant digits in scientific notation below (`5.75e-5`), and
-/// `< 1e-300` where the tail underflowed to zero (the logarithm of such a p-value is kept where
-/// it decides: `extend::Evidence::ln_p_value`).
-pub fn format_p(p: f64) -> String {
-    if p.is_nan() {
-        "NaN".to_string()
-    } else if p == 0.0 {
-        "< 1e-300".to_string()
-    } else if p >= 1e-3 {
-        format!("{p:.3}")
-    } else {
-        format!("{p:.2e}")
-    }
-}
-
-#[cfg(test)]
-mod format_p_tests {
-    use super::format_p;
-
-    #[test]
-    fn one_format_for_every_p_value() {
-        assert_eq!(format_p(0.476_2), "0.476");
-        assert_eq!(format_p(0.05), "0.050");
-        assert_eq!(format_p(1e-3), "0.001");
-        assert_eq!(format_p(5.751e-5), "5.75e-5");
-        assert_eq!(format_p(2.0e-300), "2.00e-300");
-        assert_eq!(format_p(0.0), "< 1e-300");
-        assert_eq!(format_p(1.0), "1.000");
-        assert_eq!(format_p(f64::NAN), "NaN");
-    }
-}

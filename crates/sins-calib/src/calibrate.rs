@@ -92,6 +92,14 @@ pub struct Args {
     /// block. A failing verdict (family-wise level 1 %) ends with exit status 3.
     #[arg(long, value_name = "DIR")]
     pub diagnostics: Option<PathBuf>,
+    /// Write the report a laboratory files into DIR (created, or replaced whole: no plot of an
+    /// earlier report stays): report.md with the inputs' SHA-256, the configuration, version,
+    /// date and command line, the verdict and its failing tests, the parameters with 1 sigma,
+    /// and PNG plots of the correlations, the residuals and the NIS per segment
+    /// (docs/report.md). Runs the diagnostics of --diagnostics: their verdict counts toward
+    /// the exit status. Not with --free-motion (its fit has no innovations to test).
+    #[arg(long, value_name = "DIR", conflicts_with = "free_motion")]
+    pub report: Option<PathBuf>,
     /// How rests are found in a recording without a program (and with --free-motion).
     #[command(flatten)]
     pub detector: crate::detector_args::DetectorArgs,
@@ -193,9 +201,10 @@ fn progress_bar(records: usize) -> ProgressBar {
     }
     // The length is set from the library's (done, total) reports.
     let bar = ProgressBar::with_draw_target(Some(records as u64), ProgressDrawTarget::stderr());
-    if let Ok(style) =
-        ProgressStyle::with_template("calibrating [{bar:30}] {percent:>3}% {elapsed}, eta {eta}")
-    {
+    if let Ok(style) = ProgressStyle::with_template(
+        "calibrating [{bar:30}] {human_pos}/{human_len} IMU records read over all passes \
+         ({percent:>3} %), {elapsed} elapsed, about {eta} left",
+    ) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar
@@ -213,7 +222,7 @@ pub enum Outcome {
 /// The band of a mean of `n` chi-square(3) values: 3 +- three standard deviations, sqrt(6 / n)
 /// each (a false alarm about once in 370 runs per measurement).
 fn nis_band(n: usize) -> f64 {
-    3.0 * (6.0 / n.max(1) as f64).sqrt()
+    calib::report::lab::mean_nis_half_band(n)
 }
 
 /// The measurements whose mean NIS is outside its band, as lines of a report.
@@ -277,6 +286,14 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     }
     if let Some(dir) = &args.diagnostics {
         prepare_diagnostics_dir(dir)?;
+    }
+    if let Some(dir) = &args.report {
+        crate::output::check_dir(
+            dir,
+            "--report",
+            &crate::lab_report::NAMES,
+            &input_paths(args),
+        )?;
     }
     let mut input = load_inputs(args)?;
     if input.program.is_some() && args.detector.any() {
@@ -345,16 +362,26 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         s.push('\n');
         s += &truth_report(&est, truth, path, &input.config.clock);
     }
-    let diagnostics = match &args.diagnostics {
-        Some(dir) => Some(diagnostics_stage(dir, &est, &mut s)?),
-        None => None,
-    };
+    let diagnostics = (args.diagnostics.is_some() || args.report.is_some())
+        .then(|| diagnostics_stage(args.diagnostics.as_deref(), &est, &mut s))
+        .transpose()?;
     let bad = misfit_reasons(&est, diagnostics.as_ref(), turntable.is_some());
     if let Some(path) = &args.json {
         write_result_json(path, &est, diagnostics.as_ref(), turntable.is_some(), &bad)?;
         if !crate::output::is_stdout(path) {
             let _ = writeln!(s, "\nwrote {}", path.display());
         }
+    }
+    if let (Some(dir), Some(d)) = (&args.report, &diagnostics) {
+        let truth = input.truth.as_ref().zip(args.truth.as_deref());
+        let truth = truth.map(|(t, p)| (t, truth_report(&est, t, p, &input.config.clock)));
+        let id = crate::lab_report::identify(
+            &report_inputs(args),
+            args.config.as_deref().unwrap_or("paper"),
+            &input.config,
+        )?;
+        let plots = crate::lab_report::write_calibration(dir, id, &est, d, &bad, truth)?;
+        let _ = writeln!(s, "wrote the report {} ({plots} plots)", dir.display());
     }
     crate::report(&s, args.json.as_deref())?;
     if bad.is_empty() {
@@ -601,8 +628,12 @@ fn prepare_diagnostics_dir(dir: &Path) -> Result<(), Error> {
 }
 
 /// The diagnostics of the fit: their summary appended to the report, the plots written to
-/// `dir`.
-fn diagnostics_stage(dir: &Path, est: &Estimate, s: &mut String) -> Result<Diagnostics, Error> {
+/// `dir` when given.
+fn diagnostics_stage(
+    dir: Option<&Path>,
+    est: &Estimate,
+    s: &mut String,
+) -> Result<Diagnostics, Error> {
     let d = diagnostics::diagnose(
         &est.innovations,
         &est.segments,
@@ -610,9 +641,19 @@ fn diagnostics_stage(dir: &Path, est: &Estimate, s: &mut String) -> Result<Diagn
     );
     let _ = writeln!(s, "\nDiagnostics (docs/estimation.md, \"Diagnostics\")");
     s.push_str(&d.summary());
-    let files = write_diagnostic_plots(dir, &d, &est.innovations, None)?;
-    let _ = writeln!(s, "  plots: {} files in {}", files.len(), dir.display());
+    if let Some(dir) = dir {
+        let files = write_diagnostic_plots(dir, &d, &est.innovations, None)?;
+        let _ = writeln!(s, "  plots: {} files in {}", files.len(), dir.display());
+    }
     Ok(d)
+}
+
+/// The data files `calibrate` read, with their roles, for a report's identification.
+fn report_inputs(args: &Args) -> Vec<(&'static str, &Path)> {
+    let mut v: Vec<(&'static str, &Path)> = vec![("IMU records", args.imu.as_path())];
+    v.extend(args.turntable.as_deref().map(|p| ("turntable angles", p)));
+    v.extend(args.truth.as_deref().map(|p| ("truth", p)));
+    v
 }
 
 /// The estimates by group in the paper's units; with a truth also the true value and the error

@@ -63,20 +63,25 @@ pub fn run(args: &Args) -> Result<(), Error> {
             if p.separates() { "  separates" } else { "" }
         );
     }
-    if recorded.separates() {
-        let _ = writeln!(
-            s,
-            "# The recorded program already separates every requested term."
-        );
-    }
-    let best = &proposals[chosen];
-    if !best.separates() {
-        let _ = writeln!(
-            s,
-            "# No proposal separates every requested term; the closest one follows."
-        );
-    }
-    let toml = best.to_toml();
+    let toml = match chosen {
+        None => {
+            let _ = writeln!(
+                s,
+                "# The recorded program already separates every requested term: nothing to add. \
+                 Its predicted sigmas and the program follow."
+            );
+            recorded.to_toml()
+        }
+        Some(k) => {
+            if !proposals[k].separates() {
+                let _ = writeln!(
+                    s,
+                    "# No proposal separates every requested term; the closest one follows."
+                );
+            }
+            proposals[k].to_toml()
+        }
+    };
     s += &toml;
     print(&s)?;
     if let Some(path) = &args.out {

@@ -2,14 +2,13 @@
 //! innovations, add the best-supported separable one, measure what it gains, repeat
 //! (`calib::extend`; method in docs/model-extension.md).
 
-use crate::calibrate::check_output_path;
 use crate::{Error, load_config};
 use calib::estimate::RunData;
 use calib::extend::{
     CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop, run_loop_at_rests,
 };
 use calib::io::{ResultParameter, read_imu_csv, read_turntable_csv};
-use calib::stats::format_p;
+use calib::report::p_value_text;
 use serde::Serialize;
 use sins_model::candidates::Candidate;
 use std::collections::BTreeMap;
@@ -57,8 +56,9 @@ pub struct Args {
     /// parameters (docs/formats.md).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
-    /// Write a Markdown report with PNG plots (innovations, spectra, autocorrelation, NIS per
-    /// segment, before and after) into this directory.
+    /// Write the report a laboratory files into DIR (created, or replaced whole: no plot of an
+    /// earlier report stays): as `calibrate --report` (docs/report.md) for the final model,
+    /// with the paper's model beside it and the model-extension table. Not with --free-motion.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
     /// Family-wise level of each round's decision.
@@ -167,7 +167,7 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
         s,
         "round {}: candidates by evidence (accept below p = {} if separable)",
         k + 1,
-        format_p(round.threshold)
+        p_value_text(round.threshold)
     );
     let _ = writeln!(
         s,
@@ -193,7 +193,7 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
             c.term,
             c.statistic,
             c.dof,
-            format_p(c.p_value)
+            p_value_text(c.p_value)
         );
     }
     match &round.accepted {
@@ -297,7 +297,7 @@ pub fn summary(r: &LoopResult) -> String {
             "note: the data call for {} (p = {}) but this recording cannot separate it; run \
              `sins-calib design --config ... --terms {}` for a program that does.",
             c.term,
-            format_p(c.p_value),
+            p_value_text(c.p_value),
             c.term
         );
     }
@@ -352,6 +352,13 @@ fn failure_lines(failures: &[String]) -> String {
     s
 }
 
+/// The data files `diagnose` read, with their roles, for a report's identification.
+fn report_inputs(args: &Args) -> Vec<(&'static str, &std::path::Path)> {
+    let mut v: Vec<(&'static str, &std::path::Path)> = vec![("IMU records", args.imu.as_path())];
+    v.extend(args.turntable.as_deref().map(|p| ("turntable angles", p)));
+    v
+}
+
 /// Run `diagnose`; returns whether the final model fits the data (its diagnostics pass).
 pub fn run(args: &Args) -> Result<bool, Error> {
     let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
@@ -364,14 +371,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         crate::output::check_file(p, "--json", &inputs)?;
     }
     if let Some(p) = &args.report {
-        check_output_path(p)?;
-        if p.is_file() {
-            return Err(format!(
-                "--report {}: is a file: expected a directory to write the report into",
-                p.display()
-            )
-            .into());
-        }
+        crate::output::check_dir(p, "--report", &crate::lab_report::NAMES, &inputs)?;
     }
     // The family-wise level of a decision: a probability, and one that means something.
     if !(args.level.is_finite() && args.level > 0.0 && args.level <= 0.5) {
@@ -386,7 +386,8 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         // this one).
         return crate::diagnose_free::run(args).map(|()| true);
     }
-    let (mut config, _) = load_config(args.config.as_deref().unwrap_or("paper"))?;
+    let config_arg = args.config.as_deref().unwrap_or("paper");
+    let (mut config, _) = load_config(config_arg)?;
     if let Some(t) = args.program_start {
         if !t.is_finite() {
             return Err(format!(
@@ -436,14 +437,16 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     } else {
         run_loop(&config, &data, &settings, &mut progress)?
     };
-    let text = summary(&result);
-    crate::report(&text, args.json.as_deref())?;
+    let mut text = summary(&result);
     if let Some(path) = &args.json {
         crate::output::write_file(path, to_json(&result)?.as_bytes())?;
     }
     if let Some(dir) = &args.report {
-        crate::diagnose_report::write(dir, &result, &text)?;
+        let id = crate::lab_report::identify(&report_inputs(args), config_arg, &config)?;
+        let plots = crate::diagnose_report::write(dir, id, &result)?;
+        let _ = writeln!(text, "wrote the report {} ({plots} plots)", dir.display());
     }
+    crate::report(&text, args.json.as_deref())?;
     Ok(result.last.diagnostics.fits)
 }
 

@@ -7,7 +7,7 @@ use crate::free_motion::{known_turns, settings_of, static_intervals};
 use ::import::sections::SectionsFile;
 use calib::extend_free::{FreeLoop, free_motion_loop};
 use calib::io::read_imu_csv;
-use calib::stats::format_p;
+use calib::report::p_value_text;
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -28,7 +28,7 @@ fn summary(r: &FreeLoop) -> String {
             s,
             "round {}: candidates by evidence (accept below p = {} if separable)",
             k + 1,
-            format_p(round.threshold)
+            p_value_text(round.threshold)
         );
         for c in &round.candidates {
             let _ = writeln!(
@@ -37,7 +37,7 @@ fn summary(r: &FreeLoop) -> String {
                 c.term,
                 c.statistic,
                 c.dof,
-                format_p(c.p_value),
+                p_value_text(c.p_value),
                 if c.separable { "yes" } else { "no" },
                 c.worst_sigma_ratio
             );

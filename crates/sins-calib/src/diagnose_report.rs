@@ -1,63 +1,147 @@
-//! The report directory of `diagnose`: `report.md` with the loop's summary, the diagnostics of
-//! the base and the final model, and PNG plots of their innovations.
+//! The report of `diagnose --report DIR` (`crate::lab_report`): the final model's fit with the
+//! paper's model beside it, and the model-extension table of every round.
 
 use crate::Error;
+use crate::lab_report::{FitView, Identification, Report, Verdict, with_turntable};
+use crate::table;
 use calib::extend::LoopResult;
+use calib::report::p_value_text;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Write `dir/report.md` and the plots.
-pub fn write(dir: &Path, r: &LoopResult, summary: &str) -> Result<(), Error> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
-    let after = (!r.accepted_terms.is_empty())
-        .then_some((&r.last.diagnostics, r.last.estimate.innovations.as_slice()));
-    let plots = crate::diagnostic_plots::write_diagnostic_plots(
-        dir,
-        &r.base.diagnostics,
-        &r.base.estimate.innovations,
-        after,
-    )?;
-    let mut md = String::from("# Model diagnosis\n\n");
+/// Write the report of the loop `r` into `dir`; returns the number of plots.
+pub fn write(dir: &Path, id: Identification, r: &LoopResult) -> Result<usize, Error> {
+    let d = &r.last.diagnostics;
+    let reasons = if d.fits {
+        Vec::new()
+    } else {
+        vec![format!(
+            "the {} fails {} of {} tests of its innovations (family-wise level {} %){}",
+            if r.accepted_terms.is_empty() {
+                "paper's model"
+            } else {
+                "extended model"
+            },
+            d.failures.len(),
+            d.tests.len(),
+            100.0 * d.settings.alpha,
+            if r.accepted_terms.is_empty() {
+                ", and no candidate term that this recording separates explains the misfit"
+            } else {
+                ""
+            }
+        )]
+    };
+    let report = Report {
+        title: "Model diagnosis report",
+        id,
+        verdict: Verdict {
+            fits: d.fits,
+            exit_status: if d.fits { 0 } else { crate::MODEL_DOES_NOT_FIT },
+            reasons,
+            rule: "`diagnose` follows the tests of the final model's innovations: it fits when \
+                   none of them fails.",
+        },
+        fit: FitView {
+            est: &r.last.estimate,
+            diagnostics: d,
+        },
+        base: (!r.accepted_terms.is_empty()).then_some(FitView {
+            est: &r.base.estimate,
+            diagnostics: &r.base.diagnostics,
+        }),
+        with_turntable: with_turntable(&r.last.estimate),
+        truth: None,
+        extension: Some(extension_md(r)),
+    };
+    crate::lab_report::write(dir, &report)
+}
+
+/// Section 7: every round's candidates with their evidence, and the gain of each accepted term.
+fn extension_md(r: &LoopResult) -> String {
+    let mut s = String::from(
+        "## 7. Model extension\n\nEach round tests every candidate term against the \
+         innovations (score test; docs/model-extension.md) and accepts the best-supported one \
+         below the round's threshold if the recording separates it from the paper's \
+         parameters.\n\n",
+    );
     let _ = writeln!(
-        md,
-        "Produced by `sins-calib diagnose` (method: docs/model-extension.md). Terms accepted: {}.\n",
+        s,
+        "Terms accepted: {}.\n",
         if r.accepted_terms.is_empty() {
             "none".to_string()
         } else {
             r.accepted_terms.join(", ")
         }
     );
-    let _ = writeln!(md, "## The loop\n\n```text\n{summary}```\n");
-    for (label, fit) in [("paper's model", &r.base), ("final model", &r.last)] {
-        let _ = writeln!(md, "## Diagnostics of the {label}\n");
-        let d = &fit.diagnostics;
+    for (k, round) in r.rounds.iter().enumerate() {
         let _ = writeln!(
-            md,
-            "Verdict: {}.\n",
-            if d.fits {
-                "fits".to_string()
-            } else {
-                format!("does not fit ({})", d.failures.join("; "))
-            }
+            s,
+            "Round {} (accept below p = {}):\n\n| term | statistic | dof | p | separable | \
+             |\n|---|---:|---:|---:|---|---|",
+            k + 1,
+            p_value_text(round.threshold)
         );
+        for c in &round.candidates {
+            let conf = c
+                .separation
+                .as_ref()
+                .map(|x| x.confounded())
+                .unwrap_or_default();
+            let separable = match (c.separable, conf.is_empty()) {
+                (true, _) => "yes".to_string(),
+                (false, true) => "no (posterior near the prior)".to_string(),
+                (false, false) => format!("no: confounded with {}", conf.join(", ")),
+            };
+            let accepted = round.accepted.as_deref() == Some(c.term.as_str());
+            let _ = writeln!(
+                s,
+                "| {} | {:.2} | {} | {} | {separable} | {} |",
+                c.term,
+                c.statistic,
+                c.dof,
+                p_value_text(c.p_value),
+                if accepted { "**accepted**" } else { "" }
+            );
+        }
+        s.push('\n');
+    }
+    if !r.gain.is_empty() {
         let _ = writeln!(
-            md,
-            "Log-likelihood of the innovations {:.1} over {} scalar innovations; mean NIS \
-             specific force {:.3}, turntable {:.3}.\n",
-            fit.log_likelihood,
-            fit.observations,
-            fit.estimate.stats.accel_mean_nis,
-            fit.estimate.stats.turntable_mean_nis
+            s,
+            "Gain of each accepted term:\n\n| term | log-likelihood | AIC | BIC | mean NIS \
+             specific force | mean NIS turntable |\n|---|---:|---:|---:|---|---|"
+        );
+        for (term, g) in &r.gain {
+            let _ = writeln!(
+                s,
+                "| {term} | +{:.1} | {:+.1} | {:+.1} | {:.3} -> {:.3} | {} |",
+                g.information.log_likelihood,
+                g.information.delta_aic,
+                g.information.delta_bic,
+                g.accel_mean_nis.0,
+                g.accel_mean_nis.1,
+                if g.turntable_mean_nis.0 > 0.0 {
+                    format!(
+                        "{:.3} -> {:.3}",
+                        g.turntable_mean_nis.0, g.turntable_mean_nis.1
+                    )
+                } else {
+                    "-".to_string()
+                }
+            );
+        }
+        s.push('\n');
+    }
+    if let Some(q) = r.last.extension.gyro_drift {
+        let f = sins_model::terms::Unit::RadPerSecondPerSqrtSecond.report_factor();
+        let _ = writeln!(
+            s,
+            "Gyro bias random walk of the final model: x {}, y {}, z {} deg/h/sqrt(h).\n",
+            table::significant(q[0] * f, 3),
+            table::significant(q[1] * f, 3),
+            table::significant(q[2] * f, 3)
         );
     }
-    let _ = writeln!(md, "## Plots\n");
-    for p in plots {
-        let name = p
-            .file_name()
-            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-        let _ = writeln!(md, "![{name}]({name})\n");
-    }
-    let path = dir.join("report.md");
-    std::fs::write(&path, md).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
-    Ok(())
+    s
 }

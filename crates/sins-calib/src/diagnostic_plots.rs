@@ -5,7 +5,6 @@
 //! colour (NIS per segment: side by side).
 
 use crate::Error;
-use crate::plot::ensure_fonts;
 use calib::diagnostics::{Diagnostics, Innovation, KindDiagnostics, kind_label, whiten};
 use calib::model::MeasurementKind;
 use plotters::coord::Shift;
@@ -16,6 +15,9 @@ const BEFORE: RGBColor = RGBColor(31, 119, 180);
 const AFTER: RGBColor = RGBColor(255, 127, 14);
 const BAND: RGBColor = RGBColor(120, 120, 120);
 const AXES: [&str; 3] = ["x", "y", "z"];
+const FAILS: RGBColor = RGBColor(214, 39, 40);
+/// Title font size (px): the titles fit an 800-pixel-wide plot.
+const TITLE_SIZE: u32 = 18;
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
@@ -31,6 +33,9 @@ fn perr(e: &dyn std::fmt::Display) -> String {
     format!("plotting: {e}")
 }
 
+/// The plots of [`write_plots`], by file-name stem.
+pub const PLOTS: [&str; 4] = ["innovations", "spectrum", "autocorrelation", "nis_segments"];
+
 /// Write the diagnostic plots of a fit (and of a second one, `after`) into `dir`: per kind
 /// `innovations_<kind>.png`, `spectrum_<kind>.png`, `autocorrelation_<kind>.png`,
 /// `nis_segments_<kind>.png`. Returns the files written.
@@ -40,7 +45,19 @@ pub fn write_diagnostic_plots(
     innov_before: &[Innovation],
     after: Option<(&Diagnostics, &[Innovation])>,
 ) -> Result<Vec<PathBuf>, Error> {
-    ensure_fonts()?;
+    write_plots(dir, &PLOTS, (1100, 900), before, innov_before, after)
+}
+
+/// Write the plots named in `which` (stems of [`PLOTS`]) of each measurement kind, `size`
+/// pixels each, into `dir`; returns the files written.
+pub fn write_plots(
+    dir: &Path,
+    which: &[&str],
+    size: (u32, u32),
+    before: &Diagnostics,
+    innov_before: &[Innovation],
+    after: Option<(&Diagnostics, &[Innovation])>,
+) -> Result<Vec<PathBuf>, Error> {
     if !dir.is_dir() {
         return Err(format!("{}: not a directory", dir.display()).into());
     }
@@ -48,14 +65,18 @@ pub fn write_diagnostic_plots(
         diag: before,
         innov: innov_before,
         colour: BEFORE,
-        name: if after.is_some() { "before" } else { "fit" },
+        name: if after.is_some() {
+            "paper's model"
+        } else {
+            "fit"
+        },
     }];
     if let Some((diag, innov)) = after {
         fits.push(Fit {
             diag,
             innov,
             colour: AFTER,
-            name: "after",
+            name: "extended model",
         });
     }
     let mut written = vec![];
@@ -70,15 +91,9 @@ pub fn write_diagnostic_plots(
             ("autocorrelation", autocorrelation_plot),
             ("nis_segments", nis_plot),
         ];
-        for (what, f) in plots {
+        for (what, f) in plots.into_iter().filter(|(w, _)| which.contains(w)) {
             let path = dir.join(format!("{what}_{tag}.png"));
-            let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-            {
-                let root = BitMapBackend::new(&path, (1100, 900)).into_drawing_area();
-                root.fill(&WHITE).map_err(|e| err(&e))?;
-                f(&root, kind, &fits).map_err(|e| err(&e))?;
-                root.present().map_err(|e| err(&e))?;
-            }
+            crate::plot::write_png(&path, size, |root| f(root, kind, &fits))?;
             written.push(path);
         }
     }
@@ -110,7 +125,7 @@ fn range(values: impl Iterator<Item = f64>, symmetric: bool) -> (f64, f64) {
 
 fn three_panels<'a>(root: &Area<'a>, title: &str) -> Result<Vec<Area<'a>>, String> {
     let root = root
-        .titled(title, ("sans-serif", 24))
+        .titled(title, ("sans-serif", TITLE_SIZE))
         .map_err(|e| perr(&e))?;
     Ok(root.split_evenly((3, 1)))
 }
@@ -122,7 +137,11 @@ fn innovations_plot(
 ) -> Result<(), String> {
     let panels = three_panels(
         root,
-        &format!("{}: whitened innovations L^-1 nu", kind_label(kind)),
+        &format!(
+            "{}: whitened innovations L^-1 nu, lines at +-3{}",
+            kind_label(kind),
+            fits_note(fits)
+        ),
     )?;
     let series: Vec<Vec<(f64, [f64; 3])>> = fits
         .iter()
@@ -147,7 +166,7 @@ fn innovations_plot(
         chart
             .configure_mesh()
             .x_desc("IMU time [s]")
-            .y_desc(format!("axis {}", AXES[a]))
+            .y_desc(format!("axis {} [sigma]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
@@ -158,31 +177,31 @@ fn innovations_plot(
                     s.iter()
                         .map(|p| Circle::new((p.0, p.1[a]), 1, f.colour.mix(0.6).filled())),
                 )
-                .map_err(|e| perr(&e))?
-                .label(f.name)
-                .legend(move |(x, y)| Circle::new((x + 10, y), 4, f.colour.filled()));
+                .map_err(|e| perr(&e))?;
         }
         for b in [-3.0, 3.0] {
             chart
                 .draw_series(LineSeries::new([(t0, b), (t1, b)], BAND.stroke_width(1)))
                 .map_err(|e| perr(&e))?;
         }
-        legend(&mut chart)?;
     }
     Ok(())
 }
 
-fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
-    chart: &mut ChartContext<'a, DB, CT>,
-) -> Result<(), String> {
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(|e| perr(&e))
+/// With two fits, which colour is which (for a title); nothing with one.
+fn fits_note(fits: &[Fit<'_>]) -> String {
+    if fits.len() < 2 {
+        return String::new();
+    }
+    let names: Vec<String> = fits
+        .iter()
+        .map(|f| format!("{}: {}", colour_name(f.colour), f.name))
+        .collect();
+    format!("; {}", names.join(", "))
+}
+
+fn colour_name(c: RGBColor) -> &'static str {
+    if c == BEFORE { "blue" } else { "orange" }
 }
 
 fn kinds<'a>(
@@ -198,8 +217,9 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
     let panels = three_panels(
         root,
         &format!(
-            "{}: periodogram of the whitened innovations (1 = white), program lines marked",
-            kind_label(kind)
+            "{}: periodogram of whitened innovations; triangles: program lines, line: fail level{}",
+            kind_label(kind),
+            fits_note(fits)
         ),
     )?;
     let ks = kinds(fits, kind);
@@ -228,7 +248,7 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
         chart
             .configure_mesh()
             .x_desc("frequency [Hz]")
-            .y_desc(format!("axis {}", AXES[a]))
+            .y_desc(format!("axis {} [power / white]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
@@ -243,9 +263,7 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
                 .collect();
             chart
                 .draw_series(LineSeries::new(pts, f.colour.stroke_width(1)))
-                .map_err(|e| perr(&e))?
-                .label(f.name)
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], f.colour));
+                .map_err(|e| perr(&e))?;
             chart
                 .draw_series(k.lines.iter().filter(|l| l.frequency_hz > 0.0).map(|l| {
                     TriangleMarker::new(
@@ -265,7 +283,6 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
                 ))
                 .map_err(|e| perr(&e))?;
         }
-        legend(&mut chart)?;
     }
     Ok(())
 }
@@ -278,8 +295,9 @@ fn autocorrelation_plot(
     let panels = three_panels(
         root,
         &format!(
-            "{}: autocorrelation of the whitened innovations (update order), +-1.96/sqrt(N)",
-            kind_label(kind)
+            "{}: autocorrelation of whitened innovations, lines: 95 % band{}",
+            kind_label(kind),
+            fits_note(fits)
         ),
     )?;
     let ks = kinds(fits, kind);
@@ -297,16 +315,33 @@ fn autocorrelation_plot(
                 .flat_map(|w| w.autocorrelation.iter().copied().chain([w.band_95]))
         });
         let (_, y) = range(vals, true);
+        let ljung_box: Vec<String> = ks
+            .iter()
+            .filter_map(|(f, k)| {
+                let w = k.whiteness.get(a)?;
+                let p = calib::report::p_value_text(w.p_value);
+                Some(if fits.len() > 1 {
+                    format!("{p} ({})", f.name)
+                } else {
+                    p
+                })
+            })
+            .collect();
         let mut chart = ChartBuilder::on(panel)
             .margin(8)
+            .caption(
+                format!("axis {}: Ljung-Box p = {}", AXES[a], ljung_box.join(", ")),
+                ("sans-serif", 13),
+            )
             .x_label_area_size(30)
             .y_label_area_size(50)
             .build_cartesian_2d(0.0..lags as f64 + 1.0, -y..y)
             .map_err(|e| perr(&e))?;
         chart
             .configure_mesh()
+            .x_label_formatter(&|x| format!("{x:.0}"))
             .x_desc("lag [updates]")
-            .y_desc(format!("axis {}", AXES[a]))
+            .y_desc(format!("axis {} [correlation]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
@@ -321,9 +356,7 @@ fn autocorrelation_plot(
                     let x = (i + 1) as f64 + dx;
                     PathElement::new([(x, 0.0), (x, *r)], f.colour.stroke_width(2))
                 }))
-                .map_err(|e| perr(&e))?
-                .label(format!("{} (Ljung-Box p = {:.2e})", f.name, w.p_value))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], f.colour));
+                .map_err(|e| perr(&e))?;
             for b in [-w.band_95, w.band_95] {
                 chart
                     .draw_series(LineSeries::new(
@@ -333,7 +366,6 @@ fn autocorrelation_plot(
                     .map_err(|e| perr(&e))?;
             }
         }
-        legend(&mut chart)?;
     }
     Ok(())
 }
@@ -342,10 +374,11 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
     let root = root
         .titled(
             &format!(
-                "{}: NIS / dof per program segment, band at the per-test level",
-                kind_label(kind)
+                "{}: NIS / dof per segment, bars: band at the per-test level, red ring: fails{}",
+                kind_label(kind),
+                fits_note(fits)
             ),
-            ("sans-serif", 24),
+            ("sans-serif", TITLE_SIZE),
         )
         .map_err(|e| perr(&e))?;
     let ks = kinds(fits, kind);
@@ -368,8 +401,8 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
         .map_err(|e| perr(&e))?;
     chart
         .configure_mesh()
-        .x_desc("program segment")
-        .y_desc("NIS / dof")
+        .x_desc("segment number (names: report.md, or the diagnostics in the JSON)")
+        .y_desc("NIS / dof [1 expected]")
         .x_label_formatter(&|x| format!("{x:.0}"))
         .label_style(("sans-serif", 14))
         .light_line_style(RGBColor(240, 240, 240))
@@ -398,15 +431,28 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
             .draw_series(k.segments.iter().map(|s| {
                 Circle::new(
                     (s.segment as f64 + dx, s.nis.sum / d(s)),
-                    5,
+                    4,
                     f.colour.filled(),
                 )
             }))
-            .map_err(|e| perr(&e))?
-            .label(f.name)
-            .legend(move |(x, y)| Circle::new((x + 10, y), 5, f.colour.filled()));
+            .map_err(|e| perr(&e))?;
+        let level = f.diag.per_test_level;
+        chart
+            .draw_series(
+                k.segments
+                    .iter()
+                    .filter(|s| s.nis.p_value.is_nan() || s.nis.p_value < level)
+                    .map(|s| {
+                        Circle::new(
+                            (s.segment as f64 + dx, s.nis.sum / d(s)),
+                            8,
+                            FAILS.stroke_width(2),
+                        )
+                    }),
+            )
+            .map_err(|e| perr(&e))?;
     }
-    legend(&mut chart)
+    Ok(())
 }
 
 #[cfg(test)]

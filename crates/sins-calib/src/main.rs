@@ -27,11 +27,14 @@ mod diagnose_report;
 mod diagnostic_plots;
 mod free_motion;
 mod import;
+mod lab_report;
 mod noise;
 mod noise_plot;
 mod output;
 mod plot;
+mod report_plots;
 mod segment;
+mod sha256;
 mod simulate;
 mod table;
 

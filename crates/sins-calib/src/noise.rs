@@ -350,7 +350,7 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
             row.push(level(f, j, s.factors[j]));
         }
         row.push(format!("{:.2}/{}", f.chi2, f.dof));
-        row.push(table::significant(f.p_value, 2));
+        row.push(calib::report::p_value_text(f.p_value));
         t.row(row);
     }
     format!(

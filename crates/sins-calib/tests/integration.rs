@@ -12,5 +12,6 @@ mod free_motion;
 mod import;
 mod noise;
 mod refusals;
+mod report;
 mod rests;
 mod robust;

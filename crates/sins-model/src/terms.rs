@@ -32,7 +32,7 @@ pub enum Unit {
     RadPerSecond,
     /// m/s^2, reported in m/s^2.
     MeterPerSecond2,
-    /// Dimensionless scale-factor error, reported as is.
+    /// Dimensionless scale-factor error, reported in ppm (parts per million).
     Ratio,
     /// Small angle (rad) such as a misalignment, reported in arcmin.
     SmallAngle,
@@ -73,7 +73,7 @@ impl Unit {
         match self {
             Unit::RadPerSecond => "deg/h",
             Unit::MeterPerSecond2 => "m/s^2",
-            Unit::Ratio => "-",
+            Unit::Ratio => "ppm",
             Unit::SmallAngle => "arcmin",
             Unit::Angle => "deg",
             Unit::Second => "s",
@@ -87,7 +87,8 @@ impl Unit {
     pub fn report_factor(self) -> f64 {
         match self {
             Unit::RadPerSecond => 1.0 / crate::units::DEG_PER_HOUR,
-            Unit::MeterPerSecond2 | Unit::Ratio | Unit::Second => 1.0,
+            Unit::MeterPerSecond2 | Unit::Second => 1.0,
+            Unit::Ratio => 1e6,
             Unit::SmallAngle => 1.0 / crate::units::ARCMIN,
             Unit::Angle => 1.0 / crate::units::DEG,
             Unit::RadPerSecondPerMeterPerSecond2 => STANDARD_GRAVITY / crate::units::DEG_PER_HOUR,
@@ -320,7 +321,7 @@ impl ErrorTerm for Bias {
 /// Gyro scale-factor and misalignment matrix `Theta` (full 3x3, row-major parameters
 /// `gyro.theta.xx, .xy, .xz, .yx, ...`): `nu += Theta * omega_body`.
 ///
-/// Diagonal elements are scale-factor errors (reported as ratios), off-diagonal elements are
+/// Diagonal elements are scale-factor errors (ratios, reported in ppm), off-diagonal elements are
 /// misalignments (small angles, reported in arcmin).
 #[derive(Clone, Debug)]
 pub struct GyroMatrix {

@@ -1,0 +1,628 @@
+//! The report a laboratory files with a calibration (`calibrate --report DIR`, `diagnose
+//! --report DIR`): `DIR/report.md` with PNG plots beside it, in this order: identification
+//! (input files with their SHA-256, the configuration with its text, tool version and commit,
+//! date, command line), the verdict with its criteria and failing tests, the parameters in the
+//! paper's units with 1 sigma, the correlation matrix, the residuals per measurement in
+//! physical units, the NIS per segment with the segments' names, and for `diagnose` the
+//! model-extension table. The figures come from `calib::report::lab`; this module prints and
+//! draws them. The directory is written whole ([`crate::output::DirOutput`]): no plot of an
+//! earlier run survives.
+
+use crate::Error;
+use crate::output::DirOutput;
+use crate::table;
+use calib::config::RunConfig;
+use calib::diagnostics::{Diagnostics, kind_serde};
+use calib::estimate::Estimate;
+use calib::io::ResultFile;
+use calib::model::MeasurementKind;
+use calib::report::lab;
+use calib::report::p_value_text;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Every file a report directory may hold (the names an earlier report may have left).
+pub const NAMES: [&str; 12] = [
+    "report.md",
+    "correlation.png",
+    "residuals_accel.png",
+    "residuals_turntable.png",
+    "nis_segments_accel.png",
+    "nis_segments_turntable.png",
+    "spectrum_accel.png",
+    "spectrum_turntable.png",
+    "autocorrelation_accel.png",
+    "autocorrelation_turntable.png",
+    "innovations_accel.png",
+    "innovations_turntable.png",
+];
+
+/// Failing tests listed in the verdict's table; the rest are counted (all are in the JSON).
+const FAILING_TESTS_SHOWN: usize = 40;
+
+/// A file the run read, identified by its content.
+struct InputFile {
+    role: &'static str,
+    path: PathBuf,
+    sha256: String,
+    bytes: u64,
+}
+
+/// What identifies a run: inputs, configuration, tool, date and command line.
+pub struct Identification {
+    inputs: Vec<InputFile>,
+    config_shown: String,
+    config_sha256: String,
+    config_text: String,
+    command_line: String,
+    date_utc: String,
+}
+
+/// Identify a run of `sins-calib`: hash the `inputs` (role, path) and the configuration given
+/// as `config_arg` (a file or an embedded name), with the program file it names.
+pub fn identify(
+    inputs: &[(&'static str, &Path)],
+    config_arg: &str,
+    config: &RunConfig,
+) -> Result<Identification, Error> {
+    let mut files = Vec::new();
+    let mut add = |role: &'static str, path: &Path| -> Result<(), Error> {
+        let (sha256, bytes) = crate::sha256::of_file(path)?;
+        files.push(InputFile {
+            role,
+            path: path.to_path_buf(),
+            sha256,
+            bytes,
+        });
+        Ok(())
+    };
+    for (role, path) in inputs {
+        add(role, path)?;
+    }
+    let (config_shown, config_text) = match config_arg {
+        "paper" => (
+            "<embedded paper config>".to_string(),
+            calib::config::PAPER_CONFIG_TOML.to_string(),
+        ),
+        "paper-reconciled" => (
+            "<embedded paper-reconciled config>".to_string(),
+            calib::paper::PAPER_RECONCILED_TOML.to_string(),
+        ),
+        path => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| format!("{path}: cannot read the configuration again: {e}"))?;
+            (path.to_string(), text)
+        }
+    };
+    if let Some(program) = program_file(config) {
+        add("rotation program", &program)?;
+    }
+    Ok(Identification {
+        inputs: files,
+        config_sha256: crate::sha256::of_bytes(config_text.as_bytes()),
+        config_shown,
+        config_text,
+        command_line: command_line(),
+        date_utc: utc_now(),
+    })
+}
+
+/// The program file a configuration names (none for the embedded program, an inline one, or
+/// one read from the angles).
+fn program_file(config: &RunConfig) -> Option<PathBuf> {
+    if config.inline_program.is_some() || config.program == "paper" || config.program_from_angles()
+    {
+        return None;
+    }
+    Some(match &config.base_dir {
+        Some(d) => d.join(&config.program),
+        None => PathBuf::from(&config.program),
+    })
+}
+
+/// The command line as a shell would take it back (arguments quoted where needed).
+fn command_line() -> String {
+    std::env::args()
+        .enumerate()
+        .map(|(i, a)| {
+            let a = if i == 0 { "sins-calib".to_string() } else { a };
+            let plain = !a.is_empty()
+                && a.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
+            if plain {
+                a
+            } else {
+                format!("'{}'", a.replace('\'', r"'\''"))
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Days since 1970-01-01 as (year, month, day) in the proleptic Gregorian calendar
+/// (H. Hinnant's `civil_from_days`).
+fn civil_from_days(days: i64) -> (i64, u32, u32) {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    (year, month, day)
+}
+
+/// Seconds since the Unix epoch as `YYYY-MM-DD HH:MM:SS UTC`.
+fn utc_text(seconds: i64) -> String {
+    let (days, secs) = (seconds.div_euclid(86_400), seconds.rem_euclid(86_400));
+    let (y, m, d) = civil_from_days(days);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC",
+        secs / 3600,
+        secs / 60 % 60,
+        secs % 60
+    )
+}
+
+/// The system clock's date and time (UTC).
+fn utc_now() -> String {
+    match std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH) {
+        Ok(d) => utc_text(d.as_secs() as i64),
+        Err(_) => "unknown (the system clock is before 1970)".into(),
+    }
+}
+
+/// One fit as the report shows it.
+pub struct FitView<'a> {
+    /// The estimate (parameters, covariance, innovations, segments, statistics).
+    pub est: &'a Estimate,
+    /// Its diagnostics.
+    pub diagnostics: &'a Diagnostics,
+}
+
+/// The verdict of the command, as its exit status says it.
+pub struct Verdict {
+    /// Whether the model fits the data.
+    pub fits: bool,
+    /// The command's exit status.
+    pub exit_status: u8,
+    /// Why it does not fit, one line each (empty when it fits).
+    pub reasons: Vec<String>,
+    /// How the command decides (one sentence).
+    pub rule: &'static str,
+}
+
+/// Everything a report shows.
+pub struct Report<'a> {
+    /// Heading, e.g. "Calibration report".
+    pub title: &'static str,
+    /// Inputs, configuration, tool, date, command line.
+    pub id: Identification,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// The reported fit (for `diagnose` the final model).
+    pub fit: FitView<'a>,
+    /// `diagnose` with accepted terms: the paper's model, shown beside the final one.
+    pub base: Option<FitView<'a>>,
+    /// Whether the turntable angles were used.
+    pub with_turntable: bool,
+    /// A truth and the report's lines on it (NEES, largest error).
+    pub truth: Option<(&'a ResultFile, String)>,
+    /// `diagnose`: the model-extension section (Markdown).
+    pub extension: Option<String>,
+}
+
+/// Write the report into `dir` (checked before the work with [`crate::output::check_dir`] and
+/// [`NAMES`]), replacing an earlier report whole. Returns the number of plots.
+pub fn write(dir: &Path, report: &Report<'_>) -> Result<usize, Error> {
+    let out = DirOutput::begin(dir, &NAMES)?;
+    let tmp = out.tmp_dir();
+    let mut md = format!("# {}\n\n", report.title);
+    md += &identification_md(&report.id);
+    md += &verdict_md(report);
+    md += &parameters_md(report);
+    let mut plots = 0;
+    md += &correlation_md(tmp, report.fit.est, &mut plots)?;
+    md += &residuals_md(tmp, report, &mut plots)?;
+    md += &segments_md(tmp, report, &mut plots)?;
+    if let Some(ext) = &report.extension {
+        md += ext;
+    }
+    md += &further_plots_md(tmp, report, &mut plots)?;
+    let path = out.path("report.md");
+    std::fs::write(&path, md).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    out.commit()?;
+    Ok(plots)
+}
+
+/// Whether a fit used the turntable angles (its layout has their delay).
+pub fn with_turntable(est: &Estimate) -> bool {
+    est.names
+        .iter()
+        .any(|n| n == sins_model::names::TURNTABLE_TAU)
+}
+
+/// Write the report of `calibrate` into `dir`: the fit `est` with its diagnostics `d`, the
+/// reasons it does not fit (`bad`, empty when it fits) and a truth with its lines. Returns the
+/// number of plots.
+pub fn write_calibration(
+    dir: &Path,
+    id: Identification,
+    est: &Estimate,
+    d: &Diagnostics,
+    bad: &[String],
+    truth: Option<(&ResultFile, String)>,
+) -> Result<usize, Error> {
+    let report = Report {
+        title: "Calibration report",
+        id,
+        verdict: Verdict {
+            fits: bad.is_empty(),
+            exit_status: if bad.is_empty() {
+                0
+            } else {
+                crate::MODEL_DOES_NOT_FIT
+            },
+            reasons: bad.to_vec(),
+            rule: "The model fits when the mean NIS of every measurement is inside its band and \
+                   no test of the innovations fails.",
+        },
+        fit: FitView {
+            est,
+            diagnostics: d,
+        },
+        base: None,
+        with_turntable: with_turntable(est),
+        truth,
+        extension: None,
+    };
+    write(dir, &report)
+}
+
+fn identification_md(id: &Identification) -> String {
+    let mut s = String::from("## 1. Identification\n\n");
+    let _ = writeln!(
+        s,
+        "| | |\n|---|---|\n| tool | sins-calib {} (git commit {}) |\n| date | {} |\n| command \
+         | `{}` |\n",
+        env!("CARGO_PKG_VERSION"),
+        env!("SINS_CALIB_GIT_COMMIT"),
+        id.date_utc,
+        id.command_line.replace('|', "\\|").replace('`', "'")
+    );
+    let _ = writeln!(
+        s,
+        "Input files:\n\n| role | file | bytes | SHA-256 |\n|---|---|---:|---|"
+    );
+    for f in &id.inputs {
+        let _ = writeln!(
+            s,
+            "| {} | `{}` | {} | `{}` |",
+            f.role,
+            f.path.display(),
+            f.bytes,
+            f.sha256
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nConfiguration `{}`, SHA-256 `{}`:\n\n```toml\n{}{}```\n",
+        id.config_shown,
+        id.config_sha256,
+        id.config_text,
+        if id.config_text.ends_with('\n') {
+            ""
+        } else {
+            "\n"
+        }
+    );
+    s
+}
+
+fn verdict_md(report: &Report<'_>) -> String {
+    let v = &report.verdict;
+    let mut s = String::from("## 2. Verdict\n\n");
+    if v.fits {
+        let _ = writeln!(
+            s,
+            "**The model fits these data** (exit status {}). {}\n",
+            v.exit_status, v.rule
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "**THE MODEL DOES NOT FIT THESE DATA** (exit status {}): the estimates below are \
+             not to be trusted. {}\n",
+            v.exit_status, v.rule
+        );
+        for r in &v.reasons {
+            let _ = writeln!(s, "- {r}");
+        }
+        s.push('\n');
+    }
+    let _ = writeln!(
+        s,
+        "Mean NIS per measurement (3 expected: three components per update; band: three \
+         standard deviations of the mean, 3 sqrt(6/n)):\n\n| measurement | updates | mean NIS \
+         | band | inside |\n|---|---:|---:|---|---|"
+    );
+    for m in lab::mean_nis_figures(&report.fit.est.stats, report.with_turntable) {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.3} | 3 +- {} | {} |",
+            m.label,
+            m.updates,
+            m.mean,
+            table::significant(m.half_band, 2),
+            if m.consistent() { "yes" } else { "**no**" }
+        );
+    }
+    s += &failing_tests_md(report.fit.diagnostics);
+    s
+}
+
+fn failing_tests_md(d: &Diagnostics) -> String {
+    let mut s = String::new();
+    let failing: Vec<_> = d.tests.iter().filter(|t| t.fails).collect();
+    let _ = writeln!(
+        s,
+        "\nTests of the innovations (docs/estimation.md, \"Diagnostics\"): {} tests at the \
+         family-wise level {} %, each at p < {} (Bonferroni); {} fail.\n",
+        d.tests.len(),
+        100.0 * d.settings.alpha,
+        p_value_text(d.per_test_level),
+        failing.len()
+    );
+    if failing.is_empty() {
+        return s;
+    }
+    let _ = writeln!(
+        s,
+        "| failing test | statistic | dof | p |\n|---|---:|---:|---:|"
+    );
+    for t in failing.iter().take(FAILING_TESTS_SHOWN) {
+        let _ = writeln!(
+            s,
+            "| {} | {:.1} | {} | {} |",
+            t.name,
+            t.statistic,
+            t.dof,
+            p_value_text(t.p_value)
+        );
+    }
+    if failing.len() > FAILING_TESTS_SHOWN {
+        let _ = writeln!(
+            s,
+            "\n... and {} more (every test is in the JSON's `diagnostics`).",
+            failing.len() - FAILING_TESTS_SHOWN
+        );
+    }
+    s.push('\n');
+    s
+}
+
+fn parameters_md(report: &Report<'_>) -> String {
+    let est = report.fit.est;
+    let truth = report.truth.as_ref().map(|(t, _)| *t);
+    let rows = lab::parameter_rows(est, truth);
+    let mut s = String::from(
+        "## 3. Parameters\n\nIn the paper's units (scale factors in ppm), with the posterior \
+         1-sigma",
+    );
+    s += if truth.is_some() {
+        "; against the truth, the error in sigmas.\n\n| parameter | value | 1 sigma | unit | \
+         truth | error/sigma |\n|---|---:|---:|---|---:|---:|\n"
+    } else {
+        ".\n\n| parameter | value | 1 sigma | unit |\n|---|---:|---:|---|\n"
+    };
+    let names: Vec<String> = est.names.clone();
+    let first = calib::layout::StateLayout::INSTRUMENT;
+    for (title, members) in table::grouped(&names) {
+        let _ = writeln!(
+            s,
+            "| **{title}** | | | |{}",
+            if truth.is_some() { " | |" } else { "" }
+        );
+        for i in members {
+            let r = &rows[i - first];
+            let _ = write!(
+                s,
+                "| {} | {} | {} | {} |",
+                r.name,
+                table::with_precision_of(r.value, r.sigma),
+                table::sigma(r.sigma),
+                r.unit
+            );
+            if truth.is_some() {
+                let _ = write!(
+                    s,
+                    " {} | {} |",
+                    r.truth
+                        .map_or("-".into(), |t| table::with_precision_of(t, r.sigma)),
+                    r.error_sigmas.map_or("-".into(), |e| format!("{e:+.2}"))
+                );
+            }
+            s.push('\n');
+        }
+    }
+    let unobserved = est.unobserved();
+    if !unobserved.is_empty() {
+        let list: Vec<String> = unobserved
+            .iter()
+            .map(|(n, r)| format!("{n} ({:.0} %)", 100.0 * r))
+            .collect();
+        let _ = writeln!(
+            s,
+            "\nNot observed by this run (posterior sigma above {:.0} % of the prior: estimate = \
+             prior): {}.",
+            100.0 * calib::estimate::UNOBSERVED_SIGMA_RATIO,
+            list.join(", ")
+        );
+    }
+    if let Some((_, text)) = &report.truth {
+        let _ = writeln!(s, "\n```text\n{text}```");
+    }
+    s.push('\n');
+    s
+}
+
+fn correlation_md(dir: &Path, est: &Estimate, plots: &mut usize) -> Result<String, Error> {
+    let (names, r) = lab::correlation(est);
+    crate::report_plots::correlation_png(&dir.join("correlation.png"), &names, &r)?;
+    *plots += 1;
+    let mut s = String::from(
+        "## 4. Correlation of the estimates\n\n![posterior correlation matrix](correlation.png)\n\n\
+         The strongest correlations:\n\n| parameter | parameter | correlation |\n|---|---|---:|\n",
+    );
+    for (a, b, c) in lab::strongest_correlations(&names, &r, 8) {
+        let _ = writeln!(s, "| {a} | {b} | {c:+.4} |");
+    }
+    s.push('\n');
+    Ok(s)
+}
+
+/// The measurement kinds the fit has, in report order.
+fn kinds_of(d: &Diagnostics) -> Vec<MeasurementKind> {
+    [MeasurementKind::Accel, MeasurementKind::Turntable]
+        .into_iter()
+        .filter(|k| d.kind(*k).is_some())
+        .collect()
+}
+
+fn residuals_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<String, Error> {
+    let (est, d) = (report.fit.est, report.fit.diagnostics);
+    let mut s = String::from(
+        "## 5. Residuals\n\nThe innovations `z - H x` of every update of the reported fit, per \
+         axis of the local frame (East, North, Up), in physical units, with the band of one \
+         standard deviation that the model gives them (the square root of the diagonal of the \
+         innovation covariance S). Segments are shaded alternately and numbered as in section \
+         6; a segment whose NIS test fails is shaded red.\n\n",
+    );
+    let rows = lab::segment_rows(d, &est.segments);
+    for kind in kinds_of(d) {
+        let failing: Vec<usize> = rows
+            .iter()
+            .filter(|r| r.kind == kind && r.fails)
+            .map(|r| r.segment)
+            .collect();
+        let name = format!("residuals_{}.png", kind_serde::name(kind));
+        let residuals = lab::residuals(&est.innovations, kind);
+        let marks = crate::report_plots::SegmentMarks {
+            segments: &est.segments,
+            failing: &failing,
+        };
+        crate::report_plots::residuals_png(&dir.join(&name), kind, &residuals, &marks)?;
+        *plots += 1;
+        let (unit, _) = lab::residual_unit(kind);
+        let _ = writeln!(
+            s,
+            "![{} residuals in {unit}]({name})\n",
+            calib::diagnostics::kind_label(kind)
+        );
+    }
+    Ok(s)
+}
+
+fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<String, Error> {
+    let (est, d) = (report.fit.est, report.fit.diagnostics);
+    let mut s = String::from(
+        "## 6. NIS per segment\n\nThe NIS summed over each segment, over its degrees of freedom \
+         (1 expected), against its band at the per-test level of the verdict",
+    );
+    s += if report.base.is_some() {
+        "; the plot shows the paper's model beside the extended one, the table the extended \
+         one.\n\n"
+    } else {
+        ".\n\n"
+    };
+    let files = diagnostic_plots(dir, report, &["nis_segments"])?;
+    *plots += files.len();
+    for f in &files {
+        let _ = writeln!(s, "![NIS per segment]({f})\n");
+    }
+    let rows = lab::segment_rows(d, &est.segments);
+    for kind in kinds_of(d) {
+        let _ = writeln!(
+            s,
+            "{}:\n\n| # | segment | IMU time [s] | updates | NIS/dof | band | p | \
+             |\n|---:|---|---|---:|---:|---|---:|---|",
+            calib::diagnostics::kind_label(kind)
+        );
+        for r in rows.iter().filter(|r| r.kind == kind) {
+            let span = r.span_s.map_or("-".into(), |(a, b)| {
+                format!("{} .. {}", seconds(a), seconds(b))
+            });
+            let _ = writeln!(
+                s,
+                "| {} | {} | {span} | {} | {:.3} | {:.3} .. {:.3} | {} | {} |",
+                r.segment,
+                r.label,
+                r.updates,
+                r.nis_per_dof,
+                r.band_per_dof.0,
+                r.band_per_dof.1,
+                p_value_text(r.p_value),
+                if r.fails { "**fails**" } else { "" }
+            );
+        }
+        s.push('\n');
+    }
+    Ok(s)
+}
+
+/// A time on the IMU clock to the millisecond, without trailing zeros.
+fn seconds(t: f64) -> String {
+    table::compact((t * 1e3).round() / 1e3 + 0.0)
+}
+
+/// Diagnostic plots of the reported fit (and the paper's model beside it) into `dir`; their
+/// file names.
+fn diagnostic_plots(dir: &Path, report: &Report<'_>, which: &[&str]) -> Result<Vec<String>, Error> {
+    let (before, after) = match &report.base {
+        Some(base) => (base, Some(&report.fit)),
+        None => (&report.fit, None),
+    };
+    let files = crate::diagnostic_plots::write_plots(
+        dir,
+        which,
+        (800, 560),
+        before.diagnostics,
+        &before.est.innovations,
+        after.map(|a| (a.diagnostics, a.est.innovations.as_slice())),
+    )?;
+    Ok(files
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect())
+}
+
+fn further_plots_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<String, Error> {
+    let mut s = String::from(
+        "## Further diagnostics\n\nThe periodograms of the whitened innovations (1 = white \
+         noise; triangles: the program's frequencies, line: the level a line must pass to fail) \
+         and their autocorrelations with the 95 % band of white noise.\n\n",
+    );
+    let files = diagnostic_plots(dir, report, &["spectrum", "autocorrelation"])?;
+    *plots += files.len();
+    for f in files {
+        let _ = writeln!(s, "![{}]({f})\n", f.trim_end_matches(".png"));
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dates_are_formatted_from_the_epoch() {
+        assert_eq!(utc_text(0), "1970-01-01 00:00:00 UTC");
+        // 2000-02-29 (a leap day of a century leap year) 12:34:56.
+        assert_eq!(utc_text(951_827_696), "2000-02-29 12:34:56 UTC");
+        assert_eq!(utc_text(1_709_251_199), "2024-02-29 23:59:59 UTC");
+        assert_eq!(utc_text(4_107_542_400), "2100-03-01 00:00:00 UTC");
+        assert_eq!(utc_text(-1), "1969-12-31 23:59:59 UTC");
+    }
+}

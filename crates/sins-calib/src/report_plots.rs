@@ -1,0 +1,297 @@
+//! The plots of the filed report (`--report DIR`) beyond the diagnostics' own: the residuals of
+//! each measurement in physical units with their noise band and the segments named by number,
+//! and the posterior correlation matrix as a heat map.
+
+use crate::Error;
+use crate::plot::write_png;
+use crate::table;
+use calib::diagnostics::{Segment, kind_label};
+use calib::model::MeasurementKind;
+use calib::report::lab::{Residual, residual_unit};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::path::Path;
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+const POINTS: RGBColor = RGBColor(31, 119, 180);
+const BAND: RGBColor = RGBColor(150, 150, 150);
+const SHADE: RGBColor = RGBColor(238, 238, 238);
+const FAILING: RGBColor = RGBColor(250, 200, 200);
+/// The axes of the innovations: the local geographic frame.
+const ENU: [&str; 3] = ["East", "North", "Up"];
+
+/// The `q`-quantile of the magnitudes of `values` (0 when empty).
+fn quantile_abs(values: impl Iterator<Item = f64>, q: f64) -> f64 {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).map(f64::abs).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+/// What a residual plot shows besides the residuals: the segments and which of them fail.
+pub struct SegmentMarks<'a> {
+    /// The fit's segments (program pieces or rests), numbered as in the report's tables.
+    pub segments: &'a [Segment],
+    /// Numbers of the segments whose NIS test fails.
+    pub failing: &'a [usize],
+}
+
+/// Write `path`: the residuals of one measurement kind, one panel per axis (East, North, Up),
+/// in physical units, with the 1-sigma band of the innovation covariance, the segments shaded
+/// alternately (failing ones red) and numbered.
+pub fn residuals_png(
+    path: &Path,
+    kind: MeasurementKind,
+    residuals: &[Residual],
+    marks: &SegmentMarks<'_>,
+) -> Result<(), Error> {
+    let (unit, _) = residual_unit(kind);
+    let title = format!(
+        "{} residuals z - Hx [{unit}]; grey: +-1 sigma of S; red: segment fails; off scale: at the edge",
+        kind_label(kind)
+    );
+    write_png(path, (800, 600), |root| {
+        let root = root
+            .titled(&title, ("sans-serif", 17))
+            .map_err(|e| e.to_string())?;
+        let panels = root.split_evenly((3, 1));
+        for (axis, panel) in panels.iter().enumerate() {
+            residual_panel(panel, axis, unit, residuals, marks, axis == 0)?;
+        }
+        Ok(())
+    })
+}
+
+/// One axis of [`residuals_png`]; the segment numbers are written on the first panel.
+fn residual_panel(
+    panel: &Area<'_>,
+    axis: usize,
+    unit: &str,
+    residuals: &[Residual],
+    marks: &SegmentMarks<'_>,
+    numbered: bool,
+) -> Result<(), String> {
+    let pe = |e: &dyn std::fmt::Display| e.to_string();
+    let (t0, t1) = match (residuals.first(), residuals.last()) {
+        (Some(a), Some(b)) if b.t > a.t => (a.t, b.t),
+        _ => (0.0, 1.0),
+    };
+    // The scale holds 99.5 % of the residuals of updates with a typical band (at most twice
+    // the median sigma) and three median sigmas; updates with a wider band (the first of a fit
+    // or after a motion between rests) may go off it and are drawn at its edge.
+    let typical_sigma = quantile_abs(residuals.iter().map(|r| r.sigma[axis]), 0.5);
+    let typical = residuals
+        .iter()
+        .filter(|r| r.sigma[axis] <= 2.0 * typical_sigma)
+        .map(|r| r.value[axis]);
+    let y = quantile_abs(typical, 0.995)
+        .max(3.0 * typical_sigma)
+        .max(1e-9)
+        * 1.25;
+    let mut chart = ChartBuilder::on(panel)
+        .margin(6)
+        .x_label_area_size(28)
+        .y_label_area_size(62)
+        .build_cartesian_2d(t0..t1, -y..y)
+        .map_err(|e| pe(&e))?;
+    // Segments first, under everything.
+    let spans = marks
+        .segments
+        .iter()
+        .filter(|s| s.t1 > t0 && s.t0 < t1)
+        .map(|s| (s.index, s.t0.max(t0), s.t1.min(t1)));
+    chart
+        .draw_series(spans.clone().filter_map(|(i, a, b)| {
+            let failing = marks.failing.contains(&i);
+            (failing || i % 2 == 1).then(|| {
+                let colour = if failing { FAILING } else { SHADE };
+                Rectangle::new([(a, -y), (b, y)], colour.filled())
+            })
+        }))
+        .map_err(|e| pe(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("IMU time [s]")
+        .y_desc(format!("{} [{unit}]", ENU[axis]))
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|v| table::compact(*v))
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
+        .light_line_style(TRANSPARENT)
+        .draw()
+        .map_err(|e| pe(&e))?;
+    // The band as dots: the sigma of the angles changes from one update to the next as the
+    // gimbals turn, and a line through it would fill the panel.
+    for sign in [-1.0, 1.0] {
+        chart
+            .draw_series(residuals.iter().map(|r| {
+                let v = (sign * r.sigma[axis]).clamp(-y, y);
+                Circle::new((r.t, v), 1, BAND.filled())
+            }))
+            .map_err(|e| pe(&e))?;
+    }
+    chart
+        .draw_series(residuals.iter().map(|r| {
+            let v = r.value[axis].clamp(-y, y);
+            Circle::new((r.t, v), 1, POINTS.filled())
+        }))
+        .map_err(|e| pe(&e))?;
+    if numbered {
+        // A number where there is room for it (about 18 px).
+        let width_px = panel.dim_in_pixel().0.saturating_sub(70).max(1) as f64;
+        let style = TextStyle::from(("sans-serif", 11).into_font())
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Top));
+        chart
+            .draw_series(
+                spans
+                    .filter(|(_, a, b)| (b - a) / (t1 - t0) * width_px >= 18.0)
+                    .map(|(i, a, b)| {
+                        Text::new(i.to_string(), (0.5 * (a + b), 0.97 * y), style.clone())
+                    }),
+            )
+            .map_err(|e| pe(&e))?;
+    }
+    Ok(())
+}
+
+/// A correlation as a colour: blue for -1, white for 0, red for +1.
+fn correlation_colour(r: f64) -> RGBColor {
+    let r = if r.is_finite() {
+        r.clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    let (end, a) = if r >= 0.0 {
+        ((178.0, 24.0, 43.0), r)
+    } else {
+        ((33.0, 102.0, 172.0), -r)
+    };
+    let mix = |e: f64| (255.0 + (e - 255.0) * a).round() as u8;
+    RGBColor(mix(end.0), mix(end.1), mix(end.2))
+}
+
+/// Write `path`: the correlation matrix `r` of the parameters `names` as a heat map, the names
+/// on both axes and a colour bar from -1 to +1.
+pub fn correlation_png(path: &Path, names: &[String], r: &[Vec<f64>]) -> Result<(), Error> {
+    let n = names.len().max(1) as u32;
+    // Cells of 22 px for the 25 parameters of a calibration with the turntable angles.
+    let side = (570 / n).clamp(2, 22);
+    let height = (CORRELATION_TOP + CORRELATION_LABELS) as u32 + n * side + 10;
+    write_png(path, (800, height.max(300)), |root| {
+        draw_correlation(root, names, r, side as i32)
+    })
+}
+
+/// Room above the matrix (title) and below it (the rotated names), px.
+const CORRELATION_TOP: i32 = 44;
+const CORRELATION_LABELS: i32 = 120;
+
+fn draw_correlation(
+    root: &Area<'_>,
+    names: &[String],
+    r: &[Vec<f64>],
+    side: i32,
+) -> Result<(), String> {
+    let pe = |e: &dyn std::fmt::Display| e.to_string();
+    let n = names.len().max(1) as i32;
+    let (left, top) = (140, CORRELATION_TOP);
+    let title_style = TextStyle::from(("sans-serif", 17).into_font()).color(&BLACK);
+    root.draw(&Text::new(
+        "posterior correlation of the parameters (in state order)",
+        (left, 12),
+        title_style,
+    ))
+    .map_err(|e| pe(&e))?;
+    for (i, row) in r.iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
+            let (x, y) = (left + j as i32 * side, top + i as i32 * side);
+            root.draw(&Rectangle::new(
+                [(x, y), (x + side, y + side)],
+                correlation_colour(*v).filled(),
+            ))
+            .map_err(|e| pe(&e))?;
+        }
+    }
+    let font = (side as f64 * 0.62).clamp(8.0, 12.0);
+    let row_style = TextStyle::from(("sans-serif", font).into_font())
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Right, VPos::Center));
+    let column_style = TextStyle::from(
+        ("sans-serif", font)
+            .into_font()
+            .transform(FontTransform::Rotate270),
+    )
+    .color(&BLACK);
+    let bottom = top + n * side;
+    for (k, name) in names.iter().enumerate() {
+        let c = k as i32 * side + side / 2;
+        root.draw(&Text::new(
+            name.as_str(),
+            (left - 4, top + c),
+            row_style.clone(),
+        ))
+        .map_err(|e| pe(&e))?;
+        // Rotated text grows upwards from its anchor: anchor it at the name's length below.
+        let len = root
+            .estimate_text_size(name, &TextStyle::from(("sans-serif", font).into_font()))
+            .map_or(0, |s| s.0 as i32);
+        root.draw(&Text::new(
+            name.as_str(),
+            (left + c - font as i32 / 2, bottom + 4 + len),
+            column_style.clone(),
+        ))
+        .map_err(|e| pe(&e))?;
+    }
+    colour_bar(root, left + n * side + 24, top, (n * side).max(100))
+}
+
+/// A vertical colour bar from -1 (bottom) to +1 (top) at `x`, `top`, `height` px.
+fn colour_bar(root: &Area<'_>, x: i32, top: i32, height: i32) -> Result<(), String> {
+    let pe = |e: &dyn std::fmt::Display| e.to_string();
+    for k in 0..height {
+        let v = 1.0 - 2.0 * k as f64 / (height - 1).max(1) as f64;
+        root.draw(&Rectangle::new(
+            [(x, top + k), (x + 18, top + k + 1)],
+            correlation_colour(v).filled(),
+        ))
+        .map_err(|e| pe(&e))?;
+    }
+    root.draw(&Rectangle::new(
+        [(x, top), (x + 18, top + height)],
+        BLACK.stroke_width(1),
+    ))
+    .map_err(|e| pe(&e))?;
+    let style = TextStyle::from(("sans-serif", 12).into_font())
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    for (v, label) in [
+        (1.0, "+1"),
+        (0.5, "+0.5"),
+        (0.0, "0"),
+        (-0.5, "-0.5"),
+        (-1.0, "-1"),
+    ] {
+        let y = top + ((1.0 - v) / 2.0 * (height - 1) as f64).round() as i32;
+        root.draw(&Text::new(label, (x + 22, y), style.clone()))
+            .map_err(|e| pe(&e))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn correlation_colours_run_from_blue_through_white_to_red() {
+        assert_eq!(correlation_colour(0.0), RGBColor(255, 255, 255));
+        assert_eq!(correlation_colour(1.0), RGBColor(178, 24, 43));
+        assert_eq!(correlation_colour(-1.0), RGBColor(33, 102, 172));
+        assert_eq!(correlation_colour(f64::NAN), RGBColor(255, 255, 255));
+    }
+}
