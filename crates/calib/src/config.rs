@@ -366,7 +366,7 @@ impl RunConfig {
 
     /// Read a configuration file.
     pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+        let text = sins_model::text::read_text(path).map_err(|source| ConfigError::Io {
             path: path.display().to_string(),
             source,
         })?;
@@ -578,7 +578,7 @@ impl RunConfig {
                 Some(d) => d.join(&self.program),
                 None => PathBuf::from(&self.program),
             };
-            let text = std::fs::read_to_string(&p).map_err(|source| ConfigError::Io {
+            let text = sins_model::text::read_text(&p).map_err(|source| ConfigError::Io {
                 path: p.display().to_string(),
                 source,
             })?;

@@ -186,7 +186,7 @@ fn line_error(file: &str, line: usize, message: String) -> IoError {
 }
 
 fn read_text(path: &Path) -> Result<String, IoError> {
-    std::fs::read_to_string(path).map_err(|source| IoError::Read {
+    sins_model::text::read_text(path).map_err(|source| IoError::Read {
         file: path.display().to_string(),
         source,
     })

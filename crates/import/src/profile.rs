@@ -728,7 +728,7 @@ impl Profile {
     /// Read and check a profile; relative paths in it resolve against its directory.
     pub fn load(path: &Path) -> Result<Self, ImportError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ImportError::Read {
+        let text = sins_model::text::read_text(path).map_err(|source| ImportError::Read {
             file: file.clone(),
             source,
         })?;

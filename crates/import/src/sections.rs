@@ -77,7 +77,7 @@ impl SectionsFile {
     /// Read a `sections.json`.
     pub fn read(path: &Path) -> Result<Self, ImportError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ImportError::Read {
+        let text = sins_model::text::read_text(path).map_err(|source| ImportError::Read {
             file: file.clone(),
             source,
         })?;
@@ -159,7 +159,7 @@ pub(crate) fn carry(
     accel: &Sensor,
 ) -> Result<SectionsFile, ImportError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| ImportError::Read {
+    let text = sins_model::text::read_text(path).map_err(|source| ImportError::Read {
         file: file.clone(),
         source,
     })?;

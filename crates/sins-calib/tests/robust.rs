@@ -659,3 +659,52 @@ proptest! {
         refused_somehow(&run(&["segment", "--imu", s(&imu)]))?;
     }
 }
+
+/// Bytes that are not UTF-8 in a configuration, an import profile or a JSON input name the
+/// line and column (issue 20, "Messages"; was "stream did not contain valid UTF-8").
+#[test]
+fn text_inputs_that_are_not_utf8_name_the_line() {
+    let dir = scratch("not-utf8");
+    let toml = dir.join("bad.toml");
+    let mut bytes =
+        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/run.toml"))
+            .expect("examples/run.toml");
+    bytes.extend_from_slice(b"# \xff\n");
+    let line = 1 + bytes.iter().filter(|&&b| b == b'\n').count() - 1;
+    std::fs::write(&toml, &bytes).expect("config");
+    refused(
+        &run(&["analyse", "--config", s(&toml)]),
+        &[
+            "bad.toml",
+            &format!("not UTF-8 at line {line}, column 3 (byte 0xff)"),
+        ],
+    );
+    let profile = dir.join("profile.toml");
+    std::fs::write(&profile, b"description = \"x\"\n\xfe\n").expect("profile");
+    refused(
+        &run(&[
+            "import",
+            "--profile",
+            s(&profile),
+            "--out",
+            s(&dir.join("out")),
+        ]),
+        &["profile.toml", "not UTF-8 at line 2, column 1 (byte 0xfe)"],
+    );
+    let json = dir.join("bad.json");
+    std::fs::write(&json, b"{\"parameters\": [\n{\"name\": \"\xff\"}]}\n").expect("json");
+    let imu = dir.join("imu.csv");
+    std::fs::write(&imu, "t,dthx,dthy,dthz,dvx,dvy,dvz\n0.01,0,0,0,0,0,0.098\n").expect("imu");
+    refused(
+        &run(&[
+            "apply",
+            "--calibration",
+            s(&json),
+            "--imu",
+            s(&imu),
+            "--out",
+            s(&dir.join("corrected.csv")),
+        ]),
+        &["bad.json", "not UTF-8 at line 2, column 11 (byte 0xff)"],
+    );
+}

@@ -29,4 +29,5 @@ pub mod errors;
 pub mod names;
 pub mod paper;
 pub mod terms;
+pub mod text;
 pub mod units;

@@ -184,7 +184,7 @@ impl Program {
 
     /// Read a program from a TOML file.
     pub fn from_file(path: &Path) -> Result<Self, ProgramError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ProgramError::Io {
+        let text = sins_model::text::read_text(path).map_err(|source| ProgramError::Io {
             path: path.display().to_string(),
             source,
         })?;
