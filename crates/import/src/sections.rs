@@ -91,6 +91,40 @@ impl SectionsFile {
     }
 }
 
+impl SectionsFile {
+    /// Check the sections against the records they are said to index (`times`: the time stamps
+    /// of `imu.csv`): every section's records inside the file, in order, and its stamped start and
+    /// end on those records' time stamps (within half the median interval). A section list of
+    /// another recording, or of an earlier import of this one, is refused here rather than
+    /// silently used or skipped. `Err` holds the message: which section, and what was expected.
+    pub fn check_records(&self, times: &[f64]) -> Result<(), String> {
+        let n = times.len();
+        let tolerance = 0.5 * crate::timing::median_interval(times);
+        for s in &self.sections {
+            if s.first_record > s.last_record || s.last_record >= n {
+                return Err(format!(
+                    "section `{}` spans records {} .. {}, but the IMU file has {n} records \
+                     (0 .. {}): a section list of another recording?",
+                    s.name,
+                    s.first_record,
+                    s.last_record,
+                    n.saturating_sub(1)
+                ));
+            }
+            let (t0, t1) = (times[s.first_record], times[s.last_record]);
+            let off = (t0 - s.start_s).abs().max((t1 - s.end_s).abs());
+            if !(off <= tolerance) {
+                return Err(format!(
+                    "section `{}` says {} .. {} s, but its records are stamped {t0} .. {t1} s in \
+                     the IMU file: a section list of another recording, or of another import?",
+                    s.name, s.start_s, s.end_s
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The entries of a JSON object in file order, a key given twice refused (a map would keep
 /// the last one silently).
 struct Entries(Vec<(String, serde_json::Value)>);

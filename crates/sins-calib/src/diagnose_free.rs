@@ -4,7 +4,6 @@
 use crate::Error;
 use crate::diagnose::Args;
 use crate::free_motion::{known_turns, settings_of, static_intervals};
-use ::import::sections::SectionsFile;
 use calib::extend_free::{FreeLoop, free_motion_loop};
 use calib::io::read_imu_csv;
 use calib::report::p_value_text;
@@ -85,7 +84,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let (_, intervals) =
         static_intervals(&data, &file, &::import::detect::DetectorSettings::default())?;
     let turns = match &args.sections {
-        Some(p) => known_turns(&SectionsFile::read(p)?, &intervals),
+        Some(p) => known_turns(&crate::free_motion::read_sections(p, &data)?, &intervals),
         None => Vec::new(),
     };
     let r = free_motion_loop(&data, &intervals, &turns, &settings, args.level)

@@ -108,6 +108,20 @@ pub(crate) fn settings_of(
 /// Known turns of a section list: its rotations with an expected angle, each widened to the
 /// whole motion between the static intervals around it (a list's bounds may cut off the start
 /// or end of the turn; the rest on either side adds only the bias, which is calibrated).
+/// The section list at `path`, checked against the records of `data` before any work
+/// ([`SectionsFile::check_records`]).
+pub(crate) fn read_sections(
+    path: &std::path::Path,
+    data: &calib::io::ImuData,
+) -> Result<SectionsFile, Error> {
+    let sections = SectionsFile::read(path)?;
+    let times: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    sections
+        .check_records(&times)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(sections)
+}
+
 pub(crate) fn known_turns(sections: &SectionsFile, intervals: &[Interval]) -> Vec<KnownTurn> {
     sections
         .sections
@@ -179,7 +193,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         .map_err(|e| format!("calibrate --free-motion: {e}"))?;
     let (seg, intervals) = static_intervals(&data, &file, &detector)?;
     let turns = match &args.sections {
-        Some(p) => known_turns(&SectionsFile::read(p)?, &intervals),
+        Some(p) => known_turns(&crate::free_motion::read_sections(p, &data)?, &intervals),
         None => Vec::new(),
     };
     let result = calibrate_free_motion(&data, &intervals, &turns, &settings)

@@ -150,3 +150,45 @@ fn diagnose_finds_the_xsens_g_sensitivity() {
         "held-out rotation {before} -> {after} deg"
     );
 }
+
+/// A section list that does not belong to the records is refused before any work, naming the
+/// section (issue 20: another recording's section list was used, or a section past the end
+/// skipped, with exit 0): the Ferraris list against the Xsens records, and the Ferraris list
+/// with a section moved past the end of its own records.
+#[test]
+fn a_section_list_of_other_records_is_refused() {
+    let dir = scratch("foreign-sections");
+    import("ferraris_session.toml", &dir.join("ferraris"));
+    import("xsens_mti.toml", &dir.join("xsens"));
+    let sections = dir.join("ferraris/sections.json");
+    let refused = |imu: &Path, list: &Path, needle: &str| {
+        for cmd in [
+            ["calibrate", "--free-motion"],
+            ["diagnose", "--free-motion"],
+        ] {
+            let o = Command::new(BIN)
+                .args(cmd)
+                .args(["--imu", s(imu), "--sections", s(list)])
+                .output()
+                .expect("the binary runs");
+            let e = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(1), "{cmd:?}: {e}");
+            assert!(e.contains(needle) && e.contains(s(list)), "{cmd:?}: {e}");
+            assert!(o.stdout.is_empty() || !String::from_utf8_lossy(&o.stdout).contains("Fit"));
+        }
+    };
+    refused(
+        &dir.join("xsens/imu.csv"),
+        &sections,
+        "section `x_p` says 5.2734375 .. 12.40234375 s, but its records are stamped",
+    );
+    let mut list = json(&sections);
+    list["sections"][0]["last_record"] = serde_json::json!(1_000_000);
+    let moved = dir.join("moved.json");
+    std::fs::write(&moved, serde_json::to_string_pretty(&list).expect("JSON")).expect("write");
+    refused(
+        &dir.join("ferraris/imu.csv"),
+        &moved,
+        "spans records 540 .. 1000000, but the IMU file has 10376 records",
+    );
+}
