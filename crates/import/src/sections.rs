@@ -113,7 +113,8 @@ impl SectionsFile {
             }
             let (t0, t1) = (times[s.first_record], times[s.last_record]);
             let off = (t0 - s.start_s).abs().max((t1 - s.end_s).abs());
-            if !(off <= tolerance) {
+            // A NaN (a non-finite stamp) is refused too.
+            if off.is_nan() || off > tolerance {
                 return Err(format!(
                     "section `{}` says {} .. {} s, but its records are stamped {t0} .. {t1} s in \
                      the IMU file: a section list of another recording, or of another import?",
