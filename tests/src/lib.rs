@@ -31,9 +31,12 @@ pub fn simulated_run_config() -> RunConfig {
 
 /// Estimation error of every state of `est` against the truth of `sim` (estimate minus truth;
 /// for the attitude states, which are fed back, the remaining error of the computed attitude),
-/// with each state's reported sigma.
+/// with each state's reported sigma. Biases that walk (`[noise]`'s walks, which the simulation
+/// puts in its truth) are compared with their values at the end of the run, where the filter's
+/// estimate of them is.
 pub fn state_errors(config: &RunConfig, sim: &Simulation, est: &Estimate) -> (Vec<f64>, Vec<f64>) {
-    let truth = |n: &str| sim.truth.get(n).expect("truth names");
+    let walked = walks_at_end(config, sim.imu.len());
+    let truth = |n: &str| sim.truth.get(n).expect("truth names") + walked(n);
     let axes = ["x", "y", "z"];
     let mounting = Mounting {
         delta_z: Vector3::from_fn(|i, _| truth(&format!("install.delta.{}", axes[i]))),
@@ -63,6 +66,48 @@ pub fn state_errors(config: &RunConfig, sim: &Simulation, est: &Estimate) -> (Ve
         .map(|i| est.cov[(i, i)].sqrt())
         .collect();
     (errors, sigma)
+}
+
+/// The walked part of each bias at the end of a simulated run of `records` IMU records (0 for
+/// every other state, and for the biases when `[noise]` has no walk): the simulation's own
+/// streams, regenerated from their seeds.
+fn walks_at_end(config: &RunConfig, records: usize) -> impl Fn(&str) -> f64 {
+    use calib::simulate::{accel_drift_seed, drift_seed};
+    use turntable::simulate::{AccelDrift, GyroDrift, accel_bias_walk, gyro_bias_walk};
+    let dt = 1.0 / config.truth.imu_rate_hz;
+    let end = |w: Vec<Vector3<f64>>| w.last().copied().unwrap_or_else(Vector3::zeros);
+    let on = config.truth.noise;
+    let gyro = config
+        .noise
+        .gyro_bias_walk()
+        .filter(|_| on)
+        .map(|intensity| {
+            let seed = drift_seed(config);
+            end(gyro_bias_walk(&GyroDrift { intensity, seed }, dt, records))
+        });
+    let accel = config
+        .noise
+        .accel_bias_walk()
+        .filter(|_| on)
+        .map(|intensity| {
+            let seed = accel_drift_seed(config);
+            end(accel_bias_walk(
+                &AccelDrift { intensity, seed },
+                dt,
+                records,
+            ))
+        });
+    move |name: &str| {
+        let axis = |names: &[&str]| names.iter().position(|n| *n == name);
+        match (
+            axis(&sins_model::names::GYRO_BIAS),
+            axis(&sins_model::names::ACCEL_BIAS),
+        ) {
+            (Some(k), _) => gyro.map_or(0.0, |w| w[k]),
+            (_, Some(k)) => accel.map_or(0.0, |w| w[k]),
+            _ => 0.0,
+        }
+    }
 }
 
 /// The normalised errors and NEES of many runs of one model.

@@ -2,6 +2,7 @@
 //! files run in parallel): each file of this directory is a module. Run one file's tests with
 //! `cargo test --release -p workspace-tests --test integration <file>::`.
 
+mod bias_walk_monte_carlo;
 mod calibration_estimate;
 mod calibration_monte_carlo;
 mod hidden_effects;

@@ -67,6 +67,10 @@ pub struct Posterior {
     pub prior_sigma: Vec<f64>,
     /// Posterior covariance (SI).
     pub cov: DMatrix<f64>,
+    /// `ln det` of the covariance of every measurement the analysis took (the prior and the
+    /// noise model included; `NaN` where the posterior did not come from an analysis): what
+    /// [`crate::drift_visibility`] compares between two noise models.
+    pub log_det_data: f64,
 }
 
 impl Posterior {
@@ -219,5 +223,6 @@ pub fn covariance_analysis_with(
         units: layout.entries().iter().map(|e| e.unit).collect(),
         prior_sigma: layout.prior_sigma(),
         cov: engine.covariance(),
+        log_det_data: engine.log_det_data,
     })
 }

@@ -235,6 +235,10 @@ pub struct Engine {
     pub noise: MeasurementNoise,
     /// Residuals ignored (covariance analysis).
     covariance_only: bool,
+    /// Sum of `ln det S` over the covariance-only updates so far: the log-determinant of the
+    /// covariance of every measurement of the run (prior included), by the innovations'
+    /// factorisation of the data's likelihood.
+    pub log_det_data: f64,
     /// Scratch for the measurement noise as a faer matrix.
     r: Mat<f64>,
     /// Scratch for the cross-covariance of the state's error and the measurement noise
@@ -258,6 +262,7 @@ impl Engine {
             schedule,
             noise,
             covariance_only,
+            log_det_data: 0.0,
             r: Mat::zeros(3, 3),
             cross: Mat::zeros(n, 3),
         }
@@ -345,7 +350,7 @@ impl Engine {
         let h = self.model.h(m.kind);
         let (r, cross) = (self.r.as_ref(), self.cross.as_ref());
         if self.covariance_only {
-            self.filter.update_covariance_correlated(h, r, cross)?;
+            self.log_det_data += self.filter.update_covariance_correlated(h, r, cross)?;
             Ok(None)
         } else {
             let info = self.filter.update_correlated(m.z.as_slice(), h, r, cross)?;

@@ -28,6 +28,9 @@
 use crate::config::RunConfig;
 use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
 use crate::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose};
+use crate::drift_visibility::{
+    DriftAnalysis, DriftVisibility, drift_threshold, smallest_visible_drift,
+};
 use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
 use crate::evidence::{
     InformationGain, SEPARATED_SIGMA_RATIO, ScoreTest, Separability, chi_bar_square_sf,
@@ -170,6 +173,24 @@ pub struct LoopResult {
     pub base: Fit,
     /// The final model fitted.
     pub last: Fit,
+    /// What the program can see of a gyro bias random walk, when the walk was a candidate of
+    /// the last round and not accepted (a programmed run; `None` on a recording of rests, whose
+    /// motion the covariance analysis does not know).
+    pub drift_reach: Option<DriftReach>,
+}
+
+/// The smallest gyro bias random walk a program is expected to find
+/// ([`crate::drift_visibility`]): below it a walk goes unseen and the reported gyro-bias sigmas
+/// are too small.
+#[derive(Clone, Debug)]
+pub struct DriftReach {
+    /// The statistic at which the last round would have accepted the walk.
+    pub threshold: f64,
+    /// The smallest walk on the loop's drift grid range whose expected statistic reaches the
+    /// threshold, with the gyro-bias sigmas it implies (`None`: not even the largest).
+    pub smallest_visible: Option<DriftVisibility>,
+    /// The drift grid's largest intensity (rad/s/sqrt(s)).
+    pub largest_tried: f64,
 }
 
 impl LoopResult {
@@ -295,6 +316,7 @@ impl Context<'_> {
                 units: est.units.clone(),
                 prior_sigma: est.prior_sigma.clone(),
                 cov: est.cov.clone(),
+                log_det_data: f64::NAN,
             },
         };
         let base: Vec<String> = parameter_names(&current.estimate);
@@ -582,13 +604,63 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
         rounds.push(round);
         current = fit;
     }
+    let drift_reach = match (cx.rests, rounds.last()) {
+        (None, Some(last)) => {
+            let tried = last
+                .candidates
+                .iter()
+                .find(|c| c.term == Candidate::GyroBiasDrift.id());
+            match tried {
+                Some(_) if last.accepted.as_deref() != Some(Candidate::GyroBiasDrift.id()) => {
+                    (cx.progress)("how large a walk this program would show");
+                    drift_reach(
+                        cx.config,
+                        cx.data.turntable.is_some(),
+                        &current.extension,
+                        settings,
+                        last.threshold,
+                    )?
+                }
+                _ => None,
+            }
+        }
+        _ => None,
+    };
     Ok(LoopResult {
         accepted_terms: accepted,
         rounds,
         gain: gains,
         base,
         last: current,
+        drift_reach,
     })
+}
+
+/// [`DriftReach`] of the program of `config` with the model `ext`, for the loop's drift grid
+/// and a round's `level`.
+fn drift_reach(
+    config: &RunConfig,
+    with_turntable: bool,
+    ext: &ModelExtension,
+    settings: &LoopSettings,
+    level: f64,
+) -> Result<Option<DriftReach>, LoopError> {
+    let lo = settings
+        .drift_grid
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let hi = settings.drift_grid.iter().copied().fold(0.0, f64::max);
+    if !(lo > 0.0 && hi.is_finite()) {
+        return Ok(None);
+    }
+    let threshold = drift_threshold(level);
+    let analysis = DriftAnalysis::new(config, with_turntable, ext, lo * hi)?;
+    Ok(Some(DriftReach {
+        threshold,
+        smallest_visible: smallest_visible_drift(&analysis, threshold, lo, hi)?,
+        largest_tried: hi,
+    }))
 }
 
 #[cfg(test)]

@@ -57,6 +57,7 @@ pub mod covariance;
 pub mod data_checks;
 pub mod design;
 pub mod diagnostics;
+pub mod drift_visibility;
 pub mod engine;
 pub mod estimate;
 pub mod evidence;

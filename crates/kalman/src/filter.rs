@@ -319,26 +319,30 @@ impl KalmanFilter {
         })
     }
 
-    /// The covariance part of [`update_correlated`](Self::update_correlated).
+    /// The covariance part of [`update_correlated`](Self::update_correlated); returns
+    /// `ln det S` (summed over a run's updates: the log-determinant of the covariance of all
+    /// its measurements, what a covariance analysis compares between two noise models).
     pub fn update_covariance_correlated(
         &mut self,
         h: MatRef<'_, f64>,
         r: MatRef<'_, f64>,
         cross: MatRef<'_, f64>,
-    ) -> Result<(), KalmanError> {
+    ) -> Result<f64, KalmanError> {
         check_shape("M", (cross.nrows(), cross.ncols()), (self.dim(), h.nrows()))?;
-        self.update_inner(h, r, Some(cross), None).map(drop)
+        self.update_inner(h, r, Some(cross), None)
+            .map(|(log_det_s, _)| log_det_s)
     }
 
     /// Measurement update of the covariance only (covariance analysis: no measurement value,
     /// the state is left alone, the innovation is NaN). Same covariance arithmetic as
-    /// [`update`](Self::update).
+    /// [`update`](Self::update). Returns `ln det S`.
     pub fn update_covariance(
         &mut self,
         h: MatRef<'_, f64>,
         r: MatRef<'_, f64>,
-    ) -> Result<(), KalmanError> {
-        self.update_inner(h, r, None, None).map(drop)
+    ) -> Result<f64, KalmanError> {
+        self.update_inner(h, r, None, None)
+            .map(|(log_det_s, _)| log_det_s)
     }
 
     fn update_inner(

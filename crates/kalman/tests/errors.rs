@@ -93,7 +93,7 @@ fn dimension_mismatches_are_errors() {
     );
     assert_rejected(
         &kf,
-        |f| f.update_covariance(h.as_ref(), id(1).as_ref()),
+        |f| f.update_covariance(h.as_ref(), id(1).as_ref()).map(drop),
         is_dim,
     );
     // more measurement components than reserved
@@ -122,7 +122,7 @@ fn non_positive_definite_innovation_covariance_is_an_error() {
     let (h0, r0) = (Mat::<f64>::zeros(2, n), Mat::<f64>::zeros(2, 2));
     assert_rejected(
         &kf,
-        |f| f.update_covariance(h0.as_ref(), r0.as_ref()),
+        |f| f.update_covariance(h0.as_ref(), r0.as_ref()).map(drop),
         |e| matches!(e, KalmanError::NotPositiveDefinite { m: 2, pivot: 0, .. }),
     );
     // two identical rows and no noise: S is singular at the second pivot
@@ -130,7 +130,7 @@ fn non_positive_definite_innovation_covariance_is_an_error() {
     let h2 = Mat::from_fn(2, n, |_, j| row[(0, j)]);
     assert_rejected(
         &kf,
-        |f| f.update_covariance(h2.as_ref(), r0.as_ref()),
+        |f| f.update_covariance(h2.as_ref(), r0.as_ref()).map(drop),
         |e| matches!(e, KalmanError::NotPositiveDefinite { m: 2, pivot: 1, .. }),
     );
     // the message names the measurement dimension
@@ -183,7 +183,10 @@ fn non_finite_inputs_are_errors() {
     );
     assert_rejected(
         &kf,
-        |f| f.update_covariance(h.as_ref(), nan_in(&r, f64::NAN).as_ref()),
+        |f| {
+            f.update_covariance(h.as_ref(), nan_in(&r, f64::NAN).as_ref())
+                .map(drop)
+        },
         is_nonfinite,
     );
     assert_rejected(

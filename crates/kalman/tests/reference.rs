@@ -79,7 +79,7 @@ fn check_steps(n: usize, m: usize, k: usize, seed: u64) {
         let x_prior = naive.x.clone();
         let (s_ref, k_ref, log_det_ref) = reference_update(&p_prior, &h, &r);
         let info = kf.update(&z, h.as_ref(), r.as_ref()).unwrap();
-        cov.update_covariance(h.as_ref(), r.as_ref()).unwrap();
+        let cov_log_det = cov.update_covariance(h.as_ref(), r.as_ref()).unwrap();
         let nis_ref = naive.update(&z, &to_row_major(&h), &r_rm).unwrap();
 
         let p = kf.covariance();
@@ -98,6 +98,10 @@ fn check_steps(n: usize, m: usize, k: usize, seed: u64) {
             (info.log_det_s - log_det_ref).abs() <= 1e-10 * log_det_ref.abs().max(1.0),
             "{what}, step {step}: ln det S {} vs {log_det_ref}",
             info.log_det_s
+        );
+        assert!(
+            (cov_log_det - log_det_ref).abs() <= 1e-10 * log_det_ref.abs().max(1.0),
+            "{what}, step {step}: covariance-only ln det S {cov_log_det} vs {log_det_ref}"
         );
         assert_eq!(info.dim, m);
         let s = kf.innovation_covariance().to_owned();

@@ -120,6 +120,34 @@ struct LoopJson<'a> {
     gain: &'a BTreeMap<String, TermGain>,
     parameters: Vec<ResultParameter>,
     rounds: &'a [calib::extend::Round],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    drift_reach: Option<DriftReachJson>,
+}
+
+/// [`calib::extend::DriftReach`] in SI: the smallest walk the program is expected to show.
+#[derive(Serialize)]
+struct DriftReachJson {
+    /// The statistic at which the walk would be accepted.
+    threshold: f64,
+    /// rad/s/sqrt(s); `None` when even the largest tried stays below the threshold.
+    smallest_visible_rad_s_sqrt_s: Option<f64>,
+    expected_statistic: Option<f64>,
+    /// The gyro-bias sigmas at the end of the run with that walk in the model, and without (rad/s).
+    gyro_bias_sigma_with: Option<[f64; 3]>,
+    gyro_bias_sigma_without: Option<[f64; 3]>,
+    largest_tried_rad_s_sqrt_s: f64,
+}
+
+fn drift_reach_json(d: &calib::extend::DriftReach) -> DriftReachJson {
+    let v = d.smallest_visible.as_ref();
+    DriftReachJson {
+        threshold: d.threshold,
+        smallest_visible_rad_s_sqrt_s: v.map(|v| v.intensity),
+        expected_statistic: v.map(|v| v.expected_statistic),
+        gyro_bias_sigma_with: v.map(|v| v.gyro_bias_sigma),
+        gyro_bias_sigma_without: v.map(|v| v.gyro_bias_sigma_without),
+        largest_tried_rad_s_sqrt_s: d.largest_tried,
+    }
 }
 
 fn candidate_json(c: &CandidateEvidence) -> CandidateJson<'_> {
@@ -155,6 +183,7 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
         gain: &r.gain,
         parameters,
         rounds: &r.rounds,
+        drift_reach: r.drift_reach.as_ref().map(drift_reach_json),
     };
     Ok(serde_json::to_string_pretty(&j)?)
 }
@@ -222,6 +251,36 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
     s
 }
 
+/// What the program can see of a gyro bias random walk (the covariance analysis's expected
+/// statistic against the round's threshold), and what an unseen one does to the bias sigmas.
+fn drift_reach_line(reach: &calib::extend::DriftReach) -> String {
+    use sins_model::units::DEG_PER_HOUR;
+    let walk = |q: f64| q * 60.0 / DEG_PER_HOUR;
+    let deg_h = |v: [f64; 3]| v.map(|x| format!("{:.3}", x / DEG_PER_HOUR)).join(", ");
+    match &reach.smallest_visible {
+        Some(v) => format!(
+            "note: this program is expected to show a gyro bias random walk from about {:.3} \
+             deg/h/sqrt(h) (expected statistic {:.1}, accepted above {:.1}; the covariance \
+             analysis, docs/model-extension.md); a smaller walk mostly goes unseen, and one of \
+             that size would make the gyro-bias sigmas at the end of the run {} deg/h where the \
+             model without it reports {}.\n",
+            walk(v.intensity),
+            v.expected_statistic,
+            reach.threshold,
+            deg_h(v.gyro_bias_sigma),
+            deg_h(v.gyro_bias_sigma_without),
+        ),
+        None => format!(
+            "note: even a gyro bias random walk of {:.3} deg/h/sqrt(h) would stay below the \
+             threshold {:.1} of its statistic on this program (covariance analysis, \
+             docs/model-extension.md): a walk goes unseen here, and the gyro-bias sigmas do \
+             not include one.\n",
+            walk(reach.largest_tried),
+            reach.threshold
+        ),
+    }
+}
+
 /// The summary printed (and heading the Markdown report).
 pub fn summary(r: &LoopResult) -> String {
     let mut s = String::new();
@@ -259,6 +318,9 @@ pub fn summary(r: &LoopResult) -> String {
             );
             s += &failure_lines(&r.last.diagnostics.failures);
         }
+    }
+    if let Some(reach) = &r.drift_reach {
+        s += &drift_reach_line(reach);
     }
     let inseparable: Vec<String> = r.rounds.last().map_or(Vec::new(), |l| {
         l.candidates
