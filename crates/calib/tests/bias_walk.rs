@@ -233,3 +233,35 @@ fn walks_are_read_from_noise_and_checked_with_their_line() {
     );
     assert!(e.contains("-1: expected a finite number, 0 or more"), "{e}");
 }
+
+/// The reach of a walk on the paper's program (`calib::drift_visibility`): the expected
+/// statistic is zero without a walk beyond the configured one, grows with the intensity, and
+/// the smallest visible walk is where it crosses the threshold (within the bisection's 2 %).
+#[test]
+fn the_smallest_visible_walk_is_where_the_expected_statistic_crosses_the_threshold() {
+    use calib::drift_visibility::{DriftAnalysis, drift_threshold, smallest_visible_drift};
+    use calib::extension::ModelExtension;
+    let unit = DEG_PER_HOUR / 60.0;
+    let c = RunConfig::paper();
+    let a = DriftAnalysis::new(&c, true, &ModelExtension::default(), 1e-3 * unit * unit).unwrap();
+    assert!(a.at(0.0).unwrap().expected_statistic.abs() < 1e-9);
+    let stats: Vec<f64> = [0.01, 0.03, 0.1, 0.3]
+        .iter()
+        .map(|q| a.at(q * unit).unwrap().expected_statistic)
+        .collect();
+    println!("expected statistics at 0.01, 0.03, 0.1, 0.3 deg/h/sqrt(h): {stats:.4?}");
+    assert!(stats.windows(2).all(|w| w[1] > w[0]) && stats[0] > 0.0);
+    let threshold = drift_threshold(0.01 / 6.0);
+    let reach = smallest_visible_drift(&a, threshold, 0.003 * unit, 0.3 * unit)
+        .unwrap()
+        .expect("the paper's program with its angles shows 0.3 deg/h/sqrt(h)");
+    let below = a.at(reach.intensity / 1.03).unwrap().expected_statistic;
+    println!(
+        "reach {:.4} deg/h/sqrt(h): {:.2} (below it {below:.2}), threshold {threshold:.2}",
+        reach.intensity / unit,
+        reach.expected_statistic
+    );
+    assert!(reach.expected_statistic >= threshold && below < threshold);
+    // The unseen walk's cost: the bias sigmas grow.
+    assert!((0..3).all(|i| reach.gyro_bias_sigma[i] > 2.0 * reach.gyro_bias_sigma_without[i]));
+}
