@@ -408,20 +408,6 @@ fn program_frequencies(segments: &[Segment], settings: &DiagnosticSettings) -> V
     out
 }
 
-/// The median of positive finite differences of `t` (NaN if none).
-fn median_interval(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| d.is_finite() && *d > 0.0)
-        .collect();
-    if d.is_empty() {
-        return f64::NAN;
-    }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2]
-}
-
 /// Diagnose one kind; the tests are collected in `tests` (fails decided by the caller).
 fn diagnose_kind(
     innov: &[Innovation],
@@ -450,7 +436,7 @@ fn diagnose_kind(
     }
     let seg_nis = segment_nis(&s, segments, &mut test);
     let whiteness = whiteness_tests(&s, settings, &mut test);
-    let dt = median_interval(&s.t);
+    let dt = sins_model::timing::median_interval(&s.t);
     let lines = spectral_lines(&s, segments, settings, dt, &mut test);
     let spectrum = plotting_spectrum(&s, settings, dt);
     Some(KindDiagnostics {

@@ -351,7 +351,7 @@ struct Increments {
 impl Increments {
     fn new(data: &ImuData) -> Self {
         let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
-        let median = median_interval(&t);
+        let median = sins_model::timing::median_interval(&t);
         let mut dth = Vec::with_capacity(t.len());
         let mut dt = Vec::with_capacity(t.len());
         let mut f = Vec::with_capacity(t.len());
@@ -390,15 +390,6 @@ impl Increments {
             .map(|k| axis.dot(&self.calibrated(k, cal)))
             .sum()
     }
-}
-
-fn median_interval(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    if d.is_empty() {
-        return 0.01;
-    }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2]
 }
 
 /// Mean specific force and rate of a static interval with the noise of the means.

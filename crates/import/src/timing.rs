@@ -35,31 +35,7 @@ impl GapAt {
     }
 }
 
-/// Median of a slice (`NaN` when empty); the slice is reordered.
-pub fn median_of(values: &mut [f64]) -> f64 {
-    let n = values.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    let mid = n / 2;
-    let (_, m, _) = values.select_nth_unstable_by(mid, f64::total_cmp);
-    let m = *m;
-    if n % 2 == 1 {
-        m
-    } else {
-        let below = values[..mid]
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        0.5 * (below + m)
-    }
-}
-
-/// Median interval of strictly increasing time stamps (`NaN` with fewer than two).
-pub fn median_interval(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    median_of(&mut d)
-}
+pub use sins_model::timing::{median_interval, median_of};
 
 /// Interval statistics and gaps of strictly increasing time stamps (at least two).
 pub fn analyse(t: &[f64], gap_factor: f64) -> (Timing, Vec<GapAt>) {

@@ -30,4 +30,5 @@ pub mod names;
 pub mod paper;
 pub mod terms;
 pub mod text;
+pub mod timing;
 pub mod units;

@@ -168,17 +168,10 @@ impl<'a> AngleInterpolator<'a> {
     }
 }
 
-/// Median of the spacings of increasing times; NaN for fewer than two.
+/// Median interval of the times (NaN for fewer than two): [`sins_model::timing::median_interval`].
 pub(crate) fn median_interval(times: impl Iterator<Item = f64>) -> f64 {
     let t: Vec<f64> = times.collect();
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    if d.is_empty() {
-        return f64::NAN;
-    }
-    // The element a sort would put there, without the sort (linear time; the sort of a long
-    // run's spacings was 1 % of a calibration).
-    let mid = d.len() / 2;
-    *d.select_nth_unstable_by(mid, f64::total_cmp).1
+    sins_model::timing::median_interval(&t)
 }
 
 #[cfg(test)]
