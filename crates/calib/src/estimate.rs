@@ -48,8 +48,9 @@ mod consider;
 mod pass;
 mod source;
 
-use angles::{AngleInterpolator, RecordTable, median_interval};
+use angles::AngleInterpolator;
 use pass::{AngleReader, Feedback, Linearisation, Pass, PassResult, PassSettings, Strapdown};
+use sins_model::timing::median_interval_of as median_interval;
 pub use source::{FileImu, ImuSource, MemoryImu};
 
 /// Errors of an estimation run.
@@ -940,11 +941,9 @@ const MAX_PASSES_RESTS: usize = 8;
 const CONVERGED_SIGMA: f64 = 0.02;
 
 /// The turntable side of the estimation, set up once for every pass: the records checked
-/// against the IMU span and the clock relation, their median spacing and rate, and what the
-/// interpolation needs of each record ([`RecordTable`]).
+/// against the IMU span and the clock relation, their median spacing and rate.
 struct TurntableSetup<'a> {
     data: &'a TurntableData,
-    table: RecordTable,
     clock: ClockConfig,
     median_interval: f64,
     /// Record rate on the IMU clock (Hz).
@@ -999,7 +998,6 @@ impl<'a> TurntableSetup<'a> {
         })?;
         Ok(Self {
             data: tt,
-            table: RecordTable::new(tt),
             clock,
             median_interval: med,
             record_rate_hz,
@@ -1012,12 +1010,7 @@ impl<'a> TurntableSetup<'a> {
     /// The reader of one pass, for a program starting at `program_start` (IMU clock).
     fn reader(&self, program_start: f64) -> AngleReader<'_> {
         AngleReader {
-            interp: AngleInterpolator::new(
-                self.data,
-                &self.table,
-                self.clock,
-                self.median_interval,
-            ),
+            interp: AngleInterpolator::new(self.data, self.clock, self.median_interval),
             rate_changes: &self.rate_changes,
             program_start,
             per_record: self.per_record,

@@ -21,11 +21,24 @@ pub fn median_of(values: &mut [f64]) -> f64 {
 /// Median interval of time stamps: the median of the positive finite differences of
 /// consecutive stamps (`NaN` when there is none: fewer than two stamps, or none increasing).
 pub fn median_interval(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| d.is_finite() && *d > 0.0)
-        .collect();
+    median_interval_of(t.iter().copied())
+}
+
+/// [`median_interval`] of stamps given one by one (a long recording's records need not be
+/// copied into a slice of their times first: the spacings alone are held, 8 bytes a record).
+pub fn median_interval_of(t: impl IntoIterator<Item = f64>) -> f64 {
+    let mut t = t.into_iter();
+    let Some(mut previous) = t.next() else {
+        return f64::NAN;
+    };
+    let mut d = Vec::with_capacity(t.size_hint().0);
+    for x in t {
+        let step = x - previous;
+        if step.is_finite() && step > 0.0 {
+            d.push(step);
+        }
+        previous = x;
+    }
     median_of(&mut d)
 }
 

@@ -47,55 +47,15 @@ fn sin_cos_near(a: (f64, f64), d: f64, direct: f64) -> (f64, f64) {
     (a.0 * cd + a.1 * sd, a.1 * cd - a.0 * sd)
 }
 
-/// What the interpolation needs of each record, worked out once for all passes: the sines and
-/// cosines of its angles and the angle differences to the next record, wrapped the short way
-/// (trigonometry and a floating-point remainder per record and pass were 4 % of a calibration).
-#[derive(Clone, Debug)]
-pub(crate) struct RecordTable {
-    sin_cos: Vec<[(f64, f64); 3]>,
-    /// Zero after the last record.
-    d_deg: Vec<[f64; 3]>,
-}
-
-/// Records between two whose sines and cosines are computed directly: those in between come
-/// from the record before by [`sin_cos_near`] (under 4e-16 each, so under 1e-14 at the end of a
-/// run of them), where the angles moved less than 1e-2 rad.
+/// Pairs whose first record's sines and cosines come from the pair before's by
+/// [`sin_cos_near`] (under 4e-16 each, so under 1e-14 at the end of a run of them), where the
+/// angles moved less than 1e-2 rad, between pairs where they are computed directly.
 const SIN_COS_ANCHOR: usize = 16;
-
-impl RecordTable {
-    pub fn new(data: &TurntableData) -> Self {
-        let r = &data.records;
-        // Three sines and cosines per record directly were 3 % of a calibration's time.
-        let mut sin_cos: Vec<[(f64, f64); 3]> = Vec::with_capacity(r.len());
-        let mut k_prev = [0.0; 3];
-        for (i, rec) in r.iter().enumerate() {
-            let k = rec.k_deg.map(f64::to_radians);
-            let sc = match sin_cos.last() {
-                Some(prev) if i % SIN_COS_ANCHOR != 0 => {
-                    std::array::from_fn(|g| sin_cos_near(prev[g], k[g] - k_prev[g], k[g]))
-                }
-                _ => k.map(f64::sin_cos),
-            };
-            sin_cos.push(sc);
-            k_prev = k;
-        }
-        Self {
-            sin_cos,
-            d_deg: (0..r.len())
-                .map(|i| match r.get(i + 1) {
-                    Some(b) => std::array::from_fn(|g| wrap_deg(b.k_deg[g] - r[i].k_deg[g])),
-                    None => [0.0; 3],
-                })
-                .collect(),
-        }
-    }
-}
 
 /// Interpolates the turntable records at IMU times (linearly, wrap-aware in the angles).
 #[derive(Clone, Debug)]
 pub(crate) struct AngleInterpolator<'a> {
     data: &'a TurntableData,
-    table: &'a RecordTable,
     clock: ClockConfig,
     /// Index of the record at or before the last query.
     cursor: usize,
@@ -105,24 +65,24 @@ pub(crate) struct AngleInterpolator<'a> {
     /// and between them the angles move by milliradians, so the sines and cosines come from
     /// the first record's by a short series (no trigonometry per IMU step).
     pair: Option<PairCache>,
+    /// Pairs since the last whose sines and cosines were computed directly.
+    chained: usize,
 }
 
 impl<'a> AngleInterpolator<'a> {
-    /// Records `data` (with their [`RecordTable`]) on the turntable clock `clock`; spacings
-    /// above 2.5 median spacings are gaps and not interpolated across.
-    pub fn new(
-        data: &'a TurntableData,
-        table: &'a RecordTable,
-        clock: ClockConfig,
-        median_interval: f64,
-    ) -> Self {
+    /// Records `data` on the turntable clock `clock`; spacings above 2.5 median spacings are
+    /// gaps and not interpolated across. Nothing is worked out per record ahead (a table of
+    /// each record's sines, cosines and differences held 72 bytes a record, twice the records
+    /// themselves: 307 MB for 45 minutes of 1-kHz angles); a pair's are worked out when the
+    /// cursor reaches it, from the pair before's.
+    pub fn new(data: &'a TurntableData, clock: ClockConfig, median_interval: f64) -> Self {
         Self {
             data,
-            table,
             clock,
             cursor: 0,
             max_gap: 2.5 * median_interval,
             pair: None,
+            chained: 0,
         }
     }
 
@@ -145,12 +105,26 @@ impl<'a> AngleInterpolator<'a> {
         let cursor = self.cursor;
         if self.pair.as_ref().is_none_or(|p| p.index != cursor) {
             let span = b.t - a.t;
+            let k_a = a.k_deg.map(f64::to_radians);
+            // Three sines and cosines per pair directly were 3 % of a calibration's time.
+            let sin_cos_a = match &self.pair {
+                Some(prev) if self.chained < SIN_COS_ANCHOR => {
+                    self.chained += 1;
+                    std::array::from_fn(|g| {
+                        sin_cos_near(prev.sin_cos_a[g], k_a[g] - prev.k_a[g], k_a[g])
+                    })
+                }
+                _ => {
+                    self.chained = 0;
+                    k_a.map(f64::sin_cos)
+                }
+            };
             self.pair = Some(PairCache {
                 index: cursor,
                 inv_span: (span <= self.max_gap).then(|| 1.0 / span),
-                k_a: a.k_deg.map(f64::to_radians),
-                sin_cos_a: self.table.sin_cos[cursor],
-                d_deg: self.table.d_deg[cursor],
+                k_a,
+                sin_cos_a,
+                d_deg: std::array::from_fn(|g| wrap_deg(b.k_deg[g] - a.k_deg[g])),
                 t_imu: [self.clock.imu_time(a.t), self.clock.imu_time(b.t)],
             });
         }
@@ -166,12 +140,6 @@ impl<'a> AngleInterpolator<'a> {
             t_records_imu: pair.t_imu,
         })
     }
-}
-
-/// Median interval of the times (NaN for fewer than two): [`sins_model::timing::median_interval`].
-pub(crate) fn median_interval(times: impl Iterator<Item = f64>) -> f64 {
-    let t: Vec<f64> = times.collect();
-    sins_model::timing::median_interval(&t)
 }
 
 #[cfg(test)]
@@ -190,7 +158,7 @@ mod tests {
     }
 
     #[test]
-    fn the_records_sines_and_cosines_equal_the_direct_ones() {
+    fn the_interpolated_sines_and_cosines_equal_the_direct_ones() {
         use crate::io::TurntableRecord;
         // A walk of small steps with a few jumps, over the +-180 deg wrap.
         let mut k = [170.0, -30.0, 5.0];
@@ -213,21 +181,26 @@ mod tests {
             })
             .collect();
         let data = TurntableData { records };
-        let table = RecordTable::new(&data);
-        for (rec, sc) in data.records.iter().zip(&table.sin_cos) {
-            for (k, (s, c)) in rec.k_deg.iter().zip(sc) {
-                let (s0, c0) = k.to_radians().sin_cos();
-                assert!((s - s0).abs() < 1e-14 && (c - c0).abs() < 1e-14);
+        let mut interp = AngleInterpolator::new(&data, ClockConfig::default(), 0.02);
+        // Queries at a third of the record spacing, and one at every record: every pair is
+        // worked out, some serve several queries, some are skipped.
+        for step in [0.0067, 0.02, 0.05] {
+            interp.cursor = 0;
+            interp.pair = None;
+            let mut t = 0.0;
+            while t < 9.9 {
+                let set = interp.at(t).expect("inside the records");
+                let [(i, wa), (j, wb)] = set.records;
+                for g in 0..3 {
+                    let (a, b) = (data.records[i].k_deg[g], data.records[j].k_deg[g]);
+                    let k = (a + wb * wrap_deg(b - a)).to_radians();
+                    let (s0, c0) = k.sin_cos();
+                    let (s, c) = set.sin_cos[g];
+                    assert!((s - s0).abs() < 1e-13 && (c - c0).abs() < 1e-13, "t {t}");
+                    assert!((wa + wb - 1.0).abs() < 1e-15);
+                }
+                t += step;
             }
         }
-    }
-
-    #[test]
-    fn the_median_spacing_is_the_sorted_one() {
-        let times = [0.0, 0.02, 0.05, 0.06, 0.1, 0.13, 0.2, 0.21];
-        let mut d: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
-        d.sort_by(f64::total_cmp);
-        assert_eq!(median_interval(times.into_iter()), d[d.len() / 2]);
-        assert!(median_interval([1.0].into_iter()).is_nan());
     }
 }
