@@ -101,6 +101,19 @@ impl SectionsFile {
         let n = times.len();
         let tolerance = 0.5 * crate::timing::median_interval(times);
         for s in &self.sections {
+            for (what, v) in [("up", s.up), ("axis", s.axis)] {
+                let Some(v) = v else { continue };
+                let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                // A unit vector as written by `import` (to 17 digits); a zero axis gave 39
+                // parameters of 0 +- 0 and nulls in the result.
+                if !(norm - 1.0).abs().le(&1e-6) {
+                    return Err(format!(
+                        "section `{}`: `{what}` = {v:?} has length {norm}: expected a unit \
+                         vector in the axes of the IMU file",
+                        s.name
+                    ));
+                }
+            }
             if s.first_record > s.last_record || s.last_record >= n {
                 return Err(format!(
                     "section `{}` spans records {} .. {}, but the IMU file has {n} records \

@@ -48,8 +48,10 @@ pub struct Args {
     pub config: Option<String>,
     /// Free-motion calibration of a hand-turned multi-position recording, without a rotation
     /// program or turntable: accelerometers from |f| = g in every static interval, gyros from the
-    /// rotations between them (batch Gauss-Newton least squares; docs/real-data.md).
-    #[arg(long)]
+    /// rotations between them (batch Gauss-Newton least squares; docs/real-data.md). Not with
+    /// --diagnostics or --report: the batch fit has no innovations to test (its verdict is
+    /// the chi-square of each stage).
+    #[arg(long, conflicts_with_all = ["diagnostics", "report"])]
     pub free_motion: bool,
     /// With --free-motion: the section list written by `import` (sections.json); its rotations
     /// with an expected turn (e.g. 360-degree turns) become measurements of the integrated angle.

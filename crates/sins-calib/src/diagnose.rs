@@ -443,10 +443,18 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         )
         .into());
     }
+    if args.free_motion && !args.terms.is_empty() {
+        return Err(format!(
+            "diagnose --free-motion --terms {}: the free-motion loop has its own two candidates \
+             (gyro_g_sensitivity, gyro_scale_asymmetry) and tries both; leave --terms out",
+            args.terms.join(",")
+        )
+        .into());
+    }
     if args.free_motion {
-        // The free-motion loop has its own verdict in its report (issue 19: to be merged into
-        // this one).
-        return crate::diagnose_free::run(args).map(|()| true);
+        // The free-motion loop has its own summary (issue 19: to be merged into this one); its
+        // verdict decides the exit status as this one's does.
+        return crate::diagnose_free::run(args);
     }
     let config_arg = args.config.as_deref().unwrap_or("paper");
     let (mut config, _) = load_config(config_arg)?;

@@ -60,10 +60,17 @@ fn summary(r: &FreeLoop) -> String {
             }
         }
     }
-    if r.accepted_terms.is_empty() {
+    let last = r.last.verdict();
+    if r.accepted_terms.is_empty() && last.fits {
         let _ = writeln!(
             s,
             "verdict: the paper's model fits these data; no term is called for."
+        );
+    } else if r.accepted_terms.is_empty() {
+        let _ = writeln!(
+            s,
+            "verdict: THE MODEL DOES NOT FIT THESE DATA, AND NO CANDIDATE TERM EXPLAINS THE \
+             MISFIT (exit status 3):"
         );
     } else {
         let _ = writeln!(
@@ -71,18 +78,33 @@ fn summary(r: &FreeLoop) -> String {
             "verdict: terms accepted: {}",
             r.accepted_terms.join(", ")
         );
+        if !last.fits {
+            let _ = writeln!(
+                s,
+                "  the extended model still does not fit these data (exit status 3):"
+            );
+        }
+    }
+    for line in last.reasons.iter() {
+        let _ = writeln!(s, "  {line}");
+    }
+    for line in last.marginal.iter() {
+        let _ = writeln!(s, "  marginal: {line}");
     }
     s
 }
 
-/// Run `diagnose --free-motion`.
-pub fn run(args: &Args) -> Result<(), Error> {
+/// Run `diagnose --free-motion`; `Ok(false)`: the final model does not fit (exit status 3).
+pub fn run(args: &Args) -> Result<bool, Error> {
     let (mut settings, _) = settings_of(args.config.as_deref(), args.latitude)?;
     settings.holdout = args.holdout;
     let data = read_imu_csv(&args.imu)?;
     let file = args.imu.display().to_string();
-    let (_, intervals) =
-        static_intervals(&data, &file, &::import::detect::DetectorSettings::default())?;
+    let detector = args
+        .detector
+        .settings()
+        .map_err(|e| format!("diagnose --free-motion: {e}"))?;
+    let (_, intervals) = static_intervals(&data, &file, &detector)?;
     let turns = match &args.sections {
         Some(p) => known_turns(&crate::free_motion::read_sections(p, &data)?, &intervals),
         None => Vec::new(),
@@ -93,7 +115,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(path) = &args.json {
         let j = FreeLoopJson {
             accepted_terms: &r.accepted_terms,
-            base_model_fits: r.accepted_terms.is_empty(),
+            base_model_fits: r.accepted_terms.is_empty() && r.base.verdict().fits,
             candidates: r.rounds.last().map_or(&[][..], |l| &l.candidates[..]),
             gain: &r.gain,
             parameters: &r.last.parameters,
@@ -101,5 +123,5 @@ pub fn run(args: &Args) -> Result<(), Error> {
         };
         crate::output::write_file(path, serde_json::to_string_pretty(&j)?.as_bytes())?;
     }
-    Ok(())
+    Ok(r.last.verdict().fits)
 }

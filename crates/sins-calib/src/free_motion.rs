@@ -41,6 +41,7 @@ struct FitJson {
     gyro: StageJson,
     turns: Vec<TurnJson>,
     unobserved: Vec<UnobservedJson>,
+    verdict: VerdictJson,
 }
 
 #[derive(Serialize)]
@@ -48,6 +49,15 @@ struct StageJson {
     residuals: usize,
     effective_parameters: f64,
     reduced_chi2: f64,
+    p_value: f64,
+}
+
+/// [`calib::free_motion::FreeMotionVerdict`].
+#[derive(Serialize)]
+struct VerdictJson {
+    fits: bool,
+    reasons: Vec<String>,
+    marginal: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -226,6 +236,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     );
     s += &parameter_report(&result);
     s += &fit_report(&result);
+    s += &verdict_lines(&result.verdict());
     let validation = result.validation.map(|v| ValidationJson {
         static_rms_m_s2: BeforeAfter {
             before: v.static_rms_before_m_s2,
@@ -272,7 +283,11 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         let _ = writeln!(s, "wrote {}", path.display());
     }
     crate::report(&s, args.json.as_deref())?;
-    Ok(Outcome::Fits)
+    Ok(if result.verdict().fits {
+        Outcome::Fits
+    } else {
+        Outcome::DoesNotFit
+    })
 }
 
 fn fit_json(r: &FreeMotionResult, settings: &FreeMotionSettings, n: usize) -> FitJson {
@@ -280,7 +295,9 @@ fn fit_json(r: &FreeMotionResult, settings: &FreeMotionSettings, n: usize) -> Fi
         residuals: f.residuals,
         effective_parameters: f.effective_parameters,
         reduced_chi2: f.reduced_chi2,
+        p_value: f.p_value(),
     };
+    let v = r.verdict();
     FitJson {
         method: "batch Gauss-Newton least squares with priors",
         gravity_m_s2: settings.gravity_m_s2,
@@ -305,6 +322,11 @@ fn fit_json(r: &FreeMotionResult, settings: &FreeMotionSettings, n: usize) -> Fi
                 sigma_over_prior,
             })
             .collect(),
+        verdict: VerdictJson {
+            fits: v.fits,
+            reasons: v.reasons,
+            marginal: v.marginal,
+        },
     }
 }
 
@@ -374,6 +396,28 @@ fn groups(names: &[String]) -> Vec<(&'static str, Vec<usize>)> {
         }
     }
     out
+}
+
+/// The verdict: does not fit (exit status 3) with its reasons, or fits (marginally where a
+/// stage's chi-square is at the edge of its band).
+fn verdict_lines(v: &calib::free_motion::FreeMotionVerdict) -> String {
+    let mut s = String::new();
+    if v.fits {
+        let _ = writeln!(s, "\nverdict: the model fits these data");
+        for m in &v.marginal {
+            let _ = writeln!(s, "  marginal: {m}");
+        }
+    } else {
+        let _ = writeln!(
+            s,
+            "\nverdict: THE MODEL DOES NOT FIT THESE DATA (exit status 3): the results were \
+             computed and written, but are not to be trusted"
+        );
+        for r in &v.reasons {
+            let _ = writeln!(s, "  {r}");
+        }
+    }
+    s
 }
 
 fn fit_report(r: &FreeMotionResult) -> String {

@@ -191,4 +191,129 @@ fn a_section_list_of_other_records_is_refused() {
         &moved,
         "spans records 540 .. 1000000, but the IMU file has 10376 records",
     );
+    // A rotation about a zero axis gave 39 parameters of 0 +- 0 and nulls in the JSON.
+    let mut list = json(&sections);
+    let rotation = list["sections"]
+        .as_array_mut()
+        .expect("sections")
+        .iter_mut()
+        .find(|x| x.get("axis").is_some())
+        .expect("a rotation section");
+    rotation["axis"] = serde_json::json!([0.0, 0.0, 0.0]);
+    let zero = dir.join("zero-axis.json");
+    std::fs::write(&zero, serde_json::to_string_pretty(&list).expect("JSON")).expect("write");
+    refused(
+        &dir.join("ferraris/imu.csv"),
+        &zero,
+        "`axis` = [0.0, 0.0, 0.0] has length 0: expected a unit vector",
+    );
+}
+
+/// `calibrate --free-motion` on the shipped Xsens recording made absurd (issue 20, "absurd data
+/// reported as success"): accelerometer data in g, or time stamps in milliseconds read as
+/// seconds, run to the end and say the model does not fit, exit status 3; the recording as it
+/// is fits (exit 0), its accelerometer stage reported as marginal.
+#[test]
+fn absurd_recordings_do_not_fit() {
+    let dir = scratch("absurd");
+    import("xsens_mti.toml", &dir);
+    let text = std::fs::read_to_string(dir.join("imu.csv")).expect("imu.csv");
+    let mut lines = text.lines();
+    let header = lines.next().expect("header");
+    assert_eq!(header, "t,wx,wy,wz,fx,fy,fz");
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().expect("number")).collect())
+        .collect();
+    let write = |name: &str, f: &dyn Fn(&[f64]) -> Vec<f64>| {
+        let mut out = String::from(header) + "\n";
+        for r in &rows {
+            let v: Vec<String> = f(r).iter().map(|x| format!("{x:e}")).collect();
+            out += &(v.join(",") + "\n");
+        }
+        let path = dir.join(name);
+        std::fs::write(&path, out).expect("write");
+        path
+    };
+    let in_g = write("in_g.csv", &|r| {
+        let mut v = r.to_vec();
+        v[4..7].iter_mut().for_each(|x| *x /= 9.80665);
+        v
+    });
+    let in_ms = write("in_ms.csv", &|r| {
+        let mut v = r.to_vec();
+        v[0] *= 1000.0;
+        v
+    });
+    for (path, needle) in [
+        (&in_g, "accelerometer data in g rather than m/s^2?"),
+        (&in_ms, "joint stage: reduced chi-square"),
+    ] {
+        let out_json = dir.join("absurd.json");
+        let o = Command::new(BIN)
+            .args(["calibrate", "--imu", s(path), "--free-motion"])
+            .args(["--json", s(&out_json)])
+            .output()
+            .expect("runs");
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert_eq!(o.status.code(), Some(3), "{path:?}: {out}");
+        assert!(
+            out.contains("THE MODEL DOES NOT FIT") && out.contains(needle),
+            "{out}"
+        );
+        assert_eq!(json(&out_json)["fit"]["verdict"]["fits"], false);
+    }
+    let o = Command::new(BIN)
+        .args([
+            "calibrate",
+            "--imu",
+            s(&dir.join("imu.csv")),
+            "--free-motion",
+        ])
+        .output()
+        .expect("runs");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(out.contains("verdict: the model fits these data"), "{out}");
+}
+
+/// Rests that all point gravity the same way (a unit turned about the vertical between them)
+/// are refused before the fit: they cannot separate the accelerometer parameters, and passed
+/// the count of three intervals (issue 20).
+#[test]
+fn rests_in_one_orientation_are_refused() {
+    let dir = scratch("one-face");
+    let mut program = String::from("name = \"one face\"\nstart_deg = [0.0, 0.0, 0.0]\n");
+    for _ in 0..5 {
+        program += "[[segment]]\nkind = \"dwell\"\nduration_s = 20.0\n\
+                    [[segment]]\nkind = \"rotate\"\ngimbal = 1\nrate_deg_s = 30.0\nduration_s = 3.0\n";
+    }
+    program += "[[segment]]\nkind = \"dwell\"\nduration_s = 20.0\n";
+    std::fs::write(dir.join("program.toml"), program).expect("program");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/run.toml");
+    let cfg = std::fs::read_to_string(example)
+        .expect("run.toml")
+        .replace("program = \"paper\"", "program = \"program.toml\"");
+    std::fs::write(dir.join("run.toml"), cfg).expect("config");
+    run(&[
+        "simulate",
+        "--config",
+        s(&dir.join("run.toml")),
+        "--out",
+        s(&dir),
+    ]);
+    let o = Command::new(BIN)
+        .args([
+            "calibrate",
+            "--imu",
+            s(&dir.join("imu.csv")),
+            "--free-motion",
+        ])
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("in only 1 direction(s)") && err.contains("expected at least 3"),
+        "{err}"
+    );
 }
