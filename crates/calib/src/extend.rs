@@ -85,7 +85,29 @@ pub enum LoopError {
     /// A covariance analysis failed.
     #[error(transparent)]
     Analysis(#[from] AnalysisError),
+    /// The IMU data cover only part of the program: the separability of every term comes from
+    /// the covariance analysis of the whole program, and a fit of a part says nothing of it.
+    #[error(
+        "{file}: the IMU data cover the program from {covered_from_s:.1} s to {covered_to_s:.1} \
+         s of its {duration_s:.1} s: diagnose tests terms against the whole program (their \
+         separability comes from its covariance analysis); record the whole program, or give a \
+         program of what was recorded"
+    )]
+    PartialProgram {
+        /// The IMU file.
+        file: String,
+        /// Program time of the first and last IMU record (s).
+        covered_from_s: f64,
+        /// See `covered_from_s`.
+        covered_to_s: f64,
+        /// The program's duration (s).
+        duration_s: f64,
+    },
 }
+
+/// Program time the IMU data may miss at either end and still count as covering the program
+/// (s): a recording stopped within a second of the program's end.
+pub const PROGRAM_COVERAGE_SLACK_S: f64 = 1.0;
 
 /// One fit of a model to the data, with what the loop reads from it.
 #[derive(Clone, Debug)]
@@ -531,6 +553,26 @@ pub fn run_loop(
     loop_in(cx)
 }
 
+/// Refuse a fit of data that cover only part of the program ([`LoopError::PartialProgram`]).
+fn check_coverage(config: &RunConfig, data: &RunData, est: &Estimate) -> Result<(), LoopError> {
+    let duration_s = config.program().map_err(EstimateError::from)?.duration();
+    let dt = 1.0 / config.filter.imu_rate_hz;
+    let (Some(first), Some(last)) = (data.imu.records.first(), data.imu.records.last()) else {
+        return Ok(());
+    };
+    let from = first.t - dt - est.program_start_s;
+    let to = last.t - est.program_start_s;
+    if from > PROGRAM_COVERAGE_SLACK_S || to < duration_s - PROGRAM_COVERAGE_SLACK_S {
+        return Err(LoopError::PartialProgram {
+            file: data.imu_file.to_string(),
+            covered_from_s: from.max(0.0),
+            covered_to_s: to.min(duration_s),
+            duration_s,
+        });
+    }
+    Ok(())
+}
+
 /// [`run_loop`] on a recording of rests without a program or turntable angles
 /// ([`crate::estimate::calibrate_rests`]): the same candidates, tests and decisions, with each
 /// candidate's separability from the fit's own posterior (no program to analyse along). A time
@@ -558,6 +600,9 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
     let settings = cx.settings;
     (cx.progress)("fitting the paper's model");
     let base = cx.fit(&ModelExtension::default())?;
+    if cx.rests.is_none() {
+        check_coverage(cx.config, cx.data, &base.estimate)?;
+    }
     let mut current = base.clone();
     let (mut accepted, mut rounds, mut gains) = (Vec::new(), Vec::new(), BTreeMap::new());
     loop {

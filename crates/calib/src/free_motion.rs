@@ -166,6 +166,17 @@ pub enum FreeMotionError {
         /// Distinct directions among them.
         directions: usize,
     },
+    /// A hold-out larger than the number of intervals: nothing held out, nothing validated.
+    #[error(
+        "holdout K = {k}: the recording has {intervals} static intervals, so every K-th holds \
+         out none and validates nothing: expected K from 2 to {intervals}"
+    )]
+    HoldsOutNothing {
+        /// The hold-out.
+        k: usize,
+        /// Static intervals found.
+        intervals: usize,
+    },
     /// A hold-out of 0 or 1.
     #[error(
         "holdout K = {0}: expected at least 2 (every K-th static interval is held out; the first gives the gyro bias)"
@@ -632,6 +643,14 @@ fn check_inputs(
         && k < 2
     {
         return Err(FreeMotionError::BadHoldout(k));
+    }
+    if let Some(k) = settings.holdout
+        && k > intervals.len()
+    {
+        return Err(FreeMotionError::HoldsOutNothing {
+            k,
+            intervals: intervals.len(),
+        });
     }
     let n = data.records.len();
     let mut prev_end: Option<usize> = None;

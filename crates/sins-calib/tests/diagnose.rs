@@ -112,3 +112,29 @@ fn unknown_terms_are_refused_naming_the_valid_ones() {
         "{err}"
     );
 }
+
+/// Ten seconds of the paper's 2727-s program, or two records: `diagnose` said "the paper's
+/// model fits these data" with exit status 0 (issue 20); every term's separability comes from
+/// the analysis of the whole program, so a part of it is refused, naming the file and the span.
+#[test]
+fn a_recording_of_part_of_the_program_is_refused() {
+    let dir = scratch("part");
+    let config = config_25_hz(&dir);
+    let config_text = std::fs::read_to_string(&config).expect("config");
+    std::fs::write(
+        &config,
+        config_text.replace("# duration_s = 600.0", "duration_s = 10.0"),
+    )
+    .expect("config");
+    let out = run(&["simulate", "--config", s(&config), "--out", s(&dir)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let imu = dir.join("imu.csv");
+    let out = run(&["diagnose", "--imu", s(&imu), "--config", s(&config)]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(s(&imu))
+            && err.contains("cover the program from 0.0 s to 10.0 s of its 2727.0 s"),
+        "{err}"
+    );
+}

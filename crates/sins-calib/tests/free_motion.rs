@@ -274,6 +274,24 @@ fn absurd_recordings_do_not_fit() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert_eq!(o.status.code(), Some(0), "{out}");
     assert!(out.contains("verdict: the model fits these data"), "{out}");
+    // A hold-out beyond the intervals held out nothing and printed "before 0.00000, after
+    // 0.00000" with exit status 0.
+    let o = Command::new(BIN)
+        .args([
+            "calibrate",
+            "--imu",
+            s(&dir.join("imu.csv")),
+            "--free-motion",
+        ])
+        .args(["--holdout", "1000"])
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("holdout K = 1000: the recording has 38 static intervals"),
+        "{err}"
+    );
 }
 
 /// Rests that all point gravity the same way (a unit turned about the vertical between them)
