@@ -92,6 +92,39 @@ impl SectionsFile {
 }
 
 impl SectionsFile {
+    /// The known turns of the list: its rotations with an expected angle, each widened to the
+    /// whole motion between the static `intervals` around it (a list's bounds may cut off the
+    /// start or end of the turn; the rest on either side adds only the bias, which is
+    /// calibrated).
+    pub fn known_turns(
+        &self,
+        intervals: &[calib::free_motion::Interval],
+    ) -> Vec<calib::free_motion::KnownTurn> {
+        self.sections
+            .iter()
+            .filter(|s| s.kind == SectionKind::Rotation)
+            .filter_map(|s| {
+                let first = intervals
+                    .iter()
+                    .filter(|iv| iv.last_record < s.first_record)
+                    .map(|iv| iv.last_record + 1)
+                    .next_back()
+                    .unwrap_or(s.first_record);
+                let last = intervals
+                    .iter()
+                    .find(|iv| iv.first_record > s.last_record)
+                    .map_or(s.last_record, |iv| iv.first_record);
+                Some(calib::free_motion::KnownTurn {
+                    name: s.name.clone(),
+                    first_record: first.max(1),
+                    last_record: last,
+                    axis: s.axis?,
+                    angle_rad: s.expected_turn_deg?.to_radians(),
+                })
+            })
+            .collect()
+    }
+
     /// Check the sections against the records they are said to index (`times`: the time stamps
     /// of `imu.csv`): every section's records inside the file, in order, and its stamped start and
     /// end on those records' time stamps (within half the median interval). A section list of

@@ -227,28 +227,6 @@ fn nis_band(n: usize) -> f64 {
     calib::report::lab::mean_nis_half_band(n)
 }
 
-/// The measurements whose mean NIS is outside its band, as lines of a report.
-fn misfits(stats: &FitStatistics, with_turntable: bool) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut check = |what: &str, mean: f64, n: usize| {
-        if n > 0 && (mean - 3.0).abs() > nis_band(n) {
-            out.push(format!(
-                "{what}: mean NIS {mean:.3} over {n} updates, expected 3 +- {:.3}",
-                nis_band(n)
-            ));
-        }
-    };
-    check("specific force", stats.accel_mean_nis, stats.accel_updates);
-    if with_turntable {
-        check(
-            "turntable angles",
-            stats.turntable_mean_nis,
-            stats.turntable_updates,
-        );
-    }
-    out
-}
-
 /// Refuse an output path whose directory does not exist, before any work is done.
 pub fn check_output_path(path: &Path) -> Result<(), Error> {
     let dir = match path.parent() {
@@ -278,11 +256,9 @@ pub(crate) fn input_paths(args: &Args) -> Vec<&Path> {
     v
 }
 
-/// Run `calibrate`.
+/// Run `calibrate` with a program, turntable angles or on a recording of rests (the batch
+/// fit of `--free-motion` is `crate::free_motion::run`).
 pub fn run(args: &Args) -> Result<Outcome, Error> {
-    if args.free_motion {
-        return crate::free_motion::run(args);
-    }
     if let Some(path) = &args.json {
         crate::output::check_file(path, "--json", &input_paths(args))?;
     }
@@ -367,7 +343,8 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     let diagnostics = (args.diagnostics.is_some() || args.report.is_some())
         .then(|| diagnostics_stage(args.diagnostics.as_deref(), &est, &mut s))
         .transpose()?;
-    let bad = misfit_reasons(&est, diagnostics.as_ref(), turntable.is_some());
+    let bad =
+        calib::report::lab::misfit_reasons(&est.stats, diagnostics.as_ref(), turntable.is_some());
     if let Some(path) = &args.json {
         write_result_json(path, &est, diagnostics.as_ref(), turntable.is_some(), &bad)?;
         if !crate::output::is_stdout(path) {
@@ -396,21 +373,6 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         bad.join("\n  ")
     );
     Ok(Outcome::DoesNotFit)
-}
-
-/// Why the model does not fit: a mean NIS outside its band, failing diagnostics (empty: it
-/// fits).
-fn misfit_reasons(est: &Estimate, diagnostics: Option<&Diagnostics>, with_tt: bool) -> Vec<String> {
-    let mut bad = misfits(&est.stats, with_tt);
-    if let Some(d) = diagnostics.filter(|d| !d.fits) {
-        bad.push(format!(
-            "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
-            d.failures.len(),
-            d.tests.len(),
-            100.0 * d.settings.alpha
-        ));
-    }
-    bad
 }
 
 /// The result JSON (docs/formats.md), written atomically (or to standard output for `-`).

@@ -422,7 +422,9 @@ fn report_inputs(args: &Args) -> Vec<(&'static str, &std::path::Path)> {
 }
 
 /// Run `diagnose`; returns whether the final model fits the data (its diagnostics pass).
-pub fn run(args: &Args) -> Result<bool, Error> {
+/// The checks of `diagnose`'s arguments made before any work, in either mode (outputs,
+/// level, terms).
+pub fn check_args(args: &Args) -> Result<(), Error> {
     let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
     inputs.extend(args.turntable.as_deref());
     inputs.extend(args.sections.as_deref());
@@ -451,11 +453,12 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         )
         .into());
     }
-    if args.free_motion {
-        // The free-motion loop has its own summary (issue 19: to be merged into this one); its
-        // verdict decides the exit status as this one's does.
-        return crate::diagnose_free::run(args);
-    }
+    Ok(())
+}
+
+/// Run `diagnose` on a programmed run or a recording of rests (after [`check_args`]; the
+/// free-motion loop is `crate::diagnose_free::run`); `Ok(false)`: the model does not fit.
+pub fn run(args: &Args) -> Result<bool, Error> {
     let config_arg = args.config.as_deref().unwrap_or("paper");
     let (mut config, _) = load_config(config_arg)?;
     if let Some(t) = args.program_start {

@@ -3,7 +3,7 @@
 
 use crate::Error;
 use crate::diagnose::Args;
-use crate::free_motion::{known_turns, settings_of, static_intervals};
+use crate::free_motion::{read_sections, settings_of, static_intervals};
 use calib::extend_free::{FreeLoop, free_motion_loop};
 use calib::io::read_imu_csv;
 use calib::report::p_value_text;
@@ -106,7 +106,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         .map_err(|e| format!("diagnose --free-motion: {e}"))?;
     let (_, intervals) = static_intervals(&data, &file, &detector)?;
     let turns = match &args.sections {
-        Some(p) => known_turns(&crate::free_motion::read_sections(p, &data)?, &intervals),
+        Some(p) => read_sections(p, &data)?.known_turns(&intervals),
         None => Vec::new(),
     };
     let r = free_motion_loop(&data, &intervals, &turns, &settings, args.level)

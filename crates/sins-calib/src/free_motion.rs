@@ -6,9 +6,9 @@ use crate::calibrate::{Args, Outcome};
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config};
 use ::import::detect::{DetectorSettings, segment};
-use ::import::sections::{SectionKind, SectionsFile};
+use ::import::sections::SectionsFile;
 use calib::free_motion::{
-    FreeMotionResult, FreeMotionSettings, GSENS_UNIT, Interval, KnownTurn, calibrate_free_motion,
+    FreeMotionResult, FreeMotionSettings, GSENS_UNIT, Interval, calibrate_free_motion,
 };
 use calib::io::{ResultParameter, read_imu_csv};
 use serde::Serialize;
@@ -115,9 +115,6 @@ pub(crate) fn settings_of(
     }
 }
 
-/// Known turns of a section list: its rotations with an expected angle, each widened to the
-/// whole motion between the static intervals around it (a list's bounds may cut off the start
-/// or end of the turn; the rest on either side adds only the bias, which is calibrated).
 /// The section list at `path`, checked against the records of `data` before any work
 /// ([`SectionsFile::check_records`]).
 pub(crate) fn read_sections(
@@ -130,33 +127,6 @@ pub(crate) fn read_sections(
         .check_records(&times)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(sections)
-}
-
-pub(crate) fn known_turns(sections: &SectionsFile, intervals: &[Interval]) -> Vec<KnownTurn> {
-    sections
-        .sections
-        .iter()
-        .filter(|s| s.kind == SectionKind::Rotation)
-        .filter_map(|s| {
-            let first = intervals
-                .iter()
-                .filter(|iv| iv.last_record < s.first_record)
-                .map(|iv| iv.last_record + 1)
-                .next_back()
-                .unwrap_or(s.first_record);
-            let last = intervals
-                .iter()
-                .find(|iv| iv.first_record > s.last_record)
-                .map_or(s.last_record, |iv| iv.first_record);
-            Some(KnownTurn {
-                name: s.name.clone(),
-                first_record: first.max(1),
-                last_record: last,
-                axis: s.axis?,
-                angle_rad: s.expected_turn_deg?.to_radians(),
-            })
-        })
-        .collect()
 }
 
 /// The static intervals of a recording by the detector with `settings`.
@@ -203,7 +173,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         .map_err(|e| format!("calibrate --free-motion: {e}"))?;
     let (seg, intervals) = static_intervals(&data, &file, &detector)?;
     let turns = match &args.sections {
-        Some(p) => known_turns(&crate::free_motion::read_sections(p, &data)?, &intervals),
+        Some(p) => read_sections(p, &data)?.known_turns(&intervals),
         None => Vec::new(),
     };
     let result = calibrate_free_motion(&data, &intervals, &turns, &settings)

@@ -166,7 +166,14 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate::run(&args).map(|()| ExitCode::SUCCESS),
-        Command::Calibrate(args) => calibrate::run(&args).map(|outcome| match outcome {
+        // Each mode's module is called from here, so that no command module calls its twin
+        // (the free-motion modules use the arguments of theirs, and nothing goes back).
+        Command::Calibrate(args) => if args.free_motion {
+            free_motion::run(&args)
+        } else {
+            calibrate::run(&args)
+        }
+        .map(|outcome| match outcome {
             calibrate::Outcome::Fits => ExitCode::SUCCESS,
             calibrate::Outcome::DoesNotFit => ExitCode::from(MODEL_DOES_NOT_FIT),
         }),
@@ -174,13 +181,21 @@ fn main() -> ExitCode {
         Command::Import(args) => import::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Segment(args) => segment::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Noise(args) => noise::run(&args).map(|()| ExitCode::SUCCESS),
-        Command::Diagnose(args) => diagnose::run(&args).map(|fits| {
-            if fits {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::from(MODEL_DOES_NOT_FIT)
-            }
-        }),
+        Command::Diagnose(args) => diagnose::check_args(&args)
+            .and_then(|()| {
+                if args.free_motion {
+                    diagnose_free::run(&args)
+                } else {
+                    diagnose::run(&args)
+                }
+            })
+            .map(|fits| {
+                if fits {
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::from(MODEL_DOES_NOT_FIT)
+                }
+            }),
         Command::Design(args) => design::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Apply(args) => apply::run(&args).map(|()| ExitCode::SUCCESS),
     };

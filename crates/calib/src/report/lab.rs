@@ -106,6 +106,35 @@ pub fn mean_nis_figures(stats: &FitStatistics, with_turntable: bool) -> Vec<Mean
     out
 }
 
+/// Why the model does not fit the data (empty: it fits), one line per reason: each mean NIS
+/// outside its band ([`mean_nis_figures`]), and failing diagnostics when they were run. The
+/// verdict of `calibrate` and of its report.
+pub fn misfit_reasons(
+    stats: &FitStatistics,
+    diagnostics: Option<&Diagnostics>,
+    with_turntable: bool,
+) -> Vec<String> {
+    let mut out: Vec<String> = mean_nis_figures(stats, with_turntable)
+        .iter()
+        .filter(|m| !m.consistent())
+        .map(|m| {
+            format!(
+                "{}: mean NIS {:.3} over {} updates, expected 3 +- {:.3}",
+                m.label, m.mean, m.updates, m.half_band
+            )
+        })
+        .collect();
+    if let Some(d) = diagnostics.filter(|d| !d.fits) {
+        out.push(format!(
+            "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
+            d.failures.len(),
+            d.tests.len(),
+            100.0 * d.settings.alpha
+        ));
+    }
+    out
+}
+
 /// The NIS of one segment of one measurement kind.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SegmentRow {
