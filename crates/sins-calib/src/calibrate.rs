@@ -12,7 +12,6 @@ use calib::io::{
 };
 use calib::layout::layout_for;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use nalgebra::DMatrix;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::io::IsTerminal as _;
@@ -755,49 +754,25 @@ fn truth_report(
     clock: &calib::config::ClockConfig,
 ) -> String {
     let mut s = String::new();
-    let idx: Vec<usize> = (0..est.names.len())
-        .filter(|&i| !est.names[i].starts_with("attitude.") && truth.get(&est.names[i]).is_some())
-        .collect();
-    let n = idx.len();
     let _ = writeln!(s, "Against the truth in {}", path.display());
-    if n == 0 {
+    let Some(c) = calib::report::lab::truth_comparison(est, truth) else {
         let _ = writeln!(s, "  no estimated parameter is named in the truth file");
         return s;
-    }
-    let sig: Vec<f64> = idx
-        .iter()
-        .map(|&i| est.cov[(i, i)].max(0.0).sqrt())
-        .collect();
-    let z: Vec<f64> = idx
-        .iter()
-        .zip(&sig)
-        .map(|(&i, sg)| {
-            let t = truth.get(&est.names[i]).map_or(f64::NAN, |p| p.value);
-            (est.values[i] - t) / sg
-        })
-        .collect();
-    let (worst, worst_z) = z
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-        .map_or((0, f64::NAN), |(k, v)| (idx[k], *v));
-    let diagonal: f64 = z.iter().map(|v| v * v).sum();
-    let errors: Vec<f64> = z.iter().zip(&sig).map(|(v, sg)| v * sg).collect();
-    let cov = DMatrix::from_fn(n, n, |a, b| est.cov[(idx[a], idx[b])]);
-    let full = calib::stats::nees(&errors, &cov);
+    };
+    let (n, diagonal) = (c.parameters, c.sum_squared_sigmas);
     let expected = format!(
         "a consistent filter gives {n} on average, standard deviation {}",
         table::significant((2.0 * n as f64).sqrt(), 2)
     );
-    match full {
-        Some(nees) if nees.is_finite() => {
+    match c.nees {
+        Some(nees) => {
             let _ = writeln!(
                 s,
                 "  NEES {nees:.1} over {n} parameters ({expected}); sum of squared errors in \
                  sigmas {diagonal:.1}"
             );
         }
-        _ => {
+        None => {
             let _ = writeln!(
                 s,
                 "  NEES: the covariance is not positive definite; sum of squared errors in sigmas \
@@ -807,8 +782,8 @@ fn truth_report(
     }
     let _ = writeln!(
         s,
-        "  largest error {worst_z:+.2} sigma ({})",
-        est.names[worst]
+        "  largest error {:+.2} sigma ({})",
+        c.largest.1, c.largest.0
     );
     for (name, configured, what) in [
         (

@@ -57,6 +57,51 @@ pub fn parameter_rows(est: &Estimate, truth: Option<&ResultFile>) -> Vec<Paramet
         .collect()
 }
 
+/// An estimate against a truth (a simulation's `truth.json`, or another result file).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TruthComparison {
+    /// Parameters the truth names (the attitude errors left out).
+    pub parameters: usize,
+    /// The NEES over them, on their joint covariance (`None`: it is not positive definite).
+    pub nees: Option<f64>,
+    /// Sum of the squared errors in sigmas (the NEES on the diagonal alone).
+    pub sum_squared_sigmas: f64,
+    /// The largest error: its parameter and its size in sigmas.
+    pub largest: (String, f64),
+}
+
+/// `est` against `truth` over the parameters the truth names (`None`: it names none).
+pub fn truth_comparison(est: &Estimate, truth: &ResultFile) -> Option<TruthComparison> {
+    let idx: Vec<usize> = (0..est.names.len())
+        .filter(|&i| !est.names[i].starts_with("attitude.") && truth.get(&est.names[i]).is_some())
+        .collect();
+    let n = idx.len();
+    if n == 0 {
+        return None;
+    }
+    let sigma: Vec<f64> = idx
+        .iter()
+        .map(|&i| est.cov[(i, i)].max(0.0).sqrt())
+        .collect();
+    let errors: Vec<f64> = idx
+        .iter()
+        .map(|&i| est.values[i] - truth.get(&est.names[i]).map_or(f64::NAN, |p| p.value))
+        .collect();
+    let z: Vec<f64> = errors.iter().zip(&sigma).map(|(e, s)| e / s).collect();
+    let (worst, worst_z) = z
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .map_or((0, f64::NAN), |(k, v)| (idx[k], *v));
+    let cov = nalgebra::DMatrix::from_fn(n, n, |a, b| est.cov[(idx[a], idx[b])]);
+    Some(TruthComparison {
+        parameters: n,
+        nees: crate::stats::nees(&errors, &cov).filter(|x| x.is_finite()),
+        sum_squared_sigmas: z.iter().map(|v| v * v).sum(),
+        largest: (est.names[worst].clone(), worst_z),
+    })
+}
+
 /// Half-width of the band of a mean of `n` chi-square(3) values: three standard deviations,
 /// `3 sqrt(6 / n)` (a false alarm about once in 370 fits per measurement).
 pub fn mean_nis_half_band(n: usize) -> f64 {
