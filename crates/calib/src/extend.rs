@@ -199,6 +199,20 @@ pub struct LoopResult {
     /// the last round and not accepted (a programmed run; `None` on a recording of rests, whose
     /// motion the covariance analysis does not know).
     pub drift_reach: Option<DriftReach>,
+    /// The configured white noise scaled to the data before the loop, where the paper's
+    /// model's mean NIS contradicted it (`base` is then the fit with the scaled noise).
+    pub noise_rescaled: Option<NoiseRescale>,
+}
+
+/// Factors on the configured white-noise levels (`[noise] accel_m_s2`, `angle_arcsec`): the
+/// root of the mean NIS over 3 of the paper's model with the configured levels, 1 where that
+/// mean is inside its band.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct NoiseRescale {
+    /// Factor on the specific-force noise.
+    pub accel_factor: f64,
+    /// Factor on the angle noise.
+    pub angle_factor: f64,
 }
 
 /// The smallest gyro bias random walk a program is expected to find
@@ -256,6 +270,9 @@ pub fn log_likelihood(innovations: &[Innovation]) -> (f64, usize) {
 /// The loop's context: the data and what every fit shares.
 struct Context<'a> {
     config: &'a RunConfig,
+    /// `config` with its white noise scaled to the data, for a round whose current model's
+    /// mean NIS contradicts the configured noise ([`noise_rescale`]).
+    scaled: Option<RunConfig>,
     data: &'a RunData<'a>,
     /// A recording of rests without a program ([`run_loop_at_rests`]).
     rests: Option<&'a [crate::rests::Rest]>,
@@ -264,12 +281,17 @@ struct Context<'a> {
 }
 
 impl Context<'_> {
+    /// The configuration the fits use now: the scaled one in a scaled round.
+    fn config(&self) -> &RunConfig {
+        self.scaled.as_ref().unwrap_or(self.config)
+    }
+
     fn fit(&mut self, ext: &ModelExtension) -> Result<Fit, LoopError> {
         let estimate = match self.rests {
-            None => estimate_ext(self.config, *self.data, ext)?,
+            None => estimate_ext(self.config(), *self.data, ext)?,
             Some(rests) => crate::estimate::calibrate_rests(
-                self.config,
-                &crate::layout::layout_with(self.config, false, ext),
+                self.config(),
+                &crate::layout::layout_with(self.config(), false, ext),
                 self.data.imu,
                 self.data.imu_file,
                 rests,
@@ -293,7 +315,7 @@ impl Context<'_> {
 
     fn analyse(&mut self, ext: &ModelExtension) -> Result<Posterior, LoopError> {
         Ok(covariance_analysis_ext(
-            self.config,
+            self.config(),
             self.data.turntable.is_some(),
             ext,
         )?)
@@ -545,6 +567,7 @@ pub fn run_loop(
     let config = resolved.as_ref().unwrap_or(config);
     let cx = Context {
         config,
+        scaled: None,
         data,
         rests: None,
         settings,
@@ -587,6 +610,7 @@ pub fn run_loop_at_rests(
 ) -> Result<LoopResult, LoopError> {
     let cx = Context {
         config,
+        scaled: None,
         data,
         rests: Some(rests),
         settings,
@@ -597,24 +621,79 @@ pub fn run_loop_at_rests(
 
 /// The loop itself, on a context.
 fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
-    let settings = cx.settings;
     (cx.progress)("fitting the paper's model");
     let base = cx.fit(&ModelExtension::default())?;
     if cx.rests.is_none() {
         check_coverage(cx.config, cx.data, &base.estimate)?;
     }
+    loop_from(cx, base)
+}
+
+/// The factors by which the configured white noise of each measurement is scaled to the data:
+/// the root of its mean NIS over 3 where that mean is outside its band (`None`: both inside,
+/// or no updates).
+fn noise_rescale(
+    stats: &crate::estimate::FitStatistics,
+    with_turntable: bool,
+) -> Option<NoiseRescale> {
+    let figures = crate::report::lab::mean_nis_figures(stats, with_turntable);
+    let factor = |kind: crate::model::MeasurementKind| {
+        figures
+            .iter()
+            .find(|m| m.kind == kind)
+            .filter(|m| !m.consistent() && m.mean.is_finite() && m.mean > 0.0)
+            .map_or(1.0, |m| (m.mean / 3.0).sqrt())
+    };
+    let r = NoiseRescale {
+        accel_factor: factor(crate::model::MeasurementKind::Accel),
+        angle_factor: factor(crate::model::MeasurementKind::Turntable),
+    };
+    (r.accel_factor != 1.0 || r.angle_factor != 1.0).then_some(r)
+}
+
+/// The loop's rounds from the fitted base model.
+///
+/// Every statistic is computed with a noise model: when the data scatter more (or less) than
+/// the configured white noise says, every term looks significant (or none does). A round whose
+/// current model (fitted with the configured noise) has a mean NIS outside its band tests its
+/// candidates with the noise scaled to the data ([`noise_rescale`]); a term accepted there is
+/// fitted again with the configured noise for the next round, whose scale then comes from the
+/// extended model (a real effect's share of the misfit is not taken for noise twice).
+fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
+    let settings = cx.settings;
+    let with_turntable = cx.data.turntable.is_some();
     let mut current = base.clone();
+    let mut noise_rescaled = None;
     let (mut accepted, mut rounds, mut gains) = (Vec::new(), Vec::new(), BTreeMap::new());
     loop {
+        cx.scaled = None;
+        let reference = match noise_rescale(&current.estimate.stats, with_turntable) {
+            Some(r) => {
+                let mut scaled = cx.config.clone();
+                scaled.noise.accel_m_s2 *= r.accel_factor;
+                scaled.noise.angle_arcsec *= r.angle_factor;
+                cx.scaled = Some(scaled);
+                (cx.progress)(&format!(
+                    "the configured noise does not match the data (specific force x{:.3}, \
+                     angles x{:.3}): this round tests with it scaled",
+                    r.accel_factor, r.angle_factor
+                ));
+                if rounds.is_empty() {
+                    noise_rescaled = Some(r);
+                }
+                cx.fit(&current.extension)?
+            }
+            None => current.clone(),
+        };
         let mut evidence: Vec<(CandidateEvidence, Fit)> = Vec::new();
         for &c in &settings.candidates {
-            if has_term(&current.extension, c) {
+            if has_term(&reference.extension, c) {
                 continue;
             }
             evidence.push(if c == Candidate::GyroBiasDrift {
-                cx.drift(&current)?
+                cx.drift(&reference)?
             } else {
-                cx.constant_term(&current, c)?
+                cx.constant_term(&reference, c)?
             });
         }
         evidence.sort_by(|a, b| a.0.ln_p_value.total_cmp(&b.0.ln_p_value));
@@ -637,17 +716,21 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
             break;
         };
         let (e, fit) = evidence.swap_remove(k);
-        let added = fit.estimate.names.len() - current.estimate.names.len();
+        let added = fit.estimate.names.len() - reference.estimate.names.len();
         let added = if e.term == Candidate::GyroBiasDrift.id() {
             3
         } else {
             added
         };
-        gains.insert(e.term.clone(), gain(&current, &fit, added));
+        gains.insert(e.term.clone(), gain(&reference, &fit, added));
         round.accepted = Some(e.term.clone());
         accepted.push(e.term.clone());
         rounds.push(round);
-        current = fit;
+        current = if cx.scaled.take().is_some() {
+            cx.fit(&fit.extension)?
+        } else {
+            fit
+        };
     }
     let drift_reach = match (cx.rests, rounds.last()) {
         (None, Some(last)) => {
@@ -659,7 +742,7 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
                 Some(_) if last.accepted.as_deref() != Some(Candidate::GyroBiasDrift.id()) => {
                     (cx.progress)("how large a walk this program would show");
                     drift_reach(
-                        cx.config,
+                        cx.config(),
                         cx.data.turntable.is_some(),
                         &current.extension,
                         settings,
@@ -678,6 +761,7 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
         base,
         last: current,
         drift_reach,
+        noise_rescaled,
     })
 }
 

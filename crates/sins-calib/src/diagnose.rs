@@ -122,6 +122,8 @@ struct LoopJson<'a> {
     rounds: &'a [calib::extend::Round],
     #[serde(skip_serializing_if = "Option::is_none")]
     drift_reach: Option<DriftReachJson>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    noise_rescaled: Option<calib::extend::NoiseRescale>,
 }
 
 /// [`calib::extend::DriftReach`] in SI: the smallest walk the program is expected to show.
@@ -184,6 +186,7 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
         parameters,
         rounds: &r.rounds,
         drift_reach: r.drift_reach.as_ref().map(drift_reach_json),
+        noise_rescaled: r.noise_rescaled,
     };
     Ok(serde_json::to_string_pretty(&j)?)
 }
@@ -284,11 +287,28 @@ fn drift_reach_line(reach: &calib::extend::DriftReach) -> String {
 /// The summary printed (and heading the Markdown report).
 pub fn summary(r: &LoopResult) -> String {
     let mut s = String::new();
+    if let Some(n) = &r.noise_rescaled {
+        let _ = writeln!(
+            s,
+            "note: the configured white noise does not match these data (the paper's model's mean \
+             NIS is outside its band): the first round tests every term with it scaled to the \
+             data, the specific force's by {:.3} and the angles' by {:.3} (each later round by \
+             its own model's); set [noise] to the scaled levels, or measure them (sins-calib \
+             noise)",
+            n.accel_factor, n.angle_factor
+        );
+    }
     for (k, round) in r.rounds.iter().enumerate() {
         s += &round_lines(r, k, round);
     }
     let calls = r.inseparable_calls();
-    if r.base_fits() {
+    if r.accepted_terms.is_empty() && r.noise_rescaled.is_some() && calls.is_empty() {
+        let _ = writeln!(
+            s,
+            "verdict: THE CONFIGURED WHITE NOISE DOES NOT MATCH THESE DATA (exit status 3); with \
+             it scaled to them (note above) no term is called for."
+        );
+    } else if r.base_fits() {
         let _ = writeln!(
             s,
             "verdict: the paper's model fits these data; no term is called for."

@@ -138,3 +138,53 @@ fn a_recording_of_part_of_the_program_is_refused() {
         "{err}"
     );
 }
+
+/// A run whose configured accelerometer noise is 3.3 times lower than the simulated one
+/// (0.0003 against 0.001 m/s^2): the loop accepted a random walk, the size effect and the
+/// quadratic term (issue 19, "a decision that holds on measured data"). It now says the noise
+/// does not match, with the factor, tests the terms with the noise scaled to the data, accepts
+/// nothing and exits with status 3.
+#[test]
+fn a_misconfigured_noise_is_named_and_no_term_is_accepted() {
+    let dir = scratch("quiet");
+    let config = config_25_hz(&dir);
+    let out = run(&["simulate", "--config", s(&config), "--out", s(&dir)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let quiet = dir.join("quiet.toml");
+    let text_cfg = std::fs::read_to_string(&config).expect("config");
+    assert!(text_cfg.contains("accel_m_s2 = 0.001 "));
+    std::fs::write(
+        &quiet,
+        text_cfg.replace("accel_m_s2 = 0.001 ", "accel_m_s2 = 0.0003 "),
+    )
+    .expect("config");
+    let json = dir.join("loop.json");
+    let out = run(&[
+        "diagnose",
+        "--imu",
+        s(&dir.join("imu.csv")),
+        "--turntable",
+        s(&dir.join("turntable.csv")),
+        "--config",
+        s(&quiet),
+        "--json",
+        s(&json),
+    ]);
+    let stdout = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(3), "{stdout}{}", text(&out.stderr));
+    assert!(
+        stdout.contains("the configured white noise does not match these data")
+            && stdout.contains("THE CONFIGURED WHITE NOISE DOES NOT MATCH THESE DATA"),
+        "{stdout}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("JSON");
+    assert_eq!(v["accepted_terms"].as_array().map(Vec::len), Some(0), "{v}");
+    let factor = v["noise_rescaled"]["accel_factor"]
+        .as_f64()
+        .expect("factor");
+    assert!(
+        (2.8..3.8).contains(&factor),
+        "specific-force noise factor {factor}"
+    );
+}
