@@ -22,12 +22,84 @@ pub struct Args {
     /// and posterior sigma in SI units (docs/formats.md).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Also say from which gyro bias random walk the program is expected to show one to
+    /// `diagnose` (its loop's threshold at the default level), and what a walk of that size,
+    /// unseen, does to the gyro-bias sigmas (docs/model-extension.md, "What a program can see
+    /// of a walk"; about fifteen more analyses).
+    #[arg(long)]
+    pub walk_reach: bool,
 }
 
 #[derive(Serialize)]
 struct AnalysisJson {
     with_turntable: bool,
     parameters: Vec<AnalysisParameter>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    walk_reach: Option<WalkReachJson>,
+}
+
+/// The walk `diagnose` is expected to show on this program (SI).
+#[derive(Serialize)]
+struct WalkReachJson {
+    threshold: f64,
+    smallest_visible_rad_s_sqrt_s: Option<f64>,
+    expected_statistic: Option<f64>,
+    gyro_bias_sigma_with: Option<[f64; 3]>,
+    gyro_bias_sigma_without: Option<[f64; 3]>,
+    largest_tried_rad_s_sqrt_s: f64,
+}
+
+/// [`WalkReachJson`] and its text: the smallest walk on `diagnose`'s drift grid whose expected
+/// statistic reaches the loop's threshold at its default level over all candidates.
+fn walk_reach(
+    config: &calib::config::RunConfig,
+    with_turntable: bool,
+) -> Result<(WalkReachJson, String), Error> {
+    use calib::drift_visibility::{DriftAnalysis, drift_threshold, smallest_visible_drift};
+    use sins_model::units::DEG_PER_HOUR;
+    let settings = calib::extend::LoopSettings::default();
+    let lo = settings
+        .drift_grid
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let hi = settings.drift_grid.iter().copied().fold(0.0, f64::max);
+    let threshold = drift_threshold(settings.level / settings.candidates.len() as f64);
+    let ext = calib::extension::ModelExtension::default();
+    let analysis = DriftAnalysis::new(config, with_turntable, &ext, lo * hi)?;
+    let reach = smallest_visible_drift(&analysis, threshold, lo, hi)?;
+    let walk = |q: f64| q * 60.0 / DEG_PER_HOUR;
+    let deg_h = |v: [f64; 3]| {
+        v.map(|x| table::significant(x / DEG_PER_HOUR, 3))
+            .join(", ")
+    };
+    let text = match &reach {
+        Some(v) => format!(
+            "\nGyro bias random walk: diagnose is expected to show one from about {} \
+             deg/h/sqrt(h) on this program (expected statistic {:.1}, accepted above {:.1}); a \
+             smaller one mostly goes unseen, and one of that size, unseen, makes the gyro-bias \
+             sigmas at the end {} deg/h where the table says {}\n",
+            table::significant(walk(v.intensity), 3),
+            v.expected_statistic,
+            threshold,
+            deg_h(v.gyro_bias_sigma),
+            deg_h(v.gyro_bias_sigma_without)
+        ),
+        None => format!(
+            "\nGyro bias random walk: even {} deg/h/sqrt(h) stays below diagnose's threshold \
+             {threshold:.1} on this program: a walk goes unseen here\n",
+            table::significant(walk(hi), 3)
+        ),
+    };
+    let json = WalkReachJson {
+        threshold,
+        smallest_visible_rad_s_sqrt_s: reach.as_ref().map(|v| v.intensity),
+        expected_statistic: reach.as_ref().map(|v| v.expected_statistic),
+        gyro_bias_sigma_with: reach.as_ref().map(|v| v.gyro_bias_sigma),
+        gyro_bias_sigma_without: reach.as_ref().map(|v| v.gyro_bias_sigma_without),
+        largest_tried_rad_s_sqrt_s: hi,
+    };
+    Ok((json, text))
 }
 
 #[derive(Serialize)]
@@ -66,7 +138,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if n.gyro_bias_walk_deg_h_sqrt_h > 0.0 || n.accel_bias_walk_m_s2_sqrt_s > 0.0 {
         let _ = writeln!(
             s,
-            "  with the bias random walks of [noise] as process noise (gyro {} deg/h/sqrt(h),              accelerometer {} m/s^2/sqrt(s)): the bias sigmas are those of the biases at the              end of the program; set the walks to 0 to see what they cost",
+            "  with the bias random walks of [noise] as process noise (gyro {} deg/h/sqrt(h), \
+             accelerometer {} m/s^2/sqrt(s)): the bias sigmas are those of the biases at the \
+             end of the program; set the walks to 0 to see what they cost",
             table::compact(n.gyro_bias_walk_deg_h_sqrt_h),
             table::compact(n.accel_bias_walk_m_s2_sqrt_s)
         );
@@ -103,10 +177,18 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
     }
     s += &t.render();
+    let reach = if args.walk_reach {
+        let (json, text) = walk_reach(&config, with_turntable)?;
+        s += &text;
+        Some(json)
+    } else {
+        None
+    };
     if let Some(path) = &args.json {
         let json = AnalysisJson {
             with_turntable,
             parameters,
+            walk_reach: reach,
         };
         let text = serde_json::to_string_pretty(&json)? + "\n";
         output::write_file(path, text.as_bytes())?;

@@ -188,3 +188,39 @@ fn a_misconfigured_noise_is_named_and_no_term_is_accepted() {
         "specific-force noise factor {factor}"
     );
 }
+
+/// `analyse --walk-reach`: from which gyro bias random walk `diagnose` is expected to show one
+/// on the paper's program with its angles (0.085 deg/h/sqrt(h), docs/model-extension.md), in
+/// the text and the JSON.
+#[test]
+fn analyse_says_which_walk_the_program_shows() {
+    let dir = scratch("walk-reach");
+    let json = dir.join("analysis.json");
+    let out = run(&[
+        "analyse",
+        "--config",
+        "paper",
+        "--walk-reach",
+        "--json",
+        s(&json),
+    ]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        stdout.contains("Gyro bias random walk: diagnose is expected to show one from about"),
+        "{stdout}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("JSON");
+    let q = v["walk_reach"]["smallest_visible_rad_s_sqrt_s"]
+        .as_f64()
+        .expect("a reach");
+    let deg_h_sqrt_h = q * 60.0 / sins_model::units::DEG_PER_HOUR;
+    assert!((0.08..0.09).contains(&deg_h_sqrt_h), "{deg_h_sqrt_h}");
+    assert!(
+        v["walk_reach"]["expected_statistic"]
+            .as_f64()
+            .expect("statistic")
+            >= 8.0
+    );
+}
