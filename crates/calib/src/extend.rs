@@ -766,8 +766,8 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
 }
 
 /// [`DriftReach`] of the program of `config` with the model `ext`, for the loop's drift grid
-/// and a round's `level`.
-fn drift_reach(
+/// and a round's `level` (`None`: an empty grid).
+pub fn drift_reach(
     config: &RunConfig,
     with_turntable: bool,
     ext: &ModelExtension,

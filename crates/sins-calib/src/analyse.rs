@@ -1,5 +1,6 @@
 //! `sins-calib analyse`: covariance analysis of a run configuration.
 
+use crate::diagnose::{DriftReachJson, drift_reach_json};
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, output, print};
 use calib::covariance::covariance_analysis;
@@ -35,45 +36,38 @@ struct AnalysisJson {
     with_turntable: bool,
     parameters: Vec<AnalysisParameter>,
     #[serde(skip_serializing_if = "Option::is_none")]
-    walk_reach: Option<WalkReachJson>,
+    walk_reach: Option<DriftReachJson>,
 }
 
-/// The walk `diagnose` is expected to show on this program (SI).
 #[derive(Serialize)]
-struct WalkReachJson {
-    threshold: f64,
-    smallest_visible_rad_s_sqrt_s: Option<f64>,
-    expected_statistic: Option<f64>,
-    gyro_bias_sigma_with: Option<[f64; 3]>,
-    gyro_bias_sigma_without: Option<[f64; 3]>,
-    largest_tried_rad_s_sqrt_s: f64,
+struct AnalysisParameter {
+    name: String,
+    unit: &'static str,
+    prior_sigma: f64,
+    sigma: f64,
 }
 
-/// [`WalkReachJson`] and its text: the smallest walk on `diagnose`'s drift grid whose expected
-/// statistic reaches the loop's threshold at its default level over all candidates.
+/// The walk `diagnose` is expected to show on this program ([`calib::extend::drift_reach`] at
+/// the loop's default grid and level, over all its candidates), as JSON and text.
 fn walk_reach(
     config: &calib::config::RunConfig,
     with_turntable: bool,
-) -> Result<(WalkReachJson, String), Error> {
-    use calib::drift_visibility::{DriftAnalysis, drift_threshold, smallest_visible_drift};
+) -> Result<Option<(DriftReachJson, String)>, Error> {
     use sins_model::units::DEG_PER_HOUR;
     let settings = calib::extend::LoopSettings::default();
-    let lo = settings
-        .drift_grid
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min);
-    let hi = settings.drift_grid.iter().copied().fold(0.0, f64::max);
-    let threshold = drift_threshold(settings.level / settings.candidates.len() as f64);
+    let level = settings.level / settings.candidates.len() as f64;
     let ext = calib::extension::ModelExtension::default();
-    let analysis = DriftAnalysis::new(config, with_turntable, &ext, lo * hi)?;
-    let reach = smallest_visible_drift(&analysis, threshold, lo, hi)?;
+    let Some(reach) = calib::extend::drift_reach(config, with_turntable, &ext, &settings, level)?
+    else {
+        return Ok(None);
+    };
     let walk = |q: f64| q * 60.0 / DEG_PER_HOUR;
     let deg_h = |v: [f64; 3]| {
         v.map(|x| table::significant(x / DEG_PER_HOUR, 3))
             .join(", ")
     };
-    let text = match &reach {
+    let threshold = reach.threshold;
+    let text = match &reach.smallest_visible {
         Some(v) => format!(
             "\nGyro bias random walk: diagnose is expected to show one from about {} \
              deg/h/sqrt(h) on this program (expected statistic {:.1}, accepted above {:.1}); a \
@@ -88,26 +82,10 @@ fn walk_reach(
         None => format!(
             "\nGyro bias random walk: even {} deg/h/sqrt(h) stays below diagnose's threshold \
              {threshold:.1} on this program: a walk goes unseen here\n",
-            table::significant(walk(hi), 3)
+            table::significant(walk(reach.largest_tried), 3)
         ),
     };
-    let json = WalkReachJson {
-        threshold,
-        smallest_visible_rad_s_sqrt_s: reach.as_ref().map(|v| v.intensity),
-        expected_statistic: reach.as_ref().map(|v| v.expected_statistic),
-        gyro_bias_sigma_with: reach.as_ref().map(|v| v.gyro_bias_sigma),
-        gyro_bias_sigma_without: reach.as_ref().map(|v| v.gyro_bias_sigma_without),
-        largest_tried_rad_s_sqrt_s: hi,
-    };
-    Ok((json, text))
-}
-
-#[derive(Serialize)]
-struct AnalysisParameter {
-    name: String,
-    unit: &'static str,
-    prior_sigma: f64,
-    sigma: f64,
+    Ok(Some((drift_reach_json(&reach), text)))
 }
 
 /// Run `analyse`.
@@ -178,9 +156,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     s += &t.render();
     let reach = if args.walk_reach {
-        let (json, text) = walk_reach(&config, with_turntable)?;
-        s += &text;
-        Some(json)
+        walk_reach(&config, with_turntable)?.map(|(json, text)| {
+            s += &text;
+            json
+        })
     } else {
         None
     };

@@ -128,7 +128,7 @@ struct LoopJson<'a> {
 
 /// [`calib::extend::DriftReach`] in SI: the smallest walk the program is expected to show.
 #[derive(Serialize)]
-struct DriftReachJson {
+pub(crate) struct DriftReachJson {
     /// The statistic at which the walk would be accepted.
     threshold: f64,
     /// rad/s/sqrt(s); `None` when even the largest tried stays below the threshold.
@@ -140,7 +140,7 @@ struct DriftReachJson {
     largest_tried_rad_s_sqrt_s: f64,
 }
 
-fn drift_reach_json(d: &calib::extend::DriftReach) -> DriftReachJson {
+pub(crate) fn drift_reach_json(d: &calib::extend::DriftReach) -> DriftReachJson {
     let v = d.smallest_visible.as_ref();
     DriftReachJson {
         threshold: d.threshold,

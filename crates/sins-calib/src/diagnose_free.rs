@@ -20,7 +20,7 @@ struct FreeLoopJson<'a> {
     rounds: &'a [calib::extend_free::FreeRound],
 }
 
-fn summary(r: &FreeLoop) -> String {
+fn summary(r: &FreeLoop, last: &calib::free_motion::FreeMotionVerdict) -> String {
     let mut s = String::new();
     for (k, round) in r.rounds.iter().enumerate() {
         let _ = writeln!(
@@ -60,7 +60,6 @@ fn summary(r: &FreeLoop) -> String {
             }
         }
     }
-    let last = r.last.verdict();
     if r.accepted_terms.is_empty() && last.fits {
         let _ = writeln!(
             s,
@@ -111,7 +110,8 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     };
     let r = free_motion_loop(&data, &intervals, &turns, &settings, args.level)
         .map_err(|e| format!("{file}: {e}"))?;
-    crate::report(&summary(&r), args.json.as_deref())?;
+    let last = r.last.verdict();
+    crate::report(&summary(&r, &last), args.json.as_deref())?;
     if let Some(path) = &args.json {
         let j = FreeLoopJson {
             accepted_terms: &r.accepted_terms,
@@ -123,5 +123,5 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         };
         crate::output::write_file(path, serde_json::to_string_pretty(&j)?.as_bytes())?;
     }
-    Ok(r.last.verdict().fits)
+    Ok(last.fits)
 }

@@ -206,7 +206,8 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     );
     s += &parameter_report(&result);
     s += &fit_report(&result);
-    s += &verdict_lines(&result.verdict());
+    let verdict = result.verdict();
+    s += &verdict_lines(&verdict);
     let validation = result.validation.map(|v| ValidationJson {
         static_rms_m_s2: BeforeAfter {
             before: v.static_rms_before_m_s2,
@@ -239,7 +240,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
             parameters: &result.parameters,
             correlation: file.correlation,
             correction: file.correction,
-            fit: fit_json(&result, &settings, intervals.len()),
+            fit: fit_json(&result, &settings, intervals.len(), &verdict),
             validation,
         };
         let text = serde_json::to_string_pretty(&json)? + "\n";
@@ -253,21 +254,25 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         let _ = writeln!(s, "wrote {}", path.display());
     }
     crate::report(&s, args.json.as_deref())?;
-    Ok(if result.verdict().fits {
+    Ok(if verdict.fits {
         Outcome::Fits
     } else {
         Outcome::DoesNotFit
     })
 }
 
-fn fit_json(r: &FreeMotionResult, settings: &FreeMotionSettings, n: usize) -> FitJson {
+fn fit_json(
+    r: &FreeMotionResult,
+    settings: &FreeMotionSettings,
+    n: usize,
+    v: &calib::free_motion::FreeMotionVerdict,
+) -> FitJson {
     let stage = |f: &calib::free_motion::StageFit| StageJson {
         residuals: f.residuals,
         effective_parameters: f.effective_parameters,
         reduced_chi2: f.reduced_chi2,
         p_value: f.p_value(),
     };
-    let v = r.verdict();
     FitJson {
         method: "batch Gauss-Newton least squares with priors",
         gravity_m_s2: settings.gravity_m_s2,
@@ -294,8 +299,8 @@ fn fit_json(r: &FreeMotionResult, settings: &FreeMotionSettings, n: usize) -> Fi
             .collect(),
         verdict: VerdictJson {
             fits: v.fits,
-            reasons: v.reasons,
-            marginal: v.marginal,
+            reasons: v.reasons.clone(),
+            marginal: v.marginal.clone(),
         },
     }
 }
