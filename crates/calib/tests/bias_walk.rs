@@ -250,6 +250,16 @@ fn the_smallest_visible_walk_is_where_the_expected_statistic_crosses_the_thresho
         .map(|q| a.at(q * unit).unwrap().expected_statistic)
         .collect();
     println!("expected statistics at 0.01, 0.03, 0.1, 0.3 deg/h/sqrt(h): {stats:.4?}");
+    // The table of docs/model-extension.md: both models at the walk among others.
+    for with_tt in [false, true] {
+        let b = DriftAnalysis::new(&c, with_tt, &ModelExtension::default(), 1e-3 * unit * unit)
+            .unwrap();
+        let row: Vec<f64> = [0.01, 0.037, 0.1, 0.3]
+            .iter()
+            .map(|q| b.at(q * unit).unwrap().expected_statistic)
+            .collect();
+        println!("turntable {with_tt}: at 0.01, 0.037, 0.1, 0.3 deg/h/sqrt(h): {row:.4?}");
+    }
     assert!(stats.windows(2).all(|w| w[1] > w[0]) && stats[0] > 0.0);
     let threshold = drift_threshold(0.01 / 6.0);
     let reach = smallest_visible_drift(&a, threshold, 0.003 * unit, 0.3 * unit)
