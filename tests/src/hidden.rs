@@ -260,7 +260,7 @@ pub fn run_case(case: &HiddenCase) -> LoopResult {
     let data = RunData {
         imu: &imu,
         imu_file: "imu.csv",
-        turntable: Some((&tt, "turntable.csv")),
+        turntable: Some((&tt, "turntable.csv").into()),
     };
     run_loop(&config, &data, &LoopSettings::default(), &mut |_| {}).expect("loop")
 }

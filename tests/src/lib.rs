@@ -217,7 +217,7 @@ pub fn monte_carlo_both_models(
             let data = RunData {
                 imu: &imu,
                 imu_file: "imu.csv",
-                turntable: with_tt.then_some((&tt, "turntable.csv")),
+                turntable: with_tt.then_some((&tt, "turntable.csv").into()),
             };
             let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
             let (e, s) = state_errors(&config, &sim, &est);

@@ -33,7 +33,7 @@ fn one_run_with_the_walk_every_parameter_within_3_sigma() {
         let data = RunData {
             imu: &imu,
             imu_file: "imu.csv",
-            turntable: with_tt.then_some((&tt, "turntable.csv")),
+            turntable: with_tt.then_some((&tt, "turntable.csv").into()),
         };
         let est = estimate(&c, &data, &mut |_, _| {}).unwrap();
         let (e, s) = state_errors(&c, &sim, &est);

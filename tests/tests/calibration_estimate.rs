@@ -28,7 +28,7 @@ fn delay_and_installation_are_recovered_and_sigma_matches_the_covariance_analysi
         let data = RunData {
             imu: &imu,
             imu_file: "imu.csv",
-            turntable: with_tt.then_some((&tt, "turntable.csv")),
+            turntable: with_tt.then_some((&tt, "turntable.csv").into()),
         };
         let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
         assert_eq!(est.names.len(), if with_tt { 28 } else { 24 });
@@ -93,7 +93,7 @@ fn a_turntable_file_outside_the_imu_run_is_refused_by_name() {
     let data = RunData {
         imu: &imu,
         imu_file: "imu.csv",
-        turntable: Some((&tt, "rec/turntable.csv")),
+        turntable: Some((&tt, "rec/turntable.csv").into()),
     };
     let e = estimate(&config, &data, &mut |_, _| {})
         .unwrap_err()

@@ -64,7 +64,7 @@ fn largest_errors(c: &RunConfig) -> Vec<(usize, f64, String)> {
             let data = RunData {
                 imu: &imu,
                 imu_file: "imu.csv",
-                turntable: with_tt.then_some((&tt, "turntable.csv")),
+                turntable: with_tt.then_some((&tt, "turntable.csv").into()),
             };
             let est = estimate(c, &data, &mut |_, _| {}).unwrap();
             let (worst, name) = est

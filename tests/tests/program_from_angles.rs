@@ -16,7 +16,7 @@ fn the_program_read_from_the_angles_is_the_one_run() {
     config.truth.imu_rate_hz = 25.0;
     let sim = calib::simulate::simulate_run(&config, "test").unwrap();
     let tt = TurntableData::from_samples(&sim.turntable);
-    let spec = program_from_angles(&tt, &config.clock, "turntable.csv", None).unwrap();
+    let spec = program_from_angles((&tt, "turntable.csv").into(), &config.clock, None).unwrap();
     let read = Program::compile(&spec, "read").unwrap();
     let paper = Program::paper();
     let (a, b) = (read.pieces(), paper.pieces());
@@ -51,7 +51,7 @@ fn the_program_read_from_the_angles_is_the_one_run() {
     let data = RunData {
         imu: &imu,
         imu_file: "imu.csv",
-        turntable: Some((&tt, "turntable.csv")),
+        turntable: Some((&tt, "turntable.csv").into()),
     };
     let given = estimate(&config, &data, &mut |_, _| {}).unwrap();
     let mut from_angles = config.clone();

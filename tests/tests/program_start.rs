@@ -28,7 +28,7 @@ fn run(imu: &ImuData, tt: &TurntableData, config: &calib::config::RunConfig) -> 
     let data = RunData {
         imu,
         imu_file: "imu.csv",
-        turntable: Some((tt, "turntable.csv")),
+        turntable: Some((tt, "turntable.csv").into()),
     };
     estimate(config, &data, &mut |_, _| {}).expect("calibrates")
 }

@@ -27,7 +27,7 @@ fn runs(rate_hz: f64, seeds: std::ops::RangeInclusive<u64>) -> MonteCarlo {
         let data = RunData {
             imu: &imu,
             imu_file: "imu.csv",
-            turntable: Some((&tt, "turntable.csv")),
+            turntable: Some((&tt, "turntable.csv").into()),
         };
         let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
         let s = &est.stats;

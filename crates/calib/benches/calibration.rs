@@ -46,7 +46,7 @@ fn bench(c: &mut Criterion) {
                 let data = RunData {
                     imu: &imu,
                     imu_file: "imu.csv",
-                    turntable: with_tt.then_some((&tt, "turntable.csv")),
+                    turntable: with_tt.then_some((&tt, "turntable.csv").into()),
                 };
                 estimate(&config, black_box(&data), &mut |_, _| {})
                     .unwrap()

@@ -17,7 +17,8 @@
 //! with a program given in the configuration.
 
 use crate::config::RunConfig;
-use crate::io::{IoError, TurntableData};
+use crate::angle_records::AngleRecords;
+use crate::io::IoError;
 use turntable::program::{ProgramSpec, Segment};
 use turntable::sensor::Clock;
 
@@ -82,17 +83,22 @@ fn line(t: &[f64], y: &[f64]) -> (f64, f64, f64) {
 /// records begin would otherwise start the calibration degrees off). IMU records before the
 /// program's start are taken as taken at rest in its start position, as with a given program.
 pub fn program_from_angles(
-    tt: &TurntableData,
+    tt: AngleRecords,
     clock: &Clock,
-    file: &str,
     imu_start: Option<f64>,
 ) -> Result<ProgramSpec, IoError> {
+    let file = tt.file();
     let refuse = |message: String| IoError::File {
         file: file.to_string(),
         message,
     };
-    let t: Vec<f64> = tt.records.iter().map(|r| clock.imu_time(r.t)).collect();
-    let k = unwrap(&tt.records.iter().map(|r| r.k_deg).collect::<Vec<_>>());
+    let (mut t, mut k_deg) = (Vec::new(), Vec::new());
+    tt.for_each(|r| {
+        t.push(clock.imu_time(r.t));
+        k_deg.push(r.k_deg);
+    })?;
+    let k = unwrap(&k_deg);
+    drop(k_deg);
     let n = t.len();
     if n < 3 || t[n - 1] - t[0] < 2.0 * RATE_WINDOW_S {
         return Err(refuse(format!(
@@ -250,13 +256,13 @@ fn boundaries(pieces: &[Piece], t_first: f64, t_last: f64, imu_start: Option<f64
 /// `imu_start`: see [`program_from_angles`].
 pub fn resolve_program(
     config: &RunConfig,
-    turntable: Option<(&TurntableData, &str)>,
+    turntable: Option<AngleRecords>,
     imu_start: Option<f64>,
 ) -> Result<Option<RunConfig>, IoError> {
     match (config.program_from_angles(), turntable) {
-        (true, Some((tt, file))) => {
+        (true, Some(tt)) => {
             let mut c = config.clone();
-            c.inline_program = Some(program_from_angles(tt, &config.clock, file, imu_start)?);
+            c.inline_program = Some(program_from_angles(tt, &config.clock, imu_start)?);
             Ok(Some(c))
         }
         _ => Ok(None),
@@ -279,12 +285,8 @@ mod tests {
                 }
             })
             .collect();
-        let e = program_from_angles(
-            &TurntableData { records },
-            &Clock::default(),
-            "tt.csv",
-            None,
-        )
+        let data = crate::io::TurntableData { records };
+        let e = program_from_angles((&data, "tt.csv").into(), &Clock::default(), None)
         .unwrap_err()
         .to_string();
         assert!(e.contains("tt.csv") && e.contains("gimbals 1 and 2"), "{e}");

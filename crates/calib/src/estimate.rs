@@ -19,6 +19,7 @@
 //!   coordinates; the second-order specific-force error carried as a consider parameter where
 //!   it matters (`consider`).
 
+use crate::angle_records::AngleRecords;
 use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
 use crate::config::{AttitudePrior, ClockConfig, ConfigError, RunConfig};
 use crate::data_checks::{
@@ -29,7 +30,7 @@ use crate::engine::prior_filter;
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
 use crate::extension::ModelExtension;
 use crate::io::{
-    ImuData, ImuKind, ImuRecord, IoError, ResultFile, ResultParameter, TurntableData, check_overlap,
+    ImuData, ImuKind, ImuRecord, IoError, ResultFile, ResultParameter, check_overlap,
 };
 use crate::layout::{StateLayout, initial_covariance, layout_for, layout_with};
 use crate::model::LinearModel;
@@ -107,8 +108,10 @@ pub struct RunData<'a> {
     pub imu: &'a ImuData,
     /// Name of the IMU file (for messages).
     pub imu_file: &'a str,
-    /// Turntable records and their file name; `None` for an IMU-only (24-state) calibration.
-    pub turntable: Option<(&'a TurntableData, &'a str)>,
+    /// Turntable records and their file name (`(&data, "tt.csv").into()`, or an
+    /// [`crate::angle_records::AngleFile`]'s records); `None` for an IMU-only (24-state)
+    /// calibration.
+    pub turntable: Option<AngleRecords<'a>>,
 }
 
 /// Fit statistics of a run.
@@ -412,7 +415,7 @@ pub fn estimate_from(
     config: &RunConfig,
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
-    turntable: Option<(&TurntableData, &str)>,
+    turntable: Option<AngleRecords>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Fixed, progress)?;
@@ -426,7 +429,7 @@ pub fn estimate_from(
     check_specific_force(&scan.bins, g, imu.file())?;
     locate_program(config, &mut scan, &program, imu.file())?;
     let tt_setup = match (layout.install.is_some(), turntable) {
-        (true, Some((tt, file))) => Some(TurntableSetup::new(config, tt, file, &scan, &program)?),
+        (true, Some(tt)) => Some(TurntableSetup::new(config, tt, &scan, &program)?),
         _ => None,
     };
     let motion = Motion::Program(program);
@@ -943,7 +946,7 @@ const CONVERGED_SIGMA: f64 = 0.02;
 /// The turntable side of the estimation, set up once for every pass: the records checked
 /// against the IMU span and the clock relation, their median spacing and rate.
 struct TurntableSetup<'a> {
-    data: &'a TurntableData,
+    records: AngleRecords<'a>,
     clock: ClockConfig,
     median_interval: f64,
     /// Record rate on the IMU clock (Hz).
@@ -959,23 +962,28 @@ impl<'a> TurntableSetup<'a> {
     /// Check the records of `file` against the IMU span and the clock relation.
     fn new(
         config: &RunConfig,
-        tt: &'a TurntableData,
-        file: &str,
+        tt: AngleRecords<'a>,
         scan: &Scan,
         program: &turntable::program::Program,
     ) -> Result<Self, EstimateError> {
         let clock = config.clock;
         let dt = 1.0 / config.filter.imu_rate_hz;
-        let span = tt.span().ok_or_else(|| IoError::File {
-            file: file.to_string(),
-            message: "expected turntable records, found none".into(),
-        })?;
+        let file = tt.file();
+        let summary = tt.summary();
+        if summary.count == 0 {
+            return Err(IoError::File {
+                file: file.to_string(),
+                message: "expected turntable records, found none".into(),
+            }
+            .into());
+        }
+        let span = summary.span;
         check_overlap(
             (scan.span.0 - dt, scan.span.1),
             (clock.imu_time(span.0), clock.imu_time(span.1)),
             file,
         )?;
-        let med = median_interval(tt.records.iter().map(|r| r.t));
+        let med = summary.median_interval;
         if !(med.is_finite() && med > 0.0) {
             return Err(IoError::File {
                 file: file.to_string(),
@@ -985,8 +993,9 @@ impl<'a> TurntableSetup<'a> {
         }
         let record_rate_hz = (1.0 + clock.turntable_rate_error) / med;
         // The delay is searched within its prior (three sigma).
+        // About two thousand records spread over the file are plenty.
         check_turntable_clock(
-            &tt.records,
+            &tt.clock_sample(),
             &clock,
             program,
             scan.program_start,
@@ -997,7 +1006,7 @@ impl<'a> TurntableSetup<'a> {
             source,
         })?;
         Ok(Self {
-            data: tt,
+            records: tt,
             clock,
             median_interval: med,
             record_rate_hz,
@@ -1008,14 +1017,14 @@ impl<'a> TurntableSetup<'a> {
     }
 
     /// The reader of one pass, for a program starting at `program_start` (IMU clock).
-    fn reader(&self, program_start: f64) -> AngleReader<'_> {
-        AngleReader {
-            interp: AngleInterpolator::new(self.data, self.clock, self.median_interval),
+    fn reader(&self, program_start: f64) -> Result<AngleReader<'_>, IoError> {
+        Ok(AngleReader {
+            interp: AngleInterpolator::new(self.records.window()?, self.clock, self.median_interval),
             rate_changes: &self.rate_changes,
             program_start,
             per_record: self.per_record,
             rate_change_hint: 0,
-        }
+        })
     }
 }
 
@@ -1175,7 +1184,7 @@ fn run_pass(
     let (angles, angle_var) = match turntable {
         Some(tt) => {
             stats.turntable_record_rate_hz = tt.record_rate_hz;
-            (Some(tt.reader(scan.program_start)), Some(tt.angle_var))
+            (Some(tt.reader(scan.program_start)?), Some(tt.angle_var))
         }
         None => (None, None),
     };
@@ -1252,6 +1261,10 @@ fn run_pass(
         }
         j += chunk.len();
         progress(j);
+    }
+    // A streamed angle file that could not be read to the end (changed since it was opened).
+    if let Some(e) = pass.angles.as_mut().and_then(|a| a.interp.take_error()) {
+        return Err(e.into());
     }
     let PassResult {
         values,

@@ -50,6 +50,7 @@
 #![warn(missing_docs)]
 
 pub mod align;
+pub mod angle_records;
 pub mod angles_program;
 pub mod config;
 pub mod correction;

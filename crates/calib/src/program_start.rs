@@ -399,23 +399,20 @@ pub enum TurntableClockError {
 /// `clock.imu_time(t_tt) - program_start - tau` for a delay `tau` of at most `max_delay_s`.
 /// Refuses constant angles, radians and a clock offset that is off, naming the likely cause.
 pub fn check_turntable_clock(
-    records: &[crate::io::TurntableRecord],
+    sample: &[crate::io::TurntableRecord],
     clock: &crate::config::ClockConfig,
     program: &Program,
     program_start: f64,
     max_delay_s: f64,
 ) -> Result<(), TurntableClockError> {
-    if records.len() < 2 {
+    if sample.len() < 2 {
         return Ok(());
     }
     let duration = program.duration();
-    // About two thousand records spread over the file are plenty.
-    let every = (records.len() / 2000).max(1);
-    let sample: Vec<&crate::io::TurntableRecord> = records.iter().step_by(every).collect();
     let prog_deg = |t: f64| program.state(t).0.map(f64::to_degrees);
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     let mut max_abs: f64 = 0.0;
-    for r in &sample {
+    for r in sample {
         for g in 0..3 {
             lo[g] = lo[g].min(r.k_deg[g]);
             hi[g] = hi[g].max(r.k_deg[g]);
@@ -444,7 +441,7 @@ pub fn check_turntable_clock(
     // later on the IMU clock, the recorded values multiplied by `scale`.
     let rms_scaled = |shift: f64, scale: f64| {
         let (mut sse, mut n) = (0.0, 0usize);
-        for r in &sample {
+        for r in sample {
             let t = clock.imu_time(r.t) - program_start - shift;
             if !(0.0..=duration).contains(&t) {
                 continue;

@@ -102,7 +102,7 @@ fn run(c: &RunConfig, sim: &Simulation) -> Estimate {
     let data = RunData {
         imu: &imu,
         imu_file: "imu.csv",
-        turntable: Some((&tt, "turntable.csv")),
+        turntable: Some((&tt, "turntable.csv").into()),
     };
     estimate(c, &data, &mut |_, _| {}).unwrap()
 }

@@ -50,7 +50,7 @@ fn data<'a>(imu: &'a ImuData, tt: &'a TurntableData, with_tt: bool) -> RunData<'
     RunData {
         imu,
         imu_file: "imu.csv",
-        turntable: with_tt.then_some((tt, "turntable.csv")),
+        turntable: with_tt.then_some((tt, "turntable.csv").into()),
     }
 }
 

@@ -306,7 +306,7 @@ fn filter_result_carries_correlation_and_correction() {
     let data = calib::estimate::RunData {
         imu: &imu,
         imu_file: "imu.csv",
-        turntable: Some((&tt, "turntable.csv")),
+        turntable: Some((&tt, "turntable.csv").into()),
     };
     let est = calib::estimate::estimate(&c, &data, &mut |_, _| {}).expect("estimate");
     let r = est.to_result_file();

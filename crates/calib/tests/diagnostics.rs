@@ -30,7 +30,7 @@ fn calibrate(config: &RunConfig, sim: &Simulation, with_tt: bool) -> (Estimate, 
     let data = RunData {
         imu: &imu,
         imu_file: "imu.csv",
-        turntable: with_tt.then_some((&tt, "turntable.csv")),
+        turntable: with_tt.then_some((&tt, "turntable.csv").into()),
     };
     let est = estimate(config, &data, &mut |_, _| {}).unwrap();
     let segs = segments(&config.program().unwrap(), est.program_start_s);

@@ -13,7 +13,7 @@ fn every_instruction_set_gives_the_same_estimates() {
     let data = RunData {
         imu: &imu,
         imu_file: "imu.csv",
-        turntable: Some((&tt, "turntable.csv")),
+        turntable: Some((&tt, "turntable.csv").into()),
     };
     let run = |baseline: bool| {
         force_baseline_instructions(baseline);

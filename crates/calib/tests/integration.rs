@@ -2,6 +2,7 @@
 //! files run in parallel): each file of this directory is a module. Run one file's tests with
 //! `cargo test --release -p calib --test integration <file>::`.
 
+mod angle_streaming;
 mod arbitrary_input;
 mod bias_walk;
 mod candidates;

@@ -43,7 +43,7 @@ fn count(c: &RunConfig, imu: &ImuData, tt: &TurntableData) -> (usize, FitStatist
     let data = RunData {
         imu,
         imu_file: "imu.csv",
-        turntable: Some((tt, "turntable.csv")),
+        turntable: Some((tt, "turntable.csv").into()),
     };
     let before = ALLOCATIONS.load(Ordering::SeqCst);
     let est = estimate(c, &data, &mut |_, _| {}).unwrap();

@@ -3,12 +3,13 @@
 use crate::diagnostic_plots::write_diagnostic_plots;
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config};
+use calib::angle_records::AngleFile;
 use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
 use calib::estimate::{
     Estimate, FileImu, FitStatistics, ImuSource as _, calibrate_rests, estimate_from,
 };
 use calib::io::{
-    ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json, read_turntable_csv,
+    ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json,
 };
 use calib::layout::layout_for;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -281,10 +282,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 .into(),
         );
     }
-    let turntable = match (&input.tt, &input.tt_file) {
-        (Some(d), Some(f)) => Some((d, f.as_str())),
-        _ => None,
-    };
+    let turntable = input.tt.as_ref().map(AngleFile::records);
     let layout = layout_for(&input.config, turntable.is_some());
     if let (Some(truth), Some(path)) = (&input.truth, &args.truth) {
         truth.check_units(
@@ -412,8 +410,8 @@ struct Inputs {
     truth: Option<ResultFile>,
     imu: FileImu,
     imu_file: String,
-    tt: Option<calib::io::TurntableData>,
-    tt_file: Option<String>,
+    /// The angle records, streamed at every pass (kept in memory when short).
+    tt: Option<AngleFile>,
 }
 
 /// Read the configuration, the truth, and open the data files (refusing bad ones before any
@@ -438,17 +436,12 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
     // The IMU file is streamed (read once per pass, kept in memory only when short).
     let imu = FileImu::open(&args.imu)?;
     let imu_file = imu.file().to_string();
-    let tt_file = args.turntable.as_ref().map(|p| p.display().to_string());
-    let tt = args
-        .turntable
-        .as_deref()
-        .map(read_turntable_csv)
-        .transpose()?;
+    let tt = args.turntable.as_deref().map(AngleFile::open).transpose()?;
     // Without a program in the configuration the turntable's angles give it (the estimation
     // reads it again, taking its first piece back to the first IMU record).
     let program = match calib::angles_program::resolve_program(
         &config,
-        tt.as_ref().zip(tt_file.as_deref()),
+        tt.as_ref().map(AngleFile::records),
         None,
     )? {
         Some(c) => Some(c.program()?),
@@ -465,7 +458,6 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
         imu,
         imu_file,
         tt,
-        tt_file,
     })
 }
 
@@ -505,13 +497,15 @@ fn header_report(input: &Inputs, est: &Estimate) -> String {
         table::compact(t0),
         table::compact(t1),
     );
-    if let (Some(tt), Some(f)) = (&input.tt, &input.tt_file) {
-        let (a, b) = tt.span().unwrap_or((0.0, 0.0));
+    if let Some(tt) = &input.tt {
+        let (records, f) = (tt.records(), tt.records().file());
+        let summary = records.summary();
+        let (a, b) = summary.span;
         let _ = writeln!(
             s,
             "  turntable data  {f}: {} records, t = {} .. {} s on its clock ({} .. {} s on the \
              IMU clock)",
-            tt.records.len(),
+            summary.count,
             table::compact(a),
             table::compact(b),
             table::compact(config.clock.imu_time(a)),

@@ -7,7 +7,8 @@ use calib::estimate::RunData;
 use calib::extend::{
     CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop, run_loop_at_rests,
 };
-use calib::io::{ResultParameter, read_imu_csv, read_turntable_csv};
+use calib::angle_records::AngleFile;
+use calib::io::{ResultParameter, read_imu_csv};
 use calib::report::p_value_text;
 use serde::Serialize;
 use sins_model::candidates::Candidate;
@@ -499,16 +500,11 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     }
     let imu = read_imu_csv(&args.imu)?;
     let imu_file = args.imu.display().to_string();
-    let tt = args
-        .turntable
-        .as_deref()
-        .map(read_turntable_csv)
-        .transpose()?;
-    let tt_file = args.turntable.as_ref().map(|p| p.display().to_string());
+    let tt = args.turntable.as_deref().map(AngleFile::open).transpose()?;
     let data = RunData {
         imu: &imu,
         imu_file: &imu_file,
-        turntable: tt.as_ref().zip(tt_file.as_deref()),
+        turntable: tt.as_ref().map(AngleFile::records),
     };
     let mut progress = |what: &str| eprintln!("diagnose: {what}");
     let rests_mode = tt.is_none() && config.program_from_angles();

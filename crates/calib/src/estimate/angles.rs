@@ -1,7 +1,8 @@
 //! The turntable angle records read onto the IMU time line.
 
+use crate::angle_records::RecordWindow;
 use crate::config::ClockConfig;
-use crate::io::TurntableData;
+use crate::io::IoError;
 use turntable::gimbal::wrap_deg;
 
 /// One interpolated set of gimbal angles.
@@ -21,6 +22,9 @@ pub(crate) struct AngleSet {
 struct PairCache {
     /// Index of the first record.
     index: usize,
+    /// Its stamp (turntable clock, s) and angles (deg).
+    t_a: f64,
+    k_a_deg: [f64; 3],
     /// The reciprocal of the spacing of the two records; `None` across a gap.
     inv_span: Option<f64>,
     /// The first record's angles (rad) and their `(sin, cos)`.
@@ -53,9 +57,9 @@ fn sin_cos_near(a: (f64, f64), d: f64, direct: f64) -> (f64, f64) {
 const SIN_COS_ANCHOR: usize = 16;
 
 /// Interpolates the turntable records at IMU times (linearly, wrap-aware in the angles).
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub(crate) struct AngleInterpolator<'a> {
-    data: &'a TurntableData,
+    records: RecordWindow<'a>,
     clock: ClockConfig,
     /// Index of the record at or before the last query.
     cursor: usize,
@@ -74,10 +78,11 @@ impl<'a> AngleInterpolator<'a> {
     /// gaps and not interpolated across. Nothing is worked out per record ahead (a table of
     /// each record's sines, cosines and differences held 72 bytes a record, twice the records
     /// themselves: 307 MB for 45 minutes of 1-kHz angles); a pair's are worked out when the
-    /// cursor reaches it, from the pair before's.
-    pub fn new(data: &'a TurntableData, clock: ClockConfig, median_interval: f64) -> Self {
+    /// cursor reaches it, from the pair before's. The records are read in order (a streamed
+    /// file keeps only those near the cursor).
+    pub fn new(records: RecordWindow<'a>, clock: ClockConfig, median_interval: f64) -> Self {
         Self {
-            data,
+            records,
             clock,
             cursor: 0,
             max_gap: 2.5 * median_interval,
@@ -91,19 +96,20 @@ impl<'a> AngleInterpolator<'a> {
     #[inline(always)]
     pub fn at(&mut self, t_imu: f64) -> Option<AngleSet> {
         let t_tt = self.clock.turntable_time(t_imu);
-        let r = &self.data.records;
-        if r.len() < 2 || t_tt < r[0].t || t_tt > r[r.len() - 1].t {
+        let summary = self.records.summary;
+        let n = summary.count;
+        if n < 2 || t_tt < summary.span.0 || t_tt > summary.span.1 {
             return None;
         }
-        while self.cursor > 0 && r[self.cursor].t > t_tt {
+        while self.cursor > 0 && self.records.get(self.cursor)?.t > t_tt {
             self.cursor -= 1;
         }
-        while self.cursor + 2 < r.len() && r[self.cursor + 1].t < t_tt {
+        while self.cursor + 2 < n && self.records.get(self.cursor + 1)?.t < t_tt {
             self.cursor += 1;
         }
-        let (a, b) = (&r[self.cursor], &r[self.cursor + 1]);
         let cursor = self.cursor;
         if self.pair.as_ref().is_none_or(|p| p.index != cursor) {
+            let (a, b) = (self.records.get(cursor)?, self.records.get(cursor + 1)?);
             let span = b.t - a.t;
             let k_a = a.k_deg.map(f64::to_radians);
             // Three sines and cosines per pair directly were 3 % of a calibration's time.
@@ -121,6 +127,8 @@ impl<'a> AngleInterpolator<'a> {
             };
             self.pair = Some(PairCache {
                 index: cursor,
+                t_a: a.t,
+                k_a_deg: a.k_deg,
                 inv_span: (span <= self.max_gap).then(|| 1.0 / span),
                 k_a,
                 sin_cos_a,
@@ -130,8 +138,9 @@ impl<'a> AngleInterpolator<'a> {
         }
         let pair = self.pair.as_ref().expect("set above");
         // Beyond the largest spacing interpolated across: a gap.
-        let w = ((t_tt - a.t) * pair.inv_span?).clamp(0.0, 1.0);
-        let k: [f64; 3] = std::array::from_fn(|g| (a.k_deg[g] + w * pair.d_deg[g]).to_radians());
+        let w = ((t_tt - pair.t_a) * pair.inv_span?).clamp(0.0, 1.0);
+        let k: [f64; 3] =
+            std::array::from_fn(|g| (pair.k_a_deg[g] + w * pair.d_deg[g]).to_radians());
         let sin_cos =
             std::array::from_fn(|g| sin_cos_near(pair.sin_cos_a[g], k[g] - pair.k_a[g], k[g]));
         Some(AngleSet {
@@ -139,6 +148,12 @@ impl<'a> AngleInterpolator<'a> {
             records: [(cursor, 1.0 - w), (cursor + 1, w)],
             t_records_imu: pair.t_imu,
         })
+    }
+
+    /// The first error of reading a streamed file during the pass, if any (the queries since
+    /// gave no angles).
+    pub fn take_error(&mut self) -> Option<IoError> {
+        self.records.take_error()
     }
 }
 
@@ -180,8 +195,10 @@ mod tests {
                 }
             })
             .collect();
-        let data = TurntableData { records };
-        let mut interp = AngleInterpolator::new(&data, ClockConfig::default(), 0.02);
+        let data = crate::io::TurntableData { records };
+        let records: crate::angle_records::AngleRecords = (&data, "tt.csv").into();
+        let mut interp =
+            AngleInterpolator::new(records.window().unwrap(), ClockConfig::default(), 0.02);
         // Queries at a third of the record spacing, and one at every record: every pair is
         // worked out, some serve several queries, some are skipped.
         for step in [0.0067, 0.02, 0.05] {
