@@ -81,7 +81,7 @@ impl AngleFile {
             }
             span.1 = r.t;
             median.push(r.t);
-            if count % stride == 0 {
+            if count.is_multiple_of(stride) {
                 sample.push(r);
                 if sample.len() == 4000 {
                     // Every other one: every (2 stride)-th record from the first.
@@ -225,11 +225,7 @@ impl<'a> AngleRecords<'a> {
     /// taken when it was opened (every `2^j`-th).
     pub fn clock_sample(&self) -> Vec<TurntableRecord> {
         match self.source {
-            Source::Memory(r) => r
-                .iter()
-                .step_by((r.len() / 2000).max(1))
-                .copied()
-                .collect(),
+            Source::Memory(r) => r.iter().step_by((r.len() / 2000).max(1)).copied().collect(),
             Source::File(f) => f.sample.clone(),
         }
     }

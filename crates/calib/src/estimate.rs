@@ -19,8 +19,8 @@
 //!   coordinates; the second-order specific-force error carried as a consider parameter where
 //!   it matters (`consider`).
 
-use crate::angle_records::AngleRecords;
 use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
+use crate::angle_records::AngleRecords;
 use crate::config::{AttitudePrior, ClockConfig, ConfigError, RunConfig};
 use crate::data_checks::{
     check_gyros_alive, check_record, check_specific_force, check_specific_force_within,
@@ -29,9 +29,7 @@ use crate::diagnostics::{self, Innovation};
 use crate::engine::prior_filter;
 use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
 use crate::extension::ModelExtension;
-use crate::io::{
-    ImuData, ImuKind, ImuRecord, IoError, ResultFile, ResultParameter, check_overlap,
-};
+use crate::io::{ImuData, ImuKind, ImuRecord, IoError, ResultFile, ResultParameter, check_overlap};
 use crate::layout::{StateLayout, initial_covariance, layout_for, layout_with};
 use crate::model::LinearModel;
 use crate::program_start::{
@@ -1019,7 +1017,11 @@ impl<'a> TurntableSetup<'a> {
     /// The reader of one pass, for a program starting at `program_start` (IMU clock).
     fn reader(&self, program_start: f64) -> Result<AngleReader<'_>, IoError> {
         Ok(AngleReader {
-            interp: AngleInterpolator::new(self.records.window()?, self.clock, self.median_interval),
+            interp: AngleInterpolator::new(
+                self.records.window()?,
+                self.clock,
+                self.median_interval,
+            ),
             rate_changes: &self.rate_changes,
             program_start,
             per_record: self.per_record,

@@ -829,7 +829,11 @@ pub fn read_imu_csv(path: &Path) -> Result<ImuData, IoError> {
 
 /// Parse the text of a `turntable.csv`; `file` names it in errors.
 pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoError> {
-    read_turntable(std::io::Cursor::new(text.as_bytes().to_vec()), file, text.len())
+    read_turntable(
+        std::io::Cursor::new(text.as_bytes().to_vec()),
+        file,
+        text.len(),
+    )
 }
 
 /// A `turntable.csv` read record by record, every record checked as it comes (numbers, time

@@ -8,9 +8,7 @@ use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
 use calib::estimate::{
     Estimate, FileImu, FitStatistics, ImuSource as _, calibrate_rests, estimate_from,
 };
-use calib::io::{
-    ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json,
-};
+use calib::io::{ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json};
 use calib::layout::layout_for;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;

@@ -3,11 +3,11 @@
 //! (`calib::extend`; method in docs/model-extension.md).
 
 use crate::{Error, load_config};
+use calib::angle_records::AngleFile;
 use calib::estimate::RunData;
 use calib::extend::{
     CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop, run_loop_at_rests,
 };
-use calib::angle_records::AngleFile;
 use calib::io::{ResultParameter, read_imu_csv};
 use calib::report::p_value_text;
 use serde::Serialize;

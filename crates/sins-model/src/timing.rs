@@ -189,7 +189,9 @@ mod tests {
         };
         let mut state = 12345u64;
         let mut uniform = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         for n in [2usize, 3, 4, 5, 10, 101, 1000, 4097] {
@@ -210,6 +212,9 @@ mod tests {
         }
         assert!(streamed(&[1.0]).0.is_nan());
         assert!(streamed(&[2.0, 1.0]).0.is_nan());
-        assert_eq!(streamed(&[0.0, 0.1, 0.1, 0.3, 0.4]).0, median_interval(&[0.0, 0.1, 0.1, 0.3, 0.4]));
+        assert_eq!(
+            streamed(&[0.0, 0.1, 0.1, 0.3, 0.4]).0,
+            median_interval(&[0.0, 0.1, 0.1, 0.3, 0.4])
+        );
     }
 }
