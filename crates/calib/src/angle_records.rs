@@ -6,7 +6,7 @@
 //! A calibration needs of the records, before the passes: their number, first and last stamps
 //! and median spacing ([`AngleSummary`]), a sample of about two thousand for the clock check,
 //! and (for a configuration that reads its program from the angles) one reading in order. The
-//! passes then read them in order through a [`RecordWindow`], which keeps only the records
+//! passes then read them in order through a `RecordWindow`, which keeps only the records
 //! near the interpolation cursor.
 
 use crate::io::{IoError, TurntableData, TurntableReader, TurntableRecord};
