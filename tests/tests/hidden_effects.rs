@@ -24,6 +24,14 @@ fn check(case: &HiddenCase) -> Vec<String> {
                 c.term, c.statistic, c.dof, c.p_value, c.separable
             );
         }
+        if let Some(h) = &round.held_out {
+            println!(
+                "  held-out check of {}: {} measurements, log density {:+.2} with it",
+                h.term,
+                h.measurements,
+                h.gain()
+            );
+        }
         println!("  accepted {:?}", round.accepted);
     }
     // The hidden terms first, in any order among themselves.

@@ -45,6 +45,15 @@ pub fn hidden_effects(control_seeds: u64, only: Option<&str>) -> ExitCode {
                 )
             })
             .collect();
+        for h in r.rounds.iter().filter_map(|round| round.held_out.as_ref()) {
+            eprintln!(
+                "{}: held-out check of {}: {} measurements, log density {:+.2} with it",
+                case.name,
+                h.term,
+                h.measurements,
+                h.gain()
+            );
+        }
         let ok = first_ok && worst <= 3.0 && !r.base_fits() && r.last.diagnostics.fits;
         failed += usize::from(!ok);
         println!(

@@ -261,6 +261,13 @@ pub struct FilterConfig {
     /// measured rate magnitude matched against the program's).
     #[serde(default)]
     pub program_start_s: Option<f64>,
+    /// Hold out the measurements of every `k`-th segment that has measurements (the program's
+    /// segments; the rests of a recording without a program), counted from 1 so the first is
+    /// never held out: each is evaluated as a prediction (its innovation and innovation
+    /// covariance, [`crate::diagnostics::Innovation::held_out`]) and not used. Not a file
+    /// setting: the model-extension loop sets it for its held-out check ([`crate::extend`]).
+    #[serde(skip)]
+    pub hold_out_every: Option<usize>,
 }
 
 /// How the turntable clock relates to the IMU clock, as the laboratory's synchronisation knows

@@ -45,6 +45,10 @@ pub struct Innovation {
     pub s: Matrix3<f64>,
     /// Index of the program segment holding `t` ([`segments`], [`segment_of`]).
     pub segment: usize,
+    /// A held-out measurement (`filter.hold_out_every`): predicted from the data before it,
+    /// not used.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub held_out: bool,
 }
 
 /// Serde for [`MeasurementKind`] (which lives in `model`, free of serde): `"accel"`,

@@ -239,6 +239,11 @@ pub struct Engine {
     /// covariance of every measurement of the run (prior included), by the innovations'
     /// factorisation of the data's likelihood.
     pub log_det_data: f64,
+    /// While measurements are held out ([`Engine::set_holding_out`]): a copy of the filter
+    /// taken when the held-out stretch began, updated with the held-out measurements (each
+    /// innovation predicted from the data before the stretch and the stretch's earlier
+    /// measurements); the filter itself only predicts through the stretch.
+    shadow: Option<KalmanFilter>,
     /// Scratch for the measurement noise as a faer matrix.
     r: Mat<f64>,
     /// Scratch for the cross-covariance of the state's error and the measurement noise
@@ -263,9 +268,29 @@ impl Engine {
             noise,
             covariance_only,
             log_det_data: 0.0,
+            shadow: None,
             r: Mat::zeros(3, 3),
             cross: Mat::zeros(n, 3),
         }
+    }
+
+    /// Hold out the measurements from now on (`true`) or use them again (`false`). A held-out
+    /// stretch's measurements inform nothing that follows it: the filter predicts through the
+    /// stretch without them, and their innovations (and so their log predictive density, which
+    /// by the chain rule is that of the whole stretch given the data before it) come from a
+    /// copy of the filter taken when the stretch began and updated within it only. Allocates
+    /// the copy once per stretch.
+    pub fn set_holding_out(&mut self, on: bool) {
+        match (on, self.shadow.is_some()) {
+            (true, false) => self.shadow = Some(self.filter.clone()),
+            (false, true) => self.shadow = None,
+            _ => {}
+        }
+    }
+
+    /// Whether measurements are held out now.
+    pub fn holding_out(&self) -> bool {
+        self.shadow.is_some()
     }
 
     /// The filter's covariance (SI).
@@ -312,6 +337,9 @@ impl Engine {
             self.filter.predict_covariance(phi, q)?;
         } else {
             self.filter.predict(phi, q)?;
+            if let Some(shadow) = &mut self.shadow {
+                shadow.predict(phi, q)?;
+            }
         }
         model.reset_transition();
         if let Some(m) = &acc {
@@ -333,6 +361,9 @@ impl Engine {
             self.filter.predict_covariance(phi, q)?;
         } else {
             self.filter.predict(phi, q)?;
+            if let Some(shadow) = &mut self.shadow {
+                shadow.predict(phi, q)?;
+            }
         }
         self.model.reset_transition();
         Ok(())
@@ -353,11 +384,9 @@ impl Engine {
             self.log_det_data += self.filter.update_covariance_correlated(h, r, cross)?;
             Ok(None)
         } else {
-            let info = self.filter.update_correlated(m.z.as_slice(), h, r, cross)?;
-            let (nu, s) = (
-                self.filter.innovation(),
-                self.filter.innovation_covariance(),
-            );
+            let filter = self.shadow.as_mut().unwrap_or(&mut self.filter);
+            let info = filter.update_correlated(m.z.as_slice(), h, r, cross)?;
+            let (nu, s) = (filter.innovation(), filter.innovation_covariance());
             Ok(Some(UpdateRecord {
                 nis: info.nis,
                 log_det_s: info.log_det_s,

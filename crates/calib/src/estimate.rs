@@ -440,9 +440,21 @@ pub fn estimate_from(
         &scan,
         &motion,
         first,
-        Feedback::All,
+        first_pass_feedback(config),
         progress,
     )
+}
+
+/// What the first pass from the prior feeds back: everything (closed loop), except in a fit
+/// with held-out measurements, where only the attitude is. A held-out stretch leaves the
+/// attitude unaided for a whole segment; closed loop, the first update after it moved the
+/// parameters by what the stretch's drift had built up and fed that back (a run hiding a
+/// g-sensitivity the model lacked diverged: specific-force innovations of 10 m/s^2).
+fn first_pass_feedback(config: &RunConfig) -> Feedback {
+    match config.filter.hold_out_every {
+        Some(_) => Feedback::Attitude,
+        None => Feedback::All,
+    }
 }
 
 /// Calibrate a recording without a program or turntable angles: the unit rests in several
@@ -558,7 +570,7 @@ pub fn estimate_at_rests(
     // -8.6 m/s^2 and 0.87 within 7 s of its first rest).
     let feedback = match first_point {
         Some(_) => Feedback::Attitude,
-        None => Feedback::All,
+        None => first_pass_feedback(config),
     };
     iterate_passes(
         config,
@@ -1161,6 +1173,25 @@ fn start_filter(
     Ok((filter, c0))
 }
 
+/// The IMU-time intervals whose measurements a fit with `filter.hold_out_every = every` holds
+/// out: every `every`-th segment with measurements, counted from 1 (the program's segments;
+/// the rests of a recording of rests, whose motions have none).
+fn held_out_windows(motion: &Motion, program_start: f64, every: usize) -> Vec<(f64, f64)> {
+    let segments = match motion {
+        Motion::Program(program) => diagnostics::segments(program, program_start),
+        Motion::Rests { rests, .. } => crate::rests::segments(rests)
+            .into_iter()
+            .filter(|s| s.label.starts_with("rest"))
+            .collect(),
+    };
+    segments
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| every > 0 && (k + 1) % every == 0)
+        .map(|(_, s)| (s.t0, s.t1))
+        .collect()
+}
+
 /// One pass over the data, linearised about `nominal` (the prior means and the program's
 /// start attitude if `None`): compensation, turntable reading and start attitude with the
 /// nominal values, the prior mean of each error state the prior mean less the nominal value.
@@ -1220,6 +1251,9 @@ fn run_pass(
     pass.stats = stats;
     if let Motion::Rests { usable, .. } = motion {
         pass.rest_gate = Some(crate::rests::RestGate::new(usable.clone()));
+    }
+    if let Some(every) = config.filter.hold_out_every {
+        pass.held_out = held_out_windows(motion, scan.program_start, every);
     }
     if layout.model.uses_rate_derivatives() {
         // The motion in the middle of the interval before the first record, in the body through

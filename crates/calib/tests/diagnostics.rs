@@ -222,6 +222,7 @@ mod arbitrary {
                 nu: Vector3::from(nu),
                 s: Matrix3::from_row_slice(&s),
                 segment,
+                held_out: false,
             })
     }
 

@@ -229,6 +229,32 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
             p_value_text(c.p_value)
         );
     }
+    if let Some(h) = round.held_out.as_ref().filter(|h| h.measurements == 0) {
+        let _ = writeln!(
+            s,
+            "  held-out check of {}: nothing to hold out (fewer than {} segments with \
+             measurements)",
+            h.term, h.every
+        );
+    } else if let Some(h) = &round.held_out {
+        let _ = writeln!(
+            s,
+            "  held-out check of {} (every {}th segment with measurements held out, {} \
+             measurements): log predictive density {:+.1} with it: {}",
+            h.term,
+            h.every,
+            h.measurements,
+            h.gain(),
+            if h.passed() {
+                "passed"
+            } else if h.decides {
+                "FAILED, not accepted"
+            } else {
+                "worse (reported only: on a programmed run the check does not decide, \
+                 docs/model-extension.md)"
+            }
+        );
+    }
     match &round.accepted {
         Some(t) => {
             let g = &r.gain[t];
@@ -303,7 +329,29 @@ pub fn summary(r: &LoopResult) -> String {
         s += &round_lines(r, k, round);
     }
     let calls = r.inseparable_calls();
-    if r.accepted_terms.is_empty() && r.noise_rescaled.is_some() && calls.is_empty() {
+    if let Some(h) = r.held_out_rejection() {
+        let p = r
+            .rounds
+            .last()
+            .and_then(|l| l.candidates.iter().find(|c| c.term == h.term))
+            .map_or(f64::NAN, |c| c.p_value);
+        let _ = writeln!(
+            s,
+            "verdict: THE DATA CALL FOR {} (p = {}), BUT WITH IT THE HELD-OUT MEASUREMENTS ARE \
+             PREDICTED WORSE (log predictive density {:+.1} over {}): IT IS NOT ACCEPTED. THE \
+             MODEL DOES NOT FIT THESE DATA AND NO CANDIDATE TERM EXPLAINS THE MISFIT (exit status \
+             3); terms accepted before: {}.",
+            h.term,
+            p_value_text(p),
+            h.gain(),
+            h.measurements,
+            if r.accepted_terms.is_empty() {
+                "none".to_string()
+            } else {
+                r.accepted_terms.join(", ")
+            }
+        );
+    } else if r.accepted_terms.is_empty() && r.noise_rescaled.is_some() && calls.is_empty() {
         let _ = writeln!(
             s,
             "verdict: THE CONFIGURED WHITE NOISE DOES NOT MATCH THESE DATA (exit status 3); with \
@@ -536,7 +584,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         let _ = writeln!(text, "wrote the report {} ({plots} plots)", dir.display());
     }
     crate::report(&text, args.json.as_deref())?;
-    Ok(result.last.diagnostics.fits)
+    Ok(result.final_model_fits())
 }
 
 #[cfg(test)]

@@ -475,6 +475,7 @@ mod tests {
                     nu: Vector3::new(x, -0.5 * x, 0.3),
                     s: Matrix3::identity(),
                     segment: k / 100,
+                    held_out: false,
                 }
             })
             .collect()

@@ -31,6 +31,7 @@ fn synthetic(seed: u64, extra: impl Fn(f64, MeasurementKind) -> Vector3<f64>) ->
                 nu: l * normal3(&mut rng) + extra(t, kind),
                 s,
                 segment: segment_of(&segs, t),
+                held_out: false,
             });
         }
         t += 0.5;
@@ -125,6 +126,7 @@ fn regression_data(seed: u64, coef: f64) -> (Vec<Innovation>, Vec<Vec<Vector3<f6
             nu: l * normal3(&mut rng) + r0[k] * coef,
             s,
             segment: 0,
+            held_out: false,
         })
         .collect();
     (innov, vec![r0, r1])

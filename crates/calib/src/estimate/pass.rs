@@ -386,6 +386,10 @@ pub(super) struct Pass<'a> {
     state: Vec<f64>,
     /// Time stamp of the record before (s; NaN before the first).
     prev_t: f64,
+    /// IMU-time intervals whose measurements are held out (`filter.hold_out_every`), in
+    /// order, and the first not yet passed.
+    pub held_out: Vec<(f64, f64)>,
+    held_out_next: usize,
 }
 
 impl<'a> Pass<'a> {
@@ -424,6 +428,8 @@ impl<'a> Pass<'a> {
             prev_jacobian: None,
             state: vec![0.0; layout.dim()],
             prev_t: f64::NAN,
+            held_out: Vec::new(),
+            held_out_next: 0,
         }
     }
 
@@ -474,6 +480,21 @@ impl<'a> Pass<'a> {
         let sched = &self.engine.schedule;
         if !(last || sched.accel_due_at(phase) || sched.turntable_due_at(phase)) {
             return Ok(());
+        }
+        if !self.held_out.is_empty() {
+            let t = rec.t;
+            while self
+                .held_out
+                .get(self.held_out_next)
+                .is_some_and(|&(_, t1)| t1 < t)
+            {
+                self.held_out_next += 1;
+            }
+            let on = self
+                .held_out
+                .get(self.held_out_next)
+                .is_some_and(|&(t0, t1)| (t0..=t1).contains(&t));
+            self.engine.set_holding_out(on);
         }
         let report = self
             .engine
@@ -615,14 +636,7 @@ impl<'a> Pass<'a> {
 
     /// Count the updates of a measurement instant at IMU time `t` and log their innovations.
     fn count(&mut self, report: &InstantReport, t: f64) {
-        if let Some(nis) = report.accel_nis {
-            self.stats.accel_updates += 1;
-            self.nis_sum.0 += nis;
-        }
-        if let Some(nis) = report.turntable_nis {
-            self.stats.turntable_updates += 1;
-            self.nis_sum.1 += nis;
-        }
+        let held_out = self.engine.holding_out();
         let updates = [
             (MeasurementKind::Accel, &report.accel_update),
             (MeasurementKind::Turntable, &report.turntable_update),
@@ -635,8 +649,21 @@ impl<'a> Pass<'a> {
                     nu: u.nu,
                     s: u.s,
                     segment: 0,
+                    held_out,
                 });
             }
+        }
+        // The statistics describe the updates made.
+        if held_out {
+            return;
+        }
+        if let Some(nis) = report.accel_nis {
+            self.stats.accel_updates += 1;
+            self.nis_sum.0 += nis;
+        }
+        if let Some(nis) = report.turntable_nis {
+            self.stats.turntable_updates += 1;
+            self.nis_sum.1 += nis;
         }
     }
 

@@ -332,6 +332,7 @@ mod tests {
             nu: Vector3::new(2.0 * g, -g, 0.0),
             s: Matrix3::from_diagonal(&Vector3::new((3.0 * g).powi(2), (4.0 * g).powi(2), g * g)),
             segment: 2,
+            held_out: false,
         };
         let mut bad = i;
         bad.nu[1] = f64::NAN;
@@ -363,6 +364,7 @@ mod tests {
                     nu: Vector3::new(x, -x, 0.5 * x),
                     s: Matrix3::identity(),
                     segment: seg,
+                    held_out: false,
                 }
             })
             .collect();
