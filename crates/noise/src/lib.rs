@@ -46,6 +46,7 @@
 pub mod allan;
 pub mod edf;
 pub mod fit;
+pub mod likelihood;
 
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
