@@ -278,6 +278,7 @@ impl Sums {
 /// Run the filter over every interval (module docs, "Likelihood").
 fn filter(blocks: &Blocks, model: &Model) -> Sums {
     let mut sums = Sums::default();
+    let mut prod = LnProduct::default();
     let full = Moments::new(model, blocks.block_s);
     for iv in &blocks.intervals {
         if iv.len() < 2 {
@@ -298,12 +299,13 @@ fn filter(blocks: &Blocks, model: &Model) -> Sums {
             for &(y, d) in &iv[1..] {
                 let c = moments(d);
                 let s = p + c.r;
+                let inv = 1.0 / s;
                 let nu = y - m;
-                sums.ln_s += s.ln();
-                sums.quad += nu * nu / s;
-                m += (p + c.cb) / s * nu;
+                prod.push(s);
+                sums.quad += nu * nu * inv;
+                m += (p + c.cb) * inv * nu;
                 // P' = P + Q - (P + C)^2 / S, written without the cancellation.
-                p = (p * c.d1 + c.d2) / s;
+                p = (p * c.d1 + c.d2) * inv;
             }
         } else {
             // Walk and Gauss-Markov: state (b, g), diffuse b, stationary g.
@@ -317,7 +319,7 @@ fn filter(blocks: &Blocks, model: &Model) -> Sums {
                 let hpg = pbg + c.a * pgg;
                 let s = hpb + c.a * hpg + c.r;
                 let nu = y - mb - c.a * mg;
-                sums.ln_s += s.ln();
+                prod.push(s);
                 sums.quad += nu * nu / s;
                 let kb = hpb + c.cb;
                 let kg = c.phi * hpg + c.cg;
@@ -330,7 +332,38 @@ fn filter(blocks: &Blocks, model: &Model) -> Sums {
         }
         sums.n += iv.len() - 1;
     }
+    sums.ln_s = prod.ln();
     sums
+}
+
+/// `sum ln S` as the logarithm of a running product, rescaled before it leaves the range of
+/// `f64`: one logarithm per few hundred blocks instead of one per block (the filter's cost was
+/// mostly the logarithm).
+#[derive(Clone, Copy, Debug)]
+struct LnProduct {
+    prod: f64,
+    ln: f64,
+}
+
+impl Default for LnProduct {
+    fn default() -> Self {
+        LnProduct { prod: 1.0, ln: 0.0 }
+    }
+}
+
+impl LnProduct {
+    #[inline]
+    fn push(&mut self, s: f64) {
+        self.prod *= s;
+        if !(1e-150..=1e150).contains(&self.prod) {
+            self.ln += self.prod.ln();
+            self.prod = 1.0;
+        }
+    }
+
+    fn ln(self) -> f64 {
+        self.ln + self.prod.ln()
+    }
 }
 
 /// `-2 ln L` of the block means under `model` (without the constant `n ln 2 pi`).
@@ -882,6 +915,7 @@ pub fn fit_ml(
 }
 
 #[cfg(test)]
+#[allow(clippy::single_range_in_vec_init)] // one interval
 mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
