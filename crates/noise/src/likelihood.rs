@@ -179,6 +179,28 @@ pub struct Model {
     pub gauss_markov: Option<(f64, f64)>,
 }
 
+impl Model {
+    /// The model's Allan variance at `tau_s` (to draw it over the measured curve): white
+    /// `N^2 / tau`, walk `K^2 tau / 3`, and the first-order Gauss-Markov bias's
+    /// `(2 sigma^2 tc / tau) (1 - (tc / 2 tau) (3 - 4 e^(-tau/tc) + e^(-2 tau/tc)))`
+    /// (IEEE Std 952-1997, annex C, with `q_c^2 = 2 sigma^2 / tc`).
+    pub fn avar(&self, tau_s: f64) -> f64 {
+        let mut v = self.white * self.white / tau_s + self.walk * self.walk * tau_s / 3.0;
+        if let Some((sigma, tc)) = self.gauss_markov {
+            let x = tau_s / tc;
+            let bracket = if x < 1e-3 {
+                // 1 - (3 - 4 e^-x + e^-2x) / (2x) = x^2/3 - x^3/4 + 7 x^4/60 - ..., which the
+                // closed form cancels to below x = 1e-3.
+                x * x * (1.0 / 3.0 - x / 4.0 + 7.0 * x * x / 60.0)
+            } else {
+                1.0 - (3.0 - 4.0 * (-x).exp() + (-2.0 * x).exp()) / (2.0 * x)
+            };
+            v += 2.0 * sigma * sigma / x * bracket;
+        }
+        v
+    }
+}
+
 /// The per-block moments of the model for a block of duration `t` (module docs).
 #[derive(Clone, Copy, Debug)]
 struct Moments {
@@ -638,6 +660,19 @@ pub struct MlFit {
     pub blocks: usize,
 }
 
+impl MlFit {
+    /// The fitted model (maximum-likelihood values).
+    pub fn model(&self) -> Model {
+        Model {
+            white: self.white.value,
+            walk: self.walk.value,
+            gauss_markov: self
+                .gauss_markov
+                .map(|g| (g.sigma.value, g.correlation_time_s)),
+        }
+    }
+}
+
 /// The white-and-walk maximum: the ratio `K / N` on a grid, then Brent. `(N, K, -2 ln L)`.
 fn fit_base(blocks: &Blocks) -> (f64, f64, f64) {
     let conc = |rho: f64| {
@@ -1067,6 +1102,24 @@ mod tests {
             neg2_log_likelihood(&b, &m),
         );
         assert!((x - y - z).abs() < 1e-9 * x.abs());
+    }
+
+    /// The Gauss-Markov Allan variance: a walk `K^2 = 2 sigma^2 / tc` far below `tc`, white
+    /// noise `N^2 = 2 sigma^2 tc` far above, the two forms continuous at the series' switch.
+    #[test]
+    fn gauss_markov_allan_variance_limits() {
+        let (sigma, tc) = (0.3, 50.0);
+        let m = Model {
+            white: 0.0,
+            walk: 0.0,
+            gauss_markov: Some((sigma, tc)),
+        };
+        let k2 = 2.0 * sigma * sigma / tc;
+        assert!((m.avar(0.01) / (k2 * 0.01 / 3.0) - 1.0).abs() < 1e-3);
+        let n2 = 2.0 * sigma * sigma * tc;
+        assert!((m.avar(1e6) / (n2 / 1e6) - 1.0).abs() < 1e-3);
+        let (a, b) = (m.avar(tc * 0.999_999e-3), m.avar(tc * 1.000_001e-3));
+        assert!((a / b - 1.0).abs() < 1e-5, "{a} {b}");
     }
 
     #[test]
