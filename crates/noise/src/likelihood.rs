@@ -508,13 +508,15 @@ fn minimise_1d(f: &mut dyn FnMut(f64) -> f64, x0: f64, step: f64, tol: f64) -> (
 }
 
 /// Nelder-Mead minimisation of `f` from `x0` with initial steps `step`, to a spread of `ftol`
-/// in `f` (or `max_eval` evaluations). `(x, f(x))`.
+/// in `f` (or `max_eval` evaluations), restarted `restarts` times from the best point (a
+/// collapsed simplex stops short of the minimum). `(x, f(x))`.
 fn nelder_mead(
     f: &mut dyn FnMut(&[f64]) -> f64,
     x0: &[f64],
     step: f64,
     ftol: f64,
     max_eval: usize,
+    restarts: usize,
 ) -> (Vec<f64>, f64) {
     let n = x0.len();
     let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(n + 1);
@@ -529,8 +531,7 @@ fn nelder_mead(
     let at = |c: &[f64], w: &[f64], t: f64| -> Vec<f64> {
         c.iter().zip(w).map(|(c, w)| c + t * (w - c)).collect()
     };
-    // Restart once the simplex has converged, to escape a collapsed simplex.
-    let mut restarts = 0;
+    let mut restarted = 0;
     loop {
         simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
         let spread = simplex[n].1 - simplex[0].1;
@@ -538,10 +539,10 @@ fn nelder_mead(
             break;
         }
         if spread <= ftol {
-            if restarts >= 2 {
+            if restarted >= restarts {
                 break;
             }
-            restarts += 1;
+            restarted += 1;
             let best = simplex[0].clone();
             simplex.truncate(1);
             for i in 0..n {
@@ -715,33 +716,53 @@ fn fit_base(blocks: &Blocks) -> (f64, f64, f64) {
 }
 
 /// Find where `g` (a rise of `-2 ln L` above its minimum, as a function of the logarithm of a
-/// parameter) crosses `PROFILE_RISE`, going from `x0` (inside) in direction `dir`. `None`
-/// when it does not within the search.
+/// parameter) crosses `PROFILE_RISE`, going from `x0` (inside) in direction `dir`: steps from
+/// `step0`, doubling, until outside, then the Illinois variant of regula falsi to 1e-3 in the
+/// rise or 1e-4 in `x`. The root is sought in `sqrt(rise) - sqrt(PROFILE_RISE)`, which is
+/// nearly linear where the profile is nearly quadratic: a step or two. `None` when it does not
+/// cross within the search.
 fn profile_end(g: &mut dyn FnMut(f64) -> f64, x0: f64, dir: f64, step0: f64) -> Option<f64> {
-    let (mut inside, mut step) = (x0, step0);
+    let mut g = |x: f64| g(x).max(0.0).sqrt() - PROFILE_RISE.sqrt();
+    let (mut xi, mut step) = (x0, step0);
+    let mut gi = g(x0);
     let mut outside = None;
     for _ in 0..60 {
-        let x = inside + dir * step;
-        if g(x) > PROFILE_RISE {
-            outside = Some(x);
+        let x = xi + dir * step;
+        let gx = g(x);
+        if gx > 0.0 {
+            outside = Some((x, gx));
             break;
         }
-        inside = x;
+        (xi, gi) = (x, gx);
         step *= 2.0;
     }
-    let mut out = outside?;
+    let (mut xo, mut go) = outside?;
+    // Illinois: the end kept twice in a row has its value halved, so that both ends move.
+    let mut side = 0;
     for _ in 0..40 {
-        if (out - inside).abs() < 1e-5 {
+        if (xo - xi).abs() < 1e-4 {
             break;
         }
-        let mid = 0.5 * (inside + out);
-        if g(mid) > PROFILE_RISE {
-            out = mid;
+        let x = (xi * go - xo * gi) / (go - gi);
+        let gx = g(x);
+        if gx.abs() < 1e-3 {
+            return Some(x);
+        }
+        if gx > 0.0 {
+            (xo, go) = (x, gx);
+            if side == 1 {
+                gi *= 0.5;
+            }
+            side = 1;
         } else {
-            inside = mid;
+            (xi, gi) = (x, gx);
+            if side == -1 {
+                go *= 0.5;
+            }
+            side = -1;
         }
     }
-    Some(0.5 * (inside + out))
+    Some(0.5 * (xi + xo))
 }
 
 /// Profile intervals of `N` and `K` for the white-and-walk model at its maximum `(n, k, best)`.
@@ -794,6 +815,25 @@ fn base_levels(blocks: &Blocks, n: f64, k: f64, best: f64) -> (Level, Level) {
     (white, walk)
 }
 
+/// The correlation times the Gauss-Markov bias may have: from 10 blocks to 1000 longest
+/// intervals. Beyond the upper end it is a walk; below the lower end the block means see it as
+/// white noise (it trades off against the white level, which then has no lower bound), and on
+/// real sensors a correlation that short is the sensor's own low-pass filter, not a bias. A
+/// penalty outside, on the logarithm `ln_tc`.
+fn tc_penalty(blocks: &Blocks, ln_tc: f64) -> f64 {
+    let (lo, hi) = (
+        (10.0 * blocks.block_s).ln(),
+        (1000.0 * blocks.longest_s()).ln(),
+    );
+    if ln_tc < lo {
+        1e6 * (1.0 + lo - ln_tc)
+    } else if ln_tc > hi {
+        1e6 * (1.0 + ln_tc - hi)
+    } else {
+        0.0
+    }
+}
+
 /// The maximum of the model with a Gauss-Markov bias, from the white-and-walk maximum:
 /// Nelder-Mead on the logarithms of `K / N`, `sigma / N` and `tc` (scale concentrated out),
 /// from several correlation times. `(model, -2 ln L)`.
@@ -805,17 +845,7 @@ fn fit_gauss_markov(blocks: &Blocks, n: f64, k: f64) -> (Model, f64) {
         walk: p[0].exp(),
         gauss_markov: Some((p[1].exp(), p[2].exp())),
     };
-    let mut f = |p: &[f64]| {
-        // Correlation times beyond 1000 longest intervals or below a tenth of a block are
-        // walks and white noise: kept out so that the search does not wander.
-        let tc = p[2].exp();
-        let pen = if tc > 1000.0 * blocks.longest_s() || tc < 0.1 * blocks.block_s {
-            1e6
-        } else {
-            0.0
-        };
-        concentrated(blocks, &model_of(p)).0 + pen
-    };
+    let mut f = |p: &[f64]| concentrated(blocks, &model_of(p)).0 + tc_penalty(blocks, p[2]);
     let (t_lo, t_hi) = (10.0 * blocks.block_s, 0.5 * blocks.longest_s());
     let mut best: Option<(Vec<f64>, f64)> = None;
     let starts = 5;
@@ -826,7 +856,7 @@ fn fit_gauss_markov(blocks: &Blocks, n: f64, k: f64) -> (Model, f64) {
             t_lo
         };
         let x0 = [rho_k.ln(), (1.0 / tc.sqrt()).ln(), tc.ln()];
-        let r = nelder_mead(&mut f, &x0, 1.0, 1e-4, 600);
+        let r = nelder_mead(&mut f, &x0, 1.0, 1e-4, 600, 2);
         if best.as_ref().is_none_or(|b| r.1 < b.1) {
             best = Some(r);
         }
@@ -857,28 +887,42 @@ fn gauss_markov_levels(blocks: &Blocks, m: &Model, best: f64) -> (Level, Level, 
                 walk: p[1].exp(),
                 gauss_markov: Some((p[2].exp(), p[3].exp())),
             },
-        )
+        ) + tc_penalty(blocks, p[3])
     };
+    // The others re-maximised by Nelder-Mead, warm-started from the last profile point's
+    // optimum (the ends are searched outwards and then inwards: neighbouring points).
+    let warm = std::cell::Cell::new(full);
     let prof = |which: usize, x: f64| {
         let others: Vec<usize> = (0..4).filter(|&i| i != which).collect();
-        let x0: Vec<f64> = others.iter().map(|&i| full[i]).collect();
+        let start = warm.get();
+        let x0: Vec<f64> = others.iter().map(|&i| start[i]).collect();
         let mut f = |q: &[f64]| {
-            let mut p = full;
+            let mut p = start;
             p[which] = x;
             for (&i, &v) in others.iter().zip(q) {
                 p[i] = v;
             }
             nll(&p)
         };
-        nelder_mead(&mut f, &x0, 0.3, 1e-4, 400).1
+        let (q, fq) = nelder_mead(&mut f, &x0, 0.05, 1e-3, 300, 1);
+        let mut p = start;
+        p[which] = x;
+        for (&i, &v) in others.iter().zip(&q) {
+            p[i] = v;
+        }
+        warm.set(p);
+        fq
     };
     let level = |which: usize, may_be_zero: bool| {
         let v = full[which];
+        warm.set(full);
         let lower = if may_be_zero && prof(which, v - 30.0) - best <= PROFILE_RISE {
             0.0
         } else {
+            warm.set(full);
             profile_end(&mut |x| prof(which, x) - best, v, -1.0, 0.02).map_or(0.0, f64::exp)
         };
+        warm.set(full);
         let upper = profile_end(&mut |x| prof(which, x) - best, v, 1.0, 0.02)
             .map_or(f64::INFINITY, f64::exp);
         Level {
@@ -1132,6 +1176,7 @@ mod tests {
             0.5,
             1e-12,
             2000,
+            2,
         );
         assert!((p[0] - 1.0).abs() < 1e-4 && (p[1] + 2.0).abs() < 1e-4 && fp < 1e-8);
     }

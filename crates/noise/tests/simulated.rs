@@ -207,6 +207,7 @@ fn ml_seed_set_levels_within_profile_intervals() {
     let mut inside = 0;
     let mut worst: (f64, String) = (0.0, String::new());
     let mut mean_z = [0.0; 2];
+    let mut mean_ratio = [0.0; 2];
     let mut gm = 0;
     for (i, f) in fits.iter().enumerate() {
         if f.gauss_markov.is_some() {
@@ -219,6 +220,7 @@ fn ml_seed_set_levels_within_profile_intervals() {
             // The truth's position in half-widths: positive when the estimate is low.
             let z = level.z(truth);
             mean_z[j] += -z / fits.len() as f64;
+            mean_ratio[j] += level.value / truth / fits.len() as f64;
             println!(
                 "fit {i:2} {name}: {:.5} of the truth [{:.5}, {:.5}], truth at {z:+.2} \
                  half-widths{}",
@@ -245,12 +247,14 @@ fn ml_seed_set_levels_within_profile_intervals() {
     }
     println!(
         "{inside} of 60 truths inside their 68 % interval, largest miss {:.2} half-widths ({}), \
-         mean z (estimate - truth, in half-widths) white {:+.3}, walk {:+.3}; Gauss-Markov \
-         selected in {gm} of 30; {:.1} s",
+         mean z (estimate - truth, in half-widths) white {:+.3}, walk {:+.3}, mean estimate / \
+         truth white {:.5}, walk {:.4}; Gauss-Markov selected in {gm} of 30; {:.1} s",
         worst.0,
         worst.1,
         mean_z[0],
         mean_z[1],
+        mean_ratio[0],
+        mean_ratio[1],
         start.elapsed().as_secs_f64()
     );
     assert!(worst.0 < 4.0, "{}: {} half-widths", worst.1, worst.0);
