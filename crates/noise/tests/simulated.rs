@@ -248,7 +248,7 @@ fn ml_seed_set_levels_within_profile_intervals() {
     println!(
         "{inside} of 60 truths inside their 68 % interval, largest miss {:.2} half-widths ({}), \
          mean z (estimate - truth, in half-widths) white {:+.3}, walk {:+.3}, mean estimate / \
-         truth white {:.5}, walk {:.4}; Gauss-Markov selected in {gm} of 30; {:.1} s",
+         truth white {:.5}, walk {:.4}; Gauss-Markov selected in {gm} of 30\n(fits took {:.1} s)",
         worst.0,
         worst.1,
         mean_z[0],

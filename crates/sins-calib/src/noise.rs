@@ -1,7 +1,8 @@
 //! `sins-calib noise`: the sensors' noise from data at rest (the `noise` library): overlapping
 //! Allan deviation of every gyro and accelerometer axis with confidence intervals, the fitted
-//! noise terms with their uncertainties, the white levels and bias walks in `[noise]`'s
-//! convention and a `[noise]` block to paste (docs/noise.md).
+//! noise terms with their uncertainties, the white levels and bias walks of the
+//! maximum-likelihood fit with their profile intervals in `[noise]`'s convention, and a
+//! `[noise]` block to paste (docs/noise.md).
 
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, print};
