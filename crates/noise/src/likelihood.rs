@@ -299,10 +299,16 @@ impl Sums {
 
 /// Run the filter over every interval (module docs, "Likelihood").
 fn filter(blocks: &Blocks, model: &Model) -> Sums {
+    filter_with(blocks, model, |_, _| {})
+}
+
+/// The filter, handing every normalised innovation `nu / sqrt(S)` with its interval's index
+/// to `on` (a no-op for the likelihood: monomorphised, it costs nothing there).
+fn filter_with<F: FnMut(usize, f64)>(blocks: &Blocks, model: &Model, mut on: F) -> Sums {
     let mut sums = Sums::default();
     let mut prod = LnProduct::default();
     let full = Moments::new(model, blocks.block_s);
-    for iv in &blocks.intervals {
+    for (index, iv) in blocks.intervals.iter().enumerate() {
         if iv.len() < 2 {
             continue;
         }
@@ -325,6 +331,7 @@ fn filter(blocks: &Blocks, model: &Model) -> Sums {
                 let nu = y - m;
                 prod.push(s);
                 sums.quad += nu * nu * inv;
+                on(index, nu * inv.sqrt());
                 m += (p + c.cb) * inv * nu;
                 // P' = P + Q - (P + C)^2 / S, written without the cancellation.
                 p = (p * c.d1 + c.d2) * inv;
@@ -343,6 +350,7 @@ fn filter(blocks: &Blocks, model: &Model) -> Sums {
                 let nu = y - mb - c.a * mg;
                 prod.push(s);
                 sums.quad += nu * nu / s;
+                on(index, nu / s.sqrt());
                 let kb = hpb + c.cb;
                 let kg = c.phi * hpg + c.cg;
                 mb += kb / s * nu;
@@ -386,6 +394,56 @@ impl LnProduct {
     fn ln(self) -> f64 {
         self.ln + self.prod.ln()
     }
+}
+
+/// The check of a model against the data: under the model the normalised innovations
+/// `nu / sqrt(S)` are independent standard normal. Their sums over non-overlapping windows of
+/// `w = 2, 4, 8, ...` blocks (within each interval, while there are at least 10 windows) then
+/// have variance `w`: `sum (window sum)^2 / w` is chi-square with as many degrees of freedom as
+/// windows. A misfit at some time scale (a correlation the model lacks, a walk it has wrong)
+/// shows as too much or too little variance at the windows of that length. Each window length
+/// gets a two-sided p-value; their smallest, times the number of lengths (Bonferroni: the
+/// lengths are nested and correlated, which this bound allows), is the check's p-value.
+/// Windows of one block are left out: the fitted scale makes their sum what it should be.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Whiteness {
+    /// The check's p-value (Bonferroni over the window lengths).
+    pub p_value: f64,
+    /// The window length (blocks) with the smallest p-value.
+    pub window_blocks: usize,
+    /// The variance of the window sums there relative to the model's (1 under the model).
+    pub variance_ratio: f64,
+}
+
+/// The whiteness check of `model` on `blocks` (see [`Whiteness`]); `None` with fewer than 20
+/// innovations.
+pub fn whiteness(blocks: &Blocks, model: &Model) -> Option<Whiteness> {
+    let mut e: Vec<Vec<f64>> = vec![Vec::new(); blocks.intervals.len()];
+    filter_with(blocks, model, |i, x| e[i].push(x));
+    let mut tests = Vec::new();
+    let mut w = 2;
+    loop {
+        let (mut stat, mut windows) = (0.0, 0usize);
+        for iv in &e {
+            for c in iv.chunks_exact(w) {
+                let sum: f64 = c.iter().sum();
+                stat += sum * sum / w as f64;
+                windows += 1;
+            }
+        }
+        if windows < 10 {
+            break;
+        }
+        let f = ChiSquared::new(windows as f64).ok()?.cdf(stat);
+        tests.push((2.0 * f.min(1.0 - f), w, stat / windows as f64));
+        w *= 2;
+    }
+    let (p, w, ratio) = tests.iter().copied().min_by(|a, b| a.0.total_cmp(&b.0))?;
+    Some(Whiteness {
+        p_value: (p * tests.len() as f64).min(1.0),
+        window_blocks: w,
+        variance_ratio: ratio,
+    })
 }
 
 /// `-2 ln L` of the block means under `model` (without the constant `n ln 2 pi`).
@@ -655,7 +713,10 @@ pub struct MlFit {
     pub lr_statistic: f64,
     /// Its p-value, chi-square with 2 degrees of freedom (module docs).
     pub lr_p_value: f64,
-    /// Block duration (s) and number of blocks.
+    /// The whiteness check of the selected model's innovations ([`Whiteness`]): the check of
+    /// the model against the data (the likelihood ratio only compares the two models).
+    pub whiteness: Option<Whiteness>,
+    /// Block duration (s).
     pub block_s: f64,
     /// Number of blocks.
     pub blocks: usize,
@@ -963,6 +1024,7 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
             neg2_log_likelihood: gm_best,
             lr_statistic: lr,
             lr_p_value: p,
+            whiteness: whiteness(blocks, &gm),
             block_s: blocks.block_s,
             blocks: blocks.len(),
         })
@@ -975,6 +1037,14 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
             neg2_log_likelihood: best,
             lr_statistic: lr,
             lr_p_value: p,
+            whiteness: whiteness(
+                blocks,
+                &Model {
+                    white: n,
+                    walk: k,
+                    gauss_markov: None,
+                },
+            ),
             block_s: blocks.block_s,
             blocks: blocks.len(),
         })

@@ -257,6 +257,16 @@ fn ml_seed_set_levels_within_profile_intervals() {
         mean_ratio[1],
         start.elapsed().as_secs_f64()
     );
+    let mut p: Vec<f64> = fits
+        .iter()
+        .map(|f| f.whiteness.map_or(f64::NAN, |w| w.p_value))
+        .collect();
+    p.sort_by(f64::total_cmp);
+    println!(
+        "whiteness check of the innovations: median p-value {:.3}, smallest {:.4}",
+        0.5 * (p[14] + p[15]),
+        p[0]
+    );
     assert!(worst.0 < 4.0, "{}: {} half-widths", worst.1, worst.0);
     assert!(
         (30..=51).contains(&inside),

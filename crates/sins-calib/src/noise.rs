@@ -410,6 +410,7 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
         (&gm_label, Align::Right),
         ("tc [s]", Align::Right),
         ("LR p", Align::Right),
+        ("check p", Align::Right),
         ("blocks", Align::Right),
     ]);
     for (a, m) in sn.ml.iter().enumerate() {
@@ -427,12 +428,15 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
             gm,
             tc,
             calib::report::p_value_text(m.lr_p_value),
+            m.whiteness
+                .map_or("-".to_string(), |w| calib::report::p_value_text(w.p_value)),
             format!("{} x {} s", m.blocks, table::significant(m.block_s, 3)),
         ]);
     }
     format!(
         "\n{}, maximum likelihood (value [68 % profile interval]; the Gauss-Markov bias where \
-         the likelihood-ratio test, p in LR p, selects it at p < 0.01)\n{}",
+         the likelihood-ratio test, p in LR p, selects it at p < 0.01; check p: the model \
+         against the data, whiteness of the innovations)\n{}",
         s.name,
         t.render()
     )
@@ -502,9 +506,23 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
         calib::config::NoiseReading::Average => "average",
         calib::config::NoiseReading::Sample => "sample",
     };
+    // Axes whose likelihood model fails its check against the data: their levels are levels
+    // within a model the data do not follow.
+    let fails = |sn: &SensorNoise| {
+        let k = sn
+            .ml
+            .iter()
+            .filter(|m| m.whiteness.is_some_and(|w| w.p_value < 0.01))
+            .count();
+        if k == 0 {
+            String::new()
+        } else {
+            format!(", but the model fails its check (p < 0.01) on {k} of 3 axes")
+        }
+    };
     let walk_note = |sn: &SensorNoise, factor: f64| {
         if sn.ml.iter().any(|m| m.walk.lower > 0.0) {
-            "measured".to_string()
+            format!("measured{}", fails(sn))
         } else {
             format!(
                 "none found in these data (at most {} at the upper end of the 68 % interval)",
@@ -517,10 +535,16 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
     let _ = writeln!(s, "reading = \"{reading}\"  # {from}");
     let _ = writeln!(
         s,
-        "gyro_deg_h = {}  # measured",
-        sig(max_white(g) / DEG_PER_HOUR)
+        "gyro_deg_h = {}  # measured{}",
+        sig(max_white(g) / DEG_PER_HOUR),
+        fails(g)
     );
-    let _ = writeln!(s, "accel_m_s2 = {}  # measured", sig(max_white(a)));
+    let _ = writeln!(
+        s,
+        "accel_m_s2 = {}  # measured{}",
+        sig(max_white(a)),
+        fails(a)
+    );
     let _ = writeln!(
         s,
         "angle_arcsec = {}  # {from}",
@@ -640,6 +664,9 @@ fn json_of(
                         "gauss_markov": f.gauss_markov.is_some(),
                         "lr_statistic": f.lr_statistic,
                         "lr_p_value": f.lr_p_value,
+                        "check_p_value": f.whiteness.map(|w| w.p_value),
+                        "check_window_s": f.whiteness.map(|w| w.window_blocks as f64 * f.block_s),
+                        "check_variance_ratio": f.whiteness.map(|w| w.variance_ratio),
                         "neg2_log_likelihood": f.neg2_log_likelihood,
                         "block_s": f.block_s,
                         "blocks": f.blocks,
