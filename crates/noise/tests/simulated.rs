@@ -304,6 +304,63 @@ fn ml_acceptance_four_hours_at_100_hz() {
     }
 }
 
+/// A measurement, not a pass/fail test (its seeds were chosen here, after the seed set above
+/// passed, and it has no thresholds): the maximum-likelihood fit on recordings with a
+/// Gauss-Markov bias (0.05 deg/h, 100 s) on top of the acceptance levels, seeds 2001..=2010,
+/// three axes, 2 h at 50 Hz. Prints how often the bias is selected, how many truths (white,
+/// walk, and the Gauss-Markov sigma where selected) lie inside their 68 % intervals, and the
+/// largest miss. docs/noise.md reports the figures.
+#[test]
+#[ignore = "a measurement without thresholds, about 65 s in release: run with --ignored --nocapture"]
+fn ml_gauss_markov_seed_set_report() {
+    let gm = Some((0.05 * DEG_H, 100.0));
+    let jobs: Vec<u64> = (2001..=2010u64)
+        .flat_map(|s| (0..3u64).map(move |a| s * 10 + a))
+        .collect();
+    let mut res: Vec<Option<MlFit>> = vec![None; jobs.len()];
+    std::thread::scope(|sc| {
+        for (j, o) in jobs.chunks(15).zip(res.chunks_mut(15)) {
+            sc.spawn(move || {
+                for (&s, out) in j.iter().zip(o) {
+                    let d = axis(s, 2 * 3600 * 50, 50.0, WHITE, WALK, gm);
+                    *out = Some(fit_ml(&d, 0.02, &[0..d.len()]).expect("ml fit"));
+                }
+            });
+        }
+    });
+    let (mut selected, mut inside, mut n, mut worst) = (0, 0, 0, (0.0f64, String::new()));
+    for (i, f) in res.iter().map(|r| r.as_ref().expect("a fit")).enumerate() {
+        let mut zs = vec![("white", f.white.z(WHITE)), ("walk", f.walk.z(WALK))];
+        if let Some(g) = f.gauss_markov {
+            selected += 1;
+            zs.push(("gauss-markov sigma", g.sigma.z(0.05 * DEG_H)));
+        }
+        println!(
+            "fit {i:2}: Gauss-Markov {} (tc {:?} s), truths at {:?} half-widths, check p {:?}",
+            f.gauss_markov.is_some(),
+            f.gauss_markov.map(|g| g.correlation_time_s.round()),
+            zs.iter()
+                .map(|(_, z)| (z * 100.0).round() / 100.0)
+                .collect::<Vec<_>>(),
+            f.whiteness.map(|w| w.p_value)
+        );
+        for (name, z) in zs {
+            n += 1;
+            if z.abs() <= 1.0 {
+                inside += 1;
+            }
+            if z.abs() > worst.0 {
+                worst = (z.abs(), format!("fit {i} {name}"));
+            }
+        }
+    }
+    println!(
+        "Gauss-Markov selected in {selected} of 30; {inside} of {n} truths inside their 68 % \
+         interval; largest miss {:.2} half-widths ({})",
+        worst.0, worst.1
+    );
+}
+
 /// The fit's chi-square is a usable check of the model on data the model describes: the
 /// median p-value of the 30 fits between 0.1 and 0.9 (for uniform p-values the median of 30
 /// has a standard deviation of 0.09), and none below 1e-4.
