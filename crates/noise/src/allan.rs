@@ -86,7 +86,7 @@ impl AllanCurve {
 
 /// Check the intervals against the data: non-empty, inside `0..len`, in order and not
 /// overlapping.
-fn check_intervals(len: usize, intervals: &[Range<usize>]) -> Result<(), NoiseError> {
+pub(crate) fn check_intervals(len: usize, intervals: &[Range<usize>]) -> Result<(), NoiseError> {
     if intervals.is_empty() {
         return Err(NoiseError::NoIntervals);
     }

@@ -1,9 +1,10 @@
 //! # noise
 //!
 //! The noise of inertial sensors from data at rest: the overlapping Allan deviation of each
-//! axis with confidence intervals, and a fit of the IEEE noise terms (quantisation, white
+//! axis with confidence intervals, a fit of the IEEE noise terms (quantisation, white
 //! noise, bias instability, bias random walk, rate ramp) with their uncertainties and a check of
-//! the fitted model against the data.
+//! the fitted model against the data, and a maximum-likelihood fit of the white level and walk
+//! with profile-likelihood intervals.
 //!
 //! - [`allan`]: the overlapping Allan variance over one or more static intervals (record index
 //!   ranges), combined weighted by their number of terms, at octave averaging times;
@@ -12,7 +13,11 @@
 //! - [`fit`]: weighted least squares of the terms on the Allan variance, non-negative, with the
 //!   weights from the degrees of freedom, the covariance of the coefficients and the fit's
 //!   chi-square;
-//! - [`analyse_axis`]: both for one axis.
+//! - [`analyse_axis`]: both for one axis;
+//! - [`likelihood`]: the white level, walk and (when the data show one) a Gauss-Markov bias by
+//!   the exact Gaussian likelihood of the data (a Kalman filter on block means), with 68 %
+//!   intervals from the profile likelihood: the levels whose intervals hold up on a seed set,
+//!   where the Allan fit's walk sigmas do not.
 //!
 //! Everything is SI: the increments are rad (gyro) or m/s (accelerometer), the rates rad/s or
 //! m/s^2. The white-noise level [`fit::Term::White`] is the standard deviation of a 1-s average
@@ -46,6 +51,7 @@
 pub mod allan;
 pub mod edf;
 pub mod fit;
+pub mod likelihood;
 
 use serde::{Deserialize, Serialize};
 use std::ops::Range;

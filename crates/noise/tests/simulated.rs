@@ -11,6 +11,7 @@
 
 use noise::analyse_axis;
 use noise::fit::{NoiseFit, Term};
+use noise::likelihood::{MlFit, fit_ml};
 use rand::{SeedableRng, rngs::Xoshiro256PlusPlus};
 use rand_distr::{Distribution, StandardNormal};
 
@@ -122,7 +123,9 @@ fn seed_set() -> Vec<NoiseFit> {
 /// at a chance low value its first-order sigma is too small (fit 27: 0.44 of the truth, -8
 /// sigma). docs/noise.md, "What the checks say".
 #[test]
-#[ignore = "fails: the term selection confuses walk and instability on 2-h records, docs/noise.md"]
+#[ignore = "fails for the Allan fit: the term selection confuses walk and instability on 2-h \
+            records, docs/noise.md; the maximum-likelihood twin \
+            ml_seed_set_levels_within_profile_intervals passes"]
 fn seed_set_levels_within_stated_uncertainties() {
     let fits = seed_set();
     let mut within_one = 0;
@@ -173,6 +176,191 @@ fn seed_set_levels_within_stated_uncertainties() {
     );
 }
 
+/// The maximum-likelihood fits ([`noise::likelihood`]) of the seed set of
+/// [`seed_set_levels_within_stated_uncertainties`] (same seeds, generator and levels), two
+/// threads.
+fn ml_seed_set() -> Vec<MlFit> {
+    let jobs: Vec<u64> = (1001..=1010u64)
+        .flat_map(|seed| (0..3u64).map(move |ax| seed * 10 + ax))
+        .collect();
+    let mut fits: Vec<Option<MlFit>> = vec![None; jobs.len()];
+    std::thread::scope(|s| {
+        for (chunk_jobs, chunk_fits) in jobs.chunks(15).zip(fits.chunks_mut(15)) {
+            s.spawn(move || {
+                for (&j, out) in chunk_jobs.iter().zip(chunk_fits) {
+                    let data = axis(j, 2 * 3600 * 50, 50.0, WHITE, WALK, None);
+                    *out = Some(fit_ml(&data, 1.0 / 50.0, &[0..data.len()]).expect("ml fit"));
+                }
+            });
+        }
+    });
+    fits.into_iter().map(|f| f.expect("a fit")).collect()
+}
+
+/// The maximum-likelihood twin of [`seed_set_levels_within_stated_uncertainties`], with the
+/// same seeds and thresholds: every truth within 4 half-widths of its profile interval (the
+/// half-width on the truth's side), and 30 to 51 of the 60 truths inside their 68 % interval.
+#[test]
+fn ml_seed_set_levels_within_profile_intervals() {
+    let start = std::time::Instant::now();
+    let fits = ml_seed_set();
+    let mut inside = 0;
+    let mut worst: (f64, String) = (0.0, String::new());
+    let mut mean_z = [0.0; 2];
+    let mut mean_ratio = [0.0; 2];
+    let mut gm = 0;
+    for (i, f) in fits.iter().enumerate() {
+        if f.gauss_markov.is_some() {
+            gm += 1;
+        }
+        for (j, (name, level, truth)) in [("white", f.white, WHITE), ("walk", f.walk, WALK)]
+            .into_iter()
+            .enumerate()
+        {
+            // The truth's position in half-widths: positive when the estimate is low.
+            let z = level.z(truth);
+            mean_z[j] += -z / fits.len() as f64;
+            mean_ratio[j] += level.value / truth / fits.len() as f64;
+            println!(
+                "fit {i:2} {name}: {:.5} of the truth [{:.5}, {:.5}], truth at {z:+.2} \
+                 half-widths{}",
+                level.value / truth,
+                level.lower / truth,
+                level.upper / truth,
+                match f.gauss_markov {
+                    Some(g) => format!(
+                        " (Gauss-Markov selected, p {:.4}: sigma {:.3} deg/h, tc {:.0} s)",
+                        f.lr_p_value,
+                        g.sigma.value / DEG_H,
+                        g.correlation_time_s
+                    ),
+                    None => String::new(),
+                }
+            );
+            if z.abs() > worst.0 {
+                worst = (z.abs(), format!("fit {i} {name}"));
+            }
+            if z.abs() <= 1.0 {
+                inside += 1;
+            }
+        }
+    }
+    println!(
+        "{inside} of 60 truths inside their 68 % interval, largest miss {:.2} half-widths ({}), \
+         mean z (estimate - truth, in half-widths) white {:+.3}, walk {:+.3}, mean estimate / \
+         truth white {:.5}, walk {:.4}; Gauss-Markov selected in {gm} of 30\n(fits took {:.1} s)",
+        worst.0,
+        worst.1,
+        mean_z[0],
+        mean_z[1],
+        mean_ratio[0],
+        mean_ratio[1],
+        start.elapsed().as_secs_f64()
+    );
+    let mut p: Vec<f64> = fits
+        .iter()
+        .map(|f| f.whiteness.map_or(f64::NAN, |w| w.p_value))
+        .collect();
+    p.sort_by(f64::total_cmp);
+    println!(
+        "whiteness check of the innovations: median p-value {:.3}, smallest {:.4}",
+        0.5 * (p[14] + p[15]),
+        p[0]
+    );
+    assert!(worst.0 < 4.0, "{}: {} half-widths", worst.1, worst.0);
+    assert!(
+        (30..=51).contains(&inside),
+        "{inside} of 60 inside their interval: expected 30 to 51"
+    );
+}
+
+/// The issue's acceptance case ([`acceptance_four_hours_at_100_hz`], same data) with the
+/// maximum-likelihood fit: white within 15 %, walk within a factor 1.5, each axis.
+#[test]
+fn ml_acceptance_four_hours_at_100_hz() {
+    for ax in 0..3u64 {
+        let start = std::time::Instant::now();
+        let data = axis(22 * 10 + ax, 4 * 3600 * 100, 100.0, WHITE, WALK, None);
+        let f = fit_ml(&data, 0.01, &[0..data.len()]).expect("ml fit");
+        let (n, k) = (f.white, f.walk);
+        println!(
+            "axis {ax}: white {:.5} [{:.5}, {:.5}] deg/h (true 0.1), walk {:.4} [{:.4}, {:.4}] \
+             deg/h/sqrt(h) (true 0.037), Gauss-Markov {}, LR p {:.3}, {} blocks of {} s, {:.2} s",
+            n.value / DEG_H,
+            n.lower / DEG_H,
+            n.upper / DEG_H,
+            k.value / DEG_H * 60.0,
+            k.lower / DEG_H * 60.0,
+            k.upper / DEG_H * 60.0,
+            f.gauss_markov.is_some(),
+            f.lr_p_value,
+            f.blocks,
+            f.block_s,
+            start.elapsed().as_secs_f64()
+        );
+        assert!((n.value / WHITE - 1.0).abs() < 0.15, "axis {ax}: white");
+        let r = k.value / WALK;
+        assert!(r > 1.0 / 1.5 && r < 1.5, "axis {ax}: walk {r} of the truth");
+    }
+}
+
+/// A measurement, not a pass/fail test (its seeds were chosen here, after the seed set above
+/// passed, and it has no thresholds): the maximum-likelihood fit on recordings with a
+/// Gauss-Markov bias (0.05 deg/h, 100 s) on top of the acceptance levels, seeds 2001..=2010,
+/// three axes, 2 h at 50 Hz. Prints how often the bias is selected, how many truths (white,
+/// walk, and the Gauss-Markov sigma where selected) lie inside their 68 % intervals, and the
+/// largest miss. docs/noise.md reports the figures.
+#[test]
+#[ignore = "a measurement without thresholds, about 65 s in release: run with --ignored --nocapture"]
+fn ml_gauss_markov_seed_set_report() {
+    let gm = Some((0.05 * DEG_H, 100.0));
+    let jobs: Vec<u64> = (2001..=2010u64)
+        .flat_map(|s| (0..3u64).map(move |a| s * 10 + a))
+        .collect();
+    let mut res: Vec<Option<MlFit>> = vec![None; jobs.len()];
+    std::thread::scope(|sc| {
+        for (j, o) in jobs.chunks(15).zip(res.chunks_mut(15)) {
+            sc.spawn(move || {
+                for (&s, out) in j.iter().zip(o) {
+                    let d = axis(s, 2 * 3600 * 50, 50.0, WHITE, WALK, gm);
+                    *out = Some(fit_ml(&d, 0.02, &[0..d.len()]).expect("ml fit"));
+                }
+            });
+        }
+    });
+    let (mut selected, mut inside, mut n, mut worst) = (0, 0, 0, (0.0f64, String::new()));
+    for (i, f) in res.iter().map(|r| r.as_ref().expect("a fit")).enumerate() {
+        let mut zs = vec![("white", f.white.z(WHITE)), ("walk", f.walk.z(WALK))];
+        if let Some(g) = f.gauss_markov {
+            selected += 1;
+            zs.push(("gauss-markov sigma", g.sigma.z(0.05 * DEG_H)));
+        }
+        println!(
+            "fit {i:2}: Gauss-Markov {} (tc {:?} s), truths at {:?} half-widths, check p {:?}",
+            f.gauss_markov.is_some(),
+            f.gauss_markov.map(|g| g.correlation_time_s.round()),
+            zs.iter()
+                .map(|(_, z)| (z * 100.0).round() / 100.0)
+                .collect::<Vec<_>>(),
+            f.whiteness.map(|w| w.p_value)
+        );
+        for (name, z) in zs {
+            n += 1;
+            if z.abs() <= 1.0 {
+                inside += 1;
+            }
+            if z.abs() > worst.0 {
+                worst = (z.abs(), format!("fit {i} {name}"));
+            }
+        }
+    }
+    println!(
+        "Gauss-Markov selected in {selected} of 30; {inside} of {n} truths inside their 68 % \
+         interval; largest miss {:.2} half-widths ({})",
+        worst.0, worst.1
+    );
+}
+
 /// The fit's chi-square is a usable check of the model on data the model describes: the
 /// median p-value of the 30 fits between 0.1 and 0.9 (for uniform p-values the median of 30
 /// has a standard deviation of 0.09), and none below 1e-4.
@@ -220,6 +408,22 @@ fn static_intervals_of_a_moving_recording() {
     );
     assert!(((n.value - WHITE) / n.sigma).abs() < 3.0);
     assert!(a.curve.points.last().unwrap().tau_s <= 300.0);
+    // The maximum-likelihood fit: one filter per interval, likelihoods added; the white level
+    // and the walk within 3 half-widths of their profile intervals.
+    let ml = fit_ml(&data, 1.0 / rate, &intervals).expect("ml fit");
+    println!(
+        "maximum likelihood: white {:.5} [{:.5}, {:.5}] deg/h, walk {:.4} [{:.4}, {:.4}] \
+         deg/h/sqrt(h), Gauss-Markov {}",
+        ml.white.value / DEG_H,
+        ml.white.lower / DEG_H,
+        ml.white.upper / DEG_H,
+        ml.walk.value / DEG_H * 60.0,
+        ml.walk.lower / DEG_H * 60.0,
+        ml.walk.upper / DEG_H * 60.0,
+        ml.gauss_markov.is_some()
+    );
+    assert!(ml.white.z(WHITE).abs() < 3.0, "white {:?}", ml.white);
+    assert!(ml.walk.z(WALK).abs() < 3.0, "walk {:?}", ml.walk);
     let whole = analyse_axis(&data, 1.0 / rate, &[0..data.len()]).unwrap();
     assert!(whole.curve.points.last().unwrap().adev > 100.0 * WHITE);
 }
@@ -245,5 +449,22 @@ fn gauss_markov_bias_leaves_the_white_level() {
     assert!(
         f.term(Term::BiasInstability).included || f.term(Term::RandomWalk).value > WALK,
         "the Gauss-Markov bias left no trace in the fit"
+    );
+    // The maximum-likelihood fit has the Gauss-Markov process in its model: it should select
+    // it (p < 0.01) and find its deviation and the white level within their intervals' reach.
+    let ml = fit_ml(&data, 0.01, &[0..data.len()]).expect("ml fit");
+    println!("maximum likelihood: {ml:?}");
+    assert!((ml.white.value / WHITE - 1.0).abs() < 0.15);
+    let g = ml.gauss_markov.expect("the Gauss-Markov bias selected");
+    println!(
+        "  Gauss-Markov sigma {:.4} [{:.4}, {:.4}] deg/h (true 0.05), tc {:.0} s (true 100), \
+         white z {:+.2}, walk z {:+.2}, sigma z {:+.2}",
+        g.sigma.value / DEG_H,
+        g.sigma.lower / DEG_H,
+        g.sigma.upper / DEG_H,
+        g.correlation_time_s,
+        ml.white.z(WHITE),
+        ml.walk.z(WALK),
+        g.sigma.z(0.05 * DEG_H)
     );
 }

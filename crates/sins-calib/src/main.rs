@@ -6,7 +6,8 @@
 //! - `analyse`: covariance analysis of a run configuration, without data;
 //! - `import`: a recording in another layout turned into `imu.csv` by an import profile;
 //! - `segment`: an `imu.csv` split into static intervals and motion;
-//! - `noise`: the sensors' noise from data at rest (Allan deviation, fitted noise terms);
+//! - `noise`: the sensors' noise from data at rest (maximum-likelihood levels, Allan deviation,
+//!   fitted noise terms);
 //! - `diagnose`: what the model gets wrong, and the terms that fix it (model-extension loop);
 //! - `design`: a program that separates candidate terms;
 //! - `apply`: raw IMU records corrected with a calibration result.
@@ -97,10 +98,11 @@ enum Command {
     /// specific force and of the rate and the magnitude of the mean rate are below thresholds;
     /// runs of static records at least --min-duration long are the static intervals.
     Segment(segment::Args),
-    /// The sensors' noise from data at rest: overlapping Allan deviation of every gyro and
-    /// accelerometer axis with confidence intervals, the fitted noise terms (quantisation, white
-    /// noise, bias instability, bias random walk, rate ramp) with their uncertainties, and a
-    /// `[noise]` block to paste (docs/noise.md).
+    /// The sensors' noise from data at rest: the white level and bias walk of every gyro and
+    /// accelerometer axis by maximum likelihood with 68 % profile intervals, the overlapping
+    /// Allan deviation with confidence intervals, the noise terms fitted to it (quantisation,
+    /// white noise, bias instability, bias random walk, rate ramp) with their uncertainties, and
+    /// a `[noise]` block to paste (docs/noise.md).
     ///
     /// Uses the static intervals the detector finds (as `segment`), or the whole recording with
     /// --all-at-rest; the longest interval bounds the longest averaging time.

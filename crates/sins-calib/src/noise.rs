@@ -1,12 +1,14 @@
 //! `sins-calib noise`: the sensors' noise from data at rest (the `noise` library): overlapping
 //! Allan deviation of every gyro and accelerometer axis with confidence intervals, the fitted
-//! noise terms with their uncertainties, the white levels and bias walks in `[noise]`'s
-//! convention and a `[noise]` block to paste (docs/noise.md).
+//! noise terms with their uncertainties, the white levels and bias walks of the
+//! maximum-likelihood fit with their profile intervals in `[noise]`'s convention, and a
+//! `[noise]` block to paste (docs/noise.md).
 
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, print};
 use ::import::detect::{DetectorSettings, segment};
 use ::noise::fit::{NoiseFit, Term};
+use ::noise::likelihood::{Level, MlFit, fit_ml};
 use ::noise::{AxisNoise, analyse_axis};
 use calib::config::{NoiseConfig, RunConfig};
 use calib::io::ImuKind;
@@ -116,9 +118,11 @@ const ACCEL: Sensor = Sensor {
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
-/// The analysis of one sensor: three axes.
+/// The analysis of one sensor: three axes, each with its Allan curve and fit and its
+/// maximum-likelihood fit (the white level and walk reported).
 pub(crate) struct SensorNoise {
     pub(crate) axes: Vec<AxisNoise>,
+    pub(crate) ml: Vec<MlFit>,
 }
 
 /// The configured noise model of a sensor as term levels (SI): white and walk.
@@ -234,6 +238,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let mut sensors = Vec::new();
     for (s, gyro) in [(&GYRO, true), (&ACCEL, false)] {
         let mut axes = Vec::new();
+        let mut mls = Vec::new();
         for (a, axis_name) in AXES.iter().enumerate() {
             let inc: Vec<f64> = data
                 .records
@@ -244,8 +249,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
             let axis = analyse_axis(&inc, median, &intervals)
                 .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
             axes.push(axis);
+            // The levels reported: the exact likelihood of the data, each static interval its
+            // own filter (docs/noise.md, "The maximum-likelihood fit").
+            let ml = fit_ml(&inc, median, &intervals)
+                .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
+            mls.push(ml);
         }
-        sensors.push(SensorNoise { axes });
+        sensors.push(SensorNoise { axes, ml: mls });
     }
     let used: usize = intervals.iter().map(|r| r.len()).sum();
     let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
@@ -284,6 +294,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
             4
         ),
     );
+    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&sensors) {
+        out += &ml_table(s, sn);
+    }
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&sensors) {
         out += &sensor_table(s, sn);
     }
@@ -354,30 +367,104 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
         t.row(row);
     }
     format!(
-        "\n{} (fitted terms +- 1 sigma; `- (<x)`: not in the fit, x the level the data could \
+        "\n{}, Allan fit (terms +- 1 sigma; `- (<x)`: not in the fit, x the level the data could \
          hide at 1 sigma)\n{}",
         s.name,
         t.render()
     )
 }
 
-fn max_level(sn: &SensorNoise, term: Term) -> f64 {
-    sn.axes
+/// A maximum-likelihood level as `value [lower, upper]`, all to the precision of the smaller
+/// half-width.
+fn ml_level(l: &Level, factor: f64) -> String {
+    let (v, lo, hi) = (l.value * factor, l.lower * factor, l.upper * factor);
+    let hw = [v - lo, hi - v]
+        .into_iter()
+        .filter(|h| h.is_finite() && *h > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let hw = if hw.is_finite() { hw } else { v.abs() };
+    let f = |x: f64| {
+        if x == 0.0 {
+            "0".to_string()
+        } else if x.is_infinite() {
+            "inf".to_string()
+        } else {
+            table::with_precision_of(x, hw)
+        }
+    };
+    format!("{} [{}, {}]", f(v), f(lo), f(hi))
+}
+
+/// The maximum-likelihood levels of a sensor's axes.
+fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
+    let gm_label = format!(
+        "Gauss-Markov [{}]",
+        s.labels[2]
+            .split_once('[')
+            .map_or("", |x| x.1.trim_end_matches(']'))
+    );
+    let mut t = Table::new(&[
+        ("axis", Align::Left),
+        (s.labels[1], Align::Right),
+        (s.labels[3], Align::Right),
+        (&gm_label, Align::Right),
+        ("tc [s]", Align::Right),
+        ("LR p", Align::Right),
+        ("check p", Align::Right),
+        ("blocks", Align::Right),
+    ]);
+    for (a, m) in sn.ml.iter().enumerate() {
+        let (gm, tc) = match &m.gauss_markov {
+            Some(g) => (
+                ml_level(&g.sigma, s.factors[2]),
+                table::significant(g.correlation_time_s, 3),
+            ),
+            None => ("-".to_string(), "-".to_string()),
+        };
+        t.row(vec![
+            AXES[a].to_string(),
+            ml_level(&m.white, s.factors[1]),
+            ml_level(&m.walk, s.factors[3]),
+            gm,
+            tc,
+            calib::report::p_value_text(m.lr_p_value),
+            m.whiteness
+                .map_or("-".to_string(), |w| calib::report::p_value_text(w.p_value)),
+            format!("{} x {} s", m.blocks, table::significant(m.block_s, 3)),
+        ]);
+    }
+    format!(
+        "\n{}, maximum likelihood (value [68 % profile interval]; the Gauss-Markov bias where \
+         the likelihood-ratio test, p in LR p, selects it at p < 0.01; check p: the model \
+         against the data, whiteness of the innovations)\n{}",
+        s.name,
+        t.render()
+    )
+}
+
+/// The largest maximum-likelihood white level over the axes.
+fn max_white(sn: &SensorNoise) -> f64 {
+    sn.ml.iter().fold(0.0, |m, f| m.max(f.white.value))
+}
+
+/// The largest walk over the axes whose walk is significantly above 0 (the lower end of its
+/// interval above 0); 0 when none is.
+fn max_walk(sn: &SensorNoise) -> f64 {
+    sn.ml
         .iter()
-        .map(|a| a.fit.term(term))
-        .filter(|e| e.included)
-        .fold(0.0, |m, e| m.max(e.value))
+        .filter(|f| f.walk.lower > 0.0)
+        .fold(0.0, |m, f| m.max(f.walk.value))
 }
 
 fn comparison(cfg: &RunConfig, origin: &str, sensors: &[SensorNoise]) -> String {
     let mut s = format!("\nagainst [noise] of {origin} (measured / configured, each axis)\n");
     for ((sensor, sn), gyro) in [&GYRO, &ACCEL].into_iter().zip(sensors).zip([true, false]) {
-        for (j, (term, v)) in [1usize, 3].into_iter().zip(configured(&cfg.noise, gyro)) {
+        for (j, (_, v)) in [1usize, 3].into_iter().zip(configured(&cfg.noise, gyro)) {
             let ratios: Vec<String> = sn
-                .axes
+                .ml
                 .iter()
-                .map(|a| {
-                    let e = a.fit.term(term);
+                .map(|m| {
+                    let e = if j == 1 { m.white } else { m.walk };
                     if v > 0.0 {
                         table::significant(e.value / v, 3)
                     } else {
@@ -419,15 +506,28 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
         calib::config::NoiseReading::Average => "average",
         calib::config::NoiseReading::Sample => "sample",
     };
-    let walk_note = |sn: &SensorNoise| {
-        if sn
-            .axes
+    // Axes whose likelihood model fails its check against the data: their levels are levels
+    // within a model the data do not follow.
+    let fails = |sn: &SensorNoise| {
+        let k = sn
+            .ml
             .iter()
-            .any(|x| x.fit.term(Term::RandomWalk).included)
-        {
-            "measured"
+            .filter(|m| m.whiteness.is_some_and(|w| w.p_value < 0.01))
+            .count();
+        if k == 0 {
+            String::new()
         } else {
-            "none found in these data"
+            format!(", but the model fails its check (p < 0.01) on {k} of 3 axes")
+        }
+    };
+    let walk_note = |sn: &SensorNoise, factor: f64| {
+        if sn.ml.iter().any(|m| m.walk.lower > 0.0) {
+            format!("measured{}", fails(sn))
+        } else {
+            format!(
+                "none found in these data (at most {} at the upper end of the 68 % interval)",
+                sig(sn.ml.iter().fold(0.0f64, |m, f| m.max(f.walk.upper)) * factor)
+            )
         }
     };
     let mut s = String::new();
@@ -435,13 +535,15 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
     let _ = writeln!(s, "reading = \"{reading}\"  # {from}");
     let _ = writeln!(
         s,
-        "gyro_deg_h = {}  # measured",
-        sig(max_level(g, Term::White) / DEG_PER_HOUR)
+        "gyro_deg_h = {}  # measured{}",
+        sig(max_white(g) / DEG_PER_HOUR),
+        fails(g)
     );
     let _ = writeln!(
         s,
-        "accel_m_s2 = {}  # measured",
-        sig(max_level(a, Term::White))
+        "accel_m_s2 = {}  # measured{}",
+        sig(max_white(a)),
+        fails(a)
     );
     let _ = writeln!(
         s,
@@ -451,14 +553,14 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
     let _ = writeln!(
         s,
         "gyro_bias_walk_deg_h_sqrt_h = {}  # {}",
-        sig(max_level(g, Term::RandomWalk) * 60.0 / DEG_PER_HOUR),
-        walk_note(g)
+        sig(max_walk(g) * 60.0 / DEG_PER_HOUR),
+        walk_note(g, 60.0 / DEG_PER_HOUR)
     );
     let _ = writeln!(
         s,
         "accel_bias_walk_m_s2_sqrt_s = {}  # {}",
-        sig(max_level(a, Term::RandomWalk)),
-        walk_note(a)
+        sig(max_walk(a)),
+        walk_note(a, 1.0)
     );
     s
 }
@@ -496,6 +598,29 @@ fn json_of(
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(sensors) {
         let mut m = Map::new();
         for j in 0..5 {
+            // White level and walk: the maximum-likelihood values, their sigma the mean
+            // half-width of the profile interval, and its ends; the other terms: the Allan fit.
+            let ml = |f: &MlFit| match j {
+                1 => Some(f.white),
+                3 => Some(f.walk),
+                _ => None,
+            };
+            if ml(&sn.ml[0]).is_some() {
+                let get = |g: fn(&Level) -> f64| -> Vec<f64> {
+                    sn.ml
+                        .iter()
+                        .map(|f| ml(f).map_or(0.0, |l| g(&l)) * s.factors[j])
+                        .collect()
+                };
+                m.insert(s.keys[j].into(), json!(get(|l| l.value)));
+                m.insert(
+                    format!("{}_sigma", s.keys[j]),
+                    json!(get(Level::mean_half_width)),
+                );
+                m.insert(format!("{}_lower", s.keys[j]), json!(get(|l| l.lower)));
+                m.insert(format!("{}_upper", s.keys[j]), json!(get(|l| l.upper)));
+                continue;
+            }
             let vals: Vec<f64> = sn
                 .axes
                 .iter()
@@ -509,6 +634,46 @@ fn json_of(
             m.insert(s.keys[j].into(), json!(vals));
             m.insert(format!("{}_sigma", s.keys[j]), json!(sig));
         }
+        // The Gauss-Markov bias of the maximum-likelihood fit (0 and null where not selected).
+        let gm_key = s.keys[2].replace("bias_instability", "gauss_markov");
+        let gm = |g: fn(&Level) -> f64| -> Vec<f64> {
+            sn.ml
+                .iter()
+                .map(|f| f.gauss_markov.map_or(0.0, |x| g(&x.sigma)) * s.factors[2])
+                .collect()
+        };
+        m.insert(gm_key.clone(), json!(gm(|l| l.value)));
+        m.insert(format!("{gm_key}_sigma"), json!(gm(Level::mean_half_width)));
+        m.insert(format!("{gm_key}_lower"), json!(gm(|l| l.lower)));
+        m.insert(format!("{gm_key}_upper"), json!(gm(|l| l.upper)));
+        m.insert(
+            "gauss_markov_tc_s".into(),
+            json!(
+                sn.ml
+                    .iter()
+                    .map(|f| f.gauss_markov.map(|g| g.correlation_time_s))
+                    .collect::<Vec<_>>()
+            ),
+        );
+        m.insert(
+            "ml".into(),
+            json!(
+                sn.ml
+                    .iter()
+                    .map(|f| json!({
+                        "gauss_markov": f.gauss_markov.is_some(),
+                        "lr_statistic": f.lr_statistic,
+                        "lr_p_value": f.lr_p_value,
+                        "check_p_value": f.whiteness.map(|w| w.p_value),
+                        "check_window_s": f.whiteness.map(|w| w.window_blocks as f64 * f.block_s),
+                        "check_variance_ratio": f.whiteness.map(|w| w.variance_ratio),
+                        "neg2_log_likelihood": f.neg2_log_likelihood,
+                        "block_s": f.block_s,
+                        "blocks": f.blocks,
+                    }))
+                    .collect::<Vec<_>>()
+            ),
+        );
         m.insert(
             "terms".into(),
             json!(
@@ -529,12 +694,26 @@ fn json_of(
             json!(
                 sn.axes
                     .iter()
-                    .map(|a| json!({
-                        "chi2": a.fit.chi2,
-                        "dof": a.fit.dof,
-                        "p_value": a.fit.p_value,
-                        "sigma_scale": a.fit.sigma_scale,
-                    }))
+                    .map(|a| {
+                        let (w, k) = (a.fit.term(Term::White), a.fit.term(Term::RandomWalk));
+                        let mut o = Map::new();
+                        o.insert("chi2".into(), json!(a.fit.chi2));
+                        o.insert("dof".into(), json!(a.fit.dof));
+                        o.insert("p_value".into(), json!(a.fit.p_value));
+                        o.insert("sigma_scale".into(), json!(a.fit.sigma_scale));
+                        // The Allan fit's white level and walk, for comparison.
+                        o.insert(s.keys[1].into(), json!(w.value * s.factors[1]));
+                        o.insert(
+                            format!("{}_sigma", s.keys[1]),
+                            json!(w.sigma * s.factors[1]),
+                        );
+                        o.insert(s.keys[3].into(), json!(k.value * s.factors[3]));
+                        o.insert(
+                            format!("{}_sigma", s.keys[3]),
+                            json!(k.sigma * s.factors[3]),
+                        );
+                        Value::Object(o)
+                    })
                     .collect::<Vec<_>>()
             ),
         );

@@ -1,5 +1,6 @@
 //! PNG plot of `sins-calib noise`: per gyro and accelerometer axis the measured Allan deviation
-//! with its 68 % confidence band, the fitted terms and their sum, and the configured noise
+//! with its 68 % confidence band, the fitted terms and their sum, the maximum-likelihood model
+//! (whose levels are the ones reported), and the configured noise
 //! model; one legend for all panels, below them, so that it covers no data.
 
 use crate::Error;
@@ -14,6 +15,8 @@ use std::path::Path;
 const MEASURED: RGBColor = RGBColor(31, 119, 180);
 const SUM: RGBColor = RGBColor(214, 39, 40);
 const CONFIG: RGBColor = RGBColor(0, 0, 0);
+/// The maximum-likelihood model (the levels reported).
+const ML: RGBColor = RGBColor(23, 190, 207);
 /// Colours of the terms, `Term::ALL` order.
 const TERM_COLOURS: [RGBColor; 5] = [
     RGBColor(148, 103, 189),
@@ -51,6 +54,7 @@ fn panel(
     unit: &str,
     factor: f64,
     axis: &::noise::AxisNoise,
+    ml: &::noise::likelihood::MlFit,
     config: Option<[(Term, f64); 2]>,
 ) -> Result<(), String> {
     let p = &axis.curve.points;
@@ -60,6 +64,11 @@ fn panel(
     let sum: Vec<(f64, f64)> = grid
         .iter()
         .map(|&t| (t, fit.avar(t).sqrt() * factor))
+        .collect();
+    let model = ml.model();
+    let ml_curve: Vec<(f64, f64)> = grid
+        .iter()
+        .map(|&t| (t, model.avar(t).sqrt() * factor))
         .collect();
     let cfg: Option<Vec<(f64, f64)>> = config.map(|c| {
         grid.iter()
@@ -75,7 +84,7 @@ fn panel(
         lo = lo.min(x.lower * factor).min(x.adev * factor);
         hi = hi.max(x.upper.min(x.adev * 20.0) * factor);
     }
-    for (_, v) in sum.iter().chain(cfg.iter().flatten()) {
+    for (_, v) in sum.iter().chain(&ml_curve).chain(cfg.iter().flatten()) {
         lo = lo.min(*v);
         hi = hi.max(*v);
     }
@@ -119,6 +128,9 @@ fn panel(
     chart
         .draw_series(LineSeries::new(sum, SUM.stroke_width(2)))
         .map_err(|e| perr(&e))?;
+    chart
+        .draw_series(LineSeries::new(ml_curve, ML.stroke_width(3)))
+        .map_err(|e| perr(&e))?;
     if let Some(c) = cfg {
         chart
             .draw_series(DashedLineSeries::new(c, 10, 5, CONFIG.stroke_width(2)))
@@ -160,7 +172,8 @@ fn panel(
     Ok(())
 }
 
-/// The legend strip: measured with interval, sum, configured, and the terms.
+/// The legend strip: measured with interval, the Allan fit's sum, the maximum-likelihood model,
+/// configured, and the terms.
 fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
     let font = ("sans-serif", 15).into_font().color(&BLACK);
     let mut x = 20;
@@ -186,7 +199,7 @@ fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
             a.draw(&Circle::new((x + 12, y), 4, MEASURED.filled()))
                 .map_err(|e| perr(&e))
         },
-        "measured, 68 % confidence band",
+        "measured, 68 % band",
     )?;
     entry(
         area,
@@ -197,7 +210,15 @@ fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
             ))
             .map_err(|e| perr(&e))
         },
-        "fit (sum of terms)",
+        "Allan fit (sum)",
+    )?;
+    entry(
+        area,
+        &|a, x| {
+            a.draw(&PathElement::new([(x, y), (x + 26, y)], ML.stroke_width(3)))
+                .map_err(|e| perr(&e))
+        },
+        "max. likelihood",
     )?;
     if with_config {
         entry(
@@ -250,7 +271,9 @@ pub fn allan_png(
     let (top, rest) = root.split_vertically(40);
     let (body, bottom) = rest.split_vertically(870);
     top.draw(&Text::new(
-        format!("{name}: overlapping Allan deviation at rest, fitted noise terms"),
+        format!(
+            "{name}: overlapping Allan deviation at rest, fitted noise terms, maximum-likelihood model"
+        ),
         (20, 10),
         ("sans-serif", 22).into_font().color(&BLACK),
     ))
@@ -265,6 +288,7 @@ pub fn allan_png(
                 unit,
                 factor,
                 ax,
+                &sn.ml[a],
                 cfg,
             )
             .map_err(|e| err(&e))?;

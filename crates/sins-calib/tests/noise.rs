@@ -79,6 +79,27 @@ fn static_recording_gives_the_configured_white_levels() {
         assert!((w / 0.1 - 1.0).abs() < 0.02, "gyro white {w}");
         let sig = v["gyro"]["white_deg_h_sigma"][a].as_f64().unwrap();
         assert!(sig > 0.0 && sig < 0.002, "{sig}");
+        // The maximum-likelihood levels: the profile interval around the value, the sigma its
+        // mean half-width.
+        let (lo, hi) = (
+            v["gyro"]["white_deg_h_lower"][a].as_f64().unwrap(),
+            v["gyro"]["white_deg_h_upper"][a].as_f64().unwrap(),
+        );
+        assert!(lo < w && w < hi, "{lo} {w} {hi}");
+        assert!((0.5 * (hi - lo) / sig - 1.0).abs() < 1e-9);
+        let (klo, k, khi) = (
+            v["gyro"]["bias_walk_deg_h_sqrt_h_lower"][a]
+                .as_f64()
+                .unwrap(),
+            v["gyro"]["bias_walk_deg_h_sqrt_h"][a].as_f64().unwrap(),
+            v["gyro"]["bias_walk_deg_h_sqrt_h_upper"][a]
+                .as_f64()
+                .unwrap(),
+        );
+        assert!(klo <= k && k < khi, "{klo} {k} {khi}");
+        assert!(v["gyro"]["gauss_markov_deg_h"][a].is_number());
+        assert!(v["gyro"]["ml"][a]["lr_p_value"].is_number());
+        assert!(v["gyro"]["fit"][a]["white_deg_h"].is_number());
         let f = v["accel"]["white_m_s2"][a].as_f64().unwrap();
         assert!((f / 0.001 - 1.0).abs() < 0.02, "accel white {f}");
         assert!(v["gyro"]["bias_walk_deg_h_sqrt_h"][a].is_number());
