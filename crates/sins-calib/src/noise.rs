@@ -442,18 +442,45 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
     )
 }
 
-/// The largest maximum-likelihood white level over the axes.
-fn max_white(sn: &SensorNoise) -> f64 {
-    sn.ml.iter().fold(0.0, |m, f| m.max(f.white.value))
+/// Whether an axis's likelihood model passes its check against the data (or had none to run).
+fn ml_holds(m: &MlFit) -> bool {
+    m.whiteness.is_none_or(|w| w.p_value >= 0.01)
 }
 
-/// The largest walk over the axes whose walk is significantly above 0 (the lower end of its
-/// interval above 0); 0 when none is.
-fn max_walk(sn: &SensorNoise) -> f64 {
-    sn.ml
+/// The white level and walk (SI) the `[noise]` block takes from one axis: the
+/// maximum-likelihood ones where that model passes its check; where it fails (it did on every
+/// axis of both shipped recordings, which carry what neither model describes) the Allan fit's,
+/// whose walk is a term only where the data show one. A walk counts only where it is
+/// significantly above 0 (the lower end of its interval, or the Allan term included).
+fn block_levels(axis: &AxisNoise, m: &MlFit) -> (f64, f64) {
+    if ml_holds(m) {
+        let walk = if m.walk.lower > 0.0 {
+            m.walk.value
+        } else {
+            0.0
+        };
+        (m.white.value, walk)
+    } else {
+        let w = axis.fit.term(Term::RandomWalk);
+        let walk = if w.included { w.value } else { 0.0 };
+        (axis.fit.term(Term::White).value, walk)
+    }
+}
+
+/// The largest white level over the axes ([`block_levels`]).
+fn max_white(sn: &SensorNoise) -> f64 {
+    sn.axes
         .iter()
-        .filter(|f| f.walk.lower > 0.0)
-        .fold(0.0, |m, f| m.max(f.walk.value))
+        .zip(&sn.ml)
+        .fold(0.0, |w, (a, m)| w.max(block_levels(a, m).0))
+}
+
+/// The largest walk over the axes ([`block_levels`]); 0 when none shows one.
+fn max_walk(sn: &SensorNoise) -> f64 {
+    sn.axes
+        .iter()
+        .zip(&sn.ml)
+        .fold(0.0, |w, (a, m)| w.max(block_levels(a, m).1))
 }
 
 fn comparison(cfg: &RunConfig, origin: &str, sensors: &[SensorNoise]) -> String {
@@ -506,27 +533,30 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
         calib::config::NoiseReading::Average => "average",
         calib::config::NoiseReading::Sample => "sample",
     };
-    // Axes whose likelihood model fails its check against the data: their levels are levels
-    // within a model the data do not follow.
-    let fails = |sn: &SensorNoise| {
-        let k = sn
-            .ml
-            .iter()
-            .filter(|m| m.whiteness.is_some_and(|w| w.p_value < 0.01))
-            .count();
-        if k == 0 {
-            String::new()
-        } else {
-            format!(", but the model fails its check (p < 0.01) on {k} of 3 axes")
+    // Where the likelihood model fails its check the levels are the Allan fit's.
+    let source = |sn: &SensorNoise| {
+        let k = sn.ml.iter().filter(|m| !ml_holds(m)).count();
+        match k {
+            0 => "measured (maximum likelihood)".to_string(),
+            3 => "measured (Allan fit: the likelihood model fails its check, p < 0.01, on every \
+                  axis)"
+                .to_string(),
+            _ => format!(
+                "measured (maximum likelihood; the Allan fit on the {k} axes whose likelihood \
+                 model fails its check)"
+            ),
         }
     };
     let walk_note = |sn: &SensorNoise, factor: f64| {
-        if sn.ml.iter().any(|m| m.walk.lower > 0.0) {
-            format!("measured{}", fails(sn))
+        let holding: Vec<&MlFit> = sn.ml.iter().filter(|m| ml_holds(m)).collect();
+        if max_walk(sn) > 0.0 {
+            source(sn)
+        } else if holding.is_empty() {
+            "none in the Allan fit (the likelihood model fails its check on every axis)".into()
         } else {
             format!(
                 "none found in these data (at most {} at the upper end of the 68 % interval)",
-                sig(sn.ml.iter().fold(0.0f64, |m, f| m.max(f.walk.upper)) * factor)
+                sig(holding.iter().fold(0.0f64, |m, f| m.max(f.walk.upper)) * factor)
             )
         }
     };
@@ -535,16 +565,11 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
     let _ = writeln!(s, "reading = \"{reading}\"  # {from}");
     let _ = writeln!(
         s,
-        "gyro_deg_h = {}  # measured{}",
+        "gyro_deg_h = {}  # {}",
         sig(max_white(g) / DEG_PER_HOUR),
-        fails(g)
+        source(g)
     );
-    let _ = writeln!(
-        s,
-        "accel_m_s2 = {}  # measured{}",
-        sig(max_white(a)),
-        fails(a)
-    );
+    let _ = writeln!(s, "accel_m_s2 = {}  # {}", sig(max_white(a)), source(a));
     let _ = writeln!(
         s,
         "angle_arcsec = {}  # {from}",
