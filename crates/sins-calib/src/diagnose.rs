@@ -65,6 +65,12 @@ pub struct Args {
     /// Family-wise level of each round's decision.
     #[arg(long, default_value_t = 0.01, value_name = "P")]
     pub level: f64,
+    /// The noise identified at rest (the JSON of `sins-calib noise --json`): the gyro bias
+    /// random walk candidate is tried at its identified walk, the largest axis's value and the
+    /// ends of its 68 % interval, instead of the default grid of 0.003 to 0.3 deg/h/sqrt(h)
+    /// (docs/model-extension.md, "The evidence for a term")
+    #[arg(long, value_name = "FILE", conflicts_with = "free_motion")]
+    pub noise: Option<PathBuf>,
     /// Candidate terms to consider (ids; default all): gyro_g_sensitivity,
     /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_bias_drift,
     /// gyro_accel_time_offset.
@@ -546,6 +552,24 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     if !args.terms.is_empty() {
         settings.candidates = parse_terms(&args.terms)?;
     }
+    // The identified walk as the candidate's prior: tried where the data at rest put it.
+    let walk_prior = match &args.noise {
+        Some(path) => {
+            let walk = crate::noise::read_identified_walk(path)?;
+            let grid = walk.grid();
+            if grid.is_empty() {
+                return Err(format!(
+                    "{}: the identified gyro bias walk is 0 with no upper end: nothing to try \
+                     the walk candidate at (leave --noise out for the default grid)",
+                    path.display()
+                )
+                .into());
+            }
+            settings.drift_grid = grid.clone();
+            Some((path.display().to_string(), grid))
+        }
+        None => None,
+    };
     let imu = read_imu_csv(&args.imu)?;
     let imu_file = args.imu.display().to_string();
     let tt = args.turntable.as_deref().map(AngleFile::open).transpose()?;
@@ -574,7 +598,20 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     } else {
         run_loop(&config, &data, &settings, &mut progress)?
     };
-    let mut text = summary(&result);
+    let mut text = String::new();
+    if let Some((file, grid)) = &walk_prior {
+        let shown: Vec<String> = grid
+            .iter()
+            .map(|q| format!("{:.4}", q * 60.0 / sins_model::units::DEG_PER_HOUR))
+            .collect();
+        let _ = writeln!(
+            text,
+            "note: the gyro bias random walk candidate is tried at {} deg/h/sqrt(h), the walk \
+             {file} identified at rest (its 68 % interval and value)",
+            shown.join(", ")
+        );
+    }
+    text += &summary(&result);
     if let Some(path) = &args.json {
         crate::output::write_file(path, to_json(&result)?.as_bytes())?;
     }

@@ -797,3 +797,86 @@ pub(crate) fn adev_units() -> [(&'static str, &'static str, f64); 2] {
         (ACCEL.name, ACCEL.adev_unit, ACCEL.adev_factor),
     ]
 }
+
+/// The gyro bias random walk a `sins-calib noise --json` file identified (rad/s/sqrt(s)): the
+/// largest axis's value and the ends of its 68 % profile interval (`None`: an unbounded
+/// upper end), for `diagnose --noise`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct IdentifiedWalk {
+    pub value: f64,
+    pub lower: f64,
+    pub upper: Option<f64>,
+}
+
+impl IdentifiedWalk {
+    /// The intensities the walk candidate is tried at: the interval's lower end, the value and
+    /// the upper end, those above 0 (a walk identified as 0: half the upper end and the upper
+    /// end); empty when the file bounds no walk above 0.
+    pub(crate) fn grid(&self) -> Vec<f64> {
+        let mut g: Vec<f64> = if self.value > 0.0 {
+            [Some(self.lower), Some(self.value), self.upper]
+                .into_iter()
+                .flatten()
+                .filter(|q| *q > 0.0)
+                .collect()
+        } else {
+            self.upper.map_or(Vec::new(), |u| vec![0.5 * u, u])
+        };
+        g.retain(|q| q.is_finite() && *q > 0.0);
+        g.dedup();
+        g
+    }
+}
+
+/// Read the identified gyro bias walk from the JSON of `sins-calib noise --json`: the keys
+/// `gyro.bias_walk_deg_h_sqrt_h`, `..._lower` and `..._upper` (three axes each). The axis with
+/// the largest value is taken, as the `[noise]` block takes it.
+pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedWalk, Error> {
+    let file = path.display().to_string();
+    let text =
+        sins_model::text::read_text(path).map_err(|e| format!("{file}: cannot read: {e}"))?;
+    let root: Value = serde_json::from_str(&text).map_err(|e| {
+        format!(
+            "{file}: line {}: {e}: expected the JSON that `sins-calib noise --json` writes",
+            e.line()
+        )
+    })?;
+    let key = "bias_walk_deg_h_sqrt_h";
+    let axes = |suffix: &str| -> Result<Vec<Option<f64>>, Error> {
+        let k = format!("{key}{suffix}");
+        let v = root
+            .get("gyro")
+            .and_then(|g| g.get(&k))
+            .and_then(Value::as_array)
+            .filter(|a| a.len() == 3)
+            .ok_or_else(|| {
+                format!(
+                    "{file}: expected `gyro.{k}`, three numbers (deg/h/sqrt(h)), as `sins-calib \
+                     noise --json` writes them"
+                )
+            })?;
+        v.iter()
+            .map(|x| match x {
+                Value::Null => Ok(None),
+                x => x
+                    .as_f64()
+                    .filter(|x| x.is_finite() && *x >= 0.0)
+                    .map(Some)
+                    .ok_or_else(|| {
+                        format!("{file}: `gyro.{k}`: {x} is not a walk (a number >= 0)").into()
+                    }),
+            })
+            .collect()
+    };
+    let (value, lower, upper) = (axes("")?, axes("_lower")?, axes("_upper")?);
+    let axis = (0..3)
+        .max_by(|&a, &b| value[a].unwrap_or(0.0).total_cmp(&value[b].unwrap_or(0.0)))
+        .expect("three axes");
+    let unit = DEG_PER_HOUR / 60.0;
+    let value = value[axis].ok_or_else(|| format!("{file}: `gyro.{key}` has no value"))?;
+    Ok(IdentifiedWalk {
+        value: value * unit,
+        lower: lower[axis].unwrap_or(0.0) * unit,
+        upper: upper[axis].map(|u| u * unit),
+    })
+}

@@ -224,3 +224,71 @@ fn analyse_says_which_walk_the_program_shows() {
             >= 8.0
     );
 }
+
+/// `diagnose --noise`: the walk candidate is tried where `sins-calib noise --json` put the
+/// walk (the largest axis's interval and value), and a file that does not hold one is refused,
+/// naming it.
+#[test]
+fn an_identified_walk_is_where_the_walk_candidate_is_tried() {
+    let dir = scratch("noise-prior");
+    let config = config_25_hz(&dir);
+    let out = run(&["simulate", "--config", s(&config), "--out", s(&dir)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // The keys `sins-calib noise --json` writes (crates/sins-calib/tests/noise.rs checks them
+    // on its output); axis y has the largest walk.
+    let noise = dir.join("noise.json");
+    std::fs::write(
+        &noise,
+        r#"{"gyro": {"bias_walk_deg_h_sqrt_h": [0.01, 0.05, 0.02],
+                     "bias_walk_deg_h_sqrt_h_lower": [0.0, 0.03, 0.0],
+                     "bias_walk_deg_h_sqrt_h_upper": [0.02, 0.08, null]}}"#,
+    )
+    .unwrap();
+    let args = |noise: &Path| {
+        run(&[
+            "diagnose",
+            "--imu",
+            s(&dir.join("imu.csv")),
+            "--turntable",
+            s(&dir.join("turntable.csv")),
+            "--config",
+            s(&config),
+            "--terms",
+            "gyro_bias_drift",
+            "--noise",
+            s(noise),
+        ])
+    };
+    let out = args(&noise);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("tried at 0.0300, 0.0500, 0.0800 deg/h/sqrt(h)"),
+        "{stdout}"
+    );
+    for walk in ["0.030", "0.050", "0.080"] {
+        assert!(
+            stderr.contains(&format!("gyro bias random walk of {walk} deg/h/sqrt(h)")),
+            "{walk}: {stderr}"
+        );
+    }
+    assert!(!stderr.contains("walk of 0.300"), "{stderr}");
+    // Not a noise file; a walk of 0 with no upper end.
+    std::fs::write(&noise, "{\"gyro\": {}}\n").unwrap();
+    let e = text(&args(&noise).stderr);
+    assert!(
+        e.contains("noise.json") && e.contains("gyro.bias_walk_deg_h_sqrt_h"),
+        "{e}"
+    );
+    std::fs::write(
+        &noise,
+        r#"{"gyro": {"bias_walk_deg_h_sqrt_h": [0, 0, 0], "bias_walk_deg_h_sqrt_h_lower": [0, 0, 0],
+            "bias_walk_deg_h_sqrt_h_upper": [null, null, null]}}"#,
+    )
+    .unwrap();
+    let e = text(&args(&noise).stderr);
+    assert!(
+        e.contains("noise.json") && e.contains("nothing to try"),
+        "{e}"
+    );
+}
