@@ -41,6 +41,19 @@ fn summary(r: &FreeLoop, last: &calib::free_motion::FreeMotionVerdict) -> String
                 c.worst_sigma_ratio
             );
         }
+        if let Some(g) = round.held_out_gain {
+            let _ = writeln!(
+                s,
+                "  held-out check of {}: log-likelihood of the held-out static and rotation \
+                 residuals {g:+.2} with it: {}",
+                round.candidates.first().map_or("", |c| c.term.as_str()),
+                if g >= 0.0 {
+                    "passed"
+                } else {
+                    "FAILED, not accepted"
+                }
+            );
+        }
         match &round.accepted {
             Some(t) => {
                 let g = &r.gain[t];
@@ -60,7 +73,20 @@ fn summary(r: &FreeLoop, last: &calib::free_motion::FreeMotionVerdict) -> String
             }
         }
     }
-    if r.accepted_terms.is_empty() && last.fits {
+    if let Some((term, g)) = r.held_out_rejection() {
+        let _ = writeln!(
+            s,
+            "verdict: THE DATA CALL FOR {term}, BUT WITH IT THE HELD-OUT INTERVALS ARE PREDICTED \
+             WORSE (held-out log-likelihood {g:+.2}): IT IS NOT ACCEPTED. THE MODEL DOES NOT FIT \
+             THESE DATA AND NO CANDIDATE TERM EXPLAINS THE MISFIT (exit status 3); terms \
+             accepted before: {}.",
+            if r.accepted_terms.is_empty() {
+                "none".to_string()
+            } else {
+                r.accepted_terms.join(", ")
+            }
+        );
+    } else if r.accepted_terms.is_empty() && last.fits {
         let _ = writeln!(
             s,
             "verdict: the paper's model fits these data; no term is called for."
@@ -115,7 +141,9 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     if let Some(path) = &args.json {
         let j = FreeLoopJson {
             accepted_terms: &r.accepted_terms,
-            base_model_fits: r.accepted_terms.is_empty() && r.base.verdict().fits,
+            base_model_fits: r.accepted_terms.is_empty()
+                && r.base.verdict().fits
+                && r.held_out_rejection().is_none(),
             candidates: r.rounds.last().map_or(&[][..], |l| &l.candidates[..]),
             gain: &r.gain,
             parameters: &r.last.parameters,
@@ -123,5 +151,5 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         };
         crate::output::write_file(path, serde_json::to_string_pretty(&j)?.as_bytes())?;
     }
-    Ok(last.fits)
+    Ok(last.fits && r.held_out_rejection().is_none())
 }
