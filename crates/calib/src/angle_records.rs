@@ -29,12 +29,17 @@ impl AngleSummary {
     fn of(records: &[TurntableRecord]) -> Self {
         Self {
             count: records.len(),
-            span: match (records.first(), records.last()) {
-                (Some(a), Some(b)) => (a.t, b.t),
-                _ => (f64::NAN, f64::NAN),
-            },
+            span: span_of(records),
             median_interval: sins_model::timing::median_interval_of(records.iter().map(|r| r.t)),
         }
+    }
+}
+
+/// First and last stamps (`NaN` without records).
+fn span_of(records: &[TurntableRecord]) -> (f64, f64) {
+    match (records.first(), records.last()) {
+        (Some(a), Some(b)) => (a.t, b.t),
+        _ => (f64::NAN, f64::NAN),
     }
 }
 
@@ -187,14 +192,6 @@ impl<'a> AngleRecords<'a> {
         }
     }
 
-    /// The records when they are in memory.
-    pub fn in_memory(&self) -> Option<&'a [TurntableRecord]> {
-        match self.source {
-            Source::Memory(r) => Some(r),
-            Source::File(_) => None,
-        }
-    }
-
     /// Visit every record in order (one reading of the file when it is not in memory).
     pub fn for_each(&self, mut visit: impl FnMut(&TurntableRecord)) -> Result<(), IoError> {
         match self.source {
@@ -230,11 +227,21 @@ impl<'a> AngleRecords<'a> {
         }
     }
 
+    /// Number of records and first and last stamps (the summary without its median, which a
+    /// pass does not need and records in memory would work out again).
+    fn extent(&self) -> (usize, (f64, f64)) {
+        match self.source {
+            Source::Memory(r) => (r.len(), span_of(r)),
+            Source::File(f) => (f.summary.count, f.summary.span),
+        }
+    }
+
     /// The records of one pass, read in order.
     pub(crate) fn window(&self) -> Result<RecordWindow<'a>, IoError> {
-        let summary = self.summary();
+        let (count, span) = self.extent();
         Ok(RecordWindow {
-            summary,
+            count,
+            span,
             access: match self.source {
                 Source::Memory(r) => Access::Slice(r),
                 Source::File(f) => Access::Stream {
@@ -281,7 +288,10 @@ enum Access<'a> {
 /// forward (a few records back at most, [`RecordWindow::KEEP`]); a streamed file keeps only
 /// those.
 pub(crate) struct RecordWindow<'a> {
-    pub summary: AngleSummary,
+    /// Number of records.
+    pub count: usize,
+    /// First and last stamps (turntable clock, s).
+    pub span: (f64, f64),
     access: Access<'a>,
     /// The first error of reading the file (the pass reports it when it ends).
     error: Option<IoError>,
@@ -290,7 +300,7 @@ pub(crate) struct RecordWindow<'a> {
 impl std::fmt::Debug for RecordWindow<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RecordWindow")
-            .field("summary", &self.summary)
+            .field("count", &self.count)
             .field("streamed", &matches!(self.access, Access::Stream { .. }))
             .finish()
     }
@@ -325,7 +335,7 @@ impl RecordWindow<'_> {
                     return None;
                 }
                 while *base + buf.len() <= i {
-                    if self.error.is_some() || *base + buf.len() >= self.summary.count {
+                    if self.error.is_some() || *base + buf.len() >= self.count {
                         return None;
                     }
                     match reader.next_record() {

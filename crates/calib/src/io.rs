@@ -829,17 +829,13 @@ pub fn read_imu_csv(path: &Path) -> Result<ImuData, IoError> {
 
 /// Parse the text of a `turntable.csv`; `file` names it in errors.
 pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoError> {
-    read_turntable(
-        std::io::Cursor::new(text.as_bytes().to_vec()),
-        file,
-        text.len(),
-    )
+    read_turntable(text.as_bytes(), file, text.len())
 }
 
 /// A `turntable.csv` read record by record, every record checked as it comes (numbers, time
 /// order), so that a calibration need not hold the whole file ([`crate::angle_records`]).
-pub struct TurntableReader {
-    rows: Rows<Box<dyn Read>>,
+pub struct TurntableReader<R: Read = Box<dyn Read>> {
+    rows: Rows<R>,
     names: Vec<String>,
     /// Positions of `t, k1, k2, k3` among the columns.
     cols: [usize; 4],
@@ -850,7 +846,7 @@ pub struct TurntableReader {
     records_read: usize,
 }
 
-impl std::fmt::Debug for TurntableReader {
+impl<R: Read> std::fmt::Debug for TurntableReader<R> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("TurntableReader")
             .field("file", &self.rows.file)
@@ -864,9 +860,11 @@ impl TurntableReader {
     pub fn open(path: &Path) -> Result<Self, IoError> {
         Self::new(open_reader(path)?, &path.display().to_string())
     }
+}
 
+impl<R: Read> TurntableReader<R> {
     /// Read a `turntable.csv` from any reader; `file` names it in errors.
-    pub fn new(reader: Box<dyn Read>, file: &str) -> Result<Self, IoError> {
+    pub fn new(reader: R, file: &str) -> Result<Self, IoError> {
         let mut rows = Rows::new(reader, file);
         let expected = TURNTABLE_COLUMNS.join(",");
         let (header_line, names) = header(&mut rows, &expected)?;
@@ -965,12 +963,8 @@ impl TurntableReader {
 }
 
 /// Read a `turntable.csv` of about `bytes` bytes (the records are reserved from it).
-fn read_turntable<R: Read + 'static>(
-    reader: R,
-    file: &str,
-    bytes: usize,
-) -> Result<TurntableData, IoError> {
-    let mut reader = TurntableReader::new(Box::new(reader), file)?;
+fn read_turntable<R: Read>(reader: R, file: &str, bytes: usize) -> Result<TurntableData, IoError> {
+    let mut reader = TurntableReader::new(reader, file)?;
     let mut records = Vec::new();
     while let Some((r, _)) = reader.next_record()? {
         if records.is_empty() {

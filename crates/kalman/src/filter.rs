@@ -52,10 +52,6 @@ pub struct KalmanFilter {
     gain_valid: bool,
     work_req: StackReq,
     work: MemBuffer,
-    /// Space to keep the state and covariance across a measurement evaluated without its
-    /// update ([`predict_measurement_correlated`](Self::predict_measurement_correlated)).
-    saved_x: Vec<f64>,
-    saved_p: Mat<f64>,
 }
 
 impl Clone for KalmanFilter {
@@ -73,8 +69,6 @@ impl Clone for KalmanFilter {
             gain_valid: self.gain_valid,
             work_req: self.work_req,
             work: MemBuffer::new(self.work_req),
-            saved_x: self.saved_x.clone(),
-            saved_p: self.saved_p.clone(),
         }
     }
 }
@@ -167,8 +161,6 @@ impl KalmanFilter {
             gain_valid: true,
             work_req,
             work: MemBuffer::new(work_req),
-            saved_x: vec![0.0; n],
-            saved_p: Mat::zeros(n, n),
         })
     }
 
@@ -325,29 +317,6 @@ impl KalmanFilter {
             log_det_s,
             dim: m,
         })
-    }
-
-    /// The measurement `z` as [`update_correlated`](Self::update_correlated) would take it, but
-    /// without the update: the state and its covariance are left as they were. A held-out
-    /// measurement: its innovation and innovation covariance (read them with
-    /// [`innovation`](Self::innovation) and
-    /// [`innovation_covariance`](Self::innovation_covariance); [`gain`](Self::gain) is the gain
-    /// the update would have had) are a prediction from the data before it, and nothing is
-    /// learned from it. Allocates nothing (the state and covariance are kept in space reserved
-    /// at construction).
-    pub fn predict_measurement_correlated(
-        &mut self,
-        z: &[f64],
-        h: MatRef<'_, f64>,
-        r: MatRef<'_, f64>,
-        cross: MatRef<'_, f64>,
-    ) -> Result<UpdateInfo, KalmanError> {
-        self.saved_x.copy_from_slice(&self.x);
-        self.saved_p.copy_from(&self.p);
-        let info = self.update_correlated(z, h, r, cross);
-        self.x.copy_from_slice(&self.saved_x);
-        self.p.copy_from(&self.saved_p);
-        info
     }
 
     /// The covariance part of [`update_correlated`](Self::update_correlated); returns

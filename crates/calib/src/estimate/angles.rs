@@ -96,9 +96,8 @@ impl<'a> AngleInterpolator<'a> {
     #[inline(always)]
     pub fn at(&mut self, t_imu: f64) -> Option<AngleSet> {
         let t_tt = self.clock.turntable_time(t_imu);
-        let summary = self.records.summary;
-        let n = summary.count;
-        if n < 2 || t_tt < summary.span.0 || t_tt > summary.span.1 {
+        let (n, span) = (self.records.count, self.records.span);
+        if n < 2 || t_tt < span.0 || t_tt > span.1 {
             return None;
         }
         while self.cursor > 0 && self.records.get(self.cursor)?.t > t_tt {
