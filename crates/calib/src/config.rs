@@ -597,6 +597,12 @@ impl RunConfig {
         })
     }
 
+    /// The unit's grade, from the prior of its gyro biases: it sets the priors of the
+    /// candidate terms ([`sins_model::candidates::Candidate::prior_sigma`]).
+    pub fn unit_grade(&self) -> sins_model::candidates::UnitGrade {
+        sins_model::candidates::UnitGrade::from_gyro_bias_prior(self.priors_si().gyro_bias)
+    }
+
     /// Instrument-error priors in SI.
     pub fn priors_si(&self) -> PaperPriors {
         let p = &self.priors;

@@ -289,7 +289,7 @@ pub fn design(
 ) -> Result<(Proposal, Vec<Proposal>, Option<usize>), DesignError> {
     let mut ext = ModelExtension::default();
     for &t in terms {
-        ext = crate::extend::with_term(&ext, t);
+        ext = crate::extend::with_term(&ext, t, config.unit_grade());
     }
     // The random walk is not a state: the covariance analysis has nothing to separate.
     ext.gyro_drift = None;

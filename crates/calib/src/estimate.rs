@@ -567,9 +567,14 @@ pub fn estimate_at_rests(
     // A coarse start is good enough to linearise the parameters about, not to feed the
     // poorly observed ones back as the first updates move them (closed loop from the Xsens
     // recording's coarse start, the vertical accelerometer's bias and scale factor went to
-    // -8.6 m/s^2 and 0.87 within 7 s of its first rest).
+    // -8.6 m/s^2 and 0.87 within 7 s of its first rest). Nor the heading, which a unit that
+    // needs a coarse start does not gyrocompass: its linear estimate, with a prior sigma of
+    // pi, turned the trajectory by radians, and the first updates after each hand turn of the
+    // Xsens recording came 1 to 7 degrees off (first-pass mean NIS 370 with the g-sensitivity
+    // in the model, against 3.2 feeding back the tilt alone); with one rest's measurements
+    // held out the error reached 12 degrees at the next rest and the passes diverged.
     let feedback = match first_point {
-        Some(_) => Feedback::Attitude,
+        Some(_) => Feedback::Tilt,
         None => first_pass_feedback(config),
     };
     iterate_passes(
@@ -601,7 +606,15 @@ pub fn calibrate_rests(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let coarse = if needs_coarse_start(config) {
-        Some(coarse_start(config, layout, data, file, rests)?)
+        // A held-out rest is not seen by the coarse start either: its values are the prior
+        // mean of the passes.
+        let fitted: Vec<Rest> = rests
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !crate::rests::held_out(*i, config.filter.hold_out_every))
+            .map(|(_, r)| *r)
+            .collect();
+        Some(coarse_start(config, layout, data, file, &fitted)?)
     } else {
         None
     };
@@ -650,8 +663,19 @@ fn coarse_start(
         .collect();
     let mut settings = FreeMotionSettings::new(config.site().specific_force_at_rest_enu().norm());
     settings.priors = config.priors_si();
-    settings.g_sensitivity_prior = None;
-    settings.scale_asymmetry_prior = None;
+    // The batch fit's two extra terms where the model carries them, at the model's priors:
+    // a consumer unit's g-sensitivity turns its attitude by degrees in a hand turn, which a
+    // start without it leaves to the first pass (the Xsens recording's first pass, without
+    // the measurements of one held-out rest, came to the next rest 12 degrees off and the
+    // passes diverged).
+    let prior_of = |name: &str| {
+        layout
+            .index(name)
+            .map(|i| layout.prior_sigma()[i])
+            .filter(|s| *s > 0.0)
+    };
+    settings.g_sensitivity_prior = prior_of("gyro.gsens.xx");
+    settings.scale_asymmetry_prior = prior_of("gyro.asym.x");
     let fit = calibrate_free_motion(data, &intervals, &[], &settings).map_err(|e| {
         EstimateError::Rests {
             file: file.to_string(),
@@ -757,6 +781,7 @@ fn iterate_passes(
         )?;
         linearised_about = nominal.clone();
         pass += 1;
+
         let mut beta = Vector3::new(est.values[s], est.values[s + 1], est.values[s + 2]);
         // A start heading the data do not resolve is not moved: its linear estimate, with a
         // sigma near a radian, reached +-3 rad on a consumer-grade recording of rests and
@@ -1194,7 +1219,7 @@ fn held_out_windows(motion: &Motion, program_start: f64, every: usize) -> Vec<(f
     segments
         .iter()
         .enumerate()
-        .filter(|(k, _)| every > 0 && (k + 1) % every == 0)
+        .filter(|(k, _)| crate::rests::held_out(*k, Some(every)))
         .map(|(_, s)| (s.t0, s.t1))
         .collect()
 }

@@ -39,7 +39,7 @@ use crate::evidence::{
 use crate::extension::ModelExtension;
 use crate::layout::StateLayout;
 use serde::Serialize;
-use sins_model::candidates::Candidate;
+use sins_model::candidates::{Candidate, UnitGrade};
 use std::collections::BTreeMap;
 
 /// Settings of the loop.
@@ -52,8 +52,9 @@ pub struct LoopSettings {
     /// At most this many terms are accepted.
     pub max_terms: usize,
     /// Intensities (rad/s/sqrt(s)) tried for the gyro bias random walk, common to the three
-    /// axes; the best is refined per axis when the term is accepted.
-    pub drift_grid: Vec<f64>,
+    /// axes; the best is refined per axis when the term is accepted. `None`: the grade's
+    /// ([`drift_grid`]).
+    pub drift_grid: Option<Vec<f64>>,
     /// Settings of the diagnostics.
     pub diagnostics: DiagnosticSettings,
     /// The held-out check of a candidate the statistics accept: every `k`-th segment with
@@ -67,21 +68,24 @@ pub const HOLD_OUT_EVERY: usize = 4;
 
 impl Default for LoopSettings {
     fn default() -> Self {
-        // A navigation-grade gyro's bias instability is of order 0.003-0.03 deg/h/sqrt(h):
-        // 2.5e-10 to 2.5e-9 rad/s/sqrt(s); the grid spans it and a decade above.
-        let unit = sins_model::units::DEG_PER_HOUR / 60.0;
         Self {
             level: 0.01,
             candidates: Candidate::ALL.to_vec(),
             max_terms: 3,
-            drift_grid: [0.003, 0.01, 0.03, 0.1, 0.3]
-                .iter()
-                .map(|q| q * unit)
-                .collect(),
+            drift_grid: None,
             diagnostics: DiagnosticSettings::default(),
             hold_out_every: Some(HOLD_OUT_EVERY),
         }
     }
+}
+
+/// The intensities (rad/s/sqrt(s)) the loop tries for the gyro bias random walk of a unit of
+/// `grade`: its prior intensity ([`Candidate::prior_sigma`]) times 0.03, 0.1, 0.3, 1 and 3. For
+/// a navigation-grade gyro, whose bias instability is of order 0.003-0.03 deg/h/sqrt(h), that is
+/// 0.003 to 0.3 deg/h/sqrt(h): the range and a decade above; for a consumer unit 0.3 to 30.
+pub fn drift_grid(grade: UnitGrade) -> Vec<f64> {
+    let q = Candidate::GyroBiasDrift.prior_sigma(grade);
+    [0.03, 0.1, 0.3, 1.0, 3.0].iter().map(|k| k * q).collect()
 }
 
 /// Errors of the loop.
@@ -457,7 +461,7 @@ impl Context<'_> {
         c: Candidate,
     ) -> Result<(CandidateEvidence, Fit), LoopError> {
         (self.progress)(&format!("fitting with {}", c.id()));
-        let ext = with_term(&current.extension, c);
+        let ext = with_term(&current.extension, c, self.config.unit_grade());
         let fit = self.fit(&ext)?;
         let names = c.param_names();
         let est = &fit.estimate;
@@ -535,7 +539,12 @@ impl Context<'_> {
     /// intensities.
     fn drift(&mut self, current: &Fit) -> Result<(CandidateEvidence, Fit), LoopError> {
         let mut best: Option<(f64, Fit)> = None;
-        for &q in &self.settings.drift_grid {
+        let grid = self
+            .settings
+            .drift_grid
+            .clone()
+            .unwrap_or_else(|| drift_grid(self.config.unit_grade()));
+        for &q in &grid {
             // q in rad/s/sqrt(s); shown in the unit of `[noise] gyro_bias_walk_deg_h_sqrt_h`.
             let shown = q * 60.0 / sins_model::units::DEG_PER_HOUR;
             (self.progress)(&format!(
@@ -639,13 +648,14 @@ fn parabola(p: &[(f64, f64)]) -> (f64, f64) {
     }
 }
 
-/// `ext` with candidate `c` added at its default prior.
-pub fn with_term(ext: &ModelExtension, c: Candidate) -> ModelExtension {
+/// `ext` with candidate `c` added at its prior for a unit of `grade`
+/// ([`Candidate::prior_sigma`]).
+pub fn with_term(ext: &ModelExtension, c: Candidate, grade: UnitGrade) -> ModelExtension {
     let mut e = ext.clone();
     if c == Candidate::GyroBiasDrift {
         e.gyro_drift = Some([0.0; 3]);
     } else {
-        e.terms.push((c, c.default_prior_sigma()));
+        e.terms.push((c, c.prior_sigma(grade)));
     }
     e
 }
@@ -916,12 +926,12 @@ pub fn drift_reach(
     settings: &LoopSettings,
     level: f64,
 ) -> Result<Option<DriftReach>, LoopError> {
-    let lo = settings
+    let grid = settings
         .drift_grid
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min);
-    let hi = settings.drift_grid.iter().copied().fold(0.0, f64::max);
+        .clone()
+        .unwrap_or_else(|| drift_grid(config.unit_grade()));
+    let lo = grid.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = grid.iter().copied().fold(0.0, f64::max);
     if !(lo > 0.0 && hi.is_finite()) {
         return Ok(None);
     }

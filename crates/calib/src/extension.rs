@@ -6,7 +6,7 @@
 //! [`crate::covariance::covariance_analysis_ext`], [`crate::estimate::estimate_ext`] and
 //! [`crate::simulate::simulate_run_hidden`].
 
-use sins_model::candidates::Candidate;
+use sins_model::candidates::{Candidate, UnitGrade};
 use sins_model::terms::ErrorModel;
 
 /// What the filter carries beyond the paper's model: extra terms (their parameters become states
@@ -26,12 +26,18 @@ impl ModelExtension {
     /// ([`Candidate::default_prior_sigma`]); [`Candidate::GyroBiasDrift`] sets
     /// [`ModelExtension::gyro_drift`] to its default intensity on every axis.
     pub fn with(candidates: &[Candidate]) -> Self {
+        Self::with_grade(candidates, UnitGrade::Navigation)
+    }
+
+    /// [`ModelExtension::with`] at the priors of a unit of `grade`
+    /// ([`Candidate::prior_sigma`]).
+    pub fn with_grade(candidates: &[Candidate], grade: UnitGrade) -> Self {
         let mut ext = Self::default();
         for &c in candidates {
             if c == Candidate::GyroBiasDrift {
-                ext.gyro_drift = Some([c.default_prior_sigma(); 3]);
+                ext.gyro_drift = Some([c.prior_sigma(grade); 3]);
             } else if !ext.terms.iter().any(|(t, _)| *t == c) {
-                ext.terms.push((c, c.default_prior_sigma()));
+                ext.terms.push((c, c.prior_sigma(grade)));
             }
         }
         ext

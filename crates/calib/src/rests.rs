@@ -164,6 +164,13 @@ pub fn usable(rests: &[Rest]) -> Vec<Rest> {
         .collect()
 }
 
+/// Whether the `i`-th segment with measurements (counted from 0; on a recording of rests the
+/// `i`-th rest) is held out by a fit with `filter.hold_out_every = every`: every `every`-th,
+/// counted from 1.
+pub fn held_out(i: usize, every: Option<usize>) -> bool {
+    every.is_some_and(|k| k > 0 && (i + 1) % k == 0)
+}
+
 /// The segments of a recording of rests for the diagnostics: `rest 1`, `motion 1-2`,
 /// `rest 2`, ... on the IMU clock.
 pub fn segments(rests: &[Rest]) -> Vec<Segment> {

@@ -565,7 +565,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
                 )
                 .into());
             }
-            settings.drift_grid = grid.clone();
+            settings.drift_grid = Some(grid.clone());
             Some((path.display().to_string(), grid))
         }
         None => None,

@@ -22,6 +22,42 @@ use nalgebra::{Matrix3, Vector3};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
+/// The grade of a unit, which sets the priors of the candidate terms
+/// ([`Candidate::prior_sigma`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum UnitGrade {
+    /// Gyro biases up to 1 deg/h (ring lasers, navigation FOGs; the paper's unit).
+    Navigation,
+    /// Gyro biases up to 100 deg/h (tactical FOGs and MEMS).
+    Tactical,
+    /// Gyro biases above 100 deg/h (consumer and industrial MEMS).
+    Consumer,
+}
+
+impl UnitGrade {
+    /// The grade whose gyro biases are of the order of `sigma` (rad/s), the prior sigma of the
+    /// gyro biases a configuration gives.
+    pub fn from_gyro_bias_prior(sigma: f64) -> Self {
+        let deg_h = sigma * 3600.0 * 180.0 / std::f64::consts::PI;
+        if deg_h <= 1.0 {
+            UnitGrade::Navigation
+        } else if deg_h <= 100.0 {
+            UnitGrade::Tactical
+        } else {
+            UnitGrade::Consumer
+        }
+    }
+
+    /// Lower-case name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            UnitGrade::Navigation => "navigation",
+            UnitGrade::Tactical => "tactical",
+            UnitGrade::Consumer => "consumer",
+        }
+    }
+}
+
 /// A candidate extension of the paper's model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Candidate {
@@ -132,6 +168,40 @@ impl Candidate {
             Candidate::AccelSizeEffect => 0.02,
             Candidate::GyroBiasDrift => 0.1 / Unit::RadPerSecondPerSqrtSecond.report_factor(),
             Candidate::GyroAccelTimeOffset => 1e-3,
+        }
+    }
+
+    /// Prior sigma (SI) of the term for a unit of `grade`: the navigation grade's is
+    /// [`Candidate::default_prior_sigma`]; the others are the upper ends of what
+    /// [`Candidate::typical`] quotes for the grade (a wide prior costs a term little; one too
+    /// narrow leaves it "not observed" where the data show it plainly: a consumer unit's
+    /// g-sensitivity of 0.05 deg/s/g against a prior of 2 deg/h/g).
+    ///
+    /// | id | navigation | tactical | consumer |
+    /// | --- | --- | --- | --- |
+    /// | `gyro_g_sensitivity` (rad/s per m/s^2) | 1e-6 | 1e-5 (20 deg/h/g) | 1.75e-4 (0.1 deg/s/g) |
+    /// | `gyro_scale_asymmetry` | 1e-5 | 1e-3 | 1e-2 |
+    /// | `accel_quadratic` (1/(m/s^2)) | 1e-5 | 2e-5 (200 micro-g/g^2) | 1e-4 (1000 micro-g/g^2) |
+    /// | `accel_size_effect` (m) | 0.02 | 0.02 | 0.02 |
+    /// | `gyro_bias_drift` (deg/h/sqrt(h)) | 0.1 | 1 | 10 |
+    /// | `gyro_accel_time_offset` (s) | 1e-3 | 1e-3 | 1e-2 (a sample at 100 Hz) |
+    pub fn prior_sigma(self, grade: UnitGrade) -> f64 {
+        let deg = std::f64::consts::PI / 180.0;
+        let walk = 1.0 / Unit::RadPerSecondPerSqrtSecond.report_factor();
+        match (grade, self) {
+            (UnitGrade::Navigation, _) => self.default_prior_sigma(),
+            (UnitGrade::Tactical, Candidate::GyroGSensitivity) => 1e-5,
+            (UnitGrade::Tactical, Candidate::GyroScaleAsymmetry) => 1e-3,
+            (UnitGrade::Tactical, Candidate::AccelQuadratic) => 2e-5,
+            (UnitGrade::Tactical, Candidate::GyroBiasDrift) => walk,
+            (UnitGrade::Consumer, Candidate::GyroGSensitivity) => 0.1 * deg / 9.80665,
+            (UnitGrade::Consumer, Candidate::GyroScaleAsymmetry) => 1e-2,
+            (UnitGrade::Consumer, Candidate::AccelQuadratic) => 1e-4,
+            (UnitGrade::Consumer, Candidate::GyroBiasDrift) => 10.0 * walk,
+            (UnitGrade::Consumer, Candidate::GyroAccelTimeOffset) => 1e-2,
+            (_, Candidate::AccelSizeEffect | Candidate::GyroAccelTimeOffset) => {
+                self.default_prior_sigma()
+            }
         }
     }
 
@@ -350,6 +420,39 @@ impl ErrorTerm for GyroAccelTimeOffset {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grades_follow_the_gyro_bias_prior_and_navigation_keeps_the_defaults() {
+        let deg_h = std::f64::consts::PI / 180.0 / 3600.0;
+        assert_eq!(
+            UnitGrade::from_gyro_bias_prior(0.5 * deg_h),
+            UnitGrade::Navigation
+        );
+        assert_eq!(
+            UnitGrade::from_gyro_bias_prior(10.0 * deg_h),
+            UnitGrade::Tactical
+        );
+        assert_eq!(
+            UnitGrade::from_gyro_bias_prior(3600.0 * deg_h),
+            UnitGrade::Consumer
+        );
+        for c in Candidate::ALL {
+            assert_eq!(
+                c.prior_sigma(UnitGrade::Navigation),
+                c.default_prior_sigma()
+            );
+            // Wider for a lesser grade, never narrower.
+            let (n, t, k) = (
+                c.prior_sigma(UnitGrade::Navigation),
+                c.prior_sigma(UnitGrade::Tactical),
+                c.prior_sigma(UnitGrade::Consumer),
+            );
+            assert!(n <= t && t <= k, "{c:?}: {n} {t} {k}");
+        }
+        // 0.1 deg/s/g in rad/s per m/s^2.
+        let g = Candidate::GyroGSensitivity.prior_sigma(UnitGrade::Consumer);
+        assert!((g * 9.80665 * 180.0 / std::f64::consts::PI - 0.1).abs() < 1e-12);
+    }
     use crate::terms::ErrorModel;
 
     fn input() -> SensorInput {

@@ -686,6 +686,7 @@ impl<'a> Pass<'a> {
                 for k in 0..2 {
                     self.engine.filter.set_state(k, 0.0);
                 }
+                self.engine.shadow_fed_back(x, 0..2);
                 return;
             }
             Feedback::Attitude => {
@@ -694,6 +695,7 @@ impl<'a> Pass<'a> {
                 for k in 0..3 {
                     self.engine.filter.set_state(k, 0.0);
                 }
+                self.engine.shadow_fed_back(x, 0..3);
                 return;
             }
             Feedback::All => {}
@@ -703,11 +705,12 @@ impl<'a> Pass<'a> {
         self.lin.absorb(self.layout, x);
         self.engine.filter.reset_state();
         // The copy of the start attitude error is estimated, not fed back anywhere.
-        if let Some(s) = self.layout.start_attitude {
-            for (k, v) in x.iter().enumerate().skip(s).take(3) {
-                self.engine.filter.set_state(k, *v);
-            }
+        let copy = self.layout.start_attitude.map_or(0..0, |s| s..s + 3);
+        for k in copy.clone() {
+            self.engine.filter.set_state(k, x[k]);
         }
+        self.engine
+            .shadow_fed_back(x, (0..x.len()).filter(|k| !copy.contains(k)));
     }
 
     /// The pass's estimate of every state (totals, SI; the attitude errors fed back, so zero),
