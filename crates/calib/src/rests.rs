@@ -168,7 +168,7 @@ pub fn usable(rests: &[Rest]) -> Vec<Rest> {
 /// `i`-th rest) is held out by a fit with `filter.hold_out_every = every`: every `every`-th,
 /// counted from 1.
 pub fn held_out(i: usize, every: Option<usize>) -> bool {
-    every.is_some_and(|k| k > 0 && (i + 1) % k == 0)
+    every.is_some_and(|k| k > 0 && (i + 1).is_multiple_of(k))
 }
 
 /// The segments of a recording of rests for the diagnostics: `rest 1`, `motion 1-2`,
