@@ -98,6 +98,7 @@ fn run(seeds: std::ops::RangeInclusive<u64>) {
             &layout,
             &mut source,
             &rests(&config),
+            &[],
             None,
             &mut |_, _| {},
         )
@@ -200,6 +201,7 @@ fn run_consumer(seeds: std::ops::RangeInclusive<u64>) {
             &imu,
             "imu.csv",
             &rests(&config),
+            &[],
             &mut |_, _| {},
         )
         .unwrap();

@@ -57,8 +57,15 @@ fn run(truth: &RunConfig, fit: &RunConfig, hidden: &HiddenEffects) -> (Vec<Strin
         imu_file: "imu.csv",
         turntable: None,
     };
-    let result =
-        run_loop_at_rests(config, &data, &rests, &LoopSettings::default(), &mut |_| {}).unwrap();
+    let result = run_loop_at_rests(
+        config,
+        &data,
+        &rests,
+        &[],
+        &LoopSettings::default(),
+        &mut |_| {},
+    )
+    .unwrap();
     let terms = result.accepted_terms.clone();
     let fits = result.final_model_fits();
     let checks: Vec<String> = result

@@ -261,6 +261,15 @@ pub struct FilterConfig {
     /// measured rate magnitude matched against the program's).
     #[serde(default)]
     pub program_start_s: Option<f64>,
+    /// A recording of rests: white noise added to each axis of the attitude error at the end
+    /// of every motion, one sigma in degrees (absent: 0). What the gyros' model misses in a
+    /// hand turn (sensor bandwidth, scale-factor nonlinearity at hundreds of deg/s, the hand's
+    /// vibration) is otherwise read as calibration errors: on the Ferraris session, turned at
+    /// up to 900 deg/s, the x gyro's scale factor followed the rests around the turns and missed
+    /// its known 360-degree turn by 2.4 deg. `calibrate --free-motion` measures it from the
+    /// innovations ([`crate::hand_turned`]); no effect on a program.
+    #[serde(default, deserialize_with = "values::non_negative")]
+    pub motion_attitude_noise_deg: f64,
     /// Hold out the measurements of every `k`-th segment that has measurements (the program's
     /// segments; the rests of a recording without a program), counted from 1 so the first is
     /// never held out: each is evaluated as a prediction (its innovation and innovation
@@ -595,6 +604,12 @@ impl RunConfig {
             origin,
             message: e.to_string(),
         })
+    }
+
+    /// The configuration as TOML (what a report shows of a configuration made in the program,
+    /// such as `calibrate --free-motion`'s from the recording).
+    pub fn to_toml(&self) -> Result<String, String> {
+        toml::to_string(self).map_err(|e| e.to_string())
     }
 
     /// The unit's grade, from the prior of its gyro biases: it sets the priors of the

@@ -477,7 +477,10 @@ fn segment_nis(s: &Series, segments: &[Segment], test: &mut TestSink) -> Vec<Seg
         let label = segments
             .get(id)
             .map_or_else(|| format!("segment {id}"), |g| g.label.clone());
-        let t = nis_test(&w);
+        let mut t = nis_test(&w);
+        if segments.get(id).is_some_and(|g| g.levels_start) {
+            t.p_value = ChiSquared::new(t.dof).map_or(f64::NAN, |d| d.sf(t.sum));
+        }
         test(
             format!("NIS in segment {id} ({label})"),
             t.sum,

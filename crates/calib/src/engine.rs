@@ -190,9 +190,25 @@ pub struct UpdateRecord {
     pub s: Matrix3<f64>,
 }
 
+/// A scalar measurement of the error state's parameters alone, `z = h x + v`, `v` of variance
+/// `variance` (a known turn: `z` the expected angle less the integrated one, `h` the integrated
+/// gyro Jacobian about the axis).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParameterMeasurement {
+    /// The measurement.
+    pub z: f64,
+    /// Its row of `H` (the state's length; entries past its end are 0).
+    pub h: Vec<f64>,
+    /// Variance of its noise.
+    pub variance: f64,
+}
+
 /// What happened at a measurement instant.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct InstantReport {
+    /// Normalised innovation squared of a queued parameter measurement made at this instant
+    /// (1 degree of freedom; [`Engine::queue_parameter_measurement`]).
+    pub parameter_nis: Option<f64>,
     /// Normalised innovation squared of the specific-force update (3 degrees of freedom).
     pub accel_nis: Option<f64>,
     /// Normalised innovation squared of the turntable update.
@@ -206,7 +222,7 @@ pub struct InstantReport {
 impl InstantReport {
     /// Whether any update was made.
     pub fn updated(&self) -> bool {
-        self.accel_nis.is_some() || self.turntable_nis.is_some()
+        self.accel_nis.is_some() || self.turntable_nis.is_some() || self.parameter_nis.is_some()
     }
 }
 
@@ -244,6 +260,11 @@ pub struct Engine {
     /// innovation predicted from the data before the stretch and the stretch's earlier
     /// measurements); the filter itself only predicts through the stretch.
     shadow: Option<KalmanFilter>,
+    /// A scalar measurement of the parameters alone (a known turn), made at the next
+    /// measurement instant right after its predict: the parameters are constant, so the
+    /// instant does not matter, and an update between instants would come before the
+    /// transition still being accumulated.
+    pending: Option<ParameterMeasurement>,
     /// Scratch for the measurement noise as a faer matrix.
     r: Mat<f64>,
     /// Scratch for the cross-covariance of the state's error and the measurement noise
@@ -269,6 +290,7 @@ impl Engine {
             covariance_only,
             log_det_data: 0.0,
             shadow: None,
+            pending: None,
             r: Mat::zeros(3, 3),
             cross: Mat::zeros(n, 3),
         }
@@ -300,6 +322,48 @@ impl Engine {
                 shadow.set_state(k, x[k] - fed[k]);
             }
         }
+    }
+
+    /// Queue a scalar measurement of the parameters ([`ParameterMeasurement`]), made at the
+    /// next measurement instant (or [`Engine::predict_to_now`]); a second one before then
+    /// replaces it only if the first was not yet made, so the caller queues one per instant.
+    pub fn queue_parameter_measurement(&mut self, m: ParameterMeasurement) {
+        self.pending = Some(m);
+    }
+
+    /// Whether a parameter measurement waits for the next instant.
+    pub fn parameter_measurement_pending(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// The queued parameter measurement, made on the main filter (never held out: it is no
+    /// segment's).
+    fn parameter_update(&mut self) -> Result<Option<f64>, KalmanError> {
+        let Some(m) = self.pending.take() else {
+            return Ok(None);
+        };
+        let n = self.filter.dim();
+        let h = Mat::from_fn(1, n, |_, j| m.h.get(j).copied().unwrap_or(0.0));
+        let r = Mat::from_fn(1, 1, |_, _| m.variance);
+        let info = self.filter.update(&[m.z], h.as_ref(), r.as_ref())?;
+        // The held-out copy is the main filter with the held-out measurements: it gets this one.
+        if let Some(shadow) = &mut self.shadow {
+            shadow.update(&[m.z], h.as_ref(), r.as_ref())?;
+        }
+        Ok(Some(info.nis))
+    }
+
+    /// Add white noise of variance `var` (rad^2) to each axis of the attitude error (the first
+    /// three states) now.
+    pub fn add_attitude_noise(&mut self, var: f64) -> Result<(), KalmanError> {
+        let n = self.filter.dim();
+        let phi = Mat::from_fn(3, n, |i, j| if i == j { 1.0 } else { 0.0 });
+        let q = Mat::from_fn(3, 3, |i, j| if i == j { var } else { 0.0 });
+        self.filter.predict(phi.as_ref(), q.as_ref())?;
+        if let Some(shadow) = &mut self.shadow {
+            shadow.predict(phi.as_ref(), q.as_ref())?;
+        }
+        Ok(())
     }
 
     /// Whether measurements are held out now.
@@ -356,6 +420,7 @@ impl Engine {
             }
         }
         model.reset_transition();
+        report.parameter_nis = self.parameter_update()?;
         if let Some(m) = &acc {
             report.accel_update = self.update(m)?;
             report.accel_nis = report.accel_update.map(|u| u.nis);
@@ -380,6 +445,7 @@ impl Engine {
             }
         }
         self.model.reset_transition();
+        self.parameter_update()?;
         Ok(())
     }
 

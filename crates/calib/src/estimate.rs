@@ -149,6 +149,10 @@ pub struct FitStatistics {
     /// Specific-force windows left out because the unit moved in them (a recording of rests;
     /// zero with a program, where the specific force is known throughout).
     pub accel_windows_in_motion: usize,
+    /// Known turns measured (a recording of rests with a section list's turns).
+    pub turn_updates: usize,
+    /// Mean normalised innovation squared of the known turns (1 when the model fits).
+    pub turn_mean_nis: f64,
 }
 
 /// A parameter whose posterior sigma is above this fraction of its prior sigma is reported as
@@ -473,6 +477,7 @@ pub fn estimate_at_rests(
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
     rests: &[Rest],
+    turns: &[crate::rests::Turn],
     coarse: Option<&[f64]>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
@@ -558,11 +563,14 @@ pub fn estimate_at_rests(
             c_start: align.c_start,
         }
     });
+    let mut turns = turns.to_vec();
+    turns.sort_by(|a, b| a.t0.total_cmp(&b.t0));
     let motion = Motion::Rests {
         rests: rests.to_vec(),
         usable,
         align,
         coarse: coarse.map(<[f64]>::to_vec),
+        turns,
     };
     // A coarse start is good enough to linearise the parameters about, not to feed the
     // poorly observed ones back as the first updates move them (closed loop from the Xsens
@@ -603,6 +611,7 @@ pub fn calibrate_rests(
     data: &ImuData,
     file: &str,
     rests: &[Rest],
+    turns: &[crate::rests::Turn],
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let coarse = if needs_coarse_start(config) {
@@ -614,12 +623,20 @@ pub fn calibrate_rests(
             .filter(|(i, _)| !crate::rests::held_out(*i, config.filter.hold_out_every))
             .map(|(_, r)| *r)
             .collect();
-        Some(coarse_start(config, layout, data, file, &fitted)?)
+        Some(coarse_start(config, layout, data, file, &fitted, turns)?)
     } else {
         None
     };
     let mut imu = MemoryImu::new(data, file);
-    estimate_at_rests(config, layout, &mut imu, rests, coarse.as_deref(), progress)
+    estimate_at_rests(
+        config,
+        layout,
+        &mut imu,
+        rests,
+        turns,
+        coarse.as_deref(),
+        progress,
+    )
 }
 
 /// Whether the priors are wide enough that the first pass needs a coarse start: a gyro or
@@ -644,6 +661,7 @@ fn coarse_start(
     data: &ImuData,
     file: &str,
     rests: &[Rest],
+    turns: &[crate::rests::Turn],
 ) -> Result<Vec<f64>, EstimateError> {
     use crate::free_motion::{FreeMotionSettings, Interval, calibrate_free_motion};
     let grouped = coarse_records(data);
@@ -676,7 +694,25 @@ fn coarse_start(
     };
     settings.g_sensitivity_prior = prior_of("gyro.gsens.xx");
     settings.scale_asymmetry_prior = prior_of("gyro.asym.x");
-    let fit = calibrate_free_motion(data, &intervals, &[], &settings).map_err(|e| {
+    // The known turns on the grouped records: from the group that holds the first record to
+    // the one that holds the last (a group reaches up to COARSE_GROUP_S into the rest before).
+    let known: Vec<crate::free_motion::KnownTurn> = turns
+        .iter()
+        .filter_map(|turn| {
+            let first = t.partition_point(|&x| x < turn.t0);
+            let last = t
+                .partition_point(|&x| x < turn.t1)
+                .min(t.len().checked_sub(1)?);
+            (first <= last).then(|| crate::free_motion::KnownTurn {
+                name: turn.name.clone(),
+                first_record: first,
+                last_record: last,
+                axis: turn.axis.into(),
+                angle_rad: turn.angle_rad,
+            })
+        })
+        .collect();
+    let fit = calibrate_free_motion(data, &intervals, &known, &settings).map_err(|e| {
         EstimateError::Rests {
             file: file.to_string(),
             source: RestError::CoarseFit(e.to_string()),
@@ -713,6 +749,8 @@ enum Motion {
         align: crate::rests::RestAlignment,
         /// The coarse start, the prior mean of the instrument parameters in place of zero.
         coarse: Option<Vec<f64>>,
+        /// Known turns, measured ([`crate::rests::Turn`]).
+        turns: Vec<crate::rests::Turn>,
     },
 }
 
@@ -1270,6 +1308,7 @@ fn run_pass(
         feedback,
         n_steps: scan.n,
         own_intervals: matches!(motion, Motion::Rests { .. }),
+        motion_attitude_noise_rad: config.filter.motion_attitude_noise_deg.to_radians(),
     };
     let lin = Linearisation::from_totals(layout, &totals);
     let mut pass = Pass::new(
@@ -1281,8 +1320,9 @@ fn run_pass(
         angles,
     );
     pass.stats = stats;
-    if let Motion::Rests { usable, .. } = motion {
+    if let Motion::Rests { usable, turns, .. } = motion {
         pass.rest_gate = Some(crate::rests::RestGate::new(usable.clone()));
+        pass.turns = turns.clone();
     }
     if let Some(every) = config.filter.hold_out_every {
         pass.held_out = held_out_windows(motion, scan.program_start, every);

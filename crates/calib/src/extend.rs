@@ -375,6 +375,8 @@ struct Context<'a> {
     data: &'a RunData<'a>,
     /// A recording of rests without a program ([`run_loop_at_rests`]).
     rests: Option<&'a [crate::rests::Rest]>,
+    /// Its known turns, measured in every fit.
+    turns: &'a [crate::rests::Turn],
     settings: &'a LoopSettings,
     progress: &'a mut dyn FnMut(&str),
 }
@@ -428,6 +430,7 @@ impl Context<'_> {
                 self.data.imu,
                 self.data.imu_file,
                 rests,
+                self.turns,
                 &mut |_, _| {},
             )?,
         };
@@ -709,6 +712,7 @@ pub fn run_loop(
         scaled: None,
         data,
         rests: None,
+        turns: &[],
         settings,
         progress,
     };
@@ -744,6 +748,7 @@ pub fn run_loop_at_rests(
     config: &RunConfig,
     data: &RunData,
     rests: &[crate::rests::Rest],
+    turns: &[crate::rests::Turn],
     settings: &LoopSettings,
     progress: &mut dyn FnMut(&str),
 ) -> Result<LoopResult, LoopError> {
@@ -752,6 +757,7 @@ pub fn run_loop_at_rests(
         scaled: None,
         data,
         rests: Some(rests),
+        turns,
         settings,
         progress,
     };

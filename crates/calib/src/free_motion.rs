@@ -724,32 +724,20 @@ pub fn calibrate_free_motion(
     let (gyro_cal, accel_cal) = calibrations(&p, settings);
 
     let parameters = parameters(&p, &joint.cov, &prior, settings);
-    let poses = intervals
-        .iter()
-        .zip(&stats)
-        .enumerate()
-        .map(|(i, (iv, s))| PoseResidual {
-            interval: *iv,
-            held_out: held_out(i, settings.holdout),
-            before_m_s2: s.f.norm() - g,
-            after_m_s2: accel_cal.apply(&s.f).norm() - g,
-        })
-        .collect::<Vec<_>>();
-    let turn_checks = turns
-        .iter()
-        .map(|t| {
-            let a = Vector3::from(t.axis).normalize();
-            TurnCheck {
-                name: t.name.clone(),
-                expected_rad: t.angle_rad,
-                before_rad: inc.turn(t.first_record, t.last_record, &a, &GyroCal::raw()),
-                after_rad: inc.turn(t.first_record, t.last_record, &a, &gyro_cal),
-            }
-        })
-        .collect();
-    let validation = settings
-        .holdout
-        .map(|_| validate(&inc, intervals, &stats, &poses, &accel_cal, &gyro_cal));
+    let Evaluation {
+        poses,
+        turns: turn_checks,
+        validation,
+    } = figures(
+        &inc,
+        intervals,
+        &stats,
+        turns,
+        settings.holdout,
+        g,
+        &gyro_cal,
+        &accel_cal,
+    );
     let correlation =
         crate::posterior::correlation(prior.len(), 0..prior.len(), |i, j| joint.cov[(i, j)]);
     Ok(FreeMotionResult {
@@ -762,6 +750,111 @@ pub fn calibrate_free_motion(
         turns: turn_checks,
         validation,
     })
+}
+
+/// What a calibration does to a recording's rests and known turns: [`PoseResidual`] of every
+/// static interval, [`TurnCheck`] of every known turn, and the held-out [`Validation`] with a
+/// hold-out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Evaluation {
+    /// Every static interval, before and after.
+    pub poses: Vec<PoseResidual>,
+    /// Known turns, before and after.
+    pub turns: Vec<TurnCheck>,
+    /// Held-out validation, with a hold-out.
+    pub validation: Option<Validation>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn figures(
+    inc: &Increments,
+    intervals: &[Interval],
+    stats: &[PoseStat],
+    turns: &[KnownTurn],
+    holdout: Option<usize>,
+    g: f64,
+    gyro_cal: &GyroCal,
+    accel_cal: &AccelCal,
+) -> Evaluation {
+    let poses = intervals
+        .iter()
+        .zip(stats)
+        .enumerate()
+        .map(|(i, (iv, s))| PoseResidual {
+            interval: *iv,
+            held_out: held_out(i, holdout),
+            before_m_s2: s.f.norm() - g,
+            after_m_s2: accel_cal.apply(&s.f).norm() - g,
+        })
+        .collect::<Vec<_>>();
+    let turns = turns
+        .iter()
+        .map(|t| {
+            let a = Vector3::from(t.axis).normalize();
+            TurnCheck {
+                name: t.name.clone(),
+                expected_rad: t.angle_rad,
+                before_rad: inc.turn(t.first_record, t.last_record, &a, &GyroCal::raw()),
+                after_rad: inc.turn(t.first_record, t.last_record, &a, gyro_cal),
+            }
+        })
+        .collect();
+    let validation = holdout.map(|_| validate(inc, intervals, stats, &poses, accel_cal, gyro_cal));
+    Evaluation {
+        poses,
+        turns,
+        validation,
+    }
+}
+
+/// [`Evaluation`] of a calibration given by its parameter values (SI, by the names of
+/// [`FreeMotionResult::parameters`], which the filter's result shares: `gyro.bias.x`,
+/// `gyro.theta.xy`, `accel.gamma.yx`, `gyro.gsens.xz`, `gyro.asym.z`, ...; a name `value`
+/// does not know is 0): the batch fit's held-out figures for any estimator. The g-sensitivity
+/// acts on the measured specific force and the asymmetry on the measured increment, as in the
+/// batch fit; the filter's act on the compensated ones, which differs by products of two
+/// errors. `intervals` and `holdout` as for [`calibrate_free_motion`].
+pub fn evaluate(
+    data: &ImuData,
+    intervals: &[Interval],
+    turns: &[KnownTurn],
+    holdout: Option<usize>,
+    gravity_m_s2: f64,
+    value: &dyn Fn(&str) -> Option<f64>,
+) -> Evaluation {
+    let v = |name: String| value(&name).unwrap_or(0.0);
+    let mut p: Vec<f64> = AXES.iter().map(|a| v(format!("gyro.bias.{a}"))).collect();
+    for a in AXES {
+        for b in AXES {
+            p.push(v(format!("gyro.theta.{a}{b}")));
+        }
+    }
+    p.extend(AXES.iter().map(|a| v(format!("accel.bias.{a}"))));
+    p.extend(
+        GAMMA_INDEX
+            .iter()
+            .map(|&(i, j)| v(format!("accel.gamma.{}{}", AXES[i], AXES[j]))),
+    );
+    let gsens: Vec<f64> = AXES
+        .iter()
+        .flat_map(|a| AXES.iter().map(move |b| format!("gyro.gsens.{a}{b}")))
+        .map(v)
+        .collect();
+    let mut gyro_cal = GyroCal::new(&p[..12], Some(&gsens));
+    gyro_cal.asym = Vector3::from_iterator(AXES.iter().map(|a| v(format!("gyro.asym.{a}"))));
+    let accel_cal = AccelCal::new(&p[12..21]);
+    let inc = Increments::new(data);
+    let stats: Vec<PoseStat> = intervals.iter().map(|iv| pose_stat(&inc, *iv)).collect();
+    figures(
+        &inc,
+        intervals,
+        &stats,
+        turns,
+        holdout,
+        gravity_m_s2,
+        &gyro_cal,
+        &accel_cal,
+    )
 }
 
 /// Normalised parameters times their prior sigmas: SI values.

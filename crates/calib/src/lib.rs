@@ -17,7 +17,6 @@
 //! - [`covariance`]: covariance analysis of a program;
 //! - [`evidence`]: the statistics of model extension (score test, separability, gain);
 //! - [`extend`]: the model-extension loop (fit, test the candidate terms, accept, measure);
-//! - [`extend_free`]: the same loop on free-motion recordings;
 //! - [`design`]: programs that separate candidate terms the recorded program cannot;
 //! - [`estimate`]: calibration from recorded data (`imu.csv`, `turntable.csv`);
 //! - [`extension`]: candidate terms beyond the paper's model for the filter
@@ -27,7 +26,9 @@
 //! - [`program_start`]: where the program starts on the IMU clock;
 //! - [`rests`]: recordings without a program: the rests in place of the program;
 //! - [`data_checks`]: checks of the IMU data before any filter;
-//! - [`free_motion`]: calibration from a hand-turned multi-position recording (no turntable);
+//! - [`free_motion`]: the batch fit of a hand-turned multi-position recording (no turntable):
+//!   the coarse start of the filter on such recordings, and their held-out figures;
+//! - [`hand_turned`]: a hand-turned recording's noise and configuration from its own rests;
 //! - [`io`]: the interchange files (readers with file and line in every error, writers);
 //! - [`simulate`]: the truth of a simulated run from a run configuration;
 //! - [`stats`]: NEES and chi-square bands;
@@ -63,9 +64,9 @@ pub mod engine;
 pub mod estimate;
 pub mod evidence;
 pub mod extend;
-pub mod extend_free;
 pub mod extension;
 pub mod free_motion;
+pub mod hand_turned;
 pub mod io;
 pub mod layout;
 pub mod model;

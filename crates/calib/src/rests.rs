@@ -97,6 +97,26 @@ pub enum RestError {
         /// The layout's instrument parameters.
         expected: usize,
     },
+    /// A hold-out that holds out no rest, or the first.
+    #[error(
+        "holdout K = {every}: the recording has {rests} rests; every K-th rest is held out, so K \
+         must be at least 2 (the first rest levels the start attitude) and at most {rests}"
+    )]
+    HoldOut {
+        /// K.
+        every: usize,
+        /// Rests in the recording.
+        rests: usize,
+    },
+    /// Records too far apart for a hand-turned recording.
+    #[error(
+        "the records come every {interval_s} s on average: a hand-turned recording's IMU \
+         records come at 10 Hz or more (time stamps in milliseconds read as seconds?)"
+    )]
+    SlowRecords {
+        /// Mean record interval (s).
+        interval_s: f64,
+    },
     /// The batch fit that gives the coarse start failed.
     #[error("the coarse start (batch fit of the rests) failed: {0}")]
     CoarseFit(String),
@@ -151,6 +171,46 @@ pub fn check_rests(rests: &[Rest], t_start: f64, slack_s: f64) -> Result<(), Res
     Ok(())
 }
 
+/// Standard deviation of a known turn's angle (rad): a hand-made turn against a box edge
+/// (the batch fit's default, [`crate::free_motion::FreeMotionSettings::turn_sigma_rad`]).
+pub const TURN_SIGMA_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
+
+/// A turn of known angle in a recording of rests (a section list's 360-degree turns): a
+/// measurement of the gyros' integrated angle about `axis` over the records stamped `t0` to
+/// `t1` (each record's increment over its own interval ending at its stamp), against
+/// `angle_rad`, with the sigma [`TURN_SIGMA_RAD`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Turn {
+    /// Name for reports (`x_rot`).
+    pub name: String,
+    /// Stamp of the turn's first record (s, IMU clock).
+    pub t0: f64,
+    /// Stamp of its last record.
+    pub t1: f64,
+    /// Body axis of the turn (unit vector).
+    pub axis: Vector3<f64>,
+    /// Angle about `axis`, right-handed (rad).
+    pub angle_rad: f64,
+}
+
+impl Turn {
+    /// The turn of `known` (record indices into `data`); `None` when its records are not in
+    /// `data` or its axis is zero.
+    pub fn of(known: &crate::free_motion::KnownTurn, data: &crate::io::ImuData) -> Option<Self> {
+        let (a, b) = (
+            data.records.get(known.first_record)?,
+            data.records.get(known.last_record)?,
+        );
+        Some(Self {
+            name: known.name.clone(),
+            t0: a.t,
+            t1: b.t,
+            axis: Vector3::from(known.axis).try_normalize(0.0)?,
+            angle_rad: known.angle_rad,
+        })
+    }
+}
+
 /// The rests with their margins cut, as the specific-force gate of a pass uses them; rests
 /// shorter than twice the margin are dropped.
 pub fn usable(rests: &[Rest]) -> Vec<Rest> {
@@ -178,6 +238,7 @@ pub fn segments(rests: &[Rest]) -> Vec<Segment> {
     for (i, r) in rests.iter().enumerate() {
         if i > 0 {
             out.push(Segment {
+                levels_start: false,
                 index: out.len(),
                 cycle: None,
                 label: format!("motion {}-{}", i, i + 1),
@@ -187,6 +248,7 @@ pub fn segments(rests: &[Rest]) -> Vec<Segment> {
             });
         }
         out.push(Segment {
+            levels_start: i == 0,
             index: out.len(),
             cycle: None,
             label: format!("rest {}", i + 1),

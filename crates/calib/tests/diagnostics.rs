@@ -234,6 +234,7 @@ mod arbitrary {
             t0,
             t1,
             rotation_hz,
+            levels_start: index == 0,
         })
     }
 

@@ -5,11 +5,9 @@ use crate::table::{self, Align, Table};
 use crate::{Error, load_config};
 use calib::angle_records::AngleFile;
 use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
-use calib::estimate::{
-    Estimate, FileImu, FitStatistics, ImuSource as _, calibrate_rests, estimate_from,
-};
+use calib::estimate::{Estimate, FileImu, FitStatistics, ImuSource as _, estimate_from};
 use calib::io::{ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json};
-use calib::layout::layout_for;
+use calib::layout::{StateLayout, layout_for};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -44,12 +42,12 @@ pub struct Args {
     /// defaults.
     #[arg(long, value_name = "FILE|NAME")]
     pub config: Option<String>,
-    /// Free-motion calibration of a hand-turned multi-position recording, without a rotation
-    /// program or turntable: accelerometers from |f| = g in every static interval, gyros from the
-    /// rotations between them (batch Gauss-Newton least squares; docs/real-data.md). Not with
-    /// --diagnostics or --report: the batch fit has no innovations to test (its verdict is
-    /// the chi-square of each stage).
-    #[arg(long, conflicts_with_all = ["diagnostics", "report"])]
+    /// A hand-turned multi-position recording, without a rotation program or turntable: the
+    /// filter of a recording of rests (the specific force measured in the rests the detector
+    /// finds, the attitude carried by the gyros through every motion) with the gyro
+    /// g-sensitivity and scale-factor asymmetry in the model; without --config, consumer-grade
+    /// priors and the white noise measured in the rests (docs/real-data.md).
+    #[arg(long)]
     pub free_motion: bool,
     /// With --free-motion: the section list written by `import` (sections.json); its rotations
     /// with an expected turn (e.g. 360-degree turns) become measurements of the integrated angle.
@@ -97,8 +95,8 @@ pub struct Args {
     /// date and command line, the verdict and its failing tests, the parameters with 1 sigma,
     /// and PNG plots of the correlations, the residuals and the NIS per segment
     /// (docs/report.md). Runs the diagnostics of --diagnostics: their verdict counts toward
-    /// the exit status. Not with --free-motion (its fit has no innovations to test).
-    #[arg(long, value_name = "DIR", conflicts_with = "free_motion")]
+    /// the exit status.
+    #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
     /// How rests are found in a recording without a program (and with --free-motion).
     #[command(flatten)]
@@ -122,6 +120,9 @@ struct ResultJson<'a> {
     /// With --diagnostics: `calib::diagnostics::Diagnostics`.
     #[serde(skip_serializing_if = "Option::is_none")]
     diagnostics: Option<&'a Diagnostics>,
+    /// With --free-motion: the noise, the known turns and the held-out rests.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    free_motion: Option<&'a crate::free_motion::FreeMotionJson>,
 }
 
 /// The verdict in the JSON result: `fits` false (and exit status 3) when a mean NIS is outside
@@ -254,11 +255,21 @@ pub(crate) fn input_paths(args: &Args) -> Vec<&Path> {
     v
 }
 
-/// Run `calibrate` with a program, turntable angles or on a recording of rests (the batch
-/// fit of `--free-motion` is `crate::free_motion::run`).
+/// Run `calibrate` with a program, turntable angles, or on a recording of rests (with
+/// `--free-motion`, a hand-turned one: `crate::free_motion`).
 pub fn run(args: &Args) -> Result<Outcome, Error> {
+    if args.free_motion && (args.turntable.is_some() || args.program_start.is_some()) {
+        return Err(
+            "calibrate --free-motion: --turntable and --program-start belong to a \
+                    turntable calibration (a hand-turned recording has neither)"
+                .into(),
+        );
+    }
     if let Some(path) = &args.json {
         crate::output::check_file(path, "--json", &input_paths(args))?;
+    }
+    if let Some(path) = &args.plot {
+        crate::output::check_png(path, "--plot", &input_paths(args))?;
     }
     if let Some(dir) = &args.diagnostics {
         prepare_diagnostics_dir(dir)?;
@@ -281,29 +292,24 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         );
     }
     let turntable = input.tt.as_ref().map(AngleFile::records);
-    let layout = layout_for(&input.config, turntable.is_some());
-    if let (Some(truth), Some(path)) = (&input.truth, &args.truth) {
-        truth.check_units(
-            &path.display().to_string(),
-            layout
-                .entries()
-                .iter()
-                .map(|e| (e.name.as_str(), e.unit.si_name())),
-        )?;
-    }
     let bar = progress_bar(input.imu.len_hint().unwrap_or(0));
     let mut progress = |done: usize, total: usize| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     };
-    let result = match &input.program {
-        Some(_) => estimate_from(
-            &input.config,
-            &layout,
-            &mut input.imu,
-            turntable,
-            &mut progress,
-        ),
+    let mut hand_turned = None;
+    let est = match &input.program {
+        Some(_) => {
+            let layout = layout_for(&input.config, turntable.is_some());
+            check_truth_units(args, &input, &layout)?;
+            estimate_from(
+                &input.config,
+                &layout,
+                &mut input.imu,
+                turntable,
+                &mut progress,
+            )?
+        }
         None => {
             // No program: the rests the data show stand in for it. The records are read into
             // memory for the detector (recordings of rests are short).
@@ -313,24 +319,61 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 .settings()
                 .map_err(|e| format!("calibrate: {e}"))?;
             let rests = crate::detector_args::rests(&data, &input.imu_file, &settings)?;
-            calibrate_rests(
+            let (layout, turns, measured, origin) = if args.free_motion {
+                let given = args
+                    .config
+                    .is_some()
+                    .then_some((&input.config, input.origin.as_str()));
+                let setup = crate::free_motion::setup(
+                    given,
+                    args.latitude,
+                    args.sections.as_deref(),
+                    &data,
+                    &input.imu_file,
+                    &rests,
+                )?;
+                input.config = setup.config;
+                (
+                    setup.layout,
+                    setup.turns,
+                    setup.measured,
+                    Some(setup.origin),
+                )
+            } else {
+                (layout_for(&input.config, false), vec![], None, None)
+            };
+            check_truth_units(args, &input, &layout)?;
+            let r = calib::hand_turned::calibrate(
                 &input.config,
                 &layout,
                 &data,
                 &input.imu_file,
                 &rests,
+                &turns,
+                args.holdout,
+                measured,
                 &mut progress,
-            )
+            )?;
+            input.config = r.config.clone();
+            let est = r.estimate.clone();
+            hand_turned = Some((r, origin));
+            est
         }
     };
     bar.finish_and_clear();
-    let est = result?;
 
     let mut s = header_report(&input, &est);
+    if let Some((r, Some(origin))) = &hand_turned {
+        s += &crate::free_motion::header(origin, r, args.holdout);
+    }
+    s.push('\n');
     s += &parameter_report(&est, input.truth.as_ref());
     s.push('\n');
     s += &fit_report(&est.stats, turntable.is_some());
     s += &observability_report(&est);
+    if let Some((r, Some(_))) = &hand_turned {
+        s += &crate::free_motion::evaluation_report(&r.evaluation);
+    }
     if let (Some(truth), Some(path)) = (&input.truth, &args.truth) {
         s.push('\n');
         s += &truth_report(&est, truth, path, &input.config.clock);
@@ -340,18 +383,36 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         .transpose()?;
     let bad =
         calib::report::lab::misfit_reasons(&est.stats, diagnostics.as_ref(), turntable.is_some());
+    let free_motion_json = match &hand_turned {
+        Some((r, Some(_))) => Some(crate::free_motion::json(r, args.holdout)),
+        _ => None,
+    };
     if let Some(path) = &args.json {
-        write_result_json(path, &est, diagnostics.as_ref(), turntable.is_some(), &bad)?;
+        write_result_json(
+            path,
+            &est,
+            diagnostics.as_ref(),
+            turntable.is_some(),
+            &bad,
+            free_motion_json.as_ref(),
+        )?;
         if !crate::output::is_stdout(path) {
             let _ = writeln!(s, "\nwrote {}", path.display());
         }
+    }
+    if let (Some(path), Some((r, _))) = (&args.plot, &hand_turned) {
+        crate::plot::static_residuals_png(path, &input.imu_file, &r.evaluation.poses)?;
+        let _ = writeln!(s, "wrote {}", path.display());
     }
     if let (Some(dir), Some(d)) = (&args.report, &diagnostics) {
         let truth = input.truth.as_ref().zip(args.truth.as_deref());
         let truth = truth.map(|(t, p)| (t, truth_report(&est, t, p, &input.config.clock)));
         let id = crate::lab_report::identify(
             &report_inputs(args),
-            args.config.as_deref().unwrap_or("paper"),
+            match (args.config.as_deref(), args.free_motion) {
+                (None, false) => Some("paper"),
+                (c, _) => c,
+            },
             &input.config,
         )?;
         let plots = crate::lab_report::write_calibration(dir, id, &est, d, &bad, truth)?;
@@ -370,6 +431,20 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     Ok(Outcome::DoesNotFit)
 }
 
+/// Refuse a truth file whose units are not the model's.
+fn check_truth_units(args: &Args, input: &Inputs, layout: &StateLayout) -> Result<(), Error> {
+    if let (Some(truth), Some(path)) = (&input.truth, &args.truth) {
+        truth.check_units(
+            &path.display().to_string(),
+            layout
+                .entries()
+                .iter()
+                .map(|e| (e.name.as_str(), e.unit.si_name())),
+        )?;
+    }
+    Ok(())
+}
+
 /// The result JSON (docs/formats.md), written atomically (or to standard output for `-`).
 fn write_result_json(
     path: &Path,
@@ -377,6 +452,7 @@ fn write_result_json(
     diagnostics: Option<&Diagnostics>,
     with_tt: bool,
     bad: &[String],
+    free_motion: Option<&crate::free_motion::FreeMotionJson>,
 ) -> Result<(), Error> {
     let result = est.to_result_file();
     let json = ResultJson {
@@ -394,6 +470,7 @@ fn write_result_json(
         },
         fit: fit_json(est, with_tt),
         diagnostics,
+        free_motion,
     };
     let text = serde_json::to_string_pretty(&json)? + "\n";
     crate::output::write_file(path, text.as_bytes())
@@ -415,11 +492,22 @@ struct Inputs {
 /// Read the configuration, the truth, and open the data files (refusing bad ones before any
 /// work is done).
 fn load_inputs(args: &Args) -> Result<Inputs, Error> {
-    let name = args.config.as_deref().ok_or(
-        "calibrate: --config is required (or --free-motion for a recording without a rotation \
-         program)",
-    )?;
-    let (mut config, origin) = load_config(name)?;
+    let (mut config, origin) = match (args.config.as_deref(), args.free_motion) {
+        (Some(name), _) => load_config(name)?,
+        // Made from the recording once its rests are found (`crate::free_motion::setup`).
+        (None, true) => {
+            let mut c = calib::config::RunConfig::paper();
+            c.program = calib::config::PROGRAM_FROM_ANGLES.to_string();
+            (c, "no configuration".to_string())
+        }
+        (None, false) => {
+            return Err(
+                "calibrate: --config is required (or --free-motion for a hand-turned \
+                        recording without a rotation program)"
+                    .into(),
+            );
+        }
+    };
     if let Some(t) = args.program_start {
         if !t.is_finite() {
             return Err(format!(
@@ -472,6 +560,12 @@ fn header_report(input: &Inputs, est: &Estimate) -> String {
                 input.origin,
                 name,
                 table::compact(*duration)
+            );
+        }
+        None if input.origin == "no configuration" => {
+            let _ = writeln!(
+                s,
+                "  configuration   none: a hand-turned recording without a program (--free-motion)"
             );
         }
         None => {
@@ -687,6 +781,16 @@ fn fit_report(stats: &FitStatistics, with_turntable: bool) -> String {
             s,
             "  turntable angles  {}",
             nis_verdict(stats.turntable_mean_nis, stats.turntable_updates)
+        );
+    }
+    if stats.turn_updates > 0 {
+        let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
+        let _ = writeln!(
+            s,
+            "  known turns       mean NIS {:.3} over {} turns (expected 1 +- {})",
+            stats.turn_mean_nis,
+            stats.turn_updates,
+            table::significant(half, 2)
         );
     }
     let _ = writeln!(s, "  IMU records       {} integrated", stats.imu_steps);

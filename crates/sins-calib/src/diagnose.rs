@@ -34,14 +34,17 @@ pub struct Args {
     )]
     pub config: Option<String>,
     /// A hand-turned multi-position recording (no program, no turntable): the loop runs on the
-    /// free-motion fit (`calibrate --free-motion`) with its candidate terms, gyro g-sensitivity
-    /// and scale-factor asymmetry, and measures the gain on held-out intervals.
-    #[arg(long, conflicts_with_all = ["turntable", "program_start", "report"])]
+    /// filter of a recording of rests as for a configuration without a program; without
+    /// --config, with the configuration `calibrate --free-motion` makes from the recording
+    /// (consumer-grade priors, the white noise measured in the rests).
+    #[arg(long, conflicts_with_all = ["turntable", "program_start"])]
     pub free_motion: bool,
-    /// With --free-motion: the section list written by `import` (known turns).
+    /// With --free-motion: the section list written by `import` (its known turns are
+    /// measurements of every fit).
     #[arg(long, value_name = "FILE", requires = "free_motion")]
     pub sections: Option<PathBuf>,
-    /// With --free-motion: leave every K-th static interval out and measure the gain there.
+    /// With --free-motion: the held-out check of an accepted term holds out every K-th rest
+    /// (default 4).
     #[arg(long, value_name = "K", requires = "free_motion")]
     pub holdout: Option<usize>,
     /// With --free-motion and no --config: latitude of the site (deg).
@@ -59,7 +62,7 @@ pub struct Args {
     pub json: Option<PathBuf>,
     /// Write the report a laboratory files into DIR (created, or replaced whole: no plot of an
     /// earlier report stays): as `calibrate --report` (docs/report.md) for the final model,
-    /// with the paper's model beside it and the model-extension table. Not with --free-motion.
+    /// with the paper's model beside it and the model-extension table.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
     /// Family-wise level of each round's decision.
@@ -69,7 +72,7 @@ pub struct Args {
     /// random walk candidate is tried at its identified walk, the largest axis's value and the
     /// ends of its 68 % interval, instead of the default grid of 0.003 to 0.3 deg/h/sqrt(h)
     /// (docs/model-extension.md, "The evidence for a term")
-    #[arg(long, value_name = "FILE", conflicts_with = "free_motion")]
+    #[arg(long, value_name = "FILE")]
     pub noise: Option<PathBuf>,
     /// Candidate terms to consider (ids; default all): gyro_g_sensitivity,
     /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_bias_drift,
@@ -520,22 +523,24 @@ pub fn check_args(args: &Args) -> Result<(), Error> {
         )
         .into());
     }
-    if args.free_motion && !args.terms.is_empty() {
-        return Err(format!(
-            "diagnose --free-motion --terms {}: the free-motion loop has its own two candidates \
-             (gyro_g_sensitivity, gyro_scale_asymmetry) and tries both; leave --terms out",
-            args.terms.join(",")
-        )
-        .into());
+    if args.holdout.is_some_and(|k| k < 2) {
+        return Err("--holdout: expected K of at least 2 (every K-th rest held out)".into());
     }
     Ok(())
 }
 
-/// Run `diagnose` on a programmed run or a recording of rests (after [`check_args`]; the
-/// free-motion loop is `crate::diagnose_free::run`); `Ok(false)`: the model does not fit.
+/// Run `diagnose` on a programmed run or a recording of rests (hand-turned with
+/// --free-motion; after [`check_args`]); `Ok(false)`: the model does not fit.
 pub fn run(args: &Args) -> Result<bool, Error> {
-    let config_arg = args.config.as_deref().unwrap_or("paper");
-    let (mut config, _) = load_config(config_arg)?;
+    let (mut config, origin) = match args.config.as_deref() {
+        Some(name) => load_config(name)?,
+        None if args.free_motion => {
+            let mut c = calib::config::RunConfig::paper();
+            c.program = calib::config::PROGRAM_FROM_ANGLES.to_string();
+            (c, "no configuration".to_string())
+        }
+        None => load_config("paper")?,
+    };
     if let Some(t) = args.program_start {
         if !t.is_finite() {
             return Err(format!(
@@ -549,6 +554,9 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         level: args.level,
         ..LoopSettings::default()
     };
+    if let Some(k) = args.holdout {
+        settings.hold_out_every = Some(k);
+    }
     if !args.terms.is_empty() {
         settings.candidates = parse_terms(&args.terms)?;
     }
@@ -594,7 +602,27 @@ pub fn run(args: &Args) -> Result<bool, Error> {
             .settings()
             .map_err(|e| format!("diagnose: {e}"))?;
         let rests = crate::detector_args::rests(&imu, &imu_file, &detector)?;
-        run_loop_at_rests(&config, &data, &rests, &settings, &mut progress)?
+        let turns = if args.free_motion {
+            let given = args.config.is_some().then_some((&config, origin.as_str()));
+            let setup = crate::free_motion::setup(
+                given,
+                args.latitude,
+                args.sections.as_deref(),
+                &imu,
+                &imu_file,
+                &rests,
+            )?;
+            config = setup.config;
+            eprintln!("diagnose: {}", setup.origin);
+            setup
+                .turns
+                .iter()
+                .filter_map(|k| calib::rests::Turn::of(k, &imu))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        run_loop_at_rests(&config, &data, &rests, &turns, &settings, &mut progress)?
     } else {
         run_loop(&config, &data, &settings, &mut progress)?
     };
@@ -616,7 +644,11 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         crate::output::write_file(path, to_json(&result)?.as_bytes())?;
     }
     if let Some(dir) = &args.report {
-        let id = crate::lab_report::identify(&report_inputs(args), config_arg, &config)?;
+        let shown = match (args.config.as_deref(), args.free_motion) {
+            (None, false) => Some("paper"),
+            (c, _) => c,
+        };
+        let id = crate::lab_report::identify(&report_inputs(args), shown, &config)?;
         let plots = crate::diagnose_report::write(dir, id, &result)?;
         let _ = writeln!(text, "wrote the report {} ({plots} plots)", dir.display());
     }

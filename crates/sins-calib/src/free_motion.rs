@@ -1,118 +1,120 @@
-//! `sins-calib calibrate --free-motion`: calibration of a hand-turned multi-position recording
-//! (no rotation program, no turntable) by `calib::free_motion`, with the static intervals of the
-//! `import` crate's detector.
+//! `--free-motion` (`calibrate` and `diagnose`): a hand-turned multi-position recording without
+//! a rotation program or turntable, through the filter of a recording of rests. What this
+//! module adds to that path: the configuration from the recording when none is given
+//! (`calib::hand_turned`), the section list's known turns, and the blocks of the report and
+//! the JSON that only such a recording has (noise measured in the rests, held-out rests, turns).
 
-use crate::calibrate::{Args, Outcome};
-use crate::table::{self, Align, Table};
-use crate::{Error, load_config};
-use ::import::detect::{DetectorSettings, segment};
+use crate::Error;
+use crate::table;
 use ::import::sections::SectionsFile;
-use calib::free_motion::{
-    FreeMotionResult, FreeMotionSettings, GSENS_UNIT, Interval, calibrate_free_motion,
-};
-use calib::io::{ResultParameter, read_imu_csv};
+use calib::config::RunConfig;
+use calib::extension::ModelExtension;
+use calib::free_motion::{Evaluation, KnownTurn};
+use calib::hand_turned::{DEFAULT_TERMS, HandTurnedResult, NoiseSource, WhiteNoiseAtRest};
+use calib::io::ImuData;
+use calib::layout::StateLayout;
+use calib::rests::Rest;
 use serde::Serialize;
-use sins_model::earth::Site;
-use sins_model::terms::Unit;
 use sins_model::units::DEG_PER_HOUR;
 use std::fmt::Write as _;
+
+/// The longest mean record interval of a hand-turned recording without a configuration (s):
+/// a 90-degree hand turn takes about a second.
+const MAX_RECORD_INTERVAL_S: f64 = 0.1;
 
 /// Latitude (deg) of the site when neither --config nor --latitude gives one.
 pub const DEFAULT_LATITUDE_DEG: f64 = 45.0;
 
-/// The JSON result: parameters, fit summary and validation.
-#[derive(Serialize)]
-struct FreeMotionJson<'a> {
-    parameters: &'a [ResultParameter],
-    correlation: Option<Vec<Vec<f64>>>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    correction: Option<calib::correction::CorrectionBlock>,
-    fit: FitJson,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    validation: Option<ValidationJson>,
+/// What a `--free-motion` run needs before the filter: the configuration (given, or from the
+/// recording), its origin for the report, the noise measured in the rests when the
+/// configuration's came from there, the model, and the known turns.
+pub struct Setup {
+    /// The configuration the filter starts from.
+    pub config: RunConfig,
+    /// Where it came from, for the report.
+    pub origin: String,
+    /// The rests' white noise, when the configuration's levels are it.
+    pub measured: Option<WhiteNoiseAtRest>,
+    /// The paper's model with [`DEFAULT_TERMS`] at the unit grade's priors.
+    pub layout: StateLayout,
+    /// Known turns of the section list.
+    pub turns: Vec<KnownTurn>,
 }
 
-#[derive(Serialize)]
-struct FitJson {
-    method: &'static str,
-    gravity_m_s2: f64,
-    static_intervals: usize,
-    accel: StageJson,
-    gyro: StageJson,
-    turns: Vec<TurnJson>,
-    unobserved: Vec<UnobservedJson>,
-    verdict: VerdictJson,
-}
-
-#[derive(Serialize)]
-struct StageJson {
-    residuals: usize,
-    effective_parameters: f64,
-    reduced_chi2: f64,
-    p_value: f64,
-}
-
-/// [`calib::free_motion::FreeMotionVerdict`].
-#[derive(Serialize)]
-struct VerdictJson {
-    fits: bool,
-    reasons: Vec<String>,
-    marginal: Vec<String>,
-}
-
-#[derive(Serialize)]
-struct TurnJson {
-    name: String,
-    expected_deg: f64,
-    before_deg: f64,
-    after_deg: f64,
-}
-
-#[derive(Serialize)]
-struct UnobservedJson {
-    name: String,
-    sigma_over_prior: f64,
-}
-
-#[derive(Serialize)]
-struct BeforeAfter {
-    before: f64,
-    after: f64,
-}
-
-#[derive(Serialize)]
-struct ValidationJson {
-    static_rms_m_s2: BeforeAfter,
-    rotation_rms_deg: BeforeAfter,
-    intervals: usize,
-    rotation_pairs: usize,
-}
-
-/// Gravity and priors from the configuration, or the defaults.
-pub(crate) fn settings_of(
-    config: Option<&str>,
+/// The configuration: `given` (without a program) with its own noise, or the recording's
+/// defaults ([`calib::hand_turned::default_config`]) at `latitude` with the noise measured in
+/// the rests.
+pub fn setup(
+    given: Option<(&RunConfig, &str)>,
     latitude: Option<f64>,
-) -> Result<(FreeMotionSettings, String), Error> {
-    match config {
-        Some(name) => {
-            let (config, origin) = load_config(name)?;
-            let g = config.site().normal_gravity();
-            let mut s = FreeMotionSettings::new(g);
-            s.priors = config.priors_si();
-            Ok((s, format!("{origin}: [site] and [priors]")))
+    sections: Option<&std::path::Path>,
+    data: &ImuData,
+    file: &str,
+    rests: &[Rest],
+) -> Result<Setup, Error> {
+    let (config, origin, measured) = match given {
+        Some((config, origin)) => {
+            let config = config.clone();
+            if !config.program_from_angles() {
+                return Err(format!(
+                    "{origin}: --free-motion calibrates a recording without a program; this \
+                     configuration has one (leave --free-motion out, or remove `program`)"
+                )
+                .into());
+            }
+            (
+                config,
+                format!("{origin}: [site], [priors] and [noise]"),
+                None,
+            )
         }
         None => {
             let lat = latitude.unwrap_or(DEFAULT_LATITUDE_DEG);
             if !(-90.0..=90.0).contains(&lat) {
                 return Err(format!("--latitude {lat}: expected -90 .. 90 deg").into());
             }
-            let g = Site::from_degrees(lat, 0.0, 0.0).normal_gravity();
-            Ok((
-                FreeMotionSettings::new(g),
-                format!("no configuration: latitude {lat} deg, consumer-grade priors"),
-            ))
+            let noise = calib::hand_turned::white_noise_at_rest(data, rests).ok_or_else(|| {
+                format!(
+                    "{file}: no rest holds two whole seconds: the white noise cannot be \
+                     measured in the rests (give a configuration with [noise], --config)"
+                )
+            })?;
+            let config = calib::hand_turned::default_config(data, lat, &noise)
+                .ok_or_else(|| format!("{file}: fewer than two records"))?;
+            let interval = 1.0 / config.filter.imu_rate_hz;
+            if interval > MAX_RECORD_INTERVAL_S {
+                return Err(calib::estimate::EstimateError::Rests {
+                    file: file.to_string(),
+                    source: calib::rests::RestError::SlowRecords {
+                        interval_s: interval,
+                    },
+                }
+                .into());
+            }
+            (
+                config,
+                format!(
+                    "no configuration: latitude {lat} deg, consumer-grade priors, white noise \
+                     measured in the rests"
+                ),
+                Some(noise),
+            )
         }
-    }
+    };
+    let ext = ModelExtension::with_grade(&DEFAULT_TERMS, config.unit_grade());
+    let layout = calib::layout::layout_with(&config, false, &ext);
+    let intervals = calib::hand_turned::intervals_of(data, rests);
+    let turns = match sections {
+        Some(p) => read_sections(p, data)?.known_turns(&intervals),
+        None => Vec::new(),
+    };
+    Ok(Setup {
+        config,
+        origin,
+        measured,
+        layout,
+        turns,
+    })
 }
 
 /// The section list at `path`, checked against the records of `data` before any work
@@ -129,157 +131,88 @@ pub(crate) fn read_sections(
     Ok(sections)
 }
 
-/// The static intervals of a recording by the detector with `settings`.
-pub(crate) fn static_intervals(
-    data: &calib::io::ImuData,
-    file: &str,
-    settings: &DetectorSettings,
-) -> Result<(::import::detect::Segmentation, Vec<Interval>), Error> {
-    let seg = segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
-    let intervals = seg
-        .static_intervals
-        .iter()
-        .map(|s| Interval {
-            first_record: s.first_record,
-            last_record: s.last_record,
-        })
-        .collect();
-    Ok((seg, intervals))
+/// The free-motion block of the JSON result (docs/formats.md).
+#[derive(Serialize)]
+pub struct FreeMotionJson {
+    /// Where the noise came from: `"configured"` or `"measured in the rests"`.
+    noise_source: &'static str,
+    /// The levels the filter used (sigma of a 1-s mean).
+    noise_gyro_deg_h: f64,
+    noise_accel_m_s2: f64,
+    /// Measured noise: the rests' scatter and the factor on its specific-force level.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    measured: Option<MeasuredJson>,
+    gravity_m_s2: f64,
+    static_intervals: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    held_out_every: Option<usize>,
+    terms: Vec<&'static str>,
+    turns: Vec<TurnJson>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    validation: Option<ValidationJson>,
 }
 
-/// Run `calibrate --free-motion`.
-pub fn run(args: &Args) -> Result<Outcome, Error> {
-    if args.turntable.is_some() || args.program_start.is_some() || args.truth.is_some() {
-        return Err(
-            "calibrate --free-motion: --turntable, --program-start and --truth belong to \
-                    a turntable calibration"
-                .into(),
-        );
-    }
-    let inputs = crate::calibrate::input_paths(args);
-    if let Some(path) = &args.json {
-        crate::output::check_file(path, "--json", &inputs)?;
-    }
-    if let Some(path) = &args.plot {
-        crate::output::check_png(path, "--plot", &inputs)?;
-    }
-    let (mut settings, origin) = settings_of(args.config.as_deref(), args.latitude)?;
-    settings.holdout = args.holdout;
-    let data = read_imu_csv(&args.imu)?;
-    let file = args.imu.display().to_string();
-    let detector = args
-        .detector
-        .settings()
-        .map_err(|e| format!("calibrate --free-motion: {e}"))?;
-    let (seg, intervals) = static_intervals(&data, &file, &detector)?;
-    let turns = match &args.sections {
-        Some(p) => read_sections(p, &data)?.known_turns(&intervals),
-        None => Vec::new(),
-    };
-    let result = calibrate_free_motion(&data, &intervals, &turns, &settings)
-        .map_err(|e| format!("{file}: {e}"))?;
-
-    let mut s = String::new();
-    let _ = writeln!(s, "sins-calib calibrate --free-motion");
-    let _ = writeln!(s, "  settings        {origin}");
-    let _ = writeln!(
-        s,
-        "  IMU data        {file}: {} records, t = {} .. {} s",
-        seg.records,
-        table::compact(seg.t_first_s),
-        table::compact(seg.t_last_s)
-    );
-    let _ = writeln!(
-        s,
-        "  static          {} intervals (default detector){}",
-        intervals.len(),
-        match args.holdout {
-            Some(k) => format!(", every {k}-th held out of the fit"),
-            None => String::new(),
-        }
-    );
-    let _ = writeln!(
-        s,
-        "  gravity         {} m/s^2\n  method          batch Gauss-Newton least squares with \
-         priors (accelerometers alone, then gyros and accelerometers together)\n",
-        table::significant(settings.gravity_m_s2, 7)
-    );
-    s += &parameter_report(&result);
-    s += &fit_report(&result);
-    let verdict = result.verdict();
-    s += &verdict_lines(&verdict);
-    let validation = result.validation.map(|v| ValidationJson {
-        static_rms_m_s2: BeforeAfter {
-            before: v.static_rms_before_m_s2,
-            after: v.static_rms_after_m_s2,
-        },
-        rotation_rms_deg: BeforeAfter {
-            before: v.rotation_rms_before_rad.to_degrees(),
-            after: v.rotation_rms_after_rad.to_degrees(),
-        },
-        intervals: v.intervals,
-        rotation_pairs: v.rotation_pairs,
-    });
-    if let Some(v) = &validation {
-        let _ = writeln!(
-            s,
-            "\nHeld-out validation ({} intervals, {} pairs of consecutive ones)\n  static |f| - g \
-             RMS        before {:.5} m/s^2, after {:.5} m/s^2\n  rotation (gravity direction) \
-             RMS  before {:.3} deg, after {:.3} deg",
-            v.intervals,
-            v.rotation_pairs,
-            v.static_rms_m_s2.before,
-            v.static_rms_m_s2.after,
-            v.rotation_rms_deg.before,
-            v.rotation_rms_deg.after
-        );
-    }
-    if let Some(path) = &args.json {
-        let file = result.to_result_file();
-        let json = FreeMotionJson {
-            parameters: &result.parameters,
-            correlation: file.correlation,
-            correction: file.correction,
-            fit: fit_json(&result, &settings, intervals.len(), &verdict),
-            validation,
-        };
-        let text = serde_json::to_string_pretty(&json)? + "\n";
-        crate::output::write_file(path, text.as_bytes())?;
-        if !crate::output::is_stdout(path) {
-            let _ = writeln!(s, "\nwrote {}", path.display());
-        }
-    }
-    if let Some(path) = &args.plot {
-        crate::plot::static_residuals_png(path, &file, &result.poses)?;
-        let _ = writeln!(s, "wrote {}", path.display());
-    }
-    crate::report(&s, args.json.as_deref())?;
-    Ok(if verdict.fits {
-        Outcome::Fits
-    } else {
-        Outcome::DoesNotFit
-    })
+#[derive(Serialize)]
+struct MeasuredJson {
+    gyro_deg_h: f64,
+    accel_m_s2: f64,
+    dof: usize,
+    accel_factor: f64,
+    fits: usize,
 }
 
-fn fit_json(
-    r: &FreeMotionResult,
-    settings: &FreeMotionSettings,
-    n: usize,
-    v: &calib::free_motion::FreeMotionVerdict,
-) -> FitJson {
-    let stage = |f: &calib::free_motion::StageFit| StageJson {
-        residuals: f.residuals,
-        effective_parameters: f.effective_parameters,
-        reduced_chi2: f.reduced_chi2,
-        p_value: f.p_value(),
+#[derive(Serialize)]
+struct TurnJson {
+    name: String,
+    expected_deg: f64,
+    before_deg: f64,
+    after_deg: f64,
+}
+
+#[derive(Serialize)]
+struct BeforeAfter {
+    before: f64,
+    after: f64,
+}
+
+#[derive(Serialize)]
+struct ValidationJson {
+    static_rms_m_s2: BeforeAfter,
+    rotation_rms_deg: BeforeAfter,
+    intervals: usize,
+    rotation_pairs: usize,
+}
+
+/// The JSON block of a result.
+pub fn json(r: &HandTurnedResult, holdout: Option<usize>) -> FreeMotionJson {
+    let measured = match r.noise {
+        NoiseSource::Configured => None,
+        NoiseSource::Measured {
+            at_rest,
+            accel_factor,
+            fits,
+        } => Some(MeasuredJson {
+            gyro_deg_h: at_rest.gyro_rad_s / DEG_PER_HOUR,
+            accel_m_s2: at_rest.accel_m_s2,
+            dof: at_rest.dof,
+            accel_factor,
+            fits,
+        }),
     };
-    FitJson {
-        method: "batch Gauss-Newton least squares with priors",
-        gravity_m_s2: settings.gravity_m_s2,
-        static_intervals: n,
-        accel: stage(&r.accel_fit),
-        gyro: stage(&r.gyro_fit),
+    FreeMotionJson {
+        noise_source: match r.noise {
+            NoiseSource::Configured => "configured",
+            NoiseSource::Measured { .. } => "measured in the rests",
+        },
+        noise_gyro_deg_h: r.config.noise.gyro_deg_h,
+        noise_accel_m_s2: r.config.noise.accel_m_s2,
+        measured,
+        gravity_m_s2: r.config.site().specific_force_at_rest_enu().norm(),
+        static_intervals: r.intervals.len(),
+        held_out_every: holdout,
+        terms: DEFAULT_TERMS.iter().map(|c| c.id()).collect(),
         turns: r
+            .evaluation
             .turns
             .iter()
             .map(|t| TurnJson {
@@ -289,143 +222,102 @@ fn fit_json(
                 after_deg: t.after_rad.to_degrees(),
             })
             .collect(),
-        unobserved: r
-            .unobserved()
-            .into_iter()
-            .map(|(name, sigma_over_prior)| UnobservedJson {
-                name,
-                sigma_over_prior,
-            })
-            .collect(),
-        verdict: VerdictJson {
-            fits: v.fits,
-            reasons: v.reasons.clone(),
-            marginal: v.marginal.clone(),
-        },
+        validation: r.evaluation.validation.map(|v| ValidationJson {
+            static_rms_m_s2: BeforeAfter {
+                before: v.static_rms_before_m_s2,
+                after: v.static_rms_after_m_s2,
+            },
+            rotation_rms_deg: BeforeAfter {
+                before: v.rotation_rms_before_rad.to_degrees(),
+                after: v.rotation_rms_after_rad.to_degrees(),
+            },
+            intervals: v.intervals,
+            rotation_pairs: v.rotation_pairs,
+        }),
     }
 }
 
-/// Factor from SI and name of the report unit of a result parameter.
-fn report_unit(p: &ResultParameter) -> (f64, &'static str) {
-    let unit = match p.unit.as_str() {
-        GSENS_UNIT => return (1.0 / DEG_PER_HOUR, "deg/h/(m/s^2)"),
-        "rad/s" => Unit::RadPerSecond,
-        "m/s^2" => Unit::MeterPerSecond2,
-        "rad" => Unit::SmallAngle,
-        _ => Unit::Ratio,
-    };
-    (unit.report_factor(), unit.report_name())
-}
-
-fn parameter_report(r: &FreeMotionResult) -> String {
-    let mut t = Table::new(&[
-        ("parameter", Align::Left),
-        ("value", Align::Right),
-        ("sigma", Align::Right),
-        ("prior", Align::Right),
-        ("unit", Align::Left),
-    ]);
-    let names: Vec<String> = r.parameters.iter().map(|p| p.name.clone()).collect();
-    for (title, members) in groups(&names) {
-        t.section(title);
-        for i in members {
-            let p = &r.parameters[i];
-            let (f, unit) = report_unit(p);
-            let sg = p.sigma.unwrap_or(0.0) * f;
-            t.row(vec![
-                format!("  {}", p.name),
-                table::with_precision_of(p.value * f, sg),
-                table::sigma(sg),
-                table::sigma(r.prior_sigma[i] * f),
-                unit.to_string(),
-            ]);
-        }
-    }
-    t.render()
-}
-
-/// The report's groups of parameters: the table's, with the terms beyond the paper's model
-/// (g-sensitivity, scale-factor asymmetry) under titles of their own.
-fn groups(names: &[String]) -> Vec<(&'static str, Vec<usize>)> {
-    let extra = [
-        (
-            "gyro.gsens.",
-            "Gyro g-sensitivity G (row: gyro, column: specific force)",
-        ),
-        (
-            "gyro.asym.",
-            "Gyro scale-factor asymmetry a (positive rates 1 - theta - a, negative 1 - theta + a)",
-        ),
-    ];
-    let mut out: Vec<(&'static str, Vec<usize>)> = Vec::new();
-    for (title, members) in table::grouped(names) {
-        for i in members {
-            let title = extra
-                .iter()
-                .find(|(prefix, _)| names[i].starts_with(prefix))
-                .map_or(title, |(_, t)| t);
-            match out.iter_mut().find(|(t, _)| *t == title) {
-                Some((_, m)) => m.push(i),
-                None => out.push((title, vec![i])),
-            }
-        }
-    }
-    out
-}
-
-/// The verdict: does not fit (exit status 3) with its reasons, or fits (marginally where a
-/// stage's chi-square is at the edge of its band).
-fn verdict_lines(v: &calib::free_motion::FreeMotionVerdict) -> String {
+/// The head lines of the report that only a hand-turned recording has: the noise and the
+/// model.
+pub fn header(setup_origin: &str, r: &HandTurnedResult, holdout: Option<usize>) -> String {
     let mut s = String::new();
-    if v.fits {
-        let _ = writeln!(s, "\nverdict: the model fits these data");
-        for m in &v.marginal {
-            let _ = writeln!(s, "  marginal: {m}");
+    let _ = writeln!(s, "  settings        {setup_origin}");
+    let c = &r.config;
+    match r.noise {
+        NoiseSource::Configured => {
+            let _ = writeln!(
+                s,
+                "  noise           configured: gyro {} deg/h, specific force {} m/s^2 (1-s means)",
+                table::significant(c.noise.gyro_deg_h, 3),
+                table::significant(c.noise.accel_m_s2, 3)
+            );
         }
-    } else {
+        NoiseSource::Measured {
+            at_rest,
+            accel_factor,
+            fits,
+        } => {
+            let _ = writeln!(
+                s,
+                "  noise           measured in the rests (1-s means, {} degrees of freedom): gyro \
+                 {} deg/h, specific force {} m/s^2",
+                at_rest.dof,
+                table::significant(at_rest.gyro_rad_s / DEG_PER_HOUR, 3),
+                table::significant(at_rest.accel_m_s2, 3)
+            );
+            if accel_factor > 1.0 {
+                let _ = writeln!(
+                    s,
+                    "                  the fit's innovations scatter more: specific force \
+                     scaled by {} to {} m/s^2 (the rests differ by more than their own noise, \
+                     or the model lacks an error)",
+                    table::significant(accel_factor, 3),
+                    table::significant(c.noise.accel_m_s2, 3)
+                );
+            }
+            let _ = writeln!(
+                s,
+                "                  {fits} fit{} to bring the noise to the innovations",
+                if fits == 1 { "" } else { "s" }
+            );
+        }
+    }
+    if c.filter.motion_attitude_noise_deg > 0.0 {
         let _ = writeln!(
             s,
-            "\nverdict: THE MODEL DOES NOT FIT THESE DATA (exit status 3): the results were \
-             computed and written, but are not to be trusted"
+            "  motions         {} deg of attitude noise per motion (what the gyros' model misses \
+             in a hand turn; filter.motion_attitude_noise_deg)",
+            table::significant(c.filter.motion_attitude_noise_deg, 3)
         );
-        for r in &v.reasons {
-            let _ = writeln!(s, "  {r}");
-        }
+    }
+    let _ = writeln!(
+        s,
+        "  gravity         {} m/s^2",
+        table::significant(c.site().specific_force_at_rest_enu().norm(), 7)
+    );
+    let _ = writeln!(
+        s,
+        "  terms           the paper's model and {} (at {}-grade priors)",
+        DEFAULT_TERMS
+            .iter()
+            .map(|c| c.id())
+            .collect::<Vec<_>>()
+            .join(", "),
+        c.unit_grade().name()
+    );
+    if let Some(k) = holdout {
+        let _ = writeln!(
+            s,
+            "  held out        every {k}-th rest: its measurements are predicted, not used"
+        );
     }
     s
 }
 
-fn fit_report(r: &FreeMotionResult) -> String {
-    let mut s = String::from("\nFit\n");
-    for (what, f) in [
-        ("accelerometers alone  ", &r.accel_fit),
-        ("gyros + accelerometers", &r.gyro_fit),
-    ] {
-        let _ = writeln!(
-            s,
-            "  {what}  {} residuals, {:.1} effective parameters, reduced chi-square {:.3}{}",
-            f.residuals,
-            f.effective_parameters,
-            f.reduced_chi2,
-            if f.reduced_chi2 > 1.0 {
-                " (sigmas scaled up by its root)"
-            } else {
-                ""
-            }
-        );
-    }
-    let fitted: Vec<_> = r.poses.iter().filter(|p| !p.held_out).collect();
-    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
-    let before: Vec<f64> = fitted.iter().map(|p| p.before_m_s2).collect();
-    let after: Vec<f64> = fitted.iter().map(|p| p.after_m_s2).collect();
-    let _ = writeln!(
-        s,
-        "  static |f| - g RMS over the {} fitted intervals: before {:.5} m/s^2, after {:.5} m/s^2",
-        fitted.len(),
-        rms(&before),
-        rms(&after)
-    );
-    for t in &r.turns {
+/// The turns and the held-out validation, for the report.
+pub fn evaluation_report(e: &Evaluation) -> String {
+    let mut s = String::new();
+    for t in &e.turns {
         let _ = writeln!(
             s,
             "  turn {}: expected {:.1} deg, raw gyro {:.2} deg, calibrated {:.2} deg",
@@ -435,18 +327,38 @@ fn fit_report(r: &FreeMotionResult) -> String {
             t.after_rad.to_degrees()
         );
     }
-    let un = r.unobserved();
-    if un.is_empty() {
+    let fitted: Vec<f64> = e
+        .poses
+        .iter()
+        .filter(|p| !p.held_out)
+        .map(|p| p.after_m_s2)
+        .collect();
+    let before: Vec<f64> = e
+        .poses
+        .iter()
+        .filter(|p| !p.held_out)
+        .map(|p| p.before_m_s2)
+        .collect();
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    let _ = writeln!(
+        s,
+        "  static |f| - g RMS over the {} fitted rests: before {:.5} m/s^2, after {:.5} m/s^2",
+        fitted.len(),
+        rms(&before),
+        rms(&fitted)
+    );
+    if let Some(v) = &e.validation {
         let _ = writeln!(
             s,
-            "  every parameter observed (posterior sigma <= 0.9 prior)"
-        );
-    } else {
-        let names: Vec<String> = un.iter().map(|(n, q)| format!("{n} ({q:.2})")).collect();
-        let _ = writeln!(
-            s,
-            "  unobserved (posterior/prior sigma > 0.9, kept at the prior): {}",
-            names.join(", ")
+            "\nHeld-out validation ({} rests, {} pairs of consecutive ones)\n  static |f| - g \
+             RMS        before {:.5} m/s^2, after {:.5} m/s^2\n  rotation (gravity direction) \
+             RMS  before {:.3} deg, after {:.3} deg",
+            v.intervals,
+            v.rotation_pairs,
+            v.static_rms_before_m_s2,
+            v.static_rms_after_m_s2,
+            v.rotation_rms_before_rad.to_degrees(),
+            v.rotation_rms_after_rad.to_degrees()
         );
     }
     s

@@ -62,7 +62,7 @@ pub struct Identification {
 /// as `config_arg` (a file or an embedded name), with the program file it names.
 pub fn identify(
     inputs: &[(&'static str, &Path)],
-    config_arg: &str,
+    config_arg: Option<&str>,
     config: &RunConfig,
 ) -> Result<Identification, Error> {
     let mut files = Vec::new();
@@ -80,15 +80,20 @@ pub fn identify(
         add(role, path)?;
     }
     let (config_shown, config_text) = match config_arg {
-        "paper" => (
+        // Made from the recording (`--free-motion` without --config): shown as used.
+        None => (
+            "<made from the recording (--free-motion)>".to_string(),
+            config.to_toml()?,
+        ),
+        Some("paper") => (
             "<embedded paper config>".to_string(),
             calib::config::PAPER_CONFIG_TOML.to_string(),
         ),
-        "paper-reconciled" => (
+        Some("paper-reconciled") => (
             "<embedded paper-reconciled config>".to_string(),
             calib::paper::PAPER_RECONCILED_TOML.to_string(),
         ),
-        path => {
+        Some(path) => {
             let text = std::fs::read_to_string(path)
                 .map_err(|e| format!("{path}: cannot read the configuration again: {e}"))?;
             (path.to_string(), text)

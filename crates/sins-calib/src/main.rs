@@ -23,7 +23,6 @@ mod calibrate;
 mod design;
 mod detector_args;
 mod diagnose;
-mod diagnose_free;
 mod diagnose_report;
 mod diagnostic_plots;
 mod free_motion;
@@ -168,14 +167,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate::run(&args).map(|()| ExitCode::SUCCESS),
-        // Each mode's module is called from here, so that no command module calls its twin
-        // (the free-motion modules use the arguments of theirs, and nothing goes back).
-        Command::Calibrate(args) => if args.free_motion {
-            free_motion::run(&args)
-        } else {
-            calibrate::run(&args)
-        }
-        .map(|outcome| match outcome {
+        Command::Calibrate(args) => calibrate::run(&args).map(|outcome| match outcome {
             calibrate::Outcome::Fits => ExitCode::SUCCESS,
             calibrate::Outcome::DoesNotFit => ExitCode::from(MODEL_DOES_NOT_FIT),
         }),
@@ -184,13 +176,7 @@ fn main() -> ExitCode {
         Command::Segment(args) => segment::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Noise(args) => noise::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Diagnose(args) => diagnose::check_args(&args)
-            .and_then(|()| {
-                if args.free_motion {
-                    diagnose_free::run(&args)
-                } else {
-                    diagnose::run(&args)
-                }
-            })
+            .and_then(|()| diagnose::run(&args))
             .map(|fits| {
                 if fits {
                     ExitCode::SUCCESS

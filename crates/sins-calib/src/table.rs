@@ -1,7 +1,7 @@
 //! Plain-text tables in the paper's units: parameter groups, number formatting, alignment.
 
 /// Parameter groups of the reports, in order: (title, name prefix).
-const GROUPS: [(&str, &str); 7] = [
+const GROUPS: [(&str, &str); 13] = [
     ("Gyro biases nu0", "gyro.bias."),
     (
         "Gyro matrix Theta (diagonal: scale factors, off-diagonal: misalignments)",
@@ -24,6 +24,24 @@ const GROUPS: [(&str, &str); 7] = [
         "Base misalignment gamma_p (turntable base against ENU)",
         sins_model::names::BASE_PREFIX,
     ),
+    (
+        "Gyro g-sensitivity G (row: gyro, column: specific force)",
+        "gyro.gsens.",
+    ),
+    (
+        "Gyro scale-factor asymmetry a (positive rates 1 - theta - a, negative 1 - theta + a)",
+        "gyro.asym.",
+    ),
+    (
+        "Accelerometer quadratic term (per axis, on its own specific force)",
+        "accel.k2.",
+    ),
+    (
+        "Accelerometer lever arms (size effect; row: accelerometer)",
+        "accel.lever.",
+    ),
+    ("Gyro-accelerometer time offset", "time.gyro_accel"),
+    ("Gyro bias random walk", "gyro.drift."),
 ];
 
 /// Title of the group a parameter belongs to.

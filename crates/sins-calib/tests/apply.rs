@@ -79,8 +79,9 @@ fn ferraris_corrected_turns_and_static_faces() {
             .enumerate()
             .all(|(i, row)| row[i] == 1.0 && row.as_array().unwrap().len() == n)
     );
-    assert_eq!(r["correction"]["extension_inputs"], "measured");
-    let g = r["fit"]["gravity_m_s2"].as_f64().expect("gravity");
+    // The filter models the terms on the true specific force and rate.
+    assert_eq!(r["correction"]["extension_inputs"], "true");
+    let g = r["free_motion"]["gravity_m_s2"].as_f64().expect("gravity");
 
     let raw = read_imu_csv(&imu).expect("imu");
     let cor = read_imu_csv(&corrected).expect("corrected");
@@ -105,7 +106,7 @@ fn ferraris_corrected_turns_and_static_faces() {
         .as_array()
         .expect("sections")
         .clone();
-    let fitted: Vec<f64> = r["fit"]["turns"]
+    let fitted: Vec<f64> = r["free_motion"]["turns"]
         .as_array()
         .expect("turns")
         .iter()
@@ -146,8 +147,10 @@ fn ferraris_corrected_turns_and_static_faces() {
             (got - expected).abs() <= 1.5,
             "turn {got} deg, expected {expected}"
         );
-        // `apply` inverts the model as the fit calibrated its increments.
-        assert!((got - fit).abs() < 1e-6, "turn {got} deg, the fit's {fit}");
+        // `apply` inverts the model as the filter has it (the g-sensitivity and asymmetry on
+        // the true specific force and rate); the fit's figures take them on the measured ones,
+        // as the batch fit did (calib::free_motion::evaluate): a product of two errors apart.
+        assert!((got - fit).abs() < 0.05, "turn {got} deg, the fit's {fit}");
     }
 
     // The static faces of the section list: |mean f| - g.

@@ -292,19 +292,4 @@ fn a_report_directory_that_is_a_file_is_refused_before_any_work() {
         s(&imu),
     ]);
     assert_eq!(out.status.code(), Some(1));
-    // Not with --free-motion (its fit has no innovations to test).
-    let out = run(&[
-        "calibrate",
-        "--imu",
-        s(&imu),
-        "--free-motion",
-        "--report",
-        s(&dir),
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        text(&out.stderr).contains("--free-motion"),
-        "{}",
-        text(&out.stderr)
-    );
 }

@@ -351,6 +351,9 @@ pub(super) struct PassSettings {
     /// Integrate each record over its own interval (from the time stamp before; the first over
     /// `dt`): a recording with jittered time stamps. Otherwise every record spans `dt`.
     pub own_intervals: bool,
+    /// White noise added to each attitude-error axis at the first measurement after a motion
+    /// (a recording of rests; rad).
+    pub motion_attitude_noise_rad: f64,
 }
 
 /// One pass over the data.
@@ -367,6 +370,8 @@ pub(super) struct Pass<'a> {
     pub rest_gate: Option<RestGate>,
     /// Whether every step of the open specific-force window so far lay in a rest.
     window_at_rest: bool,
+    /// A window was left out for motion since the last measurement instant.
+    moved: bool,
     nis_sum: (f64, f64),
     /// Every update of the pass in order (segments assigned by the caller).
     innovations: Vec<Innovation>,
@@ -390,6 +395,15 @@ pub(super) struct Pass<'a> {
     /// order, and the first not yet passed.
     pub held_out: Vec<(f64, f64)>,
     held_out_next: usize,
+    /// Known turns in time order ([`crate::rests::Turn`]), the first not yet measured, and
+    /// the one under way: its integrated angle and its row of `H`.
+    pub turns: Vec<crate::rests::Turn>,
+    turn_next: usize,
+    turn_angle: f64,
+    turn_h: Vec<f64>,
+    turn_nis_sum: f64,
+    /// Space for the gyro Jacobian of a step of a known turn.
+    turn_jac: Vec<Vector3<f64>>,
 }
 
 impl<'a> Pass<'a> {
@@ -421,6 +435,7 @@ impl<'a> Pass<'a> {
             stats: FitStatistics::default(),
             rest_gate: None,
             window_at_rest: true,
+            moved: false,
             nis_sum: (0.0, 0.0),
             innovations: Vec::with_capacity(updates),
             j: 0,
@@ -430,6 +445,47 @@ impl<'a> Pass<'a> {
             prev_t: f64::NAN,
             held_out: Vec::new(),
             held_out_next: 0,
+            turns: Vec::new(),
+            turn_next: 0,
+            turn_angle: 0.0,
+            turn_h: vec![0.0; layout.dim()],
+            turn_nis_sum: 0.0,
+            turn_jac: vec![Vector3::zeros(); layout.n_instrument()],
+        }
+    }
+
+    /// A step of a known turn: its compensated increment about the axis, and the gyro
+    /// Jacobian's, into the turn under way; at its last record the measurement is queued
+    /// (`z = angle - integrated`, `h = sum axis . J dt`: the state holds the parameters less
+    /// their linearisation point, and the compensated increment is the raw one plus
+    /// `nu(p) dt`).
+    fn turn_step(&mut self, t: f64, dth: &Vector3<f64>, input: &SensorInput) {
+        let Some(turn) = self.turns.get(self.turn_next) else {
+            return;
+        };
+        let eps = 1e-9;
+        if t < turn.t0 - eps {
+            return;
+        }
+        let axis = turn.axis;
+        self.turn_angle += axis.dot(dth);
+        self.layout
+            .model
+            .jacobian(Sensor::Gyro, &self.lin.p, input, &mut self.turn_jac);
+        let off = StateLayout::INSTRUMENT;
+        for (i, j) in self.turn_jac.iter().enumerate() {
+            self.turn_h[off + i] += axis.dot(j) * self.settings.dt;
+        }
+        if t >= turn.t1 - eps {
+            let h = std::mem::replace(&mut self.turn_h, vec![0.0; self.layout.dim()]);
+            self.engine
+                .queue_parameter_measurement(crate::engine::ParameterMeasurement {
+                    z: turn.angle_rad - self.turn_angle,
+                    h,
+                    variance: crate::rests::TURN_SIGMA_RAD.powi(2),
+                });
+            self.turn_angle = 0.0;
+            self.turn_next += 1;
         }
     }
 
@@ -451,6 +507,9 @@ impl<'a> Pass<'a> {
         self.phase = self.engine.schedule.next_phase(phase);
         let (dth, dv) = self.compensate(rec);
         let input = self.propagate(&dth, &dv, phase);
+        if self.turn_next < self.turns.len() {
+            self.turn_step(rec.t, &dth, &input);
+        }
         if self.angles.is_some() && self.engine.schedule.in_turntable_window_at(phase) {
             self.read_angles(rec.t, &input);
         }
@@ -465,6 +524,7 @@ impl<'a> Pass<'a> {
                 self.engine.model.reset_accel();
                 self.window_at_rest = true;
                 self.stats.accel_windows_in_motion += 1;
+                self.moved = true;
                 if last {
                     self.engine
                         .predict_to_now()
@@ -495,6 +555,19 @@ impl<'a> Pass<'a> {
                 .get(self.held_out_next)
                 .is_some_and(|&(t0, t1)| (t0..=t1).contains(&t));
             self.engine.set_holding_out(on);
+        }
+        if self.moved {
+            self.moved = false;
+            let sigma = self.settings.motion_attitude_noise_rad;
+            if sigma > 0.0 {
+                self.engine
+                    .add_attitude_noise(sigma * sigma)
+                    .map_err(|source| EstimateError::Filter {
+                        t: rec.t,
+                        line,
+                        source,
+                    })?;
+            }
         }
         let report = self
             .engine
@@ -653,6 +726,10 @@ impl<'a> Pass<'a> {
                 });
             }
         }
+        if let Some(nis) = report.parameter_nis {
+            self.stats.turn_updates += 1;
+            self.turn_nis_sum += nis;
+        }
         // The statistics describe the updates made.
         if held_out {
             return;
@@ -738,6 +815,7 @@ impl<'a> Pass<'a> {
         self.stats.imu_steps = self.j;
         self.stats.accel_mean_nis = self.nis_sum.0 / self.stats.accel_updates.max(1) as f64;
         self.stats.turntable_mean_nis = self.nis_sum.1 / self.stats.turntable_updates.max(1) as f64;
+        self.stats.turn_mean_nis = self.turn_nis_sum / self.stats.turn_updates.max(1) as f64;
         let cov = mounting_covariance(self.layout, &lin, self.engine.covariance());
         PassResult {
             values,

@@ -169,6 +169,18 @@ pub fn misfit_reasons(
             )
         })
         .collect();
+    // Known turns: chi-square(1) each, the mean within three of its standard deviations
+    // (sqrt(2 / n)) of 1.
+    if stats.turn_updates > 0 {
+        let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
+        let inside = (stats.turn_mean_nis - 1.0).abs() <= half;
+        if !inside {
+            out.push(format!(
+                "known turns: mean NIS {:.3} over {} turns, expected 1 +- {:.3}",
+                stats.turn_mean_nis, stats.turn_updates, half
+            ));
+        }
+    }
     if let Some(d) = diagnostics.filter(|d| !d.fits) {
         out.push(format!(
             "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
@@ -370,6 +382,7 @@ mod tests {
             .collect();
         let segments: Vec<Segment> = (0..2)
             .map(|k| Segment {
+                levels_start: false,
                 index: k,
                 cycle: None,
                 label: format!("rest {}", k + 1),
