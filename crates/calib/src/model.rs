@@ -104,7 +104,7 @@ impl DynamicRows {
         &mut self,
         columns: &[(usize, usize, usize)],
         m: &Matrix3<f64>,
-        f: &[f64; 7],
+        f: &[f64; sins_model::terms::N_FEATURES],
     ) {
         let [r0, r1, r2] = self.rows_mut();
         for &(c, axis, slot) in columns {

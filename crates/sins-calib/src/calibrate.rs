@@ -150,6 +150,15 @@ struct FitJson {
     /// Standard deviation of the second-order specific-force error carried into the
     /// covariance (m/s^2; 0 when negligible).
     second_order_accel_sigma_m_s2: f64,
+    /// Known turns measured (a recording of rests with a section list).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    known_turns: Option<KnownTurnsJson>,
+}
+
+#[derive(Serialize)]
+struct KnownTurnsJson {
+    updates: usize,
+    mean_nis: f64,
 }
 
 #[derive(Serialize)]
@@ -193,6 +202,10 @@ fn fit_json(est: &Estimate, with_turntable: bool) -> FitJson {
             })
             .collect(),
         second_order_accel_sigma_m_s2: s.second_order_accel_sigma,
+        known_turns: (s.turn_updates > 0).then_some(KnownTurnsJson {
+            updates: s.turn_updates,
+            mean_nis: s.turn_mean_nis,
+        }),
     }
 }
 

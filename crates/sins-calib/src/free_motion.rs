@@ -139,6 +139,7 @@ pub struct FreeMotionJson {
     /// The levels the filter used (sigma of a 1-s mean).
     noise_gyro_deg_h: f64,
     noise_accel_m_s2: f64,
+    motion_attitude_noise_deg: f64,
     /// Measured noise: the rests' scatter and the factor on its specific-force level.
     #[serde(skip_serializing_if = "Option::is_none")]
     measured: Option<MeasuredJson>,
@@ -206,6 +207,7 @@ pub fn json(r: &HandTurnedResult, holdout: Option<usize>) -> FreeMotionJson {
         },
         noise_gyro_deg_h: r.config.noise.gyro_deg_h,
         noise_accel_m_s2: r.config.noise.accel_m_s2,
+        motion_attitude_noise_deg: r.config.filter.motion_attitude_noise_deg,
         measured,
         gravity_m_s2: r.config.site().specific_force_at_rest_enu().norm(),
         static_intervals: r.intervals.len(),

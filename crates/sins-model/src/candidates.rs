@@ -304,6 +304,9 @@ pub struct GyroScaleAsymmetry {
 }
 
 impl ErrorTerm for GyroScaleAsymmetry {
+    fn is_affine_in_orthant(&self) -> bool {
+        true
+    }
     fn sensor(&self) -> Sensor {
         Sensor::Gyro
     }
@@ -319,6 +322,13 @@ impl ErrorTerm for GyroScaleAsymmetry {
         out[0] = Vector3::new(w.x.abs(), 0.0, 0.0);
         out[1] = Vector3::new(0.0, w.y.abs(), 0.0);
         out[2] = Vector3::new(0.0, 0.0, w.z.abs());
+    }
+    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
+        Some(
+            (0..3)
+                .map(|k| AxisColumn::new(k, Feature::AbsOmega(k)))
+                .collect(),
+        )
     }
 }
 
@@ -420,6 +430,30 @@ impl ErrorTerm for GyroAccelTimeOffset {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_orthant_form_of_a_model_with_asymmetry_is_its_error() {
+        let mut m = crate::terms::ErrorModel::paper(&crate::terms::PaperPriors::paper());
+        m.push(Candidate::GyroScaleAsymmetry.term(1e-2).expect("a term"));
+        m.push(Candidate::GyroGSensitivity.term(1e-4).expect("a term"));
+        let p: Vec<f64> = (0..m.n_params()).map(|i| 1e-3 * (i as f64 - 7.3)).collect();
+        let x = input();
+        let signs = x.omega_body.map(f64::signum);
+        assert!(m.affine(Sensor::Gyro, &p).is_none());
+        let a = m
+            .affine_in_orthant(Sensor::Gyro, &p, &signs)
+            .expect("orthant-affine");
+        let d = a.at(&x) - m.error(Sensor::Gyro, &p, &x);
+        assert!(d.norm() < 1e-15, "{d}");
+        // Another orthant gives another form, exact there.
+        let mut y = x;
+        y.omega_body.x = -y.omega_body.x;
+        let b = m
+            .affine_in_orthant(Sensor::Gyro, &p, &y.omega_body.map(f64::signum))
+            .expect("orthant-affine");
+        assert!((b.at(&y) - m.error(Sensor::Gyro, &p, &y)).norm() < 1e-15);
+        assert!((a.at(&y) - m.error(Sensor::Gyro, &p, &y)).norm() > 1e-6);
+    }
 
     #[test]
     fn grades_follow_the_gyro_bias_prior_and_navigation_keeps_the_defaults() {

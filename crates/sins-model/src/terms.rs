@@ -159,6 +159,12 @@ pub trait ErrorTerm: Debug + Send + Sync {
     fn is_affine(&self) -> bool {
         false
     }
+    /// Whether the error is affine in the input within each orthant of the rate (the signs of
+    /// `w`'s components fixed): a scale factor that differs with the sign of the rate
+    /// ([`ErrorModel::affine_in_orthant`]). An affine term is.
+    fn is_affine_in_orthant(&self) -> bool {
+        self.is_affine()
+    }
     /// The Jacobian's columns as [`AxisColumn`]s (column `k` is the unit vector of an axis times
     /// one input feature, whatever the parameters), when they have that form. The estimator
     /// then accumulates the rotated Jacobian column by column without calling
@@ -184,7 +190,12 @@ pub enum Feature {
     Omega(usize),
     /// Component `j` of [`SensorInput::f_body`].
     Force(usize),
+    /// The magnitude of component `j` of [`SensorInput::omega_body`] (a scale asymmetry).
+    AbsOmega(usize),
 }
+
+/// The number of input features of an [`AxisJacobian`] ([`AxisJacobian::features`]).
+pub const N_FEATURES: usize = 10;
 
 impl Feature {
     /// Index of the feature in [`AxisJacobian::features`].
@@ -193,6 +204,7 @@ impl Feature {
             Feature::One => 0,
             Feature::Omega(j) => 1 + j,
             Feature::Force(j) => 4 + j,
+            Feature::AbsOmega(j) => 7 + j,
         }
     }
 }
@@ -225,9 +237,20 @@ pub struct AxisJacobian {
 impl AxisJacobian {
     /// The features of `input` in slot order: 1, `omega_body`, `f_body`.
     #[inline]
-    pub fn features(input: &SensorInput) -> [f64; 7] {
+    pub fn features(input: &SensorInput) -> [f64; N_FEATURES] {
         let (w, f) = (input.omega_body, input.f_body);
-        [1.0, w.x, w.y, w.z, f.x, f.y, f.z]
+        [
+            1.0,
+            w.x,
+            w.y,
+            w.z,
+            f.x,
+            f.y,
+            f.z,
+            w.x.abs(),
+            w.y.abs(),
+            w.z.abs(),
+        ]
     }
 
     /// The non-zero columns: (parameter index in the model, sensor axis, feature slot in
@@ -239,7 +262,12 @@ impl AxisJacobian {
     /// Add `m * J_k` to `out[k]` for every non-zero column `k` (`out` indexed by the model's
     /// parameters), with `features` from [`AxisJacobian::features`].
     #[inline]
-    pub fn add_product(&self, m: &Matrix3<f64>, features: &[f64; 7], out: &mut [Vector3<f64>]) {
+    pub fn add_product(
+        &self,
+        m: &Matrix3<f64>,
+        features: &[f64; N_FEATURES],
+        out: &mut [Vector3<f64>],
+    ) {
         for &(k, axis, slot) in &self.columns {
             out[k] += m.column(axis) * features[slot];
         }
@@ -585,6 +613,45 @@ impl ErrorModel {
         })
     }
 
+    /// One triad's error as an affine function of the input within the orthant of the rate
+    /// whose component signs are `signs` (each +1 or -1), when every term of that triad is
+    /// affine there ([`ErrorTerm::is_affine_in_orthant`]); `None` otherwise. The rate columns
+    /// are the error's derivative inside the orthant (`(e(s_i u_i) - e(0)) / s_i`), so the form
+    /// is exact for every rate with those signs; on an affine model it is [`ErrorModel::affine`].
+    pub fn affine_in_orthant(
+        &self,
+        sensor: Sensor,
+        p: &[f64],
+        signs: &Vector3<f64>,
+    ) -> Option<AffineError> {
+        let all = self
+            .terms
+            .iter()
+            .filter(|t| t.sensor() == sensor)
+            .all(|t| t.is_affine_in_orthant());
+        if !all {
+            return None;
+        }
+        let zero = SensorInput::default();
+        let offset = self.error(sensor, p, &zero);
+        let column = |omega: Vector3<f64>, f: Vector3<f64>| {
+            let input = SensorInput {
+                omega_body: omega,
+                f_body: f,
+                ..SensorInput::default()
+            };
+            self.error(sensor, p, &input) - offset
+        };
+        let (e, z) = (Matrix3::<f64>::identity(), Vector3::zeros());
+        Some(AffineError {
+            offset,
+            d_omega: Matrix3::from_columns(
+                &[0, 1, 2].map(|i| column(e.column(i) * signs[i], z) * signs[i]),
+            ),
+            d_f: Matrix3::from_columns(&[0, 1, 2].map(|i| column(z, e.column(i).into()))),
+        })
+    }
+
     /// The Jacobian of `sensor`'s error as [`AxisColumn`]s, when every term of that sensor gives
     /// them ([`ErrorTerm::axis_columns`]); `None` otherwise.
     pub fn axis_jacobian(&self, sensor: Sensor) -> Option<AxisJacobian> {
@@ -665,7 +732,7 @@ mod tests {
     }
 
     /// Where a model's terms give their Jacobian as axis columns (the paper's four terms, and
-    /// with the g-sensitivity), `M J` from [`AxisJacobian::add_product`] equals `M` times the
+    /// with the g-sensitivity and the scale asymmetry), `M J` from [`AxisJacobian::add_product`] equals `M` times the
     /// Jacobian the terms compute, for each sensor; a model with a term that gives none has no
     /// axis Jacobian.
     #[test]
@@ -676,6 +743,8 @@ mod tests {
         let mut model = ErrorModel::paper(&PaperPriors::paper());
         let g = Candidate::GyroGSensitivity;
         model.push(g.term(g.default_prior_sigma()).expect("a constant term"));
+        let a = Candidate::GyroScaleAsymmetry;
+        model.push(a.term(a.default_prior_sigma()).expect("a constant term"));
         let p: Vec<f64> = (0..model.n_params())
             .map(|i| (1.0 + i as f64).sin())
             .collect();

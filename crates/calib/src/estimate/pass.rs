@@ -178,9 +178,16 @@ pub(super) struct Compensation {
     /// With affine errors and no rate-derivative terms, the three fixed-point passes in closed
     /// form: `x_3 = n raw + m_offset dt` for `x = (dth, dv)` (see [`Compensation::new`]).
     closed: Option<(Matrix6<f64>, Vector6<f64>)>,
+    /// With errors affine in each orthant of the rate (a scale asymmetry) and no
+    /// rate-derivative terms: the closed form of each orthant, indexed by the signs of the
+    /// rate's components ([`orthant_index`]).
+    orthants: Option<Box<[ClosedForm; 8]>>,
     /// Whether any term uses the rate derivatives.
     derivatives: bool,
 }
+
+/// The compensation's fixed point in closed form: `x = n raw + m_offset dt` ([`closed_form`]).
+type ClosedForm = (Matrix6<f64>, Vector6<f64>);
 
 /// Largest entry of the fixed point's matrix (the errors' derivatives by rate and force) below
 /// which three passes stand for the fixed point (their error is the fourth power of it).
@@ -205,34 +212,29 @@ impl Compensation {
         // `B = [G_w G_f; -A_w -A_f]` and `o = (g_0, -a_0)` (the inputs are `x / dt`). From
         // `x_0 = raw`, three passes give `x_3 = (I + B + B^2 + B^3) raw + (I + B + B^2) o dt`:
         // one 6x6 product per step instead of six affine evaluations, equal to rounding.
-        let closed = affine.filter(|_| !derivatives).map(|(g, a)| {
-            let mut b = Matrix6::zeros();
-            b.fixed_view_mut::<3, 3>(0, 0).copy_from(&g.d_omega);
-            b.fixed_view_mut::<3, 3>(0, 3).copy_from(&g.d_f);
-            b.fixed_view_mut::<3, 3>(3, 0).copy_from(&-a.d_omega);
-            b.fixed_view_mut::<3, 3>(3, 3).copy_from(&-a.d_f);
-            let mut o = Vector6::zeros();
-            o.fixed_rows_mut::<3>(0).copy_from(&g.offset);
-            o.fixed_rows_mut::<3>(3).copy_from(&-a.offset);
-            // The fixed point itself, x = (I - B)^-1 (raw + o dt), where the errors are large:
-            // three passes leave B^4, 1e-4 of the increments for per-cent scale factors (a 90-degree
-            // turn 1e-4 rad off, a pose's |f| 6e-5 m/s^2 off, as large as its noise), which put
-            // consumer-grade accelerometer scale factors 10 sigma off. For the paper's errors
-            // (B about 1e-3, B^4 about 1e-12) the three passes stay, to keep the estimates of
-            // programmed runs as they were.
-            let large = b.amax() > LARGE_ERRORS;
-            match (large, (Matrix6::identity() - b).try_inverse()) {
-                (true, Some(inv)) => (inv, inv * o),
-                _ => {
-                    let b2 = b * b;
-                    let m = Matrix6::identity() + b + b2;
-                    (m + b2 * b, m * o)
-                }
+        let closed = affine
+            .filter(|_| !derivatives)
+            .map(|(g, a)| closed_form(&g, &a));
+        // Without them the general path evaluates every term three times per step (the
+        // consumer-grade model of `calibrate --free-motion`: half its CPU) and stops at three
+        // fixed-point passes, short of the fixed point for per-cent errors.
+        let orthants = match (&affine, derivatives, model.affine(Sensor::Accel, p)) {
+            (None, false, Some(a)) => {
+                let forms: Option<Vec<(Matrix6<f64>, Vector6<f64>)>> = (0..8)
+                    .map(|k| {
+                        model
+                            .affine_in_orthant(Sensor::Gyro, p, &orthant_signs(k))
+                            .map(|g| closed_form(&g, &a))
+                    })
+                    .collect();
+                forms.and_then(|v| <[_; 8]>::try_from(v).ok()).map(Box::new)
             }
-        });
+            _ => None,
+        };
         Self {
             affine,
             closed,
+            orthants,
             derivatives,
         }
     }
@@ -242,6 +244,77 @@ impl Compensation {
     /// is replaced by this step's.
     #[inline(always)]
     pub fn apply(
+        &self,
+        model: &ErrorModel,
+        p: &[f64],
+        raw_dth: &Vector3<f64>,
+        raw_dv: &Vector3<f64>,
+        dt: f64,
+        prev: &mut Option<CompensatedMeans>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        if let Some(forms) = &self.orthants {
+            let raw = Vector6::new(
+                raw_dth.x, raw_dth.y, raw_dth.z, raw_dv.x, raw_dv.y, raw_dv.z,
+            );
+            // The orthant of the raw rate, then of the compensated one if that differs (a rate
+            // component smaller than its own error): the fixed point lies in the orthant whose
+            // form gives a rate in it.
+            let mut k = orthant_index(raw_dth);
+            let mut x = forms[k].0 * raw + forms[k].1 * dt;
+            let k2 = orthant_index(&x.fixed_rows::<3>(0).into());
+            if k2 != k {
+                k = k2;
+                x = forms[k].0 * raw + forms[k].1 * dt;
+            }
+            return (x.fixed_rows::<3>(0).into(), x.fixed_rows::<3>(3).into());
+        }
+        self.apply_general(model, p, raw_dth, raw_dv, dt, prev)
+    }
+}
+
+/// The signs of the rate's components of orthant `k` (bit `i` set: component `i` negative).
+fn orthant_signs(k: usize) -> Vector3<f64> {
+    Vector3::from_fn(|i, _| if k >> i & 1 == 1 { -1.0 } else { 1.0 })
+}
+
+/// The orthant of the rate `w` ([`orthant_signs`]); a zero component counts as positive.
+#[inline(always)]
+fn orthant_index(w: &Vector3<f64>) -> usize {
+    usize::from(w.x < 0.0) | usize::from(w.y < 0.0) << 1 | usize::from(w.z < 0.0) << 2
+}
+
+/// The fixed point of the compensation in closed form for affine gyro and accelerometer errors
+/// `g` and `a`: `x = n raw + m_offset dt` ([`Compensation::new`]).
+fn closed_form(g: &AffineError, a: &AffineError) -> (Matrix6<f64>, Vector6<f64>) {
+    let mut b = Matrix6::zeros();
+    b.fixed_view_mut::<3, 3>(0, 0).copy_from(&g.d_omega);
+    b.fixed_view_mut::<3, 3>(0, 3).copy_from(&g.d_f);
+    b.fixed_view_mut::<3, 3>(3, 0).copy_from(&-a.d_omega);
+    b.fixed_view_mut::<3, 3>(3, 3).copy_from(&-a.d_f);
+    let mut o = Vector6::zeros();
+    o.fixed_rows_mut::<3>(0).copy_from(&g.offset);
+    o.fixed_rows_mut::<3>(3).copy_from(&-a.offset);
+    // The fixed point itself, x = (I - B)^-1 (raw + o dt), where the errors are large:
+    // three passes leave B^4, 1e-4 of the increments for per-cent scale factors (a 90-degree
+    // turn 1e-4 rad off, a pose's |f| 6e-5 m/s^2 off, as large as its noise), which put
+    // consumer-grade accelerometer scale factors 10 sigma off. For the paper's errors
+    // (B about 1e-3, B^4 about 1e-12) the three passes stay, to keep the estimates of
+    // programmed runs as they were.
+    let large = b.amax() > LARGE_ERRORS;
+    match (large, (Matrix6::identity() - b).try_inverse()) {
+        (true, Some(inv)) => (inv, inv * o),
+        _ => {
+            let b2 = b * b;
+            let m = Matrix6::identity() + b + b2;
+            (m + b2 * b, m * o)
+        }
+    }
+}
+
+impl Compensation {
+    /// [`Compensation::apply`] without an orthant form.
+    #[inline(always)]
+    fn apply_general(
         &self,
         model: &ErrorModel,
         p: &[f64],
@@ -870,4 +943,51 @@ fn mounting_covariance(
         cov = &t * cov * t.transpose();
     }
     cov
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sins_model::candidates::Candidate;
+    use sins_model::terms::PaperPriors;
+
+    /// The orthant forms of a model with a scale asymmetry give the compensation's fixed point,
+    /// `x = raw + (nu(x), -df(x)) dt`, in every orthant and where a rate component is smaller
+    /// than its own error (its raw and true signs differ).
+    #[test]
+    fn orthant_forms_give_the_fixed_point() {
+        let mut model = ErrorModel::paper(&PaperPriors::paper());
+        model.push(Candidate::GyroGSensitivity.term(1e-4).expect("a term"));
+        model.push(Candidate::GyroScaleAsymmetry.term(1e-2).expect("a term"));
+        // Per-cent errors, a degree per second of bias.
+        let p: Vec<f64> = (0..model.n_params())
+            .map(|i| 0.02 * ((i as f64 * 1.7).sin()))
+            .collect();
+        let comp = Compensation::new(&model, &p);
+        assert!(comp.orthants.is_some() && comp.closed.is_none());
+        let dt = 0.01;
+        let cases = [
+            (Vector3::new(0.5, -0.3, 0.1), Vector3::new(0.1, -0.2, 9.8)),
+            (Vector3::new(-0.5, 0.3, -1.1), Vector3::new(9.8, 0.1, 0.0)),
+            // A rate component below the bias: raw and true signs differ.
+            (Vector3::new(1e-4, -2e-4, 0.7), Vector3::new(0.0, 9.8, 0.3)),
+            (Vector3::zeros(), Vector3::new(0.0, 0.0, 9.8)),
+        ];
+        for (w, f) in cases {
+            let (raw_dth, raw_dv) = (w * dt, f * dt);
+            let (dth, dv) = comp.apply(&model, &p, &raw_dth, &raw_dv, dt, &mut None);
+            let (mut x, mut y) = (raw_dth, raw_dv);
+            for _ in 0..200 {
+                let input = SensorInput {
+                    omega_body: x / dt,
+                    f_body: y / dt,
+                    ..SensorInput::default()
+                };
+                x = raw_dth + model.error(Sensor::Gyro, &p, &input) * dt;
+                y = raw_dv - model.error(Sensor::Accel, &p, &input) * dt;
+            }
+            assert!((dth - x).norm() < 1e-15, "{w}: {dth} against {x}");
+            assert!((dv - y).norm() < 1e-14, "{w}: {dv} against {y}");
+        }
+    }
 }
