@@ -74,8 +74,14 @@ fn run(truth: &RunConfig, fit: &RunConfig, hidden: &HiddenEffects) -> (Vec<Strin
         .filter_map(|r| r.held_out.as_ref())
         .map(|h| format!("{} {:+.2} over {}", h.term, h.gain(), h.measurements))
         .collect();
+    let first: Vec<String> = result.rounds[0]
+        .candidates
+        .iter()
+        .map(|c| format!("{} p {:.2e}", c.term, c.p_value))
+        .collect();
     println!(
-        "seed {seed}: accepted {terms:?}, final model fits: {fits}, held-out checks {checks:?}"
+        "seed {seed}: accepted {terms:?}, final model fits: {fits}, held-out checks {checks:?}; \
+         first round {first:?}"
     );
     (terms, fits)
 }
@@ -157,4 +163,48 @@ fn the_loop_accepts_nothing_on_19_of_20_clean_consumer_grade_recordings() {
         false_calls <= 1,
         "terms accepted on {false_calls} of 20 clean consumer-grade runs: {runs:?}"
     );
+}
+
+/// The programmed tests' tactical scale-factor asymmetry (`workspace_tests::hidden`: 2e-5,
+/// -1.5e-5, 1e-5) on the 19-position recording, whose turns go both ways about every gimbal.
+/// Size and seed (703) fixed before the first run (issue 19: a hidden-effect test for every
+/// candidate a recording of rests can observe).
+///
+/// FAILS, as first run: nothing accepted and the paper's model fits (the asymmetry's score test
+/// p = 0.79 in the first round). The size was taken from the programmed runs (45 min, 9 cycles
+/// of +-10 deg/s), which carry far more turning than 18 turns of 90 deg; on this recording it
+/// leaves no trace. Not a false decision; the size this recording can see is not known yet.
+#[test]
+#[ignore = "fails as first run: the asymmetry at the programmed runs' size leaves no trace on a 19-position recording (p = 0.79)"]
+fn the_loop_finds_a_scale_asymmetry_without_a_program() {
+    let hidden = HiddenEffects {
+        values: vec![
+            ("gyro.asym.x".into(), 2e-5),
+            ("gyro.asym.y".into(), -1.5e-5),
+            ("gyro.asym.z".into(), 1e-5),
+        ],
+        gyro_drift: None,
+    };
+    assert_eq!(
+        accepted(703, &hidden),
+        vec!["gyro_scale_asymmetry".to_string()]
+    );
+}
+
+/// A gyro bias random walk of 0.3 deg/h/sqrt(h) on every axis (a tactical FOG's, the top of the
+/// navigation grade's grid) on the 19-position recording (9.5 min). Size and seed (704) fixed
+/// before the first run.
+///
+/// FAILS, as first run: nothing accepted and the paper's model fits (the walk's likelihood
+/// ratio p = 0.23). In 9.5 min such a walk moves a bias by about 0.1 deg/h, a fifth of its
+/// prior; the recording does not show it.
+#[test]
+#[ignore = "fails as first run: a 0.3 deg/h/sqrt(h) walk leaves no trace in 9.5 min (p = 0.23)"]
+fn the_loop_finds_a_gyro_bias_walk_without_a_program() {
+    let q = 0.3 * sins_model::units::DEG_PER_HOUR / 60.0;
+    let hidden = HiddenEffects {
+        values: vec![],
+        gyro_drift: Some([q; 3]),
+    };
+    assert_eq!(accepted(704, &hidden), vec!["gyro_bias_drift".to_string()]);
 }

@@ -1235,6 +1235,29 @@ mod tests {
             .fold((0.0, String::new()), |a, b| if b.0 > a.0 { b } else { a })
     }
 
+    /// [`evaluate`] with the batch fit's own parameters (by name) gives the batch fit's figures:
+    /// the held-out figures of any estimator are the same computation.
+    #[test]
+    fn evaluate_reproduces_the_fits_own_figures() {
+        let mut rng = Lcg(11);
+        let poses = poses(&mut rng, 16);
+        let (data, intervals, turn) = simulate(
+            &poses,
+            0.2,
+            xsens_like_gsens(),
+            Vector3::new(1e-3, -2e-3, 5e-4),
+            &mut rng,
+        );
+        let mut settings = FreeMotionSettings::new(G);
+        settings.holdout = Some(4);
+        let r = calibrate_free_motion(&data, &intervals, &[turn.clone()], &settings).unwrap();
+        let value = |n: &str| r.parameters.iter().find(|p| p.name == n).map(|p| p.value);
+        let e = evaluate(&data, &intervals, &[turn], Some(4), G, &value);
+        assert_eq!(e.poses, r.poses);
+        assert_eq!(e.turns, r.turns);
+        assert_eq!(e.validation, r.validation);
+    }
+
     #[test]
     fn recovers_known_errors_within_three_sigma() {
         let mut rng = Lcg(7);
