@@ -1250,7 +1250,8 @@ mod tests {
         );
         let mut settings = FreeMotionSettings::new(G);
         settings.holdout = Some(4);
-        let r = calibrate_free_motion(&data, &intervals, &[turn.clone()], &settings).unwrap();
+        let r = calibrate_free_motion(&data, &intervals, std::slice::from_ref(&turn), &settings)
+            .unwrap();
         let value = |n: &str| r.parameters.iter().find(|p| p.name == n).map(|p| p.value);
         let e = evaluate(&data, &intervals, &[turn], Some(4), G, &value);
         assert_eq!(e.poses, r.poses);
