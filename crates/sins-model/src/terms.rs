@@ -592,25 +592,7 @@ impl ErrorModel {
             .iter()
             .filter(|t| t.sensor() == sensor)
             .all(|t| t.is_affine());
-        if !all_affine {
-            return None;
-        }
-        let zero = SensorInput::default();
-        let offset = self.error(sensor, p, &zero);
-        let column = |omega: Vector3<f64>, f: Vector3<f64>| {
-            let input = SensorInput {
-                omega_body: omega,
-                f_body: f,
-                ..SensorInput::default()
-            };
-            self.error(sensor, p, &input) - offset
-        };
-        let (e, z) = (Matrix3::<f64>::identity(), Vector3::zeros());
-        Some(AffineError {
-            offset,
-            d_omega: Matrix3::from_columns(&[0, 1, 2].map(|i| column(e.column(i).into(), z))),
-            d_f: Matrix3::from_columns(&[0, 1, 2].map(|i| column(z, e.column(i).into()))),
-        })
+        all_affine.then(|| self.affine_form(sensor, p, &Vector3::repeat(1.0)))
     }
 
     /// One triad's error as an affine function of the input within the orthant of the rate
@@ -629,9 +611,12 @@ impl ErrorModel {
             .iter()
             .filter(|t| t.sensor() == sensor)
             .all(|t| t.is_affine_in_orthant());
-        if !all {
-            return None;
-        }
+        all.then(|| self.affine_form(sensor, p, signs))
+    }
+
+    /// The affine form of `sensor`'s error about zero input, its rate columns probed inside
+    /// the orthant `signs` (the callers check that the terms allow it).
+    fn affine_form(&self, sensor: Sensor, p: &[f64], signs: &Vector3<f64>) -> AffineError {
         let zero = SensorInput::default();
         let offset = self.error(sensor, p, &zero);
         let column = |omega: Vector3<f64>, f: Vector3<f64>| {
@@ -643,13 +628,13 @@ impl ErrorModel {
             self.error(sensor, p, &input) - offset
         };
         let (e, z) = (Matrix3::<f64>::identity(), Vector3::zeros());
-        Some(AffineError {
+        AffineError {
             offset,
             d_omega: Matrix3::from_columns(
                 &[0, 1, 2].map(|i| column(e.column(i) * signs[i], z) * signs[i]),
             ),
             d_f: Matrix3::from_columns(&[0, 1, 2].map(|i| column(z, e.column(i).into()))),
-        })
+        }
     }
 
     /// The Jacobian of `sensor`'s error as [`AxisColumn`]s, when every term of that sensor gives

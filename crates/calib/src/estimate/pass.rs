@@ -268,61 +268,6 @@ impl Compensation {
             }
             return (x.fixed_rows::<3>(0).into(), x.fixed_rows::<3>(3).into());
         }
-        self.apply_general(model, p, raw_dth, raw_dv, dt, prev)
-    }
-}
-
-/// The signs of the rate's components of orthant `k` (bit `i` set: component `i` negative).
-fn orthant_signs(k: usize) -> Vector3<f64> {
-    Vector3::from_fn(|i, _| if k >> i & 1 == 1 { -1.0 } else { 1.0 })
-}
-
-/// The orthant of the rate `w` ([`orthant_signs`]); a zero component counts as positive.
-#[inline(always)]
-fn orthant_index(w: &Vector3<f64>) -> usize {
-    usize::from(w.x < 0.0) | usize::from(w.y < 0.0) << 1 | usize::from(w.z < 0.0) << 2
-}
-
-/// The fixed point of the compensation in closed form for affine gyro and accelerometer errors
-/// `g` and `a`: `x = n raw + m_offset dt` ([`Compensation::new`]).
-fn closed_form(g: &AffineError, a: &AffineError) -> (Matrix6<f64>, Vector6<f64>) {
-    let mut b = Matrix6::zeros();
-    b.fixed_view_mut::<3, 3>(0, 0).copy_from(&g.d_omega);
-    b.fixed_view_mut::<3, 3>(0, 3).copy_from(&g.d_f);
-    b.fixed_view_mut::<3, 3>(3, 0).copy_from(&-a.d_omega);
-    b.fixed_view_mut::<3, 3>(3, 3).copy_from(&-a.d_f);
-    let mut o = Vector6::zeros();
-    o.fixed_rows_mut::<3>(0).copy_from(&g.offset);
-    o.fixed_rows_mut::<3>(3).copy_from(&-a.offset);
-    // The fixed point itself, x = (I - B)^-1 (raw + o dt), where the errors are large:
-    // three passes leave B^4, 1e-4 of the increments for per-cent scale factors (a 90-degree
-    // turn 1e-4 rad off, a pose's |f| 6e-5 m/s^2 off, as large as its noise), which put
-    // consumer-grade accelerometer scale factors 10 sigma off. For the paper's errors
-    // (B about 1e-3, B^4 about 1e-12) the three passes stay, to keep the estimates of
-    // programmed runs as they were.
-    let large = b.amax() > LARGE_ERRORS;
-    match (large, (Matrix6::identity() - b).try_inverse()) {
-        (true, Some(inv)) => (inv, inv * o),
-        _ => {
-            let b2 = b * b;
-            let m = Matrix6::identity() + b + b2;
-            (m + b2 * b, m * o)
-        }
-    }
-}
-
-impl Compensation {
-    /// [`Compensation::apply`] without an orthant form.
-    #[inline(always)]
-    fn apply_general(
-        &self,
-        model: &ErrorModel,
-        p: &[f64],
-        raw_dth: &Vector3<f64>,
-        raw_dv: &Vector3<f64>,
-        dt: f64,
-        prev: &mut Option<CompensatedMeans>,
-    ) -> (Vector3<f64>, Vector3<f64>) {
         if let Some((n, m_offset)) = &self.closed {
             let raw = Vector6::new(
                 raw_dth.x, raw_dth.y, raw_dth.z, raw_dv.x, raw_dv.y, raw_dv.z,
@@ -374,6 +319,45 @@ impl Compensation {
             iterate(&raw_dth, &raw_dv, &mut dth, &mut dv, 2);
         }
         (dth, dv)
+    }
+}
+
+/// The signs of the rate's components of orthant `k` (bit `i` set: component `i` negative).
+fn orthant_signs(k: usize) -> Vector3<f64> {
+    Vector3::from_fn(|i, _| if k >> i & 1 == 1 { -1.0 } else { 1.0 })
+}
+
+/// The orthant of the rate `w` ([`orthant_signs`]); a zero component counts as positive.
+#[inline(always)]
+fn orthant_index(w: &Vector3<f64>) -> usize {
+    usize::from(w.x < 0.0) | usize::from(w.y < 0.0) << 1 | usize::from(w.z < 0.0) << 2
+}
+
+/// The fixed point of the compensation in closed form for affine gyro and accelerometer errors
+/// `g` and `a`: `x = n raw + m_offset dt` ([`Compensation::new`]).
+fn closed_form(g: &AffineError, a: &AffineError) -> (Matrix6<f64>, Vector6<f64>) {
+    let mut b = Matrix6::zeros();
+    b.fixed_view_mut::<3, 3>(0, 0).copy_from(&g.d_omega);
+    b.fixed_view_mut::<3, 3>(0, 3).copy_from(&g.d_f);
+    b.fixed_view_mut::<3, 3>(3, 0).copy_from(&-a.d_omega);
+    b.fixed_view_mut::<3, 3>(3, 3).copy_from(&-a.d_f);
+    let mut o = Vector6::zeros();
+    o.fixed_rows_mut::<3>(0).copy_from(&g.offset);
+    o.fixed_rows_mut::<3>(3).copy_from(&-a.offset);
+    // The fixed point itself, x = (I - B)^-1 (raw + o dt), where the errors are large:
+    // three passes leave B^4, 1e-4 of the increments for per-cent scale factors (a 90-degree
+    // turn 1e-4 rad off, a pose's |f| 6e-5 m/s^2 off, as large as its noise), which put
+    // consumer-grade accelerometer scale factors 10 sigma off. For the paper's errors
+    // (B about 1e-3, B^4 about 1e-12) the three passes stay, to keep the estimates of
+    // programmed runs as they were.
+    let large = b.amax() > LARGE_ERRORS;
+    match (large, (Matrix6::identity() - b).try_inverse()) {
+        (true, Some(inv)) => (inv, inv * o),
+        _ => {
+            let b2 = b * b;
+            let m = Matrix6::identity() + b + b2;
+            (m + b2 * b, m * o)
+        }
     }
 }
 
