@@ -206,9 +206,11 @@ pub struct ParameterMeasurement {
 /// What happened at a measurement instant.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct InstantReport {
-    /// Normalised innovation squared of a queued parameter measurement made at this instant
-    /// (1 degree of freedom; [`Engine::queue_parameter_measurement`]).
-    pub parameter_nis: Option<f64>,
+    /// The queued parameter measurements made at this instant
+    /// ([`Engine::queue_parameter_measurement`]).
+    pub parameter_updates: usize,
+    /// Their normalised innovations squared, summed (1 degree of freedom each).
+    pub parameter_nis_sum: f64,
     /// Normalised innovation squared of the specific-force update (3 degrees of freedom).
     pub accel_nis: Option<f64>,
     /// Normalised innovation squared of the turntable update.
@@ -222,7 +224,7 @@ pub struct InstantReport {
 impl InstantReport {
     /// Whether any update was made.
     pub fn updated(&self) -> bool {
-        self.accel_nis.is_some() || self.turntable_nis.is_some() || self.parameter_nis.is_some()
+        self.accel_nis.is_some() || self.turntable_nis.is_some() || self.parameter_updates > 0
     }
 }
 
@@ -260,11 +262,11 @@ pub struct Engine {
     /// innovation predicted from the data before the stretch and the stretch's earlier
     /// measurements); the filter itself only predicts through the stretch.
     shadow: Option<KalmanFilter>,
-    /// A scalar measurement of the parameters alone (a known turn), made at the next
+    /// Scalar measurements of the parameters alone (known turns), made at the next
     /// measurement instant right after its predict: the parameters are constant, so the
     /// instant does not matter, and an update between instants would come before the
     /// transition still being accumulated.
-    pending: Option<ParameterMeasurement>,
+    pending: Vec<ParameterMeasurement>,
     /// Scratch for the measurement noise as a faer matrix.
     r: Mat<f64>,
     /// Scratch for the cross-covariance of the state's error and the measurement noise
@@ -290,7 +292,7 @@ impl Engine {
             covariance_only,
             log_det_data: 0.0,
             shadow: None,
-            pending: None,
+            pending: Vec::new(),
             r: Mat::zeros(3, 3),
             cross: Mat::zeros(n, 3),
         }
@@ -325,32 +327,28 @@ impl Engine {
     }
 
     /// Queue a scalar measurement of the parameters ([`ParameterMeasurement`]), made at the
-    /// next measurement instant (or [`Engine::predict_to_now`]); a second one before then
-    /// replaces it only if the first was not yet made, so the caller queues one per instant.
+    /// next measurement instant (or [`Engine::predict_to_now`]), after any queued before it.
     pub fn queue_parameter_measurement(&mut self, m: ParameterMeasurement) {
-        self.pending = Some(m);
+        self.pending.push(m);
     }
 
-    /// Whether a parameter measurement waits for the next instant.
-    pub fn parameter_measurement_pending(&self) -> bool {
-        self.pending.is_some()
-    }
-
-    /// The queued parameter measurement, made on the main filter (never held out: it is no
-    /// segment's).
-    fn parameter_update(&mut self) -> Result<Option<f64>, KalmanError> {
-        let Some(m) = self.pending.take() else {
-            return Ok(None);
-        };
+    /// The queued parameter measurements, made on the main filter (never held out: they are no
+    /// segment's); how many, and the sum of their NIS.
+    fn parameter_update(&mut self) -> Result<(usize, f64), KalmanError> {
         let n = self.filter.dim();
-        let h = Mat::from_fn(1, n, |_, j| m.h.get(j).copied().unwrap_or(0.0));
-        let r = Mat::from_fn(1, 1, |_, _| m.variance);
-        let info = self.filter.update(&[m.z], h.as_ref(), r.as_ref())?;
-        // The held-out copy is the main filter with the held-out measurements: it gets this one.
-        if let Some(shadow) = &mut self.shadow {
-            shadow.update(&[m.z], h.as_ref(), r.as_ref())?;
+        let count = self.pending.len();
+        let mut nis = 0.0;
+        for m in std::mem::take(&mut self.pending) {
+            let h = Mat::from_fn(1, n, |_, j| m.h.get(j).copied().unwrap_or(0.0));
+            let r = Mat::from_fn(1, 1, |_, _| m.variance);
+            nis += self.filter.update(&[m.z], h.as_ref(), r.as_ref())?.nis;
+            // The held-out copy is the main filter with the held-out measurements: it gets
+            // this one too.
+            if let Some(shadow) = &mut self.shadow {
+                shadow.update(&[m.z], h.as_ref(), r.as_ref())?;
+            }
         }
-        Ok(Some(info.nis))
+        Ok((count, nis))
     }
 
     /// Add white noise of variance `var` (rad^2) to each axis of the attitude error (the first
@@ -420,7 +418,7 @@ impl Engine {
             }
         }
         model.reset_transition();
-        report.parameter_nis = self.parameter_update()?;
+        (report.parameter_updates, report.parameter_nis_sum) = self.parameter_update()?;
         if let Some(m) = &acc {
             report.accel_update = self.update(m)?;
             report.accel_nis = report.accel_update.map(|u| u.nis);

@@ -814,7 +814,6 @@ fn iterate_passes(
         )?;
         linearised_about = nominal.clone();
         pass += 1;
-
         let mut beta = Vector3::new(est.values[s], est.values[s + 1], est.values[s + 2]);
         // A start heading the data do not resolve is not moved: its linear estimate, with a
         // sigma near a radian, reached +-3 rad on a consumer-grade recording of rests and

@@ -307,13 +307,7 @@ pub fn calibrate(
     };
     let intervals = intervals_of(data, rests);
     let g = config.site().specific_force_at_rest_enu().norm();
-    let value = |name: &str| {
-        estimate
-            .names
-            .iter()
-            .position(|n| n == name)
-            .map(|i| estimate.values[i])
-    };
+    let value = |name: &str| estimate.value(name);
     let evaluation = crate::free_motion::evaluate(data, &intervals, turns, holdout, g, &value);
     let noise = match measured {
         None => NoiseSource::Configured,

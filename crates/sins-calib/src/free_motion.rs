@@ -329,25 +329,16 @@ pub fn evaluation_report(e: &Evaluation) -> String {
             t.after_rad.to_degrees()
         );
     }
-    let fitted: Vec<f64> = e
-        .poses
-        .iter()
-        .filter(|p| !p.held_out)
-        .map(|p| p.after_m_s2)
-        .collect();
-    let before: Vec<f64> = e
-        .poses
-        .iter()
-        .filter(|p| !p.held_out)
-        .map(|p| p.before_m_s2)
-        .collect();
-    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    let fitted: Vec<_> = e.poses.iter().filter(|p| !p.held_out).collect();
+    let rms = |f: fn(&calib::free_motion::PoseResidual) -> f64| {
+        (fitted.iter().map(|p| f(p).powi(2)).sum::<f64>() / fitted.len().max(1) as f64).sqrt()
+    };
     let _ = writeln!(
         s,
         "  static |f| - g RMS over the {} fitted rests: before {:.5} m/s^2, after {:.5} m/s^2",
         fitted.len(),
-        rms(&before),
-        rms(&fitted)
+        rms(|p| p.before_m_s2),
+        rms(|p| p.after_m_s2)
     );
     if let Some(v) = &e.validation {
         let _ = writeln!(

@@ -177,7 +177,7 @@ pub(super) struct Compensation {
     affine: Option<(AffineError, AffineError)>,
     /// With affine errors and no rate-derivative terms, the three fixed-point passes in closed
     /// form: `x_3 = n raw + m_offset dt` for `x = (dth, dv)` (see [`Compensation::new`]).
-    closed: Option<(Matrix6<f64>, Vector6<f64>)>,
+    closed: Option<ClosedForm>,
     /// With errors affine in each orthant of the rate (a scale asymmetry) and no
     /// rate-derivative terms: the closed form of each orthant, indexed by the signs of the
     /// rate's components ([`orthant_index`]).
@@ -220,7 +220,7 @@ impl Compensation {
         // fixed-point passes, short of the fixed point for per-cent errors.
         let orthants = match (&affine, derivatives, model.affine(Sensor::Accel, p)) {
             (None, false, Some(a)) => {
-                let forms: Option<Vec<(Matrix6<f64>, Vector6<f64>)>> = (0..8)
+                let forms: Option<Vec<ClosedForm>> = (0..8)
                     .map(|k| {
                         model
                             .affine_in_orthant(Sensor::Gyro, p, &orthant_signs(k))
@@ -335,7 +335,7 @@ fn orthant_index(w: &Vector3<f64>) -> usize {
 
 /// The fixed point of the compensation in closed form for affine gyro and accelerometer errors
 /// `g` and `a`: `x = n raw + m_offset dt` ([`Compensation::new`]).
-fn closed_form(g: &AffineError, a: &AffineError) -> (Matrix6<f64>, Vector6<f64>) {
+fn closed_form(g: &AffineError, a: &AffineError) -> ClosedForm {
     let mut b = Matrix6::zeros();
     b.fixed_view_mut::<3, 3>(0, 0).copy_from(&g.d_omega);
     b.fixed_view_mut::<3, 3>(0, 3).copy_from(&g.d_f);
@@ -783,10 +783,8 @@ impl<'a> Pass<'a> {
                 });
             }
         }
-        if let Some(nis) = report.parameter_nis {
-            self.stats.turn_updates += 1;
-            self.turn_nis_sum += nis;
-        }
+        self.stats.turn_updates += report.parameter_updates;
+        self.turn_nis_sum += report.parameter_nis_sum;
         // The statistics describe the updates made.
         if held_out {
             return;
