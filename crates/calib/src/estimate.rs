@@ -1294,7 +1294,8 @@ fn run_pass(
         angle_var_per_record: angle_var,
     };
     let model = LinearModel::new(layout, dt, &u_enu, config.gyro_psd());
-    let engine = Engine::new(filter, model, Schedule::new(config), noise, false);
+    let mut engine = Engine::new(filter, model, Schedule::new(config), noise, false);
+    engine.vertical_second_order = matches!(motion, Motion::Rests { .. });
     let settings = PassSettings {
         kind: imu.kind(),
         dt,

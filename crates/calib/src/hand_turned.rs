@@ -165,12 +165,17 @@ pub enum NoiseSource {
     },
 }
 
-/// The mean NIS of the specific-force windows that follow a window of the same rest: their
-/// scatter is the specific force's noise (a rest's first window also holds what the motion
-/// before it did to the attitude). Held-out windows are left out.
+/// The mean NIS of the specific-force windows, the recording's first left out (the start
+/// tilt's prior is levelled from the same data, so its NIS is small by construction), and the
+/// held-out ones. A rest's first window also holds what the motion before it did to the
+/// attitude: with the vertical row taken to second order in the tilt
+/// ([`crate::engine::Engine::vertical_second_order`]) that is a tilt the window measures, and
+/// what remains is the unit settling (on the shipped Xsens recording a few first windows are 3
+/// to 6 sigma off in the vertical alone), which is part of the scatter the noise level has to
+/// carry. (Before the correction those windows were left out: their mean NIS was 55.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InnovationScatter {
-    /// Windows after the first of their rest.
+    /// Windows counted.
     pub windows: usize,
     /// Their mean NIS.
     pub mean_nis: f64,
@@ -179,15 +184,12 @@ pub struct InnovationScatter {
 impl InnovationScatter {
     /// From a fit's innovation log.
     pub fn of(innovations: &[crate::diagnostics::Innovation]) -> Self {
-        let mut last_segment = None;
         let (mut windows, mut nis) = (0usize, 0.0);
-        for inn in innovations {
-            if inn.kind != crate::model::MeasurementKind::Accel {
-                continue;
-            }
-            let first = last_segment != Some(inn.segment);
-            last_segment = Some(inn.segment);
-            if first || inn.held_out {
+        let accel = innovations
+            .iter()
+            .filter(|inn| inn.kind == crate::model::MeasurementKind::Accel);
+        for inn in accel.skip(1) {
+            if inn.held_out {
                 continue;
             }
             let Some(chol) = inn.s.cholesky() else {
@@ -242,8 +244,7 @@ pub fn intervals_of(data: &ImuData, rests: &[Rest]) -> Vec<Interval> {
 ///
 /// With `measured` noise (the configuration's levels taken from [`white_noise_at_rest`]), the
 /// specific-force level is brought to the fit's innovations ([`InnovationScatter`]), up to
-/// [`MAX_NOISE_FITS`] fits: where the windows after the first of each rest have a mean NIS
-/// outside its band, the level is scaled by `sqrt(NIS / 3)`, never below the measured level
+/// [`MAX_NOISE_FITS`] fits: where the windows have a mean NIS outside its band, the level is scaled by `sqrt(NIS / 3)`, never below the measured level
 /// (the rests' own scatter is a floor of what the windows see; a real unit's rests also differ
 /// by what the model lacks). Sigmas from a noise the innovations contradict are too small. The
 /// factor is reported.
