@@ -1,6 +1,6 @@
 //! The model-extension loop on recordings of rests without a program
-//! (`calib::extend::run_loop_at_rests`): the 19-position run of `rests.rs` at 25 Hz with a
-//! hidden accelerometer quadratic term, and a clean control.
+//! (`calib::extend::run_loop_at_rests`): the 19-position run of `rests.rs` at 25 Hz with
+//! hidden effects, and clean controls.
 //!
 //! Fixed before the runs were looked at: the quadratic term of a tactical MEMS unit
 //! (2e-5 per m/s^2 on each axis, signs +, -, +; `workspace_tests::hidden`), seed 700; the
@@ -12,8 +12,15 @@
 //! models, an accelerometer bias random walk of 1e-4 m/s^2/sqrt(s) in the data and not in the
 //! configuration (seed 740): the loop was to accept nothing and say the model does not fit; and
 //! the negative control on consumer-grade recordings (`rests::consumer_config`), seeds
-//! 760-779: no term accepted on at least 19 of 20 (measured: none on 20; two of the 20 final
-//! models were said not to fit).
+//! 760-779: no term accepted on at least 19 of 20 (measured: none on 20; of the 20 final
+//! models two were said not to fit before the trajectory was re-levelled to the data, one,
+//! seed 765, after).
+//!
+//! Added for the candidates this recording cannot show at the sizes first tried (a scale
+//! asymmetry and a gyro bias walk; see each test): a tactical-grade recording turned both ways
+//! about every axis ([`both_ways_config`]), sizes chosen from its covariance before a loop was
+//! run on it: the asymmetry (seed 705) is found; the clean control on it (seed 706) accepts
+//! nothing (its final model was said not to fit); the walk (seed 707) is not found.
 //!
 //! The first failed as planned and taught something: the loop accepted `gyro_g_sensitivity`
 //! and `gyro_bias_drift`, and still said the model does not fit. At rest a change of a
@@ -165,46 +172,112 @@ fn the_loop_accepts_nothing_on_19_of_20_clean_consumer_grade_recordings() {
     );
 }
 
-/// The programmed tests' tactical scale-factor asymmetry (`workspace_tests::hidden`: 2e-5,
-/// -1.5e-5, 1e-5) on the 19-position recording, whose turns go both ways about every gimbal.
-/// Size and seed (703) fixed before the first run (issue 19: a hidden-effect test for every
-/// candidate a recording of rests can observe).
+/// A tactical-grade unit (gyro-bias prior 10 deg/h, so the candidates take the tactical
+/// priors of `sins_model::candidates::Candidate::prior_sigma`) on a 19-position recording whose
+/// turns go there and back about every body axis while it is horizontal: pitch up, the bank
+/// gimbal both ways (about the body z axis), pitch back, the bank gimbal both ways (y), the
+/// pitch gimbal both ways (x), the heading gimbal both ways. A turn of +90 degrees leaves
+/// `(theta_ii + a_i) pi/2` about the axis, one of -90 degrees `(-theta_ii + a_i) pi/2`: only
+/// turns both ways about a horizontal axis tell the asymmetry from the scale factor.
+pub fn both_ways_config(seed: u64) -> RunConfig {
+    let turns: [(u8, f64); 18] = [
+        (3, 10.0),
+        (2, 10.0),
+        (2, -10.0),
+        (2, -10.0),
+        (2, 10.0),
+        (3, -10.0),
+        (2, 10.0),
+        (2, -10.0),
+        (2, -10.0),
+        (2, 10.0),
+        (3, -10.0),
+        (3, 10.0),
+        (3, 10.0),
+        (3, -10.0),
+        (1, 10.0),
+        (1, -10.0),
+        (1, -10.0),
+        (1, 10.0),
+    ];
+    let mut c = config(seed);
+    let path = std::path::Path::new(&c.program).with_file_name(format!("both-ways-{seed}.toml"));
+    std::fs::write(&path, crate::rests::positions_program(&turns)).unwrap();
+    c.program = path.display().to_string();
+    c.priors.gyro_bias_deg_h = 10.0;
+    c
+}
+
+fn accepted_both_ways(seed: u64, hidden: &HiddenEffects) -> Vec<String> {
+    let config = both_ways_config(seed);
+    run(&config, &config, hidden).0
+}
+
+/// A gyro scale-factor asymmetry on a recording that separates it ([`both_ways_config`]).
 ///
-/// FAILS, as first run: nothing accepted and the paper's model fits (the asymmetry's score test
-/// p = 0.79 in the first round). The size was taken from the programmed runs (45 min, 9 cycles
-/// of +-10 deg/s), which carry far more turning than 18 turns of 90 deg; on this recording it
-/// leaves no trace. Not a false decision; the size this recording can see is not known yet.
+/// History: the first test of this term put the programmed tests' navigation-grade
+/// asymmetry (2e-5, -1.5e-5, 1e-5) into the 19-position recording of the other tests (seed
+/// 703), and it failed as first run: nothing accepted, p = 0.79. That recording cannot show
+/// it: its x and z turns go one way while the axis is horizontal, so `gyro.asym.x` and `.z`
+/// are confounded with `gyro.theta.xx` and `.zz` (posterior correlations -0.9996 and 0.999, the
+/// separability analysis calls the term inseparable), and `.y`, the one it separates, has a
+/// data-only sigma of 2e-5, larger than the effect. The recording and size below were then
+/// chosen from the covariance of the fit alone, before any loop was run on them: with the
+/// tactical prior (1e-3) the fit of a clean run of this recording gives the asymmetry sigmas of
+/// 7.6e-6, 8.4e-6 and 1.3e-5, no entry confounded; the effect is 1e-4 on each axis (signs +, -,
+/// +), the low end of a tactical MEMS gyro (100 to 1000 ppm, `Candidate::typical`), 8 to 13 of
+/// those sigmas. Seed 705; the loop must accept `gyro_scale_asymmetry` and nothing else. The
+/// clean control on the same recording and grade: seed 706, nothing accepted.
 #[test]
-#[ignore = "fails as first run: the asymmetry at the programmed runs' size leaves no trace on a 19-position recording (p = 0.79)"]
 fn the_loop_finds_a_scale_asymmetry_without_a_program() {
     let hidden = HiddenEffects {
         values: vec![
-            ("gyro.asym.x".into(), 2e-5),
-            ("gyro.asym.y".into(), -1.5e-5),
-            ("gyro.asym.z".into(), 1e-5),
+            ("gyro.asym.x".into(), 1e-4),
+            ("gyro.asym.y".into(), -1e-4),
+            ("gyro.asym.z".into(), 1e-4),
         ],
         gyro_drift: None,
     };
     assert_eq!(
-        accepted(703, &hidden),
+        accepted_both_ways(705, &hidden),
         vec!["gyro_scale_asymmetry".to_string()]
     );
 }
 
-/// A gyro bias random walk of 0.3 deg/h/sqrt(h) on every axis (a tactical FOG's, the top of the
-/// navigation grade's grid) on the 19-position recording (9.5 min). Size and seed (704) fixed
-/// before the first run.
-///
-/// FAILS, as first run: nothing accepted and the paper's model fits (the walk's likelihood
-/// ratio p = 0.23). In 9.5 min such a walk moves a bias by about 0.1 deg/h, a fifth of its
-/// prior; the recording does not show it.
 #[test]
-#[ignore = "fails as first run: a 0.3 deg/h/sqrt(h) walk leaves no trace in 9.5 min (p = 0.23)"]
+fn the_loop_accepts_nothing_on_a_clean_tactical_recording_turned_both_ways() {
+    assert!(accepted_both_ways(706, &HiddenEffects::default()).is_empty());
+}
+
+/// A gyro bias random walk on the tactical recording of [`both_ways_config`].
+///
+/// History: the first test put a walk of 0.3 deg/h/sqrt(h) (a navigation-grade unit's largest)
+/// into the navigation-grade 19-position recording (seed 704) and failed as first run: nothing
+/// accepted (likelihood ratio p = 0.23). The expected statistic of that walk on that recording
+/// with the program known is 5.1 against the threshold 8.6 (`calib::drift_visibility`: the
+/// smallest walk it shows is 0.63 deg/h/sqrt(h)); without the program it sees less. The size
+/// below was chosen from the same analysis before any loop was run on it: 1 deg/h/sqrt(h) on
+/// every axis, the tactical grade's prior intensity and the middle of its drift grid, with an
+/// expected statistic of 89 on this recording with the program known (threshold 8.6). Seed
+/// 707; the loop must accept `gyro_bias_drift` and nothing else.
+///
+/// FAILS, as first run: nothing accepted (the walk's likelihood ratio 4.4, p = 0.018, against
+/// the threshold 8.6); the loop with the program known, on the same data, accepts the walk at a
+/// statistic of 10.3, an eighth of the expected 89. The sizing was wrong, not (as far as this
+/// run shows) the estimator: the expected statistic is the mean of a skewed distribution (a
+/// weighted sum of `chi^2_1` variables with a few slow modes carrying the walk,
+/// `calib::drift_visibility`), and a size must be chosen from a low quantile of it, which the
+/// toolkit does not compute yet. Left failing rather than moved to another seed or size.
+#[test]
+#[ignore = "fails as first run: the walk sized on the mean of a skewed statistic (expected 89, seen 10.3 with the program, 4.4 without)"]
 fn the_loop_finds_a_gyro_bias_walk_without_a_program() {
-    let q = 0.3 * sins_model::units::DEG_PER_HOUR / 60.0;
+    let q = sins_model::units::DEG_PER_HOUR / 60.0;
     let hidden = HiddenEffects {
         values: vec![],
         gyro_drift: Some([q; 3]),
     };
-    assert_eq!(accepted(704, &hidden), vec!["gyro_bias_drift".to_string()]);
+    assert_eq!(
+        accepted_both_ways(707, &hidden),
+        vec!["gyro_bias_drift".to_string()]
+    );
 }
