@@ -189,10 +189,11 @@ pub struct Round {
 /// measurements held out (`filter.hold_out_every`): the filter evaluates each held-out
 /// measurement's innovation and its covariance from the data before it and does not use it.
 /// The check compares the log predictive densities `sum ln N(nu; 0, S)` summed over those
-/// measurements; the term is accepted only when that sum is not lower with it (the issue's "a
-/// held-out prediction not worse"). The main statistic is prequential too (each innovation is
-/// predicted before it is used), but every measurement then also informs the estimates that
-/// predict the later ones; here the held-out data inform nothing.
+/// measurements; the term is accepted only when that sum is not lower with it by more than
+/// [`HELD_OUT_TOLERANCE_NATS`] (the issue's "a held-out prediction not worse"). The main
+/// statistic is prequential too (each innovation is predicted before it is used), but every
+/// measurement then also informs the estimates that predict the later ones; here the held-out
+/// data inform nothing.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct HeldOutCheck {
     /// The term checked.
@@ -210,6 +211,21 @@ pub struct HeldOutCheck {
     pub decides: bool,
 }
 
+/// How much worse (nats of summed log predictive density) the held-out measurements may be
+/// predicted with a term before the check refuses it. The gain is the log of a partial Bayes
+/// factor (the held-out data's, given the fitted data) for the term, and evidence of less than
+/// one nat either way is "not worth more than a bare mention" (Kass and Raftery 1995, `2 ln B`
+/// below 2).
+///
+/// Why not zero: a true term whose information sits mostly in the fitted data changes the
+/// held-out predictions by a fraction of a nat either way (a hidden scale asymmetry of 8 to 13
+/// of its sigmas, +0.46 over 216 held-out measurements; on the shipped Ferraris session the
+/// asymmetry the turns point at, -0.3 over 66), and a bound of 0 makes the decision a coin
+/// flip there. The false term the check is there for loses more: a g-sensitivity taken for an
+/// unmodelled accelerometer bias walk (seed 740 of `tests/tests/rests_loop.rs`), -3.95; a
+/// g-sensitivity taken for a gyro bias walk (pilot seed 799 at 2 deg/h/sqrt(h)), -5.75.
+pub const HELD_OUT_TOLERANCE_NATS: f64 = 1.0;
+
 /// Whether the held-out check decides on a recording: on a recording of rests, yes (every
 /// `k`-th rest held out whole: a term must predict poses its fit has not seen, which is what a
 /// term fitted to something else fails; an unmodelled accelerometer bias walk was taken for a
@@ -218,8 +234,16 @@ pub struct HeldOutCheck {
 /// effect's at the rate reversals), and two real hidden effects predicted the held-out
 /// segments no better (size effect -1.04, gyro bias random walk -0.25 against the
 /// statistics' 77 and 17.8): the check would refuse them for want of held-out information.
-pub fn held_out_decides(rests: bool) -> bool {
-    rests
+///
+/// Nor does it decide on the gyro bias random walk anywhere. The walk has no parameter that
+/// predicts a pose; it widens the predictions, and its evidence is the innovations' time
+/// structure, which a few held-out rests barely sample. On tactical-grade recordings of rests
+/// with a walk of 3 deg/h/sqrt(h) (`tests/tests/rests_loop.rs`, pilot seeds 790-799 and seed
+/// 708) the walk was called for at p = 1e-88 to 1e-10 and its held-out gain was -1.42 to
+/// +1.60 nats, unrelated to how strongly it was called: the check refused the true walk on
+/// 708 (-1.42) and with a bound of 0 would have on four of the ten pilots.
+pub fn held_out_decides(rests: bool, term: &str) -> bool {
+    rests && term != Candidate::GyroBiasDrift.id()
 }
 
 impl HeldOutCheck {
@@ -228,10 +252,11 @@ impl HeldOutCheck {
         self.log_density_with - self.log_density_without
     }
 
-    /// The held-out prediction is not worse with the term (or there was nothing to hold out:
-    /// a recording with fewer segments with measurements than `every`).
+    /// The held-out prediction is not worse with the term by more than
+    /// [`HELD_OUT_TOLERANCE_NATS`] (or there was nothing to hold out: a recording with fewer
+    /// segments with measurements than `every`).
     pub fn passed(&self) -> bool {
-        self.measurements == 0 || self.gain() >= 0.0
+        self.measurements == 0 || self.gain() >= -HELD_OUT_TOLERANCE_NATS
     }
 
     /// The check refused the term: it decides, and the held-out prediction is worse.
@@ -417,7 +442,7 @@ impl Context<'_> {
             measurements,
             log_density_without: without,
             log_density_with: with,
-            decides: held_out_decides(self.rests.is_some()),
+            decides: held_out_decides(self.rests.is_some(), term),
         })
     }
 

@@ -254,13 +254,22 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
             h.every,
             h.measurements,
             h.gain(),
-            if h.passed() {
-                "passed"
+            if h.passed() && h.gain() >= 0.0 {
+                "passed".to_string()
+            } else if h.passed() {
+                format!(
+                    "passed (worse by less than the {} nat that would be evidence against it)",
+                    calib::extend::HELD_OUT_TOLERANCE_NATS
+                )
             } else if h.decides {
-                "FAILED, not accepted"
+                format!(
+                    "FAILED (worse by more than {} nat), not accepted",
+                    calib::extend::HELD_OUT_TOLERANCE_NATS
+                )
             } else {
-                "worse (reported only: on a programmed run the check does not decide, \
-                 docs/model-extension.md)"
+                "worse (reported only: on a programmed run, and for a random walk, the \
+                 check does not decide, docs/model-extension.md)"
+                    .to_string()
             }
         );
     }
@@ -347,13 +356,15 @@ pub fn summary(r: &LoopResult) -> String {
         let _ = writeln!(
             s,
             "verdict: THE DATA CALL FOR {} (p = {}), BUT WITH IT THE HELD-OUT MEASUREMENTS ARE \
-             PREDICTED WORSE (log predictive density {:+.1} over {}): IT IS NOT ACCEPTED. THE \
+             PREDICTED WORSE (log predictive density {:+.1} over {}, beyond the {} nat \
+             allowed): IT IS NOT ACCEPTED. THE \
              MODEL DOES NOT FIT THESE DATA AND NO CANDIDATE TERM EXPLAINS THE MISFIT (exit status \
              3); terms accepted before: {}.",
             h.term,
             p_value_text(p),
             h.gain(),
             h.measurements,
+            calib::extend::HELD_OUT_TOLERANCE_NATS,
             if r.accepted_terms.is_empty() {
                 "none".to_string()
             } else {
