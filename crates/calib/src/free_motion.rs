@@ -571,15 +571,15 @@ struct GnSolution {
     fit: StageFit,
 }
 
-/// Minimise `|e(x)|^2 + |x|^2` (data residuals already divided by their sigma, `x` the
-/// parameters over their prior sigma) by Gauss-Newton with central-difference Jacobians.
-/// The Gauss-Newton iteration stops at a step shorter than this (the parameters are in prior
-/// sigmas). Above the noise floor of the central-difference Jacobian: at 1e-9 the
-/// accelerometer stage of the 324-s recording of docs/performance.md never got there (steps of
-/// 8.9e-7, then 1e-7 to 3e-7 for all 30 iterations) and the joint stage ran three iterations
-/// past 8e-6 for steps of 1e-9.
+/// [`gauss_newton`] stops at a step shorter than this (the parameters are in prior sigmas).
+/// Above the noise floor of the central-difference Jacobian: at 1e-9 the accelerometer stage of
+/// the 324-s recording of docs/performance.md never got there (steps of 8.9e-7, then 1e-7 to
+/// 3e-7 for all 30 iterations) and the joint stage ran three iterations past 8e-6 for steps of
+/// 1e-9.
 const GN_STEP_TOLERANCE: f64 = 1e-6;
 
+/// Minimise `|e(x)|^2 + |x|^2` (data residuals already divided by their sigma, `x` the
+/// parameters over their prior sigma) by Gauss-Newton with central-difference Jacobians.
 fn gauss_newton(n: usize, residuals: &dyn Fn(&[f64]) -> Vec<f64>) -> GnSolution {
     let mut x = DVector::zeros(n);
     let h = 1e-5;

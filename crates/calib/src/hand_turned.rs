@@ -244,10 +244,10 @@ pub fn intervals_of(data: &ImuData, rests: &[Rest]) -> Vec<Interval> {
 ///
 /// With `measured` noise (the configuration's levels taken from [`white_noise_at_rest`]), the
 /// specific-force level is brought to the fit's innovations ([`InnovationScatter`]), up to
-/// [`MAX_NOISE_FITS`] fits: where the windows have a mean NIS outside its band, the level is scaled by `sqrt(NIS / 3)`, never below the measured level
-/// (the rests' own scatter is a floor of what the windows see; a real unit's rests also differ
-/// by what the model lacks). Sigmas from a noise the innovations contradict are too small. The
-/// factor is reported.
+/// [`MAX_NOISE_FITS`] fits: where the windows have a mean NIS outside its band, the level is
+/// scaled by `sqrt(NIS / 3)`, never below the measured level (the rests' own scatter is a
+/// floor of what the windows see; a real unit's rests also differ by what the model lacks).
+/// Sigmas from a noise the innovations contradict are too small. The factor is reported.
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     config: &RunConfig,
