@@ -43,7 +43,7 @@ fn run(seeds: std::ops::RangeInclusive<u64>) {
         }
         if with_tt {
             assert!(unobserved.contains(&"turntable.tau".to_string()));
-            assert!(est.stats.consider_passes > 0, "{:?}", est.stats);
+            assert!(est.stats.consider_directions > 0, "{:?}", est.stats);
         }
     });
 }

@@ -242,6 +242,84 @@ pub fn prior_filter(p0: &DMatrix<f64>) -> Result<KalmanFilter, KalmanError> {
     KalmanFilter::new(&vec![0.0; n], p0, 3)
 }
 
+/// The sensitivity `S = dx/d delta` (`n x 3`, SI) of the filter's state estimate to a constant
+/// offset `delta` added to every specific-force residual, carried through the pass beside the
+/// estimate: `S <- Phi S` at a predict, `S <- S + K (D - H S)` at an update whose residual
+/// holds the offset with derivative `D`, `S <- S - K H S` at any other update of the main
+/// filter. It is the consider sensitivity of [`crate::estimate`]'s second-order
+/// specific-force error: the response the estimate would show if the pass were run again with
+/// the offset (which is what was done before, one pass per direction: two of the five passes
+/// of a consumer-grade recording of rests).
+///
+/// A feedback does not change it: the fed-back amount leaves the state and enters the
+/// trajectory, and `S` is the sensitivity of their sum (the total), which the fed-back
+/// trajectory carries as the transition carries the state (to first order, as the pass run
+/// again saw it).
+#[derive(Debug, Clone)]
+pub struct OffsetSensitivity {
+    /// `dx/d delta` (`n x 3`, SI).
+    pub s: Mat<f64>,
+    /// Scratch: `Phi_top S` (`n x 3`, the top rows used).
+    top: Mat<f64>,
+    /// Scratch: `D - H S` (`m_max x 3`).
+    rhs: Mat<f64>,
+    /// Scratch: `K (D - H S)` (`n x 3`).
+    k_rhs: Mat<f64>,
+}
+
+impl OffsetSensitivity {
+    /// Zero sensitivity (the prior does not hold the offset) for `n` states and measurements
+    /// of up to `m_max` components.
+    pub fn new(n: usize, m_max: usize) -> Self {
+        Self {
+            s: Mat::zeros(n, 3),
+            top: Mat::zeros(n, 3),
+            rhs: Mat::zeros(m_max, 3),
+            k_rhs: Mat::zeros(n, 3),
+        }
+    }
+
+    /// `S <- Phi S` for `Phi` the identity but its top rows `phi_top` (`k x n`).
+    fn predict(&mut self, phi_top: MatRef<'_, f64>) {
+        let (k, n) = (phi_top.nrows(), phi_top.ncols());
+        for c in 0..3 {
+            for i in 0..k {
+                let mut v = 0.0;
+                for j in 0..n {
+                    v += phi_top[(i, j)] * self.s[(j, c)];
+                }
+                self.top[(i, c)] = v;
+            }
+        }
+        for c in 0..3 {
+            for i in 0..k {
+                self.s[(i, c)] = self.top[(i, c)];
+            }
+        }
+    }
+
+    /// `S <- S + K (D - H S)` after `filter`'s update with `h` (`m x n`); `d`: `None` for a
+    /// measurement that does not hold the offset (`D = 0`).
+    fn update(&mut self, filter: &KalmanFilter, h: MatRef<'_, f64>, d: Option<&Matrix3<f64>>) {
+        let (m, n) = (h.nrows(), h.ncols());
+        for c in 0..3 {
+            for a in 0..m {
+                let mut v = d.map_or(0.0, |d| d[(a, c)]);
+                for j in 0..n {
+                    v -= h[(a, j)] * self.s[(j, c)];
+                }
+                self.rhs[(a, c)] = v;
+            }
+        }
+        filter.gain_times(self.rhs.as_mut().subrows_mut(0, m), self.k_rhs.as_mut());
+        for c in 0..3 {
+            for i in 0..n {
+                self.s[(i, c)] += self.k_rhs[(i, c)];
+            }
+        }
+    }
+}
+
 /// The filter and the linear model between its instants: what the covariance analysis and the
 /// estimation run alike. The caller integrates IMU steps into [`Engine::model`] and calls
 /// [`Engine::measurement_instant`] at the end of every step.
@@ -249,6 +327,9 @@ pub fn prior_filter(p0: &DMatrix<f64>) -> Result<KalmanFilter, KalmanError> {
 pub struct Engine {
     /// The Kalman filter (normalised inside, SI outside).
     pub filter: KalmanFilter,
+    /// The sensitivity of the state estimate to a constant offset of the specific-force
+    /// residual, when asked for ([`OffsetSensitivity`]).
+    pub offset_sensitivity: Option<OffsetSensitivity>,
     /// Transition and measurement windows since the last filter instant.
     pub model: LinearModel,
     /// When measurements are taken.
@@ -299,6 +380,7 @@ impl Engine {
         let n = filter.dim();
         Self {
             filter,
+            offset_sensitivity: None,
             model,
             schedule,
             noise,
@@ -356,6 +438,9 @@ impl Engine {
             let h = Mat::from_fn(1, n, |_, j| m.h.get(j).copied().unwrap_or(0.0));
             let r = Mat::from_fn(1, 1, |_, _| m.variance);
             nis += self.filter.update(&[m.z], h.as_ref(), r.as_ref())?.nis;
+            if let Some(sens) = &mut self.offset_sensitivity {
+                sens.update(&self.filter, h.as_ref(), None);
+            }
             // The held-out copy is the main filter with the held-out measurements: it gets
             // this one too.
             if let Some(shadow) = &mut self.shadow {
@@ -430,11 +515,19 @@ impl Engine {
             if let Some(shadow) = &mut self.shadow {
                 shadow.predict(phi, q)?;
             }
+            if let Some(sens) = &mut self.offset_sensitivity {
+                sens.predict(phi);
+            }
         }
         model.reset_transition();
         (report.parameter_updates, report.parameter_nis_sum) = self.parameter_update()?;
+        // How the residual taken responds to an offset of the window's mean residual: one,
+        // and in the vertical row of the second-order correction its derivative.
+        let mut d_offset = Matrix3::identity();
         let acc = acc.map(|mut m| {
             if self.vertical_second_order && f_enu.z != 0.0 {
+                d_offset[(2, 0)] = m.z.x / f_enu.z;
+                d_offset[(2, 1)] = m.z.y / f_enu.z;
                 m.z.z += (m.z.x * m.z.x + m.z.y * m.z.y) / (2.0 * f_enu.z);
             }
             m
@@ -443,11 +536,11 @@ impl Engine {
             if self.shadow.is_none() {
                 report.accel_z = Some(m.z);
             }
-            report.accel_update = self.update(m)?;
+            report.accel_update = self.update(m, Some(&d_offset))?;
             report.accel_nis = report.accel_update.map(|u| u.nis);
         }
         if let Some(m) = &tt {
-            report.turntable_update = self.update(m)?;
+            report.turntable_update = self.update(m, None)?;
             report.turntable_nis = report.turntable_update.map(|u| u.nis);
         }
         Ok(report)
@@ -464,6 +557,9 @@ impl Engine {
             if let Some(shadow) = &mut self.shadow {
                 shadow.predict(phi, q)?;
             }
+            if let Some(sens) = &mut self.offset_sensitivity {
+                sens.predict(phi);
+            }
         }
         self.model.reset_transition();
         self.parameter_update()?;
@@ -471,8 +567,13 @@ impl Engine {
     }
 
     /// The update with `m`; in an estimation, with the innovation and its covariance (copied
-    /// from the filter, nothing allocated).
-    fn update(&mut self, m: &Measurement) -> Result<Option<UpdateRecord>, KalmanError> {
+    /// from the filter, nothing allocated). `d_offset` is the residual's derivative by the
+    /// offset of [`OffsetSensitivity`] (`None`: the residual does not hold it).
+    fn update(
+        &mut self,
+        m: &Measurement,
+        d_offset: Option<&Matrix3<f64>>,
+    ) -> Result<Option<UpdateRecord>, KalmanError> {
         for i in 0..3 {
             for k in 0..3 {
                 self.r[(i, k)] = m.r[(i, k)];
@@ -487,6 +588,12 @@ impl Engine {
         } else {
             let filter = self.shadow.as_mut().unwrap_or(&mut self.filter);
             let info = filter.update_correlated(m.z.as_slice(), h, r, cross)?;
+            // Only the main filter's estimate is the result's (a held-out update is made on
+            // the copy alone).
+            if let (Some(sens), None) = (&mut self.offset_sensitivity, &self.shadow) {
+                sens.update(&self.filter, h, d_offset);
+            }
+            let filter = self.shadow.as_mut().unwrap_or(&mut self.filter);
             let (nu, s) = (filter.innovation(), filter.innovation_covariance());
             Ok(Some(UpdateRecord {
                 nis: info.nis,
@@ -507,6 +614,82 @@ impl Engine {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Uniform};
+
+    /// The carried sensitivity is the derivative of the filter's estimate by the offset: the
+    /// same predicts and updates (plain, correlated, some without the offset) run again with
+    /// the residuals offset by `eps D c` move the state by `eps S c`, column by column.
+    #[test]
+    fn the_offset_sensitivity_is_the_estimate_s_derivative() {
+        let (n, k) = (9, 3);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let unit = Uniform::new(-1.0, 1.0).expect("a valid range");
+        let mut r = |s: f64| s * unit.sample(&mut rng);
+        // A fixed sequence: (phi_top, q_top), then (z, H, R, cross, D or none).
+        type Step = (
+            Mat<f64>,
+            Mat<f64>,
+            Vec<f64>,
+            Mat<f64>,
+            Mat<f64>,
+            Mat<f64>,
+            Option<Matrix3<f64>>,
+        );
+        let steps: Vec<Step> = (0..12)
+            .map(|i| {
+                let phi = Mat::from_fn(k, n, |a, j| f64::from(a == j) + r(0.2));
+                let q = Mat::from_fn(k, k, |a, b| if a == b { 0.01 } else { 0.0 });
+                let m = if i % 4 == 3 { 1 } else { 3 };
+                let z: Vec<f64> = (0..m).map(|_| r(1.0)).collect();
+                let h = Mat::from_fn(m, n, |_, _| r(1.0));
+                let rr = Mat::from_fn(m, m, |a, b| if a == b { 0.5 } else { 0.0 });
+                let cross = Mat::from_fn(n, m, |i, _| if i < k { r(0.05) } else { 0.0 });
+                let d = (m == 3 && i % 3 != 2)
+                    .then(|| Matrix3::from_fn(|a, b| f64::from(a == b) + r(0.3)));
+                (phi, q, z, h, rr, cross, d)
+            })
+            .collect();
+        let run = |offset: &Vector3<f64>, sens: Option<&mut OffsetSensitivity>| {
+            let p0 = Mat::from_fn(n, n, |i, j| if i == j { 1.0 + i as f64 } else { 0.0 });
+            let mut f = KalmanFilter::new(&vec![0.0; n], p0.as_ref(), 3).unwrap();
+            let mut sens = sens;
+            for (phi, q, z, h, rr, cross, d) in &steps {
+                f.predict(phi.as_ref(), q.as_ref()).unwrap();
+                if let Some(s) = sens.as_deref_mut() {
+                    s.predict(phi.as_ref());
+                }
+                let mut z = z.clone();
+                if let Some(d) = d {
+                    let dz = d * offset;
+                    for (a, v) in z.iter_mut().enumerate() {
+                        *v += dz[a];
+                    }
+                }
+                f.update_correlated(&z, h.as_ref(), rr.as_ref(), cross.as_ref())
+                    .unwrap();
+                if let Some(s) = sens.as_deref_mut() {
+                    s.update(&f, h.as_ref(), d.as_ref());
+                }
+            }
+            f.state()
+        };
+        let mut sens = OffsetSensitivity::new(n, 3);
+        let base = run(&Vector3::zeros(), Some(&mut sens));
+        let eps = 1e-6;
+        for c in 0..3 {
+            let shifted = run(&(Vector3::ith(c, eps)), None);
+            for i in 0..n {
+                let fd = (shifted[i] - base[i]) / eps;
+                assert!(
+                    (fd - sens.s[(i, c)]).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "state {i}, offset {c}: finite difference {fd}, carried {}",
+                    sens.s[(i, c)]
+                );
+            }
+        }
+        assert!(sens.s.norm_l2() > 0.1, "the offset moved the estimate");
+    }
 
     #[test]
     fn the_walked_rate_change_search_answers_as_the_binary_one() {

@@ -144,8 +144,10 @@ pub struct FitStatistics {
     /// `beta x (C df)` that the linear model leaves out, from the posterior; zero when it is
     /// negligible (see docs/estimation.md, step 8).
     pub second_order_accel_sigma: f64,
-    /// Extra passes made to carry that error into the posterior covariance.
-    pub consider_passes: usize,
+    /// Principal directions of that error carried into the posterior covariance (those above
+    /// a tenth of the white-noise sigma of the run's mean specific force), through the final
+    /// pass's sensitivity to a residual offset.
+    pub consider_directions: usize,
     /// Specific-force windows left out because the unit moved in them (a recording of rests;
     /// zero with a program, where the specific force is known throughout).
     pub accel_windows_in_motion: usize,
@@ -759,7 +761,8 @@ enum Motion {
 /// The passes over the data: a first pass from `first` (or the prior) that feeds back
 /// `first_feedback` (everything: closed loop), then passes
 /// linearised about the one before until no parameter moves by more than
-/// [`CONVERGED_SIGMA`], then the consider passes of the second-order specific-force error.
+/// [`CONVERGED_SIGMA`]; the second-order specific-force error is then carried into the
+/// covariance through the final pass's sensitivity to a residual offset.
 #[allow(clippy::too_many_arguments)]
 fn iterate_passes(
     config: &RunConfig,
@@ -796,18 +799,17 @@ fn iterate_passes(
     let mut nominal = first;
     let mut shift = f64::INFINITY;
     let mut pass = 0;
-    let mut linearised_about;
-    let mut feedback;
+    let mut sensitivity;
     let mut estimate = loop {
         let done = (1 + pass) * n;
-        feedback = if pass == 0 {
+        let feedback = if pass == 0 {
             first_feedback
         } else if matches!(motion, Motion::Rests { .. }) && tilt_walks {
             Feedback::Tilt
         } else {
             Feedback::None
         };
-        let (est, c_start) = run_pass(
+        let (est, c_start, sens) = run_pass(
             config,
             &smoother,
             imu,
@@ -816,10 +818,10 @@ fn iterate_passes(
             motion,
             nominal.as_ref(),
             feedback,
-            &Vector3::zeros(),
+            nominal.is_some(),
             &mut |j| progress(done + j, total),
         )?;
-        linearised_about = nominal.clone();
+        sensitivity = sens;
         pass += 1;
         let mut beta = Vector3::new(est.values[s], est.values[s + 1], est.values[s + 2]);
         // A start heading the data do not resolve is not moved: its linear estimate, with a
@@ -843,28 +845,10 @@ fn iterate_passes(
             break est;
         }
     };
-    if let Some(nominal) = &linearised_about {
-        // The final pass again, offset: with the final pass's own feedback, so that the
-        // difference from it is the offset's effect alone. Run without the tilt feedback of a
-        // recording of rests, the difference also held what the feedback changes (on the
-        // shipped Xsens recording, whose innovations are large, that put accelerometer sigmas
-        // 400 times what the pass itself reports: 0.08 m/s^2 against 2e-4).
-        let mut rerun = |offset: &Vector3<f64>| {
-            run_pass(
-                config,
-                &smoother,
-                imu,
-                tt_setup,
-                scan,
-                motion,
-                Some(nominal),
-                feedback,
-                offset,
-                &mut |_| {},
-            )
-            .map(|(est, _)| (est.values, est.final_c_body_to_enu))
-        };
-        consider::second_order_accel(config, &smoother, &mut estimate, &mut rerun)?;
+    // The final pass carried its sensitivity to a constant specific-force residual offset
+    // when it was linearised about a pass before (or the coarse start).
+    if let Some(sens) = &sensitivity {
+        consider::second_order_accel(config, &smoother, &mut estimate, sens);
     }
     progress(total, total);
     estimate.truncate(layout.dim());
@@ -1272,6 +1256,10 @@ fn held_out_windows(motion: &Motion, program_start: f64, every: usize) -> Vec<(f
         .collect()
 }
 
+/// What [`run_pass`] gives: the estimate, the start attitude the pass used and, when asked
+/// for, its sensitivity to a constant specific-force residual offset (`n x 3`).
+type PassOutcome = (Estimate, Matrix3<f64>, Option<DMatrix<f64>>);
+
 /// One pass over the data, linearised about `nominal` (the prior means and the program's
 /// start attitude if `None`): compensation, turntable reading and start attitude with the
 /// nominal values, the prior mean of each error state the prior mean less the nominal value.
@@ -1286,9 +1274,9 @@ fn run_pass(
     motion: &Motion,
     nominal: Option<&Nominal>,
     feedback: Feedback,
-    f_offset_enu: &Vector3<f64>,
+    track_offset: bool,
     progress: &mut dyn FnMut(usize),
-) -> Result<(Estimate, Matrix3<f64>), EstimateError> {
+) -> Result<PassOutcome, EstimateError> {
     let dt = 1.0 / config.filter.imu_rate_hz;
     let site = config.site();
     let u_enu = site.earth_rate_enu();
@@ -1310,12 +1298,18 @@ fn run_pass(
     let model = LinearModel::new(layout, dt, &u_enu, config.gyro_psd());
     let mut engine = Engine::new(filter, model, Schedule::new(config), noise, false);
     engine.vertical_second_order = matches!(motion, Motion::Rests { .. });
+    if track_offset {
+        engine.offset_sensitivity = Some(crate::engine::OffsetSensitivity::new(
+            layout.dim(),
+            engine.filter.max_measurement_dim(),
+        ));
+    }
     let settings = PassSettings {
         kind: imu.kind(),
         dt,
         inv_dt: 1.0 / dt,
         u_enu,
-        f_enu: site.specific_force_at_rest_enu() + f_offset_enu,
+        f_enu: site.specific_force_at_rest_enu(),
         feedback,
         n_steps: scan.n,
         own_intervals: matches!(motion, Motion::Rests { .. }),
@@ -1391,6 +1385,7 @@ fn run_pass(
         stats,
         cov,
         mut innovations,
+        offset_sensitivity,
     } = pass.finish();
     let segments = match motion {
         Motion::Program(program) => diagnostics::segments(program, scan.program_start),
@@ -1419,7 +1414,7 @@ fn run_pass(
         rests,
         start_alignment,
     };
-    Ok((estimate, c0))
+    Ok((estimate, c0, offset_sensitivity))
 }
 
 #[cfg(test)]

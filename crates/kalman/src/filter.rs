@@ -414,4 +414,38 @@ impl KalmanFilter {
         }
         k
     }
+
+    /// `out = K rhs` for the gain `K` of the last update ([`gain`](Self::gain)), without
+    /// forming `K` or allocating: `rhs` (`m x c`, `m` the last update's dimension) is
+    /// overwritten with `L^-1 rhs`, then `out` (`n x c`) gets `D W (L^-1 rhs)`. What a caller
+    /// needs to carry a sensitivity of the state through an update (`S <- S + K (D - H S)`)
+    /// once per measurement instant. NaN after a failed update.
+    ///
+    /// # Panics
+    /// If `rhs` does not have `m` rows or `out` is not `n x rhs.ncols()`.
+    pub fn gain_times(&self, mut rhs: faer::MatMut<'_, f64>, mut out: faer::MatMut<'_, f64>) {
+        let (n, m, c) = (self.dim(), self.m_last, rhs.ncols());
+        assert_eq!(rhs.nrows(), m, "gain_times: rhs must have m rows");
+        assert_eq!(
+            (out.nrows(), out.ncols()),
+            (n, c),
+            "gain_times: out must be n x c"
+        );
+        if !self.gain_valid {
+            out.fill(f64::NAN);
+            return;
+        }
+        let l = self.l.as_ref().submatrix(0, 0, m, m);
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(l, rhs.as_mut(), Par::Seq);
+        let w = self.w.as_ref().subcols(0, m);
+        for j in 0..c {
+            for i in 0..n {
+                let mut s = 0.0;
+                for a in 0..m {
+                    s += w[(i, a)] * rhs[(a, j)];
+                }
+                out[(i, j)] = s * self.scale[i];
+            }
+        }
+    }
 }

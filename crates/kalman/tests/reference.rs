@@ -108,6 +108,7 @@ fn check_steps(n: usize, m: usize, k: usize, seed: u64) {
         assert!(rel_diff(&s, &s_ref) < 1e-12, "{what}: S");
         assert_symmetric(&s, &what);
         assert!(rel_diff(&kf.gain(), &k_ref) < 1e-10, "{what}: gain");
+        check_gain_times(&kf, &what);
         let nu_ref: Vec<f64> = (0..m)
             .map(|a| z[a] - (0..n).map(|j| h[(a, j)] * x_prior[j]).sum::<f64>())
             .collect();
@@ -121,6 +122,25 @@ fn check_steps(n: usize, m: usize, k: usize, seed: u64) {
         assert_eq!(cov.normalised_state(), xs0, "{what}: covariance-only x");
         assert!(cov.innovation().iter().all(|v| v.is_nan()));
         assert_eq!(cov.gain(), kf.gain());
+    }
+}
+
+/// `gain_times` gives `K rhs` for a few right-hand sides, without forming `K`.
+fn check_gain_times(kf: &KalmanFilter, what: &str) {
+    let k = kf.gain();
+    let (n, m) = (k.nrows(), k.ncols());
+    for c in [1usize, 3] {
+        let rhs = Mat::from_fn(m, c, |i, j| {
+            0.3 + (i as f64) - 0.7 * (j as f64) * (i as f64)
+        });
+        let expected = &k * &rhs;
+        let mut work = rhs.clone();
+        let mut out = Mat::zeros(n, c);
+        kf.gain_times(work.as_mut(), out.as_mut());
+        assert!(
+            rel_diff(&out, &expected) < 1e-10,
+            "{what}: gain_times with {c} columns"
+        );
     }
 }
 
@@ -373,6 +393,7 @@ fn correlated_update_matches_the_augmented_state() {
         assert!((info.log_det_s - log_det_ref).abs() <= 1e-10 * log_det_ref.abs().max(1.0));
         let k_ref = Mat::from_fn(n, m, |i, a| k_aug[(i, a)]);
         assert!(rel_diff(&kf.gain(), &k_ref) < 1e-10, "{what}: gain");
+        check_gain_times(&kf, &what);
         // The correlation matters here (the test would pass a plain update otherwise).
         let mut plain = KalmanFilter::new(&x0, p0.as_ref(), m).unwrap();
         plain.update(&z, h.as_ref(), r.as_ref()).unwrap();

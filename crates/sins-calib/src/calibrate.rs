@@ -844,12 +844,12 @@ fn observability_report(est: &Estimate) -> String {
                 .join(", ")
         );
     }
-    if est.stats.consider_passes > 0 {
+    if est.stats.consider_directions > 0 {
         let _ = writeln!(
             s,
-            "  second order      beta x (C df) is {} m/s^2 (1 sigma) on this run: carried into the covariance ({} extra passes)",
+            "  second order      beta x (C df) is {} m/s^2 (1 sigma) on this run: carried into the covariance ({} directions)",
             table::significant(est.stats.second_order_accel_sigma, 2),
-            est.stats.consider_passes
+            est.stats.consider_directions
         );
     }
     s

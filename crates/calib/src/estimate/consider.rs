@@ -13,25 +13,28 @@
 //!
 //! The product is not Gaussian and not in the state, so it is treated as a consider parameter:
 //! its covariance `B` follows from the posterior of `beta` and of the accelerometer errors; the
-//! sensitivity of the estimate to a constant residual offset comes from re-running the final
-//! pass with the offset along each principal direction of `B` (the pass is linear about its
-//! linearisation point); the posterior covariance grows by `S B S^T`. The product is evaluated
-//! at the final attitude, exact for a static run; on a rotating program where it is not
-//! negligible it is an approximation of its mean size.
+//! sensitivity `S` of the estimate to a constant residual offset is carried through the final
+//! pass beside the estimate ([`crate::engine::OffsetSensitivity`]); the posterior covariance
+//! grows by `S B S^T` over the principal directions of `B` that matter. The product is
+//! evaluated at the final attitude, exact for a static run; on a rotating program where it is
+//! not negligible it is an approximation of its mean size.
+//!
+//! Until session 15 `S` came from running the final pass again with the offset along each
+//! such direction (the pass is linear about its linearisation point): two of the five passes
+//! over a consumer-grade recording of rests. Carried through the pass it gives the same
+//! parameter sigmas to 1e-6 on programs (static runs, seeds 300-309 and 400-449) and to 4e-4 on
+//! recordings of rests (the shipped ones, and `tests/tests/rests.rs`), where the re-run pass
+//! also re-levelled its trajectory to the offset data.
 
-use super::{Estimate, EstimateError};
+use super::Estimate;
 use crate::config::RunConfig;
 use crate::layout::StateLayout;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
-use sins_model::attitude::log_so3;
 use sins_model::terms::{Sensor, SensorInput};
 
 /// Directions of `B` whose standard deviation is below this fraction of the white-noise sigma
-/// of the whole run's mean specific force are left out (no extra pass).
+/// of the whole run's mean specific force are left out.
 const NEGLIGIBLE: f64 = 0.1;
-
-/// The state estimates and final attitude of a re-run pass.
-pub(super) type Rerun = (Vec<f64>, Matrix3<f64>);
 
 /// Covariance of `b = beta x d` for independent zero-mean `beta` and `d`:
 /// `B_ij = sum eps_ikl eps_jmn P_beta_km P_d_ln`.
@@ -59,17 +62,17 @@ fn cross_product_covariance(p_beta: &Matrix3<f64>, p_d: &Matrix3<f64>) -> Matrix
 }
 
 /// Adds the consider covariance of the second-order specific-force error to `est` (whose
-/// states follow `layout`, which carries the copy of the start attitude error). `rerun` runs
-/// the final pass again with a constant offset added to the specific-force residual and
-/// returns its state estimates and final attitude.
+/// states follow `layout`, which carries the copy of the start attitude error), from the final
+/// pass's sensitivity `sens` (`n x 3`) of its estimate to a constant residual offset
+/// ([`crate::engine::OffsetSensitivity`]; its attitude rows that of the final attitude).
 pub(super) fn second_order_accel(
     config: &RunConfig,
     layout: &StateLayout,
     est: &mut Estimate,
-    rerun: &mut dyn FnMut(&Vector3<f64>) -> Result<Rerun, EstimateError>,
-) -> Result<(), EstimateError> {
+    sens: &nalgebra::DMatrix<f64>,
+) {
     let Some(s) = layout.start_attitude else {
-        return Ok(());
+        return;
     };
     let c = est.final_c_body_to_enu;
     let off = StateLayout::INSTRUMENT;
@@ -83,7 +86,6 @@ pub(super) fn second_order_accel(
     };
     let mut jac = vec![Vector3::zeros(); n_p];
     layout.model.jacobian(Sensor::Accel, p, &input, &mut jac);
-    // d = C J dp: covariance C J P_pp J^T C^T.
     let cj: Vec<Vector3<f64>> = jac.iter().map(|j| c * j).collect();
     let mut p_d = Matrix3::zeros();
     for (a, ja) in cj.iter().enumerate() {
@@ -97,29 +99,19 @@ pub(super) fn second_order_accel(
     let white = config.accel_psd().sqrt() / run_s.max(1.0).sqrt();
     let eig = SymmetricEigen::new(b);
     est.stats.second_order_accel_sigma = eig.eigenvalues.max().max(0.0).sqrt();
-    let base = est.values.clone();
     for k in 0..3 {
         let sigma = eig.eigenvalues[k].max(0.0).sqrt();
         if sigma < NEGLIGIBLE * white {
             continue;
         }
-        // An offset of the residual `z = mean(C dv) / t - f_enu` is a shift of `f_enu`.
-        let offset = -sigma * eig.eigenvectors.column(k).into_owned();
-        let (shifted, c_shifted) = rerun(&offset)?;
-        est.stats.consider_passes += 1;
-        let mut col: Vec<f64> = shifted.iter().zip(&base).map(|(a, b)| a - b).collect();
-        // The attitude states are fed back: their response is in the final attitude. The
-        // attitude error of the result is `log(C C_true^T)` (`-attitude_error`), so a change
-        // of the computed attitude moves it by `log(C_shifted C^T)`.
-        let d = log_so3(&(c_shifted * c.transpose()));
-        col[..3].copy_from_slice(d.as_slice());
+        est.stats.consider_directions += 1;
+        let col = sens * (sigma * eig.eigenvectors.column(k).into_owned());
         for i in 0..col.len() {
             for j in 0..col.len() {
                 est.cov[(i, j)] += col[i] * col[j];
             }
         }
     }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -901,13 +901,25 @@ impl<'a> Pass<'a> {
         self.stats.accel_mean_nis = self.nis_sum.0 / self.stats.accel_updates.max(1) as f64;
         self.stats.turntable_mean_nis = self.nis_sum.1 / self.stats.turntable_updates.max(1) as f64;
         self.stats.turn_mean_nis = self.turn_nis_sum / self.stats.turn_updates.max(1) as f64;
-        let cov = mounting_covariance(self.layout, &lin, self.engine.covariance());
+        let map = mounting_map(self.layout, &lin);
+        let mut cov = self.engine.covariance();
+        if let Some(t) = &map {
+            cov = t * cov * t.transpose();
+        }
+        let offset_sensitivity = self.engine.offset_sensitivity.as_ref().map(|o| {
+            let s = nalgebra::DMatrix::from_fn(o.s.nrows(), 3, |i, j| o.s[(i, j)]);
+            match &map {
+                Some(t) => t * s,
+                None => s,
+            }
+        });
         PassResult {
             values,
             c,
             stats: self.stats,
             cov,
             innovations: self.innovations,
+            offset_sensitivity,
         }
     }
 }
@@ -923,6 +935,10 @@ pub(super) struct PassResult {
     pub cov: nalgebra::DMatrix<f64>,
     /// Every update in order (segment 0: the caller assigns them).
     pub innovations: Vec<Innovation>,
+    /// When the pass carried it: the sensitivity of `values` to a constant offset of the
+    /// specific-force residual (`n x 3`; [`crate::engine::OffsetSensitivity`], the mounting
+    /// rows mapped as `cov`'s), its attitude rows that of the final attitude (`log(C' C^T)`).
+    pub offset_sensitivity: Option<nalgebra::DMatrix<f64>>,
 }
 
 /// The filter's covariance of the mounting errors is that of small rotations about the
@@ -932,13 +948,10 @@ pub(super) struct PassResult {
 /// 1-degree prior while the tilt is known to microradians, and a 2-degree tilt turns that
 /// heading uncertainty into 3e-4 rad of uncertainty in the tilt components of `delta_z` (the
 /// filter's own covariance put the truth hundreds of sigmas away). Map it with the inverse
-/// right (left) Jacobian.
-fn mounting_covariance(
-    layout: &StateLayout,
-    lin: &Linearisation,
-    mut cov: nalgebra::DMatrix<f64>,
-) -> nalgebra::DMatrix<f64> {
-    let n = cov.nrows();
+/// right (left) Jacobian: the map from the filter's mounting states to the rotation vectors
+/// (`None` without mounting states), applied to the covariance and the offset sensitivity.
+fn mounting_map(layout: &StateLayout, lin: &Linearisation) -> Option<nalgebra::DMatrix<f64>> {
+    let n = layout.dim();
     let mut t = nalgebra::DMatrix::<f64>::identity(n, n);
     let blocks = [
         (layout.install, right_jacobian_inv(&lin.delta)),
@@ -951,10 +964,7 @@ fn mounting_covariance(
             any = true;
         }
     }
-    if any {
-        cov = &t * cov * t.transpose();
-    }
-    cov
+    any.then_some(t)
 }
 
 #[cfg(test)]
