@@ -588,14 +588,8 @@ impl Engine {
         } else {
             let filter = self.shadow.as_mut().unwrap_or(&mut self.filter);
             let info = filter.update_correlated(m.z.as_slice(), h, r, cross)?;
-            // Only the main filter's estimate is the result's (a held-out update is made on
-            // the copy alone).
-            if let (Some(sens), None) = (&mut self.offset_sensitivity, &self.shadow) {
-                sens.update(&self.filter, h, d_offset);
-            }
-            let filter = self.shadow.as_mut().unwrap_or(&mut self.filter);
             let (nu, s) = (filter.innovation(), filter.innovation_covariance());
-            Ok(Some(UpdateRecord {
+            let record = UpdateRecord {
                 nis: info.nis,
                 log_det_s: info.log_det_s,
                 nu: Vector3::from_fn(|i, _| nu.get(i).copied().unwrap_or(f64::NAN)),
@@ -606,7 +600,13 @@ impl Engine {
                         f64::NAN
                     }
                 }),
-            }))
+            };
+            // Only the main filter's estimate is the result's (a held-out update is made on
+            // the copy alone).
+            if let (Some(sens), None) = (&mut self.offset_sensitivity, &self.shadow) {
+                sens.update(&self.filter, h, d_offset);
+            }
+            Ok(Some(record))
         }
     }
 }
