@@ -60,6 +60,14 @@ pub struct LoopSettings {
     /// The held-out check of a candidate the statistics accept: every `k`-th segment with
     /// measurements held out ([`HeldOutCheck`]); `None` skips the check.
     pub hold_out_every: Option<usize>,
+    /// A recording of rests whose white noise was measured in its rests (a hand-turned
+    /// recording without a configuration): every fit brings the specific-force level to its
+    /// own innovations and measures its own motion noise
+    /// ([`crate::hand_turned::fit_measuring_noise`]), so that a term is compared with the
+    /// model without it each at the noise the data give it (a missing term's misfit read as
+    /// motion noise would otherwise hide the term's own information). `None`: the configured
+    /// noise.
+    pub measured_noise: Option<crate::hand_turned::WhiteNoiseAtRest>,
 }
 
 /// Every fourth segment with measurements is held out for the held-out check: two of the
@@ -75,6 +83,7 @@ impl Default for LoopSettings {
             drift_grid: None,
             diagnostics: DiagnosticSettings::default(),
             hold_out_every: Some(HOLD_OUT_EVERY),
+            measured_noise: None,
         }
     }
 }
@@ -449,15 +458,21 @@ impl Context<'_> {
     fn fit_with(&mut self, config: &RunConfig, ext: &ModelExtension) -> Result<Fit, LoopError> {
         let estimate = match self.rests {
             None => estimate_ext(config, *self.data, ext)?,
-            Some(rests) => crate::estimate::calibrate_rests(
-                config,
-                &crate::layout::layout_with(config, false, ext),
-                self.data.imu,
-                self.data.imu_file,
-                rests,
-                self.turns,
-                &mut |_, _| {},
-            )?,
+            Some(rests) => {
+                crate::hand_turned::fit_measuring_noise(
+                    config,
+                    &crate::layout::layout_with(config, false, ext),
+                    crate::hand_turned::RestsInput {
+                        data: self.data.imu,
+                        file: self.data.imu_file,
+                        rests,
+                        turns: self.turns,
+                    },
+                    self.settings.measured_noise,
+                    &mut |_, _| {},
+                )?
+                .estimate
+            }
         };
         let diagnostics = diagnose(
             &estimate.innovations,

@@ -54,7 +54,7 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// SI unit of the g-sensitivity terms `gyro.gsens.*` in the result.
 pub const GSENS_UNIT: &str = "rad/s/(m/s^2)";
-use sins_model::units::{ARCMIN, DEG};
+use sins_model::units::DEG;
 
 /// A static interval: inclusive 0-based record indices into the [`ImuData`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -87,14 +87,7 @@ pub type FreeMotionPriors = PaperPriors;
 /// Consumer-grade MEMS priors: gyro bias 1 deg/s, scale 0.05, misalignment 60 arcmin;
 /// accelerometer bias 1 m/s^2, scale 0.05, non-orthogonality 60 arcmin.
 pub fn consumer_priors() -> PaperPriors {
-    PaperPriors {
-        gyro_bias: DEG,
-        gyro_scale: 0.05,
-        gyro_misalignment: 60.0 * ARCMIN,
-        accel_bias: 1.0,
-        accel_scale: 0.05,
-        accel_misalignment: 60.0 * ARCMIN,
-    }
+    crate::config::grade_priors(sins_model::candidates::UnitGrade::Consumer)
 }
 
 /// Settings of a free-motion calibration.
@@ -273,7 +266,8 @@ pub struct TurnCheck {
     pub after_rad: f64,
 }
 
-/// Held-out validation: errors on the held-out static intervals only.
+/// Held-out validation: errors on the held-out static intervals only, and the same figures
+/// on the fitted ones to compare them with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Validation {
     /// Held-out static intervals.
@@ -287,9 +281,93 @@ pub struct Validation {
     /// RMS angle between the gravity direction predicted by the raw gyros from one held-out
     /// pose to the next and the one measured there (raw accelerometers) (rad).
     pub rotation_rms_before_rad: f64,
-    /// The same with the calibrated gyros and accelerometers (rad).
+    /// The same with the calibrated gyros and accelerometers, the Earth's rotation over the
+    /// pair taken out where the calibrated gyros resolve the heading (rad).
     pub rotation_rms_after_rad: f64,
+    /// Fitted static intervals (not held out).
+    pub fitted_intervals: usize,
+    /// RMS of `|f| - g` calibrated over the fitted intervals (m/s^2): what the held-out figure
+    /// is compared with.
+    pub fitted_static_rms_m_s2: f64,
+    /// Single motions into or out of a held-out interval (from the interval before it, or to
+    /// the one after it).
+    pub held_out_motions: usize,
+    /// RMS gravity-direction error over those single motions, calibrated (rad).
+    pub held_out_motion_rms_rad: f64,
+    /// Single motions between two fitted intervals.
+    pub fitted_motions: usize,
+    /// RMS gravity-direction error over those, calibrated (rad): what the held-out motions'
+    /// figure is compared with.
+    pub fitted_motion_rms_rad: f64,
+    /// The Earth's rotation in the calibrated rotation figures.
+    pub earth_rate: EarthRateTreatment,
 }
+
+/// How the rotation figures treat the Earth's rotation: over a pair of rests `t` apart the
+/// gravity direction turns by up to `Omega cos(latitude) t` relative to inertial space, which
+/// the gyros measure (0.54 deg over 150 s at 45 deg). Taking it out needs the heading, which the
+/// calibrated gyros give in each rest (gyrocompassing) only where their bias uncertainty and
+/// noise are well below the Earth rate's horizontal part.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EarthRateTreatment {
+    /// Taken out in every rotation figure (the heading gyrocompassed in the first rest of each
+    /// pair).
+    Compensated,
+    /// Not taken out: the calibrated gyros do not resolve the heading. `floor_rad` is the RMS
+    /// over the held-out pairs of the largest turn of gravity by the Earth's rotation, a floor
+    /// under the rotation figure for a unit whose gyros would be perfect.
+    NotResolved {
+        /// RMS of `Omega cos(latitude) t` over the held-out pairs (rad).
+        floor_rad: f64,
+    },
+}
+
+/// The site's Earth rotation and how well the calibrated gyros know their biases: what the
+/// rotation checks need to take the Earth's rotation out ([`EarthRateTreatment`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EarthRotation {
+    /// Horizontal part of the Earth rate at the site, `Omega cos(latitude)` (rad/s).
+    pub horizontal_rad_s: f64,
+    /// Vertical part, `Omega sin(latitude)` (rad/s).
+    pub vertical_rad_s: f64,
+    /// Posterior sigma of the calibrated gyro biases (rad/s, largest axis).
+    pub gyro_bias_sigma_rad_s: f64,
+}
+
+impl EarthRotation {
+    /// At `latitude_rad` with gyro biases known to `gyro_bias_sigma_rad_s`.
+    pub fn at(latitude_rad: f64, gyro_bias_sigma_rad_s: f64) -> Self {
+        Self {
+            horizontal_rad_s: EARTH_RATE * latitude_rad.cos(),
+            vertical_rad_s: EARTH_RATE * latitude_rad.sin(),
+            gyro_bias_sigma_rad_s,
+        }
+    }
+
+    /// The Earth rate in body axes at a rest whose calibrated mean rate is
+    /// `w` (rad/s, noise of the mean `sigma_w`) and calibrated gravity direction `up`: the
+    /// heading gyrocompassed (the horizontal Earth rate points North). `None` where the gyros
+    /// do not resolve it: their bias sigma and the mean's noise together above
+    /// [`GYROCOMPASS_FRACTION`] of the horizontal Earth rate (a heading sigma above about 11 deg).
+    fn in_body(
+        &self,
+        w: &Vector3<f64>,
+        sigma_w: f64,
+        up: &Vector3<f64>,
+    ) -> Option<Vector3<f64>> {
+        let sigma = self.gyro_bias_sigma_rad_s.hypot(sigma_w);
+        if self.horizontal_rad_s <= 0.0 || sigma > GYROCOMPASS_FRACTION * self.horizontal_rad_s {
+            return None;
+        }
+        let h = w - up * up.dot(w);
+        h.try_normalize(0.0)
+            .map(|north| north * self.horizontal_rad_s + up * self.vertical_rad_s)
+    }
+}
+
+/// The largest ratio of the gyros' bias-and-noise sigma to the horizontal Earth rate at which
+/// a rest's heading counts as gyrocompassed for the rotation checks ([`EarthRotation`]).
+pub const GYROCOMPASS_FRACTION: f64 = 0.2;
 
 /// The outcome of a free-motion calibration.
 #[derive(Clone, Debug, PartialEq)]
@@ -744,6 +822,7 @@ pub fn calibrate_free_motion(
         g,
         &gyro_cal,
         &accel_cal,
+        &EarthRotation::at(0.0, f64::INFINITY),
     );
     let correlation =
         crate::posterior::correlation(prior.len(), 0..prior.len(), |i, j| joint.cov[(i, j)]);
@@ -782,6 +861,7 @@ fn figures(
     g: f64,
     gyro_cal: &GyroCal,
     accel_cal: &AccelCal,
+    earth: &EarthRotation,
 ) -> Evaluation {
     let poses = intervals
         .iter()
@@ -806,7 +886,8 @@ fn figures(
             }
         })
         .collect();
-    let validation = holdout.map(|_| validate(inc, intervals, stats, &poses, accel_cal, gyro_cal));
+    let validation =
+        holdout.map(|_| validate(inc, intervals, stats, &poses, accel_cal, gyro_cal, earth));
     Evaluation {
         poses,
         turns,
@@ -827,6 +908,7 @@ pub fn evaluate(
     turns: &[KnownTurn],
     holdout: Option<usize>,
     gravity_m_s2: f64,
+    earth: &EarthRotation,
     value: &dyn Fn(&str) -> Option<f64>,
 ) -> Evaluation {
     let v = |name: String| value(&name).unwrap_or(0.0);
@@ -861,6 +943,7 @@ pub fn evaluate(
         gravity_m_s2,
         &gyro_cal,
         &accel_cal,
+        earth,
     )
 }
 
@@ -1069,7 +1152,9 @@ fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 }
 
 /// The held-out checks: `|f| - g` at rest, and the gravity direction carried by the gyros from
-/// one held-out pose to the next (through everything between) against the measured one.
+/// one held-out pose to the next (through everything between) against the measured one; and
+/// the same figures over single motions into and out of held-out poses and between fitted
+/// ones, which compare like with like (one motion each).
 fn validate(
     inc: &Increments,
     intervals: &[Interval],
@@ -1077,20 +1162,45 @@ fn validate(
     poses: &[PoseResidual],
     accel: &AccelCal,
     gyro: &GyroCal,
+    earth: &EarthRotation,
 ) -> Validation {
     let held: Vec<usize> = (0..poses.len()).filter(|&i| poses[i].held_out).collect();
     let before: Vec<f64> = held.iter().map(|&i| poses[i].before_m_s2).collect();
     let after: Vec<f64> = held.iter().map(|&i| poses[i].after_m_s2).collect();
+    let fitted: Vec<f64> = (0..poses.len())
+        .filter(|&i| !poses[i].held_out)
+        .map(|i| poses[i].after_m_s2)
+        .collect();
+    let carry = Carry {
+        inc,
+        intervals,
+        stats,
+        accel,
+        gyro,
+        earth,
+    };
     let (mut rb, mut ra) = (Vec::new(), Vec::new());
+    let (mut resolved, mut floor) = (true, Vec::new());
     for pair in held.windows(2) {
         let (i, j) = (pair[0], pair[1]);
         let (from, to) = (intervals[i].last_record + 1, intervals[j].first_record);
         let raw = inc.rotation(from, to, &GyroCal::raw());
-        let cal = inc.rotation(from, to, gyro);
         let (ui, uj) = (stats[i].f.normalize(), stats[j].f.normalize());
         rb.push(angle_between(&(raw.transpose() * ui), &uj));
-        let (ci, cj) = (accel.apply(&stats[i].f), accel.apply(&stats[j].f));
-        ra.push(angle_between(&(cal.transpose() * ci), &cj));
+        let (angle, compensated, span_s) = carry.error(i, j);
+        ra.push(angle);
+        resolved &= compensated;
+        floor.push(earth.horizontal_rad_s * span_s);
+    }
+    let (mut moved_held, mut moved_fitted) = (Vec::new(), Vec::new());
+    for i in 1..poses.len() {
+        let (angle, compensated, _) = carry.error(i - 1, i);
+        resolved &= compensated;
+        if poses[i - 1].held_out || poses[i].held_out {
+            moved_held.push(angle);
+        } else {
+            moved_fitted.push(angle);
+        }
     }
     Validation {
         intervals: held.len(),
@@ -1099,12 +1209,73 @@ fn validate(
         static_rms_after_m_s2: rms(&after),
         rotation_rms_before_rad: rms(&rb),
         rotation_rms_after_rad: rms(&ra),
+        fitted_intervals: fitted.len(),
+        fitted_static_rms_m_s2: rms(&fitted),
+        held_out_motions: moved_held.len(),
+        held_out_motion_rms_rad: rms(&moved_held),
+        fitted_motions: moved_fitted.len(),
+        fitted_motion_rms_rad: rms(&moved_fitted),
+        earth_rate: if resolved {
+            EarthRateTreatment::Compensated
+        } else {
+            EarthRateTreatment::NotResolved {
+                floor_rad: rms(&floor),
+            }
+        },
+    }
+}
+
+/// The gravity direction carried by the calibrated gyros from one rest to a later one.
+struct Carry<'a> {
+    inc: &'a Increments,
+    intervals: &'a [Interval],
+    stats: &'a [PoseStat],
+    accel: &'a AccelCal,
+    gyro: &'a GyroCal,
+    earth: &'a EarthRotation,
+}
+
+impl Carry<'_> {
+    /// The angle between the calibrated gravity direction of rest `i`, carried by the
+    /// calibrated gyros to rest `j` (with the Earth's rotation over the span where the heading
+    /// is resolved in rest `i`), and the one measured in rest `j`; whether the Earth's rotation
+    /// was taken out; the span (s).
+    fn error(&self, i: usize, j: usize) -> (f64, bool, f64) {
+        let (a, b) = (self.intervals[i], self.intervals[j]);
+        let (from, to) = (a.last_record + 1, b.first_record);
+        let c = self.inc.rotation(from, to, self.gyro);
+        let span_s: f64 = (from..=to).map(|k| self.inc.dt[k]).sum();
+        let (ci, cj) = (self.accel.apply(&self.stats[i].f), self.accel.apply(&self.stats[j].f));
+        let up = ci.normalize();
+        // The calibrated mean rate of rest i.
+        let rows = a.first_record..=a.last_record;
+        let (mut sum, mut dt) = (Vector3::zeros(), 0.0);
+        for k in rows {
+            sum += self.inc.calibrated(k, self.gyro);
+            dt += self.inc.dt[k];
+        }
+        let w = sum / dt.max(f64::MIN_POSITIVE);
+        let earth = self
+            .earth
+            .in_body(&w, self.stats[i].sigma_w, &up);
+        // An Earth-fixed direction turns in inertial space (the gyros' reference) by the Earth
+        // rate times the span.
+        let carried = match earth {
+            Some(h) => exp_so3(&(h * span_s)) * ci,
+            None => ci,
+        };
+        (
+            angle_between(&(c.transpose() * carried), &cj),
+            earth.is_some(),
+            span_s,
+        )
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sins_model::units::ARCMIN;
     use crate::io::ImuRecord;
     use sins_model::attitude::log_so3;
 
@@ -1260,7 +1431,8 @@ mod tests {
         let r = calibrate_free_motion(&data, &intervals, std::slice::from_ref(&turn), &settings)
             .unwrap();
         let value = |n: &str| r.parameters.iter().find(|p| p.name == n).map(|p| p.value);
-        let e = evaluate(&data, &intervals, &[turn], Some(4), G, &value);
+        let none = EarthRotation::at(0.0, f64::INFINITY);
+        let e = evaluate(&data, &intervals, &[turn], Some(4), G, &none, &value);
         assert_eq!(e.poses, r.poses);
         assert_eq!(e.turns, r.turns);
         assert_eq!(e.validation, r.validation);
@@ -1460,5 +1632,72 @@ mod tests {
         back.swap(0, 1);
         let s = FreeMotionSettings::new(G);
         assert!(calibrate_free_motion(&data, &back, &[], &s).is_err());
+    }
+
+    /// A unit at rest for 600 s with perfect sensors: its gyros read the Earth rate, its
+    /// accelerometers gravity. Held-out rests 200 s apart: the gravity direction carried by the
+    /// gyros turns with the Earth by `Omega cos(lat) 200 s` = 0.59 deg, which the rotation
+    /// check takes out where the gyros resolve the heading (known biases), and reports as a
+    /// floor where they do not.
+    #[test]
+    fn the_rotation_check_carries_the_earths_rotation() {
+        let lat = 50f64.to_radians();
+        let heading = 0.7f64;
+        // Body axes: x, y horizontal at `heading` from East/North, z up.
+        let c_enu_to_body = Matrix3::new(
+            heading.cos(),
+            heading.sin(),
+            0.0,
+            -heading.sin(),
+            heading.cos(),
+            0.0,
+            0.0,
+            0.0,
+            1.0,
+        );
+        let w = c_enu_to_body
+            * Vector3::new(0.0, EARTH_RATE * lat.cos(), EARTH_RATE * lat.sin());
+        let f = Vector3::new(0.0, 0.0, G);
+        let rate = 50.0;
+        let records: Vec<ImuRecord> = (0..(600.0 * rate) as usize)
+            .map(|k| ImuRecord {
+                t: k as f64 / rate,
+                gyro: w.into(),
+                accel: f.into(),
+                temp: None,
+            })
+            .collect();
+        let data = ImuData {
+            kind: ImuKind::Rates,
+            records,
+        };
+        let intervals: Vec<Interval> = [0.0, 150.0, 300.0, 450.0]
+            .iter()
+            .map(|&t0| Interval {
+                first_record: (t0 * rate) as usize + 1,
+                last_record: ((t0 + 100.0) * rate) as usize,
+            })
+            .collect();
+        let value = |_: &str| None;
+        let known = EarthRotation::at(lat, 1e-8);
+        let e = evaluate(&data, &intervals, &[], Some(2), G, &known, &value);
+        let v = e.validation.unwrap();
+        assert_eq!(v.earth_rate, EarthRateTreatment::Compensated);
+        assert!(v.rotation_rms_after_rad.to_degrees() < 1e-4, "{v:?}");
+        let unknown = EarthRotation::at(lat, 1e-3);
+        let e = evaluate(&data, &intervals, &[], Some(2), G, &unknown, &value);
+        let v = e.validation.unwrap();
+        let expected = EARTH_RATE * lat.cos() * 200.0;
+        let EarthRateTreatment::NotResolved { floor_rad } = v.earth_rate else {
+            panic!("{v:?}");
+        };
+        assert!((floor_rad / expected - 1.0).abs() < 0.01, "{floor_rad} {expected}");
+        // Uncompensated, the carried direction misses by the Earth's turn (the horizontal
+        // Earth rate is at right angles to up).
+        assert!(
+            (v.rotation_rms_after_rad / expected - 1.0).abs() < 0.01,
+            "{} {expected}",
+            v.rotation_rms_after_rad
+        );
     }
 }

@@ -44,11 +44,20 @@ pub struct Args {
     pub config: Option<String>,
     /// A hand-turned multi-position recording, without a rotation program or turntable: the
     /// filter of a recording of rests (the specific force measured in the rests the detector
-    /// finds, the attitude carried by the gyros through every motion) with the gyro
-    /// g-sensitivity and scale-factor asymmetry in the model; without --config, consumer-grade
-    /// priors and the white noise measured in the rests (docs/real-data.md).
+    /// finds, the attitude carried by the gyros through every motion) with the paper's model
+    /// and the terms --terms and --terms-from name; without --config, the unit's grade, priors,
+    /// white noise and motion noise from the recording (docs/real-data.md).
     #[arg(long)]
     pub free_motion: bool,
+    /// With --free-motion: candidate terms to add to the paper's model (ids):
+    /// gyro_g_sensitivity, gyro_scale_asymmetry, accel_quadratic, accel_size_effect,
+    /// gyro_accel_time_offset. None is added without being named.
+    #[arg(long, value_name = "ID", num_args = 1.., requires = "free_motion")]
+    pub terms: Vec<String>,
+    /// With --free-motion: add the terms a `diagnose --json` result accepted
+    /// (`accepted_terms`).
+    #[arg(long, value_name = "DIAGNOSE.json", requires = "free_motion")]
+    pub terms_from: Option<PathBuf>,
     /// With --free-motion: the section list written by `import` (sections.json); its rotations
     /// with an expected turn (e.g. 360-degree turns) become measurements of the integrated angle.
     #[arg(long, value_name = "FILE", requires = "free_motion")]
@@ -133,6 +142,13 @@ struct VerdictJson {
     exit_status: u8,
     /// One line per reason (empty when the model fits).
     reasons: Vec<String>,
+    /// What the verdict rests on.
+    basis: String,
+    /// Whether anything tested the model (false: a hand-turned recording with measured noise,
+    /// no held-out rests and no known turns).
+    tested: bool,
+    /// Findings that do not decide the exit status.
+    findings: Vec<String>,
 }
 
 /// Fit statistics in the JSON result.
@@ -296,6 +312,16 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         )?;
     }
     let mut input = load_inputs(args)?;
+    if args.free_motion && input.program.is_some() {
+        return Err(format!(
+            "calibrate --free-motion: {} has a rotation program ({}); --free-motion calibrates \
+             a hand-turned recording without one (leave --free-motion out to calibrate along \
+             the program, or give a configuration without `program`)",
+            input.origin,
+            input.program.as_ref().map_or("", |p| p.0.as_str())
+        )
+        .into());
+    }
     if input.program.is_some() && args.detector.any() {
         return Err(
             "calibrate: the --rest-* options set how rests are found in a recording \
@@ -337,21 +363,19 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                     .config
                     .is_some()
                     .then_some((&input.config, input.origin.as_str()));
+                let terms = crate::free_motion::terms_asked(&args.terms, args.terms_from.as_deref())?;
                 let setup = crate::free_motion::setup(
                     given,
                     args.latitude,
                     args.sections.as_deref(),
+                    &terms,
                     &data,
                     &input.imu_file,
                     &rests,
                 )?;
+                let summary = setup.summary();
                 input.config = setup.config;
-                (
-                    setup.layout,
-                    setup.turns,
-                    setup.measured,
-                    Some(setup.origin),
-                )
+                (setup.layout, setup.turns, setup.measured, Some(summary))
             } else {
                 (layout_for(&input.config, false), vec![], None, None)
             };
@@ -376,8 +400,8 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     bar.finish_and_clear();
 
     let mut s = header_report(&input, &est);
-    if let Some((r, Some(origin))) = &hand_turned {
-        s += &crate::free_motion::header(origin, r, args.holdout);
+    if let Some((r, Some(setup))) = &hand_turned {
+        s += &crate::free_motion::header(setup, r, args.holdout);
     }
     s.push('\n');
     s += &parameter_report(&est, input.truth.as_ref());
@@ -394,10 +418,16 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     let diagnostics = (args.diagnostics.is_some() || args.report.is_some())
         .then(|| diagnostics_stage(args.diagnostics.as_deref(), &est, &mut s))
         .transpose()?;
-    let bad =
-        calib::report::lab::misfit_reasons(&est.stats, diagnostics.as_ref(), turntable.is_some());
+    let verdict = calib::report::lab::RunVerdict::of(
+        &est,
+        hand_turned.as_ref().map(|(r, _)| r),
+        diagnostics.as_ref(),
+        turntable.is_some(),
+    );
+    s += &verdict_report(&verdict);
+    let bad = verdict.decisive.clone();
     let free_motion_json = match &hand_turned {
-        Some((r, Some(_))) => Some(crate::free_motion::json(r, args.holdout)),
+        Some((r, Some(setup))) => Some(crate::free_motion::json(r, setup, args.holdout)),
         _ => None,
     };
     if let Some(path) = &args.json {
@@ -406,7 +436,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
             &est,
             diagnostics.as_ref(),
             turntable.is_some(),
-            &bad,
+            &verdict,
             free_motion_json.as_ref(),
         )?;
         if !crate::output::is_stdout(path) {
@@ -435,13 +465,50 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     if bad.is_empty() {
         return Ok(Outcome::Fits);
     }
+    let advice = match (&hand_turned, &input.program) {
+        (Some((r, _)), _)
+            if matches!(r.noise, calib::hand_turned::NoiseSource::Measured { .. }) =>
+        {
+            "the held-out rests contradict the calibration\n  {}\nThe estimates above are not \
+             to be trusted: an error the model lacks outweighs the noise (`sins-calib diagnose \
+             --free-motion` names the candidates; --terms adds one)."
+        }
+        (Some(_), _) => {
+            "the innovations scatter unlike the configured noise\n  {}\nThe estimates above \
+             are not to be trusted: check the noise levels in [noise], the motion noise \
+             (filter.motion_attitude_noise_deg), and errors the model lacks."
+        }
+        _ => {
+            "the innovations scatter unlike the configured noise\n  {}\nThe estimates above \
+             are not to be trusted: check the noise levels in [noise], the program, the clock \
+             relation, and errors the model lacks."
+        }
+    };
     eprintln!(
-        "\nTHE MODEL DOES NOT FIT THESE DATA (exit status 3): the innovations scatter unlike the \
-         configured noise\n  {}\nThe estimates above are not to be trusted: check the noise \
-         levels in [noise], the program, the clock relation, and errors the model lacks.",
-        bad.join("\n  ")
+        "\nTHE MODEL DOES NOT FIT THESE DATA (exit status 3): {}",
+        advice.replace("{}", &bad.join("\n  "))
     );
     Ok(Outcome::DoesNotFit)
+}
+
+/// The verdict's block of the report: what it rests on, and what informs without deciding.
+fn verdict_report(v: &calib::report::lab::RunVerdict) -> String {
+    let mut s = format!("\nVerdict\n  rests on        {}\n", v.basis);
+    for line in &v.informative {
+        let _ = writeln!(s, "  finding         {line}");
+    }
+    let _ = writeln!(
+        s,
+        "  {}",
+        if !v.fits() {
+            "the data contradict the model (exit status 3)"
+        } else if v.tested {
+            "nothing contradicts the model"
+        } else {
+            "the model was not tested"
+        }
+    );
+    s
 }
 
 /// Refuse a truth file whose units are not the model's.
@@ -464,9 +531,10 @@ fn write_result_json(
     est: &Estimate,
     diagnostics: Option<&Diagnostics>,
     with_tt: bool,
-    bad: &[String],
+    verdict: &calib::report::lab::RunVerdict,
     free_motion: Option<&crate::free_motion::FreeMotionJson>,
 ) -> Result<(), Error> {
+    let bad = &verdict.decisive;
     let result = est.to_result_file();
     let json = ResultJson {
         parameters: &result.parameters,
@@ -480,6 +548,9 @@ fn write_result_json(
                 crate::MODEL_DOES_NOT_FIT
             },
             reasons: bad.to_vec(),
+            basis: verdict.basis.clone(),
+            tested: verdict.tested,
+            findings: verdict.informative.clone(),
         },
         fit: fit_json(est, with_tt),
         diagnostics,

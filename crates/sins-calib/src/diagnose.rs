@@ -619,12 +619,17 @@ pub fn run(args: &Args) -> Result<bool, Error> {
                 given,
                 args.latitude,
                 args.sections.as_deref(),
+                &[],
                 &imu,
                 &imu_file,
                 &rests,
             )?;
             config = setup.config;
+            settings.measured_noise = setup.measured;
             eprintln!("diagnose: {}", setup.origin);
+            if let Some(g) = &setup.grade {
+                eprintln!("diagnose: {}", g.describe());
+            }
             setup
                 .turns
                 .iter()

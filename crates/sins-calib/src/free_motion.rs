@@ -9,8 +9,9 @@ use crate::table;
 use ::import::sections::SectionsFile;
 use calib::config::RunConfig;
 use calib::extension::ModelExtension;
-use calib::free_motion::{Evaluation, KnownTurn};
-use calib::hand_turned::{DEFAULT_TERMS, HandTurnedResult, NoiseSource, WhiteNoiseAtRest};
+use calib::free_motion::{EarthRateTreatment, Evaluation, KnownTurn};
+use calib::hand_turned::{GradeChoice, HandTurnedResult, NoiseSource, WhiteNoiseAtRest};
+use sins_model::candidates::Candidate;
 use calib::io::ImuData;
 use calib::layout::StateLayout;
 use calib::rests::Rest;
@@ -35,23 +36,30 @@ pub struct Setup {
     pub origin: String,
     /// The rests' white noise, when the configuration's levels are it.
     pub measured: Option<WhiteNoiseAtRest>,
-    /// The paper's model with [`DEFAULT_TERMS`] at the unit grade's priors.
+    /// The paper's model with the terms asked for, at the unit grade's priors.
     pub layout: StateLayout,
+    /// The terms beyond the paper's model.
+    pub terms: Vec<Candidate>,
+    /// The grade chosen from the data (without a configuration).
+    pub grade: Option<GradeChoice>,
     /// Known turns of the section list.
     pub turns: Vec<KnownTurn>,
 }
 
 /// The configuration: `given` (without a program) with its own noise, or the recording's
 /// defaults ([`calib::hand_turned::default_config`]) at `latitude` with the noise measured in
-/// the rests.
+/// the rests and the grade from the data ([`calib::hand_turned::choose_grade`]); the model is
+/// the paper's with `terms`.
 pub fn setup(
     given: Option<(&RunConfig, &str)>,
     latitude: Option<f64>,
     sections: Option<&std::path::Path>,
+    terms: &[Candidate],
     data: &ImuData,
     file: &str,
     rests: &[Rest],
 ) -> Result<Setup, Error> {
+    let mut grade = None;
     let (config, origin, measured) = match given {
         Some((config, origin)) => {
             let config = config.clone();
@@ -79,7 +87,9 @@ pub fn setup(
                      measured in the rests (give a configuration with [noise], --config)"
                 )
             })?;
-            let config = calib::hand_turned::default_config(data, lat, &noise)
+            let choice = calib::hand_turned::choose_grade(data, rests, &noise);
+            grade = Some(choice);
+            let config = calib::hand_turned::default_config(data, lat, &noise, choice.grade)
                 .ok_or_else(|| format!("{file}: fewer than two records"))?;
             let interval = 1.0 / config.filter.imu_rate_hz;
             if interval > MAX_RECORD_INTERVAL_S {
@@ -94,14 +104,20 @@ pub fn setup(
             (
                 config,
                 format!(
-                    "no configuration: latitude {lat} deg, consumer-grade priors, white noise \
-                     measured in the rests"
+                    "no configuration: latitude {lat} deg{}, {}-grade priors, white noise \
+                     and motion noise measured in the rests",
+                    if latitude.is_none() {
+                        " (assumed: give --latitude)"
+                    } else {
+                        ""
+                    },
+                    choice.grade.name()
                 ),
                 Some(noise),
             )
         }
     };
-    let ext = ModelExtension::with_grade(&DEFAULT_TERMS, config.unit_grade());
+    let ext = ModelExtension::with_grade(terms, config.unit_grade());
     let layout = calib::layout::layout_with(&config, false, &ext);
     let intervals = calib::hand_turned::intervals_of(data, rests);
     let turns = match sections {
@@ -113,8 +129,71 @@ pub fn setup(
         origin,
         measured,
         layout,
+        terms: terms.to_vec(),
+        grade,
         turns,
     })
+}
+
+/// The terms of `--terms` and `--terms-from` (a `diagnose --json` result's `accepted_terms`),
+/// each once, in the order given.
+pub fn terms_asked(ids: &[String], from: Option<&std::path::Path>) -> Result<Vec<Candidate>, Error> {
+    let mut all: Vec<String> = ids.to_vec();
+    if let Some(path) = from {
+        let text = read_bounded(path, "--terms-from", TERMS_FROM_MAX_BYTES)?;
+        let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+            format!(
+                "{}: not a diagnose result (JSON): {e}; expected the file `sins-calib diagnose \
+                 --json` writes",
+                path.display()
+            )
+        })?;
+        let accepted = v
+            .get("accepted_terms")
+            .and_then(|a| a.as_array())
+            .ok_or_else(|| {
+                format!(
+                    "{}: no `accepted_terms` list: expected the file `sins-calib diagnose --json` \
+                     writes",
+                    path.display()
+                )
+            })?;
+        for t in accepted {
+            let id = t.as_str().ok_or_else(|| {
+                format!(
+                    "{}: `accepted_terms` holds {t}: expected term ids (strings)",
+                    path.display()
+                )
+            })?;
+            if !all.iter().any(|a| a == id) {
+                all.push(id.to_string());
+            }
+        }
+    }
+    crate::diagnose::parse_terms(&all)
+}
+
+/// The largest `--terms-from` file read (a diagnose result is a few tens of kilobytes).
+const TERMS_FROM_MAX_BYTES: u64 = 16 << 20;
+
+/// The text of a small file, refused past `max` bytes before it is read whole.
+fn read_bounded(path: &std::path::Path, option: &str, max: u64) -> Result<String, Error> {
+    use std::io::Read as _;
+    let file = std::fs::File::open(path)
+        .map_err(|e| format!("{option} {}: cannot read: {e}", path.display()))?;
+    let mut text = String::new();
+    file.take(max + 1)
+        .read_to_string(&mut text)
+        .map_err(|e| format!("{option} {}: cannot read as text: {e}", path.display()))?;
+    if text.len() as u64 > max {
+        return Err(format!(
+            "{option} {}: larger than {} MiB: expected a diagnose result",
+            path.display(),
+            max >> 20
+        )
+        .into());
+    }
+    Ok(text)
 }
 
 /// The section list at `path`, checked against the records of `data` before any work
@@ -147,6 +226,9 @@ pub struct FreeMotionJson {
     static_intervals: usize,
     #[serde(skip_serializing_if = "Option::is_none")]
     held_out_every: Option<usize>,
+    /// The grade chosen from the data (without a configuration).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    grade: Option<GradeJson>,
     terms: Vec<&'static str>,
     turns: Vec<TurnJson>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -159,7 +241,20 @@ struct MeasuredJson {
     accel_m_s2: f64,
     dof: usize,
     accel_factor: f64,
+    /// The innovations' variance over the rests' own noise, and its p-value.
+    scatter_ratio: f64,
+    scatter_p_value: f64,
+    motion_attitude_noise_deg: f64,
+    motion_windows: usize,
     fits: usize,
+}
+
+#[derive(Serialize)]
+struct GradeJson {
+    grade: &'static str,
+    by_noise: &'static str,
+    by_rest_rate: &'static str,
+    rest_rate_excess_deg_h: f64,
 }
 
 #[derive(Serialize)]
@@ -182,21 +277,40 @@ struct ValidationJson {
     rotation_rms_deg: BeforeAfter,
     intervals: usize,
     rotation_pairs: usize,
+    /// Whether the rotation figure takes the Earth's rotation out, and the floor it leaves
+    /// where it cannot (deg).
+    earth_rate_compensated: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    earth_rate_floor_deg: Option<f64>,
+    fitted_static_rms_m_s2: f64,
+    fitted_intervals: usize,
+    held_out_motion_rms_deg: f64,
+    held_out_motions: usize,
+    fitted_motion_rms_deg: f64,
+    fitted_motions: usize,
 }
 
 /// The JSON block of a result.
-pub fn json(r: &HandTurnedResult, holdout: Option<usize>) -> FreeMotionJson {
+pub fn json(r: &HandTurnedResult, setup: &SetupSummary, holdout: Option<usize>) -> FreeMotionJson {
     let measured = match r.noise {
         NoiseSource::Configured => None,
         NoiseSource::Measured {
             at_rest,
             accel_factor,
+            excess,
+            motion_noise_deg,
+            motion_windows,
             fits,
+            ..
         } => Some(MeasuredJson {
             gyro_deg_h: at_rest.gyro_rad_s / DEG_PER_HOUR,
             accel_m_s2: at_rest.accel_m_s2,
             dof: at_rest.dof,
             accel_factor,
+            scatter_ratio: excess.ratio,
+            scatter_p_value: excess.p_value,
+            motion_attitude_noise_deg: motion_noise_deg,
+            motion_windows,
             fits,
         }),
     };
@@ -212,7 +326,13 @@ pub fn json(r: &HandTurnedResult, holdout: Option<usize>) -> FreeMotionJson {
         gravity_m_s2: r.config.site().specific_force_at_rest_enu().norm(),
         static_intervals: r.intervals.len(),
         held_out_every: holdout,
-        terms: DEFAULT_TERMS.iter().map(|c| c.id()).collect(),
+        grade: setup.grade.map(|g| GradeJson {
+            grade: g.grade.name(),
+            by_noise: g.by_noise.name(),
+            by_rest_rate: g.by_rest_rate.name(),
+            rest_rate_excess_deg_h: g.rest_rate_excess_deg_h,
+        }),
+        terms: setup.terms.iter().map(|c| c.id()).collect(),
         turns: r
             .evaluation
             .turns
@@ -235,15 +355,51 @@ pub fn json(r: &HandTurnedResult, holdout: Option<usize>) -> FreeMotionJson {
             },
             intervals: v.intervals,
             rotation_pairs: v.rotation_pairs,
+            earth_rate_compensated: v.earth_rate == EarthRateTreatment::Compensated,
+            earth_rate_floor_deg: match v.earth_rate {
+                EarthRateTreatment::Compensated => None,
+                EarthRateTreatment::NotResolved { floor_rad } => Some(floor_rad.to_degrees()),
+            },
+            fitted_static_rms_m_s2: v.fitted_static_rms_m_s2,
+            fitted_intervals: v.fitted_intervals,
+            held_out_motion_rms_deg: v.held_out_motion_rms_rad.to_degrees(),
+            held_out_motions: v.held_out_motions,
+            fitted_motion_rms_deg: v.fitted_motion_rms_rad.to_degrees(),
+            fitted_motions: v.fitted_motions,
         }),
+    }
+}
+
+/// What the report and the JSON say of a run's setup beyond its result: where the
+/// configuration came from, the grade chosen, the terms asked for.
+pub struct SetupSummary {
+    /// Where the configuration came from.
+    pub origin: String,
+    /// The grade chosen from the data.
+    pub grade: Option<GradeChoice>,
+    /// The terms beyond the paper's model.
+    pub terms: Vec<Candidate>,
+}
+
+impl Setup {
+    /// What the report keeps of it.
+    pub fn summary(&self) -> SetupSummary {
+        SetupSummary {
+            origin: self.origin.clone(),
+            grade: self.grade,
+            terms: self.terms.clone(),
+        }
     }
 }
 
 /// The head lines of the report that only a hand-turned recording has: the noise and the
 /// model.
-pub fn header(setup_origin: &str, r: &HandTurnedResult, holdout: Option<usize>) -> String {
+pub fn header(setup: &SetupSummary, r: &HandTurnedResult, holdout: Option<usize>) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "  settings        {setup_origin}");
+    let _ = writeln!(s, "  settings        {}", setup.origin);
+    if let Some(g) = &setup.grade {
+        let _ = writeln!(s, "  grade           {}", g.describe());
+    }
     let c = &r.config;
     match r.noise {
         NoiseSource::Configured => {
@@ -257,7 +413,10 @@ pub fn header(setup_origin: &str, r: &HandTurnedResult, holdout: Option<usize>) 
         NoiseSource::Measured {
             at_rest,
             accel_factor,
+            excess,
+            motion_windows,
             fits,
+            ..
         } => {
             let _ = writeln!(
                 s,
@@ -267,31 +426,35 @@ pub fn header(setup_origin: &str, r: &HandTurnedResult, holdout: Option<usize>) 
                 table::significant(at_rest.gyro_rad_s / DEG_PER_HOUR, 3),
                 table::significant(at_rest.accel_m_s2, 3)
             );
-            if accel_factor > 1.0 {
-                let _ = writeln!(
-                    s,
-                    "                  the fit's innovations scatter more: specific force \
-                     scaled by {} to {} m/s^2 (the rests differ by more than their own noise, \
-                     or the model lacks an error)",
-                    table::significant(accel_factor, 3),
-                    table::significant(c.noise.accel_m_s2, 3)
-                );
-            }
             let _ = writeln!(
                 s,
-                "                  {fits} fit{} to bring the noise to the innovations",
+                "                  specific force scaled by {} to {} m/s^2, the scatter of the \
+                 fit's innovations ({} the rests' own noise: variance ratio {}, p = {:.2e})",
+                table::significant(accel_factor, 3),
+                table::significant(c.noise.accel_m_s2, 3),
+                if excess.significant() {
+                    "significantly more than"
+                } else {
+                    "consistent with"
+                },
+                table::significant(excess.ratio, 3),
+                excess.p_value
+            );
+            let _ = writeln!(
+                s,
+                "                  motion noise measured from the first window after each of {} \
+                 motions; {fits} fit{} to bring both to the innovations",
+                motion_windows,
                 if fits == 1 { "" } else { "s" }
             );
         }
     }
-    if c.filter.motion_attitude_noise_deg > 0.0 {
-        let _ = writeln!(
-            s,
-            "  motions         {} deg of attitude noise per motion (what the gyros' model misses \
-             in a hand turn; filter.motion_attitude_noise_deg)",
-            table::significant(c.filter.motion_attitude_noise_deg, 3)
-        );
-    }
+    let _ = writeln!(
+        s,
+        "  motions         {} deg of attitude noise per motion (what the gyros' model misses \
+         in a hand turn; filter.motion_attitude_noise_deg)",
+        table::significant(c.filter.motion_attitude_noise_deg, 3)
+    );
     let _ = writeln!(
         s,
         "  gravity         {} m/s^2",
@@ -299,12 +462,20 @@ pub fn header(setup_origin: &str, r: &HandTurnedResult, holdout: Option<usize>) 
     );
     let _ = writeln!(
         s,
-        "  terms           the paper's model and {} (at {}-grade priors)",
-        DEFAULT_TERMS
-            .iter()
-            .map(|c| c.id())
-            .collect::<Vec<_>>()
-            .join(", "),
+        "  terms           {} (at {}-grade priors)",
+        if setup.terms.is_empty() {
+            "the paper's model only (--terms or --terms-from adds others)".to_string()
+        } else {
+            format!(
+                "the paper's model and {}",
+                setup
+                    .terms
+                    .iter()
+                    .map(|c| c.id())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        },
         c.unit_grade().name()
     );
     if let Some(k) = holdout {
@@ -345,13 +516,26 @@ pub fn evaluation_report(e: &Evaluation) -> String {
             s,
             "\nHeld-out validation ({} rests, {} pairs of consecutive ones)\n  static |f| - g \
              RMS        before {:.5} m/s^2, after {:.5} m/s^2\n  rotation (gravity direction) \
-             RMS  before {:.3} deg, after {:.3} deg",
+             RMS  before {:.3} deg, after {:.3} deg{}\n  over single motions     into or out of \
+             held-out rests {:.3} deg ({}), between fitted rests {:.3} deg ({})",
             v.intervals,
             v.rotation_pairs,
             v.static_rms_before_m_s2,
             v.static_rms_after_m_s2,
             v.rotation_rms_before_rad.to_degrees(),
-            v.rotation_rms_after_rad.to_degrees()
+            v.rotation_rms_after_rad.to_degrees(),
+            match v.earth_rate {
+                EarthRateTreatment::Compensated => " (the Earth's rotation taken out)".to_string(),
+                EarthRateTreatment::NotResolved { floor_rad } => format!(
+                    " (the Earth's rotation not taken out: the gyros do not resolve the \
+                     heading; it adds up to {:.3} deg RMS over these pairs)",
+                    floor_rad.to_degrees()
+                ),
+            },
+            v.held_out_motion_rms_rad.to_degrees(),
+            v.held_out_motions,
+            v.fitted_motion_rms_rad.to_degrees(),
+            v.fitted_motions
         );
     }
     s

@@ -169,18 +169,7 @@ pub fn misfit_reasons(
             )
         })
         .collect();
-    // Known turns: chi-square(1) each, the mean within three of its standard deviations
-    // (sqrt(2 / n)) of 1.
-    if stats.turn_updates > 0 {
-        let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
-        let inside = (stats.turn_mean_nis - 1.0).abs() <= half;
-        if !inside {
-            out.push(format!(
-                "known turns: mean NIS {:.3} over {} turns, expected 1 +- {:.3}",
-                stats.turn_mean_nis, stats.turn_updates, half
-            ));
-        }
-    }
+    out.extend(turn_reason(stats));
     if let Some(d) = diagnostics.filter(|d| !d.fits) {
         out.push(format!(
             "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
@@ -190,6 +179,116 @@ pub fn misfit_reasons(
         ));
     }
     out
+}
+
+/// Known turns: chi-square(1) each, the mean within three of its standard deviations
+/// (sqrt(2 / n)) of 1; the reason when it is not.
+fn turn_reason(stats: &FitStatistics) -> Option<String> {
+    if stats.turn_updates == 0 {
+        return None;
+    }
+    let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
+    ((stats.turn_mean_nis - 1.0).abs() > half).then(|| {
+        format!(
+            "known turns: mean NIS {:.3} over {} turns, expected 1 +- {:.3}",
+            stats.turn_mean_nis, stats.turn_updates, half
+        )
+    })
+}
+
+/// The verdict of a calibration: what decides its exit status, what only informs, and what it
+/// rests on. With a configured noise the innovations against it decide
+/// ([`misfit_reasons`]). With noise a hand-turned calibration measured from the data itself the
+/// innovations' scatter is no test (the noise was brought to it): the held-out rests and the
+/// known turns decide ([`crate::hand_turned::verdict`]), and the innovation diagnostics inform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunVerdict {
+    /// Reasons for exit status 3 (empty: the model fits, or nothing contradicts it).
+    pub decisive: Vec<String>,
+    /// Findings that do not decide, each with its figures.
+    pub informative: Vec<String>,
+    /// What the verdict rests on, one line.
+    pub basis: String,
+    /// Whether anything tested the model at all.
+    pub tested: bool,
+}
+
+impl RunVerdict {
+    /// The verdict of `est` (with its hand-turned result where it is one).
+    pub fn of(
+        est: &crate::estimate::Estimate,
+        hand_turned: Option<&crate::hand_turned::HandTurnedResult>,
+        diagnostics: Option<&Diagnostics>,
+        with_turntable: bool,
+    ) -> Self {
+        let measured = hand_turned
+            .filter(|r| matches!(r.noise, crate::hand_turned::NoiseSource::Measured { .. }));
+        let Some(r) = measured else {
+            return Self {
+                decisive: misfit_reasons(&est.stats, diagnostics, with_turntable),
+                informative: Vec::new(),
+                basis: format!(
+                    "the innovations against the configured noise (mean NIS{}{})",
+                    if est.stats.turn_updates > 0 {
+                        ", known turns"
+                    } else {
+                        ""
+                    },
+                    if diagnostics.is_some() {
+                        ", diagnostics"
+                    } else {
+                        ""
+                    }
+                ),
+                tested: true,
+            };
+        };
+        let tests = crate::hand_turned::verdict(r);
+        let mut decisive: Vec<String> = tests
+            .iter()
+            .filter(|t| t.decides && t.fails)
+            .map(|t| t.line.clone())
+            .collect();
+        decisive.extend(turn_reason(&est.stats));
+        let mut informative: Vec<String> = tests
+            .iter()
+            .filter(|t| !t.decides || !t.fails)
+            .map(|t| t.line.clone())
+            .collect();
+        if let Some(d) = diagnostics.filter(|d| !d.fits) {
+            informative.push(format!(
+                "diagnostics: {} of {} tests fail at the family-wise level {} % (against the \
+                 measured noise, which they take as white)",
+                d.failures.len(),
+                d.tests.len(),
+                100.0 * d.settings.alpha
+            ));
+        }
+        let held_out = r.evaluation.validation.is_some();
+        let turns = est.stats.turn_updates > 0;
+        let basis = match (held_out, turns) {
+            (true, true) => "the held-out rests and the known turns (the noise was measured from \
+                             these data: their scatter is no test)",
+            (true, false) => "the held-out rests (the noise was measured from these data: their \
+                              scatter is no test)",
+            (false, true) => "the known turns only: the noise was measured from these data and \
+                              no rest is held out (--holdout K tests the model on rests it has \
+                              not seen)",
+            (false, false) => "nothing: the noise was measured from these data and no rest is \
+                               held out (--holdout K tests the model on rests it has not seen)",
+        };
+        Self {
+            decisive,
+            informative,
+            basis: basis.to_string(),
+            tested: held_out || turns,
+        }
+    }
+
+    /// Whether nothing contradicts the model.
+    pub fn fits(&self) -> bool {
+        self.decisive.is_empty()
+    }
 }
 
 /// The NIS of one segment of one measurement kind.
