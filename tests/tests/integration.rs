@@ -5,6 +5,7 @@
 mod bias_walk_monte_carlo;
 mod calibration_estimate;
 mod calibration_monte_carlo;
+mod hand_turned;
 mod hidden_effects;
 mod noiseless;
 mod program_from_angles;

@@ -33,8 +33,8 @@ use crate::drift_visibility::{
 };
 use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
 use crate::evidence::{
-    InformationGain, SEPARATED_SIGMA_RATIO, ScoreTest, Separability, chi_bar_square_sf,
-    ln_chi_square_sf, score_test, separability,
+    InformationGain, ScoreTest, Separability, chi_bar_square_sf, ln_chi_square_sf, score_test,
+    separability,
 };
 use crate::extension::ModelExtension;
 use crate::layout::StateLayout;
@@ -547,13 +547,11 @@ impl Context<'_> {
             // confounded with nothing. The term is separable when some entry is separated and
             // none is confounded with the base parameters (with every entry required, a
             // g-sensitivity the data called for at p = 7.6e-25 was refused).
-            sep.separable = sep
-                .parameters
-                .iter()
-                .any(|p| p.sigma_ratio <= SEPARATED_SIGMA_RATIO)
-                && sep.parameters.iter().all(|p| {
-                    p.sigma_ratio <= SEPARATED_SIGMA_RATIO || p.confounded_with.is_empty()
-                });
+            sep.separable = sep.parameters.iter().any(|p| p.separated())
+                && sep
+                    .parameters
+                    .iter()
+                    .all(|p| p.separated() || p.confounded_with.is_empty());
         }
         let estimate = idx
             .iter()

@@ -349,12 +349,7 @@ impl EarthRotation {
     /// heading gyrocompassed (the horizontal Earth rate points North). `None` where the gyros
     /// do not resolve it: their bias sigma and the mean's noise together above
     /// [`GYROCOMPASS_FRACTION`] of the horizontal Earth rate (a heading sigma above about 11 deg).
-    fn in_body(
-        &self,
-        w: &Vector3<f64>,
-        sigma_w: f64,
-        up: &Vector3<f64>,
-    ) -> Option<Vector3<f64>> {
+    fn in_body(&self, w: &Vector3<f64>, sigma_w: f64, up: &Vector3<f64>) -> Option<Vector3<f64>> {
         let sigma = self.gyro_bias_sigma_rad_s.hypot(sigma_w);
         if self.horizontal_rad_s <= 0.0 || sigma > GYROCOMPASS_FRACTION * self.horizontal_rad_s {
             return None;
@@ -587,6 +582,34 @@ impl Increments {
             .map(|k| axis.dot(&self.calibrated(k, cal)))
             .sum()
     }
+}
+
+/// Refuse rests that cannot separate the accelerometer parameters, whatever the estimator:
+/// fewer than three fitted intervals (every `holdout`-th held out), or fitted intervals whose
+/// specific force points in fewer than three directions [`MIN_POSE_SEPARATION_DEG`] apart.
+pub fn check_poses(
+    data: &ImuData,
+    intervals: &[Interval],
+    holdout: Option<usize>,
+) -> Result<(), FreeMotionError> {
+    let inc = Increments::new(data);
+    let fitted: Vec<Vector3<f64>> = intervals
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !held_out(*i, holdout))
+        .map(|(_, iv)| pose_stat(&inc, *iv).f)
+        .collect();
+    if fitted.len() < 3 {
+        return Err(FreeMotionError::TooFewIntervals(fitted.len()));
+    }
+    let directions = distinct_directions(fitted.iter().copied());
+    if directions < 3 {
+        return Err(FreeMotionError::TooFewDirections {
+            intervals: fitted.len(),
+            directions,
+        });
+    }
+    Ok(())
 }
 
 /// Two rests count as different poses when their specific forces differ in direction by at
@@ -1245,7 +1268,10 @@ impl Carry<'_> {
         let (from, to) = (a.last_record + 1, b.first_record);
         let c = self.inc.rotation(from, to, self.gyro);
         let span_s: f64 = (from..=to).map(|k| self.inc.dt[k]).sum();
-        let (ci, cj) = (self.accel.apply(&self.stats[i].f), self.accel.apply(&self.stats[j].f));
+        let (ci, cj) = (
+            self.accel.apply(&self.stats[i].f),
+            self.accel.apply(&self.stats[j].f),
+        );
         let up = ci.normalize();
         // The calibrated mean rate of rest i.
         let rows = a.first_record..=a.last_record;
@@ -1255,9 +1281,7 @@ impl Carry<'_> {
             dt += self.inc.dt[k];
         }
         let w = sum / dt.max(f64::MIN_POSITIVE);
-        let earth = self
-            .earth
-            .in_body(&w, self.stats[i].sigma_w, &up);
+        let earth = self.earth.in_body(&w, self.stats[i].sigma_w, &up);
         // An Earth-fixed direction turns in inertial space (the gyros' reference) by the Earth
         // rate times the span.
         let carried = match earth {
@@ -1275,9 +1299,9 @@ impl Carry<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sins_model::units::ARCMIN;
     use crate::io::ImuRecord;
     use sins_model::attitude::log_so3;
+    use sins_model::units::ARCMIN;
 
     /// Small deterministic generator (no dependence on a random crate's API).
     struct Lcg(u64);
@@ -1655,8 +1679,7 @@ mod tests {
             0.0,
             1.0,
         );
-        let w = c_enu_to_body
-            * Vector3::new(0.0, EARTH_RATE * lat.cos(), EARTH_RATE * lat.sin());
+        let w = c_enu_to_body * Vector3::new(0.0, EARTH_RATE * lat.cos(), EARTH_RATE * lat.sin());
         let f = Vector3::new(0.0, 0.0, G);
         let rate = 50.0;
         let records: Vec<ImuRecord> = (0..(600.0 * rate) as usize)
@@ -1691,7 +1714,10 @@ mod tests {
         let EarthRateTreatment::NotResolved { floor_rad } = v.earth_rate else {
             panic!("{v:?}");
         };
-        assert!((floor_rad / expected - 1.0).abs() < 0.01, "{floor_rad} {expected}");
+        assert!(
+            (floor_rad / expected - 1.0).abs() < 0.01,
+            "{floor_rad} {expected}"
+        );
         // Uncompensated, the carried direction misses by the Earth's turn (the horizontal
         // Earth rate is at right angles to up).
         assert!(

@@ -448,7 +448,11 @@ pub fn noise_ml(
     let (mut k, mut sigma) = (k_fit.max(1e-3), sigma_fit);
     for _ in 0..4 {
         // The scale, in its logarithm.
-        let lk = golden(&|x: f64| log_likelihood(x.exp(), sigma * sigma), 0.05f64.ln(), 50f64.ln());
+        let lk = golden(
+            &|x: f64| log_likelihood(x.exp(), sigma * sigma),
+            0.05f64.ln(),
+            50f64.ln(),
+        );
         k = lk.exp();
         if motion_windows == 0 {
             break;
@@ -633,9 +637,8 @@ pub fn fit_measuring_noise(
             base_accel * base_accel * config.filter.accel_rate_hz,
             g,
         );
-        let (next_factor, next_motion) = ml.map_or((factor, motion), |m| {
-            (m.accel_factor, m.motion_sigma_rad)
-        });
+        let (next_factor, next_motion) =
+            ml.map_or((factor, motion), |m| (m.accel_factor, m.motion_sigma_rad));
         let motion_windows = ml.map_or(0, |m| m.motion_windows);
         let settled_factor = (next_factor / factor - 1.0).abs() <= 0.03;
         let settled_motion = (next_motion - motion).abs() <= 0.15 * next_motion.max(motion)
@@ -708,6 +711,8 @@ pub fn calibrate(
             rests: rests.len(),
         }));
     }
+    crate::free_motion::check_poses(data, &intervals_of(data, rests), holdout)
+        .map_err(|e| refuse(crate::rests::RestError::Poses(e.to_string())))?;
     let mut config = config.clone();
     config.filter.hold_out_every = holdout;
     let filter_turns: Vec<crate::rests::Turn> = turns

@@ -117,6 +117,10 @@ pub enum RestError {
         /// Mean record interval (s).
         interval_s: f64,
     },
+    /// The rests cannot separate the accelerometer parameters (too few, or all pointing
+    /// gravity one way).
+    #[error("{0}")]
+    Poses(String),
     /// The batch fit that gives the coarse start failed.
     #[error("the coarse start (batch fit of the rests) failed: {0}")]
     CoarseFit(String),

@@ -363,7 +363,8 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                     .config
                     .is_some()
                     .then_some((&input.config, input.origin.as_str()));
-                let terms = crate::free_motion::terms_asked(&args.terms, args.terms_from.as_deref())?;
+                let terms =
+                    crate::free_motion::terms_asked(&args.terms, args.terms_from.as_deref())?;
                 let setup = crate::free_motion::setup(
                     given,
                     args.latitude,

@@ -598,6 +598,14 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         turntable: tt.as_ref().map(AngleFile::records),
     };
     let mut progress = |what: &str| eprintln!("diagnose: {what}");
+    if args.free_motion && !config.program_from_angles() {
+        return Err(format!(
+            "diagnose --free-motion: {origin} has a rotation program; --free-motion is for a \
+             hand-turned recording without one (leave --free-motion out to diagnose along the \
+             program, or give a configuration without `program`)"
+        )
+        .into());
+    }
     let rests_mode = tt.is_none() && config.program_from_angles();
     if !rests_mode && args.detector.any() {
         return Err(
@@ -607,13 +615,16 @@ pub fn run(args: &Args) -> Result<bool, Error> {
                 .into(),
         );
     }
+    let mut measured_input = None;
+    let mut rests_input: Option<(Vec<calib::rests::Rest>, Vec<calib::free_motion::KnownTurn>)> =
+        None;
     let result = if rests_mode {
         let detector = args
             .detector
             .settings()
             .map_err(|e| format!("diagnose: {e}"))?;
         let rests = crate::detector_args::rests(&imu, &imu_file, &detector)?;
-        let turns = if args.free_motion {
+        let (turns, known) = if args.free_motion {
             let given = args.config.is_some().then_some((&config, origin.as_str()));
             let setup = crate::free_motion::setup(
                 given,
@@ -630,15 +641,19 @@ pub fn run(args: &Args) -> Result<bool, Error> {
             if let Some(g) = &setup.grade {
                 eprintln!("diagnose: {}", g.describe());
             }
-            setup
+            measured_input = setup.measured;
+            let turns = setup
                 .turns
                 .iter()
                 .filter_map(|k| calib::rests::Turn::of(k, &imu))
-                .collect()
+                .collect();
+            (turns, setup.turns)
         } else {
-            Vec::new()
+            (Vec::new(), Vec::new())
         };
-        run_loop_at_rests(&config, &data, &rests, &turns, &settings, &mut progress)?
+        let r = run_loop_at_rests(&config, &data, &rests, &turns, &settings, &mut progress)?;
+        rests_input = Some((rests, known));
+        r
     } else {
         run_loop(&config, &data, &settings, &mut progress)?
     };
@@ -655,7 +670,58 @@ pub fn run(args: &Args) -> Result<bool, Error> {
             shown.join(", ")
         );
     }
-    text += &summary(&result);
+    let mut summary_text = summary(&result);
+    // With noise measured from the recording the diagnostics test the innovations against a
+    // level the tool set itself: they inform, and the held-out rests decide (as for
+    // `calibrate --free-motion`).
+    let held_out_verdict = match (&measured_input, rests_input.as_ref()) {
+        (Some(noise), Some((rests, turns))) => {
+            summary_text = summary_text.replace(
+                "(exit status 3)",
+                "(against the measured noise: the held-out rests decide, below)",
+            );
+            let every = args.holdout.unwrap_or(calib::extend::HOLD_OUT_EVERY);
+            let layout = calib::layout::layout_with(&config, false, &result.last.extension);
+            let r = calib::hand_turned::calibrate(
+                &config,
+                &layout,
+                &imu,
+                &imu_file,
+                rests,
+                turns,
+                Some(every),
+                Some(*noise),
+                &mut |_, _| {},
+            )?;
+            let v = calib::report::lab::RunVerdict::of(&r.estimate, Some(&r), None, false);
+            let _ = writeln!(
+                summary_text,
+                "held-out verdict of the final model (every {every}th rest held out; rests on \
+                 {}):",
+                v.basis
+            );
+            for line in v.informative.iter() {
+                let _ = writeln!(summary_text, "  finding: {line}");
+            }
+            if v.fits() {
+                let _ = writeln!(
+                    summary_text,
+                    "  nothing contradicts the model (exit status 0)"
+                );
+            } else {
+                let _ = writeln!(
+                    summary_text,
+                    "  THE HELD-OUT RESTS CONTRADICT THE MODEL (exit status 3):"
+                );
+                for line in &v.decisive {
+                    let _ = writeln!(summary_text, "    {line}");
+                }
+            }
+            Some(v.fits())
+        }
+        _ => None,
+    };
+    text += &summary_text;
     if let Some(path) = &args.json {
         crate::output::write_file(path, to_json(&result)?.as_bytes())?;
     }
@@ -669,7 +735,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         let _ = writeln!(text, "wrote the report {} ({plots} plots)", dir.display());
     }
     crate::report(&text, args.json.as_deref())?;
-    Ok(result.final_model_fits())
+    Ok(held_out_verdict.unwrap_or_else(|| result.final_model_fits()))
 }
 
 #[cfg(test)]

@@ -11,11 +11,11 @@ use calib::config::RunConfig;
 use calib::extension::ModelExtension;
 use calib::free_motion::{EarthRateTreatment, Evaluation, KnownTurn};
 use calib::hand_turned::{GradeChoice, HandTurnedResult, NoiseSource, WhiteNoiseAtRest};
-use sins_model::candidates::Candidate;
 use calib::io::ImuData;
 use calib::layout::StateLayout;
 use calib::rests::Rest;
 use serde::Serialize;
+use sins_model::candidates::Candidate;
 use sins_model::units::DEG_PER_HOUR;
 use std::fmt::Write as _;
 
@@ -137,7 +137,10 @@ pub fn setup(
 
 /// The terms of `--terms` and `--terms-from` (a `diagnose --json` result's `accepted_terms`),
 /// each once, in the order given.
-pub fn terms_asked(ids: &[String], from: Option<&std::path::Path>) -> Result<Vec<Candidate>, Error> {
+pub fn terms_asked(
+    ids: &[String],
+    from: Option<&std::path::Path>,
+) -> Result<Vec<Candidate>, Error> {
     let mut all: Vec<String> = ids.to_vec();
     if let Some(path) = from {
         let text = read_bounded(path, "--terms-from", TERMS_FROM_MAX_BYTES)?;

@@ -267,15 +267,23 @@ impl RunVerdict {
         let held_out = r.evaluation.validation.is_some();
         let turns = est.stats.turn_updates > 0;
         let basis = match (held_out, turns) {
-            (true, true) => "the held-out rests and the known turns (the noise was measured from \
-                             these data: their scatter is no test)",
-            (true, false) => "the held-out rests (the noise was measured from these data: their \
-                              scatter is no test)",
-            (false, true) => "the known turns only: the noise was measured from these data and \
+            (true, true) => {
+                "the held-out rests and the known turns (the noise was measured from \
+                             these data: their scatter is no test)"
+            }
+            (true, false) => {
+                "the held-out rests (the noise was measured from these data: their \
+                              scatter is no test)"
+            }
+            (false, true) => {
+                "the known turns only: the noise was measured from these data and \
                               no rest is held out (--holdout K tests the model on rests it has \
-                              not seen)",
-            (false, false) => "nothing: the noise was measured from these data and no rest is \
-                               held out (--holdout K tests the model on rests it has not seen)",
+                              not seen)"
+            }
+            (false, false) => {
+                "nothing: the noise was measured from these data and no rest is \
+                               held out (--holdout K tests the model on rests it has not seen)"
+            }
         };
         Self {
             decisive,
