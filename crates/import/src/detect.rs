@@ -432,11 +432,17 @@ impl Segmentation {
                 fmt3(self.threshold_std_w_rad_s)
             ));
         }
+        // The first few by time; all of them are in `missed_quiet_stretches`.
         let list: Vec<String> = missed
             .iter()
+            .take(MISSED_LISTED)
             .map(|m| format!("{:.2} .. {:.2}", m.start_s, m.end_s))
             .collect();
-        lines.push(format!("  at t = {} s", list.join(", ")));
+        let more = match k.saturating_sub(MISSED_LISTED) {
+            0 => String::new(),
+            rest => format!(" and {rest} more"),
+        };
+        lines.push(format!("  at t = {} s{more}", list.join(", ")));
         match &self.missed_suggestion {
             Some(g) if g.would_take > 0 => {
                 let mut given = format!(
@@ -463,6 +469,9 @@ impl Segmentation {
         Some(lines)
     }
 }
+
+/// Missed stretches named in [`Segmentation::missed_report`]; the rest are counted.
+const MISSED_LISTED: usize = 8;
 
 fn plural(n: usize) -> &'static str {
     if n == 1 { "" } else { "s" }

@@ -123,3 +123,39 @@ pub fn rests_and_segmentation(
         .collect();
     Ok((rests, seg))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(window: Option<f64>, min_duration: Option<f64>) -> DetectorArgs {
+        DetectorArgs {
+            window,
+            max_std_f: None,
+            max_std_w: None,
+            max_rate: None,
+            min_duration,
+            noise_factor: None,
+        }
+    }
+
+    #[test]
+    fn a_given_window_or_minimum_is_not_adapted() {
+        let s = args(None, None).settings().unwrap();
+        assert!(s.adapt_window && s.adapt_min_duration);
+        let s = args(Some(0.5), None).settings().unwrap();
+        assert!(!s.adapt_window && s.adapt_min_duration);
+        assert_eq!(s.window_s, 0.5);
+        let s = args(None, Some(1.0)).settings().unwrap();
+        assert!(s.adapt_window && !s.adapt_min_duration);
+        assert_eq!(s.min_duration_s, 1.0);
+    }
+
+    #[test]
+    fn bad_settings_name_the_option() {
+        let e = args(Some(-1.0), None).settings().unwrap_err();
+        assert!(e.starts_with("--rest-window: window_s = -1"), "{e}");
+        let e = args(None, Some(f64::NAN)).settings().unwrap_err();
+        assert!(e.starts_with("--rest-min-duration:"), "{e}");
+    }
+}

@@ -152,12 +152,17 @@ fn short(x: f64) -> String {
     table::compact(table::significant(x, 3).parse().unwrap_or(x))
 }
 
-/// This command's option for a detector setting (for the report of missed rests).
+/// This command's option for a detector setting (`DetectorSettings` field name), for messages
+/// and the report of missed rests.
 fn option_name(setting: &str) -> String {
     match setting {
         "window_s" => "--window",
+        "max_std_f_m_s2" => "--max-std-f",
+        "max_std_w_rad_s" => "--max-std-w",
+        "max_rate_rad_s" => "--max-rate",
         "min_duration_s" => "--min-duration",
         "noise_factor" => "--noise-factor",
+        "gap_factor" => "--gap-factor",
         _ => "a detector option",
     }
     .to_string()
@@ -171,8 +176,8 @@ fn chosen(seg: &Segmentation) -> String {
     let why = |source: Source, what: &str, fraction: &str, lower: &str| match source {
         Source::Given => format!("{what} given"),
         Source::Default => match a.typical_rest_s {
-            Some(_) => format!("{what} the longest allowed (rests long enough)"),
-            None => format!("{what} the longest allowed (no quiet stretch)"),
+            Some(_) => format!("{what} the default (the rests are long enough for it)"),
+            None => format!("{what} the default (no quiet stretch to adapt to)"),
         },
         Source::Rests => format!("{what} {fraction} of the typical rest"),
         Source::LowerBound => format!("{what} at its lower bound ({lower})"),
@@ -229,9 +234,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
         adapt_min_duration: args.min_duration.is_none(),
         ..d
     };
-    settings
-        .check()
-        .map_err(|e| format!("segment: detector setting {e}"))?;
+    settings.check().map_err(|e| {
+        let setting = e.split(' ').next().unwrap_or_default();
+        format!("segment: {}: {e}", option_name(setting))
+    })?;
     if let Some(path) = &args.json {
         output::check_file(path, "--json", &[&args.imu])?;
     }
