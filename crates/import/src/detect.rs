@@ -39,7 +39,8 @@ use serde::{Deserialize, Serialize};
 /// Thresholds of the static detector.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DetectorSettings {
-    /// Length of the sliding window, centred on each record (s). Default 1.0.
+    /// Length of the sliding window, centred on each record (s). Default 1.0: with
+    /// `adapt_window`, the longest window the recording's rests may choose.
     pub window_s: f64,
     /// Largest standard deviation of the specific force over the window (root of the summed
     /// variances of the three axes), in m/s^2. Default 0.1.
@@ -50,7 +51,8 @@ pub struct DetectorSettings {
     /// Largest magnitude of the mean angular rate over the window (rad/s). Default 0.1
     /// (5.7 deg/s): above any plausible gyro bias, below a deliberate rotation.
     pub max_rate_rad_s: f64,
-    /// Shortest static interval (s). Default 2.0.
+    /// Shortest static interval (s). Default 2.0: with `adapt_min_duration`, the longest
+    /// minimum the recording's rests may choose.
     pub min_duration_s: f64,
     /// An interval between records longer than this many median intervals is a gap. Default 1.5.
     pub gap_factor: f64,
@@ -243,7 +245,8 @@ pub struct Gap {
 /// A recording split into static intervals and motion.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Segmentation {
-    /// The settings used.
+    /// The settings used: `window_s` and `min_duration_s` as chosen ([`Self::adaptation`] says
+    /// how), the `adapt_*` flags as given.
     pub settings: DetectorSettings,
     /// Number of records.
     pub records: usize,
@@ -849,14 +852,16 @@ fn missed_stretches(
             if t[b] - t[a] < MIN_QUIET_STRETCH_S || holds_rest(intervals, a, b) {
                 continue;
             }
+            // Too short when at least half its records are quiet at the first pass's window.
             let quiet = (a..=b).filter(|&i| first.is_static(i)).count();
+            let records = b - a + 1;
             missed.push(QuietStretch {
                 first_record: a,
                 last_record: b,
                 start_s: t[a],
                 end_s: t[b],
                 duration_s: t[b] - t[a],
-                reason: if 2 * quiet >= b - a + 1 {
+                reason: if 2 * quiet >= records {
                     MissReason::TooShort
                 } else {
                     MissReason::TooNoisy
