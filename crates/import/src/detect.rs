@@ -13,6 +13,24 @@
 //! intervals of the Xsens MTi recording shipped in `data/real/xsens_mti` (and the same 38 over a
 //! wide range of each threshold), and on the Ferraris session every static face of its section
 //! list lies within a detected interval while no rotation touches one.
+//!
+//! **Window and minimum duration from the data.** A fixed 1-s window and 2-s minimum lose rests
+//! of 2 to 3 s (the window trims half a window off each end of a rest, and what is left is
+//! shorter than the minimum). So unless they are given ([`DetectorSettings::adapt_window`],
+//! [`DetectorSettings::adapt_min_duration`]), a first pass with a short window
+//! ([`FIRST_PASS_WINDOW_S`]) finds the quiet stretches; the lower quartile of their durations is
+//! the typical rest `D`, and the window is `D / 4`, the minimum duration `D / 2` (so any rest of
+//! at least 3/4 `D` is kept), never above the settings' values (the defaults, which suit long
+//! rests) and never below the first pass's window, nor below the time the noise needs for a
+//! usable mean ([`USABLE_MEAN_SE_M_S2`]). [`Segmentation::adaptation`] says what was chosen and
+//! why.
+//!
+//! **Rests the motion suggests.** The first pass also counts the motion events (stretches where
+//! the windowed deviations or the mean rate clearly exceed the thresholds, [`CLEAR_FACTOR`]) and
+//! the quiet stretches between them; one that holds no static interval is listed in
+//! [`Segmentation::missed_quiet_stretches`] with the reason (too short, too noisy), and
+//! [`Segmentation::missed_suggestion`] gives settings that would take them, tried on the same
+//! data. [`Segmentation::missed_report`] words both for a printout.
 
 use crate::timing::{self, GapAt};
 use calib::io::{ImuData, ImuKind};
@@ -21,7 +39,8 @@ use serde::{Deserialize, Serialize};
 /// Thresholds of the static detector.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DetectorSettings {
-    /// Length of the sliding window, centred on each record (s). Default 1.0.
+    /// Length of the sliding window, centred on each record (s). Default 1.0: with
+    /// `adapt_window`, the longest window the recording's rests may choose.
     pub window_s: f64,
     /// Largest standard deviation of the specific force over the window (root of the summed
     /// variances of the three axes), in m/s^2. Default 0.1.
@@ -32,7 +51,8 @@ pub struct DetectorSettings {
     /// Largest magnitude of the mean angular rate over the window (rad/s). Default 0.1
     /// (5.7 deg/s): above any plausible gyro bias, below a deliberate rotation.
     pub max_rate_rad_s: f64,
-    /// Shortest static interval (s). Default 2.0.
+    /// Shortest static interval (s). Default 2.0: with `adapt_min_duration`, the longest
+    /// minimum the recording's rests may choose.
     pub min_duration_s: f64,
     /// An interval between records longer than this many median intervals is a gap. Default 1.5.
     pub gap_factor: f64,
@@ -47,6 +67,15 @@ pub struct DetectorSettings {
     /// [`MERGE_MAX_ANGLE_RAD`] are one pose, one interval. Default true.
     #[serde(default = "default_true")]
     pub merge_across_short_gaps: bool,
+    /// Whether the window is taken from the recording's rests (`window_s` is then the longest
+    /// it may be): false when a window was given. Default true; false when absent from a file
+    /// (segmentations written before the window adapted used `window_s` as it was).
+    #[serde(default)]
+    pub adapt_window: bool,
+    /// The same for the shortest static interval (`min_duration_s` is then the longest it may
+    /// be). Default true; false when absent from a file.
+    #[serde(default)]
+    pub adapt_min_duration: bool,
 }
 
 fn default_noise_factor() -> f64 {
@@ -68,6 +97,42 @@ pub const MERGE_MAX_ANGLE_RAD: f64 = 0.017453292519943295;
 /// tenth of any recording worth segmenting is at rest.
 pub const NOISE_FLOOR_QUANTILE: f64 = 0.1;
 
+/// Window of the first pass, which finds the quiet stretches whose durations set the window and
+/// minimum duration (s): short enough to see rests of a second, long enough (25 records at
+/// 100 Hz) for a standard deviation good to about 10 %.
+pub const FIRST_PASS_WINDOW_S: f64 = 0.25;
+
+/// Fewest records on each side of the centre of any window: below 5 the windowed deviation is
+/// too uncertain to compare with a threshold.
+pub const MIN_HALF_WINDOW_RECORDS: usize = 5;
+
+/// The quantile of the quiet stretches' durations taken as the typical rest: the lower quartile,
+/// so that the shorter rests of a recording set the window, while a few brief pauses do not.
+pub const TYPICAL_REST_QUANTILE: f64 = 0.25;
+
+/// The adapted window as a fraction of the typical rest: a rest loses about one window (half at
+/// each end) to the centred window.
+pub const WINDOW_PER_REST: f64 = 0.25;
+
+/// The adapted minimum duration as a fraction of the typical rest: with the window at a quarter,
+/// every rest of at least three quarters of the typical one is kept.
+pub const MIN_DURATION_PER_REST: f64 = 0.5;
+
+/// A rest must last long enough for the standard error of its mean specific force (each axis)
+/// to be below this (m/s^2, about 0.2 mg): a tenth of a consumer unit's specific-force errors
+/// after calibration, and far below a navigation-grade unit's noise over a second. The
+/// adapted minimum duration is not shorter (but never longer than `min_duration_s`).
+pub const USABLE_MEAN_SE_M_S2: f64 = 0.002;
+
+/// A record moves clearly when its first-pass standard deviations or mean rate reach this many
+/// times their thresholds: motion events are runs of such records.
+pub const CLEAR_FACTOR: f64 = 2.0;
+
+/// Quiet stretches shorter than this (s, between two clear motions, so about a first-pass window
+/// shorter than the pause) are pauses of the hand, not rests the detector missed: a pose held
+/// for a calibration lasts a second or more. Two motions closer than this are one motion event.
+pub const MIN_QUIET_STRETCH_S: f64 = 0.75;
+
 impl Default for DetectorSettings {
     fn default() -> Self {
         Self {
@@ -79,6 +144,8 @@ impl Default for DetectorSettings {
             gap_factor: 1.5,
             noise_factor: default_noise_factor(),
             merge_across_short_gaps: true,
+            adapt_window: true,
+            adapt_min_duration: true,
         }
     }
 }
@@ -178,7 +245,8 @@ pub struct Gap {
 /// A recording split into static intervals and motion.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Segmentation {
-    /// The settings used.
+    /// The settings used: `window_s` and `min_duration_s` as chosen ([`Self::adaptation`] says
+    /// how), the `adapt_*` flags as given.
     pub settings: DetectorSettings,
     /// Number of records.
     pub records: usize,
@@ -208,6 +276,105 @@ pub struct Segmentation {
     pub threshold_std_f_m_s2: f64,
     /// The same for the angular rate (rad/s).
     pub threshold_std_w_rad_s: f64,
+    /// How the window and minimum duration in `settings` were chosen.
+    #[serde(default)]
+    pub adaptation: Adaptation,
+    /// Motion events: stretches where the first pass's deviations or mean rate reach
+    /// [`CLEAR_FACTOR`] times their thresholds, two closer than [`MIN_QUIET_STRETCH_S`] counted
+    /// as one.
+    #[serde(default)]
+    pub motion_events: usize,
+    /// The stretches between (and before and after) the motion events that last at least
+    /// [`MIN_QUIET_STRETCH_S`] yet hold no static interval: rests the motion suggests and the
+    /// detector did not accept.
+    #[serde(default)]
+    pub missed_quiet_stretches: Vec<QuietStretch>,
+    /// Settings that would take the missed stretches, tried on the same data (none when nothing
+    /// was missed).
+    #[serde(default)]
+    pub missed_suggestion: Option<Suggestion>,
+}
+
+/// Where a setting of the detector came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// Given (an option, or a setting with its `adapt_*` flag off).
+    #[default]
+    Given,
+    /// The setting's value (the default) kept: the rests are long enough for it, or the first
+    /// pass found no quiet stretch.
+    Default,
+    /// The fraction of the typical rest ([`WINDOW_PER_REST`], [`MIN_DURATION_PER_REST`]).
+    Rests,
+    /// Raised to its lower bound: the first pass's window (window), or the window and the time
+    /// the noise needs for a usable mean (minimum duration).
+    LowerBound,
+}
+
+/// How the window and minimum duration were chosen ([`DetectorSettings::adapt_window`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Adaptation {
+    /// The first pass's window (s, records of it times the median interval less one).
+    pub first_pass_window_s: f64,
+    /// Quiet stretches of the first pass (runs of static records at its window lasting at least
+    /// that window).
+    pub quiet_stretches: usize,
+    /// The typical rest: the [`TYPICAL_REST_QUANTILE`] of the quiet stretches' durations, each
+    /// with the first pass's window added back (the centred window trims half of it off each
+    /// end), in s; none without a quiet stretch.
+    pub typical_rest_s: Option<f64>,
+    /// The time the noise needs for a usable mean (s): [`USABLE_MEAN_SE_M_S2`] reached with the
+    /// first pass's noise floor of the specific force.
+    pub noise_min_duration_s: f64,
+    /// Where the window came from.
+    pub window: Source,
+    /// Where the minimum duration came from.
+    pub min_duration: Source,
+}
+
+/// Why a quiet stretch holds no static interval.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MissReason {
+    /// Quiet at the first pass's window, but shorter than the window and minimum duration in use
+    /// need.
+    TooShort,
+    /// Its deviations (at the first pass's window) are above the thresholds over most of it.
+    TooNoisy,
+}
+
+/// A stretch between motion events that holds no static interval.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QuietStretch {
+    /// 0-based index of its first record.
+    pub first_record: usize,
+    /// 0-based index of its last record.
+    pub last_record: usize,
+    /// Time stamp of the first record (s).
+    pub start_s: f64,
+    /// Time stamp of the last record (s).
+    pub end_s: f64,
+    /// `end_s - start_s` (s): between the motions, as the first pass's window sees them, so
+    /// about that window shorter than the pause itself.
+    pub duration_s: f64,
+    /// Why it is not a static interval.
+    pub reason: MissReason,
+}
+
+/// Settings that would take the missed quiet stretches, and what they give on the same data.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Suggestion {
+    /// Window (s).
+    pub window_s: f64,
+    /// Shortest static interval (s).
+    pub min_duration_s: f64,
+    /// Noise factor (raised only when stretches were missed as too noisy).
+    pub noise_factor: f64,
+    /// How many of the missed stretches then hold a static interval.
+    pub would_take: usize,
+    /// Static intervals in all with these settings.
+    pub static_intervals: usize,
 }
 
 impl Segmentation {
@@ -216,6 +383,114 @@ impl Segmentation {
         self.static_intervals
             .iter()
             .fold(0.0, |sum, s| sum + s.duration_s)
+    }
+
+    /// The report of rests the motion suggests and the detector did not accept, in lines for a
+    /// printout (none when every quiet stretch between motions holds a static interval).
+    /// `option` names the command's option for a setting (`"window_s"`, `"min_duration_s"`,
+    /// `"noise_factor"`), e.g. `--rest-window` for `"window_s"`.
+    pub fn missed_report(&self, option: impl Fn(&str) -> String) -> Option<Vec<String>> {
+        let missed = &self.missed_quiet_stretches;
+        if missed.is_empty() {
+            return None;
+        }
+        let mut lines = Vec::new();
+        let d: Vec<f64> = missed.iter().map(|m| m.duration_s).collect();
+        let (lo, hi) = d
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(*x), b.max(*x))
+            });
+        let k = missed.len();
+        lines.push(format!(
+            "fewer rests than the motion suggests: {} motion event{}, {} static interval{}; {k} \
+             quiet stretch{} between motions not taken as rest{} ({} .. {} s, median {} s)",
+            self.motion_events,
+            plural(self.motion_events),
+            self.static_intervals.len(),
+            plural(self.static_intervals.len()),
+            if k == 1 { "" } else { "es" },
+            plural(k),
+            fmt3(lo),
+            fmt3(hi),
+            fmt3(quantile(&d, 0.5)),
+        ));
+        let short = missed
+            .iter()
+            .filter(|m| m.reason == MissReason::TooShort)
+            .count();
+        if short > 0 {
+            lines.push(format!(
+                "  {short} too short for a {}-s window and {}-s minimum",
+                fmt3(self.settings.window_s),
+                fmt3(self.settings.min_duration_s)
+            ));
+        }
+        if short < k {
+            lines.push(format!(
+                "  {} too noisy: deviations above the thresholds (std f {} m/s^2, std w {} rad/s) \
+                 over most of the stretch",
+                k - short,
+                fmt3(self.threshold_std_f_m_s2),
+                fmt3(self.threshold_std_w_rad_s)
+            ));
+        }
+        // The first few by time; all of them are in `missed_quiet_stretches`.
+        let list: Vec<String> = missed
+            .iter()
+            .take(MISSED_LISTED)
+            .map(|m| format!("{:.2} .. {:.2}", m.start_s, m.end_s))
+            .collect();
+        let more = match k.saturating_sub(MISSED_LISTED) {
+            0 => String::new(),
+            rest => format!(" and {rest} more"),
+        };
+        lines.push(format!("  at t = {} s{more}", list.join(", ")));
+        match &self.missed_suggestion {
+            Some(g) if g.would_take > 0 => {
+                let mut given = format!(
+                    "{} {} {} {}",
+                    option("window_s"),
+                    fmt3(g.window_s),
+                    option("min_duration_s"),
+                    fmt3(g.min_duration_s)
+                );
+                if g.noise_factor != self.settings.noise_factor {
+                    given += &format!(" {} {}", option("noise_factor"), fmt3(g.noise_factor));
+                }
+                lines.push(format!(
+                    "  {given} would take {} of them ({} static interval{} in all)",
+                    g.would_take,
+                    g.static_intervals,
+                    plural(g.static_intervals)
+                ));
+            }
+            _ => lines.push(
+                "  no shorter window, minimum or higher noise factor tried takes them".to_string(),
+            ),
+        }
+        Some(lines)
+    }
+}
+
+/// Missed stretches named in [`Segmentation::missed_report`]; the rest are counted.
+const MISSED_LISTED: usize = 8;
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}
+
+/// Three significant digits at most, without trailing zeros.
+fn fmt3(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{x:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
     }
 }
 
@@ -300,6 +575,132 @@ fn windowed(w: &[[f64; 3]], f: &[[f64; 3]], blocks: &[(usize, usize)], h: usize)
     out
 }
 
+/// One pass of the detector at one window: the windowed statistics and the thresholds in force.
+struct Pass {
+    win: Windowed,
+    floor_f: f64,
+    floor_w: f64,
+    max_std_f: f64,
+    max_std_w: f64,
+    max_rate: f64,
+}
+
+impl Pass {
+    /// Windowed statistics with `h` records on each side, the deviation thresholds raised to
+    /// `noise_factor` times the recording's noise floor at this window.
+    fn new(
+        w: &[[f64; 3]],
+        f: &[[f64; 3]],
+        blocks: &[(usize, usize)],
+        h: usize,
+        settings: &DetectorSettings,
+        noise_factor: f64,
+    ) -> Self {
+        let win = windowed(w, f, blocks, h);
+        let floor_f = quantile(&win.std_f, NOISE_FLOOR_QUANTILE);
+        let floor_w = quantile(&win.std_w, NOISE_FLOOR_QUANTILE);
+        Self {
+            max_std_f: settings.max_std_f_m_s2.max(noise_factor * floor_f),
+            max_std_w: settings.max_std_w_rad_s.max(noise_factor * floor_w),
+            max_rate: settings.max_rate_rad_s,
+            win,
+            floor_f,
+            floor_w,
+        }
+    }
+
+    fn is_static(&self, i: usize) -> bool {
+        self.win.std_f[i] < self.max_std_f
+            && self.win.std_w[i] < self.max_std_w
+            && self.win.rate[i] < self.max_rate
+    }
+
+    /// Whether record `i` moves clearly: a statistic at [`CLEAR_FACTOR`] times its threshold.
+    fn is_clear_motion(&self, i: usize) -> bool {
+        self.win.std_f[i] >= CLEAR_FACTOR * self.max_std_f
+            || self.win.std_w[i] >= CLEAR_FACTOR * self.max_std_w
+            || self.win.rate[i] >= CLEAR_FACTOR * self.max_rate
+    }
+
+    /// Maximal runs `(first, last)` of records for which `keep` holds, within the blocks.
+    fn runs(&self, blocks: &[(usize, usize)], keep: impl Fn(usize) -> bool) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        for &(b0, b1) in blocks {
+            let mut i = b0;
+            while i < b1 {
+                if !keep(i) {
+                    i += 1;
+                    continue;
+                }
+                let mut j = i;
+                while j + 1 < b1 && keep(j + 1) {
+                    j += 1;
+                }
+                out.push((i, j));
+                i = j + 1;
+            }
+        }
+        out
+    }
+}
+
+/// The value of an adapted setting: `x` raised to `lower`, at most `cap` (the setting's value),
+/// with where it came from.
+fn bounded(x: f64, lower: f64, cap: f64) -> (f64, Source) {
+    if x.max(lower) >= cap {
+        (cap, Source::Default)
+    } else if x < lower {
+        (lower, Source::LowerBound)
+    } else {
+        (x, Source::Rests)
+    }
+}
+
+/// The static intervals of one pass: runs of static records of at least `min_duration_s`,
+/// joined across short gaps when the settings say so.
+fn intervals_of(
+    t: &[f64],
+    w: &[[f64; 3]],
+    f: &[[f64; 3]],
+    pass: &Pass,
+    blocks: &[(usize, usize)],
+    settings: &DetectorSettings,
+    median: f64,
+) -> Vec<StaticInterval> {
+    let n = t.len();
+    let mut intervals = Vec::new();
+    for (i, j) in pass.runs(blocks, |i| pass.is_static(i)) {
+        let (b0, b1) = *blocks
+            .iter()
+            .find(|&&(b0, b1)| b0 <= i && j < b1)
+            .expect("a run lies in one block");
+        // A run ending at a short gap may continue after it: judged when merged.
+        let at_short_gap = settings.merge_across_short_gaps
+            && j + 1 == b1
+            && b1 < n
+            && t[b1] - t[j] <= MERGE_GAP_INTERVALS * median;
+        let starts_after_short_gap = settings.merge_across_short_gaps
+            && i == b0
+            && b0 > 0
+            && t[b0] - t[b0 - 1] <= MERGE_GAP_INTERVALS * median;
+        if t[j] - t[i] >= settings.min_duration_s || at_short_gap || starts_after_short_gap {
+            intervals.push(interval(t, w, f, i, j));
+        }
+    }
+    if settings.merge_across_short_gaps {
+        intervals = merge_across_gaps(t, w, f, intervals, median);
+    }
+    intervals.retain(|s| s.duration_s >= settings.min_duration_s);
+    intervals
+}
+
+/// Whether a static interval shares a record with `first ..= last`.
+fn holds_rest(intervals: &[StaticInterval], first: usize, last: usize) -> bool {
+    intervals
+        .iter()
+        .any(|s| s.first_record <= last && first <= s.last_record)
+}
+
 /// Split a recording (time stamps, angular rates (rad/s), specific forces (m/s^2), at least two
 /// records with strictly increasing time) into static intervals and motion.
 pub fn detect_static(
@@ -319,50 +720,46 @@ pub fn detect_static(
     let (timing, gaps) = timing::analyse(t, settings.gap_factor);
     let median = timing.median_interval_s;
     let blocks = timing::blocks(n, &gaps);
-    let h = half_window(settings.window_s, median);
-    let win = windowed(w, f, &blocks, h);
-    let floor_f = quantile(&win.std_f, NOISE_FLOOR_QUANTILE);
-    let floor_w = quantile(&win.std_w, NOISE_FLOOR_QUANTILE);
-    let max_std_f = settings.max_std_f_m_s2.max(settings.noise_factor * floor_f);
-    let max_std_w = settings
-        .max_std_w_rad_s
-        .max(settings.noise_factor * floor_w);
-    let is_static = |i: usize| {
-        win.std_f[i] < max_std_f
-            && win.std_w[i] < max_std_w
-            && win.rate[i] < settings.max_rate_rad_s
+
+    // First pass: a short window sees the quiet stretches, however short the rests.
+    let h1 = half_window(FIRST_PASS_WINDOW_S, median).max(MIN_HALF_WINDOW_RECORDS);
+    let first = Pass::new(w, f, &blocks, h1, settings, settings.noise_factor);
+    let first_window_s = 2.0 * h1 as f64 * median;
+    let quiet: Vec<f64> = first
+        .runs(&blocks, |i| first.is_static(i))
+        .iter()
+        .map(|&(i, j)| t[j] - t[i])
+        .filter(|&d| d >= first_window_s)
+        .map(|d| d + first_window_s)
+        .collect();
+    let typical = (!quiet.is_empty()).then(|| quantile(&quiet, TYPICAL_REST_QUANTILE));
+    // Records for a standard error of USABLE_MEAN_SE_M_S2 on each axis of the mean specific
+    // force, at the first pass's noise floor (the root of the three axes' summed variances).
+    let sigma_axis = first.floor_f / 3f64.sqrt();
+    let noise_min_duration_s = (sigma_axis / USABLE_MEAN_SE_M_S2).powi(2) * median;
+    let (window_s, window_source) = match typical {
+        _ if !settings.adapt_window => (settings.window_s, Source::Given),
+        None => (settings.window_s, Source::Default),
+        Some(d) => bounded(d * WINDOW_PER_REST, first_window_s, settings.window_s),
     };
-    let mut intervals = Vec::new();
-    for &(b0, b1) in &blocks {
-        let mut i = b0;
-        while i < b1 {
-            if !is_static(i) {
-                i += 1;
-                continue;
-            }
-            let mut j = i;
-            while j + 1 < b1 && is_static(j + 1) {
-                j += 1;
-            }
-            // A run ending at a short gap may continue after it: judged when merged.
-            let at_short_gap = settings.merge_across_short_gaps
-                && j + 1 == b1
-                && b1 < n
-                && t[b1] - t[j] <= MERGE_GAP_INTERVALS * median;
-            let starts_after_short_gap = settings.merge_across_short_gaps
-                && i == b0
-                && b0 > 0
-                && t[b0] - t[b0 - 1] <= MERGE_GAP_INTERVALS * median;
-            if t[j] - t[i] >= settings.min_duration_s || at_short_gap || starts_after_short_gap {
-                intervals.push(interval(t, w, f, i, j));
-            }
-            i = j + 1;
-        }
-    }
-    if settings.merge_across_short_gaps {
-        intervals = merge_across_gaps(t, w, f, intervals, median);
-    }
-    intervals.retain(|s| s.duration_s >= settings.min_duration_s);
+    let (min_duration_s, min_duration_source) = match typical {
+        _ if !settings.adapt_min_duration => (settings.min_duration_s, Source::Given),
+        None => (settings.min_duration_s, Source::Default),
+        Some(d) => bounded(
+            d * MIN_DURATION_PER_REST,
+            window_s.max(noise_min_duration_s),
+            settings.min_duration_s,
+        ),
+    };
+    let used = DetectorSettings {
+        window_s,
+        min_duration_s,
+        ..*settings
+    };
+
+    let h = half_window(window_s, median);
+    let pass = Pass::new(w, f, &blocks, h, settings, settings.noise_factor);
+    let intervals = intervals_of(t, w, f, &pass, &blocks, &used, median);
     let mut motion = Vec::new();
     let mut next = 0;
     for s in &intervals {
@@ -374,8 +771,24 @@ pub fn detect_static(
     if next < n {
         motion.push(span(t, next, n - 1));
     }
+
+    let (motion_events, missed) = missed_stretches(t, &first, &blocks, &intervals);
+    let missed_suggestion = (!missed.is_empty()).then(|| {
+        suggest(
+            t,
+            w,
+            f,
+            &first,
+            &blocks,
+            &used,
+            &missed,
+            first_window_s,
+            noise_min_duration_s,
+            median,
+        )
+    });
     Ok(Segmentation {
-        settings: *settings,
+        settings: used,
         records: n,
         t_first_s: t[0],
         t_last_s: t[n - 1],
@@ -384,11 +797,156 @@ pub fn detect_static(
         static_intervals: intervals,
         motion,
         gaps: gaps.iter().map(gap).collect(),
-        noise_floor_f_m_s2: floor_f,
-        noise_floor_w_rad_s: floor_w,
-        threshold_std_f_m_s2: max_std_f,
-        threshold_std_w_rad_s: max_std_w,
+        noise_floor_f_m_s2: pass.floor_f,
+        noise_floor_w_rad_s: pass.floor_w,
+        threshold_std_f_m_s2: pass.max_std_f,
+        threshold_std_w_rad_s: pass.max_std_w,
+        adaptation: Adaptation {
+            first_pass_window_s: first_window_s,
+            quiet_stretches: quiet.len(),
+            typical_rest_s: typical,
+            noise_min_duration_s,
+            window: window_source,
+            min_duration: min_duration_source,
+        },
+        motion_events,
+        missed_quiet_stretches: missed,
+        missed_suggestion,
     })
+}
+
+/// The motion events of the first pass (runs of clearly moving records, two closer than
+/// [`MIN_QUIET_STRETCH_S`] joined) and the quiet stretches between them (and before the first
+/// and after the last, within each gap-free block) that hold no static interval.
+fn missed_stretches(
+    t: &[f64],
+    first: &Pass,
+    blocks: &[(usize, usize)],
+    intervals: &[StaticInterval],
+) -> (usize, Vec<QuietStretch>) {
+    let mut events = 0;
+    let mut missed = Vec::new();
+    for &(b0, b1) in blocks {
+        let mut moving: Vec<(usize, usize)> = Vec::new();
+        for (i, j) in first.runs(&[(b0, b1)], |i| first.is_clear_motion(i)) {
+            match moving.last_mut() {
+                Some(last) if t[i] - t[last.1] < MIN_QUIET_STRETCH_S => last.1 = j,
+                _ => moving.push((i, j)),
+            }
+        }
+        events += moving.len();
+        // The stretches around the motions: [a, b] between the end of one and the start of the
+        // next (the block's ends count as ends of motion).
+        let mut stretches = Vec::new();
+        let mut a = b0;
+        for &(i, j) in &moving {
+            if i > a {
+                stretches.push((a, i - 1));
+            }
+            a = j + 1;
+        }
+        if a < b1 {
+            stretches.push((a, b1 - 1));
+        }
+        for (a, b) in stretches {
+            if t[b] - t[a] < MIN_QUIET_STRETCH_S || holds_rest(intervals, a, b) {
+                continue;
+            }
+            // Too short when at least half its records are quiet at the first pass's window.
+            let quiet = (a..=b).filter(|&i| first.is_static(i)).count();
+            let records = b - a + 1;
+            missed.push(QuietStretch {
+                first_record: a,
+                last_record: b,
+                start_s: t[a],
+                end_s: t[b],
+                duration_s: t[b] - t[a],
+                reason: if 2 * quiet >= records {
+                    MissReason::TooShort
+                } else {
+                    MissReason::TooNoisy
+                },
+            });
+        }
+    }
+    (events, missed)
+}
+
+/// Settings that would take the missed stretches: the adaptive rule applied to the too-short
+/// ones (their longest quiet run at the first pass's window, that window added back), the noise
+/// factor raised past the too-noisy ones' deviations; tried on the same data.
+#[allow(clippy::too_many_arguments)]
+fn suggest(
+    t: &[f64],
+    w: &[[f64; 3]],
+    f: &[[f64; 3]],
+    first: &Pass,
+    blocks: &[(usize, usize)],
+    used: &DetectorSettings,
+    missed: &[QuietStretch],
+    first_window_s: f64,
+    noise_min_duration_s: f64,
+    median: f64,
+) -> Suggestion {
+    let runs = first.runs(blocks, |i| first.is_static(i));
+    let rests: Vec<f64> = missed
+        .iter()
+        .filter(|m| m.reason == MissReason::TooShort)
+        .map(|m| {
+            let longest = runs
+                .iter()
+                .filter(|&&(i, j)| i >= m.first_record && j <= m.last_record)
+                .map(|&(i, j)| t[j] - t[i])
+                .fold(0.0, f64::max);
+            longest + first_window_s
+        })
+        .collect();
+    let (window_s, min_duration_s) = if rests.is_empty() {
+        (used.window_s, used.min_duration_s)
+    } else {
+        let d = quantile(&rests, TYPICAL_REST_QUANTILE);
+        let window = bounded(d * WINDOW_PER_REST, first_window_s, used.window_s).0;
+        let min = bounded(
+            d * MIN_DURATION_PER_REST,
+            window.max(noise_min_duration_s),
+            used.min_duration_s,
+        )
+        .0;
+        (window, min)
+    };
+    // The noise factor that puts the too-noisy stretches' typical (median) deviation, relative
+    // to the floor, a quarter below the threshold; rounded up to a half.
+    let mut noise_factor = used.noise_factor;
+    for m in missed.iter().filter(|m| m.reason == MissReason::TooNoisy) {
+        let ratios: Vec<f64> = (m.first_record..=m.last_record)
+            .map(|i| (first.win.std_f[i] / first.floor_f).max(first.win.std_w[i] / first.floor_w))
+            .collect();
+        let needed = (quantile(&ratios, 0.5) * 1.25 * 2.0).ceil() / 2.0;
+        if needed.is_finite() {
+            noise_factor = noise_factor.max(needed);
+        }
+    }
+    let tried = DetectorSettings {
+        window_s,
+        min_duration_s,
+        noise_factor,
+        adapt_window: false,
+        adapt_min_duration: false,
+        ..*used
+    };
+    let h = half_window(window_s, median);
+    let pass = Pass::new(w, f, blocks, h, &tried, noise_factor);
+    let intervals = intervals_of(t, w, f, &pass, blocks, &tried, median);
+    Suggestion {
+        window_s,
+        min_duration_s,
+        noise_factor,
+        would_take: missed
+            .iter()
+            .filter(|m| holds_rest(&intervals, m.first_record, m.last_record))
+            .count(),
+        static_intervals: intervals.len(),
+    }
 }
 
 /// The `q` quantile of `v` (by selection; NaN for an empty slice).

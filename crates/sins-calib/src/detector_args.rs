@@ -9,7 +9,9 @@ use calib::rests::Rest;
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Static detection (recordings without a program)")]
 pub struct DetectorArgs {
-    /// Length of the sliding window centred on each record, in seconds.
+    /// Length of the sliding window centred on each record, in seconds. Default: a quarter of
+    /// the typical rest (the lower quartile of the quiet stretches a 0.25-s window finds), at
+    /// most 1 s and at least 0.25 s.
     #[arg(long = "rest-window", value_name = "SECONDS")]
     pub window: Option<f64>,
     /// Largest standard deviation of the specific force over the window (root of the summed
@@ -23,7 +25,8 @@ pub struct DetectorArgs {
     /// Largest magnitude of the mean angular rate over the window, rad/s.
     #[arg(long = "rest-max-rate", value_name = "RAD_S")]
     pub max_rate: Option<f64>,
-    /// Shortest rest, in seconds.
+    /// Shortest rest, in seconds. Default: half the typical rest, at most 2 s, at least the
+    /// window and the time the noise needs for a mean good to 0.002 m/s^2 on each axis.
     #[arg(long = "rest-min-duration", value_name = "SECONDS")]
     pub min_duration: Option<f64>,
     /// The deviation thresholds are at least this many times the recording's noise floor (the
@@ -58,26 +61,36 @@ impl DetectorArgs {
             max_rate_rad_s: self.max_rate.unwrap_or(d.max_rate_rad_s),
             min_duration_s: self.min_duration.unwrap_or(d.min_duration_s),
             noise_factor: self.noise_factor.unwrap_or(d.noise_factor),
+            // A window or minimum given is used as it is; otherwise the recording's rests set it.
+            adapt_window: self.window.is_none(),
+            adapt_min_duration: self.min_duration.is_none(),
             ..d
         };
         s.check().map_err(|e| {
             let option = e
                 .split(' ')
                 .next()
-                .map(|setting| match setting {
-                    "window_s" => "--rest-window",
-                    "max_std_f_m_s2" => "--rest-max-std-f",
-                    "max_std_w_rad_s" => "--rest-max-std-w",
-                    "max_rate_rad_s" => "--rest-max-rate",
-                    "min_duration_s" => "--rest-min-duration",
-                    "noise_factor" => "--rest-noise-factor",
-                    _ => "a detector option",
-                })
-                .unwrap_or("a detector option");
+                .map(option_name)
+                .unwrap_or_else(|| "a detector option".to_string());
             format!("{option}: {e}")
         })?;
         Ok(s)
     }
+}
+
+/// The option of a detector setting (`DetectorSettings` field name), for messages and for
+/// `Segmentation::missed_report`.
+pub fn option_name(setting: &str) -> String {
+    match setting {
+        "window_s" => "--rest-window",
+        "max_std_f_m_s2" => "--rest-max-std-f",
+        "max_std_w_rad_s" => "--rest-max-std-w",
+        "max_rate_rad_s" => "--rest-max-rate",
+        "min_duration_s" => "--rest-min-duration",
+        "noise_factor" => "--rest-noise-factor",
+        _ => "a detector option",
+    }
+    .to_string()
 }
 
 /// The rests of a recording without a program, by the static detector with `settings`, on the
@@ -88,14 +101,61 @@ pub fn rests(
     file: &str,
     settings: &DetectorSettings,
 ) -> Result<Vec<Rest>, String> {
+    Ok(rests_and_segmentation(data, file, settings)?.0)
+}
+
+/// [`rests`] with the segmentation they come from: its `missed_report(option_name)` says when
+/// the motion suggests more rests than were found, and which `--rest-*` options would take them.
+pub fn rests_and_segmentation(
+    data: &calib::io::ImuData,
+    file: &str,
+    settings: &DetectorSettings,
+) -> Result<(Vec<Rest>, ::import::detect::Segmentation), String> {
     let seg = ::import::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
     let dt = seg.median_interval_s;
-    Ok(seg
+    let rests = seg
         .static_intervals
         .iter()
         .map(|r| Rest {
             t0: r.start_s - dt,
             t1: r.end_s,
         })
-        .collect())
+        .collect();
+    Ok((rests, seg))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(window: Option<f64>, min_duration: Option<f64>) -> DetectorArgs {
+        DetectorArgs {
+            window,
+            max_std_f: None,
+            max_std_w: None,
+            max_rate: None,
+            min_duration,
+            noise_factor: None,
+        }
+    }
+
+    #[test]
+    fn a_given_window_or_minimum_is_not_adapted() {
+        let s = args(None, None).settings().unwrap();
+        assert!(s.adapt_window && s.adapt_min_duration);
+        let s = args(Some(0.5), None).settings().unwrap();
+        assert!(!s.adapt_window && s.adapt_min_duration);
+        assert_eq!(s.window_s, 0.5);
+        let s = args(None, Some(1.0)).settings().unwrap();
+        assert!(s.adapt_window && !s.adapt_min_duration);
+        assert_eq!(s.min_duration_s, 1.0);
+    }
+
+    #[test]
+    fn bad_settings_name_the_option() {
+        let e = args(Some(-1.0), None).settings().unwrap_err();
+        assert!(e.starts_with("--rest-window: window_s = -1"), "{e}");
+        let e = args(None, Some(f64::NAN)).settings().unwrap_err();
+        assert!(e.starts_with("--rest-min-duration:"), "{e}");
+    }
 }

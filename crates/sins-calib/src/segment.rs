@@ -19,9 +19,11 @@ pub struct Args {
     /// between them and any gaps (docs/formats.md "Segment file").
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
-    /// Length of the sliding window centred on each record, in seconds.
-    #[arg(long, value_name = "SECONDS", default_value_t = DetectorSettings::default().window_s)]
-    pub window: f64,
+    /// Length of the sliding window centred on each record, in seconds. Default: a quarter of
+    /// the typical rest (the lower quartile of the quiet stretches a 0.25-s window finds), at
+    /// most 1 s and at least 0.25 s.
+    #[arg(long, value_name = "SECONDS")]
+    pub window: Option<f64>,
     /// Largest standard deviation of the specific force over the window (root of the summed
     /// variances of the three axes), m/s^2.
     #[arg(long, value_name = "M_S2", default_value_t = DetectorSettings::default().max_std_f_m_s2)]
@@ -33,9 +35,15 @@ pub struct Args {
     /// rotation from passing for rest; above any plausible gyro bias).
     #[arg(long, value_name = "RAD_S", default_value_t = DetectorSettings::default().max_rate_rad_s)]
     pub max_rate: f64,
-    /// Shortest static interval, in seconds (first to last record).
-    #[arg(long, value_name = "SECONDS", default_value_t = DetectorSettings::default().min_duration_s)]
-    pub min_duration: f64,
+    /// Shortest static interval, in seconds (first to last record). Default: half the typical
+    /// rest, at most 2 s, at least the window and the time the noise needs for a mean good to
+    /// 0.002 m/s^2 on each axis.
+    #[arg(long, value_name = "SECONDS")]
+    pub min_duration: Option<f64>,
+    /// The deviation thresholds are at least this many times the recording's noise floor (the
+    /// tenth percentile of the windowed deviations); 0 keeps them as given.
+    #[arg(long, value_name = "FACTOR", default_value_t = DetectorSettings::default().noise_factor)]
+    pub noise_factor: f64,
     /// An interval between records longer than this many median intervals is a gap; static
     /// intervals end at gaps.
     #[arg(long, value_name = "FACTOR", default_value_t = DetectorSettings::default().gap_factor)]
@@ -139,20 +147,97 @@ fn check_static_force(seg: &Segmentation, file: &str) -> Result<(), Error> {
 /// The band of the mean specific force of a static interval, in units of g.
 const G_AT_REST: (f64, f64) = (0.5, 1.5);
 
+/// A setting to three significant digits, without trailing zeros (1, 0.1, 0.563).
+fn short(x: f64) -> String {
+    table::compact(table::significant(x, 3).parse().unwrap_or(x))
+}
+
+/// This command's option for a detector setting (`DetectorSettings` field name), for messages
+/// and the report of missed rests.
+fn option_name(setting: &str) -> String {
+    match setting {
+        "window_s" => "--window",
+        "max_std_f_m_s2" => "--max-std-f",
+        "max_std_w_rad_s" => "--max-std-w",
+        "max_rate_rad_s" => "--max-rate",
+        "min_duration_s" => "--min-duration",
+        "noise_factor" => "--noise-factor",
+        "gap_factor" => "--gap-factor",
+        _ => "a detector option",
+    }
+    .to_string()
+}
+
+/// How the window and the minimum duration were chosen, as a line of the printout.
+fn chosen(seg: &Segmentation) -> String {
+    use ::import::detect::Source;
+    let a = &seg.adaptation;
+    let sig = table::significant;
+    let why = |source: Source, what: &str, fraction: &str, lower: &str| match source {
+        Source::Given => format!("{what} given"),
+        Source::Default => match a.typical_rest_s {
+            Some(_) => format!("{what} the default (the rests are long enough for it)"),
+            None => format!("{what} the default (no quiet stretch to adapt to)"),
+        },
+        Source::Rests => format!("{what} {fraction} of the typical rest"),
+        Source::LowerBound => format!("{what} at its lower bound ({lower})"),
+    };
+    let mut line = format!(
+        "    chosen: {}; {}",
+        why(a.window, "window", "a quarter", "the first pass's window"),
+        why(
+            a.min_duration,
+            "minimum",
+            "half",
+            &format!(
+                "the window, or {} s for a usable mean",
+                sig(a.noise_min_duration_s, 2)
+            )
+        )
+    );
+    if seg.settings.adapt_window || seg.settings.adapt_min_duration {
+        match a.typical_rest_s {
+            Some(d) => {
+                let _ = write!(
+                    line,
+                    "; typical rest {} s (lower quartile of {} quiet stretch{} at a {}-s window)",
+                    sig(d, 3),
+                    a.quiet_stretches,
+                    if a.quiet_stretches == 1 { "" } else { "es" },
+                    sig(a.first_pass_window_s, 2)
+                );
+            }
+            None => {
+                let _ = write!(
+                    line,
+                    "; no quiet stretch at a {}-s window",
+                    sig(a.first_pass_window_s, 2)
+                );
+            }
+        }
+    }
+    line
+}
+
 /// Run `segment`.
 pub fn run(args: &Args) -> Result<(), Error> {
+    let d = DetectorSettings::default();
     let settings = DetectorSettings {
-        window_s: args.window,
+        window_s: args.window.unwrap_or(d.window_s),
         max_std_f_m_s2: args.max_std_f,
         max_std_w_rad_s: args.max_std_w,
         max_rate_rad_s: args.max_rate,
-        min_duration_s: args.min_duration,
+        min_duration_s: args.min_duration.unwrap_or(d.min_duration_s),
         gap_factor: args.gap_factor,
-        ..DetectorSettings::default()
+        noise_factor: args.noise_factor,
+        adapt_window: args.window.is_none(),
+        adapt_min_duration: args.min_duration.is_none(),
+        ..d
     };
-    settings
-        .check()
-        .map_err(|e| format!("segment: detector setting {e}"))?;
+    settings.check().map_err(|e| {
+        let setting = e.split(' ').next().unwrap_or_default();
+        format!("segment: {}: {e}", option_name(setting))
+    })?;
     if let Some(path) = &args.json {
         output::check_file(path, "--json", &[&args.imu])?;
     }
@@ -173,17 +258,35 @@ pub fn run(args: &Args) -> Result<(), Error> {
         c(seg.t_last_s),
         c(seg.median_interval_s)
     );
+    let used = &seg.settings;
     let _ = writeln!(
         s,
         "  detector: window {} s ({} records), std f < {} m/s^2, std w < {} rad/s, |mean w| < {} \
          rad/s, at least {} s",
-        c(settings.window_s),
+        short(used.window_s),
         seg.window_records,
-        c(settings.max_std_f_m_s2),
-        c(settings.max_std_w_rad_s),
-        c(settings.max_rate_rad_s),
-        c(settings.min_duration_s)
+        short(seg.threshold_std_f_m_s2),
+        short(seg.threshold_std_w_rad_s),
+        c(used.max_rate_rad_s),
+        short(used.min_duration_s)
     );
+    let _ = writeln!(s, "{}", chosen(&seg));
+    let raised: Vec<String> = [
+        ("std f", seg.threshold_std_f_m_s2, used.max_std_f_m_s2),
+        ("std w", seg.threshold_std_w_rad_s, used.max_std_w_rad_s),
+    ]
+    .iter()
+    .filter(|(_, t, given)| t > given)
+    .map(|(what, _, given)| format!("{what} (from {})", c(*given)))
+    .collect();
+    if !raised.is_empty() {
+        let _ = writeln!(
+            s,
+            "    thresholds raised to {} x the noise floor: {}",
+            c(used.noise_factor),
+            raised.join(", ")
+        );
+    }
     let n = seg.static_intervals.len();
     let durations: Vec<f64> = seg.static_intervals.iter().map(|x| x.duration_s).collect();
     let (lo, hi) = durations
@@ -237,6 +340,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
             ]);
         }
         s += &t.render();
+    }
+    if let Some(lines) = seg.missed_report(option_name) {
+        s.push('\n');
+        for line in lines {
+            let _ = writeln!(s, "  {line}");
+        }
     }
     for g in &seg.gaps {
         let _ = writeln!(
