@@ -113,6 +113,7 @@ fn the_loop_accepts_the_accelerometer_quadratic_term_of_a_navigation_grade_recor
     let imu = ImuData::from_samples(&sim.imu);
     let rests = crate::rests::rests(&truth);
     let (own, noise) = from_data(&truth, &imu, &rests);
+    println!("noise-free recording: measured {noise:?}");
     let data = RunData {
         imu: &imu,
         imu_file: "imu.csv",

@@ -290,7 +290,9 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
     // The calibrated turn (deg) for parameter values `values` (by state index).
     let turn_of = |names: &[String], values: &[f64], intervals: &[calib::free_motion::Interval]| {
         let value = |n: &str| names.iter().position(|m| m == n).map(|i| values[i]);
-        let e = calib::free_motion::evaluate(&imu, intervals, &[known(angle)], None, g, &value);
+        let none = calib::free_motion::EarthRotation::at(0.0, f64::INFINITY);
+        let e =
+            calib::free_motion::evaluate(&imu, intervals, &[known(angle)], None, g, &none, &value);
         e.turns[0].after_rad.to_degrees()
     };
     let calibrated = |offset_deg: Option<f64>| {

@@ -850,7 +850,13 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
     let (mut accepted, mut rounds, mut gains) = (Vec::new(), Vec::new(), BTreeMap::new());
     loop {
         cx.scaled = None;
-        let reference = match noise_rescale(&current.estimate.stats, with_turntable) {
+        // A fit that measures its own noise ([`LoopSettings::measured_noise`]) is at the data's
+        // scale already.
+        let rescale = match settings.measured_noise {
+            Some(_) => None,
+            None => noise_rescale(&current.estimate.stats, with_turntable),
+        };
+        let reference = match rescale {
             Some(r) => {
                 let mut scaled = cx.config.clone();
                 scaled.noise.accel_m_s2 *= r.accel_factor;

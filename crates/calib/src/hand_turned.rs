@@ -60,11 +60,18 @@ pub const NAVIGATION_MAX_GYRO_NOISE_DEG_H: f64 = 1.0;
 /// 1 deg/sqrt(h) (tactical FOGs and MEMS are at 0.05 to 0.5).
 pub const TACTICAL_MAX_GYRO_NOISE_DEG_H: f64 = 60.0;
 
-/// Floors of measured white noise (sigma of a 1-s mean): a noise-free recording (a simulation)
-/// would otherwise give the filter no measurement noise at all. Far below any instrument's.
-pub const NOISE_FLOOR_GYRO_DEG_H: f64 = 1e-4;
+/// Floors of measured white noise (sigma of a 1-s mean), of the measured level and of the level
+/// a fit scales it to: a noise-free recording (a simulation) would otherwise give the filter no
+/// measurement noise at all (1e-15 m/s^2 in the rests of this project's simulator). Measured,
+/// not derived: on the noise-free navigation-grade 19-position recording of
+/// `tests/tests/hand_turned.rs` the filter runs away (mean NIS 1e10 and more) with the
+/// specific force's noise at 1e-5 m/s^2 and the gyros' at 0.01 to 0.05 deg/h, and is exact
+/// (mean NIS 0.12, its model having no error) at 3e-5 m/s^2 with 0.01 or 0.03 deg/h. Both
+/// floors are below a navigation-grade unit's 1-s noise (0.03 to 0.3 deg/h for ring lasers,
+/// 1e-4 m/s^2 and more for their accelerometers).
+pub const NOISE_FLOOR_GYRO_DEG_H: f64 = 0.01;
 /// See [`NOISE_FLOOR_GYRO_DEG_H`] (m/s^2).
-pub const NOISE_FLOOR_ACCEL_M_S2: f64 = 1e-7;
+pub const NOISE_FLOOR_ACCEL_M_S2: f64 = 3e-5;
 
 /// The grade a recording without a configuration is calibrated at, and why.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -257,6 +264,11 @@ pub fn default_config(
     Some(c)
 }
 
+/// The largest motion noise the fit measures (rad, 5.7 deg): a hand turn that leaves the
+/// attitude more uncertain than this carries nothing from one rest to the next, and a model
+/// that calls for more misses something a noise cannot stand for.
+pub const MAX_MOTION_NOISE_RAD: f64 = 0.1;
+
 /// A motion noise below this (rad, 0.2 arcsec) is no different from none.
 pub const MOTION_NOISE_NEGLIGIBLE_RAD: f64 = 1e-6;
 
@@ -375,8 +387,10 @@ pub struct NoiseMl {
 /// (the specific force at rest `(0, 0, g)` in ENU turns a tilt `beta` into the horizontal
 /// innovation `f x beta`; the heading does not show). `S0`, the part of `S` from the states'
 /// own uncertainty, is `S` less both at the values the fit was made with. The likelihood is
-/// maximised over `k` (0.05 to 50) and `q >= 0` (a grid in `log q` from 1e-8 to 1 rad, refined
-/// by golden section), coordinate by coordinate. Later windows depend on both only through the
+/// maximised over `k` (from `min_factor`, which keeps the level at [`NOISE_FLOOR_ACCEL_M_S2`],
+/// and at least 1e-3, to 1e4, a misfit far above the noise) and `q >= 0` (a grid in `log sqrt(q)`
+/// from 1e-8 to [`MAX_MOTION_NOISE_RAD`], refined by golden section), coordinate by
+/// coordinate. Later windows depend on both only through the
 /// states after the earlier ones: the estimate is one step of an iteration that
 /// [`fit_measuring_noise`] repeats to a fixed point. `None` without windows.
 pub fn noise_ml(
@@ -384,6 +398,7 @@ pub fn noise_ml(
     rests: usize,
     fitted: (f64, f64),
     base_window_var: f64,
+    min_factor: f64,
     g: f64,
 ) -> Option<NoiseMl> {
     let (k_fit, sigma_fit) = fitted;
@@ -450,8 +465,8 @@ pub fn noise_ml(
         // The scale, in its logarithm.
         let lk = golden(
             &|x: f64| log_likelihood(x.exp(), sigma * sigma),
-            0.05f64.ln(),
-            50f64.ln(),
+            min_factor.max(1e-3).ln(),
+            1e4f64.ln(),
         );
         k = lk.exp();
         if motion_windows == 0 {
@@ -460,7 +475,7 @@ pub fn noise_ml(
         // The motion noise: sigma = 10^x rad on a grid, or none; then golden section.
         let (mut best_x, mut best) = (f64::NEG_INFINITY, log_likelihood(k, 0.0));
         let mut x = -8.0;
-        while x <= 1e-9 {
+        while x <= MAX_MOTION_NOISE_RAD.log10() + 1e-9 {
             let l = log_likelihood(k, 10f64.powf(2.0 * x));
             if l > best {
                 (best_x, best) = (x, l);
@@ -635,6 +650,7 @@ pub fn fit_measuring_noise(
             input.rests.len(),
             (factor, motion),
             base_accel * base_accel * config.filter.accel_rate_hz,
+            NOISE_FLOOR_ACCEL_M_S2 / base_accel,
             g,
         );
         let (next_factor, next_motion) =

@@ -337,6 +337,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         bar.set_position(done as u64);
     };
     let mut hand_turned = None;
+    let mut missed_rests = None;
     let est = match &input.program {
         Some(_) => {
             let layout = layout_for(&input.config, turntable.is_some());
@@ -357,7 +358,9 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 .detector
                 .settings()
                 .map_err(|e| format!("calibrate: {e}"))?;
-            let rests = crate::detector_args::rests(&data, &input.imu_file, &settings)?;
+            let (rests, seg) =
+                crate::detector_args::rests_and_segmentation(&data, &input.imu_file, &settings)?;
+            missed_rests = seg.missed_report(crate::detector_args::option_name);
             let (layout, turns, measured, origin) = if args.free_motion {
                 let given = args
                     .config
@@ -401,6 +404,9 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     bar.finish_and_clear();
 
     let mut s = header_report(&input, &est);
+    for line in missed_rests.iter().flatten() {
+        let _ = writeln!(s, "  missed rests    {line}");
+    }
     if let Some((r, Some(setup))) = &hand_turned {
         s += &crate::free_motion::header(setup, r, args.holdout);
     }

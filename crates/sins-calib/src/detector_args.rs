@@ -94,18 +94,9 @@ pub fn option_name(setting: &str) -> String {
 }
 
 /// The rests of a recording without a program, by the static detector with `settings`, on the
-/// IMU clock: each from the start of its first record's interval to its last record's time
-/// stamp.
-pub fn rests(
-    data: &calib::io::ImuData,
-    file: &str,
-    settings: &DetectorSettings,
-) -> Result<Vec<Rest>, String> {
-    Ok(rests_and_segmentation(data, file, settings)?.0)
-}
-
-/// [`rests`] with the segmentation they come from: its `missed_report(option_name)` says when
-/// the motion suggests more rests than were found, and which `--rest-*` options would take them.
+/// IMU clock (each from the start of its first record's interval to its last record's time
+/// stamp), with the segmentation they come from: its `missed_report(option_name)` says when the
+/// motion suggests more rests than were found, and which `--rest-*` options would take them.
 pub fn rests_and_segmentation(
     data: &calib::io::ImuData,
     file: &str,

@@ -623,7 +623,15 @@ pub fn run(args: &Args) -> Result<bool, Error> {
             .detector
             .settings()
             .map_err(|e| format!("diagnose: {e}"))?;
-        let rests = crate::detector_args::rests(&imu, &imu_file, &detector)?;
+        let (rests, seg) =
+            crate::detector_args::rests_and_segmentation(&imu, &imu_file, &detector)?;
+        for line in seg
+            .missed_report(crate::detector_args::option_name)
+            .iter()
+            .flatten()
+        {
+            eprintln!("diagnose: {line}");
+        }
         let (turns, known) = if args.free_motion {
             let given = args.config.is_some().then_some((&config, origin.as_str()));
             let setup = crate::free_motion::setup(
