@@ -124,6 +124,25 @@ impl Blocks {
         }
         let total: usize = intervals.iter().map(|r| r.len()).sum();
         let m = total.div_ceil(max_blocks.max(1)).max(1);
+        Blocks::of_length(increments, tau0_s, intervals, m)
+    }
+
+    /// Block the increments of the static `intervals` into blocks of `records` records each
+    /// (the last of each interval shorter), as [`Blocks::new`] does.
+    pub fn of_length(
+        increments: &[f64],
+        tau0_s: f64,
+        intervals: &[Range<usize>],
+        records: usize,
+    ) -> Result<Blocks, NoiseError> {
+        if !(tau0_s.is_finite() && tau0_s > 0.0) {
+            return Err(NoiseError::BadInterval0(tau0_s));
+        }
+        check_intervals(increments.len(), intervals)?;
+        if let Some(i) = increments.iter().position(|x| !x.is_finite()) {
+            return Err(NoiseError::NotFinite { record: i });
+        }
+        let m = records.max(1);
         let mut out = Vec::new();
         for r in intervals {
             let data = &increments[r.clone()];
@@ -1067,6 +1086,20 @@ pub fn fit_ml(
     intervals: &[Range<usize>],
 ) -> Result<MlFit, NoiseError> {
     let blocks = Blocks::new(increments, tau0_s, intervals, MAX_BLOCKS)?;
+    fit_blocks(&blocks)
+}
+
+/// [`fit_ml`] on blocks of at least `min_records` records (more where [`MAX_BLOCKS`] needs
+/// them).
+pub fn fit_ml_blocks(
+    increments: &[f64],
+    tau0_s: f64,
+    intervals: &[Range<usize>],
+    min_records: usize,
+) -> Result<MlFit, NoiseError> {
+    let total: usize = intervals.iter().map(|r| r.len()).sum();
+    let m = total.div_ceil(MAX_BLOCKS).max(min_records).max(1);
+    let blocks = Blocks::of_length(increments, tau0_s, intervals, m)?;
     fit_blocks(&blocks)
 }
 
