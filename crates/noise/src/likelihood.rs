@@ -746,9 +746,21 @@ pub struct MlFit {
     pub block_s: f64,
     /// Number of blocks.
     pub blocks: usize,
+    /// The sensor's correlation time the blocks were chosen above (s; [`correlation_records`]
+    /// times the record interval; 0 where not estimated).
+    pub correlation_s: f64,
+    /// Whether the Gauss-Markov correlation time sits at a bound of its search (10 blocks or
+    /// 1000 longest intervals): then the value is the bound's, not the data's.
+    pub tc_at_bound: bool,
 }
 
 impl MlFit {
+    /// Whether the model passes its check against the data (whiteness p at least
+    /// [`SELECTION_P`]); a fit without a check (too few innovations) does not.
+    pub fn passes(&self) -> bool {
+        self.whiteness.is_some_and(|w| w.p_value >= SELECTION_P)
+    }
+
     /// The fitted model (maximum-likelihood values).
     pub fn model(&self) -> Model {
         Model {
@@ -1053,6 +1065,11 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
             whiteness: whiteness(blocks, &gm),
             block_s: blocks.block_s,
             blocks: blocks.len(),
+            correlation_s: 0.0,
+            tc_at_bound: gm.gauss_markov.is_some_and(|(_, tc)| {
+                let (lo, hi) = (10.0 * blocks.block_s, 1000.0 * blocks.longest_s());
+                tc < lo * 1.01 || tc > hi / 1.01
+            }),
         })
     } else {
         let (white, walk) = base_levels(blocks, n, k, best);
@@ -1073,6 +1090,8 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
             ),
             block_s: blocks.block_s,
             blocks: blocks.len(),
+            correlation_s: 0.0,
+            tc_at_bound: false,
         })
     }
 }
@@ -1085,8 +1104,54 @@ pub fn fit_ml(
     tau0_s: f64,
     intervals: &[Range<usize>],
 ) -> Result<MlFit, NoiseError> {
-    let blocks = Blocks::new(increments, tau0_s, intervals, MAX_BLOCKS)?;
-    fit_blocks(&blocks)
+    check_intervals(increments.len(), intervals)?;
+    let k = correlation_records(increments, intervals);
+    let mut fit = fit_ml_blocks(increments, tau0_s, intervals, BLOCKS_PER_CORRELATION * k)?;
+    fit.correlation_s = k as f64 * tau0_s;
+    Ok(fit)
+}
+
+/// Block length per record of the sensor's correlation ([`correlation_records`]): block means
+/// ten correlation lengths long are nearly independent (the correlation of neighbouring means
+/// is about the correlation length over the block length) and the filter's deficit in their
+/// variance is a few per cent at most.
+pub const BLOCKS_PER_CORRELATION: usize = 10;
+
+/// The sensor's correlation length in records, from the data: the number of leading lags at
+/// which the sample autocorrelation of the increments (each interval's mean removed, pooled
+/// over the intervals) is above `3 / sqrt(n)`, searched up to a tenth of the longest interval
+/// (at most 1000 lags). 0 for white samples; a sensor whose own low-pass filter correlates
+/// neighbouring samples shows the filter's length (the Xsens recording: about 7 records on
+/// gyro x).
+pub fn correlation_records(increments: &[f64], intervals: &[Range<usize>]) -> usize {
+    let centred: Vec<Vec<f64>> = intervals
+        .iter()
+        .filter(|r| r.end <= increments.len() && r.len() >= 2)
+        .map(|r| {
+            let d = &increments[r.clone()];
+            let mean = d.iter().sum::<f64>() / d.len() as f64;
+            d.iter().map(|v| v - mean).collect()
+        })
+        .collect();
+    let n: usize = centred.iter().map(Vec::len).sum();
+    let g0: f64 = centred.iter().flatten().map(|v| v * v).sum();
+    if n < 10 || !(g0 > 0.0) {
+        return 0;
+    }
+    let threshold = 3.0 / (n as f64).sqrt();
+    let longest = centred.iter().map(Vec::len).max().unwrap_or(0);
+    let max_lag = (longest / 10).min(1000);
+    for k in 1..=max_lag {
+        let gk: f64 = centred
+            .iter()
+            .filter(|c| c.len() > k)
+            .map(|c| c.iter().zip(&c[k..]).map(|(a, b)| a * b).sum::<f64>())
+            .sum();
+        if gk / g0 < threshold {
+            return k - 1;
+        }
+    }
+    max_lag
 }
 
 /// [`fit_ml`] on blocks of at least `min_records` records (more where [`MAX_BLOCKS`] needs
