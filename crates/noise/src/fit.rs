@@ -292,8 +292,7 @@ pub fn digamma(mut x: f64) -> f64 {
         x += 1.0;
     }
     let x2 = 1.0 / (x * x);
-    r + x.ln() - 0.5 / x
-        - x2 * (1.0 / 12.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 252.0 - x2 / 240.0)))
+    r + x.ln() - 0.5 / x - x2 * (1.0 / 12.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 252.0 - x2 / 240.0)))
 }
 
 /// The trigamma function `psi'(x)`, `x > 0`: recurrence up to 6, then the asymptotic series.
@@ -554,10 +553,8 @@ fn left_out_variance(p: &Problem, f: &SubsetFit, j: usize) -> f64 {
     let (_, jac, _) = evaluate(p, &cols, &log_c);
     let m = p.tau.len();
     let a: Vec<f64> = (0..m).map(|i| model(f, p.tau[i])).collect();
-    let col = -(&p.linv
-        * DVector::from_fn(m, |i, _| {
-            p.tau[i].powi(Term::ALL[j].exponent()) / a[i]
-        }));
+    let col =
+        -(&p.linv * DVector::from_fn(m, |i, _| p.tau[i].powi(Term::ALL[j].exponent()) / a[i]));
     let mut full = DMatrix::zeros(m, cols.len() + 1);
     full.columns_mut(0, cols.len()).copy_from(&jac);
     full.column_mut(cols.len()).copy_from(&col);
@@ -757,7 +754,8 @@ fn bends_down(p: &[AllanPoint], a: usize, b: usize) -> bool {
         let s1 = (l(i) - l(i - 1)) / d1;
         let s2 = (l(i + 1) - l(i)) / d2;
         // Variance of s2 - s1 with the three estimates taken as independent.
-        let var = v(i - 1) / (d1 * d1) + v(i) * (1.0 / d1 + 1.0 / d2).powi(2) + v(i + 1) / (d2 * d2);
+        let var =
+            v(i - 1) / (d1 * d1) + v(i) * (1.0 / d1 + 1.0 / d2).powi(2) + v(i + 1) / (d2 * d2);
         s1 - s2 > 2.0 * var.sqrt()
     })
 }

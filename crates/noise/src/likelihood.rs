@@ -1135,7 +1135,7 @@ pub fn correlation_records(increments: &[f64], intervals: &[Range<usize>]) -> us
         .collect();
     let n: usize = centred.iter().map(Vec::len).sum();
     let g0: f64 = centred.iter().flatten().map(|v| v * v).sum();
-    if n < 10 || !(g0 > 0.0) {
+    if n < 10 || g0.is_nan() || g0 <= 0.0 {
         return 0;
     }
     let threshold = 3.0 / (n as f64).sqrt();
