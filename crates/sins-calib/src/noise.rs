@@ -499,11 +499,20 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
     }
     let mut notes = String::new();
     for (a, m) in sn.ml.iter().enumerate() {
-        let corr = format!(
-            "blocks of {} s above the sensor's correlation time {} s",
-            table::significant(m.block_s, 3),
-            table::significant(m.correlation_s, 2)
-        );
+        let corr = if m.below_correlation() {
+            format!(
+                "blocks of {} s, a tenth of the longest interval, short of ten times the \
+                 sensor's correlation time {} s",
+                table::significant(m.block_s, 3),
+                table::significant(m.correlation_s, 2)
+            )
+        } else {
+            format!(
+                "blocks of {} s above the sensor's correlation time {} s",
+                table::significant(m.block_s, 3),
+                table::significant(m.correlation_s, 2)
+            )
+        };
         match m.whiteness {
             Some(w) if w.p_value < ::noise::likelihood::SELECTION_P => {
                 let _ = writeln!(
