@@ -55,7 +55,8 @@
 //! short recordings the selection of terms confuses a bias walk with a bias instability.
 
 use crate::NoiseError;
-use crate::allan::AllanCurve;
+use crate::allan::{AllanCurve, AllanPoint};
+use crate::edf;
 use crate::edf::NoiseType;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -158,22 +159,86 @@ pub struct TermEstimate {
     pub coefficient_sigma: f64,
 }
 
+/// Confidence level of the band the fitted sum is checked against: two sigma (95.4 %). The
+/// plotted band is the 68 % one; against it a right model misses about a third of the points.
+pub const BAND_LEVEL: f64 = 0.954_499_736_103_641_6;
+
+/// Why the fitted sum leaves the measured band over a run of averaging times.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MisfitKind {
+    /// Below the shortest averaging time fitted (the sensor's correlation time): not fitted,
+    /// and the five terms have nothing for a sensor's own filter.
+    BelowRange,
+    /// The data bend downwards there on the log-log plot (a slope that falls as tau grows: a
+    /// bump, or a curve flattening towards short tau): a sum of non-negative power laws only
+    /// bends upwards, so no combination of the terms can follow it.
+    Bend,
+    /// The data do not bend downwards here: the terms could follow this stretch alone; the
+    /// misfit is what the fit gave up for the points elsewhere.
+    Compromise,
+}
+
+impl MisfitKind {
+    /// A sentence for reports.
+    pub fn describe(self) -> &'static str {
+        match self {
+            MisfitKind::BelowRange => {
+                "below the fitted range (the sensor's correlation time): not fitted; no term \
+                 describes a sensor's own filter"
+            }
+            MisfitKind::Bend => {
+                "the data bend downwards here (their slope falls as tau grows): a sum of the \
+                 five terms only bends upwards, none can follow"
+            }
+            MisfitKind::Compromise => {
+                "the terms could follow this stretch alone: traded against the points elsewhere"
+            }
+        }
+    }
+}
+
+/// A run of neighbouring averaging times where the fitted sum is outside the measured
+/// deviation's [`BAND_LEVEL`] interval.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Misfit {
+    /// First averaging time of the run (s).
+    pub from_tau_s: f64,
+    /// Last averaging time of the run (s).
+    pub to_tau_s: f64,
+    /// Points in the run.
+    pub points: usize,
+    /// Fitted deviation over measured deviation at the point furthest outside its band (above
+    /// 1: the sum over-predicts).
+    pub worst_ratio: f64,
+    /// Whether the run's points were fitted (false: below the fitted range).
+    pub fitted: bool,
+    /// Why the terms do not follow the data there.
+    pub kind: MisfitKind,
+}
+
 /// A fit of the noise terms to an Allan variance curve.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NoiseFit {
     /// The five terms in [`Term::ALL`] order.
     pub terms: Vec<TermEstimate>,
-    /// Weighted sum of squared residuals of the variance, `sum (s^2 - model)^2 / var`, with
-    /// `var = 2 model^2 / edf`.
+    /// Generalised sum of squared residuals of the logarithm of the variance (module docs).
     pub chi2: f64,
-    /// Degrees of freedom of the fit: points minus terms.
+    /// Degrees of freedom of the fit: points fitted minus terms.
     pub dof: usize,
     /// Probability of a `chi2` this large or larger if the model were right.
     pub p_value: f64,
     /// Factor applied to the sigmas: `sqrt(chi2 / dof)` when above 1, else 1.
     pub sigma_scale: f64,
-    /// Passes of the iteration (weights and noise types from the last model).
+    /// Passes of the iteration (noise types from the last model).
     pub iterations: usize,
+    /// Shortest averaging time fitted (s); the points below it are shown, checked against the
+    /// band and reported, but not fitted.
+    pub tau_min_s: f64,
+    /// Points fitted.
+    pub points_fitted: usize,
+    /// Where the fitted sum leaves the [`BAND_LEVEL`] band of the measured deviation.
+    pub misfits: Vec<Misfit>,
 }
 
 impl NoiseFit {
@@ -202,23 +267,53 @@ impl NoiseFit {
             })
             .0
     }
+
+    /// Whether the fit passes its check: chi-square p-value at least [`CHECK_P`] and no
+    /// fitted stretch where the data bend in a way the terms cannot follow
+    /// ([`MisfitKind::Bend`]). A single point outside its 95 % band elsewhere is what chance
+    /// gives one time in twenty; the chi-square weighs it with the others.
+    pub fn passes(&self) -> bool {
+        self.p_value >= CHECK_P
+            && self
+                .misfits
+                .iter()
+                .all(|m| !(m.fitted && m.kind == MisfitKind::Bend))
+    }
 }
 
-/// Weighted least squares on the terms of `mask`: coefficients, their covariance (unscaled)
-/// and chi^2; `None` when the columns are (numerically) dependent.
-struct SubsetFit {
-    mask: u32,
-    coef: [f64; 5],
-    cov: [[f64; 5]; 5],
-    chi2: f64,
-    k: usize,
+/// p-value below which the fit's chi-square rejects it.
+pub const CHECK_P: f64 = 0.01;
+
+/// The digamma function `psi(x)`, `x > 0`: recurrence up to 6, then the asymptotic series.
+pub fn digamma(mut x: f64) -> f64 {
+    let mut r = 0.0;
+    while x < 6.0 {
+        r -= 1.0 / x;
+        x += 1.0;
+    }
+    let x2 = 1.0 / (x * x);
+    r + x.ln() - 0.5 / x - x2 * (1.0 / 12.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 252.0 - x2 / 240.0)))
 }
 
-/// The problem whitened by the covariance of the estimates: `L^-1 A` (all five columns) and
-/// `L^-1 y`, with `L L^T = Sigma` (module docs, "correlated estimates").
-struct Whitened {
-    a: DMatrix<f64>,
-    b: DVector<f64>,
+/// The trigamma function `psi'(x)`, `x > 0`: recurrence up to 6, then the asymptotic series.
+pub fn trigamma(mut x: f64) -> f64 {
+    let mut r = 0.0;
+    while x < 6.0 {
+        r += 1.0 / (x * x);
+        x += 1.0;
+    }
+    let x2 = 1.0 / (x * x);
+    r + 1.0 / x
+        + x2 / 2.0
+        + x2 / x * (1.0 / 6.0 - x2 * (1.0 / 30.0 - x2 * (1.0 / 42.0 - x2 / 30.0)))
+}
+
+/// Mean and variance of `ln(chi^2(edf) / edf)`: `psi(edf/2) - ln(edf/2)` and `psi'(edf/2)`.
+/// The logarithm of an Allan variance estimate with `edf` degrees of freedom is the logarithm
+/// of the true variance plus this (module docs).
+pub fn log_chi2_moments(edf: f64) -> (f64, f64) {
+    let h = 0.5 * edf.max(0.5);
+    (digamma(h) - h.ln(), trigamma(h))
 }
 
 /// Correlation of the Allan variance estimates at octaves `lag` apart when `noise` dominates
@@ -247,21 +342,38 @@ pub fn octave_correlation(noise: NoiseType, lag: usize) -> f64 {
     }
 }
 
-/// Whiten the problem: `Sigma_ij = s_i s_j rho_ij` with `rho_ij` the geometric mean of the
-/// two points' [`octave_correlation`]s at their distance in octaves (`log2` of the ratio of
-/// their `m`). Should that not be positive definite, the correlations are shrunk towards 0
-/// until it is.
-fn whiten(curve: &AllanCurve, y: &[f64], s: &[f64]) -> Option<Whitened> {
-    let p = &curve.points;
-    let m = p.len();
-    let octave = |i: usize| (p[i].m as f64).log2().round() as i64;
+/// The fit's problem on the points fitted: `y_i = ln s^2_i - E ln(chi^2/edf)`, their
+/// covariance's inverse Cholesky factor and the averaging times.
+struct Problem {
+    tau: Vec<f64>,
+    y: Vec<f64>,
+    /// `L^-1` with `L L^T = Sigma` (module docs).
+    linv: DMatrix<f64>,
+}
+
+/// The problem on `points` (module docs): the covariance `Sigma_ij = s_i s_j rho_ij`,
+/// `s_i^2 = psi'(edf_i / 2)`, `rho_ij` the geometric mean of the two points'
+/// [`octave_correlation`]s at their distance in octaves. Should that not be positive definite,
+/// the correlations are shrunk towards 0 until it is.
+fn problem(points: &[AllanPoint]) -> Option<Problem> {
+    let m = points.len();
+    let octave = |i: usize| (points[i].m as f64).log2().round() as i64;
     let rho = |i: usize, j: usize| {
         if i == j {
             return 1.0;
         }
         let lag = (octave(i) - octave(j)).unsigned_abs() as usize;
-        (octave_correlation(p[i].noise_type, lag) * octave_correlation(p[j].noise_type, lag)).sqrt()
+        (octave_correlation(points[i].noise_type, lag)
+            * octave_correlation(points[j].noise_type, lag))
+        .sqrt()
     };
+    let moments: Vec<(f64, f64)> = points.iter().map(|p| log_chi2_moments(p.edf)).collect();
+    let s: Vec<f64> = moments.iter().map(|x| x.1.sqrt()).collect();
+    let y: Vec<f64> = points
+        .iter()
+        .zip(&moments)
+        .map(|(p, x)| p.avar.ln() - x.0)
+        .collect();
     let mut shrink = 1.0;
     for _ in 0..40 {
         let sigma = DMatrix::from_fn(m, m, |i, j| {
@@ -269,90 +381,192 @@ fn whiten(curve: &AllanCurve, y: &[f64], s: &[f64]) -> Option<Whitened> {
             s[i] * s[j] * r
         });
         if let Some(ch) = sigma.cholesky() {
-            let l = ch.l();
-            let a = DMatrix::from_fn(m, 5, |i, c| p[i].tau_s.powi(Term::ALL[c].exponent()));
-            let a = l.solve_lower_triangular(&a)?;
-            let b = l.solve_lower_triangular(&DVector::from_column_slice(y))?;
-            return Some(Whitened { a, b });
+            let linv = ch.l().solve_lower_triangular(&DMatrix::identity(m, m))?;
+            return Some(Problem {
+                tau: points.iter().map(|p| p.tau_s).collect(),
+                y,
+                linv,
+            });
         }
         shrink *= 0.9;
     }
     None
 }
 
-fn solve(w: &Whitened, mask: u32) -> Option<SubsetFit> {
-    let cols: Vec<usize> = (0..5).filter(|j| mask & (1 << j) != 0).collect();
-    let (m, k) = (w.a.nrows(), cols.len());
-    if k == 0 || k > m {
+/// The best fit on one subset of terms: coefficients, the covariance of their logarithms
+/// (unscaled) and chi^2.
+#[derive(Clone, Debug)]
+struct SubsetFit {
+    mask: u32,
+    coef: [f64; 5],
+    cov_log: [[f64; 5]; 5],
+    chi2: f64,
+    k: usize,
+}
+
+fn columns(mask: u32) -> Vec<usize> {
+    (0..5).filter(|j| mask & (1 << j) != 0).collect()
+}
+
+/// Whitened residuals `L^-1 (y - ln A)`, the Jacobian of `ln A` in the logarithms of the
+/// coefficients of `cols` (whitened, sign of the residual's), and each term's share of `A`.
+fn evaluate(
+    p: &Problem,
+    cols: &[usize],
+    log_c: &[f64],
+) -> (DVector<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let m = p.tau.len();
+    let share = DMatrix::from_fn(m, cols.len(), |i, c| {
+        log_c[c].exp() * p.tau[i].powi(Term::ALL[cols[c]].exponent())
+    });
+    let a: Vec<f64> = (0..m).map(|i| share.row(i).sum()).collect();
+    let share = DMatrix::from_fn(m, cols.len(), |i, c| share[(i, c)] / a[i]);
+    let res = DVector::from_fn(m, |i, _| p.y[i] - a[i].ln());
+    (&p.linv * res, -(&p.linv * &share), share)
+}
+
+/// Levenberg-Marquardt on the logarithms of the coefficients of `mask` from `start`. `None`
+/// when the optimum lies on the boundary (a term whose share of the model stays below 1e-4 at
+/// every point: a smaller subset has it) or the problem is singular there.
+fn fit_subset(p: &Problem, mask: u32, start: &[f64; 5]) -> Option<SubsetFit> {
+    let cols = columns(mask);
+    let k = cols.len();
+    if k == 0 || k > p.tau.len() {
         return None;
     }
-    let mut a = DMatrix::from_fn(m, k, |i, c| w.a[(i, cols[c])]);
-    let b = &w.b;
-    // Columns scaled to unit length: tau^-2 and tau^2 differ by 1e20 over a long recording.
-    let scale: Vec<f64> = (0..k).map(|c| a.column(c).norm()).collect();
-    if scale.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+    let mut x: Vec<f64> = cols.iter().map(|&j| start[j].ln()).collect();
+    let (mut r, mut jac, mut share) = evaluate(p, &cols, &x);
+    let mut chi2 = r.norm_squared();
+    let mut lambda = 1e-3;
+    for _ in 0..300 {
+        let h = jac.transpose() * &jac;
+        let g = jac.transpose() * &r;
+        let mut a = h.clone();
+        for i in 0..k {
+            a[(i, i)] += lambda * h[(i, i)].max(1e-12);
+        }
+        let Some(delta) = a.lu().solve(&(-g)) else {
+            lambda *= 10.0;
+            continue;
+        };
+        // Steps in a logarithm beyond 3 (a factor 20) only chase a term towards 0.
+        let step: Vec<f64> = delta.iter().map(|d| d.clamp(-3.0, 3.0)).collect();
+        let trial: Vec<f64> = x.iter().zip(&step).map(|(a, b)| a + b).collect();
+        let (r2, j2, s2) = evaluate(p, &cols, &trial);
+        let chi2_new = r2.norm_squared();
+        if chi2_new.is_finite() && chi2_new <= chi2 {
+            let gain = chi2 - chi2_new;
+            (x, r, jac, share, chi2) = (trial, r2, j2, s2, chi2_new);
+            lambda = (lambda / 3.0).max(1e-12);
+            if gain <= 1e-12 * (1.0 + chi2) && step.iter().all(|d| d.abs() < 1e-7) {
+                break;
+            }
+        } else {
+            lambda *= 4.0;
+            if lambda > 1e12 {
+                break;
+            }
+        }
+    }
+    if (0..k).any(|c| share.column(c).max() < 1e-4) {
         return None;
     }
-    for (c, sc) in scale.iter().enumerate() {
-        a.column_mut(c).scale_mut(1.0 / sc);
-    }
-    // Householder QR: A = Q R, x = R^-1 Q^T b, (A^T A)^-1 = R^-1 R^-T.
-    let qr = a.clone().qr();
-    let (q, r) = (qr.q(), qr.r());
-    let diag: Vec<f64> = (0..k).map(|i| r[(i, i)].abs()).collect();
-    let (dmax, dmin) = diag
-        .iter()
-        .fold((0.0f64, f64::INFINITY), |(a, b), d| (a.max(*d), b.min(*d)));
-    if dmin.is_nan() || dmin <= 1e-10 * dmax {
-        return None;
-    }
-    let x = r.solve_upper_triangular(&(q.transpose() * b))?;
-    let r_inv = r.solve_upper_triangular(&DMatrix::identity(k, k))?;
-    let inv = &r_inv * r_inv.transpose();
-    let r = b - &a * &x;
+    let h = jac.transpose() * &jac;
+    let inv = h.try_inverse()?;
     let mut out = SubsetFit {
         mask,
         coef: [0.0; 5],
-        cov: [[0.0; 5]; 5],
-        chi2: r.norm_squared(),
+        cov_log: [[0.0; 5]; 5],
+        chi2,
         k,
     };
     for (ci, &i) in cols.iter().enumerate() {
-        out.coef[i] = x[ci] / scale[ci];
+        out.coef[i] = x[ci].exp();
         for (cj, &j) in cols.iter().enumerate() {
-            out.cov[i][j] = inv[(ci, cj)] / (scale[ci] * scale[cj]);
+            out.cov_log[i][j] = inv[(ci, cj)];
         }
     }
-    Some(out)
+    out.coef
+        .iter()
+        .all(|c| c.is_finite())
+        .then_some(out)
+        .filter(|o| o.chi2.is_finite())
+}
+
+/// Starting coefficients for a subset: each term at the largest level that stays below every
+/// measured point, shared among the subset's terms.
+fn start_of(points: &[AllanPoint], mask: u32) -> [f64; 5] {
+    let k = mask.count_ones() as f64;
+    let mut c = [0.0; 5];
+    for j in columns(mask) {
+        let e = Term::ALL[j].exponent();
+        c[j] = points
+            .iter()
+            .map(|p| p.avar / p.tau_s.powi(e))
+            .fold(f64::INFINITY, f64::min)
+            / k;
+    }
+    c
 }
 
 /// Penalty per term of the selection (Akaike: 2).
 const PENALTY: f64 = 2.0;
 
-/// The feasible subset (all coefficients positive) with the smallest `chi2 + 2 k`.
-fn select(w: &Whitened) -> Option<SubsetFit> {
-    let m = w.a.nrows();
-    let mut best: Option<SubsetFit> = None;
-    for mask in 1u32..32 {
+/// The subset (all coefficients positive, inside the boundary) with the smallest
+/// `chi2 + 2 k`. Each subset starts from [`start_of`] and from the fit of every smaller subset
+/// one term short (the new term small), so that the search does not stop in a local minimum
+/// the smaller subsets' optimum avoids.
+fn select(p: &Problem, points: &[AllanPoint]) -> Option<SubsetFit> {
+    let m = p.tau.len();
+    let mut fits: Vec<Option<SubsetFit>> = vec![None; 32];
+    let mut order: Vec<u32> = (1u32..32).collect();
+    order.sort_by_key(|mask| mask.count_ones());
+    for mask in order {
         let k = mask.count_ones() as usize;
         if k >= m.max(2) {
             continue;
         }
-        let Some(f) = solve(w, mask) else {
-            continue;
-        };
-        if (0..5).any(|j| mask & (1 << j) != 0 && (f.coef[j].is_nan() || f.coef[j] <= 0.0)) {
-            continue;
+        let mut starts = vec![start_of(points, mask)];
+        for j in columns(mask) {
+            if let Some(f) = &fits[(mask & !(1 << j)) as usize] {
+                let mut s = f.coef;
+                s[j] = start_of(points, 1 << j)[j] * 1e-2;
+                starts.push(s);
+            }
         }
-        let score = f.chi2 + PENALTY * f.k as f64;
-        if best
-            .as_ref()
-            .is_none_or(|b| score < b.chi2 + PENALTY * b.k as f64)
-        {
-            best = Some(f);
-        }
+        fits[mask as usize] = starts
+            .iter()
+            .filter_map(|s| fit_subset(p, mask, s))
+            .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
     }
-    best
+    fits.into_iter()
+        .flatten()
+        .min_by(|a, b| (a.chi2 + PENALTY * a.k as f64).total_cmp(&(b.chi2 + PENALTY * b.k as f64)))
+}
+
+/// The sigma of a left-out term `j`'s coefficient in the fit `f` with `j` added at 0: the
+/// linearised problem in the included terms' logarithms and `j`'s coefficient itself
+/// (unscaled variance).
+fn left_out_variance(p: &Problem, f: &SubsetFit, j: usize) -> f64 {
+    let cols = columns(f.mask);
+    let log_c: Vec<f64> = cols.iter().map(|&i| f.coef[i].ln()).collect();
+    let (_, jac, _) = evaluate(p, &cols, &log_c);
+    let m = p.tau.len();
+    let a: Vec<f64> = (0..m).map(|i| model(f, p.tau[i])).collect();
+    let col =
+        -(&p.linv * DVector::from_fn(m, |i, _| p.tau[i].powi(Term::ALL[j].exponent()) / a[i]));
+    let mut full = DMatrix::zeros(m, cols.len() + 1);
+    full.columns_mut(0, cols.len()).copy_from(&jac);
+    full.column_mut(cols.len()).copy_from(&col);
+    // The new column's scale is that of 1 / coefficient: scaled to unit length for the inverse.
+    let sc = col.norm();
+    if !(sc.is_finite() && sc > 0.0) {
+        return f64::NAN;
+    }
+    full.column_mut(cols.len()).scale_mut(1.0 / sc);
+    let h = full.transpose() * &full;
+    h.try_inverse()
+        .map_or(f64::NAN, |inv| inv[(cols.len(), cols.len())] / (sc * sc))
 }
 
 fn model(f: &SubsetFit, tau: f64) -> f64 {
@@ -362,14 +576,15 @@ fn model(f: &SubsetFit, tau: f64) -> f64 {
         .sum()
 }
 
-/// Fit the noise terms to `curve` (module docs) and set the curve's noise types, degrees of
-/// freedom and confidence intervals from the fitted model.
+/// Fit the noise terms to every point of `curve` ([`fit_terms_from`] with no lower bound).
 pub fn fit_terms(curve: &mut AllanCurve) -> Result<NoiseFit, NoiseError> {
-    let tau: Vec<f64> = curve.points.iter().map(|p| p.tau_s).collect();
-    let y: Vec<f64> = curve.points.iter().map(|p| p.avar).collect();
-    if tau.len() < 2 {
-        return Err(NoiseError::TooFewPoints(tau.len()));
-    }
+    fit_terms_from(curve, 0.0)
+}
+
+/// Fit the noise terms to the points of `curve` at `tau >= tau_min_s` (module docs), set the
+/// curve's noise types, degrees of freedom and confidence intervals from the fitted model,
+/// and check every point (fitted or not) against its [`BAND_LEVEL`] band.
+pub fn fit_terms_from(curve: &mut AllanCurve, tau_min_s: f64) -> Result<NoiseFit, NoiseError> {
     if let Some(p) = curve
         .points
         .iter()
@@ -377,24 +592,32 @@ pub fn fit_terms(curve: &mut AllanCurve) -> Result<NoiseFit, NoiseError> {
     {
         return Err(NoiseError::NoNoise { tau_s: p.tau_s });
     }
-    // First pass: weights from the data.
-    let mut s: Vec<f64> = curve
+    // At least three points fitted where the curve has them: the lower bound gives way.
+    let mut first = curve
         .points
         .iter()
-        .map(|p| p.avar * (2.0 / p.edf).sqrt())
-        .collect();
-    let mut w = whiten(curve, &y, &s).ok_or(NoiseError::NoFit)?;
-    let mut fit = select(&w).ok_or(NoiseError::NoFit)?;
+        .position(|p| p.tau_s >= tau_min_s * (1.0 - 1e-9))
+        .unwrap_or(curve.points.len());
+    first = first.min(curve.points.len().saturating_sub(3));
+    let fitted = curve.points.len() - first;
+    if fitted < 2 {
+        return Err(NoiseError::TooFewPoints(fitted));
+    }
+    let mut prob = problem(&curve.points[first..]).ok_or(NoiseError::NoFit)?;
+    let mut fit = select(&prob, &curve.points[first..]).ok_or(NoiseError::NoFit)?;
     let mut iterations = 1;
+    // The noise type of each point (and with it its degrees of freedom and the variance of its
+    // logarithm) is that of the term dominating the fitted model there: iterate until settled.
     for _ in 0..30 {
-        let types: Vec<NoiseType> = tau
+        let types: Vec<NoiseType> = curve
+            .points
             .iter()
-            .map(|&t| {
-                let j = (0..5)
-                    .filter(|j| fit.mask & (1 << j) != 0)
+            .map(|p| {
+                let j = columns(fit.mask)
+                    .into_iter()
                     .max_by(|&a, &b| {
-                        let ca = fit.coef[a] * t.powi(Term::ALL[a].exponent());
-                        let cb = fit.coef[b] * t.powi(Term::ALL[b].exponent());
+                        let ca = fit.coef[a] * p.tau_s.powi(Term::ALL[a].exponent());
+                        let cb = fit.coef[b] * p.tau_s.powi(Term::ALL[b].exponent());
                         ca.total_cmp(&cb)
                     })
                     .expect("a term");
@@ -402,22 +625,17 @@ pub fn fit_terms(curve: &mut AllanCurve) -> Result<NoiseFit, NoiseError> {
             })
             .collect();
         curve.set_noise_types(&types);
-        s = curve
-            .points
-            .iter()
-            .map(|p| model(&fit, p.tau_s) * (2.0 / p.edf).sqrt())
-            .collect();
-        w = whiten(curve, &y, &s).ok_or(NoiseError::NoFit)?;
-        let next = select(&w).ok_or(NoiseError::NoFit)?;
+        prob = problem(&curve.points[first..]).ok_or(NoiseError::NoFit)?;
+        let next = select(&prob, &curve.points[first..]).ok_or(NoiseError::NoFit)?;
         iterations += 1;
         let settled = next.mask == fit.mask
-            && (0..5).all(|j| (next.coef[j] - fit.coef[j]).abs() <= 1e-9 * fit.coef[j].abs());
+            && (0..5).all(|j| (next.coef[j] - fit.coef[j]).abs() <= 1e-7 * fit.coef[j].abs());
         fit = next;
         if settled {
             break;
         }
     }
-    let dof = tau.len() - fit.k;
+    let dof = fitted - fit.k;
     let p_value = if dof > 0 {
         ChiSquared::new(dof as f64).map_or(f64::NAN, |d| 1.0 - d.cdf(fit.chi2))
     } else {
@@ -435,19 +653,20 @@ pub fn fit_terms(curve: &mut AllanCurve) -> Result<NoiseFit, NoiseError> {
             let f = term.factor();
             if fit.mask & (1 << j) != 0 {
                 let c = fit.coef[j];
-                let cs = (fit.cov[j][j] * scale2).sqrt();
+                // First order: sd(ln c) c for the coefficient, half of sd(ln c) relative for
+                // the parameter (its square root).
+                let sd_log = (fit.cov_log[j][j] * scale2).sqrt();
                 let value = (c / f).sqrt();
                 TermEstimate {
                     term,
                     included: true,
                     value,
-                    sigma: cs / (2.0 * (c * f).sqrt()),
+                    sigma: 0.5 * sd_log * value,
                     coefficient: c,
-                    coefficient_sigma: cs,
+                    coefficient_sigma: sd_log * c,
                 }
             } else {
-                let cs = solve(&w, fit.mask | (1 << j))
-                    .map_or(f64::NAN, |g| (g.cov[j][j] * scale2).sqrt());
+                let cs = (left_out_variance(&prob, &fit, j) * scale2).sqrt();
                 TermEstimate {
                     term,
                     included: false,
@@ -459,6 +678,7 @@ pub fn fit_terms(curve: &mut AllanCurve) -> Result<NoiseFit, NoiseError> {
             }
         })
         .collect();
+    let misfits = band_check(curve, first, &|t| model(&fit, t));
     Ok(NoiseFit {
         terms,
         chi2: fit.chi2,
@@ -466,16 +686,109 @@ pub fn fit_terms(curve: &mut AllanCurve) -> Result<NoiseFit, NoiseError> {
         p_value,
         sigma_scale: scale2.sqrt(),
         iterations,
+        tau_min_s: curve.points[first].tau_s,
+        points_fitted: fitted,
+        misfits,
+    })
+}
+
+/// The runs of points where the fitted deviation `sqrt(avar(tau))` is outside the
+/// [`BAND_LEVEL`] interval of the measured one; points before `first` were not fitted.
+fn band_check(curve: &AllanCurve, first: usize, avar: &dyn Fn(f64) -> f64) -> Vec<Misfit> {
+    let p = &curve.points;
+    let outside: Vec<Option<f64>> = p
+        .iter()
+        .map(|x| {
+            let (lo, hi) = edf::confidence_interval(x.adev, x.edf, BAND_LEVEL);
+            let f = avar(x.tau_s).sqrt();
+            (f < lo || f > hi).then_some(f / x.adev)
+        })
+        .collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < p.len() {
+        if outside[i].is_none() {
+            i += 1;
+            continue;
+        }
+        let fitted = i >= first;
+        let mut j = i;
+        while j + 1 < p.len() && outside[j + 1].is_some() && (j + 1 >= first) == fitted {
+            j += 1;
+        }
+        let worst = (i..=j)
+            .filter_map(|k| outside[k])
+            .max_by(|a, b| a.ln().abs().total_cmp(&b.ln().abs()))
+            .unwrap_or(1.0);
+        let kind = if !fitted {
+            MisfitKind::BelowRange
+        } else if bends_down(p, i.saturating_sub(1), (j + 1).min(p.len() - 1)) {
+            MisfitKind::Bend
+        } else {
+            MisfitKind::Compromise
+        };
+        out.push(Misfit {
+            from_tau_s: p[i].tau_s,
+            to_tau_s: p[j].tau_s,
+            points: j - i + 1,
+            worst_ratio: worst,
+            fitted,
+            kind,
+        });
+        i = j + 1;
+    }
+    out
+}
+
+/// Whether the measured curve bends downwards on the log-log plot somewhere in `a..=b`: a
+/// slope between neighbouring points that falls from one pair to the next by more than twice
+/// its standard deviation (from the points' `psi'(edf / 2)`).
+fn bends_down(p: &[AllanPoint], a: usize, b: usize) -> bool {
+    let l = |i: usize| p[i].avar.ln();
+    let v = |i: usize| log_chi2_moments(p[i].edf).1;
+    (a + 1..b).any(|i| {
+        let (d1, d2) = (
+            (p[i].tau_s / p[i - 1].tau_s).ln(),
+            (p[i + 1].tau_s / p[i].tau_s).ln(),
+        );
+        let s1 = (l(i) - l(i - 1)) / d1;
+        let s2 = (l(i + 1) - l(i)) / d2;
+        // Variance of s2 - s1 with the three estimates taken as independent.
+        let var =
+            v(i - 1) / (d1 * d1) + v(i) * (1.0 / d1 + 1.0 / d2).powi(2) + v(i + 1) / (d2 * d2);
+        s1 - s2 > 2.0 * var.sqrt()
     })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::allan::AllanPoint;
 
-    /// A curve that is exactly a model (no scatter): the fit must give the model back.
+    /// A curve that is exactly a model: the fit must give the model back. "Exactly" for a fit
+    /// in the logarithm: each point at `model exp(E ln(chi^2 / edf))`, the estimate whose
+    /// logarithm is its expected value (a fit unbiased in the variance would sit above it).
     fn exact_curve(values: &[(Term, f64)], n: usize) -> AllanCurve {
+        let mut c = model_curve(values, n);
+        let types: Vec<NoiseType> = c
+            .points
+            .iter()
+            .map(|p| {
+                values
+                    .iter()
+                    .max_by(|a, b| a.0.avar(a.1, p.tau_s).total_cmp(&b.0.avar(b.1, p.tau_s)))
+                    .map_or(NoiseType::WhiteRate, |x| x.0.noise_type())
+            })
+            .collect();
+        c.set_noise_types(&types);
+        for p in &mut c.points {
+            p.avar *= log_chi2_moments(p.edf).0.exp();
+            p.adev = p.avar.sqrt();
+        }
+        c
+    }
+
+    /// The model's Allan variance at octaves of a record of `n` samples at 100 Hz.
+    fn model_curve(values: &[(Term, f64)], n: usize) -> AllanCurve {
         let mut points = Vec::new();
         let mut m = 1;
         while 2 * m <= n {

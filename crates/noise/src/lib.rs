@@ -129,7 +129,19 @@ pub fn analyse_axis(
     tau0_s: f64,
     intervals: &[Range<usize>],
 ) -> Result<AxisNoise, NoiseError> {
+    analyse_axis_from(increments, tau0_s, intervals, 0.0)
+}
+
+/// [`analyse_axis`] with the fit on the averaging times `tau >= tau_min_s` only
+/// ([`fit::fit_terms_from`]): above a sensor's correlation time, where its own filter no longer
+/// shows (the points below are still checked against their band and reported).
+pub fn analyse_axis_from(
+    increments: &[f64],
+    tau0_s: f64,
+    intervals: &[Range<usize>],
+    tau_min_s: f64,
+) -> Result<AxisNoise, NoiseError> {
     let mut curve = allan::overlapping_allan(increments, tau0_s, intervals)?;
-    let fit = fit::fit_terms(&mut curve)?;
+    let fit = fit::fit_terms_from(&mut curve, tau_min_s)?;
     Ok(AxisNoise { curve, fit })
 }

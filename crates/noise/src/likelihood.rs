@@ -124,6 +124,25 @@ impl Blocks {
         }
         let total: usize = intervals.iter().map(|r| r.len()).sum();
         let m = total.div_ceil(max_blocks.max(1)).max(1);
+        Blocks::of_length(increments, tau0_s, intervals, m)
+    }
+
+    /// Block the increments of the static `intervals` into blocks of `records` records each
+    /// (the last of each interval shorter), as [`Blocks::new`] does.
+    pub fn of_length(
+        increments: &[f64],
+        tau0_s: f64,
+        intervals: &[Range<usize>],
+        records: usize,
+    ) -> Result<Blocks, NoiseError> {
+        if !(tau0_s.is_finite() && tau0_s > 0.0) {
+            return Err(NoiseError::BadInterval0(tau0_s));
+        }
+        check_intervals(increments.len(), intervals)?;
+        if let Some(i) = increments.iter().position(|x| !x.is_finite()) {
+            return Err(NoiseError::NotFinite { record: i });
+        }
+        let m = records.max(1);
         let mut out = Vec::new();
         for r in intervals {
             let data = &increments[r.clone()];
@@ -727,9 +746,27 @@ pub struct MlFit {
     pub block_s: f64,
     /// Number of blocks.
     pub blocks: usize,
+    /// The sensor's correlation time the blocks were chosen above (s; [`correlation_records`]
+    /// times the record interval; 0 where not estimated).
+    pub correlation_s: f64,
+    /// Whether the Gauss-Markov correlation time sits at a bound of its search (10 blocks or
+    /// 1000 longest intervals): then the value is the bound's, not the data's.
+    pub tc_at_bound: bool,
 }
 
 impl MlFit {
+    /// Whether the blocks are shorter than [`BLOCKS_PER_CORRELATION`] correlation times (the
+    /// cap of [`fit_ml`]): the sensor's own correlation may then show in the check.
+    pub fn below_correlation(&self) -> bool {
+        self.block_s < BLOCKS_PER_CORRELATION as f64 * self.correlation_s * (1.0 - 1e-9)
+    }
+
+    /// Whether the model passes its check against the data (whiteness p at least
+    /// [`SELECTION_P`]); a fit without a check (too few innovations) does not.
+    pub fn passes(&self) -> bool {
+        self.whiteness.is_some_and(|w| w.p_value >= SELECTION_P)
+    }
+
     /// The fitted model (maximum-likelihood values).
     pub fn model(&self) -> Model {
         Model {
@@ -1034,6 +1071,11 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
             whiteness: whiteness(blocks, &gm),
             block_s: blocks.block_s,
             blocks: blocks.len(),
+            correlation_s: 0.0,
+            tc_at_bound: gm.gauss_markov.is_some_and(|(_, tc)| {
+                let (lo, hi) = (10.0 * blocks.block_s, 1000.0 * blocks.longest_s());
+                tc < lo * 1.01 || tc > hi / 1.01
+            }),
         })
     } else {
         let (white, walk) = base_levels(blocks, n, k, best);
@@ -1054,6 +1096,8 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
             ),
             block_s: blocks.block_s,
             blocks: blocks.len(),
+            correlation_s: 0.0,
+            tc_at_bound: false,
         })
     }
 }
@@ -1066,7 +1110,97 @@ pub fn fit_ml(
     tau0_s: f64,
     intervals: &[Range<usize>],
 ) -> Result<MlFit, NoiseError> {
-    let blocks = Blocks::new(increments, tau0_s, intervals, MAX_BLOCKS)?;
+    check_intervals(increments.len(), intervals)?;
+    let k = correlation_records(increments, intervals);
+    // Blocks ten correlation lengths long, but no longer than a tenth of the longest interval:
+    // with fewer blocks the white level and the check are no longer determined (a strongly
+    // quantised axis whose quantisation error stays put for seconds, as on the Ferraris
+    // accelerometer z, would otherwise leave fewer than three blocks per interval). Capped, the
+    // fit says so ([`MlFit::below_correlation`]) and its check judges what the blocks keep.
+    let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
+    let cap = (longest / MIN_BLOCKS_PER_INTERVAL).max(1);
+    let mut fit = fit_ml_blocks(
+        increments,
+        tau0_s,
+        intervals,
+        (BLOCKS_PER_CORRELATION * k).min(cap),
+    )?;
+    fit.correlation_s = k as f64 * tau0_s;
+    Ok(fit)
+}
+
+/// Blocks the longest interval is cut into at least ([`fit_ml`]'s cap on the block length).
+pub const MIN_BLOCKS_PER_INTERVAL: usize = 10;
+
+/// Block length per record of the sensor's correlation ([`correlation_records`]): block means
+/// ten correlation lengths long are nearly independent (the correlation of neighbouring means
+/// is about the correlation length over the block length) and the filter's deficit in their
+/// variance is a few per cent at most.
+pub const BLOCKS_PER_CORRELATION: usize = 10;
+
+/// The sensor's correlation length in records, from the data: the last lag at which the
+/// sample autocorrelation of the first differences of the increments (within each interval,
+/// pooled over the intervals) departs from that of white increments, searched up to a tenth
+/// of the longest interval (at most 1000 lags); 0 for white samples.
+///
+/// Why the differences and not the increments themselves: a bias walk (or a slow Gauss-Markov
+/// bias), which the likelihood models, makes the increments' autocorrelation significant at
+/// every lag (the walk's share of their variance grows with the interval: on a 30-min rest
+/// with 0.1 deg/h and 0.5 deg/h/sqrt(h) at 100 Hz, about 2 %, above the `3 / sqrt(n)` = 0.7 %
+/// of a test), so a search for where it ends runs to its cap and the blocks grow to 100 s,
+/// too few to determine the white level. The differences of white increments plus a walk have
+/// autocorrelation `-1/2` at lag 1 and 0 beyond whatever the walk (its step adds a white
+/// sample of a millionth of the white variance), while a sensor's own filter spanning `L`
+/// records shows up to lag `L` (an `L`-record moving average: exactly at lag `L`, which is why
+/// the last departing lag is taken, not the end of a leading run). The test is two-sided at
+/// 1 % over all the lags searched (Bonferroni), each lag's standard deviation `sqrt(1.5 / n)`
+/// (Bartlett's formula for the differences of white samples, `1 + 2 (1/2)^2 = 1.5`).
+pub fn correlation_records(increments: &[f64], intervals: &[Range<usize>]) -> usize {
+    let diffs: Vec<Vec<f64>> = intervals
+        .iter()
+        .filter(|r| r.end <= increments.len() && r.len() >= 3)
+        .map(|r| {
+            increments[r.clone()]
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .collect()
+        })
+        .collect();
+    let n: usize = diffs.iter().map(Vec::len).sum();
+    let g0: f64 = diffs.iter().flatten().map(|v| v * v).sum();
+    if n < 10 || g0.is_nan() || g0 <= 0.0 {
+        return 0;
+    }
+    let longest = diffs.iter().map(Vec::len).max().unwrap_or(0);
+    let max_lag = (longest / 10).clamp(1, 1000);
+    let z = statrs::distribution::Normal::standard().inverse_cdf(1.0 - 0.005 / max_lag as f64);
+    let threshold = z * (1.5 / n as f64).sqrt();
+    let mut last = 0;
+    for k in 1..=max_lag {
+        let gk: f64 = diffs
+            .iter()
+            .filter(|c| c.len() > k)
+            .map(|c| c.iter().zip(&c[k..]).map(|(a, b)| a * b).sum::<f64>())
+            .sum();
+        let white = if k == 1 { -0.5 } else { 0.0 };
+        if (gk / g0 - white).abs() > threshold {
+            last = k;
+        }
+    }
+    last
+}
+
+/// [`fit_ml`] on blocks of at least `min_records` records (more where [`MAX_BLOCKS`] needs
+/// them).
+pub fn fit_ml_blocks(
+    increments: &[f64],
+    tau0_s: f64,
+    intervals: &[Range<usize>],
+    min_records: usize,
+) -> Result<MlFit, NoiseError> {
+    let total: usize = intervals.iter().map(|r| r.len()).sum();
+    let m = total.div_ceil(MAX_BLOCKS).max(min_records).max(1);
+    let blocks = Blocks::of_length(increments, tau0_s, intervals, m)?;
     fit_blocks(&blocks)
 }
 

@@ -8,8 +8,8 @@ use crate::table::{self, Align, Table};
 use crate::{Error, load_config, print};
 use ::import::detect::{DetectorSettings, segment};
 use ::noise::fit::{NoiseFit, Term};
-use ::noise::likelihood::{Level, MlFit, fit_ml};
-use ::noise::{AxisNoise, analyse_axis};
+use ::noise::likelihood::{BLOCKS_PER_CORRELATION, Level, MlFit, fit_ml};
+use ::noise::{AxisNoise, analyse_axis_from};
 use calib::config::{NoiseConfig, RunConfig};
 use calib::io::ImuKind;
 use serde_json::{Map, Value, json};
@@ -246,13 +246,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 .enumerate()
                 .map(|(k, r)| increment(k, if gyro { r.gyro[a] } else { r.accel[a] }))
                 .collect();
-            let axis = analyse_axis(&inc, median, &intervals)
-                .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
-            axes.push(axis);
             // The levels reported: the exact likelihood of the data, each static interval its
-            // own filter (docs/noise.md, "The maximum-likelihood fit").
+            // own filter, on block means above the sensor's correlation time (docs/noise.md,
+            // "The maximum-likelihood fit").
             let ml = fit_ml(&inc, median, &intervals)
                 .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
+            // The Allan fit above the same correlation time: below it the sensor's own filter
+            // shapes the curve, which no term describes.
+            let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
+            let axis = analyse_axis_from(&inc, median, &intervals, tau_min)
+                .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
+            axes.push(axis);
             mls.push(ml);
         }
         sensors.push(SensorNoise { axes, ml: mls });
@@ -355,6 +359,8 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
     }
     cols.push(("chi2/dof", Align::Right));
     cols.push(("p", Align::Right));
+    cols.push(("fitted tau [s]", Align::Right));
+    cols.push(("sum in 95 % band", Align::Left));
     let mut t = Table::new(&cols);
     for (a, ax) in sn.axes.iter().enumerate() {
         let f = &ax.fit;
@@ -364,11 +370,65 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
         }
         row.push(format!("{:.2}/{}", f.chi2, f.dof));
         row.push(calib::report::p_value_text(f.p_value));
+        let last = ax.curve.points.last().map_or(0.0, |p| p.tau_s);
+        row.push(format!(
+            "{} .. {}",
+            table::significant(f.tau_min_s, 3),
+            table::significant(last, 3)
+        ));
+        let outside: Vec<String> = f
+            .misfits
+            .iter()
+            .map(|m| {
+                let range = if m.points == 1 {
+                    table::significant(m.from_tau_s, 3)
+                } else {
+                    format!(
+                        "{}-{}",
+                        table::significant(m.from_tau_s, 3),
+                        table::significant(m.to_tau_s, 3)
+                    )
+                };
+                format!("{range} s x{}", table::significant(m.worst_ratio, 2))
+            })
+            .collect();
+        row.push(if outside.is_empty() {
+            "yes".to_string()
+        } else {
+            format!("no: {}", outside.join(", "))
+        });
         t.row(row);
+    }
+    let mut notes = String::new();
+    for (a, ax) in sn.axes.iter().enumerate() {
+        for m in &ax.fit.misfits {
+            let range = if m.points == 1 {
+                table::significant(m.from_tau_s, 3)
+            } else {
+                format!(
+                    "{}-{}",
+                    table::significant(m.from_tau_s, 3),
+                    table::significant(m.to_tau_s, 3)
+                )
+            };
+            let _ = writeln!(
+                notes,
+                "  {} {range} s ({} point{}, sum/data up to x{}): {}",
+                AXES[a],
+                m.points,
+                if m.points == 1 { "" } else { "s" },
+                table::significant(m.worst_ratio, 2),
+                m.kind.describe()
+            );
+        }
+    }
+    if !notes.is_empty() {
+        notes = format!("  where the sum leaves the band:\n{notes}");
     }
     format!(
         "\n{}, Allan fit (terms +- 1 sigma; `- (<x)`: not in the fit, x the level the data could \
-         hide at 1 sigma)\n{}",
+         hide at 1 sigma; `xR`: fitted over measured deviation where the sum is furthest outside \
+         the measured 95 % band)\n{}{notes}",
         s.name,
         t.render()
     )
@@ -417,7 +477,11 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
         let (gm, tc) = match &m.gauss_markov {
             Some(g) => (
                 ml_level(&g.sigma, s.factors[2]),
-                table::significant(g.correlation_time_s, 3),
+                format!(
+                    "{}{}",
+                    table::significant(g.correlation_time_s, 3),
+                    if m.tc_at_bound { " (bound)" } else { "" }
+                ),
             ),
             None => ("-".to_string(), "-".to_string()),
         };
@@ -433,54 +497,162 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
             format!("{} x {} s", m.blocks, table::significant(m.block_s, 3)),
         ]);
     }
+    let mut notes = String::new();
+    for (a, m) in sn.ml.iter().enumerate() {
+        let corr = if m.below_correlation() {
+            format!(
+                "blocks of {} s, a tenth of the longest interval, short of ten times the \
+                 sensor's correlation time {} s",
+                table::significant(m.block_s, 3),
+                table::significant(m.correlation_s, 2)
+            )
+        } else {
+            format!(
+                "blocks of {} s above the sensor's correlation time {} s",
+                table::significant(m.block_s, 3),
+                table::significant(m.correlation_s, 2)
+            )
+        };
+        match m.whiteness {
+            Some(w) if w.p_value < ::noise::likelihood::SELECTION_P => {
+                let _ = writeln!(
+                    notes,
+                    "  {}: the check fails ({corr}): over windows of {} s the innovations vary \
+                     {} times as much as the model says, a time scale the model does not \
+                     describe{}",
+                    AXES[a],
+                    table::significant(w.window_blocks as f64 * m.block_s, 3),
+                    table::significant(w.variance_ratio, 3),
+                    if m.tc_at_bound {
+                        "; the Gauss-Markov correlation time sits at its lower bound"
+                    } else {
+                        ""
+                    }
+                );
+            }
+            None => {
+                let _ = writeln!(notes, "  {}: too few blocks to check ({corr})", AXES[a]);
+            }
+            _ if m.tc_at_bound => {
+                let _ = writeln!(
+                    notes,
+                    "  {}: the Gauss-Markov correlation time sits at a bound of its search: \
+                     the value is the bound's ({corr})",
+                    AXES[a]
+                );
+            }
+            _ => {}
+        }
+    }
     format!(
         "\n{}, maximum likelihood (value [68 % profile interval]; the Gauss-Markov bias where \
          the likelihood-ratio test, p in LR p, selects it at p < 0.01; check p: the model \
-         against the data, whiteness of the innovations)\n{}",
+         against the data, whiteness of the innovations)\n{}{notes}",
         s.name,
         t.render()
     )
 }
 
-/// Whether an axis's likelihood model passes its check against the data (or had none to run).
-fn ml_holds(m: &MlFit) -> bool {
-    m.whiteness.is_none_or(|w| w.p_value >= 0.01)
+/// Which fit an axis's `[noise]` levels come from: only one that passed its check.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Basis {
+    /// The maximum-likelihood fit, its whiteness check passed.
+    Likelihood,
+    /// The Allan fit, its chi-square and band check passed (the likelihood's failed).
+    Allan,
 }
 
-/// The white level and walk (SI) the `[noise]` block takes from one axis: the
-/// maximum-likelihood ones where that model passes its check; where it fails (it did on every
-/// axis of both shipped recordings, which carry what neither model describes) the Allan fit's,
-/// whose walk is a term only where the data show one. A walk counts only where it is
-/// significantly above 0 (the lower end of its interval, or the Allan term included).
-fn block_levels(axis: &AxisNoise, m: &MlFit) -> (f64, f64) {
-    if ml_holds(m) {
+/// The white level and walk (SI) the `[noise]` block takes from one axis, and from which fit:
+/// the maximum-likelihood ones where that model passes its check, else the Allan fit's where
+/// it passes its own (its walk only where it has the term); `None` where neither passes.
+/// A likelihood walk counts only where it is significantly above 0 (the lower end of its
+/// interval above 0).
+fn block_levels(axis: &AxisNoise, m: &MlFit) -> Option<(f64, f64, Basis)> {
+    if m.passes() {
         let walk = if m.walk.lower > 0.0 {
             m.walk.value
         } else {
             0.0
         };
-        (m.white.value, walk)
-    } else {
+        Some((m.white.value, walk, Basis::Likelihood))
+    } else if axis.fit.passes() {
         let w = axis.fit.term(Term::RandomWalk);
         let walk = if w.included { w.value } else { 0.0 };
-        (axis.fit.term(Term::White).value, walk)
+        Some((axis.fit.term(Term::White).value, walk, Basis::Allan))
+    } else {
+        None
     }
 }
 
-/// The largest white level over the axes ([`block_levels`]).
-fn max_white(sn: &SensorNoise) -> f64 {
-    sn.axes
+/// One `[noise]` field of a sensor: the largest level over the axes whose fit passed its
+/// check (`level` picks white or walk), with a comment naming the fits and the axes left
+/// out; commented out, with the failed Allan fit's figure for orientation only, where no axis
+/// passes.
+fn block_field(
+    key: &str,
+    sn: &SensorNoise,
+    level: fn((f64, f64, Basis)) -> f64,
+    allan: fn(&AxisNoise) -> f64,
+    factor: f64,
+) -> String {
+    let sig = |x: f64| {
+        if x > 0.0 {
+            table::significant(x, 3)
+        } else {
+            "0".into()
+        }
+    };
+    let per: Vec<Option<(f64, f64, Basis)>> = sn
+        .axes
         .iter()
         .zip(&sn.ml)
-        .fold(0.0, |w, (a, m)| w.max(block_levels(a, m).0))
-}
-
-/// The largest walk over the axes ([`block_levels`]); 0 when none shows one.
-fn max_walk(sn: &SensorNoise) -> f64 {
-    sn.axes
+        .map(|(a, m)| block_levels(a, m))
+        .collect();
+    let names = |b: Basis| -> Vec<&str> {
+        per.iter()
+            .enumerate()
+            .filter(|(_, p)| p.is_some_and(|x| x.2 == b))
+            .map(|(i, _)| AXES[i])
+            .collect()
+    };
+    let out: Vec<&str> = per
         .iter()
-        .zip(&sn.ml)
-        .fold(0.0, |w, (a, m)| w.max(block_levels(a, m).1))
+        .enumerate()
+        .filter(|(_, p)| p.is_none())
+        .map(|(i, _)| AXES[i])
+        .collect();
+    if out.len() == per.len() {
+        let guess = sn.axes.iter().map(allan).fold(0.0, f64::max) * factor;
+        return format!(
+            "# {key} = {}  # not set: no fit passes its check on any axis (the likelihood's \
+             whiteness and the Allan fit's chi-square and band); the figure is the failed Allan \
+             fit's, for orientation only: set yours\n",
+            sig(guess)
+        );
+    }
+    let value = per.iter().flatten().map(|x| level(*x)).fold(0.0, f64::max) * factor;
+    let mut from = Vec::new();
+    for (b, name) in [
+        (Basis::Likelihood, "maximum likelihood"),
+        (Basis::Allan, "Allan fit"),
+    ] {
+        let n = names(b);
+        if !n.is_empty() {
+            from.push(format!("{name} on {}", n.join(", ")));
+        }
+    }
+    let mut comment = format!("measured ({})", from.join("; "));
+    if !out.is_empty() {
+        let _ = write!(
+            comment,
+            "; left out: {} (no fit passes its check there)",
+            out.join(", ")
+        );
+    }
+    if value == 0.0 {
+        comment += "; none significantly above 0";
+    }
+    format!("{key} = {}  # {comment}\n", sig(value))
 }
 
 fn comparison(cfg: &RunConfig, origin: &str, sensors: &[SensorNoise]) -> String {
@@ -522,70 +694,45 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
     };
     let g = &sensors[0];
     let a = &sensors[1];
-    let sig = |x: f64| {
-        if x > 0.0 {
-            table::significant(x, 3)
-        } else {
-            "0".into()
-        }
-    };
     let reading = match base.reading {
         calib::config::NoiseReading::Average => "average",
         calib::config::NoiseReading::Sample => "sample",
     };
-    // Where the likelihood model fails its check the levels are the Allan fit's.
-    let source = |sn: &SensorNoise| {
-        let k = sn.ml.iter().filter(|m| !ml_holds(m)).count();
-        match k {
-            0 => "measured (maximum likelihood)".to_string(),
-            3 => "measured (Allan fit: the likelihood model fails its check, p < 0.01, on every \
-                  axis)"
-                .to_string(),
-            _ => format!(
-                "measured (maximum likelihood; the Allan fit on the {k} axes whose likelihood \
-                 model fails its check)"
-            ),
-        }
-    };
-    let walk_note = |sn: &SensorNoise, factor: f64| {
-        let holding: Vec<&MlFit> = sn.ml.iter().filter(|m| ml_holds(m)).collect();
-        if max_walk(sn) > 0.0 {
-            source(sn)
-        } else if holding.is_empty() {
-            "none in the Allan fit (the likelihood model fails its check on every axis)".into()
-        } else {
-            format!(
-                "none found in these data (at most {} at the upper end of the 68 % interval)",
-                sig(holding.iter().fold(0.0f64, |m, f| m.max(f.walk.upper)) * factor)
-            )
-        }
-    };
     let mut s = String::new();
     let _ = writeln!(s, "[noise]");
     let _ = writeln!(s, "reading = \"{reading}\"  # {from}");
-    let _ = writeln!(
-        s,
-        "gyro_deg_h = {}  # {}",
-        sig(max_white(g) / DEG_PER_HOUR),
-        source(g)
+    s += &block_field(
+        "gyro_deg_h",
+        g,
+        |x| x.0,
+        |a| a.fit.term(Term::White).value,
+        1.0 / DEG_PER_HOUR,
     );
-    let _ = writeln!(s, "accel_m_s2 = {}  # {}", sig(max_white(a)), source(a));
+    s += &block_field(
+        "accel_m_s2",
+        a,
+        |x| x.0,
+        |a| a.fit.term(Term::White).value,
+        1.0,
+    );
     let _ = writeln!(
         s,
         "angle_arcsec = {}  # {from}",
         table::compact(base.angle_arcsec)
     );
-    let _ = writeln!(
-        s,
-        "gyro_bias_walk_deg_h_sqrt_h = {}  # {}",
-        sig(max_walk(g) * 60.0 / DEG_PER_HOUR),
-        walk_note(g, 60.0 / DEG_PER_HOUR)
+    s += &block_field(
+        "gyro_bias_walk_deg_h_sqrt_h",
+        g,
+        |x| x.1,
+        |a| a.fit.term(Term::RandomWalk).value,
+        60.0 / DEG_PER_HOUR,
     );
-    let _ = writeln!(
-        s,
-        "accel_bias_walk_m_s2_sqrt_s = {}  # {}",
-        sig(max_walk(a)),
-        walk_note(a, 1.0)
+    s += &block_field(
+        "accel_bias_walk_m_s2_sqrt_s",
+        a,
+        |x| x.1,
+        |a| a.fit.term(Term::RandomWalk).value,
+        1.0,
     );
     s
 }
@@ -693,6 +840,9 @@ fn json_of(
                         "check_window_s": f.whiteness.map(|w| w.window_blocks as f64 * f.block_s),
                         "check_variance_ratio": f.whiteness.map(|w| w.variance_ratio),
                         "neg2_log_likelihood": f.neg2_log_likelihood,
+                        "passes": f.passes(),
+                        "correlation_s": f.correlation_s,
+                        "tc_at_bound": f.tc_at_bound,
                         "block_s": f.block_s,
                         "blocks": f.blocks,
                     }))
@@ -726,6 +876,9 @@ fn json_of(
                         o.insert("dof".into(), json!(a.fit.dof));
                         o.insert("p_value".into(), json!(a.fit.p_value));
                         o.insert("sigma_scale".into(), json!(a.fit.sigma_scale));
+                        o.insert("passes".into(), json!(a.fit.passes()));
+                        o.insert("tau_min_s".into(), json!(a.fit.tau_min_s));
+                        o.insert("misfits".into(), json!(a.fit.misfits));
                         // The Allan fit's white level and walk, for comparison.
                         o.insert(s.keys[1].into(), json!(w.value * s.factors[1]));
                         o.insert(

@@ -1,5 +1,6 @@
 //! PNG plot of `sins-calib noise`: per gyro and accelerometer axis the measured Allan deviation
-//! with its 68 % confidence band, the fitted terms and their sum, the maximum-likelihood model
+//! with its 68 % confidence band, the fitted terms and their sum (the points whose 95 % band the
+//! sum leaves ringed, the start of the fitted range dashed), the maximum-likelihood model
 //! (whose levels are the ones reported), and the configured noise
 //! model; one legend for all panels, below them, so that it covers no data.
 
@@ -15,6 +16,8 @@ use std::path::Path;
 const MEASURED: RGBColor = RGBColor(31, 119, 180);
 const SUM: RGBColor = RGBColor(214, 39, 40);
 const CONFIG: RGBColor = RGBColor(0, 0, 0);
+/// Points below the fitted range, and the range's start.
+const BELOW_RANGE: RGBColor = RGBColor(127, 127, 127);
 /// The maximum-likelihood model (the levels reported).
 const ML: RGBColor = RGBColor(23, 190, 207);
 /// Colours of the terms, `Term::ALL` order.
@@ -169,6 +172,35 @@ fn panel(
                 .map(|x| Circle::new((x.tau_s, x.adev * factor), 4, MEASURED.filled())),
         )
         .map_err(|e| perr(&e))?;
+    // The misfit made visible: a ring round every point whose 95 % band the fitted sum
+    // leaves (red where fitted, grey below the fitted range), and the fitted range's start.
+    let misses: Vec<(f64, bool)> = p
+        .iter()
+        .filter_map(|x| {
+            fit.misfits
+                .iter()
+                .find(|m| x.tau_s >= m.from_tau_s * 0.999 && x.tau_s <= m.to_tau_s * 1.001)
+                .map(|m| (x.tau_s, m.fitted))
+        })
+        .collect();
+    chart
+        .draw_series(misses.iter().filter_map(|&(t, fitted)| {
+            let x = p.iter().find(|x| x.tau_s == t)?;
+            let c = if fitted { SUM } else { BELOW_RANGE };
+            Some(Circle::new((t, x.adev * factor), 9, c.stroke_width(2)))
+        }))
+        .map_err(|e| perr(&e))?;
+    if fit.tau_min_s > p[0].tau_s {
+        let t = fit.tau_min_s / 2f64.sqrt();
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(t, lo), (t, hi)],
+                4,
+                4,
+                BELOW_RANGE.stroke_width(1),
+            ))
+            .map_err(|e| perr(&e))?;
+    }
     Ok(())
 }
 
@@ -211,6 +243,22 @@ fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
             .map_err(|e| perr(&e))
         },
         "Allan fit (sum)",
+    )?;
+    entry(
+        area,
+        &|a, x| {
+            a.draw(&Circle::new((x + 12, y), 8, SUM.stroke_width(2)))
+                .map_err(|e| perr(&e))
+        },
+        "sum outside 95 %",
+    )?;
+    entry(
+        area,
+        &|a, x| {
+            a.draw(&Circle::new((x + 12, y), 8, BELOW_RANGE.stroke_width(2)))
+                .map_err(|e| perr(&e))
+        },
+        "not fitted (left of dashes)",
     )?;
     entry(
         area,
