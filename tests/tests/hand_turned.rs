@@ -10,7 +10,9 @@
 //! 10/20/30 ug/g^2, inner lever arms and a 5-ms time offset (`diagnose` accepts
 //! `accel_quadratic` first); seeds 902/903 for the verdicts of a clean consumer-grade recording
 //! (nothing contradicts the model) and one with an unmodelled gyro g-sensitivity of the shipped
-//! Xsens unit's size (the held-out rests contradict it).
+//! Xsens unit's size (the held-out rests contradict it); seeds 904/906 the same for a
+//! navigation-grade recording (the paper's noise) and one with a gyro g-sensitivity of
+//! 50 deg/h/g (905, a quadratic term, did not spoil the held-out figures: see its test).
 
 use calib::config::RunConfig;
 use calib::estimate::RunData;
@@ -174,5 +176,51 @@ fn an_unmodelled_g_sensitivity_is_contradicted_by_the_held_out_rests() {
         gyro_drift: None,
     };
     let v = consumer_verdict(903, &hidden);
+    assert!(!v.fits(), "{v:?}");
+}
+
+/// The verdict of a navigation-grade recording (the paper's noise) calibrated without a
+/// configuration with the paper's model, every fourth rest held out.
+fn navigation_verdict(seed: u64, hidden: &HiddenEffects) -> RunVerdict {
+    let truth = config(seed);
+    let sim = calib::simulate::simulate_run_hidden(&truth, "19 positions", hidden).unwrap();
+    let imu = ImuData::from_samples(&sim.imu);
+    let rests = crate::rests::rests(&truth);
+    let (own, noise) = from_data(&truth, &imu, &rests);
+    let r = calibrate(&own, &imu, &rests, Some(4), Some(noise));
+    let v = RunVerdict::of(&r.estimate, Some(&r), None, false);
+    println!("seed {seed}: {v:?}");
+    v
+}
+
+#[test]
+fn a_clean_navigation_grade_recording_fits() {
+    let v = navigation_verdict(904, &HiddenEffects::default());
+    assert!(v.tested && v.fits(), "{v:?}");
+}
+
+/// An unmodelled error a navigation-grade calibration's held-out rests must contradict.
+///
+/// First tried (seed 905, fixed before the run): a tactical MEMS accelerometer's quadratic term
+/// (2e-5 per m/s^2, 200 ug at 1 g: the size of `rests_loop.rs`). It does not spoil the held-out
+/// figures (held-out `|f| - g` 0.0004 m/s^2 against 0.0002 on the fitted rests; the windows
+/// scatter 1.13 times the rests' own noise): on axis-aligned poses the bias takes its up/down
+/// part and the motion noise its horizontal part, and the verdict, which judges by the held-out
+/// rests, rightly passes it (the loop names the term: `rests_loop.rs`). The case kept here
+/// (seed 906, fixed before its run): a gyro g-sensitivity of 50 deg/h/g, the top of a
+/// dynamically tuned gyro's range, in a unit whose noise is navigation grade.
+#[test]
+fn an_unmodelled_g_sensitivity_spoils_a_navigation_grade_calibration() {
+    let per_g = 50.0 * sins_model::units::DEG_PER_HOUR / 9.81;
+    let hidden = HiddenEffects {
+        values: vec![
+            ("gyro.gsens.xy".into(), per_g),
+            ("gyro.gsens.yx".into(), -per_g),
+            ("gyro.gsens.zx".into(), 0.6 * per_g),
+            ("gyro.gsens.zy".into(), 0.6 * per_g),
+        ],
+        gyro_drift: None,
+    };
+    let v = navigation_verdict(906, &hidden);
     assert!(!v.fits(), "{v:?}");
 }

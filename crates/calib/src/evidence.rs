@@ -125,6 +125,14 @@ pub struct ParameterSeparation {
     /// The base parameters it is most correlated with in the posterior, largest first
     /// (`|correlation| >= CONFOUNDING_CORRELATION`).
     pub confounded_with: Vec<(String, f64)>,
+    /// Its posterior sigma over its prior sigma with the base parameters' priors removed: what
+    /// the data say of it once the base parameters are free. A parameter nearly collinear with
+    /// a base parameter can have a small posterior sigma only because that base parameter's
+    /// prior holds it (the accelerometer quadratic term of a 19-position recording whose rests
+    /// lose their horizontal information to a large motion noise: seen only through `|f|`,
+    /// correlation 0.9997 with the bias, yet at a fifth of its prior); without the prior it is
+    /// not determined. Infinite where the data leave it free.
+    pub data_sigma_ratio: f64,
 }
 
 /// Posterior sigma over prior sigma at or below which a parameter counts as separated.
@@ -132,13 +140,6 @@ pub const SEPARATED_SIGMA_RATIO: f64 = 0.5;
 
 /// Posterior correlation from which a base parameter is named as confounded with a candidate.
 pub const CONFOUNDING_CORRELATION: f64 = 0.5;
-
-/// Posterior correlation with a base parameter from which a candidate parameter is not
-/// separated, however small its sigma: its value then rests on one combination with that base
-/// parameter, which the base parameter's own value moves along (the accelerometer quadratic
-/// term of a 19-position recording seen through `|f|` alone: 0.9997 with the bias). 0.99 leaves
-/// a tenth of the parameter's variance to what tells them apart.
-pub const COLLINEAR_CORRELATION: f64 = 0.99;
 
 impl ParameterSeparation {
     /// The largest `|correlation|` with a base parameter (0 when none reaches
@@ -150,11 +151,10 @@ impl ParameterSeparation {
             .fold(0.0, f64::max)
     }
 
-    /// Separated: its posterior sigma at most [`SEPARATED_SIGMA_RATIO`] of its prior, and no
-    /// base parameter collinear with it ([`COLLINEAR_CORRELATION`]).
+    /// Separated: its posterior sigma at most [`SEPARATED_SIGMA_RATIO`] of its prior, with the
+    /// base parameters' priors as given and with them removed ([`Self::data_sigma_ratio`]).
     pub fn separated(&self) -> bool {
-        self.sigma_ratio <= SEPARATED_SIGMA_RATIO
-            && self.largest_correlation() < COLLINEAR_CORRELATION
+        self.sigma_ratio <= SEPARATED_SIGMA_RATIO && self.data_sigma_ratio <= SEPARATED_SIGMA_RATIO
     }
 }
 
@@ -199,6 +199,11 @@ pub fn separability(
 ) -> Separability {
     let index = |n: &str| names.iter().position(|m| m == n);
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    let free = without_base_priors(
+        prior_sigma,
+        cov,
+        &base.iter().filter_map(|b| index(b)).collect::<Vec<_>>(),
+    );
     let parameters: Vec<ParameterSeparation> = candidate
         .iter()
         .filter_map(|c| index(c).map(|i| (c, i)))
@@ -220,6 +225,9 @@ pub fn separability(
                 name: c.clone(),
                 sigma_ratio: sd(i) / prior_sigma[i],
                 confounded_with: conf,
+                data_sigma_ratio: free
+                    .as_ref()
+                    .map_or(f64::INFINITY, |f| f[(i, i)].max(0.0).sqrt()),
             }
         })
         .collect();
@@ -227,6 +235,30 @@ pub fn separability(
         separable: !parameters.is_empty() && parameters.iter().all(|p| p.separated()),
         parameters,
     }
+}
+
+/// The prior weight left on a base parameter whose prior is removed: enough to keep the
+/// information matrix invertible where the data leave a base parameter free (its prior then
+/// 1000 times wider), far below any prior's own weight.
+const REMOVED_PRIOR_WEIGHT: f64 = 1e-6;
+
+/// The posterior covariance in prior sigmas (`cov_ij / (s_i s_j)`) with the priors of the
+/// parameters `base` removed: the information `P^-1` less each one's unit prior information
+/// (the parameters' priors are independent; the remaining prior weight is
+/// [`REMOVED_PRIOR_WEIGHT`]). `None` where `cov` is not positive definite.
+fn without_base_priors(
+    prior_sigma: &[f64],
+    cov: &DMatrix<f64>,
+    base: &[usize],
+) -> Option<DMatrix<f64>> {
+    let n = cov.nrows();
+    let normalised = DMatrix::from_fn(n, n, |i, j| cov[(i, j)] / (prior_sigma[i] * prior_sigma[j]));
+    let mut info = normalised.cholesky()?.inverse();
+    for &b in base {
+        info[(b, b)] -= 1.0 - REMOVED_PRIOR_WEIGHT;
+    }
+    let info = (&info + info.transpose()) * 0.5;
+    Some(info.cholesky()?.inverse())
 }
 
 /// What extending a model gains, from the innovation log-likelihoods of the two fits.
