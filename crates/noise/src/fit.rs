@@ -512,8 +512,41 @@ fn start_of(points: &[AllanPoint], mask: u32) -> [f64; 5] {
 /// Penalty per term of the selection (Akaike: 2).
 const PENALTY: f64 = 2.0;
 
-/// The subset (all coefficients positive, inside the boundary) with the smallest
-/// `chi2 + 2 k`. Each subset starts from [`start_of`] and from the fit of every smaller subset
+/// Fitted points at which a term must carry at least half of the fitted sum
+/// ([`supported`]).
+pub const SUPPORT_POINTS: usize = 2;
+
+/// Whether every term of `f` is supported inside the fitted range: it carries at least half of
+/// the fitted sum at [`SUPPORT_POINTS`] or more fitted points.
+///
+/// Why: the terms differ only in their slope on the log-log plot, and a term's slope is
+/// tested by the data only where the term makes most of the sum. Where it carries the sum at
+/// one point only, any power law through that point fits as well, so the data do not say it is
+/// this term rather than another or a bend of the sensor's own filter; where it carries it
+/// nowhere, it only bends the tail of the others. Such a term costs Akaike's penalty of 2 and
+/// can still win by absorbing the scatter of one or two points at the edge of the range, and
+/// then its steep power (`tau^-2` for quantisation, `tau^2` for a rate ramp) is extrapolated
+/// beyond the range: on the shipped rests a quantisation term that carried the sum at one
+/// fitted point or none put the sum 2.8 to 9.6 times above the data below the fitted range.
+/// At two points the term's slope is checked against the data at least once (the residual of
+/// the second point), the least for which the data speak for the term's shape. Half, not "the
+/// largest term": with three terms the largest can make a third of the sum, where its slope
+/// is mixed with the others' as much as it shows. The rule is a constraint of the selection
+/// (a subset with an unsupported term is not a candidate), like non-negativity; a single term
+/// carries the whole sum everywhere, so some subset always remains.
+fn supported(p: &Problem, f: &SubsetFit) -> bool {
+    columns(f.mask).into_iter().all(|j| {
+        let e = Term::ALL[j].exponent();
+        p.tau
+            .iter()
+            .filter(|&&t| 2.0 * f.coef[j] * t.powi(e) >= model(f, t))
+            .count()
+            >= SUPPORT_POINTS
+    })
+}
+
+/// The subset (all coefficients positive, inside the boundary, every term [`supported`]) with
+/// the smallest `chi2 + 2 k`. Each subset starts from [`start_of`] and from the fit of every smaller subset
 /// one term short (the new term small), so that the search does not stop in a local minimum
 /// the smaller subsets' optimum avoids.
 fn select(p: &Problem, points: &[AllanPoint]) -> Option<SubsetFit> {
@@ -539,8 +572,10 @@ fn select(p: &Problem, points: &[AllanPoint]) -> Option<SubsetFit> {
             .filter_map(|s| fit_subset(p, mask, s))
             .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
     }
+    // Unsupported subsets stay above as starts for larger ones, not as candidates.
     fits.into_iter()
         .flatten()
+        .filter(|f| supported(p, f))
         .min_by(|a, b| (a.chi2 + PENALTY * a.k as f64).total_cmp(&(b.chi2 + PENALTY * b.k as f64)))
 }
 
@@ -840,6 +875,29 @@ mod tests {
         assert_eq!(c.points[0].noise_type, NoiseType::WhiteRate);
         assert_eq!(c.points.last().unwrap().noise_type, NoiseType::RandomWalk);
         assert_eq!(f.dominant(0.01), Term::White);
+    }
+
+    /// A quantisation term that carries the sum at the first point only: the exact curve has
+    /// chi^2 0 with it and a large chi^2 without it (a million records: small variances), so
+    /// Akaike's criterion alone keeps it; the support rule leaves it out. Where it carries the
+    /// sum at two points it stays.
+    #[test]
+    fn a_term_carrying_the_sum_at_one_point_is_left_out() {
+        let n = 1 << 20;
+        // White 5e-7: AVAR 2.5e-13 / tau. Quantisation share at tau: 1 / (1 + tau / tau_x) with
+        // tau_x = 3 Q^2 / 2.5e-13; tau_x = 0.015 s gives 0.6 at 0.01 s and 0.43 at 0.02 s.
+        let q1 = (0.015f64 * 2.5e-13 / 3.0).sqrt();
+        let mut c = exact_curve(&[(Term::White, 5e-7), (Term::Quantisation, q1)], n);
+        let f = fit_terms(&mut c).unwrap();
+        assert!(!f.term(Term::Quantisation).included, "{:?}", f.terms);
+        assert!(f.term(Term::White).included);
+        assert!(f.chi2 > 2.0 * PENALTY, "Akaike alone would keep it: chi2 {}", f.chi2);
+        // tau_x = 0.03 s: shares 0.75 and 0.6 at the first two points.
+        let q2 = (0.03f64 * 2.5e-13 / 3.0).sqrt();
+        let mut c = exact_curve(&[(Term::White, 5e-7), (Term::Quantisation, q2)], n);
+        let f = fit_terms(&mut c).unwrap();
+        let e = f.term(Term::Quantisation);
+        assert!(e.included && (e.value - q2).abs() < 1e-6 * q2, "{:?}", f.terms);
     }
 
     #[test]
