@@ -14,40 +14,54 @@
 //! `N` is the deviation of a 1-s average of the rate, the `[noise]` convention of the run
 //! configuration; `B` is the flicker floor, whose Allan deviation is `0.664 B`.
 //!
-//! The model is linear in the coefficients `c_j` of the powers of `tau`, and each estimate
-//! `s^2(tau_i)` is `AVAR(tau_i) chi^2(edf_i) / edf_i`: unbiased, with variance
-//! `2 AVAR(tau_i)^2 / edf_i`. So the fit is weighted least squares on the variance (not on the
-//! deviation, whose estimate is biased low at few degrees of freedom, and not on its logarithm,
-//! biased likewise), with the weights from the degrees of freedom. The weights use the model's
-//! variance, not the measured one: weights from the data give the points that came out low
-//! the larger weight and bias the fit low. The model's variance needs the model, so the fit
-//! iterates: a first pass weighted by the data, then passes weighted by the last pass's model,
-//! which also names the term that dominates at each `tau` and with it the noise type of that
-//! point's degrees of freedom ([`crate::edf`]), until the terms and coefficients settle.
+//! The fit is in the logarithm of the variance. An estimate with `edf` degrees of freedom is
+//! `s^2(tau_i) = AVAR(tau_i) chi^2(edf_i) / edf_i`, so `ln s^2_i = ln AVAR(tau_i) + e_i` with
+//! `e_i` of mean `psi(edf_i / 2) - ln(edf_i / 2)` and variance `psi'(edf_i / 2)`
+//! ([`log_chi2_moments`]): the offset is subtracted from the data, and the variance, which
+//! does not depend on the model, weights each point by its degrees of freedom. (Least squares
+//! on the variance itself needs weights from the model's variance, which favour over-predicting
+//! models at the long-tau points with few degrees of freedom; in the logarithm a factor two
+//! above a point costs what a factor two below does.) The degrees of freedom depend on the noise
+//! type of each point, which is that of the term dominating the fitted model there
+//! ([`crate::edf`]): the fit iterates, each pass with the types of the last pass's model, until
+//! the terms and coefficients settle.
 //!
-//! Coefficients are non-negative (a variance is a sum of non-negative terms). With five terms
-//! the constrained problem is solved exactly by trying every subset of terms (31): the
-//! non-negative least-squares solution is the unconstrained solution on one subset whose
-//! coefficients are all positive. Among the feasible subsets the one with the smallest
-//! `chi^2 + 2 k` (Akaike's criterion, `k` terms) is taken, so a term enters only where the data
-//! show it: the "rate ramp where visible" of the standards, and no quantisation invented from a
-//! white curve.
+//! Coefficients are non-negative (a variance is a sum of non-negative terms): each subset of
+//! the five terms (31) is fitted by Levenberg-Marquardt in the logarithms of its coefficients,
+//! and a subset whose optimum lies on the boundary (a term below 1e-4 of the sum at every point)
+//! is left to the smaller subset without that term. Among the subsets whose every term is
+//! supported inside the fitted range ([`supported`]: it carries at least half the fitted sum at
+//! two or more fitted points) the one with the smallest `chi^2 + 2 k` (Akaike's criterion, `k`
+//! terms) is taken, so a term enters only where the data show it: the "rate ramp where
+//! visible" of the standards, no quantisation invented from a white curve, and none whose steep
+//! power rests on one point at the edge of the range.
+//!
+//! The fitted range: the points at `tau >= tau_min` ([`fit_terms_from`]; the report takes ten
+//! times the sensor's correlation time, [`crate::likelihood::correlation_records`], below which
+//! the sensor's own filter shapes the curve), at least three. Every point, fitted or not, is then
+//! checked against the [`BAND_LEVEL`] interval of its measured deviation; the runs of points
+//! outside are [`Misfit`]s of a [`MisfitKind`]: below the fitted range, a downward bend of the
+//! data that no sum of the terms can follow, or a compromise the terms could have avoided on
+//! that stretch alone. [`NoiseFit::passes`]: chi-square p-value at least [`CHECK_P`] and no
+//! fitted bend.
 //!
 //! Correlated estimates: the estimates at neighbouring octaves share data and are correlated,
 //! strongly where a random walk dominates (0.88 an octave apart, 0.67 two octaves apart) and
 //! less where white noise does (0.52, 0.19) ([`octave_correlation`], measured by Monte-Carlo).
 //! Taken as independent they make the long-tau terms look far better determined than they are
 //! (a first version did: its walk sigmas were too small by a factor of two and more). So the
-//! least squares are generalised: `Sigma_ij = s_i s_j rho_ij` with `s_i^2 = 2 AVAR_i^2 / edf_i`
-//! and `rho_ij` from the points' noise types and their distance in octaves; the problem is
-//! whitened by the Cholesky factor of `Sigma` and solved as above. `chi^2` is the generalised
-//! one, `r^T Sigma^-1 r`.
+//! least squares are generalised: `Sigma_ij = s_i s_j rho_ij` with `s_i^2 = psi'(edf_i / 2)`
+//! and `rho_ij` from the points' noise types and their distance in octaves (the Monte-Carlo
+//! measured the correlation of the variances; it is taken for their logarithms); the problem
+//! is whitened by the Cholesky factor of `Sigma` and solved as above. `chi^2` is the
+//! generalised one, `r^T Sigma^-1 r`.
 //!
-//! The covariance of the coefficients is `(A^T Sigma^-1 A)^-1` of the chosen subset, scaled by
+//! The covariance of the logarithms of the coefficients is `(J^T Sigma^-1 J)^-1` of the chosen
+//! subset (`J` the Jacobian of `ln AVAR` in them, at the optimum), scaled by
 //! `chi^2 / dof` when that is above 1 (the data scatter more than their degrees of freedom
-//! say: the model misses something, and the uncertainties grow with it). A parameter's sigma is
-//! its coefficient's, propagated through the square root (first order: poor where the
-//! coefficient is not well above its sigma). A term left out has value 0, and as its sigma the
+//! say: the model misses something, and the uncertainties grow with it). A coefficient's sigma
+//! is `sd(ln c) c`, a parameter's half of `sd(ln c)` relative, through the square root (first
+//! order: poor where the coefficient is not well above its sigma). A term left out has value 0, and as its sigma the
 //! level whose coefficient is one sigma of that coefficient in the fit with the term added:
 //! the most the data could hide at one sigma. `chi^2` against the `dof = points - terms`
 //! degrees of freedom (and its p-value) is the check of the model against the data.
@@ -512,10 +526,43 @@ fn start_of(points: &[AllanPoint], mask: u32) -> [f64; 5] {
 /// Penalty per term of the selection (Akaike: 2).
 const PENALTY: f64 = 2.0;
 
-/// The subset (all coefficients positive, inside the boundary) with the smallest
-/// `chi2 + 2 k`. Each subset starts from [`start_of`] and from the fit of every smaller subset
-/// one term short (the new term small), so that the search does not stop in a local minimum
-/// the smaller subsets' optimum avoids.
+/// Fitted points at which a term must carry at least half of the fitted sum
+/// ([`supported`]).
+pub const SUPPORT_POINTS: usize = 2;
+
+/// Whether every term of `f` is supported inside the fitted range: it carries at least half of
+/// the fitted sum at [`SUPPORT_POINTS`] or more fitted points.
+///
+/// Why: the terms differ only in their slope on the log-log plot, and a term's slope is
+/// tested by the data only where the term makes most of the sum. Where it carries the sum at
+/// one point only, any power law through that point fits as well, so the data do not say it is
+/// this term rather than another or a bend of the sensor's own filter; where it carries it
+/// nowhere, it only bends the tail of the others. Such a term costs Akaike's penalty of 2 and
+/// can still win by absorbing the scatter of one or two points at the edge of the range, and
+/// then its steep power (`tau^-2` for quantisation, `tau^2` for a rate ramp) is extrapolated
+/// beyond the range: on the shipped rests a quantisation term that carried the sum at one
+/// fitted point or none put the sum 2.8 to 9.6 times above the data below the fitted range.
+/// At two points the term's slope is checked against the data at least once (the residual of
+/// the second point), the least for which the data speak for the term's shape. Half, not "the
+/// largest term": with three terms the largest can make a third of the sum, where its slope
+/// is mixed with the others' as much as it shows. The rule is a constraint of the selection
+/// (a subset with an unsupported term is not a candidate), like non-negativity; a single term
+/// carries the whole sum everywhere, so some subset always remains.
+fn supported(p: &Problem, f: &SubsetFit) -> bool {
+    columns(f.mask).into_iter().all(|j| {
+        let e = Term::ALL[j].exponent();
+        p.tau
+            .iter()
+            .filter(|&&t| 2.0 * f.coef[j] * t.powi(e) >= model(f, t))
+            .count()
+            >= SUPPORT_POINTS
+    })
+}
+
+/// The subset (all coefficients positive, inside the boundary, every term [`supported`]) with
+/// the smallest `chi2 + 2 k`. Each subset starts from [`start_of`] and from the fit of every
+/// smaller subset one term short (the new term small), so that the search does not stop in a
+/// local minimum the smaller subsets' optimum avoids.
 fn select(p: &Problem, points: &[AllanPoint]) -> Option<SubsetFit> {
     let m = p.tau.len();
     let mut fits: Vec<Option<SubsetFit>> = vec![None; 32];
@@ -539,8 +586,10 @@ fn select(p: &Problem, points: &[AllanPoint]) -> Option<SubsetFit> {
             .filter_map(|s| fit_subset(p, mask, s))
             .min_by(|a, b| a.chi2.total_cmp(&b.chi2));
     }
+    // Unsupported subsets stay above as starts for larger ones, not as candidates.
     fits.into_iter()
         .flatten()
+        .filter(|f| supported(p, f))
         .min_by(|a, b| (a.chi2 + PENALTY * a.k as f64).total_cmp(&(b.chi2 + PENALTY * b.k as f64)))
 }
 
@@ -840,6 +889,37 @@ mod tests {
         assert_eq!(c.points[0].noise_type, NoiseType::WhiteRate);
         assert_eq!(c.points.last().unwrap().noise_type, NoiseType::RandomWalk);
         assert_eq!(f.dominant(0.01), Term::White);
+    }
+
+    /// A quantisation term that carries the sum at the first point only: the exact curve has
+    /// chi^2 0 with it and a large chi^2 without it (a million records: small variances), so
+    /// Akaike's criterion alone keeps it; the support rule leaves it out. Where it carries the
+    /// sum at two points it stays.
+    #[test]
+    fn a_term_carrying_the_sum_at_one_point_is_left_out() {
+        let n = 1 << 20;
+        // White 5e-7: AVAR 2.5e-13 / tau. Quantisation share at tau: 1 / (1 + tau / tau_x) with
+        // tau_x = 3 Q^2 / 2.5e-13; tau_x = 0.015 s gives 0.6 at 0.01 s and 0.43 at 0.02 s.
+        let q1 = (0.015f64 * 2.5e-13 / 3.0).sqrt();
+        let mut c = exact_curve(&[(Term::White, 5e-7), (Term::Quantisation, q1)], n);
+        let f = fit_terms(&mut c).unwrap();
+        assert!(!f.term(Term::Quantisation).included, "{:?}", f.terms);
+        assert!(f.term(Term::White).included);
+        assert!(
+            f.chi2 > 2.0 * PENALTY,
+            "Akaike alone would keep it: chi2 {}",
+            f.chi2
+        );
+        // tau_x = 0.03 s: shares 0.75 and 0.6 at the first two points.
+        let q2 = (0.03f64 * 2.5e-13 / 3.0).sqrt();
+        let mut c = exact_curve(&[(Term::White, 5e-7), (Term::Quantisation, q2)], n);
+        let f = fit_terms(&mut c).unwrap();
+        let e = f.term(Term::Quantisation);
+        assert!(
+            e.included && (e.value - q2).abs() < 1e-6 * q2,
+            "{:?}",
+            f.terms
+        );
     }
 
     #[test]

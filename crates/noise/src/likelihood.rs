@@ -24,7 +24,7 @@
 //!
 //! A 4-h record at 100 Hz has 1.44 million samples per axis, and the fit evaluates the
 //! likelihood hundreds of times. The samples are therefore averaged in blocks of `M` records
-//! (duration `T = M tau0`, at most [`MAX_BLOCKS`] blocks), and the model is written exactly for
+//! (duration `T = M tau0`), and the model is written exactly for
 //! the block means (no approximation: the block likelihood is the likelihood of the block means
 //! under the continuous model; only the information within a block is given up, which costs the
 //! white level a little precision and the walk nothing). With the state at a block's start,
@@ -44,6 +44,14 @@
 //! block of an interval has its own `T`. `tests::block_likelihood_is_the_dense_gaussian` checks
 //! the filter against the Gaussian density of the block means built from the covariance of the
 //! single samples.
+//!
+//! The block length ([`fit_ml`]): [`BLOCKS_PER_CORRELATION`] times the sensor's correlation
+//! length ([`correlation_records`]: the last lag at which the autocorrelation of the first
+//! differences of the samples departs from that of white samples; a bias walk does not move
+//! it), so that the sensor's own filter, which the model does not have, leaves the block means
+//! nearly independent; at most a [`MIN_BLOCKS_PER_INTERVAL`]th of the longest interval (the
+//! fit then says so, [`MlFit::below_correlation`]); and long enough for at most [`MAX_BLOCKS`]
+//! blocks.
 //!
 //! ## Likelihood
 //!

@@ -65,23 +65,22 @@ fn fit_of(data: &[f64], rate_hz: f64) -> NoiseFit {
 /// the white level within 15 % and the walk within a factor 1.5 on each axis. Seed 22 (the
 /// issue's number), one stream per axis.
 ///
-/// Ignored because its expectation on axis 1 is one the data of that seed do not support
-/// (seed and thresholds unchanged). There the long-tau Allan variances come out 1.22, 1.96 and
-/// 2.55 times the truth at 1311, 2621 and 5243 s (8.4, 3.2 and 1.2 degrees of freedom),
-/// a rise steeper than a walk's: white + walk fits at chi2 16.57 / 18, white + bias
-/// instability + rate ramp at 12.97 / 17, and Akaike's criterion (chi2 + 2 k) prefers the
-/// latter by 1.6, so no walk is reported. Checked as a cause and ruled out: the chi-square
-/// model of the logarithm of an estimate with few degrees of freedom, which the fit's offsets
-/// and weights rest on. A Monte-Carlo (3000 pure walks of 22 500 records) finds it overstates
-/// the offset and the variance there (at 1.2 degrees of freedom: -1.03 and 3.62 where the
-/// estimates give -0.78 and 1.89; at 3.2: -0.34 and 0.85 against -0.29 and 0.63), but fitting
-/// with offsets and variances scaled towards the Monte-Carlo values (a smooth fit to their
-/// ratios, a trial not kept) leaves the choice as it was
-/// (17.00 against 12.90). The maximum-likelihood twin [`ml_acceptance_four_hours_at_100_hz`]
-/// passes on the same data.
+/// Ignored until the fit required its terms to be supported inside the fitted range
+/// (`fit::supported`; seed and thresholds unchanged). On axis 1 the long-tau Allan variances
+/// come out 1.22, 1.96 and 2.55 times the truth at 1311, 2621 and 5243 s (8.4, 3.2 and 1.2
+/// degrees of freedom), a rise steeper than a walk's, and white + bias instability + rate ramp
+/// (chi2 12.97 / 17) beat white + walk (16.57 / 18) by Akaike's criterion. In that model the
+/// bias instability carries half the sum at no fitted point: it only fills the gap between the
+/// white and the ramp, a shape the data do not show on their own, so the rule leaves that
+/// subset out and white + walk is taken. The rule was written for quantisation terms on the
+/// shipped rests, not for this case. Axis 2 gets white + walk at chi2 43.71 / 18: that fit fails
+/// its own chi-square check (which this test does not ask about); its levels pass. Checked
+/// before as a cause and ruled out: the chi-square model of the logarithm of an estimate with
+/// few degrees of freedom (a Monte-Carlo of 3000 pure walks of 22 500 records finds it
+/// overstates the offset and the variance: at 1.2 degrees of freedom -1.03 and 3.62 where the
+/// estimates give -0.78 and 1.89), whose correction left the choice as it was. The
+/// maximum-likelihood twin [`ml_acceptance_four_hours_at_100_hz`] passes on the same data.
 #[test]
-#[ignore = "fails on axis 1: the data of seed 221 prefer a bias instability and a rate ramp to \
-            the walk by Akaike's criterion (doc comment); the maximum-likelihood twin passes"]
 fn acceptance_four_hours_at_100_hz() {
     for ax in 0..3u64 {
         let data = axis(22 * 10 + ax, 4 * 3600 * 100, 100.0, WHITE, WALK, None);
@@ -131,18 +130,18 @@ fn seed_set() -> Vec<NoiseFit> {
 /// within 1 sigma (a binomial with p = 0.683 has mean 41 and standard deviation 3.6: the band
 /// is about 3 standard deviations each way).
 ///
-/// Ignored because it fails (thresholds and seeds unchanged since they were written). First
+/// Ignored while it failed (thresholds and seeds unchanged since they were written). First
 /// version (octave estimates taken as independent): the walk left out of the fit in 9 of 30
-/// fits, errors down to -4.7 sigma, the white level about 1 sigma low on average. Now
-/// (generalised least squares with the octave correlations): 29 of 60 within 1 sigma, but the
-/// fit picks a bias instability instead of the walk in 17 of the 30 two-hour recordings (the
-/// two differ only over the last few, strongly correlated octaves), and where it keeps the walk
-/// at a chance low value its first-order sigma is too small (fit 27: 0.44 of the truth, -8
-/// sigma). docs/noise.md, "What the checks say".
+/// fits, errors down to -4.7 sigma, the white level about 1 sigma low on average. Generalised
+/// least squares with the octave correlations: 29 of 60 within 1 sigma, a bias instability
+/// instead of the walk in 17 of the 30 two-hour recordings, and a walk kept at a chance low
+/// value with too small a first-order sigma (0.44 of the truth, -8 sigma). With the fit in the
+/// logarithm and the supported-term rule (`fit::supported`) it passes, at the lower end of its
+/// band: 30 of 60 within 1 sigma, the largest error 2.63 sigma. The selection still leaves
+/// the walk out in 16 of the 30 fits (a bias instability in 7, a rate ramp in 9); there the
+/// error is measured against the level the data could hide, which covers the truth.
+/// docs/noise.md, "What the checks say".
 #[test]
-#[ignore = "fails for the Allan fit: the term selection confuses walk and instability on 2-h \
-            records, docs/noise.md; the maximum-likelihood twin \
-            ml_seed_set_levels_within_profile_intervals passes"]
 fn seed_set_levels_within_stated_uncertainties() {
     let fits = seed_set();
     let mut within_one = 0;
