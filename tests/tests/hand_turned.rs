@@ -224,3 +224,42 @@ fn an_unmodelled_g_sensitivity_spoils_a_navigation_grade_calibration() {
     let v = navigation_verdict(906, &hidden);
     assert!(!v.fits(), "{v:?}");
 }
+
+/// The negative control of the loop whose fits measure their own noise (what `diagnose
+/// --free-motion` runs without a configuration): clean consumer-grade 19-position recordings,
+/// seeds 910-919 fixed before the run; no term accepted on at least 9 of the 10.
+#[test]
+fn the_loop_with_measured_noise_accepts_nothing_on_clean_consumer_recordings() {
+    let seeds: Vec<u64> = (910..=919).collect();
+    let accepted = workspace_tests::parallel_map(&seeds, |&seed| {
+        let mut truth = crate::rests::consumer_config(seed);
+        truth.truth.imu_rate_hz = 25.0;
+        truth.filter.imu_rate_hz = 25.0;
+        let sim = calib::simulate::simulate_run(&truth, "19 positions").unwrap();
+        let imu = ImuData::from_samples(&sim.imu);
+        let rests = crate::rests::rests(&truth);
+        let (own, noise) = from_data(&truth, &imu, &rests);
+        let data = RunData {
+            imu: &imu,
+            imu_file: "imu.csv",
+            turntable: None,
+        };
+        let settings = LoopSettings {
+            measured_noise: Some(noise),
+            ..LoopSettings::default()
+        };
+        let r = run_loop_at_rests(&own, &data, &rests, &[], &settings, &mut |_| {}).unwrap();
+        let first: Vec<String> = r.rounds[0]
+            .candidates
+            .iter()
+            .map(|c| format!("{} p {:.2e} sep {}", c.term, c.p_value, c.separable))
+            .collect();
+        println!(
+            "seed {seed}: accepted {:?}; first round {first:?}",
+            r.accepted_terms
+        );
+        r.accepted_terms
+    });
+    let clean = accepted.iter().filter(|a| a.is_empty()).count();
+    assert!(clean >= 9, "{accepted:?}");
+}

@@ -406,6 +406,9 @@ struct Context<'a> {
     /// `config` with its white noise scaled to the data, for a round whose current model's
     /// mean NIS contradicts the configured noise ([`noise_rescale`]).
     scaled: Option<RunConfig>,
+    /// The noise factor and motion noise (rad) the paper's model's fit measured (a recording
+    /// whose noise every fit measures): the next fits start from them.
+    measured_start: Option<(f64, f64)>,
     data: &'a RunData<'a>,
     /// A recording of rests without a program ([`run_loop_at_rests`]).
     rests: Option<&'a [crate::rests::Rest]>,
@@ -459,7 +462,7 @@ impl Context<'_> {
         let estimate = match self.rests {
             None => estimate_ext(config, *self.data, ext)?,
             Some(rests) => {
-                crate::hand_turned::fit_measuring_noise(
+                let fit = crate::hand_turned::fit_measuring_noise(
                     config,
                     &crate::layout::layout_with(config, false, ext),
                     crate::hand_turned::RestsInput {
@@ -469,9 +472,19 @@ impl Context<'_> {
                         turns: self.turns,
                     },
                     self.settings.measured_noise,
+                    self.measured_start,
                     &mut |_, _| {},
-                )?
-                .estimate
+                )?;
+                if let crate::hand_turned::NoiseSource::Measured {
+                    accel_factor,
+                    motion_noise_deg,
+                    ..
+                } = fit.noise
+                {
+                    self.measured_start
+                        .get_or_insert((accel_factor, motion_noise_deg.to_radians()));
+                }
+                fit.estimate
             }
         };
         let diagnostics = diagnose(
@@ -748,6 +761,7 @@ pub fn run_loop(
     let cx = Context {
         config,
         scaled: None,
+        measured_start: None,
         data,
         rests: None,
         turns: &[],
@@ -793,6 +807,7 @@ pub fn run_loop_at_rests(
     let cx = Context {
         config,
         scaled: None,
+        measured_start: None,
         data,
         rests: Some(rests),
         turns,

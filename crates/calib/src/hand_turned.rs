@@ -612,11 +612,15 @@ pub struct MeasuredFit {
 /// until both settle (the factor within 3 %, the motion noise within 15 % or below 1e-6 rad).
 /// Sigmas from a noise the innovations contradict are wrong in either direction: too small
 /// when the windows scatter more, too large when they scatter less.
+///
+/// `start`: the factor and motion noise (rad) the first fit is made with (`None`: 1 and the
+/// configuration's); a fit of a model close to one already measured starts from its values.
 pub fn fit_measuring_noise(
     config: &RunConfig,
     layout: &crate::layout::StateLayout,
     input: RestsInput,
     measured: Option<WhiteNoiseAtRest>,
+    start: Option<(f64, f64)>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<MeasuredFit, crate::estimate::EstimateError> {
     let mut config = config.clone();
@@ -624,6 +628,9 @@ pub fn fit_measuring_noise(
     let g = config.site().specific_force_at_rest_enu().norm();
     let (mut factor, mut fits) = (1.0, 0);
     let mut motion = config.filter.motion_attitude_noise_deg.to_radians();
+    if let Some((k, m)) = start.filter(|_| measured.is_some()) {
+        (factor, motion) = (k, m);
+    }
     loop {
         config.noise.accel_m_s2 = base_accel * factor;
         config.filter.motion_attitude_noise_deg = motion.to_degrees();
@@ -745,7 +752,7 @@ pub fn calibrate(
         estimate,
         config,
         noise,
-    } = fit_measuring_noise(&config, layout, input, measured, progress)?;
+    } = fit_measuring_noise(&config, layout, input, measured, None, progress)?;
     let intervals = intervals_of(data, rests);
     let g = config.site().specific_force_at_rest_enu().norm();
     let bias_sigma = ["x", "y", "z"]
