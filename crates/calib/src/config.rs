@@ -677,6 +677,38 @@ impl RunConfig {
     }
 }
 
+/// The instrument-error priors of a unit of `grade` (SI): the one place they are written.
+///
+/// - navigation: the paper's (0.5 deg/h, 1e-3, 1 arcmin; 1e-3 m/s^2, 1e-3, 1 arcmin: the
+///   embedded `paper` configuration);
+/// - tactical: gyro biases of 30 deg/h (the middle of the grade's 1..100 deg/h, in
+///   [`sins_model::candidates::UnitGrade::from_gyro_bias_prior`]'s terms), scale factors and
+///   misalignments of 1e-3 and 5 arcmin, accelerometer biases of 1e-2 m/s^2 (1 mg);
+/// - consumer: 1 deg/s, 5 %, 1 deg; accelerometer biases of 1 m/s^2, 5 %, 1 deg (an
+///   uncalibrated MEMS unit straight off the board).
+pub fn grade_priors(grade: sins_model::candidates::UnitGrade) -> PaperPriors {
+    use sins_model::candidates::UnitGrade;
+    match grade {
+        UnitGrade::Navigation => RunConfig::paper().priors_si(),
+        UnitGrade::Tactical => PaperPriors {
+            gyro_bias: 30.0 * DEG_H,
+            gyro_scale: 1e-3,
+            gyro_misalignment: 5.0 * ARCMIN,
+            accel_bias: 1e-2,
+            accel_scale: 1e-3,
+            accel_misalignment: 5.0 * ARCMIN,
+        },
+        UnitGrade::Consumer => PaperPriors {
+            gyro_bias: 3600.0 * DEG_H,
+            gyro_scale: 0.05,
+            gyro_misalignment: 60.0 * ARCMIN,
+            accel_bias: 1.0,
+            accel_scale: 0.05,
+            accel_misalignment: 60.0 * ARCMIN,
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -729,37 +761,5 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("bogus") && e.contains("line"), "{e}");
-    }
-}
-
-/// The instrument-error priors of a unit of `grade` (SI): the one place they are written.
-///
-/// - navigation: the paper's (0.5 deg/h, 1e-3, 1 arcmin; 1e-3 m/s^2, 1e-3, 1 arcmin: the
-///   embedded `paper` configuration);
-/// - tactical: gyro biases of 30 deg/h (the middle of the grade's 1..100 deg/h, in
-///   [`sins_model::candidates::UnitGrade::from_gyro_bias_prior`]'s terms), scale factors and
-///   misalignments of 1e-3 and 5 arcmin, accelerometer biases of 1e-2 m/s^2 (1 mg);
-/// - consumer: 1 deg/s, 5 %, 1 deg; accelerometer biases of 1 m/s^2, 5 %, 1 deg (an
-///   uncalibrated MEMS unit straight off the board).
-pub fn grade_priors(grade: sins_model::candidates::UnitGrade) -> PaperPriors {
-    use sins_model::candidates::UnitGrade;
-    match grade {
-        UnitGrade::Navigation => RunConfig::paper().priors_si(),
-        UnitGrade::Tactical => PaperPriors {
-            gyro_bias: 30.0 * DEG_H,
-            gyro_scale: 1e-3,
-            gyro_misalignment: 5.0 * ARCMIN,
-            accel_bias: 1e-2,
-            accel_scale: 1e-3,
-            accel_misalignment: 5.0 * ARCMIN,
-        },
-        UnitGrade::Consumer => PaperPriors {
-            gyro_bias: 3600.0 * DEG_H,
-            gyro_scale: 0.05,
-            gyro_misalignment: 60.0 * ARCMIN,
-            accel_bias: 1.0,
-            accel_scale: 0.05,
-            accel_misalignment: 60.0 * ARCMIN,
-        },
     }
 }
