@@ -1,137 +1,21 @@
-//! SHA-256 (FIPS 180-4) of the input files a report names, so that a laboratory can tell later
-//! which recording and configuration a calibration came from. Small and pure Rust: no
-//! dependency needs a system library.
+//! SHA-256 of the input files a report names, so that a laboratory can tell later which
+//! recording and configuration a calibration came from: the well-kept pure-Rust `sha2` crate (no
+//! system library), in place of the hand-written implementation this module held before.
 
+use sha2::{Digest, Sha256};
 use std::io::Read as _;
 use std::path::Path;
 
-/// The round constants: the first 32 bits of the fractional parts of the cube roots of the
-/// first 64 primes.
-const K: [u32; 64] = [
-    0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4, 0xab1c5ed5,
-    0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe, 0x9bdc06a7, 0xc19bf174,
-    0xe49b69c1, 0xefbe4786, 0x0fc19dc6, 0x240ca1cc, 0x2de92c6f, 0x4a7484aa, 0x5cb0a9dc, 0x76f988da,
-    0x983e5152, 0xa831c66d, 0xb00327c8, 0xbf597fc7, 0xc6e00bf3, 0xd5a79147, 0x06ca6351, 0x14292967,
-    0x27b70a85, 0x2e1b2138, 0x4d2c6dfc, 0x53380d13, 0x650a7354, 0x766a0abb, 0x81c2c92e, 0x92722c85,
-    0xa2bfe8a1, 0xa81a664b, 0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070,
-    0x19a4c116, 0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
-    0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7, 0xc67178f2,
-];
-
-/// The initial hash: the first 32 bits of the fractional parts of the square roots of the
-/// first 8 primes.
-const H0: [u32; 8] = [
-    0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a, 0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19,
-];
-
-/// A running SHA-256.
-#[derive(Clone, Debug)]
-pub struct Sha256 {
-    state: [u32; 8],
-    /// Bytes of an incomplete block.
-    block: [u8; 64],
-    filled: usize,
-    /// Message length so far (bytes).
-    length: u64,
-}
-
-impl Default for Sha256 {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl Sha256 {
-    /// An empty message.
-    pub fn new() -> Self {
-        Self {
-            state: H0,
-            block: [0; 64],
-            filled: 0,
-            length: 0,
-        }
-    }
-
-    /// Append `data` to the message.
-    pub fn update(&mut self, mut data: &[u8]) {
-        self.length = self.length.wrapping_add(data.len() as u64);
-        while !data.is_empty() {
-            let take = (64 - self.filled).min(data.len());
-            self.block[self.filled..self.filled + take].copy_from_slice(&data[..take]);
-            self.filled += take;
-            data = &data[take..];
-            if self.filled == 64 {
-                compress(&mut self.state, &self.block);
-                self.filled = 0;
-            }
-        }
-    }
-
-    /// The digest of the message, as 64 lowercase hex digits.
-    pub fn hex(mut self) -> String {
-        let bits = self.length.wrapping_mul(8);
-        self.update_padding();
-        self.block[56..].copy_from_slice(&bits.to_be_bytes());
-        compress(&mut self.state, &self.block);
-        self.state.iter().map(|w| format!("{w:08x}")).collect()
-    }
-
-    /// The 0x80 byte and zeros up to the length field (a block of its own when it does not fit).
-    fn update_padding(&mut self) {
-        self.block[self.filled] = 0x80;
-        self.block[self.filled + 1..].fill(0);
-        if self.filled >= 56 {
-            compress(&mut self.state, &self.block);
-            self.block.fill(0);
-        }
-    }
-}
-
-/// One 64-byte block into the state.
-fn compress(state: &mut [u32; 8], block: &[u8; 64]) {
-    let mut w = [0u32; 64];
-    for (i, chunk) in block.chunks_exact(4).enumerate() {
-        w[i] = u32::from_be_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
-    }
-    for i in 16..64 {
-        let s0 = w[i - 15].rotate_right(7) ^ w[i - 15].rotate_right(18) ^ (w[i - 15] >> 3);
-        let s1 = w[i - 2].rotate_right(17) ^ w[i - 2].rotate_right(19) ^ (w[i - 2] >> 10);
-        w[i] = w[i - 16]
-            .wrapping_add(s0)
-            .wrapping_add(w[i - 7])
-            .wrapping_add(s1);
-    }
-    let [mut a, mut b, mut c, mut d, mut e, mut f, mut g, mut h] = *state;
-    for i in 0..64 {
-        let s1 = e.rotate_right(6) ^ e.rotate_right(11) ^ e.rotate_right(25);
-        let ch = (e & f) ^ (!e & g);
-        let t1 = h
-            .wrapping_add(s1)
-            .wrapping_add(ch)
-            .wrapping_add(K[i])
-            .wrapping_add(w[i]);
-        let s0 = a.rotate_right(2) ^ a.rotate_right(13) ^ a.rotate_right(22);
-        let maj = (a & b) ^ (a & c) ^ (b & c);
-        let t2 = s0.wrapping_add(maj);
-        h = g;
-        g = f;
-        f = e;
-        e = d.wrapping_add(t1);
-        d = c;
-        c = b;
-        b = a;
-        a = t1.wrapping_add(t2);
-    }
-    for (s, v) in state.iter_mut().zip([a, b, c, d, e, f, g, h]) {
-        *s = s.wrapping_add(v);
-    }
+/// The digest as lower-case hex.
+fn hex(h: Sha256) -> String {
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// The SHA-256 of `data` (hex).
 pub fn of_bytes(data: &[u8]) -> String {
     let mut h = Sha256::new();
     h.update(data);
-    h.hex()
+    hex(h)
 }
 
 /// The SHA-256 (hex) and the size (bytes) of a file, read in blocks.
@@ -154,7 +38,7 @@ pub fn of_file(path: &Path) -> Result<(String, u64), crate::Error> {
         h.update(&buf[..n]);
         size += n as u64;
     }
-    Ok((h.hex(), size))
+    Ok((hex(h), size))
 }
 
 #[cfg(test)]
@@ -186,7 +70,7 @@ mod tests {
             left -= n;
         }
         assert_eq!(
-            h.hex(),
+            hex(h),
             "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0"
         );
     }
@@ -202,6 +86,6 @@ mod tests {
         let mut h = Sha256::new();
         h.update(&[b'x'; 30]);
         h.update(&[b'x'; 26]);
-        assert_eq!(h.hex(), of_bytes(&[b'x'; 56]));
+        assert_eq!(hex(h), of_bytes(&[b'x'; 56]));
     }
 }
