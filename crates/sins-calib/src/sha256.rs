@@ -84,8 +84,8 @@ mod tests {
             assert!(digests[i + 1..].iter().all(|b| b != a));
         }
         let mut h = Sha256::new();
-        h.update(&[b'x'; 30]);
-        h.update(&[b'x'; 26]);
+        h.update([b'x'; 30]);
+        h.update([b'x'; 26]);
         assert_eq!(hex(h), of_bytes(&[b'x'; 56]));
     }
 }
