@@ -30,7 +30,7 @@
 //! the five terms (31) is fitted by Levenberg-Marquardt in the logarithms of its coefficients,
 //! and a subset whose optimum lies on the boundary (a term below 1e-4 of the sum at every point)
 //! is left to the smaller subset without that term. Among the subsets whose every term is
-//! supported inside the fitted range ([`supported`]: it carries at least half the fitted sum at
+//! supported inside the fitted range (`supported`: it carries at least half the fitted sum at
 //! two or more fitted points) the one with the smallest `chi^2 + 2 k` (Akaike's criterion, `k`
 //! terms) is taken, so a term enters only where the data show it: the "rate ramp where
 //! visible" of the standards, no quantisation invented from a white curve, and none whose steep
@@ -527,7 +527,7 @@ fn start_of(points: &[AllanPoint], mask: u32) -> [f64; 5] {
 const PENALTY: f64 = 2.0;
 
 /// Fitted points at which a term must carry at least half of the fitted sum
-/// ([`supported`]).
+/// (`supported`).
 pub const SUPPORT_POINTS: usize = 2;
 
 /// Whether every term of `f` is supported inside the fitted range: it carries at least half of
