@@ -165,6 +165,8 @@ fn innovations_plot(
             .map_err(|e| perr(&e))?;
         chart
             .configure_mesh()
+            .y_label_formatter(&|v| crate::table::tick(*v))
+            .x_label_formatter(&|v| crate::table::tick(*v))
             .x_desc("IMU time [s]")
             .y_desc(format!("axis {} [sigma]", AXES[a]))
             .label_style(("sans-serif", 13))
@@ -247,6 +249,8 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
             .map_err(|e| perr(&e))?;
         chart
             .configure_mesh()
+            .y_label_formatter(&|v| crate::table::tick(*v))
+            .x_label_formatter(&|v| crate::table::tick(*v))
             .x_desc("frequency [Hz]")
             .y_desc(format!("axis {} [power / white]", AXES[a]))
             .label_style(("sans-serif", 13))
@@ -339,6 +343,7 @@ fn autocorrelation_plot(
             .map_err(|e| perr(&e))?;
         chart
             .configure_mesh()
+            .y_label_formatter(&|v| crate::table::tick(*v))
             .x_label_formatter(&|x| format!("{x:.0}"))
             .x_desc("lag [updates]")
             .y_desc(format!("axis {} [correlation]", AXES[a]))
@@ -401,6 +406,7 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
         .map_err(|e| perr(&e))?;
     chart
         .configure_mesh()
+        .y_label_formatter(&|v| crate::table::tick(*v))
         .x_desc("segment number (names: report.md, or the diagnostics in the JSON)")
         .y_desc("NIS / dof [1 expected]")
         .x_label_formatter(&|x| format!("{x:.0}"))

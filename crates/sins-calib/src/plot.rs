@@ -45,6 +45,7 @@ fn panel(
         .map_err(|e| err(&e))?;
     chart
         .configure_mesh()
+        .y_label_formatter(&|v| crate::table::tick(*v))
         .x_desc("static interval")
         .y_desc("|f| - g [m/s^2]")
         .x_label_formatter(&|x| format!("{x:.0}"))

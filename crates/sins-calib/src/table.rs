@@ -134,6 +134,17 @@ pub fn compact(x: f64) -> String {
     }
 }
 
+/// An axis tick of a plot: [`compact`], and 0 for what rounding left of a zero (a tick at
+/// `-1.4e-18` where the axis crosses zero). The plots' axes are in sigmas, correlations, ratios,
+/// seconds or segment numbers, none of which has a meaningful tick below 1e-12.
+pub fn tick(x: f64) -> String {
+    if x.abs() < 1e-12 {
+        "0".to_string()
+    } else {
+        compact(x)
+    }
+}
+
 /// Column alignment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Align {
@@ -233,6 +244,10 @@ mod tests {
         assert_eq!(compact(2740.04), "2740.04");
         assert_eq!(compact(50.01000000004548), "50.01");
         assert_eq!(compact(2.5e-7), "2.5e-7");
+        // Plot ticks: the floating-point sum of steps, and a zero left by rounding.
+        assert_eq!(tick(0.1 + 0.2), "0.3");
+        assert_eq!(tick(-1.38894e-18), "0");
+        assert_eq!(tick(-0.05), "-0.05");
     }
 
     #[test]
