@@ -112,12 +112,12 @@ fn repeated_paper_program(n: usize) -> String {
 }
 
 /// A 10-h run: the paper's program 13 times (35 559 s) at the paper's rates, seed 1 (as
-/// `examples/run.toml`). Measured (release, about 40 s): turntable mean NIS 2.944 over 35 559
+/// `examples/run.toml`). Measured (release, about 10 s): turntable mean NIS 2.944 over 35 559
 /// updates, expected 2.974, band 0.039 (before the band was about the expected value: exit
 /// status 3 at 1.4 bands below 3); specific force 2.996. Seeds 2-5: 2.991, 2.987, 2.975, 2.964.
 /// With the shared covariance left out of `R` (a trial build): 2.970 on seed 1.
 #[test]
-#[ignore = "a 10-h run at 100 Hz: about 40 s in release and 1 GB"]
+#[ignore = "a 10-h run at 100 Hz: about 10 s in release"]
 fn ten_hour_run_of_the_paper_program_fits() {
     let dir = std::env::temp_dir().join(format!("sins-calib-longrun-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
