@@ -828,8 +828,9 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
 }
 
 /// The factors by which the configured white noise of each measurement is scaled to the data:
-/// the root of its mean NIS over 3 where that mean is outside its band (`None`: both inside,
-/// or no updates).
+/// the root of its mean NIS over the mean expected when the model fits (3, for the turntable
+/// angles a little less: `FitStatistics::turntable_expected_nis`) where that mean is outside
+/// its band (`None`: both inside, or no updates).
 fn noise_rescale(
     stats: &crate::estimate::FitStatistics,
     with_turntable: bool,
@@ -840,7 +841,7 @@ fn noise_rescale(
             .iter()
             .find(|m| m.kind == kind)
             .filter(|m| !m.consistent() && m.mean.is_finite() && m.mean > 0.0)
-            .map_or(1.0, |m| (m.mean / 3.0).sqrt())
+            .map_or(1.0, |m| (m.mean / m.expected).sqrt())
     };
     let r = NoiseRescale {
         accel_factor: factor(crate::model::MeasurementKind::Accel),

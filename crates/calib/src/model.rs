@@ -327,6 +327,12 @@ pub struct Measurement {
     pub r: Matrix3<f64>,
     /// Number of IMU steps (specific force) or angle samples (turntable) averaged.
     pub samples: usize,
+    /// The part of `r` that is not this measurement's own noise variance: the covariance with
+    /// the window before through the angle records the two share, added to `r` for the
+    /// parameters' sake ([`LinearModel::turntable_measurement`]). The innovation then scatters
+    /// by `S - r_shared`, not `S`, and its NIS averages `3 - tr(S^-1 r_shared)`
+    /// ([`crate::engine::UpdateRecord::expected_nis`]). Zero for the specific force.
+    pub r_shared: Matrix3<f64>,
     /// Cross-covariance `E[beta v^T]` of the attitude error at the instant and the noise (the
     /// gyro noise within the window: module docs); the other states' rows are zero.
     pub cross_beta: Matrix3<f64>,
@@ -712,6 +718,7 @@ impl LinearModel {
             z: self.acc.dv_enu / t - f_enu,
             r: Matrix3::identity() * (psd_accel / t) + f_beta * f_beta.transpose() * c2,
             samples: (t / self.dt).round() as usize,
+            r_shared: Matrix3::zeros(),
             cross_beta: -f_beta.transpose() * c1,
         })
     }
@@ -776,6 +783,7 @@ impl LinearModel {
         // skipped for records past the last of those (it made this function quadratic in the
         // records per window).
         let prev_last = w.prev_records.iter().map(|(i, _)| *i).max();
+        let mut r_shared = Matrix3::zeros();
         for (k, m) in &w.records {
             if prev_last.is_none_or(|last| *k > last) {
                 continue;
@@ -783,6 +791,7 @@ impl LinearModel {
             if let Some((_, mp)) = w.prev_records.iter().find(|(i, _)| i == k) {
                 let c = mp * m.transpose() * (var_per_record / (np * nf));
                 r += c + c.transpose();
+                r_shared += c + c.transpose();
             }
         }
         // The samples' `beta` (weight 1 each) with the noise of the steps after them.
@@ -793,6 +802,7 @@ impl LinearModel {
             z: w.y_sum / nf,
             r,
             samples: w.count,
+            r_shared,
             cross_beta: -Matrix3::identity() * c1,
         })
     }

@@ -14,3 +14,4 @@ mod free_motion_real;
 mod io;
 mod jacobians;
 mod paper_20hz;
+mod shared_records_nis;

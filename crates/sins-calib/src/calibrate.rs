@@ -187,6 +187,8 @@ struct UnobservedJson {
 struct TurntableFitJson {
     updates: usize,
     mean_nis: f64,
+    /// What `mean_nis` averages when the model fits (`FitStatistics::turntable_expected_nis`).
+    expected_mean_nis: f64,
     samples_used: usize,
     samples_near_rate_changes: usize,
     samples_without_data: usize,
@@ -204,6 +206,7 @@ fn fit_json(est: &Estimate, with_turntable: bool) -> FitJson {
         turntable: with_turntable.then_some(TurntableFitJson {
             updates: s.turntable_updates,
             mean_nis: s.turntable_mean_nis,
+            expected_mean_nis: s.turntable_expected_nis,
             samples_used: s.turntable_samples,
             samples_near_rate_changes: s.turntable_samples_near_rate_changes,
             samples_without_data: s.turntable_samples_missing,
@@ -837,17 +840,23 @@ fn parameter_report(est: &Estimate, truth: Option<&ResultFile>) -> String {
     t.render()
 }
 
-/// One line on a mean NIS: is it consistent with 3?
-fn nis_verdict(mean: f64, n: usize) -> String {
+/// One line on a mean NIS: is it consistent with what it averages when the model fits
+/// (`expected`: 3, or a little less for the turntable angles, `FitStatistics::turntable_expected_nis`)?
+fn nis_verdict(mean: f64, expected: f64, n: usize) -> String {
     if n == 0 {
         return "no updates".into();
     }
     let band = nis_band(n);
     let head = format!("mean NIS {mean:.3} over {n} updates");
-    let band_text = format!("3 +- {}", table::significant(band, 2));
-    if (mean - 3.0).abs() <= band {
-        format!("{head}: consistent with 3 (expected {band_text})")
-    } else if mean > 3.0 {
+    let centre = if expected == 3.0 {
+        "3".to_string()
+    } else {
+        format!("{expected:.3}")
+    };
+    let band_text = format!("{centre} +- {}", table::significant(band, 2));
+    if (mean - expected).abs() <= band {
+        format!("{head}: consistent with {centre} (expected {band_text})")
+    } else if mean > expected {
         format!(
             "{head}: larger than expected ({band_text}); the data scatter more than the \
              configured noise and priors allow (noise levels too low, or errors the model lacks)"
@@ -865,13 +874,17 @@ fn fit_report(stats: &FitStatistics, with_turntable: bool) -> String {
     let _ = writeln!(
         s,
         "  specific force    {}",
-        nis_verdict(stats.accel_mean_nis, stats.accel_updates)
+        nis_verdict(stats.accel_mean_nis, 3.0, stats.accel_updates)
     );
     if with_turntable {
         let _ = writeln!(
             s,
             "  turntable angles  {}",
-            nis_verdict(stats.turntable_mean_nis, stats.turntable_updates)
+            nis_verdict(
+                stats.turntable_mean_nis,
+                stats.turntable_expected_nis,
+                stats.turntable_updates
+            )
         );
     }
     if stats.turn_updates > 0 {
@@ -1004,9 +1017,14 @@ mod tests {
 
     #[test]
     fn verdicts() {
-        assert!(nis_verdict(3.05, 2727).contains("consistent"));
-        assert!(nis_verdict(3.5, 2727).contains("larger"));
-        assert!(nis_verdict(2.5, 2727).contains("smaller"));
-        assert!(nis_verdict(3.5, 30).contains("consistent"));
+        assert!(nis_verdict(3.05, 3.0, 2727).contains("consistent"));
+        assert!(nis_verdict(3.5, 3.0, 2727).contains("larger"));
+        assert!(nis_verdict(2.5, 3.0, 2727).contains("smaller"));
+        assert!(nis_verdict(3.5, 3.0, 30).contains("consistent"));
+        // About the expected mean: 2.944 over a 10-h run's updates is 1.4 bands below 3 but
+        // inside the band about 2.97.
+        assert!(nis_verdict(2.944, 3.0, 35559).contains("smaller"));
+        let v = nis_verdict(2.944, 2.97, 35559);
+        assert!(v.contains("consistent with 2.970"), "{v}");
     }
 }

@@ -349,17 +349,22 @@ fn verdict_md(report: &Report<'_>) -> String {
     }
     let _ = writeln!(
         s,
-        "Mean NIS per measurement (3 expected: three components per update; band: three \
-         standard deviations of the mean, 3 sqrt(6/n)):\n\n| measurement | updates | mean NIS \
-         | band | inside |\n|---|---:|---:|---|---|"
+        "Mean NIS per measurement (3 expected: three components per update, for the turntable \
+         angles a little less, docs/estimation.md; band: three standard deviations of the mean, \
+         3 sqrt(6/n)):\n\n| measurement | updates | mean NIS | band | inside |\n|---|---:|---:|---|---|"
     );
     for m in lab::mean_nis_figures(&report.fit.est.stats, report.with_turntable) {
         let _ = writeln!(
             s,
-            "| {} | {} | {:.3} | 3 +- {} | {} |",
+            "| {} | {} | {:.3} | {} +- {} | {} |",
             m.label,
             m.updates,
             m.mean,
+            if m.expected == 3.0 {
+                "3".to_string()
+            } else {
+                format!("{:.3}", m.expected)
+            },
             table::significant(m.half_band, 2),
             if m.consistent() { "yes" } else { "**no**" }
         );

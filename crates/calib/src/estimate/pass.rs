@@ -433,6 +433,8 @@ pub(super) struct Pass<'a> {
     /// A window was left out for motion since the last measurement instant.
     moved: bool,
     nis_sum: (f64, f64),
+    /// Sum of the turntable updates' expected NIS (`UpdateRecord::expected_nis`).
+    expected_turntable_nis_sum: f64,
     /// Every update of the pass in order (segments assigned by the caller).
     innovations: Vec<Innovation>,
     /// Steps done.
@@ -520,6 +522,7 @@ impl<'a> Pass<'a> {
             window_at_rest: true,
             moved: false,
             nis_sum: (0.0, 0.0),
+            expected_turntable_nis_sum: 0.0,
             innovations: Vec::with_capacity(updates),
             j: 0,
             prev_compensated: None,
@@ -822,6 +825,8 @@ impl<'a> Pass<'a> {
         if let Some(nis) = report.turntable_nis {
             self.stats.turntable_updates += 1;
             self.nis_sum.1 += nis;
+            self.expected_turntable_nis_sum +=
+                report.turntable_update.map_or(3.0, |u| u.expected_nis);
         }
     }
 
@@ -900,6 +905,11 @@ impl<'a> Pass<'a> {
         self.stats.imu_steps = self.j;
         self.stats.accel_mean_nis = self.nis_sum.0 / self.stats.accel_updates.max(1) as f64;
         self.stats.turntable_mean_nis = self.nis_sum.1 / self.stats.turntable_updates.max(1) as f64;
+        self.stats.turntable_expected_nis = if self.stats.turntable_updates == 0 {
+            3.0
+        } else {
+            self.expected_turntable_nis_sum / self.stats.turntable_updates as f64
+        };
         self.stats.turn_mean_nis = self.turn_nis_sum / self.stats.turn_updates.max(1) as f64;
         let map = mounting_map(self.layout, &lin);
         let mut cov = self.engine.covariance();

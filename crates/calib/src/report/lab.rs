@@ -117,16 +117,20 @@ pub struct MeanNis {
     pub label: &'static str,
     /// Updates averaged.
     pub updates: usize,
-    /// The mean NIS (3 expected: three components per update).
+    /// The mean NIS.
     pub mean: f64,
-    /// Half-width of the band about 3 ([`mean_nis_half_band`]).
+    /// What it averages when the model fits: 3 (three components per update) less the share
+    /// of the innovation covariance that is covariance with the update before
+    /// ([`FitStatistics::turntable_expected_nis`]; 3 for the specific force).
+    pub expected: f64,
+    /// Half-width of the band about `expected` ([`mean_nis_half_band`]).
     pub half_band: f64,
 }
 
 impl MeanNis {
     /// Whether the mean is inside its band (no updates: nothing to contradict the model).
     pub fn consistent(&self) -> bool {
-        self.updates == 0 || (self.mean - 3.0).abs() <= self.half_band
+        self.updates == 0 || (self.mean - self.expected).abs() <= self.half_band
     }
 }
 
@@ -137,6 +141,7 @@ pub fn mean_nis_figures(stats: &FitStatistics, with_turntable: bool) -> Vec<Mean
         label: kind_label(MeasurementKind::Accel),
         updates: stats.accel_updates,
         mean: stats.accel_mean_nis,
+        expected: 3.0,
         half_band: mean_nis_half_band(stats.accel_updates),
     }];
     if with_turntable {
@@ -145,6 +150,7 @@ pub fn mean_nis_figures(stats: &FitStatistics, with_turntable: bool) -> Vec<Mean
             label: kind_label(MeasurementKind::Turntable),
             updates: stats.turntable_updates,
             mean: stats.turntable_mean_nis,
+            expected: stats.turntable_expected_nis,
             half_band: mean_nis_half_band(stats.turntable_updates),
         });
     }
@@ -164,8 +170,8 @@ pub fn misfit_reasons(
         .filter(|m| !m.consistent())
         .map(|m| {
             format!(
-                "{}: mean NIS {:.3} over {} updates, expected 3 +- {:.3}",
-                m.label, m.mean, m.updates, m.half_band
+                "{}: mean NIS {:.3} over {} updates, expected {:.3} +- {:.3}",
+                m.label, m.mean, m.updates, m.expected, m.half_band
             )
         })
         .collect();
@@ -435,11 +441,19 @@ mod tests {
             label: "specific force",
             updates: 2727,
             mean,
+            expected: 3.0,
             half_band: mean_nis_half_band(2727),
         };
         assert!(m(3.1).consistent());
         assert!(!m(3.2).consistent());
         assert!(!m(2.8).consistent());
+        // The band is about the expected mean, not about 3.
+        let shifted = |mean| MeanNis {
+            expected: 2.9,
+            ..m(mean)
+        };
+        assert!(shifted(2.78).consistent());
+        assert!(!shifted(3.05).consistent());
     }
 
     #[test]
