@@ -15,7 +15,10 @@
 //! The work is done by the `calib` library; this crate only reads arguments, reports and exits.
 //! File formats: `docs/formats.md`.
 
-#![forbid(unsafe_code)]
+// Unsafe code is refused everywhere but in `signals`, which blocks and waits for the
+// interrupting signals through the C library (no crate of the dependency tree does that without
+// a system library or a handler running in signal context).
+#![deny(unsafe_code)]
 
 mod analyse;
 mod apply;
@@ -35,6 +38,7 @@ mod plot;
 mod report_plots;
 mod segment;
 mod sha256;
+mod signals;
 mod simulate;
 mod table;
 
@@ -164,6 +168,7 @@ pub fn print(text: &str) -> Result<(), Error> {
 pub const MODEL_DOES_NOT_FIT: u8 = 3;
 
 fn main() -> ExitCode {
+    signals::install();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate::run(&args).map(|()| ExitCode::SUCCESS),
