@@ -162,16 +162,15 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let name = out
         .file_name()
         .ok_or_else(|| format!("{}: expected a file name", out.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
+    let tmp = crate::output::fresh_temporary(&dir.join(name))?;
     // Removed on a failure (the guard's drop) and on an interruption (the signal thread): the
     // corrected records of a long recording are hundreds of megabytes.
     let guard = crate::signals::Pending::new(&tmp);
     let written = (|| -> Result<usize, Error> {
-        let f = std::fs::File::create(&tmp)
+        let f = std::fs::File::options()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
             .map_err(|e| format!("{}: cannot write: {e}", tmp.display()))?;
         let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
         let n = correct_stream(&mut reader, &correction, &mut w, &tmp.display().to_string())?;

@@ -290,6 +290,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         outputs.dir(dir, "--report", &crate::lab_report::NAMES)?;
     }
     if let Some(dir) = &args.diagnostics {
+        outputs.any_dir(dir, "--diagnostics")?;
         prepare_diagnostics_dir(dir)?;
     }
     let mut input = load_inputs(args)?;

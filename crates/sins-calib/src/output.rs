@@ -167,11 +167,16 @@ pub fn check_file(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Err
 /// existing file, and none of `inputs` is one of the files that would be replaced there.
 pub fn check_dir(dir: &Path, option: &str, names: &[&str], inputs: &[&Path]) -> Result<(), Error> {
     let shown = dir.display();
+    let what = if names.is_empty() {
+        "its outputs".to_string()
+    } else {
+        names.join(", ")
+    };
     if dir.exists() && !dir.is_dir() {
         return Err(format!(
             "{option} {shown}: is a file: expected a directory (existing or to be created) to \
              write {} into",
-            names.join(", ")
+            what
         )
         .into());
     }
@@ -185,7 +190,7 @@ pub fn check_dir(dir: &Path, option: &str, names: &[&str], inputs: &[&Path]) -> 
             "{option} {shown}: {} is not a directory: expected a directory (existing or to be \
              created) to write {} into",
             beside.display(),
-            names.join(", ")
+            what
         )
         .into());
     }
@@ -263,6 +268,22 @@ impl<'a> Outputs<'a> {
         self.claim(option, path, vec![resolved(path)])
     }
 
+    /// A directory whose outputs are not known before the work (`calibrate --diagnostics`): not
+    /// a file or device, writable where it is or is to be created, and no other output.
+    pub fn any_dir(&mut self, dir: &Path, option: &str) -> Result<(), Error> {
+        if dir.exists() && !dir.is_dir() {
+            return Err(format!(
+                "{option} {}: {option} needs a directory (existing or to be created), this is \
+                 a file",
+                dir.display()
+            )
+            .into());
+        }
+        check_dir(dir, option, &[], &self.inputs)?;
+        check_not_special(dir, option)?;
+        self.claim(option, dir, vec![resolved(dir)])
+    }
+
     /// A directory of outputs `names` ([`check_dir`]).
     pub fn dir(&mut self, dir: &Path, option: &str, names: &[&str]) -> Result<(), Error> {
         check_dir(dir, option, names, &self.inputs)?;
@@ -278,6 +299,14 @@ fn temporary_beside(path: &Path, n: usize) -> PathBuf {
         .file_name()
         .map_or_else(|| "output".into(), |s| s.to_string_lossy().into_owned());
     parent_of(path).join(format!(".{name}.tmp-{}-{n}", std::process::id()))
+}
+
+/// A temporary name beside `path` that no file has yet.
+pub fn fresh_temporary(path: &Path) -> Result<PathBuf, Error> {
+    (0..100)
+        .map(|n| temporary_beside(path, n))
+        .find(|p| std::fs::symlink_metadata(p).is_err())
+        .ok_or_else(|| format!("{}: cannot find a temporary name beside it", path.display()).into())
 }
 
 /// Whether an output path is `-`: standard output.
