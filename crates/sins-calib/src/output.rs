@@ -61,16 +61,14 @@ fn check_writable_dir(dir: &Path, option: &str, path: &Path) -> Result<(), Error
         .map(|n| dir.join(format!(".sins-calib-probe-{}-{n}", std::process::id())))
         .find(|p| std::fs::symlink_metadata(p).is_err())
         .unwrap_or_else(|| dir.join(".sins-calib-probe"));
+    // Removed by the guard's drop, or by the signal thread on an interruption.
+    let _guard = crate::signals::Pending::new(&probe);
     match std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
         .open(&probe)
     {
-        Ok(f) => {
-            drop(f);
-            let _ = std::fs::remove_file(&probe);
-            Ok(())
-        }
+        Ok(_) => Ok(()),
         Err(e) => Err(format!(
             "{option} {}: cannot write in the directory {}: {e}: expected a writable directory",
             path.display(),

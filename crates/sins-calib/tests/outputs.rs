@@ -116,6 +116,31 @@ fn text_inputs_past_their_bound_are_refused_naming_the_file_and_the_bound() {
         &["/dev/zero", "64 MiB"],
         20,
     );
+    refused_fast(
+        &[
+            "calibrate",
+            "--imu",
+            s(&imu),
+            "--free-motion",
+            "--terms-from",
+            "/dev/zero",
+        ],
+        &["--terms-from", "/dev/zero", "16 MiB"],
+        20,
+    );
+    refused_fast(
+        &[
+            "diagnose",
+            "--imu",
+            s(&imu),
+            "--config",
+            s(&cfg),
+            "--noise",
+            "/dev/zero",
+        ],
+        &["/dev/zero", "noise result JSON", "64 MiB"],
+        20,
+    );
     // An import profile, and a profile whose input file is the device.
     refused_fast(
         &[
