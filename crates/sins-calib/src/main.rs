@@ -59,7 +59,8 @@ pub type Error = Box<dyn std::error::Error>;
 ///
 /// Exit status: 0 success; 1 refused input or another error (the message names the file, line
 /// or option); 2 a malformed command line; 3 (calibrate, diagnose) the model does not fit the
-/// data: the results were computed and written, but are not to be trusted.
+/// data: the results were computed and written, but are not to be trusted; 128 + the signal's
+/// number when interrupted (SIGINT 130, SIGTERM 143), with no temporary output left behind.
 #[derive(Debug, Parser)]
 #[command(name = "sins-calib", version)]
 struct Cli {
