@@ -382,7 +382,12 @@ impl RunConfig {
 
     /// Read a configuration file.
     pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
-        let text = sins_model::text::read_text(path).map_err(|source| ConfigError::Io {
+        let text = sins_model::text::read_text_bounded(
+            path,
+            sins_model::text::CONFIGURATION_MAX_BYTES,
+            "configuration",
+        )
+        .map_err(|source| ConfigError::Io {
             path: path.display().to_string(),
             source,
         })?;
@@ -594,7 +599,12 @@ impl RunConfig {
                 Some(d) => d.join(&self.program),
                 None => PathBuf::from(&self.program),
             };
-            let text = sins_model::text::read_text(&p).map_err(|source| ConfigError::Io {
+            let text = sins_model::text::read_text_bounded(
+                &p,
+                sins_model::text::PROGRAM_MAX_BYTES,
+                "rotation program",
+            )
+            .map_err(|source| ConfigError::Io {
                 path: p.display().to_string(),
                 source,
             })?;

@@ -185,8 +185,14 @@ fn line_error(file: &str, line: usize, message: String) -> IoError {
     }
 }
 
+/// A result or truth JSON, bounded ([`sins_model::text::RESULT_MAX_BYTES`]).
 fn read_text(path: &Path) -> Result<String, IoError> {
-    sins_model::text::read_text(path).map_err(|source| IoError::Read {
+    sins_model::text::read_text_bounded(
+        path,
+        sins_model::text::RESULT_MAX_BYTES,
+        "result or truth JSON",
+    )
+    .map_err(|source| IoError::Read {
         file: path.display().to_string(),
         source,
     })
@@ -212,6 +218,12 @@ fn excerpt(field: &str) -> String {
 
 /// Bytes asked of the file at a time; the buffer grows for a line longer than this.
 const BLOCK: usize = 1 << 18;
+
+/// The longest line of a data file: a row is at most a few hundred bytes, a header a few
+/// kilobytes, but a malformed field of megabytes is read to its end so that its line is
+/// named with an excerpt; past this the line is not a row at all (a file without line ends,
+/// a device). A multiple of [`BLOCK`], the size the buffer doubles from.
+const MAX_LINE_BYTES: usize = 1 << 26;
 
 /// The UTF-8 byte-order mark, skipped at the start of a file.
 const BOM: &[u8] = "\u{feff}".as_bytes();
@@ -321,6 +333,19 @@ impl<R: Read> Rows<R> {
             self.checked = self.checked.saturating_sub(pos);
             self.pos = 0;
             if self.end == self.buf.len() {
+                // A line past the bound is not a row (a file without line ends, /dev/zero):
+                // refused here rather than doubling the buffer until the memory is gone.
+                if self.buf.len() >= MAX_LINE_BYTES {
+                    return Err(line_error(
+                        &self.file,
+                        self.line + 1,
+                        format!(
+                            "longer than the bound of {} MiB for a line: expected a text file \
+                             of rows (is it a binary file or a device?)",
+                            MAX_LINE_BYTES >> 20
+                        ),
+                    ));
+                }
                 self.buf.resize(2 * self.buf.len().max(1), 0);
             }
         }

@@ -728,7 +728,12 @@ impl Profile {
     /// Read and check a profile; relative paths in it resolve against its directory.
     pub fn load(path: &Path) -> Result<Self, ImportError> {
         let file = path.display().to_string();
-        let text = sins_model::text::read_text(path).map_err(|source| ImportError::Read {
+        let text = sins_model::text::read_text_bounded(
+            path,
+            sins_model::text::PROFILE_MAX_BYTES,
+            "import profile",
+        )
+        .map_err(|source| ImportError::Read {
             file: file.clone(),
             source,
         })?;

@@ -77,7 +77,12 @@ impl SectionsFile {
     /// Read a `sections.json`.
     pub fn read(path: &Path) -> Result<Self, ImportError> {
         let file = path.display().to_string();
-        let text = sins_model::text::read_text(path).map_err(|source| ImportError::Read {
+        let text = sins_model::text::read_text_bounded(
+            path,
+            sins_model::text::SECTIONS_MAX_BYTES,
+            "section list",
+        )
+        .map_err(|source| ImportError::Read {
             file: file.clone(),
             source,
         })?;
@@ -240,7 +245,12 @@ pub(crate) fn carry(
     accel: &Sensor,
 ) -> Result<SectionsFile, ImportError> {
     let file = path.display().to_string();
-    let text = sins_model::text::read_text(path).map_err(|source| ImportError::Read {
+    let text = sins_model::text::read_text_bounded(
+        path,
+        sins_model::text::SECTIONS_MAX_BYTES,
+        "section list",
+    )
+    .map_err(|source| ImportError::Read {
         file: file.clone(),
         source,
     })?;

@@ -50,6 +50,10 @@ impl Table {
     }
 }
 
+/// The longest line read: a row of a recording is at most a few hundred bytes, and a header
+/// a few kilobytes; a line past this is not text of rows.
+const MAX_LINE_BYTES: u64 = 1 << 20;
+
 /// Lines of a text file, numbered from 1, with the checks every line needs: UTF-8, a line end
 /// after the last line (a last line without one is taken as a file cut off mid-row).
 struct Lines {
@@ -63,8 +67,9 @@ impl Lines {
     /// The next line (without its line end) and its number; `None` at the end.
     fn next_line(&mut self) -> Result<Option<(usize, String)>, ImportError> {
         self.buf.clear();
-        let n = self
-            .reader
+        // At most one byte past the bound is read, so a file without line ends (/dev/zero, a
+        // binary file) is refused at the bound instead of filling the memory.
+        let n = std::io::Read::take(&mut self.reader, MAX_LINE_BYTES + 1)
             .read_until(b'\n', &mut self.buf)
             .map_err(|source| ImportError::Read {
                 file: self.file.clone(),
@@ -75,6 +80,17 @@ impl Lines {
         }
         self.line += 1;
         let ended = self.buf.last() == Some(&b'\n');
+        if !ended && self.buf.len() as u64 > MAX_LINE_BYTES {
+            return Err(ImportError::line(
+                &self.file,
+                self.line,
+                format!(
+                    "longer than the bound of {} for a line: expected a text file of rows \
+                     (is it a binary file or a device?)",
+                    sins_model::text::bound_text(MAX_LINE_BYTES)
+                ),
+            ));
+        }
         let bom = "\u{feff}".as_bytes();
         let start = if self.line == 1 && self.buf.starts_with(bom) {
             bom.len()

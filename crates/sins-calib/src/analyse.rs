@@ -92,7 +92,10 @@ fn walk_reach(
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, origin) = load_config(&args.config)?;
     if let Some(path) = &args.json {
-        output::check_file(path, "--json", &[std::path::Path::new(&args.config)])?;
+        let program = crate::lab_report::program_file(&config);
+        let mut inputs = vec![std::path::Path::new(&args.config)];
+        inputs.extend(program.as_deref());
+        output::Outputs::new(&inputs).file(path, "--json")?;
     }
     let program = config.program()?;
     let with_turntable = !args.imu_only;

@@ -141,6 +141,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         )
         .into());
     }
+    crate::output::Outputs::new(&[&args.imu, &args.calibration]).file(&args.out, "--out")?;
     let cal_file = args.calibration.display().to_string();
     let result = read_result_json(&args.calibration)?;
     let inputs = result
@@ -150,7 +151,6 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let correction = Correction::from_parameters(&result.parameters, inputs).map_err(|e| {
         format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
     })?;
-    crate::calibrate::check_output_path(&args.out)?;
     let mut reader = ImuReader::open(&args.imu)?;
     let kind = reader.kind();
 
@@ -162,13 +162,15 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let name = out
         .file_name()
         .ok_or_else(|| format!("{}: expected a file name", out.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
+    let tmp = crate::output::fresh_temporary(&dir.join(name))?;
+    // Removed on a failure (the guard's drop) and on an interruption (the signal thread): the
+    // corrected records of a long recording are hundreds of megabytes.
+    let guard = crate::signals::Pending::new(&tmp);
     let written = (|| -> Result<usize, Error> {
-        let f = std::fs::File::create(&tmp)
+        let f = std::fs::File::options()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
             .map_err(|e| format!("{}: cannot write: {e}", tmp.display()))?;
         let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
         let n = correct_stream(&mut reader, &correction, &mut w, &tmp.display().to_string())?;
@@ -180,13 +182,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
         std::fs::rename(&tmp, out).map_err(|e| format!("{}: cannot write: {e}", out.display()))?;
         Ok(n)
     })();
-    let n = match written {
-        Ok(n) => n,
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(e);
-        }
-    };
+    let n = written?;
+    guard.keep();
     let mut s = String::new();
     let form = match kind {
         ImuKind::Rates => "rates",

@@ -258,29 +258,13 @@ fn nis_band(n: usize) -> f64 {
     calib::report::lab::mean_nis_half_band(n)
 }
 
-/// Refuse an output path whose directory does not exist, before any work is done.
-pub fn check_output_path(path: &Path) -> Result<(), Error> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(format!(
-            "{}: cannot write there: the directory {} does not exist",
-            path.display(),
-            dir.display()
-        )
-        .into());
-    }
-    Ok(())
-}
-
 /// The files `calibrate` reads (an output must be none of them).
 pub(crate) fn input_paths(args: &Args) -> Vec<&Path> {
     let mut v: Vec<&Path> = vec![args.imu.as_path()];
     v.extend(args.turntable.as_deref());
     v.extend(args.truth.as_deref());
     v.extend(args.sections.as_deref());
+    v.extend(args.terms_from.as_deref());
     if let Some(c) = args.config.as_deref() {
         v.push(Path::new(c));
     }
@@ -297,22 +281,20 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 .into(),
         );
     }
+    let inputs = input_paths(args);
+    let mut outputs = crate::output::Outputs::new(&inputs);
     if let Some(path) = &args.json {
-        crate::output::check_file(path, "--json", &input_paths(args))?;
+        outputs.file(path, "--json")?;
     }
     if let Some(path) = &args.plot {
-        crate::output::check_png(path, "--plot", &input_paths(args))?;
-    }
-    if let Some(dir) = &args.diagnostics {
-        prepare_diagnostics_dir(dir)?;
+        outputs.png(path, "--plot")?;
     }
     if let Some(dir) = &args.report {
-        crate::output::check_dir(
-            dir,
-            "--report",
-            &crate::lab_report::NAMES,
-            &input_paths(args),
-        )?;
+        outputs.dir(dir, "--report", &crate::lab_report::NAMES)?;
+    }
+    if let Some(dir) = &args.diagnostics {
+        outputs.any_dir(dir, "--diagnostics")?;
+        prepare_diagnostics_dir(dir)?;
     }
     let mut input = load_inputs(args)?;
     if args.free_motion && input.program.is_some() {
@@ -454,7 +436,9 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         }
     }
     if let (Some(path), Some((r, _))) = (&args.plot, &hand_turned) {
-        crate::plot::static_residuals_png(path, &input.imu_file, &r.evaluation.poses)?;
+        crate::output::write_with(path, |tmp| {
+            crate::plot::static_residuals_png(tmp, &input.imu_file, &r.evaluation.poses)
+        })?;
         let _ = writeln!(s, "wrote {}", path.display());
     }
     if let (Some(dir), Some(d)) = (&args.report, &diagnostics) {

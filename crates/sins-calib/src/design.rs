@@ -42,7 +42,10 @@ fn check_distinct_terms(ids: &[String]) -> Result<(), Error> {
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, _) = load_config(&args.config)?;
     if let Some(path) = &args.out {
-        output::check_file(path, "--out", &[std::path::Path::new(&args.config)])?;
+        let program = crate::lab_report::program_file(&config);
+        let mut inputs = vec![std::path::Path::new(&args.config)];
+        inputs.extend(program.as_deref());
+        output::Outputs::new(&inputs).file(path, "--out")?;
     }
     check_distinct_terms(&args.terms)?;
     let terms = parse_terms(&args.terms)?;

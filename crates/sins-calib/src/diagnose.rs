@@ -517,14 +517,16 @@ pub fn check_args(args: &Args) -> Result<(), Error> {
     let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
     inputs.extend(args.turntable.as_deref());
     inputs.extend(args.sections.as_deref());
+    inputs.extend(args.noise.as_deref());
     if let Some(c) = args.config.as_deref() {
         inputs.push(std::path::Path::new(c));
     }
+    let mut outputs = crate::output::Outputs::new(&inputs);
     if let Some(p) = &args.json {
-        crate::output::check_file(p, "--json", &inputs)?;
+        outputs.file(p, "--json")?;
     }
     if let Some(p) = &args.report {
-        crate::output::check_dir(p, "--report", &crate::lab_report::NAMES, &inputs)?;
+        outputs.dir(p, "--report", &crate::lab_report::NAMES)?;
     }
     // The family-wise level of a decision: a probability, and one that means something.
     if !(args.level.is_finite() && args.level > 0.0 && args.level <= 0.5) {

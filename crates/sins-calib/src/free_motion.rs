@@ -179,24 +179,11 @@ pub fn terms_asked(
 /// The largest `--terms-from` file read (a diagnose result is a few tens of kilobytes).
 const TERMS_FROM_MAX_BYTES: u64 = 16 << 20;
 
-/// The text of a small file, refused past `max` bytes before it is read whole.
+/// The text of a small file, refused past `max` bytes (the shared bounded reader: a device
+/// such as /dev/zero is refused at the bound too).
 fn read_bounded(path: &std::path::Path, option: &str, max: u64) -> Result<String, Error> {
-    use std::io::Read as _;
-    let file = std::fs::File::open(path)
-        .map_err(|e| format!("{option} {}: cannot read: {e}", path.display()))?;
-    let mut text = String::new();
-    file.take(max + 1)
-        .read_to_string(&mut text)
-        .map_err(|e| format!("{option} {}: cannot read as text: {e}", path.display()))?;
-    if text.len() as u64 > max {
-        return Err(format!(
-            "{option} {}: larger than {} MiB: expected a diagnose result",
-            path.display(),
-            max >> 20
-        )
-        .into());
-    }
-    Ok(text)
+    sins_model::text::read_text_bounded(path, max, "diagnose result")
+        .map_err(|e| format!("{option} {}: cannot read: {e}", path.display()).into())
 }
 
 /// The section list at `path`, checked against the records of `data` before any work

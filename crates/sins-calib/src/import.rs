@@ -44,7 +44,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         inputs.push(profile.resolve(&s.file));
     }
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
-    output::check_dir(&args.out, "--out", &OUTPUTS, &inputs)?;
+    output::Outputs::new(&inputs).dir(&args.out, "--out", &OUTPUTS)?;
     let options = ImportOptions {
         allow_gaps: args.allow_gaps,
     };

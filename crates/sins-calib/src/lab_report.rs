@@ -94,8 +94,12 @@ pub fn identify(
             calib::paper::PAPER_RECONCILED_TOML.to_string(),
         ),
         Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| format!("{path}: cannot read the configuration again: {e}"))?;
+            let text = sins_model::text::read_text_bounded(
+                std::path::Path::new(path),
+                sins_model::text::CONFIGURATION_MAX_BYTES,
+                "configuration",
+            )
+            .map_err(|e| format!("{path}: cannot read the configuration again: {e}"))?;
             (path.to_string(), text)
         }
     };
@@ -114,7 +118,7 @@ pub fn identify(
 
 /// The program file a configuration names (none for the embedded program, an inline one, or
 /// one read from the angles).
-fn program_file(config: &RunConfig) -> Option<PathBuf> {
+pub(crate) fn program_file(config: &RunConfig) -> Option<PathBuf> {
     if config.inline_program.is_some() || config.program == "paper" || config.program_from_angles()
     {
         return None;

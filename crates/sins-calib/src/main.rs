@@ -15,6 +15,7 @@
 //! The work is done by the `calib` library; this crate only reads arguments, reports and exits.
 //! File formats: `docs/formats.md`.
 
+// No unsafe code: the interrupting signals come through `signal-hook` (`signals`).
 #![forbid(unsafe_code)]
 
 mod analyse;
@@ -35,6 +36,7 @@ mod plot;
 mod report_plots;
 mod segment;
 mod sha256;
+mod signals;
 mod simulate;
 mod table;
 
@@ -55,7 +57,8 @@ pub type Error = Box<dyn std::error::Error>;
 ///
 /// Exit status: 0 success; 1 refused input or another error (the message names the file, line
 /// or option); 2 a malformed command line; 3 (calibrate, diagnose) the model does not fit the
-/// data: the results were computed and written, but are not to be trusted.
+/// data: the results were computed and written, but are not to be trusted; 128 + the signal's
+/// number when interrupted (SIGINT 130, SIGTERM 143), with no temporary output left behind.
 #[derive(Debug, Parser)]
 #[command(name = "sins-calib", version)]
 struct Cli {
@@ -164,6 +167,7 @@ pub fn print(text: &str) -> Result<(), Error> {
 pub const MODEL_DOES_NOT_FIT: u8 = 3;
 
 fn main() -> ExitCode {
+    signals::install();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate::run(&args).map(|()| ExitCode::SUCCESS),

@@ -149,11 +149,12 @@ fn check_outputs(args: &Args) -> Result<(), Error> {
     if let Some(c) = args.config.as_deref() {
         inputs.push(std::path::Path::new(c));
     }
+    let mut outputs = crate::output::Outputs::new(&inputs);
     if let Some(p) = &args.json {
-        crate::output::check_file(p, "--json", &inputs)?;
+        outputs.file(p, "--json")?;
     }
     if let Some(p) = &args.plot {
-        crate::output::check_png(p, "--plot", &inputs)?;
+        outputs.png(p, "--plot")?;
     }
     Ok(())
 }
@@ -319,12 +320,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
     );
     out += &block;
     if let Some(path) = &args.plot {
-        crate::noise_plot::allan_png(
-            path,
-            &file,
-            &sensors,
-            config.as_ref().map(|(c, _)| &c.noise),
-        )?;
+        crate::output::write_with(path, |tmp| {
+            crate::noise_plot::allan_png(
+                tmp,
+                &file,
+                &sensors,
+                config.as_ref().map(|(c, _)| &c.noise),
+            )
+        })?;
         let _ = writeln!(out, "\nwrote {}", path.display());
     }
     if let Some(path) = &args.json {
@@ -986,8 +989,12 @@ impl IdentifiedWalk {
 /// the largest value is taken, as the `[noise]` block takes it.
 pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedWalk, Error> {
     let file = path.display().to_string();
-    let text =
-        sins_model::text::read_text(path).map_err(|e| format!("{file}: cannot read: {e}"))?;
+    let text = sins_model::text::read_text_bounded(
+        path,
+        sins_model::text::RESULT_MAX_BYTES,
+        "noise result JSON",
+    )
+    .map_err(|e| format!("{file}: cannot read: {e}"))?;
     let root: Value = serde_json::from_str(&text).map_err(|e| {
         format!(
             "{file}: line {}: {e}: expected the JSON that `sins-calib noise --json` writes",

@@ -23,11 +23,73 @@ fn canonical(p: &Path) -> Option<PathBuf> {
     std::fs::canonicalize(p).ok()
 }
 
-/// Whether two paths name the same existing file.
+/// The file a path names, resolved: its canonical form when it exists, else that of its
+/// directory joined with its name (a file to be written), else the path as given.
+fn resolved(p: &Path) -> PathBuf {
+    canonical(p)
+        .or_else(|| {
+            let name = p.file_name()?;
+            Some(canonical(&parent_of(p))?.join(name))
+        })
+        .unwrap_or_else(|| p.to_path_buf())
+}
+
+/// Whether two paths name the same file (existing, or to be written).
 fn same_file(a: &Path, b: &Path) -> bool {
-    match (canonical(a), canonical(b)) {
-        (Some(x), Some(y)) => x == y,
-        _ => false,
+    resolved(a) == resolved(b)
+}
+
+/// Refuse an existing path that is neither a regular file nor a directory (a device such as
+/// /dev/null or /dev/full, a pipe, a socket): the output is written beside it and renamed
+/// onto it, which would replace the device with a regular file.
+fn check_not_special(path: &Path, option: &str) -> Result<(), Error> {
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() && !m.is_dir() => Err(format!(
+            "{option} {}: is not a regular file (a device, pipe or socket): expected the path \
+             of a regular file to write (`-` for standard output where the option takes it)",
+            path.display()
+        )
+        .into()),
+        _ => Ok(()),
+    }
+}
+
+/// Check that a file can be created in `dir`, by creating and removing one: a read-only
+/// directory (or one on a read-only file system) is refused before the work, not after it.
+fn check_writable_dir(dir: &Path, option: &str, path: &Path) -> Result<(), Error> {
+    let probe = (0..100)
+        .map(|n| dir.join(format!(".sins-calib-probe-{}-{n}", std::process::id())))
+        .find(|p| std::fs::symlink_metadata(p).is_err())
+        .unwrap_or_else(|| dir.join(".sins-calib-probe"));
+    // Removed by the guard's drop, or by the signal thread on an interruption.
+    let _guard = crate::signals::Pending::new(&probe);
+    match std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+    {
+        Ok(_) => Ok(()),
+        Err(e) => Err(format!(
+            "{option} {}: cannot write in the directory {}: {e}: expected a writable directory",
+            path.display(),
+            dir.display()
+        )
+        .into()),
+    }
+}
+
+/// The nearest existing ancestor of `dir` (itself when it exists): where a directory output
+/// that does not exist yet is created.
+fn existing_ancestor(dir: &Path) -> PathBuf {
+    let mut d = dir.to_path_buf();
+    loop {
+        if d.exists() {
+            return d;
+        }
+        match d.parent() {
+            Some(p) if !p.as_os_str().is_empty() => d = p.to_path_buf(),
+            _ => return PathBuf::from("."),
+        }
     }
 }
 
@@ -72,15 +134,22 @@ pub fn check_file(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Err
     if path.file_name().is_none() || path.as_os_str().to_string_lossy().ends_with('/') {
         return Err(format!("{option} {shown}: expected the path of a file to write").into());
     }
+    check_not_special(path, option)?;
     let dir = parent_of(path);
     if !dir.is_dir() {
+        let what = if dir.exists() {
+            "is not a directory"
+        } else {
+            "does not exist"
+        };
         return Err(format!(
-            "{option} {shown}: the directory {} does not exist: expected a file in an existing \
+            "{option} {shown}: the directory {} {what}: expected a file in an existing \
              directory",
             dir.display()
         )
         .into());
     }
+    check_writable_dir(&dir, option, path)?;
     if let Some(input) = inputs.iter().find(|i| same_file(path, i)) {
         return Err(format!(
             "{option} {shown}: is an input of this command ({}): expected another file, so \
@@ -96,16 +165,37 @@ pub fn check_file(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Err
 /// existing file, and none of `inputs` is one of the files that would be replaced there.
 pub fn check_dir(dir: &Path, option: &str, names: &[&str], inputs: &[&Path]) -> Result<(), Error> {
     let shown = dir.display();
+    let what = if names.is_empty() {
+        "its outputs".to_string()
+    } else {
+        names.join(", ")
+    };
     if dir.exists() && !dir.is_dir() {
         return Err(format!(
             "{option} {shown}: is a file: expected a directory (existing or to be created) to \
              write {} into",
-            names.join(", ")
+            what
         )
         .into());
     }
+    if dir.exists() {
+        check_writable_dir(dir, option, dir)?;
+    }
+    // The directory is written beside itself and renamed into place (or created there).
+    let beside = existing_ancestor(&parent_of(dir));
+    if !beside.is_dir() {
+        return Err(format!(
+            "{option} {shown}: {} is not a directory: expected a directory (existing or to be \
+             created) to write {} into",
+            beside.display(),
+            what
+        )
+        .into());
+    }
+    check_writable_dir(&beside, option, dir)?;
     for name in names {
         let out = dir.join(name);
+        check_not_special(&out, option)?;
         if out.is_dir() {
             return Err(format!(
                 "{option} {shown}: {} is a directory: expected a file of that name or none",
@@ -126,6 +216,81 @@ pub fn check_dir(dir: &Path, option: &str, names: &[&str], inputs: &[&Path]) -> 
     Ok(())
 }
 
+/// The outputs of one command, checked before the work in one place: each as
+/// [`check_file`], [`check_png`] or [`check_dir`] against the command's inputs, and every one
+/// distinct from the others (`--json X --plot X` would otherwise leave one file written over
+/// the other). A directory output claims itself and the files it writes there.
+pub struct Outputs<'a> {
+    inputs: Vec<&'a Path>,
+    /// Each claimed file, resolved, with the option that claims it.
+    claimed: Vec<(PathBuf, String)>,
+}
+
+impl<'a> Outputs<'a> {
+    /// Outputs of a command that reads `inputs`.
+    pub fn new(inputs: &[&'a Path]) -> Self {
+        Self {
+            inputs: inputs.to_vec(),
+            claimed: Vec::new(),
+        }
+    }
+
+    /// Claim `files` for the output `path` given by `option`: none may be another output's.
+    fn claim(&mut self, option: &str, path: &Path, files: Vec<PathBuf>) -> Result<(), Error> {
+        for f in files {
+            if let Some((_, other)) = self.claimed.iter().find(|(c, _)| *c == f) {
+                return Err(format!(
+                    "{option} {}: is also the output of {other}: expected a distinct path for \
+                     every output, so that neither is written over the other",
+                    path.display()
+                )
+                .into());
+            }
+            self.claimed.push((f, option.to_string()));
+        }
+        Ok(())
+    }
+
+    /// An output file ([`check_file`]); `-` (standard output) is not a file and claims nothing.
+    pub fn file(&mut self, path: &Path, option: &str) -> Result<(), Error> {
+        check_file(path, option, &self.inputs)?;
+        if is_stdout(path) {
+            return Ok(());
+        }
+        self.claim(option, path, vec![resolved(path)])
+    }
+
+    /// A PNG output file ([`check_png`]).
+    pub fn png(&mut self, path: &Path, option: &str) -> Result<(), Error> {
+        check_png(path, option, &self.inputs)?;
+        self.claim(option, path, vec![resolved(path)])
+    }
+
+    /// A directory whose outputs are not known before the work (`calibrate --diagnostics`): not
+    /// a file or device, writable where it is or is to be created, and no other output.
+    pub fn any_dir(&mut self, dir: &Path, option: &str) -> Result<(), Error> {
+        if dir.exists() && !dir.is_dir() {
+            return Err(format!(
+                "{option} {}: {option} needs a directory (existing or to be created), this is \
+                 a file",
+                dir.display()
+            )
+            .into());
+        }
+        check_dir(dir, option, &[], &self.inputs)?;
+        check_not_special(dir, option)?;
+        self.claim(option, dir, vec![resolved(dir)])
+    }
+
+    /// A directory of outputs `names` ([`check_dir`]).
+    pub fn dir(&mut self, dir: &Path, option: &str, names: &[&str]) -> Result<(), Error> {
+        check_dir(dir, option, names, &self.inputs)?;
+        let mut files = vec![resolved(dir)];
+        files.extend(names.iter().map(|n| resolved(&dir.join(n))));
+        self.claim(option, dir, files)
+    }
+}
+
 /// A temporary name beside `path`: `.NAME.tmp-PID-N`.
 fn temporary_beside(path: &Path, n: usize) -> PathBuf {
     let name = path
@@ -134,34 +299,78 @@ fn temporary_beside(path: &Path, n: usize) -> PathBuf {
     parent_of(path).join(format!(".{name}.tmp-{}-{n}", std::process::id()))
 }
 
+/// A temporary name beside `path` that no file has yet.
+pub fn fresh_temporary(path: &Path) -> Result<PathBuf, Error> {
+    (0..100)
+        .map(|n| temporary_beside(path, n))
+        .find(|p| std::fs::symlink_metadata(p).is_err())
+        .ok_or_else(|| format!("{}: cannot find a temporary name beside it", path.display()).into())
+}
+
 /// Whether an output path is `-`: standard output.
 pub fn is_stdout(path: &Path) -> bool {
     path.as_os_str() == "-"
 }
 
 /// Write `text` to `path` atomically: a temporary file in the same directory, renamed onto it;
-/// `-` writes it to standard output.
+/// `-` writes it to standard output, where, unlike a report, a closed pipe is an error: the
+/// output asked for is lost, and the exit status must say so.
 pub fn write_file(path: &Path, text: &[u8]) -> Result<(), Error> {
     if is_stdout(path) {
-        return crate::print(&String::from_utf8_lossy(text));
+        use std::io::Write as _;
+        let mut out = std::io::stdout().lock();
+        return out
+            .write_all(text)
+            .and_then(|()| out.flush())
+            .map_err(|e| format!("cannot write to standard output (`-`): {e}").into());
     }
     let tmp = (0..100)
         .map(|n| temporary_beside(path, n))
         .find(|p| !p.exists())
         .ok_or_else(|| format!("{}: cannot find a temporary name beside it", path.display()))?;
-    let result = std::fs::write(&tmp, text)
+    // Removed on a failure (the guard's drop) and on an interruption (the signal thread).
+    let guard = crate::signals::Pending::new(&tmp);
+    std::fs::write(&tmp, text)
         .and_then(|()| std::fs::File::open(&tmp)?.sync_all())
-        .and_then(|()| std::fs::rename(&tmp, path));
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        format!("{}: cannot write: {e}", path.display()).into()
-    })
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    guard.keep();
+    Ok(())
+}
+
+/// Write the output `path` atomically with `write`, which is given a temporary path beside it
+/// (ending in the same extension: the plotting library chooses the image format by it) and
+/// must create the file there; the file is then renamed onto `path`. A failure or an
+/// interruption leaves no temporary file.
+pub fn write_with(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), Error>,
+) -> Result<(), Error> {
+    let ext = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let tmp = (0..100)
+        .map(|n| {
+            let mut t = temporary_beside(path, n).into_os_string();
+            t.push(&ext);
+            PathBuf::from(t)
+        })
+        .find(|p| !p.exists())
+        .ok_or_else(|| format!("{}: cannot find a temporary name beside it", path.display()))?;
+    let guard = crate::signals::Pending::new(&tmp);
+    write(&tmp)?;
+    std::fs::rename(&tmp, path).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    guard.keep();
+    Ok(())
 }
 
 /// A directory of outputs being written (see the module's documentation).
 pub struct DirOutput {
     dir: PathBuf,
     tmp: PathBuf,
+    /// Removes `tmp` on an interruption (and on drop before the commit).
+    guard: Option<crate::signals::Pending>,
     names: Vec<&'static str>,
     committed: bool,
 }
@@ -177,11 +386,13 @@ impl DirOutput {
             .map(|n| temporary_beside(dir, n))
             .find(|p| !p.exists())
             .ok_or_else(|| format!("{}: cannot find a temporary name beside it", dir.display()))?;
+        let guard = crate::signals::Pending::new(&tmp);
         std::fs::create_dir(&tmp)
             .map_err(|e| format!("{}: cannot create the directory: {e}", tmp.display()))?;
         Ok(Self {
             dir: dir.to_path_buf(),
             tmp,
+            guard: Some(guard),
             names: names.to_vec(),
             committed: false,
         })
@@ -274,6 +485,10 @@ impl Drop for DirOutput {
         if !self.committed {
             let _ = std::fs::remove_dir_all(&self.tmp);
         }
+        // The temporary directory is gone either way (renamed into place or removed).
+        if let Some(g) = self.guard.take() {
+            g.keep();
+        }
     }
 }
 
@@ -315,6 +530,56 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&out).unwrap(), "two");
         // No temporary file is left beside it.
         assert_eq!(std::fs::read_dir(&d).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn outputs_are_distinct_and_a_failed_write_leaves_nothing() {
+        let d = scratch("distinct");
+        let input = d.join("in.csv");
+        std::fs::write(&input, "x").unwrap();
+        let mut outputs = Outputs::new(&[&input]);
+        outputs.file(&d.join("a.json"), "--json").unwrap();
+        // The same file spelled another way, and a file the report directory writes.
+        let e = outputs
+            .png(&d.join(".").join("a.json"), "--plot")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("png"), "{e}");
+        let mut outputs = Outputs::new(&[&input]);
+        outputs.file(&d.join("x.png"), "--json").unwrap();
+        let e = outputs
+            .png(&d.join(".").join("x.png"), "--plot")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("also the output of --json"), "{e}");
+        outputs.file(&d.join("r").join("a.md"), "--x").unwrap_err();
+        std::fs::create_dir(d.join("r")).unwrap();
+        outputs.file(&d.join("r").join("a.md"), "--x").unwrap();
+        let e = outputs
+            .dir(&d.join("r"), "--report", &["a.md"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--report") && e.contains("--x"), "{e}");
+        // Stdout claims nothing.
+        outputs.file(Path::new("-"), "--json").unwrap();
+        outputs.file(Path::new("-"), "--json").unwrap();
+        // A write that fails midway leaves no temporary file.
+        let target = d.join("plot.png");
+        let e = write_with(&target, |tmp| {
+            assert!(tmp.extension().is_some_and(|e| e == "png"));
+            std::fs::write(tmp, "half")?;
+            Err("failed".into())
+        })
+        .unwrap_err();
+        assert_eq!(e.to_string(), "failed");
+        assert!(!target.exists());
+        let names: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+        write_with(&target, |tmp| Ok(std::fs::write(tmp, "whole")?)).unwrap();
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "whole");
     }
 
     #[test]

@@ -136,17 +136,20 @@ pub(crate) fn write_png(
         root.present().map_err(|e| err(&e))?;
     }
     let (colours, indices) = palette(&rgb);
-    let file = std::fs::File::create(path).map_err(|e| err(&e))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), size.0, size.1);
-    encoder.set_color(png::ColorType::Indexed);
-    encoder.set_depth(png::BitDepth::Eight);
-    encoder.set_palette(colours.concat());
-    encoder.set_compression(png::Compression::Best);
-    encoder.set_filter(png::FilterType::NoFilter);
-    let mut writer = encoder.write_header().map_err(|e| err(&e))?;
-    writer.write_image_data(&indices).map_err(|e| err(&e))?;
-    writer.finish().map_err(|e| err(&e))?;
-    Ok(())
+    // Written beside and renamed: a plot is whole or absent, also after an interruption.
+    crate::output::write_with(path, |tmp| {
+        let file = std::fs::File::create(tmp).map_err(|e| err(&e))?;
+        let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), size.0, size.1);
+        encoder.set_color(png::ColorType::Indexed);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_palette(colours.concat());
+        encoder.set_compression(png::Compression::Best);
+        encoder.set_filter(png::FilterType::NoFilter);
+        let mut writer = encoder.write_header().map_err(|e| err(&e))?;
+        writer.write_image_data(&indices).map_err(|e| err(&e))?;
+        writer.finish().map_err(|e| err(&e))?;
+        Ok(())
+    })
 }
 
 /// An RGB image as a palette of at most 256 colours and an index per pixel: the 256 most

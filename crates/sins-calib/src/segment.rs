@@ -239,7 +239,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         format!("segment: {}: {e}", option_name(setting))
     })?;
     if let Some(path) = &args.json {
-        output::check_file(path, "--json", &[&args.imu])?;
+        output::Outputs::new(&[&args.imu]).file(path, "--json")?;
     }
     let data = calib::io::read_imu_csv(&args.imu)?;
     let file = args.imu.display().to_string();

@@ -80,7 +80,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let program = config.program()?;
     check_size(&config, program.duration(), &origin)?;
     let config_file = std::path::Path::new(&args.config);
-    output::check_dir(&args.out, "--out", &OUTPUTS, &[config_file])?;
+    let program_file = crate::lab_report::program_file(&config);
+    let mut inputs = vec![config_file];
+    inputs.extend(program_file.as_deref());
+    output::Outputs::new(&inputs).dir(&args.out, "--out", &OUTPUTS)?;
     let sim = simulate_run(&config, &origin)?;
 
     let out = output::DirOutput::begin(&args.out, &OUTPUTS)?;

@@ -11,6 +11,7 @@ mod diagnose;
 mod free_motion;
 mod import;
 mod noise;
+mod outputs;
 mod refusals;
 mod report;
 mod rests;

@@ -184,7 +184,12 @@ impl Program {
 
     /// Read a program from a TOML file.
     pub fn from_file(path: &Path) -> Result<Self, ProgramError> {
-        let text = sins_model::text::read_text(path).map_err(|source| ProgramError::Io {
+        let text = sins_model::text::read_text_bounded(
+            path,
+            sins_model::text::PROGRAM_MAX_BYTES,
+            "rotation program",
+        )
+        .map_err(|source| ProgramError::Io {
             path: path.display().to_string(),
             source,
         })?;
