@@ -631,6 +631,11 @@ fn check_time(file: &str, line: usize, t: f64, previous: Option<f64>) -> Result<
     Ok(())
 }
 
+/// The temperatures a `temp` column may hold (deg C): an inertial unit in a thermal chamber
+/// runs from about -55 to +125 deg C (the military range); beyond -100 .. 200 a value is in
+/// another unit (kelvin, Fahrenheit, raw counts) or not a temperature.
+pub const TEMP_RANGE_DEG_C: std::ops::RangeInclusive<f64> = -100.0..=200.0;
+
 const IMU_EXPECTED: &str = "t,dthx,dthy,dthz,dvx,dvy,dvz[,temp] or t,wx,wy,wz,fx,fy,fz[,temp]";
 
 /// The kind of an `imu.csv` header and the column of `t` and each sensor value.
@@ -750,6 +755,19 @@ impl<R: Read> ImuRows<R> {
         let c = &self.cols;
         let t = v[c[0]];
         check_time(row.file, row.line, t, self.previous)?;
+        let temp = self.temp.map(|i| v[i]);
+        if let Some(x) = temp.filter(|x| !TEMP_RANGE_DEG_C.contains(x)) {
+            return Err(line_error(
+                row.file,
+                row.line,
+                format!(
+                    "temp {x}: expected a temperature in deg C within {} .. {} (the `temp` \
+                     column; in kelvin or in raw counts?)",
+                    TEMP_RANGE_DEG_C.start(),
+                    TEMP_RANGE_DEG_C.end()
+                ),
+            ));
+        }
         self.previous = Some(t);
         self.records += 1;
         self.line = row.line;
@@ -757,7 +775,7 @@ impl<R: Read> ImuRows<R> {
             t,
             gyro: [v[c[1]], v[c[2]], v[c[3]]],
             accel: [v[c[4]], v[c[5]], v[c[6]]],
-            temp: self.temp.map(|i| v[i]),
+            temp,
         }))
     }
 

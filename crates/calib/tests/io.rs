@@ -38,7 +38,8 @@ fn imu_data(kind: ImuKind, temp: bool) -> ImuData {
                 t: 0.01 * (i + 1) as f64 + 1e-9 * awkward(i).abs().min(1.0),
                 gyro: [awkward(i), awkward(i + 1), awkward(i + 2)],
                 accel: [awkward(i + 3), 9.81 + awkward(i + 4), awkward(i + 5)],
-                temp: temp.then(|| 20.0 + awkward(i + 6)),
+                // Within the temperatures a `temp` column may hold (`TEMP_RANGE_DEG_C`).
+                temp: temp.then(|| (20.0 + awkward(i + 6)).clamp(-100.0, 200.0)),
             })
             .collect(),
     }
@@ -154,6 +155,16 @@ fn bad_imu_files_are_refused_with_file_line_and_expectation() {
     let f = "run7/imu.csv";
     let h = "t,dthx,dthy,dthz,dvx,dvy,dvz\n";
     let row = |t: f64| format!("{t},1e-4,2e-4,3e-4,0.01,0.02,0.098\n");
+    // A temperature no `temp` column holds (in kelvin, counts, or 1e300).
+    for (temp, line) in [(1e300, 3), (-273.15 - 1.0, 3), (400.0, 3)] {
+        let text = format!(
+            "{}{}{}",
+            "t,dthx,dthy,dthz,dvx,dvy,dvz,temp\n",
+            "0.01,0,0,0,0,0,0.098,25\n",
+            format!("0.02,0,0,0,0,0,0.098,{temp}\n")
+        );
+        assert_refused(parse_imu_csv(&text, f), f, line, &["temp", "deg C"]);
+    }
     // Empty file and header only.
     assert_refused(
         parse_imu_csv("", f),
