@@ -158,10 +158,7 @@ fn bad_imu_files_are_refused_with_file_line_and_expectation() {
     // A temperature no `temp` column holds (in kelvin, counts, or 1e300).
     for (temp, line) in [(1e300, 3), (-273.15 - 1.0, 3), (400.0, 3)] {
         let text = format!(
-            "{}{}{}",
-            "t,dthx,dthy,dthz,dvx,dvy,dvz,temp\n",
-            "0.01,0,0,0,0,0,0.098,25\n",
-            format!("0.02,0,0,0,0,0,0.098,{temp}\n")
+            "t,dthx,dthy,dthz,dvx,dvy,dvz,temp\n0.01,0,0,0,0,0,0.098,25\n0.02,0,0,0,0,0,0.098,{temp}\n"
         );
         assert_refused(parse_imu_csv(&text, f), f, line, &["temp", "deg C"]);
     }
