@@ -558,6 +558,7 @@ pub fn result_file(
         parameters,
         correlation: Some(correlation),
         correction,
+        verdict: None,
     }
 }
 

@@ -1154,6 +1154,20 @@ pub struct ResultFile {
     /// The estimated model inverted, in matrix form ([`crate::correction`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub correction: Option<crate::correction::CorrectionBlock>,
+    /// The verdict `calibrate` wrote beside them (read only: the writer of the result file
+    /// writes its own), so that `apply` can refuse a calibration the data contradicted.
+    #[serde(default, skip_serializing)]
+    pub verdict: Option<ResultVerdict>,
+}
+
+/// The verdict of a result file: whether the data contradicted the model, and why.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+pub struct ResultVerdict {
+    /// Nothing contradicted the model.
+    pub fits: bool,
+    /// One line per reason when something did.
+    #[serde(default)]
+    pub reasons: Vec<String>,
 }
 
 impl ResultFile {
@@ -1178,6 +1192,7 @@ impl From<&Truth> for ResultFile {
                 .collect(),
             correlation: None,
             correction: None,
+            verdict: None,
         }
     }
 }

@@ -20,6 +20,10 @@ pub struct Args {
     /// file beside it, then renamed; neither the --imu nor the --calibration file).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
+    /// Apply a calibration whose result says the data contradicted its model (`"fits": false`,
+    /// exit status 3 of `calibrate`): refused without this.
+    #[arg(long)]
+    pub accept_misfit: bool,
 }
 
 /// The same file, whether or not `b` exists yet.
@@ -144,6 +148,25 @@ pub fn run(args: &Args) -> Result<(), Error> {
     crate::output::Outputs::new(&[&args.imu, &args.calibration]).file(&args.out, "--out")?;
     let cal_file = args.calibration.display().to_string();
     let result = read_result_json(&args.calibration)?;
+    if let Some(v) = result.verdict.as_ref().filter(|v| !v.fits) {
+        if !args.accept_misfit {
+            return Err(format!(
+                "{cal_file}: this calibration's data contradicted its model (\"fits\": false, \
+                 exit status 3 of calibrate){}: its correction is not to be trusted. Calibrate \
+                 again with the terms `diagnose` names, or give --accept-misfit to apply it anyway",
+                if v.reasons.is_empty() {
+                    String::new()
+                } else {
+                    format!(": {}", v.reasons.join("; "))
+                }
+            )
+            .into());
+        }
+        eprintln!(
+            "apply: {cal_file}: the data contradicted this calibration's model; applied as \
+             --accept-misfit asks"
+        );
+    }
     let inputs = result
         .correction
         .as_ref()

@@ -321,6 +321,40 @@ fn refusals_name_the_file_and_leave_nothing_behind() {
         &["--out is the --calibration file"],
     );
     assert!(read_result_json(&truth).is_ok());
+    // A calibration marked as not fitting its data: refused, unless asked for.
+    let mut v = json(&truth);
+    v["verdict"] = serde_json::json!({
+        "fits": false, "exit_status": 3, "reasons": ["held-out rests: scatter 135 times"]
+    });
+    let misfit = dir.join("misfit.json");
+    std::fs::write(&misfit, serde_json::to_string(&v).unwrap()).unwrap();
+    fails(
+        &[
+            "apply",
+            "--calibration",
+            s(&misfit),
+            "--imu",
+            s(&imu),
+            "--out",
+            s(&out),
+        ],
+        &[
+            "\"fits\": false",
+            "held-out rests: scatter 135 times",
+            "--accept-misfit",
+        ],
+    );
+    ok(&[
+        "apply",
+        "--calibration",
+        s(&misfit),
+        "--imu",
+        s(&imu),
+        "--out",
+        s(&out),
+        "--accept-misfit",
+    ]);
+    std::fs::remove_file(&out).unwrap();
     // Unknown and incomplete parameters.
     let mut v = json(&truth);
     v["parameters"]
