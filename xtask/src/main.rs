@@ -733,6 +733,7 @@ mod tests {
             parameters,
             correlation: Some(correlation),
             correction: None,
+            verdict: None,
         };
         let dir = std::env::temp_dir().join(format!("xtask-nav-error-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
