@@ -37,6 +37,15 @@ pub const PAPER_PROGRAM_TOML: &str = include_str!("../programs/paper.toml");
 /// compiled with the file and the segment where the total passes the bound.
 pub const MAX_PROGRAM_DURATION_S: f64 = 864_000.0;
 
+/// The fastest gimbal rate accepted (deg/s).
+///
+/// Calibration turntables turn at up to some hundreds of degrees per second (rate tables for
+/// scale-factor tests reach 1000-1500 deg/s) and a hand turn reaches about 900 deg/s; beyond
+/// 2000 deg/s no gimbal turns, and a value like `1e6` is a typing error or a unit mistake. It
+/// also keeps one IMU step's rotation small enough for the integrators (20 deg per step at
+/// 100 Hz).
+pub const MAX_RATE_DEG_S: f64 = 2000.0;
+
 /// Errors reading a program.
 #[derive(Debug, thiserror::Error)]
 pub enum ProgramError {
@@ -126,6 +135,14 @@ fn segment_problem(seg: &Segment) -> Option<String> {
     let positive = |name: &str, v: f64| {
         (!(v.is_finite() && v > 0.0)).then(|| format!("{name} must be > 0, got {v}"))
     };
+    let rate = |v: f64| {
+        (v.abs() > MAX_RATE_DEG_S).then(|| {
+            format!(
+                "rate_deg_s = {v} is beyond the fastest gimbal rate accepted, \
+                 {MAX_RATE_DEG_S} deg/s in magnitude (a typing error or a unit mistake)"
+            )
+        })
+    };
     match *seg {
         Segment::Rotate {
             gimbal,
@@ -137,19 +154,21 @@ fn segment_problem(seg: &Segment) -> Option<String> {
             } else if !rate_deg_s.is_finite() {
                 Some("rate_deg_s must be finite".into())
             } else {
-                positive("duration_s", duration_s)
+                rate(rate_deg_s).or_else(|| positive("duration_s", duration_s))
             }
         }
         Segment::Dwell { duration_s } => positive("duration_s", duration_s),
         Segment::Move {
             target_deg,
             rate_deg_s,
-        } => positive("rate_deg_s", rate_deg_s).or_else(|| {
-            target_deg
-                .iter()
-                .any(|a| !a.is_finite())
-                .then(|| "target_deg must be three finite angles".into())
-        }),
+        } => positive("rate_deg_s", rate_deg_s)
+            .or_else(|| rate(rate_deg_s))
+            .or_else(|| {
+                target_deg
+                    .iter()
+                    .any(|a| !a.is_finite())
+                    .then(|| "target_deg must be three finite angles".into())
+            }),
     }
 }
 
@@ -402,6 +421,34 @@ mod tests {
         let (k_end, _) = p.state(p.duration());
         assert!((k_end[2] - 90f64.to_radians()).abs() < 1e-9);
         assert!(k_end[1].abs() < 1e-9 && k_end[0].abs() < 1e-9);
+    }
+
+    #[test]
+    fn rates_beyond_2000_deg_s_are_refused_naming_segment_and_field() {
+        let prog = |kind: &str, rate: f64| {
+            let body = if kind == "rotate" {
+                format!("gimbal = 1\nrate_deg_s = {rate:?}\nduration_s = 10.0\n")
+            } else {
+                format!("target_deg = [90.0, 0.0, 0.0]\nrate_deg_s = {rate:?}\n")
+            };
+            format!(
+                "name = \"x\"\nstart_deg = [0.0, 0.0, 0.0]\n[[segment]]\nkind = \"dwell\"\n\
+                 duration_s = 1.0\n[[segment]]\nkind = \"{kind}\"\n{body}"
+            )
+        };
+        for kind in ["rotate", "move"] {
+            assert!(Program::from_toml_str(&prog(kind, 2000.0), "t.toml").is_ok());
+            let rate = if kind == "rotate" { -1e6 } else { 1e6 };
+            let e = Program::from_toml_str(&prog(kind, rate), "t.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(&format!("t.toml: segment 2 ({kind})"))
+                    && e.contains("rate_deg_s")
+                    && e.contains("2000 deg/s"),
+                "{e}"
+            );
+        }
     }
 
     #[test]
