@@ -44,6 +44,16 @@ pub enum ConfigError {
 mod values {
     use serde::de::{Deserialize, Deserializer, Error};
 
+    /// A value as written in a message: plain for ordinary magnitudes, in exponent form for
+    /// the extremes (`1e-300` rather than three hundred zeros).
+    pub(super) fn shown(v: f64) -> String {
+        if v == 0.0 || (1e-4..1e7).contains(&v.abs()) || !v.is_finite() {
+            format!("{v}")
+        } else {
+            format!("{v:e}")
+        }
+    }
+
     fn in_range<'de, D: Deserializer<'de>>(
         d: D,
         lo: f64,
@@ -54,7 +64,7 @@ mod values {
         if v.is_finite() && (lo..=hi).contains(&v) {
             Ok(v)
         } else {
-            Err(D::Error::custom(format!("{v}: expected {what}")))
+            Err(D::Error::custom(format!("{}: expected {what}", shown(v))))
         }
     }
 
@@ -101,7 +111,69 @@ mod values {
     pub fn height_m<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         in_range(d, -500.0, 10_000.0, "a height in -500 .. 10000 m")
     }
+
+    /// A noise level or a prior sigma, in the units its name gives: within
+    /// [`super::SIGMA_MIN`] .. [`super::SIGMA_MAX`].
+    pub fn sigma<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        in_range(
+            d,
+            super::SIGMA_MIN,
+            super::SIGMA_MAX,
+            "a standard deviation in 1e-12 .. 1e6 of the units the field's name gives",
+        )
+    }
+
+    /// A bias random walk: 0 (none) or at most [`super::SIGMA_MAX`] of its units.
+    pub fn walk<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        let v = non_negative(d)?;
+        if v == 0.0 || (super::SIGMA_MIN..=super::SIGMA_MAX).contains(&v) {
+            Ok(v)
+        } else {
+            Err(D::Error::custom(format!(
+                "{}: expected 0 or a random walk in 1e-12 .. 1e6 of the units the field's name \
+                 gives",
+                shown(v)
+            )))
+        }
+    }
+
+    /// An attitude noise in degrees: 0 .. 180 (beyond it every attitude is equally likely).
+    pub fn attitude_noise_deg<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        in_range(d, 0.0, 180.0, "an attitude noise in 0 .. 180 deg")
+    }
+
+    /// The IMU time at which the program starts, within +-[`super::PROGRAM_START_MAX_S`].
+    pub fn program_start_s<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+        in_range(
+            d,
+            -super::PROGRAM_START_MAX_S,
+            super::PROGRAM_START_MAX_S,
+            "an IMU time in -1e7 .. 1e7 s",
+        )
+        .map(Some)
+    }
 }
+
+/// The smallest noise level or prior sigma accepted, in the units of the field's name.
+///
+/// Sigmas are squared into variances and divided by one another (Kalman gains, normalised
+/// innovations): between 1e-12 and 1e6 the variances (1e-24 .. 1e12) and their ratios stay far
+/// inside the range of `f64` and the filter keeps its digits. The paper's levels (0.1 deg/h,
+/// 1e-3 m/s^2, 15 arcsec, priors 1e-3 .. 10) sit in the middle; 1e-12 of any of these units is
+/// below every instrument and every known value (1e-12 deg/h is 5e-18 rad/s), and a value like
+/// `1e-300` only makes a variance underflow to zero and the covariance singular.
+pub const SIGMA_MIN: f64 = 1e-12;
+
+/// The largest noise level or prior sigma accepted, in the units of the field's name: 1e6
+/// deg/h is 280 deg/s, 1e6 m/s^2 a hundred thousand g, 1e6 arcmin or arcsec many turns, 1e6 s
+/// of delay eleven days; beyond it a value is a typing error (`1e300`) that would overflow the
+/// variances.
+pub const SIGMA_MAX: f64 = 1e6;
+
+/// The largest program start accepted (s, either sign): 1e7 s is 116 days of IMU time, above
+/// any recording's clock offset; the covariance analysis and the simulator also step through
+/// the time before the start.
+pub const PROGRAM_START_MAX_S: f64 = 1e7;
 
 /// Site of the turntable.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -123,37 +195,37 @@ pub struct SiteConfig {
 #[serde(deny_unknown_fields)]
 pub struct PriorsConfig {
     /// Gyro bias (deg/h).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub gyro_bias_deg_h: f64,
     /// Gyro scale-factor errors (-).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub gyro_scale: f64,
     /// Gyro misalignments (arcmin).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub gyro_misalignment_arcmin: f64,
     /// Accelerometer bias (m/s^2).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub accel_bias_m_s2: f64,
     /// Accelerometer scale-factor errors (-).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub accel_scale: f64,
     /// Accelerometer non-orthogonality (arcmin).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub accel_misalignment_arcmin: f64,
     /// Installation misalignment delta_z (deg).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub install_misalignment_deg: f64,
     /// Turntable data delay tau (s).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub tau_s: f64,
     /// Initial attitude error of the computed frame about the horizontal axes (tilt) (deg).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub initial_tilt_deg: f64,
     /// Initial attitude error of the computed frame about the vertical (heading) (deg).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub initial_heading_deg: f64,
     /// Base misalignment gamma_p (arcsec).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub base_misalignment_arcsec: f64,
 }
 
@@ -176,20 +248,20 @@ pub struct NoiseConfig {
     /// How measurements read the accelerometer and angle-sensor noise.
     pub reading: NoiseReading,
     /// Gyro noise (deg/h at 1 Hz).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub gyro_deg_h: f64,
     /// Accelerometer noise (m/s^2 at 1 Hz).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub accel_m_s2: f64,
     /// Angle-sensor noise, each gimbal (arcsec at 1 Hz).
-    #[serde(deserialize_with = "values::positive")]
+    #[serde(deserialize_with = "values::sigma")]
     pub angle_arcsec: f64,
     /// Random walk of each gyro bias (deg/h/sqrt(h)): after an hour a bias has moved by this
     /// much (one sigma). Optional, default 0 (constant biases). Simulated in the truth, process
     /// noise on the gyro-bias states of the filter and of the covariance analysis.
     #[serde(
         default,
-        deserialize_with = "values::non_negative",
+        deserialize_with = "values::walk",
         skip_serializing_if = "is_zero"
     )]
     pub gyro_bias_walk_deg_h_sqrt_h: f64,
@@ -198,7 +270,7 @@ pub struct NoiseConfig {
     /// the accelerometer-bias states.
     #[serde(
         default,
-        deserialize_with = "values::non_negative",
+        deserialize_with = "values::walk",
         skip_serializing_if = "is_zero"
     )]
     pub accel_bias_walk_m_s2_sqrt_s: f64,
@@ -259,7 +331,7 @@ pub struct FilterConfig {
     pub attitude_prior: AttitudePrior,
     /// IMU time at which the rotation program starts (s); absent: found from the data (the
     /// measured rate magnitude matched against the program's).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "values::program_start_s")]
     pub program_start_s: Option<f64>,
     /// A recording of rests: white noise added to each axis of the attitude error at the end
     /// of every motion, one sigma in degrees (absent: 0). What the gyros' model misses in a
@@ -268,7 +340,7 @@ pub struct FilterConfig {
     /// up to 900 deg/s, the x gyro's scale factor followed the rests around the turns and missed
     /// its known 360-degree turn by 2.4 deg. `calibrate --free-motion` measures it from the
     /// innovations ([`crate::hand_turned`]); no effect on a program.
-    #[serde(default, deserialize_with = "values::non_negative")]
+    #[serde(default, deserialize_with = "values::attitude_noise_deg")]
     pub motion_attitude_noise_deg: f64,
     /// Hold out the measurements of every `k`-th segment that has measurements (the program's
     /// segments; the rests of a recording without a program), counted from 1 so the first is
@@ -406,6 +478,14 @@ impl RunConfig {
             ("filter.imu_rate_hz", f.imu_rate_hz),
             ("filter.accel_rate_hz", f.accel_rate_hz),
             ("filter.turntable_rate_hz", f.turntable_rate_hz),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(name));
+            }
+        }
+        // The same ranges as the deserializers' (`values`), for configurations built in code
+        // (`design`'s proposals, tests) that never went through them.
+        for (name, v) in [
             ("noise.gyro_deg_h", self.noise.gyro_deg_h),
             ("noise.accel_m_s2", self.noise.accel_m_s2),
             ("noise.angle_arcsec", self.noise.angle_arcsec),
@@ -436,9 +516,28 @@ impl RunConfig {
                 self.priors.base_misalignment_arcsec,
             ),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(name));
+            if !(v.is_finite() && (SIGMA_MIN..=SIGMA_MAX).contains(&v)) {
+                return Err(ConfigError::Invalid {
+                    origin: origin.to_string(),
+                    message: format!(
+                        "{name} = {} must lie in {SIGMA_MIN:e} .. {SIGMA_MAX:e} (a standard \
+                         deviation in the units the field's name gives)",
+                        values::shown(v)
+                    ),
+                });
             }
+        }
+        if let Some(t0) = f.program_start_s
+            && !(t0.is_finite() && t0.abs() <= PROGRAM_START_MAX_S)
+        {
+            return Err(ConfigError::Invalid {
+                origin: origin.to_string(),
+                message: format!(
+                    "filter.program_start_s = {} must lie in -{PROGRAM_START_MAX_S:e} .. \
+                         {PROGRAM_START_MAX_S:e} s",
+                    values::shown(t0)
+                ),
+            });
         }
         for (name, r) in [
             ("filter.accel_rate_hz", f.accel_rate_hz),
@@ -747,7 +846,7 @@ mod tests {
             e.contains("run.toml")
                 && e.contains(&format!("line {line}, column"))
                 && e.contains("gyro_scale = -1.0")
-                && e.contains("expected a finite positive number"),
+                && e.contains("expected a standard deviation in 1e-12 .. 1e6"),
             "{e}"
         );
         for (from, to) in [
@@ -771,5 +870,89 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("bogus") && e.contains("line"), "{e}");
+    }
+
+    #[test]
+    fn noise_priors_and_program_start_outside_their_ranges_are_refused_by_name() {
+        let refused = |from: &str, to: &str, expected: &str| {
+            assert!(PAPER_CONFIG_TOML.contains(from), "{from}");
+            let e = RunConfig::from_toml_str(&PAPER_CONFIG_TOML.replacen(from, to, 1), "run.toml")
+                .unwrap_err()
+                .to_string();
+            // The source line names the field; the message names the range.
+            let line = to.lines().last().expect("a line");
+            assert!(
+                e.contains("run.toml") && e.contains(line) && e.contains(expected),
+                "{to}: {e}"
+            );
+            // Extremes are shown in exponent form, not as hundreds of digits.
+            assert!(e.len() < 400, "{e}");
+        };
+        let sigma = "expected a standard deviation in 1e-12 .. 1e6";
+        refused("gyro_deg_h = 0.1", "gyro_deg_h = 1e-300", sigma);
+        refused("accel_m_s2 = 0.001", "accel_m_s2 = 2e6", sigma);
+        refused("angle_arcsec = 15.0", "angle_arcsec = 1e300", sigma);
+        refused("gyro_bias_deg_h = 0.5", "gyro_bias_deg_h = 1e300", sigma);
+        refused("tau_s = 0.05", "tau_s = 1e-13", sigma);
+        refused(
+            "angle_arcsec = 15.0",
+            "angle_arcsec = 15.0\ngyro_bias_walk_deg_h_sqrt_h = 1e-300",
+            "expected 0 or a random walk in 1e-12 .. 1e6",
+        );
+        refused(
+            "attitude_prior = \"independent\"",
+            "attitude_prior = \"independent\"\nprogram_start_s = 1e300",
+            "expected an IMU time in -1e7 .. 1e7 s",
+        );
+        refused(
+            "attitude_prior = \"independent\"",
+            "attitude_prior = \"independent\"\nmotion_attitude_noise_deg = 400.0",
+            "expected an attitude noise in 0 .. 180 deg",
+        );
+        // The bounds themselves, a zero walk and a negative start are accepted.
+        for (from, to) in [
+            ("gyro_deg_h = 0.1", "gyro_deg_h = 1e-12"),
+            ("tau_s = 0.05", "tau_s = 1e6"),
+            (
+                "angle_arcsec = 15.0",
+                "angle_arcsec = 15.0\naccel_bias_walk_m_s2_sqrt_s = 0.0",
+            ),
+            (
+                "attitude_prior = \"independent\"",
+                "attitude_prior = \"independent\"\nprogram_start_s = -1e7",
+            ),
+        ] {
+            RunConfig::from_toml_str(&PAPER_CONFIG_TOML.replacen(from, to, 1), "run.toml")
+                .unwrap_or_else(|e| panic!("{to}: {e}"));
+        }
+        // Configurations built in code are held to the same ranges.
+        let mut c = RunConfig::paper();
+        c.priors.accel_scale = 1e300;
+        let e = c.validate("code").unwrap_err().to_string();
+        assert!(
+            e.contains("priors.accel_scale = 1e300 must lie in 1e-12 .. 1e6"),
+            "{e}"
+        );
+        let mut c = RunConfig::paper();
+        c.filter.program_start_s = Some(-2e7);
+        let e = c.validate("code").unwrap_err().to_string();
+        assert!(
+            e.contains("filter.program_start_s = -2e7 must lie in -1e7 .. 1e7 s"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn shipped_configurations_load() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        for name in [
+            "crates/calib/configs/paper.toml",
+            "crates/calib/configs/paper-reconciled.toml",
+            "examples/run.toml",
+            "examples/static-4h.toml",
+        ] {
+            let c = RunConfig::from_file(&root.join(name)).unwrap_or_else(|e| panic!("{e}"));
+            c.program().unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
     }
 }

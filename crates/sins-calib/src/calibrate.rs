@@ -587,9 +587,12 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
         }
     };
     if let Some(t) = args.program_start {
-        if !t.is_finite() {
+        // The configuration's range for filter.program_start_s.
+        let max = calib::config::PROGRAM_START_MAX_S;
+        if !(t.is_finite() && t.abs() <= max) {
             return Err(format!(
-                "--program-start {t}: expected the IMU time (s) at which the program starts"
+                "--program-start {t}: expected the IMU time (s) at which the program starts, \
+                 in -{max:e} .. {max:e} s"
             )
             .into());
         }
