@@ -218,7 +218,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
     settings
         .check()
         .map_err(|e| format!("noise: --min-duration: {e}"))?;
+    // The units `segment` checks (time stamps in seconds, specific force in m/s^2, gyro and
+    // accelerometer columns in their places): noise levels of misread records are wrong by
+    // the factor of the misreading.
+    crate::recording_checks::check_plausible(&data, &file, settings.window_s)?;
     let seg = segment(&data, &settings).map_err(|e| format!("{file}: {e}"))?;
+    crate::recording_checks::check_static_force(&seg, &file)?;
+    if args.all_at_rest {
+        crate::recording_checks::check_at_rest(
+            &data,
+            &file,
+            seg.window_records,
+            seg.settings.window_s,
+        )?;
+    }
     let median = seg.median_interval_s;
     let whole = args.all_at_rest
         || (seg.static_intervals.len() == 1

@@ -1,6 +1,7 @@
 //! `sins-calib segment`: an `imu.csv` split into static intervals and motion by the `import`
 //! crate's static detector.
 
+use crate::recording_checks;
 use crate::table::{self, Align, Table};
 use crate::{Error, output, print};
 use ::import::detect::{DetectorSettings, Segmentation, segment};
@@ -57,95 +58,6 @@ struct SegmentJson<'a> {
     #[serde(flatten)]
     segmentation: &'a Segmentation,
 }
-
-/// Refuse records no IMU gives before segmenting: a median interval outside
-/// [`import::MEDIAN_INTERVAL_RANGE_S`], a window longer than the recording, a rate or specific
-/// force (increments over their interval) beyond [`import::MAX_GYRO_RAD_S`] /
-/// [`import::MAX_ACCEL_M_S2`], named by line.
-fn check_plausible(data: &calib::io::ImuData, file: &str, window_s: f64) -> Result<(), Error> {
-    let n = data.records.len();
-    if n < 2 {
-        return Err(
-            format!("{file}: {n} record(s): expected at least two records to segment").into(),
-        );
-    }
-    let (t, w, f) = ::import::detect::rates_of(data);
-    let median = ::import::timing::median_interval(&t);
-    let (lo, hi) = ::import::MEDIAN_INTERVAL_RANGE_S;
-    if !(lo..=hi).contains(&median) {
-        return Err(format!(
-            "{file}: the time stamps advance by a median {median:e} s between records: expected \
-             {lo} .. {hi} s (t in seconds; stamps in milliseconds need `import` with [time] unit \
-             = \"ms\")"
-        )
-        .into());
-    }
-    let span = t[n - 1] - t[0];
-    if window_s > span {
-        return Err(format!(
-            "--window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
-             window of a few records up to the recording's length"
-        )
-        .into());
-    }
-    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    for k in 0..n {
-        for (what, v, max, unit) in [
-            (
-                "angular rate",
-                norm(&w[k]),
-                ::import::MAX_GYRO_RAD_S,
-                "rad/s",
-            ),
-            (
-                "specific force",
-                norm(&f[k]),
-                ::import::MAX_ACCEL_M_S2,
-                "m/s^2",
-            ),
-        ] {
-            if v.is_nan() || v >= max {
-                return Err(format!(
-                    "{file}: line {}: the {what} has magnitude {v:e} {unit}: expected below \
-                     {max} {unit} (check the units the file was written with)",
-                    k + 2
-                )
-                .into());
-            }
-        }
-    }
-    Ok(())
-}
-
-/// The specific force at rest is gravity: a static interval whose mean |f| is outside
-/// [`G_AT_REST`] times g is refused (the file's accelerometers are not in m/s^2, or read
-/// nothing).
-fn check_static_force(seg: &Segmentation, file: &str) -> Result<(), Error> {
-    const G: f64 = ::import::profile::STANDARD_GRAVITY;
-    for (i, x) in seg.static_intervals.iter().enumerate() {
-        let ratio = x.norm_f_m_s2 / G;
-        if !(G_AT_REST.0..=G_AT_REST.1).contains(&ratio) {
-            return Err(format!(
-                "{file}: static interval {} (t = {} .. {} s, line {} ..) has a mean specific \
-                 force of {} m/s^2 ({} g): expected g = {G} m/s^2 at rest, within {} .. {} g; \
-                 the accelerometer values are not in m/s^2 or the records are not of an IMU",
-                i + 1,
-                x.start_s,
-                x.end_s,
-                x.first_record + 2,
-                table::significant(x.norm_f_m_s2, 4),
-                table::significant(ratio, 4),
-                G_AT_REST.0,
-                G_AT_REST.1
-            )
-            .into());
-        }
-    }
-    Ok(())
-}
-
-/// The band of the mean specific force of a static interval, in units of g.
-const G_AT_REST: (f64, f64) = (0.5, 1.5);
 
 /// A setting to three significant digits, without trailing zeros (1, 0.1, 0.563).
 fn short(x: f64) -> String {
@@ -243,9 +155,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     let data = calib::io::read_imu_csv(&args.imu)?;
     let file = args.imu.display().to_string();
-    check_plausible(&data, &file, settings.window_s)?;
+    recording_checks::check_plausible(&data, &file, settings.window_s)?;
     let seg = segment(&data, &settings).map_err(|e| format!("{file}: {e}"))?;
-    check_static_force(&seg, &file)?;
+    recording_checks::check_static_force(&seg, &file)?;
     let c = table::compact;
     let sig = table::significant;
 

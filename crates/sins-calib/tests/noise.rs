@@ -150,11 +150,85 @@ fn static_intervals_between_turns() {
         let f = v["accel"]["white_m_s2"][a].as_f64().unwrap();
         assert!((f / 0.001 - 1.0).abs() < 0.03, "accel white {f}");
     }
-    // Taken as wholly at rest, the turns dominate.
+    // Declared wholly at rest, the recording is refused: its six poses put the mean specific
+    // force of most windows far from the median (the turns would dominate the levels).
     let out = run(&["noise", "--imu", &imu, "--all-at-rest", "--json", s(&j)]);
+    assert_eq!(out.status.code(), Some(1));
+    let e = text(&out.stderr);
+    assert!(
+        e.contains("imu.csv: --all-at-rest, but the recording moves: of its")
+            && e.contains("m/s^2 from the recording's median: expected at most a tenth of them")
+            && e.contains("leave out --all-at-rest"),
+        "{e}"
+    );
+}
+
+/// A static recording at 100 Hz as `noise` reads it: `t` in the given unit per second, the
+/// accelerometer scaled by `accel_scale`, the columns swapped when `swap`.
+fn static_csv(path: &Path, t_scale: f64, accel_scale: f64, swap: bool) {
+    let mut csv = String::from("t,wx,wy,wz,fx,fy,fz\n");
+    for k in 1..=3000 {
+        let t = k as f64 * 0.01 * t_scale;
+        let n = |m: usize| ((k * m) % 97) as f64 * 1e-5 - 4.8e-4;
+        let w = [n(7919), n(104_729), n(1_299_709)];
+        let f = [n(15_485_863), n(32_452_843), 9.81 + n(49_979_687)].map(|x| x * accel_scale);
+        let (a, b) = if swap { (f, w) } else { (w, f) };
+        csv += &format!(
+            "{t},{},{},{},{},{},{}\n",
+            a[0], a[1], a[2], b[0], b[1], b[2]
+        );
+    }
+    std::fs::write(path, csv).unwrap();
+}
+
+/// Records `segment` refuses, `noise` refuses alike, with or without --all-at-rest: time
+/// stamps in milliseconds, an accelerometer in g, gyro and accelerometer columns swapped.
+#[test]
+fn misread_units_are_refused() {
+    let dir = scratch("noise", "units");
+    let imu = dir.join("imu.csv");
+    static_csv(&imu, 1.0, 1.0, false);
+    let out = run(&["noise", "--imu", s(&imu), "--all-at-rest"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let w = json(&j)["gyro"]["white_deg_h"][1].as_f64().unwrap();
-    assert!(w > 10.0, "{w}");
+    for (t_scale, accel_scale, swap, expected) in [
+        (
+            1e3,
+            1.0,
+            false,
+            "the time stamps advance by a median 1e1 s between records: expected 0.00001 .. 1 s",
+        ),
+        (
+            1.0,
+            1.0 / 9.80665,
+            false,
+            "expected g = 9.80665 m/s^2 at rest",
+        ),
+        (
+            1.0,
+            1.0,
+            true,
+            "the gyro and accelerometer columns look swapped",
+        ),
+    ] {
+        static_csv(&imu, t_scale, accel_scale, swap);
+        for all in [true, false] {
+            let mut args = vec!["noise", "--imu", s(&imu)];
+            if all {
+                args.push("--all-at-rest");
+            }
+            let out = run(&args);
+            assert_eq!(out.status.code(), Some(1), "{t_scale} {accel_scale} {swap}");
+            let e = text(&out.stderr);
+            assert!(e.contains("imu.csv: ") && e.contains(expected), "{e}");
+        }
+        let out = run(&["segment", "--imu", s(&imu)]);
+        assert_eq!(out.status.code(), Some(1));
+        assert!(
+            text(&out.stderr).contains(expected),
+            "{}",
+            text(&out.stderr)
+        );
+    }
 }
 
 #[test]

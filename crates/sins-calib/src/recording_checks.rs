@@ -1,0 +1,243 @@
+//! Checks of an IMU file's units against what an IMU at rest on the Earth measures, shared by
+//! the commands that read records (`segment`, `noise`): time stamps in seconds, a specific
+//! force of g at rest (not g units, not the gyro columns), magnitudes an IMU gives.
+
+use crate::{Error, table};
+use ::import::detect::Segmentation;
+
+/// The longest median interval between records accepted (s): every IMU records at 1 Hz or
+/// faster, while stamps in milliseconds read as seconds give 1 .. 100 "s" for 10 Hz .. 1 kHz.
+/// `import` accepts up to [`import::MEDIAN_INTERVAL_RANGE_S`] (10 s) for profiles with a
+/// counter and a declared rate; a file read as seconds here has no such declaration.
+pub(crate) const MAX_MEDIAN_INTERVAL_S: f64 = 1.0;
+
+/// Refuse records no IMU gives before segmenting: a median interval outside
+/// [`import::MEDIAN_INTERVAL_RANGE_S`]'s lower bound .. [`MAX_MEDIAN_INTERVAL_S`], a window longer than the recording, a rate or specific
+/// force (increments over their interval) beyond [`import::MAX_GYRO_RAD_S`] /
+/// [`import::MAX_ACCEL_M_S2`], named by line.
+pub(crate) fn check_plausible(
+    data: &calib::io::ImuData,
+    file: &str,
+    window_s: f64,
+) -> Result<(), Error> {
+    let n = data.records.len();
+    if n < 2 {
+        return Err(
+            format!("{file}: {n} record(s): expected at least two records to segment").into(),
+        );
+    }
+    let (t, w, f) = ::import::detect::rates_of(data);
+    let median = ::import::timing::median_interval(&t);
+    let (lo, _) = ::import::MEDIAN_INTERVAL_RANGE_S;
+    let hi = MAX_MEDIAN_INTERVAL_S;
+    if !(lo..=hi).contains(&median) {
+        return Err(format!(
+            "{file}: the time stamps advance by a median {median:e} s between records: expected \
+             {lo} .. {hi} s (t in seconds; stamps in milliseconds need `import` with [time] unit \
+             = \"ms\")"
+        )
+        .into());
+    }
+    let span = t[n - 1] - t[0];
+    if window_s > span {
+        return Err(format!(
+            "--window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
+             window of a few records up to the recording's length"
+        )
+        .into());
+    }
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    for k in 0..n {
+        for (what, v, max, unit) in [
+            (
+                "angular rate",
+                norm(&w[k]),
+                ::import::MAX_GYRO_RAD_S,
+                "rad/s",
+            ),
+            (
+                "specific force",
+                norm(&f[k]),
+                ::import::MAX_ACCEL_M_S2,
+                "m/s^2",
+            ),
+        ] {
+            if v.is_nan() || v >= max {
+                return Err(format!(
+                    "{file}: line {}: the {what} has magnitude {v:e} {unit}: expected below \
+                     {max} {unit} (check the units the file was written with)",
+                    k + 2
+                )
+                .into());
+            }
+        }
+    }
+    // Gyro and accelerometer columns swapped: the "angular rate" has the magnitude of gravity
+    // in m/s^2 for most of the recording (560 deg/s, which no calibration turns at for long)
+    // while the "specific force" is far below g. Medians, so the turns of a program or a hand
+    // do not decide it.
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let mut w_norms: Vec<f64> = w.iter().map(norm).collect();
+    let mut f_norms: Vec<f64> = f.iter().map(norm).collect();
+    let (w_median, f_median) = (self::median(&mut w_norms), self::median(&mut f_norms));
+    if (G_AT_REST.0 * G..=G_AT_REST.1 * G).contains(&w_median) && f_median < G_AT_REST.0 * G {
+        return Err(format!(
+            "{file}: the median angular rate is {} rad/s and the median specific force {} \
+             m/s^2: expected about g = {G} m/s^2 of specific force and rates far below g's \
+             number in rad/s; the gyro and accelerometer columns look swapped (wx, wy, wz come \
+             before fx, fy, fz)",
+            table::significant(w_median, 4),
+            table::significant(f_median, 4),
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// The specific force at rest is gravity: a static interval whose mean |f| is outside
+/// [`G_AT_REST`] times g is refused (the file's accelerometers are not in m/s^2, or read
+/// nothing).
+pub(crate) fn check_static_force(seg: &Segmentation, file: &str) -> Result<(), Error> {
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    for (i, x) in seg.static_intervals.iter().enumerate() {
+        let ratio = x.norm_f_m_s2 / G;
+        if !(G_AT_REST.0..=G_AT_REST.1).contains(&ratio) {
+            return Err(format!(
+                "{file}: static interval {} (t = {} .. {} s, line {} ..) has a mean specific \
+                 force of {} m/s^2 ({} g): expected g = {G} m/s^2 at rest, within {} .. {} g; \
+                 the accelerometer values are not in m/s^2 or the records are not of an IMU",
+                i + 1,
+                x.start_s,
+                x.end_s,
+                x.first_record + 2,
+                table::significant(x.norm_f_m_s2, 4),
+                table::significant(ratio, 4),
+                G_AT_REST.0,
+                G_AT_REST.1
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// The band of the mean specific force of a static interval, in units of g.
+const G_AT_REST: (f64, f64) = (0.5, 1.5);
+
+/// A recording said to be at rest throughout (`noise --all-at-rest`) must be: refused when its
+/// median specific force is not g (g units, swapped columns), or when it moves in more than
+/// [`MAX_MOVING_FRACTION`] of its windows of `window` records. A window moves when its
+/// gyro spread (root of the summed axis variances) exceeds [`MOTION_SPREAD_FACTOR`] times the
+/// median window's, or its mean specific force leaves the recording's median by more than
+/// [`MAX_TILT_M_S2`]. Both measures ignore a constant gyro bias or a slow drift, which at rest
+/// can pass the detector's rate threshold and are why a recording is declared at rest.
+pub(crate) fn check_at_rest(
+    data: &calib::io::ImuData,
+    file: &str,
+    window: usize,
+    window_s: f64,
+) -> Result<(), Error> {
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let (_, w, f) = ::import::detect::rates_of(data);
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let mut norms: Vec<f64> = f.iter().map(norm).collect();
+    let median_f = median(&mut norms);
+    let ratio = median_f / G;
+    if !(G_AT_REST.0..=G_AT_REST.1).contains(&ratio) {
+        return Err(format!(
+            "{file}: the median specific force of the recording (--all-at-rest) is {} m/s^2 ({} \
+             g): expected g = {G} m/s^2 at rest, within {} .. {} g; the accelerometer values are \
+             not in m/s^2, or the gyro and accelerometer columns are swapped",
+            table::significant(median_f, 4),
+            table::significant(ratio, 4),
+            G_AT_REST.0,
+            G_AT_REST.1
+        )
+        .into());
+    }
+    let window = window.max(2);
+    let windows = f.len() / window;
+    if windows < 2 {
+        return Ok(());
+    }
+    let mean_of = |v: &[[f64; 3]]| {
+        let mut m = [0.0; 3];
+        for x in v {
+            for a in 0..3 {
+                m[a] += x[a] / v.len() as f64;
+            }
+        }
+        m
+    };
+    let spread_of = |v: &[[f64; 3]]| {
+        let m = mean_of(v);
+        let ss: f64 = v
+            .iter()
+            .map(|x| (0..3).map(|a| (x[a] - m[a]).powi(2)).sum::<f64>())
+            .sum();
+        (ss / (v.len() - 1) as f64).sqrt()
+    };
+    let mut f_all = [Vec::new(), Vec::new(), Vec::new()];
+    for x in &f {
+        for a in 0..3 {
+            f_all[a].push(x[a]);
+        }
+    }
+    let f_median = [
+        median(&mut f_all[0]),
+        median(&mut f_all[1]),
+        median(&mut f_all[2]),
+    ];
+    let spreads: Vec<f64> = w.chunks_exact(window).map(spread_of).collect();
+    let typical = median(&mut spreads.clone());
+    let spinning = spreads
+        .iter()
+        .filter(|s| **s > MOTION_SPREAD_FACTOR * typical)
+        .count();
+    let tilted = f
+        .chunks_exact(window)
+        .filter(|c| {
+            let m = mean_of(c);
+            norm(&[m[0] - f_median[0], m[1] - f_median[1], m[2] - f_median[2]]) > MAX_TILT_M_S2
+        })
+        .count();
+    let moving = spinning.max(tilted);
+    if moving as f64 > MAX_MOVING_FRACTION * windows as f64 {
+        return Err(format!(
+            "{file}: --all-at-rest, but the recording moves: of its {windows} windows of {} s, \
+             {spinning} have a gyro spread above {MOTION_SPREAD_FACTOR} times the median \
+             window's ({} rad/s) and {tilted} a mean specific force more than {MAX_TILT_M_S2} \
+             m/s^2 from the recording's median: expected at most a tenth of them; leave out \
+             --all-at-rest to use the detector's static intervals",
+            table::significant(window_s, 3),
+            table::significant(typical, 3),
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// A window's gyro spread this many times the median window's is motion: white noise's
+/// windowed spread varies by a few per cent over windows of tens of records, vibration from
+/// the building by a factor of two or three; a turn by hand or a turntable's start and stop by
+/// orders of magnitude.
+const MOTION_SPREAD_FACTOR: f64 = 10.0;
+
+/// A window's mean specific force this far from the recording's median is a change of pose
+/// (m/s^2): about 3 deg of tilt, far above the thermal drift of an accelerometer bias
+/// (milli-g).
+const MAX_TILT_M_S2: f64 = 0.5;
+
+/// The largest fraction of windows that may move in a recording declared at rest: a door
+/// slammed or a cable touched now and then is still a recording at rest.
+const MAX_MOVING_FRACTION: f64 = 0.1;
+
+/// The median of `v` (reordered); NaN when empty.
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
+    *m
+}
