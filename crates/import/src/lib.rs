@@ -55,8 +55,10 @@ use timing::{GapAt, Timing};
 pub const G_BAND: (f64, f64) = (0.8, 1.2);
 
 /// The median interval between records must lie in this band (s): from 100 kHz down to one
-/// record every ten seconds.
-pub const MEDIAN_INTERVAL_RANGE_S: (f64, f64) = (1e-5, 10.0);
+/// record a second. Every IMU records at 1 Hz or faster; a longer interval is time stamps in
+/// milliseconds (or a counter's rate) read wrongly: 10 Hz .. 1 kHz stamped in ms and read as
+/// seconds give 1 .. 100 "s".
+pub const MEDIAN_INTERVAL_RANGE_S: (f64, f64) = (1e-5, 1.0);
 
 /// Largest plausible angular rate after conversion (rad/s, about 5700 deg/s, above the range
 /// of any gyro on a turntable or in a hand).
@@ -628,7 +630,7 @@ fn check_time_base(profile: &Profile, gs: &Source, median: f64) -> Result<(), Im
         gs.table.lines[0],
         format!(
             "the time stamps (profile {}) advance by a median {} s ({} Hz) between records: \
-             expected {lo} .. {hi} s, and an IMU recording at 10 Hz or more; {cause}",
+             expected {lo} .. {hi} s, an IMU recording at 1 Hz or more; {cause}",
             profile.origin,
             show_number(median),
             show_number(1.0 / median)

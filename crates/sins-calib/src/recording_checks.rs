@@ -5,14 +5,9 @@
 use crate::{Error, table};
 use ::import::detect::Segmentation;
 
-/// The longest median interval between records accepted (s): every IMU records at 1 Hz or
-/// faster, while stamps in milliseconds read as seconds give 1 .. 100 "s" for 10 Hz .. 1 kHz.
-/// `import` accepts up to [`import::MEDIAN_INTERVAL_RANGE_S`] (10 s) for profiles with a
-/// counter and a declared rate; a file read as seconds here has no such declaration.
-pub(crate) const MAX_MEDIAN_INTERVAL_S: f64 = 1.0;
-
 /// Refuse records no IMU gives before segmenting: a median interval outside
-/// [`import::MEDIAN_INTERVAL_RANGE_S`]'s lower bound .. [`MAX_MEDIAN_INTERVAL_S`], a window longer than the recording, a rate or specific
+/// [`import::MEDIAN_INTERVAL_RANGE_S`] (1 Hz at the slowest: stamps in milliseconds read as
+/// seconds are beyond it), a window longer than the recording, a rate or specific
 /// force (increments over their interval) beyond [`import::MAX_GYRO_RAD_S`] /
 /// [`import::MAX_ACCEL_M_S2`], named by line.
 pub(crate) fn check_plausible(
@@ -28,8 +23,7 @@ pub(crate) fn check_plausible(
     }
     let (t, w, f) = ::import::detect::rates_of(data);
     let median = ::import::timing::median_interval(&t);
-    let (lo, _) = ::import::MEDIAN_INTERVAL_RANGE_S;
-    let hi = MAX_MEDIAN_INTERVAL_S;
+    let (lo, hi) = ::import::MEDIAN_INTERVAL_RANGE_S;
     if !(lo..=hi).contains(&median) {
         return Err(format!(
             "{file}: the time stamps advance by a median {median:e} s between records: expected \

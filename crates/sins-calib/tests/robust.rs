@@ -367,6 +367,15 @@ fn import_refuses_implausible_profiles_and_data() {
             &["median 100 s", "rate_hz"],
         ),
         (
+            "half_hz.toml",
+            |t| t.replace("column = 1\n", "rate_hz = 0.5\n"),
+            &[
+                "median 2 s",
+                "expected 0.00001 .. 1 s",
+                "check [time] rate_hz = 0.5",
+            ],
+        ),
+        (
             "ms.toml",
             |t| t.replace("recording.csv", "recording_ms.csv"),
             &[
