@@ -174,11 +174,13 @@ fn faster_turns(base: &ProgramSpec) -> Vec<Segment> {
             gimbal,
             rate_deg_s,
             duration_s,
-        } => Segment::Rotate {
+        } if (2.0 * rate_deg_s).abs() <= turntable::program::MAX_RATE_DEG_S => Segment::Rotate {
             gimbal,
             rate_deg_s: 2.0 * rate_deg_s,
             duration_s: 0.5 * duration_s,
         },
+        // A turn already faster than half the fastest rate a program may have is kept as it
+        // is: doubled, the proposal would be refused as a program.
         ref other => other.clone(),
     }))
     .collect()
@@ -358,6 +360,41 @@ pub fn design(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every proposal for a program with a turn near the fastest rate accepted compiles: the
+    /// faster turns do not double it beyond the bound.
+    #[test]
+    fn proposals_for_fast_turns_stay_within_the_rate_bound() {
+        let base = ProgramSpec {
+            name: "fast".into(),
+            start_deg: [0.0; 3],
+            segments: vec![
+                Segment::Rotate {
+                    gimbal: 2,
+                    rate_deg_s: 1500.0,
+                    duration_s: 2.4,
+                },
+                Segment::Rotate {
+                    gimbal: 3,
+                    rate_deg_s: -100.0,
+                    duration_s: 3.6,
+                },
+            ],
+        };
+        let proposals = candidate_programs(&base);
+        assert!(!proposals.is_empty());
+        for (name, spec) in &proposals {
+            turntable::program::Program::compile(spec, name)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        let faster = faster_turns(&base);
+        assert!(faster.contains(&base.segments[0]), "{faster:?}");
+        assert!(faster.contains(&Segment::Rotate {
+            gimbal: 3,
+            rate_deg_s: -200.0,
+            duration_s: 1.8,
+        }));
+    }
 
     /// A program that already separates the terms is not extended. The paper's program with
     /// the turntable angles separates the time offset (docs/model-extension.md: every
