@@ -181,6 +181,44 @@ fn static_csv(path: &Path, t_scale: f64, accel_scale: f64, swap: bool) {
     std::fs::write(path, csv).unwrap();
 }
 
+/// --all-at-rest on a recording that is shaken about its pose a fifth of the time (the mean
+/// specific force unchanged, so only the gyro spread shows it) is refused with the counts.
+#[test]
+fn all_at_rest_refuses_a_shaken_recording() {
+    let dir = scratch("noise", "shaken");
+    let imu = dir.join("imu.csv");
+    let mut csv = String::from("t,wx,wy,wz,fx,fy,fz\n");
+    for k in 1..=6000 {
+        let t = k as f64 * 0.01;
+        let n = |m: usize| ((k * m) % 97) as f64 * 1e-5 - 4.8e-4;
+        // Every fifth 10-s stretch, the last 2 s oscillate at 2 Hz by 0.5 rad/s about z.
+        let shake = if (k / 200) % 5 == 4 {
+            0.5 * (4.0 * std::f64::consts::PI * t).sin()
+        } else {
+            0.0
+        };
+        csv += &format!(
+            "{t},{},{},{},{},{},{}\n",
+            n(7919),
+            n(104_729),
+            n(1_299_709) + shake,
+            n(15_485_863),
+            n(32_452_843),
+            9.81 + n(49_979_687)
+        );
+    }
+    std::fs::write(&imu, csv).unwrap();
+    let out = run(&["noise", "--imu", s(&imu), "--all-at-rest"]);
+    assert_eq!(out.status.code(), Some(1));
+    let e = text(&out.stderr);
+    assert!(
+        e.contains("imu.csv: --all-at-rest, but the recording moves: of its")
+            && e.contains("have a gyro spread above 10 times the median window's")
+            && e.contains(" and 0 a mean specific force"),
+        "{e}"
+    );
+}
+
 /// Records `segment` refuses, `noise` refuses alike, with or without --all-at-rest: time
 /// stamps in milliseconds, an accelerometer in g, gyro and accelerometer columns swapped.
 #[test]
