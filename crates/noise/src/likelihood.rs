@@ -123,13 +123,7 @@ impl Blocks {
         intervals: &[Range<usize>],
         max_blocks: usize,
     ) -> Result<Blocks, NoiseError> {
-        if !(tau0_s.is_finite() && tau0_s > 0.0) {
-            return Err(NoiseError::BadInterval0(tau0_s));
-        }
-        check_intervals(increments.len(), intervals)?;
-        if let Some(i) = increments.iter().position(|x| !x.is_finite()) {
-            return Err(NoiseError::NotFinite { record: i });
-        }
+        // The inputs are checked by `of_length`.
         let total: usize = intervals.iter().map(|r| r.len()).sum();
         let m = total.div_ceil(max_blocks.max(1)).max(1);
         Blocks::of_length(increments, tau0_s, intervals, m)
