@@ -734,6 +734,7 @@ mod tests {
             correlation: Some(correlation),
             correction: None,
             verdict: None,
+            temperature: None,
         };
         let dir = std::env::temp_dir().join(format!("xtask-nav-error-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

@@ -396,6 +396,115 @@ impl Default for TruthConfig {
     }
 }
 
+/// The instrument's temperature over a run (`[temperature]`): a profile on the program's clock
+/// for `simulate` (the thermal truth terms act on it, and the records get a `temp` column) and
+/// for `analyse`/`design` (what the thermal terms' covariance analysis sees), and the reference
+/// temperature the thermal terms are about.
+///
+/// ```toml
+/// [temperature]
+/// profile = "warmup"        # constant | warmup | ramp | steps
+/// start_c = 20.0
+/// end_c = 35.0
+/// time_constant_s = 900.0
+/// # reference_c = 27.5      # absent: the mean temperature of the run's records
+/// ```
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TemperatureConfig {
+    /// `constant` (`temp_c`), `warmup` (`start_c`, `end_c`, `time_constant_s`), `ramp`
+    /// (`start_c`, `end_c`, `rate_c_per_min`) or `steps` (`steps = [[t_s, temp_c], ...]`).
+    pub profile: String,
+    /// Constant temperature (deg C).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temp_c: Option<f64>,
+    /// Temperature at the start (deg C).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_c: Option<f64>,
+    /// Temperature approached or reached (deg C).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_c: Option<f64>,
+    /// Time constant of a warm-up (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_constant_s: Option<f64>,
+    /// Rate of a ramp (deg C per minute).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_c_per_min: Option<f64>,
+    /// Steps: `[t_s, temp_c]`, each temperature held from its time on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steps: Option<Vec<[f64; 2]>>,
+    /// The temperature the thermal terms are about (deg C); absent: the mean of the run's
+    /// records.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_c: Option<f64>,
+}
+
+impl TemperatureConfig {
+    /// The profile the fields describe; `Err` names the missing or misplaced field.
+    pub fn profile(&self) -> Result<turntable::temperature::TemperatureProfile, String> {
+        use turntable::temperature::TemperatureProfile as P;
+        let fields = [
+            ("temp_c", self.temp_c.is_some()),
+            ("start_c", self.start_c.is_some()),
+            ("end_c", self.end_c.is_some()),
+            ("time_constant_s", self.time_constant_s.is_some()),
+            ("rate_c_per_min", self.rate_c_per_min.is_some()),
+            ("steps", self.steps.is_some()),
+        ];
+        let wants: &[&str] = match self.profile.as_str() {
+            "constant" => &["temp_c"],
+            "warmup" => &["start_c", "end_c", "time_constant_s"],
+            "ramp" => &["start_c", "end_c", "rate_c_per_min"],
+            "steps" => &["steps"],
+            other => {
+                return Err(format!(
+                    "temperature.profile = \"{other}\": expected constant, warmup, ramp or steps"
+                ));
+            }
+        };
+        for (name, given) in fields {
+            if given != wants.contains(&name) {
+                return Err(format!(
+                    "temperature.profile = \"{}\" {} `temperature.{name}`: it takes {}",
+                    self.profile,
+                    if given { "does not take" } else { "needs" },
+                    wants.join(", ")
+                ));
+            }
+        }
+        let v = |x: Option<f64>| x.unwrap_or(f64::NAN);
+        let profile = match self.profile.as_str() {
+            "constant" => P::Constant {
+                temp_c: v(self.temp_c),
+            },
+            "warmup" => P::Warmup {
+                start_c: v(self.start_c),
+                end_c: v(self.end_c),
+                time_constant_s: v(self.time_constant_s),
+            },
+            "ramp" => P::Ramp {
+                start_c: v(self.start_c),
+                end_c: v(self.end_c),
+                rate_c_per_min: v(self.rate_c_per_min),
+            },
+            _ => P::Steps {
+                steps: self.steps.clone().unwrap_or_default(),
+            },
+        };
+        profile.check().map_err(|e| format!("temperature.{e}"))?;
+        if let Some(r) = self.reference_c
+            && !turntable::temperature::TEMPERATURE_RANGE_C.contains(&r)
+        {
+            return Err(format!(
+                "temperature.reference_c = {r}: expected a temperature in deg C within {} .. {}",
+                turntable::temperature::TEMPERATURE_RANGE_C.start(),
+                turntable::temperature::TEMPERATURE_RANGE_C.end()
+            ));
+        }
+        Ok(profile)
+    }
+}
+
 /// The `program` value that reads the program from the turntable's angle records.
 pub const PROGRAM_FROM_ANGLES: &str = "from-angles";
 
@@ -426,6 +535,15 @@ pub struct RunConfig {
     /// Truth of a simulated run (only `simulate` reads it; absent: defaults).
     #[serde(default)]
     pub truth: TruthConfig,
+    /// The instrument's temperature over the run (absent: none; a recording's own
+    /// temperatures come from its `temp` column).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature: Option<TemperatureConfig>,
+    /// The temperature profile of a recording, made from its `temp` column on the program's
+    /// clock, with the reference it was calibrated about: what the covariance analyses of the
+    /// model-extension loop see. Not a file setting.
+    #[serde(skip)]
+    pub recorded_temperature: Option<(turntable::temperature::TemperatureProfile, f64)>,
     /// Directory the configuration was read from (for relative program paths).
     #[serde(skip)]
     pub base_dir: Option<PathBuf>,
@@ -613,7 +731,35 @@ impl RunConfig {
                 message: format!("truth.values.\"{name}\" = {v} must be a finite number"),
             });
         }
+        if let Some(temp) = &self.temperature {
+            temp.profile().map_err(|message| ConfigError::Invalid {
+                origin: origin.to_string(),
+                message,
+            })?;
+        }
         Ok(())
+    }
+
+    /// The temperature profile over the run and the thermal terms' reference temperature
+    /// (deg C): a recording's own ([`RunConfig::recorded_temperature`]) or the configured one,
+    /// whose reference is, unless given, the mean of the temperatures at the records of a
+    /// run of `n_records` at `rate_hz` from `t = 0`. `None` without a temperature.
+    pub fn temperature_profile(
+        &self,
+        rate_hz: f64,
+        n_records: usize,
+    ) -> Option<(turntable::temperature::TemperatureProfile, f64)> {
+        if let Some(r) = &self.recorded_temperature {
+            return Some(r.clone());
+        }
+        let t = self.temperature.as_ref()?;
+        let profile = t.profile().ok()?;
+        // The records' temperatures are those at the middle of their intervals.
+        let dt = 1.0 / rate_hz;
+        let reference = t
+            .reference_c
+            .unwrap_or_else(|| profile.mean_at_records(-0.5 * dt, dt, n_records));
+        Some((profile, reference))
     }
 
     /// Length of a measurement window in IMU steps for a measurement every `n_interval` steps:

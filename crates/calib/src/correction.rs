@@ -101,6 +101,18 @@ pub enum CorrectionError {
         /// Raw specific force (m/s^2).
         accel: [f64; 3],
     },
+    /// A result with thermal terms but no reference temperature.
+    #[error(
+        "the result has temperature coefficients ({0}) but no reference temperature \
+         (`temperature.reference_c`): they are coefficients about it"
+    )]
+    NoReferenceTemperature(String),
+    /// A correction with thermal terms applied to a record without a temperature.
+    #[error(
+        "the calibration has temperature coefficients: expected a `temp` column (deg C) in the \
+         records to correct"
+    )]
+    NoTemperature,
     /// Increments need an interval for the first record.
     #[error(
         "an increments file needs at least two records (the first record's interval is the one to the second)"
@@ -143,6 +155,46 @@ pub struct Correction {
     pub time_offset_s: Option<f64>,
     /// What the gyro extension terms are evaluated at.
     pub extension_inputs: ExtensionInputs,
+    /// The thermal terms, when estimated: the correction then depends on each record's
+    /// temperature ([`Correction::at_temperature`]).
+    pub thermal: Option<ThermalCorrection>,
+}
+
+/// The temperature dependence of a [`Correction`]: at temperature `T` (deg C), with
+/// `dT = T - reference_c`, the biases are `nu0 + tb_g dT` and `df0 + tb_a dT`, and the scale
+/// factors `Theta_ii + ts_g,i dT` and `Gamma_ii + ts_a,i dT`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThermalCorrection {
+    /// The temperature the coefficients are about (deg C).
+    pub reference_c: f64,
+    /// Gyro bias coefficients `tb_g` (rad/s/K; zero when not estimated).
+    pub gyro_bias: Vector3<f64>,
+    /// Accelerometer bias coefficients `tb_a` (m/s^2/K).
+    pub accel_bias: Vector3<f64>,
+    /// Gyro scale-factor coefficients `ts_g` (1/K).
+    pub gyro_scale: Vector3<f64>,
+    /// Accelerometer scale-factor coefficients `ts_a` (1/K).
+    pub accel_scale: Vector3<f64>,
+    /// `I - Theta` before inversion: the scale coefficients change its diagonal.
+    gyro_sensor: Matrix3<f64>,
+    /// `I + Gamma` before inversion.
+    accel_sensor: Matrix3<f64>,
+}
+
+/// The `thermal` part of a [`CorrectionBlock`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalBlock {
+    /// Reference temperature (deg C).
+    pub reference_c: f64,
+    /// `tb_g` (rad/s/K).
+    pub gyro_bias: [f64; 3],
+    /// `tb_a` (m/s^2/K).
+    pub accel_bias: [f64; 3],
+    /// `ts_g` (1/K).
+    pub gyro_scale: [f64; 3],
+    /// `ts_a` (1/K).
+    pub accel_scale: [f64; 3],
 }
 
 /// The `correction` block of a result file: the [`Correction`] in matrix form, rows of the
@@ -158,6 +210,10 @@ pub struct CorrectionBlock {
     pub gyro: GyroBlock,
     /// Accelerometer triad.
     pub accel: AccelBlock,
+    /// The thermal terms, when estimated: `M_g`, `b_g`, `M_a`, `b_a` above are at the
+    /// reference temperature.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<ThermalBlock>,
 }
 
 /// The gyro part of a [`CorrectionBlock`].
@@ -239,6 +295,16 @@ impl Correction {
         parameters: &[ResultParameter],
         inputs: ExtensionInputs,
     ) -> Result<Self, CorrectionError> {
+        Self::from_parameters_at(parameters, inputs, None)
+    }
+
+    /// [`Correction::from_parameters`] of a result whose thermal terms (if any) are about
+    /// `reference_c` (deg C); thermal terms without a reference are refused.
+    pub fn from_parameters_at(
+        parameters: &[ResultParameter],
+        inputs: ExtensionInputs,
+        reference_c: Option<f64>,
+    ) -> Result<Self, CorrectionError> {
         for p in parameters {
             if is_inert(&p.name) {
                 continue;
@@ -302,6 +368,38 @@ impl Correction {
         let gyro_matrix = invert(&theta).ok_or(CorrectionError::Singular("gyro I - Theta"))?;
         let accel_matrix =
             invert(&gamma).ok_or(CorrectionError::Singular("accelerometer I + Gamma"))?;
+        let vector = |c: Candidate| -> Result<Option<Vector3<f64>>, CorrectionError> {
+            Ok(term(c)?.map(|v| Vector3::from_column_slice(&v)))
+        };
+        let thermal_terms = [
+            vector(Candidate::GyroTempBias)?,
+            vector(Candidate::AccelTempBias)?,
+            vector(Candidate::GyroTempScale)?,
+            vector(Candidate::AccelTempScale)?,
+        ];
+        let thermal = if thermal_terms.iter().any(Option::is_some) {
+            let given: Vec<&str> = Candidate::THERMAL
+                .iter()
+                .zip(&thermal_terms)
+                .filter(|(_, v)| v.is_some())
+                .map(|(c, _)| c.id())
+                .collect();
+            let reference_c = reference_c
+                .filter(|t| t.is_finite())
+                .ok_or_else(|| CorrectionError::NoReferenceTemperature(given.join(", ")))?;
+            let [gb, ab, gs, as_] = thermal_terms.map(Option::unwrap_or_default);
+            Some(ThermalCorrection {
+                reference_c,
+                gyro_bias: gb,
+                accel_bias: ab,
+                gyro_scale: gs,
+                accel_scale: as_,
+                gyro_sensor: theta,
+                accel_sensor: gamma,
+            })
+        } else {
+            None
+        };
         Ok(Self {
             gyro_matrix,
             gyro_offset: Vector3::new(p[0], p[1], p[2]),
@@ -313,7 +411,30 @@ impl Correction {
             accel_lever: term(Candidate::AccelSizeEffect)?.map(|v| Matrix3::from_row_slice(&v)),
             time_offset_s: term(Candidate::GyroAccelTimeOffset)?.map(|v| v[0]),
             extension_inputs: inputs,
+            thermal,
         })
+    }
+
+    /// The correction at temperature `temp_c` (deg C): the thermal terms folded into the
+    /// offsets and matrices (`None` for a correction without them, which holds at every
+    /// temperature). A correction with thermal terms needs the temperature.
+    pub fn at_temperature(&self, temp_c: Option<f64>) -> Result<Option<Self>, CorrectionError> {
+        let Some(th) = &self.thermal else {
+            return Ok(None);
+        };
+        let t = temp_c.ok_or(CorrectionError::NoTemperature)?;
+        let d = t - th.reference_c;
+        let gyro = th.gyro_sensor - Matrix3::from_diagonal(&(th.gyro_scale * d));
+        let accel = th.accel_sensor + Matrix3::from_diagonal(&(th.accel_scale * d));
+        Ok(Some(Self {
+            gyro_matrix: invert(&gyro).ok_or(CorrectionError::Singular("gyro I - Theta(T)"))?,
+            gyro_offset: self.gyro_offset + th.gyro_bias * d,
+            accel_matrix: invert(&accel)
+                .ok_or(CorrectionError::Singular("accelerometer I + Gamma(T)"))?,
+            accel_offset: self.accel_offset - th.accel_bias * d,
+            thermal: None,
+            ..self.clone()
+        }))
     }
 
     /// Whether the inverse needs the fixed-point iteration (a term not linear in the unknowns).
@@ -456,6 +577,13 @@ impl Correction {
                 lever: self.accel_lever.as_ref().map(rows),
                 time_offset_s: self.time_offset_s,
             },
+            thermal: self.thermal.as_ref().map(|t| ThermalBlock {
+                reference_c: t.reference_c,
+                gyro_bias: t.gyro_bias.into(),
+                accel_bias: t.accel_bias.into(),
+                gyro_scale: t.gyro_scale.into(),
+                accel_scale: t.accel_scale.into(),
+            }),
         }
     }
 }
@@ -504,6 +632,10 @@ pub fn correct_record(
     if kind == ImuKind::Increments && records.len() < 2 {
         return Err(CorrectionError::TooFewRecords);
     }
+    // The thermal terms at this record's temperature (its neighbours' rates, for the
+    // derivatives, are corrected at it too: a temperature moves by millikelvin between them).
+    let at_temp = correction.at_temperature(records[k].temp)?;
+    let correction = at_temp.as_ref().unwrap_or(correction);
     let (g, a) = mean_rates(kind, records, k);
     let derivatives = if correction.uses_derivatives() && records.len() >= 2 {
         let (lo, hi) = (k.saturating_sub(1), (k + 1).min(records.len() - 1));
@@ -550,8 +682,10 @@ pub fn result_file(
     parameters: Vec<ResultParameter>,
     correlation: Vec<Vec<f64>>,
     inputs: ExtensionInputs,
+    temperature: Option<crate::io::ResultTemperature>,
 ) -> crate::io::ResultFile {
-    let correction = Correction::from_parameters(&parameters, inputs)
+    let reference = temperature.as_ref().map(|t| t.reference_c);
+    let correction = Correction::from_parameters_at(&parameters, inputs, reference)
         .ok()
         .map(|c| c.block());
     crate::io::ResultFile {
@@ -559,6 +693,7 @@ pub fn result_file(
         correlation: Some(correlation),
         correction,
         verdict: None,
+        temperature,
     }
 }
 
@@ -603,9 +738,10 @@ mod tests {
     #[test]
     fn inverts_the_terms_effects_exactly() {
         let (m, p) = full_model();
-        let c = Correction::from_parameters(&parameters(&m, &p), ExtensionInputs::True)
+        let c = Correction::from_parameters_at(&parameters(&m, &p), ExtensionInputs::True, Some(20.0))
             .expect("complete parameters");
         assert!(c.is_nonlinear() && c.uses_derivatives());
+        assert!(c.thermal.is_some());
         for k in 0..50 {
             let x = k as f64;
             let input = SensorInput {
@@ -613,9 +749,14 @@ mod tests {
                 f_body: Vector3::new(3.0 * (0.1 * x).cos(), -9.0 * (0.2 * x).sin(), 9.8),
                 omega_dot_body: Vector3::new(0.4, -1.0, 0.3) * (0.5 * x).sin(),
                 f_dot_body: Vector3::new(-2.0, 0.5, 1.0) * (0.9 * x).cos(),
+                temp_delta: 0.4 * (x - 25.0),
             };
             let w_raw = input.omega_body - m.error(Sensor::Gyro, &p, &input);
             let f_raw = input.f_body + m.error(Sensor::Accel, &p, &input);
+            let c = c
+                .at_temperature(Some(20.0 + input.temp_delta))
+                .expect("a temperature")
+                .expect("thermal terms");
             let (w, f) = c
                 .apply_rates(
                     &w_raw,
@@ -665,7 +806,11 @@ mod tests {
                     || q.name.starts_with("accel.gamma")
             })
             .collect();
-        let c = Correction::from_parameters(&params, ExtensionInputs::Measured).unwrap();
+        let c = Correction::from_parameters_at(&params, ExtensionInputs::Measured, Some(20.0))
+            .unwrap()
+            .at_temperature(Some(20.0))
+            .unwrap()
+            .unwrap();
         assert!(!c.is_nonlinear());
         let (w_raw, f_raw) = (Vector3::new(0.5, -1.0, 0.25), Vector3::new(1.0, -2.0, 9.5));
         let (w, f) = c.apply_rates(&w_raw, &f_raw, None).unwrap();
@@ -793,8 +938,16 @@ mod tests {
     #[test]
     fn block_round_trips_through_json() {
         let (m, p) = full_model();
-        let c = Correction::from_parameters(&parameters(&m, &p), ExtensionInputs::True).unwrap();
+        let c = Correction::from_parameters_at(&parameters(&m, &p), ExtensionInputs::True, Some(20.0))
+            .unwrap();
         let b = c.block();
+        assert_eq!(b.thermal.as_ref().map(|t| t.reference_c), Some(20.0));
+        // Thermal terms without their reference temperature are refused, with the terms named.
+        assert!(matches!(
+            Correction::from_parameters(&parameters(&m, &p), ExtensionInputs::True),
+            Err(CorrectionError::NoReferenceTemperature(t)) if t.contains("gyro_temp_bias")
+        ));
+        assert_eq!(c.at_temperature(None), Err(CorrectionError::NoTemperature));
         let text = serde_json::to_string(&b).unwrap();
         let back: CorrectionBlock = serde_json::from_str(&text).unwrap();
         assert_eq!(back, b);

@@ -204,6 +204,12 @@ pub struct Estimate {
     pub rests: Vec<Rest>,
     /// A recording without a program: how its start attitude was found; `None` with a program.
     pub start_alignment: Option<crate::rests::RestAlignment>,
+    /// The records' temperatures and the reference of the thermal terms, when the records have
+    /// a temperature.
+    pub temperature: Option<crate::io::ResultTemperature>,
+    /// The records' temperature in 1-s means on the IMU clock (`[t_s, temp_c]`), when they
+    /// have one: the profile the covariance analyses of the model-extension loop take.
+    pub temperature_series: Vec<[f64; 2]>,
 }
 
 impl Estimate {
@@ -260,6 +266,7 @@ impl Estimate {
             parameters,
             correlation,
             crate::correction::ExtensionInputs::True,
+            self.temperature.clone(),
         )
     }
 }
@@ -277,6 +284,80 @@ struct Scan {
     program_start: f64,
     /// Whether the program start was found from the data (not given).
     program_start_found: bool,
+    /// The records' temperatures, when they have one.
+    temperature: Option<TemperatureScan>,
+}
+
+/// The temperatures of the records, as the scan found them.
+#[derive(Clone, Debug, Default)]
+struct TemperatureScan {
+    sum: f64,
+    n: usize,
+    min: f64,
+    max: f64,
+    /// 1-s means `[t_s, temp_c]` (the time the middle of the second).
+    series: Vec<[f64; 2]>,
+    /// The open second: its index, sum and count.
+    open: Option<(i64, f64, usize)>,
+}
+
+impl TemperatureScan {
+    fn push(&mut self, t: f64, temp: f64) {
+        if self.n == 0 {
+            (self.min, self.max) = (temp, temp);
+        }
+        self.sum += temp;
+        self.n += 1;
+        self.min = self.min.min(temp);
+        self.max = self.max.max(temp);
+        let second = t.floor() as i64;
+        match &mut self.open {
+            Some((k, s, c)) if *k == second => {
+                *s += temp;
+                *c += 1;
+            }
+            _ => {
+                self.close();
+                self.open = Some((second, temp, 1));
+            }
+        }
+    }
+
+    fn close(&mut self) {
+        if let Some((k, s, c)) = self.open.take() {
+            self.series.push([k as f64 + 0.5, s / c as f64]);
+        }
+    }
+
+    fn mean(&self) -> f64 {
+        self.sum / self.n as f64
+    }
+}
+
+/// Why the thermal terms' reference temperature is the one it is.
+const REFERENCE_MEAN: &str = "the mean of the records' temperatures: the biases and scale \
+    factors of the result are those at it, where they are least correlated with the temperature \
+    coefficients";
+const REFERENCE_CONFIGURED: &str = "temperature.reference_c of the configuration";
+
+impl Scan {
+    /// The reference temperature and the summary for the result, when the records have a
+    /// temperature.
+    fn temperature(&self, config: &RunConfig) -> Option<crate::io::ResultTemperature> {
+        let t = self.temperature.as_ref()?;
+        let configured = config.temperature.as_ref().and_then(|c| c.reference_c);
+        Some(crate::io::ResultTemperature {
+            reference_c: configured.unwrap_or_else(|| t.mean()),
+            reference_reason: if configured.is_some() {
+                REFERENCE_CONFIGURED
+            } else {
+                REFERENCE_MEAN
+            }
+            .to_string(),
+            min_c: Some(t.min),
+            max_c: Some(t.max),
+        })
+    }
 }
 
 /// Length of the rate bins of the scan (s).
@@ -318,8 +399,12 @@ fn scan_imu(
     let (mut n, mut first, mut prev) = (0usize, f64::NAN, f64::NAN);
     let mut binner = RateBinner::new(BIN_S);
     let kind = imu.kind();
+    let mut temperature: Option<TemperatureScan> = None;
     while let Some((rec, line)) = imu.next_record()? {
         check_record(&rec, kind, dt, imu.file(), line)?;
+        if let Some(temp) = rec.temp {
+            temperature.get_or_insert_default().push(rec.t, temp);
+        }
         let (g, a) = (Vector3::from(rec.gyro), Vector3::from(rec.accel));
         match kind {
             ImuKind::Increments => binner.push(rec.t, dt, &g, &a),
@@ -363,12 +448,16 @@ fn scan_imu(
         }
         .into());
     }
+    if let Some(t) = &mut temperature {
+        t.close();
+    }
     Ok(Scan {
         n,
         span: (first, prev),
         bins: binner.finish(),
         program_start: f64::NAN,
         program_start_found: false,
+        temperature,
     })
 }
 
@@ -1320,6 +1409,7 @@ fn run_pass(
         n_steps: scan.n,
         own_intervals: matches!(motion, Motion::Rests { .. }),
         motion_attitude_noise_rad: config.filter.motion_attitude_noise_deg.to_radians(),
+        temp_reference_c: scan.temperature(config).map(|t| t.reference_c),
     };
     let lin = Linearisation::from_totals(layout, &totals);
     let mut pass = Pass::new(
@@ -1419,6 +1509,12 @@ fn run_pass(
         segments,
         rests,
         start_alignment,
+        temperature: scan.temperature(config),
+        temperature_series: scan
+            .temperature
+            .as_ref()
+            .map(|t| t.series.clone())
+            .unwrap_or_default(),
     };
     Ok((estimate, c0, offset_sensitivity))
 }

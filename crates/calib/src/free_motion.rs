@@ -399,6 +399,7 @@ impl FreeMotionResult {
             self.parameters.clone(),
             self.correlation.clone(),
             crate::correction::ExtensionInputs::Measured,
+            None,
         )
     }
 

@@ -126,7 +126,7 @@ impl ImuData {
                     t: s.t,
                     gyro: [s.dtheta.x, s.dtheta.y, s.dtheta.z],
                     accel: [s.dv.x, s.dv.y, s.dv.z],
-                    temp: None,
+                    temp: s.temp,
                 })
                 .collect(),
         }
@@ -1158,6 +1158,26 @@ pub struct ResultFile {
     /// writes its own), so that `apply` can refuse a calibration the data contradicted.
     #[serde(default, skip_serializing)]
     pub verdict: Option<ResultVerdict>,
+    /// The temperatures of the recording and the reference the thermal terms are about, when
+    /// the records had a temperature.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature: Option<ResultTemperature>,
+}
+
+/// The temperature of a calibrated recording (deg C).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResultTemperature {
+    /// The temperature the thermal coefficients are about, and the one at which the biases and
+    /// scale factors of the result hold.
+    pub reference_c: f64,
+    /// Why this reference.
+    pub reference_reason: String,
+    /// Lowest temperature of the records (absent in a simulation's truth).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_c: Option<f64>,
+    /// Highest temperature of the records.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_c: Option<f64>,
 }
 
 /// The verdict of a result file: whether the data contradicted the model, and why.
@@ -1193,6 +1213,14 @@ impl From<&Truth> for ResultFile {
             correlation: None,
             correction: None,
             verdict: None,
+            temperature: truth
+                .temperature_reference_c
+                .map(|reference_c| ResultTemperature {
+                    reference_c,
+                    reference_reason: "the simulation's reference temperature".into(),
+                    min_c: None,
+                    max_c: None,
+                }),
         }
     }
 }

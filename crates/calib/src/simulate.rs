@@ -34,6 +34,17 @@ pub enum SimulationError {
         /// The valid names.
         expected: String,
     },
+    /// Thermal truth terms without a temperature to act on.
+    #[error(
+        "{origin}: the truth has the thermal term `{term}` but the configuration has no \
+         [temperature] section: expected a temperature profile for it to act on"
+    )]
+    NoTemperature {
+        /// Configuration file.
+        origin: String,
+        /// The thermal term's id.
+        term: String,
+    },
     /// The simulator refused its settings.
     #[error(transparent)]
     Simulate(#[from] SimulateError),
@@ -59,6 +70,10 @@ pub fn true_values(
         values.push((e.name.clone(), if drawn { z * e.prior_sigma } else { 0.0 }));
     }
     for (name, v) in &config.truth.values {
+        if HiddenEffects::candidate_of(name).is_some() {
+            // An extra term's parameter: [`simulate_run`] passes it on as a hidden effect.
+            continue;
+        }
         match values.iter_mut().find(|(n, _)| n == name) {
             Some(slot) => slot.1 = *v,
             None => {
@@ -79,8 +94,21 @@ pub fn true_values(
 
 /// Simulate the run a configuration describes (its `[truth]`, `[noise]` and `[clock]`
 /// sections). `origin` names the configuration in messages.
+///
+/// `truth.values` may name the parameters of the candidate terms too (`gyro.tbias.x`,
+/// `accel.k2.z`, ...): the unit then has those effects ([`simulate_run_hidden`]).
 pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, SimulationError> {
-    simulate_run_hidden(config, origin, &HiddenEffects::default())
+    let hidden = HiddenEffects {
+        values: config
+            .truth
+            .values
+            .iter()
+            .filter(|(n, _)| HiddenEffects::candidate_of(n).is_some())
+            .map(|(n, v)| (n.clone(), *v))
+            .collect(),
+        gyro_drift: None,
+    };
+    simulate_run_hidden(config, origin, &hidden)
 }
 
 /// Seed of the gyro drift's own random stream, from the run's seed.
@@ -149,6 +177,17 @@ pub fn simulate_run_hidden(
     };
     let kin = Kinematics::new(config.program()?, mounting, config.site());
     let t = &config.truth;
+    let duration = t.duration_s.unwrap_or_else(|| kin.program.duration());
+    let n_records = (duration * t.imu_rate_hz * (1.0 + 1e-12)).floor() as usize;
+    let temperature = config.temperature_profile(t.imu_rate_hz, n_records);
+    if temperature.is_none()
+        && let Some(c) = candidates.iter().find(|c| c.is_thermal())
+    {
+        return Err(SimulationError::NoTemperature {
+            origin: origin.to_string(),
+            term: c.id().to_string(),
+        });
+    }
     let on = if t.noise { 1.0 } else { 0.0 };
     let sigma = on * (config.angle_psd() * t.turntable_rate_hz).sqrt();
     let sensor = AngleSensor {
@@ -163,6 +202,7 @@ pub fn simulate_run_hidden(
         accel_psd: on * config.accel_psd(),
         duration_s: t.duration_s,
         seed: t.seed,
+        temperature: temperature.clone(),
         ..SimConfig::default()
     };
     let configured = |walk: Option<[f64; 3]>| walk.filter(|_| t.noise);
@@ -205,5 +245,6 @@ pub fn simulate_run_hidden(
             }
         }
     }
+    out.truth.temperature_reference_c = temperature.map(|(_, r)| r);
     Ok(out)
 }

@@ -385,6 +385,7 @@ fn result_and_truth_json_follow_the_design_format() {
             value: -0.0125,
             unit: "m/s^2".into(),
         }],
+        temperature_reference_c: None,
     };
     let path = temp_path("truth.json");
     write_truth_json(&path, &truth).unwrap();
@@ -411,6 +412,7 @@ fn simulator_output_converts_and_writes() {
         t: 0.01,
         dtheta: nalgebra::Vector3::new(1e-4, 2e-4, 3e-4),
         dv: nalgebra::Vector3::new(0.0, 0.0, 0.0981),
+        temp: None,
     }];
     let d = ImuData::from_samples(&imu);
     let text = format_imu_csv(&d, "x.csv").unwrap();

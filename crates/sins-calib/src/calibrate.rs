@@ -7,7 +7,8 @@ use calib::angle_records::AngleFile;
 use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
 use calib::estimate::{Estimate, FileImu, FitStatistics, ImuSource as _, estimate_from};
 use calib::io::{ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json};
-use calib::layout::{StateLayout, layout_for};
+use calib::extension::ModelExtension;
+use calib::layout::{StateLayout, layout_with};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -49,14 +50,14 @@ pub struct Args {
     /// white noise and motion noise from the recording (docs/real-data.md).
     #[arg(long)]
     pub free_motion: bool,
-    /// With --free-motion: candidate terms to add to the paper's model (ids):
-    /// gyro_g_sensitivity, gyro_scale_asymmetry, accel_quadratic, accel_size_effect,
-    /// gyro_accel_time_offset. None is added without being named.
-    #[arg(long, value_name = "ID", num_args = 1.., requires = "free_motion")]
+    /// Candidate terms to add to the paper's model (ids): gyro_g_sensitivity,
+    /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_accel_time_offset and the
+    /// thermal gyro_temp_bias, accel_temp_bias, gyro_temp_scale, accel_temp_scale (these need a
+    /// `temp` column). None is added without being named.
+    #[arg(long, value_name = "ID", num_args = 1..)]
     pub terms: Vec<String>,
-    /// With --free-motion: add the terms a `diagnose --json` result accepted
-    /// (`accepted_terms`).
-    #[arg(long, value_name = "DIAGNOSE.json", requires = "free_motion")]
+    /// Add the terms a `diagnose --json` result accepted (`accepted_terms`).
+    #[arg(long, value_name = "DIAGNOSE.json")]
     pub terms_from: Option<PathBuf>,
     /// With --free-motion: the section list written by `import` (sections.json); its rotations
     /// with an expected turn (e.g. 360-degree turns) become measurements of the integrated angle.
@@ -123,6 +124,10 @@ struct ResultJson<'a> {
     /// The estimated model inverted (`calib::correction`).
     #[serde(skip_serializing_if = "Option::is_none")]
     correction: Option<&'a calib::correction::CorrectionBlock>,
+    /// The records' temperatures and the thermal terms' reference, when the records have a
+    /// temperature.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    temperature: Option<&'a calib::io::ResultTemperature>,
     /// Whether the model fits the data, with the reasons when it does not.
     verdict: VerdictJson,
     fit: FitJson,
@@ -323,9 +328,11 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     };
     let mut hand_turned = None;
     let mut missed_rests = None;
+    let terms = crate::free_motion::terms_asked(&args.terms, args.terms_from.as_deref())?;
+    let extension = ModelExtension::with_grade(&terms, input.config.unit_grade());
     let est = match &input.program {
         Some(_) => {
-            let layout = layout_for(&input.config, turntable.is_some());
+            let layout = layout_with(&input.config, turntable.is_some(), &extension);
             check_truth_units(args, &input, &layout)?;
             estimate_from(
                 &input.config,
@@ -351,8 +358,6 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                     .config
                     .is_some()
                     .then_some((&input.config, input.origin.as_str()));
-                let terms =
-                    crate::free_motion::terms_asked(&args.terms, args.terms_from.as_deref())?;
                 let setup = crate::free_motion::setup(
                     given,
                     args.latitude,
@@ -366,7 +371,12 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 input.config = setup.config;
                 (setup.layout, setup.turns, setup.measured, Some(summary))
             } else {
-                (layout_for(&input.config, false), vec![], None, None)
+                (
+                    layout_with(&input.config, false, &extension),
+                    vec![],
+                    None,
+                    None,
+                )
             };
             check_truth_units(args, &input, &layout)?;
             let r = calib::hand_turned::calibrate(
@@ -534,6 +544,7 @@ fn write_result_json(
         parameters: &result.parameters,
         correlation: result.correlation.as_ref(),
         correction: result.correction.as_ref(),
+        temperature: result.temperature.as_ref(),
         verdict: VerdictJson {
             fits: bad.is_empty(),
             exit_status: if bad.is_empty() {

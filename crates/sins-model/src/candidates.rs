@@ -15,6 +15,14 @@
 //! | `accel_size_effect` | `accel.lever.<i><j>` (9) | m | `df_i += (dw/dt x r_i + w x (w x r_i))_i` | 0.02 |
 //! | `gyro_bias_drift` | `gyro.drift.<i>` (3, not states) | rad/s/sqrt(s) | `d(nu0_i)/dt` white, PSD `drift_i^2` | 0.1 deg/h/sqrt(h) |
 //! | `gyro_accel_time_offset` | `time.gyro_accel` (1) | s | `f'(t) = f(t - d)`: `df -= d df/dt` | 1e-3 |
+//! | `gyro_temp_bias` | `gyro.tbias.<i>` (3) | rad/s/K | `nu_i += b_i dT` | 0.01 deg/h/K |
+//! | `accel_temp_bias` | `accel.tbias.<i>` (3) | m/s^2/K | `df_i += a_i dT` | 1e-4 m/s^2/K |
+//! | `gyro_temp_scale` | `gyro.tscale.<i>` (3) | 1/K | `nu_i += s_i dT w_i` | 1e-5 /K |
+//! | `accel_temp_scale` | `accel.tscale.<i>` (3) | 1/K | `df_i += s_i dT f_i` | 5e-5 /K |
+//!
+//! `dT` is [`SensorInput::temp_delta`], the unit's temperature less the reference temperature of
+//! the run (the thermal terms' parameters are coefficients about it; the paper's biases and
+//! scale factors are then their values at the reference).
 
 use crate::names;
 use crate::terms::{AxisColumn, ErrorTerm, Feature, ParamSpec, Sensor, SensorInput, Unit};
@@ -75,18 +83,44 @@ pub enum Candidate {
     GyroBiasDrift,
     /// The accelerometers sample late against the gyros, [`GyroAccelTimeOffset`].
     GyroAccelTimeOffset,
+    /// Gyro biases that change with temperature, [`TempBias`].
+    GyroTempBias,
+    /// Accelerometer biases that change with temperature, [`TempBias`].
+    AccelTempBias,
+    /// Gyro scale factors that change with temperature, [`TempScale`].
+    GyroTempScale,
+    /// Accelerometer scale factors that change with temperature, [`TempScale`].
+    AccelTempScale,
 }
 
 impl Candidate {
     /// Every candidate, in the order of the issue.
-    pub const ALL: [Candidate; 6] = [
+    pub const ALL: [Candidate; 10] = [
         Candidate::GyroGSensitivity,
         Candidate::GyroScaleAsymmetry,
         Candidate::AccelQuadratic,
         Candidate::AccelSizeEffect,
         Candidate::GyroBiasDrift,
         Candidate::GyroAccelTimeOffset,
+        Candidate::GyroTempBias,
+        Candidate::AccelTempBias,
+        Candidate::GyroTempScale,
+        Candidate::AccelTempScale,
     ];
+
+    /// The thermal candidates: their effect is proportional to the temperature's departure from
+    /// the reference, so only a recording with a temperature column that moves can show them.
+    pub const THERMAL: [Candidate; 4] = [
+        Candidate::GyroTempBias,
+        Candidate::AccelTempBias,
+        Candidate::GyroTempScale,
+        Candidate::AccelTempScale,
+    ];
+
+    /// Whether the candidate's effect scales with the temperature ([`Candidate::THERMAL`]).
+    pub fn is_thermal(self) -> bool {
+        Self::THERMAL.contains(&self)
+    }
 
     /// The candidate's id (fixed by the issue).
     pub fn id(self) -> &'static str {
@@ -97,6 +131,10 @@ impl Candidate {
             Candidate::AccelSizeEffect => "accel_size_effect",
             Candidate::GyroBiasDrift => "gyro_bias_drift",
             Candidate::GyroAccelTimeOffset => "gyro_accel_time_offset",
+            Candidate::GyroTempBias => "gyro_temp_bias",
+            Candidate::AccelTempBias => "accel_temp_bias",
+            Candidate::GyroTempScale => "gyro_temp_scale",
+            Candidate::AccelTempScale => "accel_temp_scale",
         }
     }
 
@@ -121,6 +159,10 @@ impl Candidate {
             Candidate::AccelSizeEffect => pairs(names::ACCEL_LEVER_PREFIX),
             Candidate::GyroBiasDrift => names::GYRO_DRIFT.iter().map(|s| s.to_string()).collect(),
             Candidate::GyroAccelTimeOffset => vec![names::TIME_GYRO_ACCEL.to_string()],
+            Candidate::GyroTempBias => per_axis(names::GYRO_TBIAS_PREFIX),
+            Candidate::AccelTempBias => per_axis(names::ACCEL_TBIAS_PREFIX),
+            Candidate::GyroTempScale => per_axis(names::GYRO_TSCALE_PREFIX),
+            Candidate::AccelTempScale => per_axis(names::ACCEL_TSCALE_PREFIX),
         }
     }
 
@@ -133,6 +175,9 @@ impl Candidate {
             Candidate::AccelSizeEffect => Unit::Meter,
             Candidate::GyroBiasDrift => Unit::RadPerSecondPerSqrtSecond,
             Candidate::GyroAccelTimeOffset => Unit::Second,
+            Candidate::GyroTempBias => Unit::RadPerSecondPerKelvin,
+            Candidate::AccelTempBias => Unit::MeterPerSecond2PerKelvin,
+            Candidate::GyroTempScale | Candidate::AccelTempScale => Unit::PerKelvin,
         }
     }
 
@@ -141,10 +186,14 @@ impl Candidate {
         match self {
             Candidate::GyroGSensitivity
             | Candidate::GyroScaleAsymmetry
-            | Candidate::GyroBiasDrift => Sensor::Gyro,
+            | Candidate::GyroBiasDrift
+            | Candidate::GyroTempBias
+            | Candidate::GyroTempScale => Sensor::Gyro,
             Candidate::AccelQuadratic
             | Candidate::AccelSizeEffect
-            | Candidate::GyroAccelTimeOffset => Sensor::Accel,
+            | Candidate::GyroAccelTimeOffset
+            | Candidate::AccelTempBias
+            | Candidate::AccelTempScale => Sensor::Accel,
         }
     }
 
@@ -159,9 +208,19 @@ impl Candidate {
     /// - time offset 1e-3 s (a sample at 1 kHz, or the group delay difference of the two
     ///   channels' anti-alias filters);
     /// - drift: not a prior but the default random-walk intensity, 0.1 deg/h/sqrt(h)
-    ///   (between navigation grade, 0.001 to 0.01, and tactical grade, about 1).
+    ///   (between navigation grade, 0.001 to 0.01, and tactical grade, about 1);
+    /// - gyro bias temperature coefficient 0.01 deg/h/K (navigation FOGs and RLGs quote 0.001 to
+    ///   0.01 deg/h/K after their own compensation, several times that before it);
+    /// - accelerometer bias temperature coefficient 1e-4 m/s^2/K (10 micro-g/K: quartz
+    ///   pendulous accelerometers 5 to 50 micro-g/K uncompensated);
+    /// - scale-factor temperature coefficients 10 ppm/K (gyros) and 50 ppm/K (accelerometers;
+    ///   quartz pendulous 100 to 200 ppm/K before their own compensation).
     pub fn default_prior_sigma(self) -> f64 {
         match self {
+            Candidate::GyroTempBias => 0.01 / Unit::RadPerSecondPerKelvin.report_factor(),
+            Candidate::AccelTempBias => 1e-4,
+            Candidate::GyroTempScale => 1e-5,
+            Candidate::AccelTempScale => 5e-5,
             Candidate::GyroGSensitivity => 1e-6,
             Candidate::GyroScaleAsymmetry => 1e-5,
             Candidate::AccelQuadratic => 1e-5,
@@ -185,6 +244,10 @@ impl Candidate {
     /// | `accel_size_effect` (m) | 0.02 | 0.02 | 0.02 |
     /// | `gyro_bias_drift` (deg/h/sqrt(h)) | 0.1 | 1 | 10 |
     /// | `gyro_accel_time_offset` (s) | 1e-3 | 1e-3 | 1e-2 (a sample at 100 Hz) |
+    /// | `gyro_temp_bias` (deg/h/K) | 0.01 | 1 | 36 (0.01 deg/s/K) |
+    /// | `accel_temp_bias` (m/s^2/K) | 1e-4 | 5e-4 (50 micro-g/K) | 5e-3 (0.5 mg/K) |
+    /// | `gyro_temp_scale` (ppm/K) | 10 | 100 | 500 |
+    /// | `accel_temp_scale` (ppm/K) | 50 | 200 | 500 |
     pub fn prior_sigma(self, grade: UnitGrade) -> f64 {
         let deg = std::f64::consts::PI / 180.0;
         let walk = 1.0 / Unit::RadPerSecondPerSqrtSecond.report_factor();
@@ -199,6 +262,18 @@ impl Candidate {
             (UnitGrade::Consumer, Candidate::AccelQuadratic) => 1e-4,
             (UnitGrade::Consumer, Candidate::GyroBiasDrift) => 10.0 * walk,
             (UnitGrade::Consumer, Candidate::GyroAccelTimeOffset) => 1e-2,
+            (UnitGrade::Tactical, Candidate::GyroTempBias) => {
+                1.0 / Unit::RadPerSecondPerKelvin.report_factor()
+            }
+            (UnitGrade::Consumer, Candidate::GyroTempBias) => {
+                36.0 / Unit::RadPerSecondPerKelvin.report_factor()
+            }
+            (UnitGrade::Tactical, Candidate::AccelTempBias) => 5e-4,
+            (UnitGrade::Consumer, Candidate::AccelTempBias) => 5e-3,
+            (UnitGrade::Tactical, Candidate::GyroTempScale) => 1e-4,
+            (UnitGrade::Consumer, Candidate::GyroTempScale) => 5e-4,
+            (UnitGrade::Tactical, Candidate::AccelTempScale) => 2e-4,
+            (UnitGrade::Consumer, Candidate::AccelTempScale) => 5e-4,
             (_, Candidate::AccelSizeEffect | Candidate::GyroAccelTimeOffset) => {
                 self.default_prior_sigma()
             }
@@ -233,6 +308,22 @@ impl Candidate {
                 "a sample at the output rate (1 ms at 1 kHz) or the group-delay difference of \
                  the two channels' anti-alias filters"
             }
+            Candidate::GyroTempBias => {
+                "navigation FOGs and RLGs 0.001 to 0.01 deg/h/K after their own compensation; \
+                 tactical FOGs and MEMS 0.1 to 1 deg/h/K; consumer MEMS 0.001 to 0.01 deg/s/K \
+                 (data sheets)"
+            }
+            Candidate::AccelTempBias => {
+                "quartz pendulous accelerometers 5 to 50 micro-g/K uncompensated; MEMS 0.1 to \
+                 0.5 mg/K (data sheets)"
+            }
+            Candidate::GyroTempScale => {
+                "navigation gyros a few ppm/K; MEMS gyros 100 to 500 ppm/K (data sheets)"
+            }
+            Candidate::AccelTempScale => {
+                "quartz pendulous accelerometers 100 to 200 ppm/K before their own \
+                 compensation; MEMS 100 to 500 ppm/K (data sheets)"
+            }
         }
     }
 
@@ -252,6 +343,14 @@ impl Candidate {
             Candidate::AccelQuadratic => Box::new(AccelQuadratic { params }),
             Candidate::AccelSizeEffect => Box::new(AccelSizeEffect { params }),
             Candidate::GyroAccelTimeOffset => Box::new(GyroAccelTimeOffset { params }),
+            Candidate::GyroTempBias | Candidate::AccelTempBias => Box::new(TempBias {
+                sensor: self.sensor(),
+                params,
+            }),
+            Candidate::GyroTempScale | Candidate::AccelTempScale => Box::new(TempScale {
+                sensor: self.sensor(),
+                params,
+            }),
             Candidate::GyroBiasDrift => return None,
         })
     }
@@ -427,6 +526,80 @@ impl ErrorTerm for GyroAccelTimeOffset {
     }
 }
 
+/// Biases that change linearly with temperature (`gyro.tbias.<i>` or `accel.tbias.<i>`):
+/// `e_i += b_i dT`, `dT` = [`SensorInput::temp_delta`]. Affine in the rate and force for a fixed
+/// temperature but not for a fixed set of parameters, so not [`ErrorTerm::is_affine`].
+#[derive(Clone, Debug)]
+pub struct TempBias {
+    sensor: Sensor,
+    params: Vec<ParamSpec>,
+}
+
+impl ErrorTerm for TempBias {
+    fn sensor(&self) -> Sensor {
+        self.sensor
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        Vector3::new(p[0], p[1], p[2]) * input.temp_delta
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        let d = input.temp_delta;
+        out[0] = Vector3::new(d, 0.0, 0.0);
+        out[1] = Vector3::new(0.0, d, 0.0);
+        out[2] = Vector3::new(0.0, 0.0, d);
+    }
+    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
+        Some((0..3).map(|k| AxisColumn::new(k, Feature::Temp)).collect())
+    }
+}
+
+/// Scale factors that change linearly with temperature (`gyro.tscale.<i>` or
+/// `accel.tscale.<i>`): `e_i += s_i dT x_i`, `x` the body rate (gyros) or specific force
+/// (accelerometers).
+#[derive(Clone, Debug)]
+pub struct TempScale {
+    sensor: Sensor,
+    params: Vec<ParamSpec>,
+}
+
+impl TempScale {
+    fn input_of(&self, input: &SensorInput) -> Vector3<f64> {
+        match self.sensor {
+            Sensor::Gyro => input.omega_body,
+            Sensor::Accel => input.f_body,
+        }
+    }
+}
+
+impl ErrorTerm for TempScale {
+    fn sensor(&self) -> Sensor {
+        self.sensor
+    }
+    fn params(&self) -> &[ParamSpec] {
+        &self.params
+    }
+    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
+        let x = self.input_of(input) * input.temp_delta;
+        Vector3::new(p[0] * x.x, p[1] * x.y, p[2] * x.z)
+    }
+    fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
+        let x = self.input_of(input) * input.temp_delta;
+        out[0] = Vector3::new(x.x, 0.0, 0.0);
+        out[1] = Vector3::new(0.0, x.y, 0.0);
+        out[2] = Vector3::new(0.0, 0.0, x.z);
+    }
+    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
+        let feature = |k| match self.sensor {
+            Sensor::Gyro => Feature::TempOmega(k),
+            Sensor::Accel => Feature::TempForce(k),
+        };
+        Some((0..3).map(|k| AxisColumn::new(k, feature(k))).collect())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -495,6 +668,7 @@ mod tests {
             f_body: Vector3::new(1.2, -3.4, 8.9),
             omega_dot_body: Vector3::new(0.3, 0.7, -0.4),
             f_dot_body: Vector3::new(-0.8, 1.1, 0.2),
+            temp_delta: 7.5,
         }
     }
 
@@ -591,6 +765,25 @@ mod tests {
         assert!((e - Vector3::new(0.0, expect.y, 0.0)).norm() < 1e-15);
         let d = Candidate::GyroAccelTimeOffset.term(1.0).unwrap();
         assert!((d.error(&[1e-3], &x) + x.f_dot_body * 1e-3).norm() < 1e-18);
+        // Thermal terms: coefficient times the temperature's departure from the reference.
+        let b = Candidate::GyroTempBias.term(1.0).unwrap();
+        let e = b.error(&[1e-7, 2e-7, 3e-7], &x);
+        assert!((e - Vector3::new(1e-7, 2e-7, 3e-7) * 7.5).norm() < 1e-20);
+        let s = Candidate::AccelTempScale.term(1.0).unwrap();
+        let e = s.error(&[0.0, 0.0, 5e-5], &x);
+        assert!((e.z - 5e-5 * 7.5 * 8.9).abs() < 1e-15 && e.x == 0.0);
+        let s = Candidate::GyroTempScale.term(1.0).unwrap();
+        let e = s.error(&[1e-5, 0.0, 0.0], &x);
+        assert!((e.x - 1e-5 * 7.5 * 0.17).abs() < 1e-18);
+        let cold = SensorInput {
+            temp_delta: 0.0,
+            ..x
+        };
+        for c in Candidate::THERMAL {
+            let t = c.term(1.0).unwrap();
+            assert_eq!(t.error(&[1.0; 3], &cold), Vector3::zeros(), "{}", c.id());
+            assert!(c.is_thermal());
+        }
     }
 
     /// The derivative part of a model is integrated from the changes over an interval: for a

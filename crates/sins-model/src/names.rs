@@ -38,6 +38,14 @@ pub const GYRO_ASYM_PREFIX: &str = "gyro.asym.";
 pub const ACCEL_K2_PREFIX: &str = "accel.k2.";
 /// Prefix of the accelerometers' offsets `accel.lever.<i><j>` (size effect).
 pub const ACCEL_LEVER_PREFIX: &str = "accel.lever.";
+/// Prefix of the gyro bias temperature coefficients (`gyro.tbias.x`, ...).
+pub const GYRO_TBIAS_PREFIX: &str = "gyro.tbias.";
+/// Prefix of the accelerometer bias temperature coefficients (`accel.tbias.x`, ...).
+pub const ACCEL_TBIAS_PREFIX: &str = "accel.tbias.";
+/// Prefix of the gyro scale-factor temperature coefficients (`gyro.tscale.x`, ...).
+pub const GYRO_TSCALE_PREFIX: &str = "gyro.tscale.";
+/// Prefix of the accelerometer scale-factor temperature coefficients (`accel.tscale.x`, ...).
+pub const ACCEL_TSCALE_PREFIX: &str = "accel.tscale.";
 /// Delay of the accelerometer samples against the gyros' (s).
 pub const TIME_GYRO_ACCEL: &str = "time.gyro_accel";
 /// Random-walk intensities of the gyro biases (rad/s/sqrt(s)); model options, not states.

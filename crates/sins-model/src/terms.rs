@@ -48,6 +48,12 @@ pub enum Unit {
     Meter,
     /// Random-walk intensity of a gyro bias (rad/s/sqrt(s)), reported in deg/h/sqrt(h).
     RadPerSecondPerSqrtSecond,
+    /// Temperature coefficient of a gyro bias (rad/s/K), reported in deg/h/K.
+    RadPerSecondPerKelvin,
+    /// Temperature coefficient of an accelerometer bias (m/s^2/K), reported in m/s^2/K.
+    MeterPerSecond2PerKelvin,
+    /// Temperature coefficient of a scale factor (1/K), reported in ppm/K.
+    PerKelvin,
 }
 
 /// Standard gravity (m/s^2), the `g` of report units such as deg/h/g.
@@ -66,6 +72,9 @@ impl Unit {
             Unit::PerMeterPerSecond2 => "1/(m/s^2)",
             Unit::Meter => "m",
             Unit::RadPerSecondPerSqrtSecond => "rad/s/sqrt(s)",
+            Unit::RadPerSecondPerKelvin => "rad/s/K",
+            Unit::MeterPerSecond2PerKelvin => "m/s^2/K",
+            Unit::PerKelvin => "1/K",
         }
     }
     /// Report (paper) unit name.
@@ -81,6 +90,9 @@ impl Unit {
             Unit::PerMeterPerSecond2 => "1/g",
             Unit::Meter => "mm",
             Unit::RadPerSecondPerSqrtSecond => "deg/h/sqrt(h)",
+            Unit::RadPerSecondPerKelvin => "deg/h/K",
+            Unit::MeterPerSecond2PerKelvin => "m/s^2/K",
+            Unit::PerKelvin => "ppm/K",
         }
     }
     /// Multiply an SI value by this to get it in the report unit.
@@ -96,6 +108,9 @@ impl Unit {
             Unit::Meter => 1e3,
             // rad/s/sqrt(s) -> deg/h/sqrt(h): x / (deg/h) * sqrt(3600 s/h).
             Unit::RadPerSecondPerSqrtSecond => 60.0 / crate::units::DEG_PER_HOUR,
+            Unit::RadPerSecondPerKelvin => 1.0 / crate::units::DEG_PER_HOUR,
+            Unit::MeterPerSecond2PerKelvin => 1.0,
+            Unit::PerKelvin => 1e6,
         }
     }
 }
@@ -140,6 +155,9 @@ pub struct SensorInput {
     pub omega_dot_body: Vector3<f64>,
     /// Time derivative of [`SensorInput::f_body`] (its body-axis components) (m/s^3).
     pub f_dot_body: Vector3<f64>,
+    /// The unit's temperature less the reference temperature of the thermal terms (K); zero
+    /// where the data have no temperature (the thermal terms then contribute nothing).
+    pub temp_delta: f64,
 }
 
 /// An instrument error term.
@@ -192,10 +210,16 @@ pub enum Feature {
     Force(usize),
     /// The magnitude of component `j` of [`SensorInput::omega_body`] (a scale asymmetry).
     AbsOmega(usize),
+    /// [`SensorInput::temp_delta`] (a bias's temperature coefficient).
+    Temp,
+    /// `temp_delta` times component `j` of `omega_body` (a gyro scale factor's coefficient).
+    TempOmega(usize),
+    /// `temp_delta` times component `j` of `f_body` (an accelerometer scale factor's).
+    TempForce(usize),
 }
 
 /// The number of input features of an [`AxisJacobian`] ([`AxisJacobian::features`]).
-pub const N_FEATURES: usize = 10;
+pub const N_FEATURES: usize = 17;
 
 impl Feature {
     /// Index of the feature in [`AxisJacobian::features`].
@@ -205,6 +229,9 @@ impl Feature {
             Feature::Omega(j) => 1 + j,
             Feature::Force(j) => 4 + j,
             Feature::AbsOmega(j) => 7 + j,
+            Feature::Temp => 10,
+            Feature::TempOmega(j) => 11 + j,
+            Feature::TempForce(j) => 14 + j,
         }
     }
 }
@@ -235,10 +262,11 @@ pub struct AxisJacobian {
 }
 
 impl AxisJacobian {
-    /// The features of `input` in slot order: 1, `omega_body`, `f_body`.
+    /// The features of `input` in slot order: 1, `omega_body`, `f_body`, `|omega_body|`,
+    /// `temp_delta`, `temp_delta omega_body`, `temp_delta f_body`.
     #[inline]
     pub fn features(input: &SensorInput) -> [f64; N_FEATURES] {
-        let (w, f) = (input.omega_body, input.f_body);
+        let (w, f, d) = (input.omega_body, input.f_body, input.temp_delta);
         [
             1.0,
             w.x,
@@ -250,6 +278,13 @@ impl AxisJacobian {
             w.x.abs(),
             w.y.abs(),
             w.z.abs(),
+            d,
+            d * w.x,
+            d * w.y,
+            d * w.z,
+            d * f.x,
+            d * f.y,
+            d * f.z,
         ]
     }
 

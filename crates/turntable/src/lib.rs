@@ -8,7 +8,8 @@
 //!   Jacobian that maps angle-sensor errors to a small rotation;
 //! - [`kinematics`]: the true attitude, body rate and specific force of an instrument mounted on
 //!   the platform (installation misalignment `delta_z`, base misalignment `gamma_p`);
-//! - [`sensor`]: the angle-sensor model (noise, delay `tau`, its own clock).
+//! - [`sensor`]: the angle-sensor model (noise, delay `tau`, its own clock);
+//! - [`temperature`]: the instrument's temperature over a run (constant, warm-up, ramp, steps).
 //!
 //! ```
 //! use turntable::{kinematics::{Kinematics, Mounting}, program::Program};
@@ -28,3 +29,4 @@ pub mod kinematics;
 pub mod program;
 pub mod sensor;
 pub mod simulate;
+pub mod temperature;

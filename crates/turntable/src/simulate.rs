@@ -29,6 +29,9 @@ pub struct ImuSample {
     pub dtheta: Vector3<f64>,
     /// Velocity increment (m/s).
     pub dv: Vector3<f64>,
+    /// The instrument's temperature over the interval (at its middle; deg C), when the run has
+    /// a temperature profile.
+    pub temp: Option<f64>,
 }
 
 /// One turntable record.
@@ -41,7 +44,7 @@ pub struct TurntableSample {
 }
 
 /// Settings of the IMU part of a simulation (serde, so a run configuration can hold it).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     /// IMU output rate (Hz).
@@ -56,6 +59,10 @@ pub struct SimConfig {
     pub duration_s: Option<f64>,
     /// Seed of the random generator (noise).
     pub seed: u64,
+    /// The instrument's temperature over the run and the reference temperature (deg C) the
+    /// thermal terms of the model are about; `None`: no temperature (the thermal terms then
+    /// contribute nothing, the records have none).
+    pub temperature: Option<(crate::temperature::TemperatureProfile, f64)>,
 }
 
 impl Default for SimConfig {
@@ -67,6 +74,7 @@ impl Default for SimConfig {
             quadrature_points: 6,
             duration_s: None,
             seed: 0,
+            temperature: None,
         }
     }
 }
@@ -104,6 +112,10 @@ pub struct Truth {
     /// Parameters in order: the error model's, then `install.delta.*`, `turntable.tau`,
     /// `base.gamma.*`, `turntable.clock.offset`, `turntable.clock.rate_error`.
     pub parameters: Vec<TruthParameter>,
+    /// The temperature the thermal terms' coefficients are about (deg C): the biases and scale
+    /// factors above hold there. Absent for a run without a temperature.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature_reference_c: Option<f64>,
 }
 
 impl Truth {
@@ -143,7 +155,10 @@ impl Truth {
             sensor.clock.turntable_rate_error,
             Unit::Ratio,
         );
-        Self { parameters }
+        Self {
+            parameters,
+            temperature_reference_c: None,
+        }
     }
 
     /// Value of a parameter by name.
@@ -268,11 +283,26 @@ pub fn increments(
     a: f64,
     b: f64,
 ) -> (Vector3<f64>, Vector3<f64>) {
+    increments_at(kin, model, p_true, rule, a, b, 0.0)
+}
+
+/// [`increments`] with the instrument `temp_delta` (K) from the thermal terms' reference over
+/// the interval (a temperature moves by millikelvin within one).
+pub fn increments_at(
+    kin: &Kinematics,
+    model: &ErrorModel,
+    p_true: &[f64],
+    rule: &GaussLegendre,
+    a: f64,
+    b: f64,
+    temp_delta: f64,
+) -> (Vector3<f64>, Vector3<f64>) {
     let integrand = |t: f64| {
         let s = kin.sample(t);
         let input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
+            temp_delta,
             ..SensorInput::default()
         };
         (
@@ -473,10 +503,26 @@ pub fn simulate_imu_walking<R: Rng + ?Sized>(
     }
     let walk = drift.map(|d| gyro_bias_walk(d, dt, n));
     let accel_walk = accel_drift.map(|d| accel_bias_walk(d, dt, n));
+    if let Some((profile, reference)) = &config.temperature {
+        profile.check().map_err(SimulateError::Invalid)?;
+        if !reference.is_finite() {
+            return Err(SimulateError::Invalid(format!(
+                "reference temperature {reference}: expected a finite value"
+            )));
+        }
+    }
     let mut out = Vec::with_capacity(n);
     for i in 1..=n {
         let t = i as f64 * dt;
-        let (mut dtheta, mut dv) = increments(kin, model, p_true, &rule, (i - 1) as f64 * dt, t);
+        let (temp, temp_delta) = match &config.temperature {
+            Some((profile, reference)) => {
+                let temp = profile.at(t - 0.5 * dt);
+                (Some(temp), temp - reference)
+            }
+            None => (None, 0.0),
+        };
+        let (mut dtheta, mut dv) =
+            increments_at(kin, model, p_true, &rule, (i - 1) as f64 * dt, t, temp_delta);
         if let Some(b) = &walk {
             dtheta -= (b[i - 1] + b[i]) * (0.5 * dt);
         }
@@ -489,7 +535,12 @@ pub fn simulate_imu_walking<R: Rng + ?Sized>(
         if sa > 0.0 {
             dv += normal3(rng) * sa;
         }
-        out.push(ImuSample { t, dtheta, dv });
+        out.push(ImuSample {
+            t,
+            dtheta,
+            dv,
+            temp,
+        });
     }
     Ok(out)
 }

@@ -387,7 +387,7 @@ fn runs_are_reproducible_and_truth_is_complete() {
     let b = simulate(&kin, &m, &p, &s, &cfg).unwrap();
     assert_eq!(a.imu, b.imu);
     assert_eq!(a.turntable, b.turntable);
-    let c = simulate(&kin, &m, &p, &s, &SimConfig { seed: 12, ..cfg }).unwrap();
+    let c = simulate(&kin, &m, &p, &s, &SimConfig { seed: 12, ..cfg.clone() }).unwrap();
     assert_ne!(a.imu, c.imu);
 
     let truth = &a.truth;
@@ -429,7 +429,7 @@ fn runs_are_reproducible_and_truth_is_complete() {
             &s,
             &SimConfig {
                 imu_rate_hz: 0.0,
-                ..cfg
+                ..cfg.clone()
             }
         )
         .is_err()

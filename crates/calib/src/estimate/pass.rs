@@ -243,6 +243,7 @@ impl Compensation {
     /// previous step's [`CompensatedMeans`] (`None` at the first step: no derivative terms) and
     /// is replaced by this step's.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub fn apply(
         &self,
         model: &ErrorModel,
@@ -250,6 +251,7 @@ impl Compensation {
         raw_dth: &Vector3<f64>,
         raw_dv: &Vector3<f64>,
         dt: f64,
+        temp_delta: f64,
         prev: &mut Option<CompensatedMeans>,
     ) -> (Vector3<f64>, Vector3<f64>) {
         if let Some(forms) = &self.orthants {
@@ -286,6 +288,7 @@ impl Compensation {
                 let input = SensorInput {
                     omega_body: *dth / dt,
                     f_body: *dv / dt,
+                    temp_delta,
                     ..SensorInput::default()
                 };
                 let (nu, df) = match &self.affine {
@@ -414,6 +417,9 @@ pub(super) struct PassSettings {
     /// White noise added to each attitude-error axis at the first measurement after a motion
     /// (a recording of rests; rad).
     pub motion_attitude_noise_rad: f64,
+    /// The reference temperature of the thermal terms (deg C), when the records have a
+    /// temperature: each record's departure from it is the terms' input.
+    pub temp_reference_c: Option<f64>,
 }
 
 /// One pass over the data.
@@ -446,6 +452,9 @@ pub(super) struct Pass<'a> {
     tau_sigma: f64,
     /// The step before, as the compensation of the rate-derivative terms takes it.
     prev_compensated: Option<CompensatedMeans>,
+    /// The current record's temperature less the thermal terms' reference (K; zero without a
+    /// temperature).
+    temp_delta: f64,
     /// The step before, as the error Jacobians took it: the mean rate and the specific force
     /// from the computed attitude (the rate derivatives of the Jacobians are differences to it).
     prev_jacobian: Option<(Vector3<f64>, Vector3<f64>)>,
@@ -526,6 +535,7 @@ impl<'a> Pass<'a> {
             innovations: Vec::with_capacity(updates),
             j: 0,
             prev_compensated: None,
+            temp_delta: 0.0,
             prev_jacobian: None,
             state: vec![0.0; layout.dim()],
             prev_t: f64::NAN,
@@ -690,6 +700,10 @@ impl<'a> Pass<'a> {
             ImuKind::Increments => (g, a),
             ImuKind::Rates => (g * dt, a * dt),
         };
+        self.temp_delta = match (rec.temp, self.settings.temp_reference_c) {
+            (Some(t), Some(r)) => t - r,
+            _ => 0.0,
+        };
         let lin = &self.lin;
         lin.compensation.apply(
             &self.layout.model,
@@ -697,6 +711,7 @@ impl<'a> Pass<'a> {
             &raw_dth,
             &raw_dv,
             dt,
+            self.temp_delta,
             &mut self.prev_compensated,
         )
     }
@@ -714,6 +729,7 @@ impl<'a> Pass<'a> {
         let mut input = SensorInput {
             omega_body: dth * inv_dt,
             f_body: step.c_mid.transpose() * self.settings.f_enu,
+            temp_delta: self.temp_delta,
             ..SensorInput::default()
         };
         // The rate derivatives as the compensation takes them (differences to the step before),
@@ -1007,7 +1023,7 @@ mod tests {
         ];
         for (w, f) in cases {
             let (raw_dth, raw_dv) = (w * dt, f * dt);
-            let (dth, dv) = comp.apply(&model, &p, &raw_dth, &raw_dv, dt, &mut None);
+            let (dth, dv) = comp.apply(&model, &p, &raw_dth, &raw_dv, dt, 0.0, &mut None);
             let (mut x, mut y) = (raw_dth, raw_dv);
             for _ in 0..200 {
                 let input = SensorInput {
