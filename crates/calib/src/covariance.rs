@@ -182,11 +182,18 @@ pub fn covariance_analysis_with(
     // belongs to the next step).
     let derivatives = layout.model.uses_rate_derivatives();
     let mut left = derivatives.then(|| kin.sample_left(0.0));
+    // The thermal terms see the temperature's departure from the reference in each step (the
+    // configured profile, or the recording's own in the model-extension loop).
+    let temperature = config.temperature_profile(f.imu_rate_hz, n_steps);
     for j in 1..=n_steps {
-        let s = kin.sample((j as f64 - 0.5) * dt);
+        let t_mid = (j as f64 - 0.5) * dt;
+        let s = kin.sample(t_mid);
         let mut input = SensorInput {
             omega_body: s.omega_body,
             f_body: s.f_body,
+            temp_delta: temperature
+                .as_ref()
+                .map_or(0.0, |(profile, reference)| profile.at(t_mid) - reference),
             ..SensorInput::default()
         };
         if let Some(a) = &mut left {

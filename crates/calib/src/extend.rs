@@ -307,6 +307,30 @@ pub struct LoopResult {
     /// The configured white noise scaled to the data before the loop, where the paper's
     /// model's mean NIS contradicted it (`base` is then the fit with the scaled noise).
     pub noise_rescaled: Option<NoiseRescale>,
+    /// Candidates of the settings that were not tested, with why (the thermal terms on records
+    /// without a temperature that moves).
+    pub not_tested: Vec<(String, String)>,
+}
+
+/// The smallest span of the records' temperatures (K) over which the thermal candidates are
+/// tested: below it their effect cannot be told from the constant biases and scale factors,
+/// and each would cost the loop a fit per round for nothing.
+pub const MIN_THERMAL_SPAN_K: f64 = 0.1;
+
+/// Why the thermal candidates are not tested on a fit's records, or `None` when they are.
+pub fn thermal_untestable(est: &Estimate) -> Option<String> {
+    match &est.temperature {
+        None => Some("the records have no temperature (no `temp` column)".into()),
+        Some(t) => {
+            let span = t.max_c.zip(t.min_c).map_or(0.0, |(a, b)| a - b);
+            (span < MIN_THERMAL_SPAN_K).then(|| {
+                format!(
+                    "the records' temperature spans {span:.3} K, below {MIN_THERMAL_SPAN_K} K: \
+                     a thermal coefficient cannot be told from the constant terms"
+                )
+            })
+        }
+    }
 }
 
 /// Factors on the configured white-noise levels (`[noise] accel_m_s2`, `angle_arcsec`): the
@@ -416,6 +440,9 @@ struct Context<'a> {
     turns: &'a [crate::rests::Turn],
     settings: &'a LoopSettings,
     progress: &'a mut dyn FnMut(&str),
+    /// The recording's temperature on the program's clock and the thermal terms' reference:
+    /// what the covariance analysis of a thermal candidate sees (`None`: no temperature).
+    recorded_temperature: Option<(turntable::temperature::TemperatureProfile, f64)>,
 }
 
 impl Context<'_> {
@@ -503,6 +530,16 @@ impl Context<'_> {
     }
 
     fn analyse(&mut self, ext: &ModelExtension) -> Result<Posterior, LoopError> {
+        let thermal = ext.terms.iter().any(|(c, _)| c.is_thermal());
+        if thermal && let Some(recorded) = &self.recorded_temperature {
+            let mut config = self.config().clone();
+            config.recorded_temperature = Some(recorded.clone());
+            return Ok(covariance_analysis_ext(
+                &config,
+                self.data.turntable.is_some(),
+                ext,
+            )?);
+        }
         Ok(covariance_analysis_ext(
             self.config(),
             self.data.turntable.is_some(),
@@ -767,6 +804,7 @@ pub fn run_loop(
         turns: &[],
         settings,
         progress,
+        recorded_temperature: None,
     };
     loop_in(cx)
 }
@@ -813,6 +851,7 @@ pub fn run_loop_at_rests(
         turns,
         settings,
         progress,
+        recorded_temperature: None,
     };
     loop_in(cx)
 }
@@ -823,6 +862,20 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
     let base = cx.fit(&ModelExtension::default())?;
     if cx.rests.is_none() {
         check_coverage(cx.config, cx.data, &base.estimate)?;
+    }
+    let est = &base.estimate;
+    if let (Some(t), None) = (&est.temperature, cx.rests) {
+        // The 1-s means on the program's clock (a recording of rests has none: its
+        // separability comes from the fit's own posterior).
+        let points = est
+            .temperature_series
+            .iter()
+            .map(|&[t, c]| [t - est.program_start_s, c])
+            .collect();
+        cx.recorded_temperature = Some((
+            turntable::temperature::TemperatureProfile::Table { points },
+            t.reference_c,
+        ));
     }
     loop_from(cx, base)
 }
@@ -864,6 +917,7 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
     let mut current = base.clone();
     let mut noise_rescaled = None;
     let (mut accepted, mut rounds, mut gains) = (Vec::new(), Vec::new(), BTreeMap::new());
+    let mut not_tested = Vec::new();
     loop {
         cx.scaled = None;
         // A fit that measures its own noise ([`LoopSettings::measured_noise`]) is at the data's
@@ -891,8 +945,17 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
             None => current.clone(),
         };
         let mut evidence: Vec<(CandidateEvidence, Fit)> = Vec::new();
+        let thermal_off = thermal_untestable(&base.estimate);
         for &c in &settings.candidates {
             if has_term(&reference.extension, c) {
+                continue;
+            }
+            if c.is_thermal()
+                && let Some(why) = &thermal_off
+            {
+                if rounds.is_empty() {
+                    not_tested.push((c.id().to_string(), why.clone()));
+                }
                 continue;
             }
             evidence.push(if c == Candidate::GyroBiasDrift {
@@ -980,6 +1043,7 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
         last: current,
         drift_reach,
         noise_rescaled,
+        not_tested,
     })
 }
 

@@ -134,6 +134,18 @@ struct LoopJson<'a> {
     drift_reach: Option<DriftReachJson>,
     #[serde(skip_serializing_if = "Option::is_none")]
     noise_rescaled: Option<calib::extend::NoiseRescale>,
+    /// Candidates not tested, with why.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    not_tested: Vec<NotTestedJson<'a>>,
+    /// The records' temperatures and the thermal terms' reference.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    temperature: Option<calib::io::ResultTemperature>,
+}
+
+#[derive(Serialize)]
+struct NotTestedJson<'a> {
+    term: &'a str,
+    why: &'a str,
 }
 
 /// [`calib::extend::DriftReach`] in SI: the smallest walk the program is expected to show.
@@ -197,6 +209,12 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
         rounds: &r.rounds,
         drift_reach: r.drift_reach.as_ref().map(drift_reach_json),
         noise_rescaled: r.noise_rescaled,
+        not_tested: r
+            .not_tested
+            .iter()
+            .map(|(term, why)| NotTestedJson { term, why })
+            .collect(),
+        temperature: r.last.estimate.temperature.clone(),
     };
     Ok(serde_json::to_string_pretty(&j)?)
 }
@@ -342,6 +360,10 @@ pub fn summary(r: &LoopResult) -> String {
              noise)",
             n.accel_factor, n.angle_factor
         );
+    }
+    if let Some((_, why)) = r.not_tested.first() {
+        let ids: Vec<&str> = r.not_tested.iter().map(|(t, _)| t.as_str()).collect();
+        let _ = writeln!(s, "not tested: {} ({why})", ids.join(", "));
     }
     for (k, round) in r.rounds.iter().enumerate() {
         s += &round_lines(r, k, round);
