@@ -71,6 +71,21 @@ fn runs(seed: u64, hidden: &HiddenEffects, dwells: bool) -> (ImuData, ResultFile
         c.inline_program =
             Some(toml::from_str::<turntable::program::ProgramSpec>(DWELLS).expect("program"));
     }
+    if hidden
+        .candidates()
+        .expect("known names")
+        .iter()
+        .any(|c| c.is_thermal())
+    {
+        // A warm-up for the thermal terms to act on, fast enough to change within the run.
+        c.temperature = Some(calib::config::TemperatureConfig {
+            profile: "warmup".into(),
+            start_c: Some(20.0),
+            end_c: Some(35.0),
+            time_constant_s: Some(100.0),
+            ..Default::default()
+        });
+    }
     let sim = simulate_run_hidden(&c, "test", hidden).expect("simulation");
     let truth = ResultFile::from(&sim.truth);
     // The same mounting, base and delay, no instrument errors.
@@ -132,7 +147,9 @@ fn steady(clean: &[ImuRecord]) -> Vec<bool> {
 }
 
 fn correct(raw: &ImuData, truth: &ResultFile) -> Vec<ImuRecord> {
-    let c = Correction::from_parameters(&truth.parameters, ExtensionInputs::True).expect("truth");
+    let reference = truth.temperature.as_ref().map(|t| t.reference_c);
+    let c = Correction::from_parameters_at(&truth.parameters, ExtensionInputs::True, reference)
+        .expect("truth");
     correct_records(&c, raw.kind, &raw.records).expect("corrected")
 }
 

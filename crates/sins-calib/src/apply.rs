@@ -50,6 +50,10 @@ fn terms(c: &Correction) -> String {
         (c.accel_k2.is_some(), "accelerometer quadratic term"),
         (c.accel_lever.is_some(), "size effect"),
         (c.time_offset_s.is_some(), "gyro-accelerometer time offset"),
+        (
+            c.thermal.is_some(),
+            "temperature coefficients (at each record's temperature)",
+        ),
     ] {
         if on {
             t.push(name);
@@ -171,11 +175,21 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .correction
         .as_ref()
         .map_or(ExtensionInputs::True, |b| b.extension_inputs);
-    let correction = Correction::from_parameters(&result.parameters, inputs).map_err(|e| {
-        format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
-    })?;
+    let reference = result.temperature.as_ref().map(|t| t.reference_c);
+    let correction = Correction::from_parameters_at(&result.parameters, inputs, reference)
+        .map_err(|e| {
+            format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
+        })?;
     let mut reader = ImuReader::open(&args.imu)?;
     let kind = reader.kind();
+    if correction.thermal.is_some() && !reader.has_temp() {
+        return Err(format!(
+            "{}: no `temp` column: the calibration {cal_file} has temperature coefficients, so \
+             each record is corrected at its own temperature (deg C)",
+            args.imu.display()
+        )
+        .into());
+    }
 
     let out = &args.out;
     let dir = match out.parent() {

@@ -681,6 +681,17 @@ fn header_report(input: &Inputs, est: &Estimate) -> String {
         table::compact(t0),
         table::compact(t1),
     );
+    if let Some(t) = &est.temperature {
+        let span = match (t.min_c, t.max_c) {
+            (Some(a), Some(b)) => format!("{a:.2} .. {b:.2} deg C"),
+            _ => "unknown".into(),
+        };
+        let _ = writeln!(
+            s,
+            "  temperature     {span}; thermal terms about {:.2} deg C ({})",
+            t.reference_c, t.reference_reason
+        );
+    }
     if let Some(tt) = &input.tt {
         let (records, f) = (tt.records(), tt.records().file());
         let summary = records.summary();

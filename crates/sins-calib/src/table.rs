@@ -1,7 +1,7 @@
 //! Plain-text tables in the paper's units: parameter groups, number formatting, alignment.
 
 /// Parameter groups of the reports, in order: (title, name prefix).
-const GROUPS: [(&str, &str); 13] = [
+const GROUPS: [(&str, &str); 17] = [
     ("Gyro biases nu0", "gyro.bias."),
     (
         "Gyro matrix Theta (diagonal: scale factors, off-diagonal: misalignments)",
@@ -42,6 +42,22 @@ const GROUPS: [(&str, &str); 13] = [
     ),
     ("Gyro-accelerometer time offset", "time.gyro_accel"),
     ("Gyro bias random walk", "gyro.drift."),
+    (
+        "Gyro bias temperature coefficients (about the reference temperature)",
+        sins_model::names::GYRO_TBIAS_PREFIX,
+    ),
+    (
+        "Accelerometer bias temperature coefficients",
+        sins_model::names::ACCEL_TBIAS_PREFIX,
+    ),
+    (
+        "Gyro scale-factor temperature coefficients",
+        sins_model::names::GYRO_TSCALE_PREFIX,
+    ),
+    (
+        "Accelerometer scale-factor temperature coefficients",
+        sins_model::names::ACCEL_TSCALE_PREFIX,
+    ),
 ];
 
 /// Title of the group a parameter belongs to.
