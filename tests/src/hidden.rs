@@ -7,7 +7,7 @@
 //! noises, the IMU and the angle sensors at 25 Hz (the information is set by the noise
 //! densities, not the rate, and the loop fits each model a dozen times).
 
-use calib::config::RunConfig;
+use calib::config::{RunConfig, TemperatureConfig};
 use calib::estimate::RunData;
 use calib::extend::{LoopResult, LoopSettings, run_loop};
 use calib::extension::HiddenEffects;
@@ -54,6 +54,8 @@ pub struct HiddenCase {
     pub program: ProgramChoice,
     /// Seed of the simulation.
     pub seed: u64,
+    /// The unit's temperature over the run (`None`: no temperature column).
+    pub temperature: Option<TemperatureConfig>,
 }
 
 /// 1 deg/h/sqrt(h) in rad/s/sqrt(s).
@@ -87,6 +89,7 @@ fn cases_base() -> Vec<HiddenCase> {
                      (5e-7 to 5e-6 rad/s per m/s^2); 3e-7 is the issue's measured case",
             program: ProgramChoice::Paper,
             seed: 1,
+            temperature: None,
         },
         HiddenCase {
             name: "scale asymmetry",
@@ -101,6 +104,7 @@ fn cases_base() -> Vec<HiddenCase> {
                      (the issue's 2 ppm case is navigation grade)",
             program: ProgramChoice::Paper,
             seed: 2,
+            temperature: None,
         },
         HiddenCase {
             name: "accelerometer quadratic term",
@@ -115,6 +119,7 @@ fn cases_base() -> Vec<HiddenCase> {
                      20 ug/g^2 (2e-6 per m/s^2); 2e-5 per m/s^2 (200 ug/g^2) is a tactical MEMS unit",
             program: ProgramChoice::Paper,
             seed: 3,
+            temperature: None,
         },
         HiddenCase {
             name: "size effect",
@@ -129,6 +134,7 @@ fn cases_base() -> Vec<HiddenCase> {
                      from the common point (the issue's measured case)",
             program: ProgramChoice::Paper,
             seed: 4,
+            temperature: None,
         },
         HiddenCase {
             name: "gyro bias random walk",
@@ -139,6 +145,7 @@ fn cases_base() -> Vec<HiddenCase> {
                      deg/h/sqrt(h) (the issue's 0.037 case is navigation grade)",
             program: ProgramChoice::Paper,
             seed: 5,
+            temperature: None,
         },
         HiddenCase {
             name: "gyro-accelerometer time offset",
@@ -149,6 +156,7 @@ fn cases_base() -> Vec<HiddenCase> {
                      (1 ms, the issue's flagged case)",
             program: ProgramChoice::Paper,
             seed: 6,
+            temperature: None,
         },
         HiddenCase {
             name: "g-sensitivity and time offset",
@@ -163,6 +171,7 @@ fn cases_base() -> Vec<HiddenCase> {
             source: "the two cases above together",
             program: ProgramChoice::Paper,
             seed: 7,
+            temperature: None,
         },
     ]
 }
@@ -203,6 +212,79 @@ pub fn negative_control(seed: u64) -> HiddenCase {
         source: "-",
         program: ProgramChoice::Paper,
         seed,
+        temperature: None,
+    }
+}
+
+/// 1 deg/h/K in rad/s/K.
+const DEG_PER_H_PER_K: f64 = sins_model::units::DEG_PER_HOUR;
+
+/// A warm-up after power-on, 20 -> 35 deg C with a time constant of 900 s (the issue's).
+pub fn warm_up() -> TemperatureConfig {
+    TemperatureConfig {
+        profile: "warmup".into(),
+        start_c: Some(20.0),
+        end_c: Some(35.0),
+        time_constant_s: Some(900.0),
+        ..Default::default()
+    }
+}
+
+/// A thermal chamber's ramp, 20 -> 40 deg C at 0.5 deg C per minute.
+pub fn chamber_ramp() -> TemperatureConfig {
+    TemperatureConfig {
+        profile: "ramp".into(),
+        start_c: Some(20.0),
+        end_c: Some(40.0),
+        rate_c_per_min: Some(0.5),
+        ..Default::default()
+    }
+}
+
+/// The thermal cases (magnitudes and seeds fixed before any run): a gyro bias temperature
+/// coefficient with the unit in a chamber ramp, an accelerometer bias coefficient in a warm-up.
+pub fn thermal_cases() -> Vec<HiddenCase> {
+    use Candidate::*;
+    vec![
+        HiddenCase {
+            name: "gyro bias temperature coefficient, chamber ramp",
+            terms: vec![GyroTempBias],
+            values: vec![
+                v("gyro.tbias.x", 0.02 * DEG_PER_H_PER_K),
+                v("gyro.tbias.y", -0.015 * DEG_PER_H_PER_K),
+                v("gyro.tbias.z", 0.01 * DEG_PER_H_PER_K),
+            ],
+            drift: None,
+            source: "navigation FOGs quote 0.001-0.01 deg/h/K after their own thermal \
+                     compensation and several times that before it; 0.01-0.02 deg/h/K",
+            program: ProgramChoice::Paper,
+            seed: 9,
+            temperature: Some(chamber_ramp()),
+        },
+        HiddenCase {
+            name: "accelerometer bias temperature coefficient, warm-up",
+            terms: vec![AccelTempBias],
+            values: vec![
+                v("accel.tbias.x", 2e-5),
+                v("accel.tbias.y", -2e-5),
+                v("accel.tbias.z", 2e-5),
+            ],
+            drift: None,
+            source: "2 ug/K per axis (the issue's case); quartz pendulous accelerometers \
+                     5-50 ug/K uncompensated",
+            program: ProgramChoice::Paper,
+            seed: 10,
+            temperature: Some(warm_up()),
+        },
+    ]
+}
+
+/// The thermal negative control: a warm-up in the temperature column, no thermal effect.
+pub fn thermal_control(seed: u64) -> HiddenCase {
+    HiddenCase {
+        name: "warm-up, no hidden effect",
+        temperature: Some(warm_up()),
+        ..negative_control(seed)
     }
 }
 
@@ -214,6 +296,7 @@ pub fn case_config(case: &HiddenCase) -> RunConfig {
     c.truth.imu_rate_hz = 25.0;
     c.truth.turntable_rate_hz = 25.0;
     c.truth.seed = case.seed;
+    c.temperature = case.temperature.clone();
     match case.program {
         ProgramChoice::Paper => {}
         ProgramChoice::FirstCycle => c.inline_program = Some(first_cycle(&c)),
@@ -248,6 +331,11 @@ impl HiddenCase {
 
 /// Simulate the case and run the loop on it (with the turntable angles).
 pub fn run_case(case: &HiddenCase) -> LoopResult {
+    run_case_with_truth(case).0
+}
+
+/// [`run_case`] and the simulation's truth (every parameter, thermal reference included).
+pub fn run_case_with_truth(case: &HiddenCase) -> (LoopResult, calib::io::ResultFile) {
     let config = case_config(case);
     let hidden = HiddenEffects {
         values: case.values.clone(),
@@ -262,7 +350,8 @@ pub fn run_case(case: &HiddenCase) -> LoopResult {
         imu_file: "imu.csv",
         turntable: Some((&tt, "turntable.csv").into()),
     };
-    run_loop(&config, &data, &LoopSettings::default(), &mut |_| {}).expect("loop")
+    let r = run_loop(&config, &data, &LoopSettings::default(), &mut |_| {}).expect("loop");
+    (r, calib::io::ResultFile::from(&sim.truth))
 }
 
 /// The accepted terms' estimates in the final fit against the truth:

@@ -738,8 +738,9 @@ mod tests {
     #[test]
     fn inverts_the_terms_effects_exactly() {
         let (m, p) = full_model();
-        let c = Correction::from_parameters_at(&parameters(&m, &p), ExtensionInputs::True, Some(20.0))
-            .expect("complete parameters");
+        let c =
+            Correction::from_parameters_at(&parameters(&m, &p), ExtensionInputs::True, Some(20.0))
+                .expect("complete parameters");
         assert!(c.is_nonlinear() && c.uses_derivatives());
         assert!(c.thermal.is_some());
         for k in 0..50 {
@@ -938,8 +939,9 @@ mod tests {
     #[test]
     fn block_round_trips_through_json() {
         let (m, p) = full_model();
-        let c = Correction::from_parameters_at(&parameters(&m, &p), ExtensionInputs::True, Some(20.0))
-            .unwrap();
+        let c =
+            Correction::from_parameters_at(&parameters(&m, &p), ExtensionInputs::True, Some(20.0))
+                .unwrap();
         let b = c.block();
         assert_eq!(b.thermal.as_ref().map(|t| t.reference_c), Some(20.0));
         // Thermal terms without their reference temperature are refused, with the terms named.

@@ -521,8 +521,15 @@ pub fn simulate_imu_walking<R: Rng + ?Sized>(
             }
             None => (None, 0.0),
         };
-        let (mut dtheta, mut dv) =
-            increments_at(kin, model, p_true, &rule, (i - 1) as f64 * dt, t, temp_delta);
+        let (mut dtheta, mut dv) = increments_at(
+            kin,
+            model,
+            p_true,
+            &rule,
+            (i - 1) as f64 * dt,
+            t,
+            temp_delta,
+        );
         if let Some(b) = &walk {
             dtheta -= (b[i - 1] + b[i]) * (0.5 * dt);
         }

@@ -124,7 +124,10 @@ impl TemperatureProfile {
             }
             for (i, p) in pts.iter().enumerate() {
                 if !(p[0].is_finite() && p[0].abs() <= 1e7) {
-                    return Err(format!("{name}[{i}]: time {} s: expected within +-1e7 s", p[0]));
+                    return Err(format!(
+                        "{name}[{i}]: time {} s: expected within +-1e7 s",
+                        p[0]
+                    ));
                 }
                 temp(&format!("{name}[{i}] temperature"), p[1])?;
                 if i > 0 && p[0] <= pts[i - 1][0] {
@@ -151,7 +154,11 @@ impl TemperatureProfile {
             } => {
                 temp("start_c", *start_c)?;
                 temp("end_c", *end_c)?;
-                positive("rate_c_per_min (its magnitude)", rate_c_per_min.abs(), 100.0)
+                positive(
+                    "rate_c_per_min (its magnitude)",
+                    rate_c_per_min.abs(),
+                    100.0,
+                )
             }
             Self::Steps { steps } => series("steps", steps),
             Self::Table { points } => series("points", points),

@@ -387,7 +387,17 @@ fn runs_are_reproducible_and_truth_is_complete() {
     let b = simulate(&kin, &m, &p, &s, &cfg).unwrap();
     assert_eq!(a.imu, b.imu);
     assert_eq!(a.turntable, b.turntable);
-    let c = simulate(&kin, &m, &p, &s, &SimConfig { seed: 12, ..cfg.clone() }).unwrap();
+    let c = simulate(
+        &kin,
+        &m,
+        &p,
+        &s,
+        &SimConfig {
+            seed: 12,
+            ..cfg.clone()
+        },
+    )
+    .unwrap();
     assert_ne!(a.imu, c.imu);
 
     let truth = &a.truth;
