@@ -24,7 +24,7 @@ const REST_S: f64 = 20.0;
 
 /// The 19-position program: a rest, then 18 turns of 90 degrees (9 s at 10 deg/s) about the
 /// gimbals in turn, each followed by a rest.
-fn nineteen_positions() -> String {
+pub fn nineteen_positions() -> String {
     // Gimbal and sign of each turn: the pitch and bank gimbals put every face up and down
     // more than once; the heading gimbal turns the horizontal axes.
     let turns: [(u8, f64); 18] = [
@@ -65,10 +65,19 @@ pub fn positions_program(turns: &[(u8, f64)]) -> String {
 }
 
 pub fn config(seed: u64) -> RunConfig {
+    config_with_rests(seed, REST_S)
+}
+
+/// [`config`] with rests of `rest_s` seconds.
+pub fn config_with_rests(seed: u64, rest_s: f64) -> RunConfig {
     let dir = std::env::temp_dir().join(format!("sins-rests-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("program-{seed}.toml"));
-    std::fs::write(&path, nineteen_positions()).unwrap();
+    let path = dir.join(format!("program-{seed}-{rest_s}.toml"));
+    let program = nineteen_positions().replace(
+        &format!("kind = \"dwell\"\nduration_s = {REST_S}\n"),
+        &format!("kind = \"dwell\"\nduration_s = {rest_s}\n"),
+    );
+    std::fs::write(&path, program).unwrap();
     let mut c = simulated_run_config();
     c.program = path.display().to_string();
     c.truth.seed = seed;
