@@ -3,7 +3,7 @@
 use crate::diagnose::{DriftReachJson, drift_reach_json};
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, output, print};
-use calib::covariance::covariance_analysis;
+use calib::covariance::covariance_analysis_ext;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -29,6 +29,11 @@ pub struct Args {
     /// of a walk"; about fifteen more analyses).
     #[arg(long)]
     pub walk_reach: bool,
+    /// Candidate terms to analyse with the paper's model (ids, as `diagnose` names them; the
+    /// thermal ones need a `[temperature]` profile): their posterior sigmas and whether the
+    /// program separates them from the paper's parameters (the rule `diagnose` applies).
+    #[arg(long, value_name = "ID", num_args = 1..)]
+    pub terms: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -37,6 +42,16 @@ struct AnalysisJson {
     parameters: Vec<AnalysisParameter>,
     #[serde(skip_serializing_if = "Option::is_none")]
     walk_reach: Option<DriftReachJson>,
+    /// With --terms: each term's separability from the paper's parameters.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    terms: Vec<TermSeparationJson>,
+}
+
+#[derive(Serialize)]
+struct TermSeparationJson {
+    term: String,
+    separable: bool,
+    confounded_with: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -99,7 +114,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     let program = config.program()?;
     let with_turntable = !args.imu_only;
-    let post = covariance_analysis(&config, with_turntable)?;
+    let terms = crate::free_motion::terms_asked(&args.terms, None)?;
+    if config.temperature.is_none()
+        && let Some(c) = terms.iter().find(|c| c.is_thermal())
+    {
+        return Err(format!(
+            "analyse: {origin} has no [temperature] section: the thermal term {} acts on the \
+             temperature's departure from its reference, so the analysis needs the profile the \
+             unit will see (docs/temperature.md)",
+            c.id()
+        )
+        .into());
+    }
+    let ext = calib::extension::ModelExtension::with_grade(&terms, config.unit_grade());
+    let post = covariance_analysis_ext(&config, with_turntable, &ext)?;
 
     let mut s = String::new();
     let _ = writeln!(
@@ -158,6 +186,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
     }
     s += &t.render();
+    let separations = term_separations(&config, &post, &terms, &mut s);
     let reach = if args.walk_reach {
         walk_reach(&config, with_turntable)?.map(|(json, text)| {
             s += &text;
@@ -171,10 +200,85 @@ pub fn run(args: &Args) -> Result<(), Error> {
             with_turntable,
             parameters,
             walk_reach: reach,
+            terms: separations,
         };
         let text = serde_json::to_string_pretty(&json)? + "\n";
         output::write_file(path, text.as_bytes())?;
         let _ = writeln!(s, "\nwrote {}", path.display());
     }
     print(&s)
+}
+
+/// Each asked term's separability from the paper's parameters in the posterior, written into
+/// `s` (with the temperature the thermal terms see), for the JSON.
+fn term_separations(
+    config: &calib::config::RunConfig,
+    post: &calib::covariance::Posterior,
+    terms: &[sins_model::candidates::Candidate],
+    s: &mut String,
+) -> Vec<TermSeparationJson> {
+    if terms.is_empty() {
+        return Vec::new();
+    }
+    let base: Vec<String> = post
+        .names
+        .iter()
+        .filter(|n| {
+            !n.starts_with("attitude.")
+                && !terms.iter().any(|c| c.param_names().contains(n))
+        })
+        .cloned()
+        .collect();
+    s.push('\n');
+    if terms.iter().any(|c| c.is_thermal()) {
+        let dt = 1.0 / config.filter.imu_rate_hz;
+        let duration = config.program().map_or(0.0, |p| p.duration());
+        let n = (duration / dt) as usize;
+        if let Some((profile, reference)) = config.temperature_profile(config.filter.imu_rate_hz, n)
+        {
+            let temps: Vec<f64> = (0..=100)
+                .map(|k| profile.at(duration * k as f64 / 100.0))
+                .collect();
+            let lo = temps.iter().cloned().fold(f64::INFINITY, f64::min);
+            let hi = temps.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            let _ = writeln!(
+                s,
+                "temperature over the program: {lo:.2} .. {hi:.2} deg C ({}), thermal terms \
+                 about {reference:.2} deg C",
+                config
+                    .temperature
+                    .as_ref()
+                    .map_or("the recording's", |t| t.profile.as_str())
+            );
+        }
+    }
+    let mut out = Vec::new();
+    for c in terms {
+        let sep = calib::evidence::separability(
+            &post.names,
+            &post.prior_sigma,
+            &post.cov,
+            &c.param_names(),
+            &base,
+        );
+        let confounded = sep.confounded();
+        let _ = writeln!(
+            s,
+            "{}: {}",
+            c.id(),
+            if sep.separable {
+                "separable from the paper's parameters on this program".to_string()
+            } else if confounded.is_empty() {
+                "not separable: the program leaves it near its prior".to_string()
+            } else {
+                format!("not separable: confounded with {}", confounded.join(", "))
+            }
+        );
+        out.push(TermSeparationJson {
+            term: c.id().to_string(),
+            separable: sep.separable,
+            confounded_with: confounded,
+        });
+    }
+    out
 }
