@@ -49,6 +49,11 @@ pub struct Innovation {
     /// not used.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub held_out: bool,
+    /// The computed attitude (body to ENU) at the update, where the fit records it: what turns
+    /// a specific-force residual into the instrument's axes (the report's residuals against
+    /// temperature). Not in files.
+    #[serde(skip)]
+    pub c_body_to_enu: Option<nalgebra::Matrix3<f64>>,
 }
 
 /// Serde for [`MeasurementKind`] (which lives in `model`, free of serde): `"accel"`,

@@ -1051,6 +1051,7 @@ mod tests {
                     s: s_fit,
                     segment: 2 * rest,
                     held_out: false,
+                    c_body_to_enu: None,
                 });
             }
         }

@@ -223,6 +223,7 @@ mod arbitrary {
                 s: Matrix3::from_row_slice(&s),
                 segment,
                 held_out: false,
+                c_body_to_enu: None,
             })
     }
 

@@ -224,8 +224,7 @@ fn term_separations(
         .names
         .iter()
         .filter(|n| {
-            !n.starts_with("attitude.")
-                && !terms.iter().any(|c| c.param_names().contains(n))
+            !n.starts_with("attitude.") && !terms.iter().any(|c| c.param_names().contains(n))
         })
         .cloned()
         .collect();

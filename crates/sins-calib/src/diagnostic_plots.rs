@@ -482,6 +482,7 @@ mod tests {
                     s: Matrix3::identity(),
                     segment: k / 100,
                     held_out: false,
+                    c_body_to_enu: None,
                 }
             })
             .collect()

@@ -22,8 +22,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Every file a report directory may hold (the names an earlier report may have left).
-pub const NAMES: [&str; 12] = [
+pub const NAMES: [&str; 13] = [
     "report.md",
+    "temperature.png",
     "correlation.png",
     "residuals_accel.png",
     "residuals_turntable.png",
@@ -534,6 +535,63 @@ fn residuals_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<St
             s,
             "![{} residuals in {unit}]({name})\n",
             calib::diagnostics::kind_label(kind)
+        );
+    }
+    if let Some(t) = &est.temperature
+        && !est.temperature_series.is_empty()
+    {
+        // In the instrument's axes, where a sensor's thermal error stays on its own axis
+        // (in the local frame a turning unit spreads it over all three).
+        let (_, factor) = lab::residual_unit(MeasurementKind::Accel);
+        let accel: Vec<&calib::diagnostics::Innovation> = est
+            .innovations
+            .iter()
+            .filter(|i| i.kind == MeasurementKind::Accel && i.nu.iter().all(|x| x.is_finite()))
+            .collect();
+        // Updates with a typical band only (at most twice the median): the first ones of a fit,
+        // or those after a motion between rests, are the prior's, not the temperature's.
+        let width = |i: &calib::diagnostics::Innovation| (i.s.trace() / 3.0).max(0.0).sqrt();
+        let mut widths: Vec<f64> = accel.iter().map(|i| width(i)).collect();
+        widths.sort_by(f64::total_cmp);
+        let median = widths.get(widths.len() / 2).copied().unwrap_or(0.0);
+        let body: Vec<(f64, [f64; 3])> = accel
+            .into_iter()
+            .filter(|i| width(i) <= 2.0 * median)
+            .filter_map(|i| {
+                let c = i.c_body_to_enu?;
+                let r = c.transpose() * i.nu * factor;
+                Some((i.t, [r.x, r.y, r.z]))
+            })
+            .collect();
+        crate::report_plots::temperature_png(
+            &dir.join("temperature.png"),
+            &est.temperature_series,
+            t.reference_c,
+            &body,
+        )?;
+        *plots += 1;
+        let thermal: Vec<&str> = est
+            .names
+            .iter()
+            .filter(|n| n.contains(".tbias.") || n.contains(".tscale."))
+            .map(String::as_str)
+            .collect();
+        let _ = writeln!(
+            s,
+            "### Against temperature\n\nThe records' temperature (1-s means) and the \
+             specific-force residuals against it in the instrument's axes (each update's \
+             residual turned by the computed attitude), with their means in bins of \
+             temperature (red, +-1 standard error). The thermal terms are about {:.2} deg C ({}); \
+             this model has {}. A bias that follows the temperature and is not modelled shows \
+             as residuals that spread or tilt away from the reference.\n\n\
+             ![temperature and residuals against it](temperature.png)\n",
+            t.reference_c,
+            t.reference_reason,
+            if thermal.is_empty() {
+                "no thermal term".to_string()
+            } else {
+                format!("the thermal terms ({})", thermal.join(", "))
+            }
         );
     }
     Ok(s)

@@ -32,6 +32,7 @@ fn synthetic(seed: u64, extra: impl Fn(f64, MeasurementKind) -> Vector3<f64>) ->
                 s,
                 segment: segment_of(&segs, t),
                 held_out: false,
+                c_body_to_enu: None,
             });
         }
         t += 0.5;
@@ -127,6 +128,7 @@ fn regression_data(seed: u64, coef: f64) -> (Vec<Innovation>, Vec<Vec<Vector3<f6
             s,
             segment: 0,
             held_out: false,
+            c_body_to_enu: None,
         })
         .collect();
     (innov, vec![r0, r1])

@@ -825,6 +825,7 @@ impl<'a> Pass<'a> {
                     s: u.s,
                     segment: 0,
                     held_out,
+                    c_body_to_enu: Some(self.nav.c),
                 });
             }
         }

@@ -231,7 +231,10 @@ pub const THERMAL_FINDING_SPAN_K: f64 = 1.0;
 pub fn thermal_finding(est: &crate::estimate::Estimate) -> Option<String> {
     let t = est.temperature.as_ref()?;
     let span = t.max_c.zip(t.min_c).map(|(a, b)| a - b)?;
-    let thermal = est.names.iter().any(|n| n.contains(".tbias.") || n.contains(".tscale."));
+    let thermal = est
+        .names
+        .iter()
+        .any(|n| n.contains(".tbias.") || n.contains(".tscale."));
     (span >= THERMAL_FINDING_SPAN_K && !thermal).then(|| {
         format!(
             "the temperature moved {span:.1} K over the run and the model has no temperature \
@@ -490,6 +493,7 @@ mod tests {
             s: Matrix3::from_diagonal(&Vector3::new((3.0 * g).powi(2), (4.0 * g).powi(2), g * g)),
             segment: 2,
             held_out: false,
+            c_body_to_enu: None,
         };
         let mut bad = i;
         bad.nu[1] = f64::NAN;
@@ -522,6 +526,7 @@ mod tests {
                     s: Matrix3::identity(),
                     segment: seg,
                     held_out: false,
+                    c_body_to_enu: None,
                 }
             })
             .collect();
