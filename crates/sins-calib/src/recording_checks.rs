@@ -15,14 +15,25 @@ pub(crate) fn check_plausible(
     file: &str,
     window_s: f64,
 ) -> Result<(), Error> {
-    let n = data.records.len();
+    let mut memory = calib::estimate::MemoryImu::new(data, file);
+    let mut source = ::import::detect::RateSource::new(&mut memory)?;
+    check_plausible_streamed(&mut source, file, window_s)
+}
+
+/// [`check_plausible`] of records read again from their source: one reading, two more for
+/// the medians of the magnitudes only when the rates' median could be that of g.
+pub(crate) fn check_plausible_streamed(
+    source: &mut ::import::detect::RateSource,
+    file: &str,
+    window_s: f64,
+) -> Result<(), Error> {
+    let n = source.records;
     if n < 2 {
         return Err(
             format!("{file}: {n} record(s): expected at least two records to segment").into(),
         );
     }
-    let (t, w, f) = ::import::detect::rates_of(data);
-    let median = ::import::timing::median_interval(&t);
+    let median = source.median;
     let (lo, hi) = ::import::MEDIAN_INTERVAL_RANGE_S;
     if !(lo..=hi).contains(&median) {
         return Err(format!(
@@ -32,7 +43,44 @@ pub(crate) fn check_plausible(
         )
         .into());
     }
-    let span = t[n - 1] - t[0];
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let (mut t0, mut t1) = (f64::NAN, f64::NAN);
+    let mut k = 0usize;
+    let mut bad: Option<String> = None;
+    // Rates below the band of g: more than half of them put the median below it.
+    let mut w_below = 0usize;
+    source.read(&mut |t, w, f| {
+        if k == 0 {
+            t0 = t;
+        }
+        t1 = t;
+        if bad.is_none() {
+            for (what, v, max, unit) in [
+                ("angular rate", norm(&w), ::import::MAX_GYRO_RAD_S, "rad/s"),
+                (
+                    "specific force",
+                    norm(&f),
+                    ::import::MAX_ACCEL_M_S2,
+                    "m/s^2",
+                ),
+            ] {
+                if v.is_nan() || v >= max {
+                    bad = Some(format!(
+                        "{file}: line {}: the {what} has magnitude {v:e} {unit}: expected below \
+                         {max} {unit} (check the units the file was written with)",
+                        k + 2
+                    ));
+                    break;
+                }
+            }
+        }
+        if norm(&w) < G_AT_REST.0 * G {
+            w_below += 1;
+        }
+        k += 1;
+    })?;
+    let span = t1 - t0;
     if window_s > span {
         return Err(format!(
             "--window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
@@ -40,40 +88,28 @@ pub(crate) fn check_plausible(
         )
         .into());
     }
-    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    for k in 0..n {
-        for (what, v, max, unit) in [
-            (
-                "angular rate",
-                norm(&w[k]),
-                ::import::MAX_GYRO_RAD_S,
-                "rad/s",
-            ),
-            (
-                "specific force",
-                norm(&f[k]),
-                ::import::MAX_ACCEL_M_S2,
-                "m/s^2",
-            ),
-        ] {
-            if v.is_nan() || v >= max {
-                return Err(format!(
-                    "{file}: line {}: the {what} has magnitude {v:e} {unit}: expected below \
-                     {max} {unit} (check the units the file was written with)",
-                    k + 2
-                )
-                .into());
-            }
-        }
+    if let Some(message) = bad {
+        return Err(message.into());
     }
     // Gyro and accelerometer columns swapped: the "angular rate" has the magnitude of gravity
     // in m/s^2 for most of the recording (560 deg/s, which no calibration turns at for long)
     // while the "specific force" is far below g. Medians, so the turns of a program or a hand
-    // do not decide it.
-    const G: f64 = ::import::profile::STANDARD_GRAVITY;
-    let mut w_norms: Vec<f64> = w.iter().map(norm).collect();
-    let mut f_norms: Vec<f64> = f.iter().map(norm).collect();
-    let (w_median, f_median) = (self::median(&mut w_norms), self::median(&mut f_norms));
+    // do not decide it. (The median, the element of rank n / 2, is below the band when more
+    // than n / 2 values are: then nothing more is read.)
+    if w_below > n / 2 {
+        return Ok(());
+    }
+    let medians = ::import::select::select_streamed(
+        2,
+        |_, len| len / 2,
+        |visit| {
+            source.read(&mut |_, w, f| {
+                visit(0, norm(&w));
+                visit(1, norm(&f));
+            })
+        },
+    )?;
+    let (w_median, f_median) = (medians[0], medians[1]);
     if (G_AT_REST.0 * G..=G_AT_REST.1 * G).contains(&w_median) && f_median < G_AT_REST.0 * G {
         return Err(format!(
             "{file}: the median angular rate is {} rad/s and the median specific force {} \
