@@ -5,6 +5,7 @@
 use crate::{Error, table};
 use ::import::detect::Segmentation;
 
+#[cfg(test)] // the held form, the reference of the streamed one in tests
 /// Refuse records no IMU gives before segmenting: a median interval outside
 /// [`import::MEDIAN_INTERVAL_RANGE_S`] (1 Hz at the slowest: stamps in milliseconds read as
 /// seconds are beyond it), a window longer than the recording, a rate or specific
@@ -154,6 +155,7 @@ pub(crate) fn check_static_force(seg: &Segmentation, file: &str) -> Result<(), E
 /// The band of the mean specific force of a static interval, in units of g.
 const G_AT_REST: (f64, f64) = (0.5, 1.5);
 
+#[cfg(test)] // the held form, the reference of the streamed one in tests
 /// A recording said to be at rest throughout (`noise --all-at-rest`) must be: refused when its
 /// median specific force is not g (g units, swapped columns), or when it moves in more than
 /// [`MAX_MOVING_FRACTION`] of its windows of `window` records. A window moves when its
@@ -247,6 +249,113 @@ pub(crate) fn check_at_rest(
     Ok(())
 }
 
+/// [`check_at_rest`] of records read again from their source: the medians by streamed
+/// selection ([`::import::select`]), the windows' spreads from a window of records; the same
+/// verdict and message.
+pub(crate) fn check_at_rest_streamed(
+    source: &mut ::import::detect::RateSource,
+    file: &str,
+    window: usize,
+    window_s: f64,
+) -> Result<(), Error> {
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let medians = ::import::select::select_streamed(
+        4,
+        |_, len| len / 2,
+        |visit| {
+            source.read(&mut |_, _, f| {
+                visit(0, norm(&f));
+                for a in 0..3 {
+                    visit(1 + a, f[a]);
+                }
+            })
+        },
+    )?;
+    let median_f = medians[0];
+    let ratio = median_f / G;
+    if !(G_AT_REST.0..=G_AT_REST.1).contains(&ratio) {
+        return Err(format!(
+            "{file}: the median specific force of the recording (--all-at-rest) is {} m/s^2 ({} \
+             g): expected g = {G} m/s^2 at rest, within {} .. {} g; the accelerometer values are \
+             not in m/s^2, or the gyro and accelerometer columns are swapped",
+            table::significant(median_f, 4),
+            table::significant(ratio, 4),
+            G_AT_REST.0,
+            G_AT_REST.1
+        )
+        .into());
+    }
+    let window = window.max(2);
+    let windows = source.records / window;
+    if windows < 2 {
+        return Ok(());
+    }
+    let f_median = [medians[1], medians[2], medians[3]];
+    let mean_of = |v: &[[f64; 3]]| {
+        let mut m = [0.0; 3];
+        for x in v {
+            for a in 0..3 {
+                m[a] += x[a] / v.len() as f64;
+            }
+        }
+        m
+    };
+    let spread_of = |v: &[[f64; 3]]| {
+        let m = mean_of(v);
+        let ss: f64 = v
+            .iter()
+            .map(|x| (0..3).map(|a| (x[a] - m[a]).powi(2)).sum::<f64>())
+            .sum();
+        (ss / (v.len() - 1) as f64).sqrt()
+    };
+    // Every full window of records, as `chunks_exact` gives them: (gyro spread, whether its
+    // mean specific force is tilted from the median).
+    let mut windows_of = |visit: &mut dyn FnMut(f64, bool)| {
+        let (mut w_buf, mut f_buf) = (Vec::with_capacity(window), Vec::with_capacity(window));
+        source.read(&mut |_, w, f| {
+            w_buf.push(w);
+            f_buf.push(f);
+            if w_buf.len() == window {
+                let m = mean_of(&f_buf);
+                let tilted = norm(&[m[0] - f_median[0], m[1] - f_median[1], m[2] - f_median[2]])
+                    > MAX_TILT_M_S2;
+                visit(spread_of(&w_buf), tilted);
+                w_buf.clear();
+                f_buf.clear();
+            }
+        })
+    };
+    let typical = ::import::select::select_streamed(
+        1,
+        |_, len| len / 2,
+        |visit| windows_of(&mut |spread, _| visit(0, spread)),
+    )?[0];
+    let (mut spinning, mut tilted) = (0usize, 0usize);
+    windows_of(&mut |spread, tilt| {
+        if spread > MOTION_SPREAD_FACTOR * typical {
+            spinning += 1;
+        }
+        if tilt {
+            tilted += 1;
+        }
+    })?;
+    let moving = spinning.max(tilted);
+    if moving as f64 > MAX_MOVING_FRACTION * windows as f64 {
+        return Err(format!(
+            "{file}: --all-at-rest, but the recording moves: of its {windows} windows of {} s, \
+             {spinning} have a gyro spread above {MOTION_SPREAD_FACTOR} times the median \
+             window's ({} rad/s) and {tilted} a mean specific force more than {MAX_TILT_M_S2} \
+             m/s^2 from the recording's median: expected at most a tenth of them; leave out \
+             --all-at-rest to use the detector's static intervals",
+            table::significant(window_s, 3),
+            table::significant(typical, 3),
+        )
+        .into());
+    }
+    Ok(())
+}
+
 /// A window's gyro spread this many times the median window's is motion: white noise's
 /// windowed spread varies by a few per cent over windows of tens of records, vibration from
 /// the building by a factor of two or three; a turn by hand or a turntable's start and stop by
@@ -262,6 +371,7 @@ const MAX_TILT_M_S2: f64 = 0.5;
 /// slammed or a cable touched now and then is still a recording at rest.
 const MAX_MOVING_FRACTION: f64 = 0.1;
 
+#[cfg(test)] // the held form, the reference of the streamed one in tests
 /// The median of `v` (reordered); NaN when empty.
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
