@@ -75,10 +75,10 @@ pub fn select_streamed<E>(
                 .map(|c| open.iter().position(|&o| o == c))
                 .collect();
             read(&mut |c, x| {
-                if let Some(s) = slot[c] {
-                    if ch[c].matches(key(x)) {
-                        values[s].push(x);
-                    }
+                if let Some(s) = slot[c]
+                    && ch[c].matches(key(x))
+                {
+                    values[s].push(x);
                 }
             })?;
             for (s, &c) in open.iter().enumerate() {

@@ -29,6 +29,7 @@ pub struct AxisFits {
 
 /// The fits of `axes` axes whose increments (one value per axis and record, SI) `read` visits
 /// as `(record index, values)` for every one of the `len` records in order, at every call.
+#[allow(clippy::needless_range_loop)] // axes and lags index several tables alike
 pub fn fit_axes_streamed<E>(
     axes: usize,
     len: usize,
@@ -355,6 +356,7 @@ fn clone_error(e: &NoiseError) -> NoiseError {
 }
 
 #[cfg(test)]
+#[allow(clippy::single_range_in_vec_init, clippy::needless_range_loop)] // one interval: the whole data
 mod tests {
     use super::*;
     use crate::analyse_axis_from;
@@ -374,7 +376,7 @@ mod tests {
         let len = 60_000;
         let mut walk = 0.0;
         let mut prev = 0.0;
-        let mut x = vec![Vec::with_capacity(len); 3];
+        let mut x: Vec<Vec<f64>> = (0..3).map(|_| Vec::with_capacity(len)).collect();
         for _ in 0..len {
             let e = u();
             walk += 1e-3 * u();

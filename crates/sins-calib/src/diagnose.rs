@@ -752,41 +752,6 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     Ok(held_out_verdict.unwrap_or_else(|| result.final_model_fits()))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use calib::extend::ParameterValue;
-
-    #[test]
-    fn an_accepted_terms_size_is_set_against_typical_values() {
-        let e = CandidateEvidence {
-            term: "accel_quadratic".into(),
-            statistic: 40.0,
-            dof: 3,
-            p_value: 1e-8,
-            ln_p_value: 1e-8f64.ln(),
-            separable: true,
-            separation: None,
-            estimate: [
-                ("accel.k2.x", 1.9e-5),
-                ("accel.k2.y", -2.2e-5),
-                ("accel.k2.z", 2.0e-5),
-            ]
-            .iter()
-            .map(|(n, v)| ParameterValue {
-                name: n.to_string(),
-                value: *v,
-                sigma: 1e-6,
-            })
-            .collect(),
-        };
-        let line = size_line("accel_quadratic", &[e]);
-        assert!(line.contains("largest accel.k2.y"), "{line}");
-        assert!(line.contains("typical: pendulous quartz"), "{line}");
-        assert!(size_line("gyro_g_sensitivity", &[]).is_empty());
-    }
-}
-
 /// The time figures of `diagnose`'s progress lines: the time elapsed, and for the step that
 /// starts (a fit, mostly) the time left as the steps so far took on average. The number of
 /// fits depends on what each fit finds, so the estimate is of the step, not of the whole run.
@@ -833,5 +798,40 @@ fn duration_text(s: f64) -> String {
         format!("{} min {:02} s", s / 60, s % 60)
     } else {
         format!("{} h {:02} min", s / 3600, (s % 3600) / 60)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use calib::extend::ParameterValue;
+
+    #[test]
+    fn an_accepted_terms_size_is_set_against_typical_values() {
+        let e = CandidateEvidence {
+            term: "accel_quadratic".into(),
+            statistic: 40.0,
+            dof: 3,
+            p_value: 1e-8,
+            ln_p_value: 1e-8f64.ln(),
+            separable: true,
+            separation: None,
+            estimate: [
+                ("accel.k2.x", 1.9e-5),
+                ("accel.k2.y", -2.2e-5),
+                ("accel.k2.z", 2.0e-5),
+            ]
+            .iter()
+            .map(|(n, v)| ParameterValue {
+                name: n.to_string(),
+                value: *v,
+                sigma: 1e-6,
+            })
+            .collect(),
+        };
+        let line = size_line("accel_quadratic", &[e]);
+        assert!(line.contains("largest accel.k2.y"), "{line}");
+        assert!(line.contains("typical: pendulous quartz"), "{line}");
+        assert!(size_line("gyro_g_sensitivity", &[]).is_empty());
     }
 }

@@ -789,6 +789,7 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
     s
 }
 
+#[allow(clippy::too_many_arguments)]
 fn json_of(
     file: &str,
     whole: bool,

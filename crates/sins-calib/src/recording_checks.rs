@@ -266,8 +266,8 @@ pub(crate) fn check_at_rest_streamed(
         |visit| {
             source.read(&mut |_, _, f| {
                 visit(0, norm(&f));
-                for a in 0..3 {
-                    visit(1 + a, f[a]);
+                for (a, x) in f.into_iter().enumerate() {
+                    visit(1 + a, x);
                 }
             })
         },
@@ -380,4 +380,62 @@ fn median(v: &mut [f64]) -> f64 {
     let mid = v.len() / 2;
     let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
     *m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use calib::io::{ImuData, ImuKind, ImuRecord};
+
+    /// Records at 100 Hz: at rest with noise, or turning now and then, or with the gyro and
+    /// accelerometer columns swapped.
+    fn records(turning: bool, swapped: bool) -> ImuData {
+        let mut state = 5u64;
+        let mut u = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64 - 0.5
+        };
+        let records = (0..20_000)
+            .map(|i| {
+                let t = 0.01 * (i + 1) as f64;
+                let turn = turning && (i / 500) % 3 == 1;
+                let w = [1e-3 * u(), 1e-3 * u(), if turn { 0.5 } else { 1e-3 * u() }];
+                let f = [0.01 * u(), 0.01 * u(), 9.81 + 0.01 * u()];
+                let (gyro, accel) = if swapped { (f, w) } else { (w, f) };
+                ImuRecord {
+                    t,
+                    gyro,
+                    accel,
+                    temp: None,
+                }
+            })
+            .collect();
+        ImuData {
+            kind: ImuKind::Rates,
+            records,
+        }
+    }
+
+    /// The streamed checks say what the held ones say, message for message.
+    #[test]
+    fn streamed_checks_equal_the_held_ones() {
+        for (turning, swapped) in [(false, false), (true, false), (false, true)] {
+            let data = records(turning, swapped);
+            let mut memory = calib::estimate::MemoryImu::new(&data, "imu.csv");
+            let mut source = ::import::detect::RateSource::new(&mut memory).unwrap();
+            let held = check_at_rest(&data, "imu.csv", 101, 1.0).map_err(|e| e.to_string());
+            let streamed =
+                check_at_rest_streamed(&mut source, "imu.csv", 101, 1.0).map_err(|e| e.to_string());
+            assert_eq!(held, streamed, "turning {turning} swapped {swapped}");
+            assert_eq!(held.is_ok(), !turning && !swapped);
+        }
+        // The swapped columns, refused by the plausibility check too (from its medians).
+        let data = records(false, true);
+        let e = check_plausible(&data, "imu.csv", 1.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("look swapped"), "{e}");
+    }
 }

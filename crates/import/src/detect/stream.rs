@@ -507,19 +507,19 @@ fn intervals_streamed(
                 return;
             }
             let mine = own.interval(j, t_last);
-            if s.merge_across_short_gaps {
-                if let (Some((prev, _, _)), Some(cont)) = (self.out.last(), cont) {
-                    let adjacent = mine.first_record == prev.last_record + 1
-                        && mine.start_s - prev.end_s <= MERGE_GAP_INTERVALS * self.median;
-                    let (a, b) = (prev.mean_f_m_s2, mine.mean_f_m_s2);
-                    let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (norm(a) * norm(b));
-                    if adjacent && cos >= MERGE_MAX_ANGLE_RAD.cos() {
-                        let (_, before, _) = self.out.pop().expect("the interval before");
-                        self.out.push((cont.interval(j, t_last), before, f64::NAN));
-                        self.chain = Some(cont);
-                        self.want_after = true;
-                        return;
-                    }
+            if s.merge_across_short_gaps
+                && let (Some((prev, _, _)), Some(cont)) = (self.out.last(), cont)
+            {
+                let adjacent = mine.first_record == prev.last_record + 1
+                    && mine.start_s - prev.end_s <= MERGE_GAP_INTERVALS * self.median;
+                let (a, b) = (prev.mean_f_m_s2, mine.mean_f_m_s2);
+                let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (norm(a) * norm(b));
+                if adjacent && cos >= MERGE_MAX_ANGLE_RAD.cos() {
+                    let (_, before, _) = self.out.pop().expect("the interval before");
+                    self.out.push((cont.interval(j, t_last), before, f64::NAN));
+                    self.chain = Some(cont);
+                    self.want_after = true;
+                    return;
                 }
             }
             self.out.push((mine, t_before, f64::NAN));
@@ -863,11 +863,11 @@ fn suggest_streamed(
                 while self.at < self.noisy.len() && self.noisy[self.at].last_record < x.index {
                     self.at += 1;
                 }
-                if let Some(m) = self.noisy.get(self.at) {
-                    if m.first_record <= x.index {
-                        let r = (x.std_f / self.first.floor_f).max(x.std_w / self.first.floor_w);
-                        (self.visit)(self.at, r);
-                    }
+                if let Some(m) = self.noisy.get(self.at)
+                    && m.first_record <= x.index
+                {
+                    let r = (x.std_f / self.first.floor_f).max(x.std_w / self.first.floor_w);
+                    (self.visit)(self.at, r);
                 }
             }
         }
