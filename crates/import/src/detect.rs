@@ -33,8 +33,12 @@
 //! data. [`Segmentation::missed_report`] words both for a printout.
 
 use crate::timing::{self, GapAt};
-use calib::io::{ImuData, ImuKind};
+use calib::estimate::ImuSource;
+use calib::io::{ImuData, ImuKind, ImuRecord};
 use serde::{Deserialize, Serialize};
+
+mod stream;
+pub use stream::{Reading, detect_static_streamed};
 
 /// Thresholds of the static detector.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -1054,6 +1058,97 @@ pub fn segment(data: &ImuData, settings: &DetectorSettings) -> Result<Segmentati
     detect_static(&t, &w, &f, settings)
 }
 
+/// The records of an `imu.csv` in rate form ([`rates_of`]), read again from the source at every
+/// reading: nothing is held but the source's own buffer (a file's, or its cache when short).
+pub struct RateSource<'a> {
+    source: &'a mut dyn ImuSource,
+    chunk: Vec<(ImuRecord, usize)>,
+    /// Median interval of the records' time stamps (s), as [`timing::median_interval`].
+    pub median: f64,
+    /// Number of records.
+    pub records: usize,
+}
+
+impl<'a> RateSource<'a> {
+    /// Records per chunk read from the source.
+    const CHUNK: usize = 4096;
+
+    /// The records of `source`; its median interval is found now, in four readings of the
+    /// time stamps ([`sins_model::timing::StreamedIntervalMedian`]).
+    pub fn new(source: &'a mut dyn ImuSource) -> Result<Self, String> {
+        let mut me = Self {
+            source,
+            chunk: Vec::with_capacity(Self::CHUNK),
+            median: f64::NAN,
+            records: 0,
+        };
+        let mut median = sins_model::timing::StreamedIntervalMedian::new();
+        let mut n = 0;
+        me.records_of(&mut |r, _| {
+            median.push(r.t);
+            n += 1;
+        })?;
+        me.records = n;
+        me.median = median.finish(|visit| me.records_of(&mut |r, _| visit(r.t)))?;
+        Ok(me)
+    }
+
+    /// The file's name, for messages.
+    pub fn file(&self) -> &str {
+        self.source.file()
+    }
+
+    /// Increments or rates, as in the file.
+    pub fn kind(&self) -> ImuKind {
+        self.source.kind()
+    }
+
+    /// One reading of the records as they are in the file, with their lines.
+    pub fn records_of(&mut self, visit: &mut dyn FnMut(&ImuRecord, usize)) -> Result<(), String> {
+        self.source.rewind().map_err(|e| e.to_string())?;
+        loop {
+            self.source
+                .next_chunk(&mut self.chunk, Self::CHUNK)
+                .map_err(|e| e.to_string())?;
+            if self.chunk.is_empty() {
+                return Ok(());
+            }
+            for (r, line) in &self.chunk {
+                visit(r, *line);
+            }
+        }
+    }
+
+    /// One reading of the records in rate form `(t, w, f)`, as [`rates_of`] gives them.
+    pub fn read(&mut self, visit: &mut dyn FnMut(f64, [f64; 3], [f64; 3])) -> Result<(), String> {
+        let kind = self.kind();
+        let median = self.median;
+        let mut previous = f64::NAN;
+        let mut first = true;
+        self.records_of(&mut |r, _| {
+            match kind {
+                ImuKind::Rates => visit(r.t, r.gyro, r.accel),
+                ImuKind::Increments => {
+                    let dt = if first { median } else { r.t - previous };
+                    visit(r.t, r.gyro.map(|x| x / dt), r.accel.map(|x| x / dt));
+                }
+            }
+            first = false;
+            previous = r.t;
+        })
+    }
+}
+
+/// [`segment`] of records read again from their source at every reading, in memory
+/// independent of their number ([`detect_static_streamed`]); the same segmentation.
+pub fn segment_streamed(
+    source: &mut RateSource,
+    settings: &DetectorSettings,
+) -> Result<Segmentation, String> {
+    let median = source.median;
+    detect_static_streamed(&mut |visit| source.read(visit), Some(median), settings)
+}
+
 /// The quietest window of the specific force: `[start, end)` of the `window_s` window with the
 /// smallest standard deviation within one gap-free stretch, and that deviation (m/s^2). A
 /// recording shorter than the window gives its longest gap-free stretch.
@@ -1099,6 +1194,31 @@ pub fn quietest_window(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The detector on the records held, checked against the streamed detector (the same
+    /// segmentation to the last bit).
+    fn detect_static(
+        t: &[f64],
+        w: &[[f64; 3]],
+        f: &[[f64; 3]],
+        settings: &DetectorSettings,
+    ) -> Result<Segmentation, String> {
+        let held = super::detect_static(t, w, f, settings);
+        let mut readings = 0;
+        let streamed = detect_static_streamed(
+            &mut |visit| {
+                readings += 1;
+                for i in 0..t.len() {
+                    visit(t[i], w[i], f[i]);
+                }
+                Ok(())
+            },
+            None,
+            settings,
+        );
+        assert_eq!(held, streamed);
+        held
+    }
 
     /// 10 s at rest, 3 s turning, 10 s at rest, at 100 Hz.
     fn synthetic() -> (Vec<f64>, Vec<[f64; 3]>, Vec<[f64; 3]>) {

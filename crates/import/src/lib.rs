@@ -37,6 +37,7 @@ pub mod detect;
 mod error;
 pub mod profile;
 pub mod sections;
+pub mod select;
 mod text;
 pub mod timing;
 

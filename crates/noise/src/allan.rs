@@ -160,9 +160,20 @@ pub fn overlapping_allan(
             terms[j] += n;
         }
     }
+    Ok(curve_of(tau0_s, intervals, &ms, &sums, &terms))
+}
+
+/// The curve from the sums of squares and numbers of terms at the averaging factors `ms`.
+pub(crate) fn curve_of(
+    tau0_s: f64,
+    intervals: &[Range<usize>],
+    ms: &[usize],
+    sums: &[f64],
+    terms: &[usize],
+) -> AllanCurve {
     let points = ms
         .iter()
-        .zip(sums.iter().zip(&terms))
+        .zip(sums.iter().zip(terms))
         .map(|(&m, (&s, &n))| {
             let tau = m as f64 * tau0_s;
             let avar = s / (2.0 * tau * tau * n as f64);
@@ -186,7 +197,7 @@ pub fn overlapping_allan(
     };
     let white = vec![NoiseType::WhiteRate; curve.points.len()];
     curve.set_noise_types(&white);
-    Ok(curve)
+    curve
 }
 
 #[cfg(test)]

@@ -52,6 +52,7 @@ pub mod allan;
 pub mod edf;
 pub mod fit;
 pub mod likelihood;
+pub mod stream;
 
 use serde::{Deserialize, Serialize};
 use std::ops::Range;

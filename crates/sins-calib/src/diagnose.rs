@@ -624,7 +624,8 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         imu_file: &imu_file,
         turntable: tt.as_ref().map(AngleFile::records),
     };
-    let mut progress = |what: &str| eprintln!("diagnose: {what}");
+    let mut timer = StepTimer::new();
+    let mut progress = |what: &str| eprintln!("diagnose: {}", timer.line(what));
     if args.free_motion && !config.program_from_angles() {
         return Err(format!(
             "diagnose --free-motion: {origin} has a rotation program; --free-motion is for a \
@@ -771,6 +772,55 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     }
     crate::report(&text, args.json.as_deref())?;
     Ok(held_out_verdict.unwrap_or_else(|| result.final_model_fits()))
+}
+
+/// The time figures of `diagnose`'s progress lines: the time elapsed, and for the step that
+/// starts (a fit, mostly) the time left as the steps so far took on average. The number of
+/// fits depends on what each fit finds, so the estimate is of the step, not of the whole run.
+struct StepTimer {
+    start: std::time::Instant,
+    steps: usize,
+}
+
+impl StepTimer {
+    fn new() -> Self {
+        Self {
+            start: std::time::Instant::now(),
+            steps: 0,
+        }
+    }
+
+    /// The progress line of a step that starts now.
+    fn line(&mut self, what: &str) -> String {
+        let elapsed = self.start.elapsed().as_secs_f64();
+        let line = if self.steps == 0 {
+            format!("{what} [{} elapsed]", duration_text(elapsed))
+        } else {
+            let each = elapsed / self.steps as f64;
+            format!(
+                "{what} [{} elapsed, step {}; about {} left for this step at the {} a step so \
+                 far]",
+                duration_text(elapsed),
+                self.steps + 1,
+                duration_text(each),
+                duration_text(each)
+            )
+        };
+        self.steps += 1;
+        line
+    }
+}
+
+/// A duration as `12 s`, `3 min 05 s` or `1 h 02 min`.
+fn duration_text(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    if s < 60 {
+        format!("{s} s")
+    } else if s < 3600 {
+        format!("{} min {:02} s", s / 60, s % 60)
+    } else {
+        format!("{} h {:02} min", s / 3600, (s % 3600) / 60)
+    }
 }
 
 #[cfg(test)]

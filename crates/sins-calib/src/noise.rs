@@ -6,10 +6,10 @@
 
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, print};
-use ::import::detect::{DetectorSettings, segment};
+use ::import::detect::{DetectorSettings, RateSource, segment_streamed};
+use ::noise::AxisNoise;
 use ::noise::fit::{NoiseFit, Term};
-use ::noise::likelihood::{BLOCKS_PER_CORRELATION, Level, MlFit, fit_ml};
-use ::noise::{AxisNoise, analyse_axis_from};
+use ::noise::likelihood::{Level, MlFit};
 use calib::config::{NoiseConfig, RunConfig};
 use calib::io::ImuKind;
 use serde_json::{Map, Value, json};
@@ -208,9 +208,12 @@ fn intervals_of(
 pub fn run(args: &Args) -> Result<(), Error> {
     check_outputs(args)?;
     let config = args.config.as_deref().map(load_config).transpose()?;
-    let data = calib::io::read_imu_csv(&args.imu)?;
+    // The records are read again for every step rather than held (docs/performance.md,
+    // "Memory of every command on a long run").
+    let mut imu = calib::estimate::FileImu::open(&args.imu)?;
     let file = args.imu.display().to_string();
-    let n = data.records.len();
+    let mut source = RateSource::new(&mut imu)?;
+    let n = source.records;
     let settings = DetectorSettings {
         min_duration_s: args.min_duration,
         ..DetectorSettings::default()
@@ -221,12 +224,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
     // The units `segment` checks (time stamps in seconds, specific force in m/s^2, gyro and
     // accelerometer columns in their places): noise levels of misread records are wrong by
     // the factor of the misreading.
-    crate::recording_checks::check_plausible(&data, &file, settings.window_s)?;
-    let seg = segment(&data, &settings).map_err(|e| format!("{file}: {e}"))?;
+    crate::recording_checks::check_plausible_streamed(&mut source, &file, settings.window_s)?;
+    let seg = segment_streamed(&mut source, &settings).map_err(|e| format!("{file}: {e}"))?;
     crate::recording_checks::check_static_force(&seg, &file)?;
     if args.all_at_rest {
-        crate::recording_checks::check_at_rest(
-            &data,
+        crate::recording_checks::check_at_rest_streamed(
+            &mut source,
             &file,
             seg.window_records,
             seg.settings.window_s,
@@ -238,37 +241,68 @@ pub fn run(args: &Args) -> Result<(), Error> {
             && seg.static_intervals[0].first_record == 0
             && seg.static_intervals[0].last_record + 1 == n);
     let intervals = intervals_of(&seg, whole, n, &settings, &file)?;
+    // The time stamps of the intervals' first and last records (for the JSON file).
+    let mut times = vec![(f64::NAN, f64::NAN); intervals.len()];
+    {
+        let mut at = 0;
+        let mut k = 0;
+        source.read(&mut |t, _, _| {
+            while at < intervals.len() && intervals[at].end <= k {
+                at += 1;
+            }
+            if let Some(r) = intervals.get(at) {
+                if k == r.start {
+                    times[at].0 = t;
+                }
+                if k + 1 == r.end {
+                    times[at].1 = t;
+                }
+            }
+            k += 1;
+        })?;
+    }
     // Increments of every record: as they are, or rate times the median interval. The records
     // are taken as evenly spaced at the median interval (the Allan variance needs a fixed tau0;
     // gaps end the intervals): a rate times its record's jittered interval would add the jitter
     // times the rate, which for an accelerometer axis along g (a 0.3-ms jitter, 3 mm/s per
     // record) is far above its noise, while jittered time stamps of a sensor sampled on its
     // own clock say nothing of its samples.
-    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
-    let increment = |_: usize, v: f64| match data.kind {
+    let kind = source.kind();
+    let increment = move |v: f64| match kind {
         ImuKind::Increments => v,
         ImuKind::Rates => v * median,
     };
+    // Both fits of the six axes from two more readings ([`::noise::stream`]): the levels
+    // reported are the exact likelihood of the data, each static interval its own filter, on
+    // block means above the sensor's correlation time (docs/noise.md, "The maximum-likelihood
+    // fit"); the Allan fit above the same correlation time: below it the sensor's own filter
+    // shapes the curve, which no term describes.
+    let fits = ::noise::stream::fit_axes_streamed(6, n, median, &intervals, |visit| {
+        let mut k = 0;
+        source.records_of(&mut |r, _| {
+            let v = [
+                increment(r.gyro[0]),
+                increment(r.gyro[1]),
+                increment(r.gyro[2]),
+                increment(r.accel[0]),
+                increment(r.accel[1]),
+                increment(r.accel[2]),
+            ];
+            visit(k, &v);
+            k += 1;
+        })
+    })?;
+    let mut fits = fits.into_iter();
     let mut sensors = Vec::new();
-    for (s, gyro) in [(&GYRO, true), (&ACCEL, false)] {
+    for s in [&GYRO, &ACCEL] {
         let mut axes = Vec::new();
         let mut mls = Vec::new();
-        for (a, axis_name) in AXES.iter().enumerate() {
-            let inc: Vec<f64> = data
-                .records
-                .iter()
-                .enumerate()
-                .map(|(k, r)| increment(k, if gyro { r.gyro[a] } else { r.accel[a] }))
-                .collect();
-            // The levels reported: the exact likelihood of the data, each static interval its
-            // own filter, on block means above the sensor's correlation time (docs/noise.md,
-            // "The maximum-likelihood fit").
-            let ml = fit_ml(&inc, median, &intervals)
-                .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
-            // The Allan fit above the same correlation time: below it the sensor's own filter
-            // shapes the curve, which no term describes.
-            let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
-            let axis = analyse_axis_from(&inc, median, &intervals, tau_min)
+        for axis_name in AXES.iter() {
+            let f = fits.next().expect("six axes");
+            let ml =
+                f.ml.map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
+            let axis = f
+                .allan
                 .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
             axes.push(axis);
             mls.push(ml);
@@ -344,7 +378,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let _ = writeln!(out, "\nwrote {}", path.display());
     }
     if let Some(path) = &args.json {
-        let json = json_of(&file, whole, &intervals, &t, median, &sensors, &block);
+        let json = json_of(
+            &file, whole, &intervals, &times, n, median, &sensors, &block,
+        );
         let text = serde_json::to_string_pretty(&json)? + "\n";
         crate::output::write_file(path, text.as_bytes())?;
         let _ = writeln!(out, "wrote {}", path.display());
@@ -753,18 +789,20 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
     s
 }
 
+#[allow(clippy::too_many_arguments)]
 fn json_of(
     file: &str,
     whole: bool,
     intervals: &[Range<usize>],
-    t: &[f64],
+    times: &[(f64, f64)],
+    records: usize,
     median: f64,
     sensors: &[SensorNoise],
     block: &str,
 ) -> Value {
     let mut root = Map::new();
     root.insert("imu".into(), json!(file));
-    root.insert("records".into(), json!(t.len()));
+    root.insert("records".into(), json!(records));
     root.insert("median_interval_s".into(), json!(median));
     root.insert("whole_recording".into(), json!(whole));
     root.insert(
@@ -772,12 +810,13 @@ fn json_of(
         Value::Array(
             intervals
                 .iter()
-                .map(|r| {
+                .zip(times)
+                .map(|(r, t)| {
                     json!({
                         "first_record": r.start,
                         "last_record": r.end - 1,
-                        "start_s": t[r.start],
-                        "end_s": t[r.end - 1],
+                        "start_s": t.0,
+                        "end_s": t.1,
                     })
                 })
                 .collect(),

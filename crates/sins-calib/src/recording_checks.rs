@@ -5,6 +5,7 @@
 use crate::{Error, table};
 use ::import::detect::Segmentation;
 
+#[cfg(test)] // the held form, the reference of the streamed one in tests
 /// Refuse records no IMU gives before segmenting: a median interval outside
 /// [`import::MEDIAN_INTERVAL_RANGE_S`] (1 Hz at the slowest: stamps in milliseconds read as
 /// seconds are beyond it), a window longer than the recording, a rate or specific
@@ -15,14 +16,25 @@ pub(crate) fn check_plausible(
     file: &str,
     window_s: f64,
 ) -> Result<(), Error> {
-    let n = data.records.len();
+    let mut memory = calib::estimate::MemoryImu::new(data, file);
+    let mut source = ::import::detect::RateSource::new(&mut memory)?;
+    check_plausible_streamed(&mut source, file, window_s)
+}
+
+/// [`check_plausible`] of records read again from their source: one reading, two more for
+/// the medians of the magnitudes only when the rates' median could be that of g.
+pub(crate) fn check_plausible_streamed(
+    source: &mut ::import::detect::RateSource,
+    file: &str,
+    window_s: f64,
+) -> Result<(), Error> {
+    let n = source.records;
     if n < 2 {
         return Err(
             format!("{file}: {n} record(s): expected at least two records to segment").into(),
         );
     }
-    let (t, w, f) = ::import::detect::rates_of(data);
-    let median = ::import::timing::median_interval(&t);
+    let median = source.median;
     let (lo, hi) = ::import::MEDIAN_INTERVAL_RANGE_S;
     if !(lo..=hi).contains(&median) {
         return Err(format!(
@@ -32,7 +44,44 @@ pub(crate) fn check_plausible(
         )
         .into());
     }
-    let span = t[n - 1] - t[0];
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let (mut t0, mut t1) = (f64::NAN, f64::NAN);
+    let mut k = 0usize;
+    let mut bad: Option<String> = None;
+    // Rates below the band of g: more than half of them put the median below it.
+    let mut w_below = 0usize;
+    source.read(&mut |t, w, f| {
+        if k == 0 {
+            t0 = t;
+        }
+        t1 = t;
+        if bad.is_none() {
+            for (what, v, max, unit) in [
+                ("angular rate", norm(&w), ::import::MAX_GYRO_RAD_S, "rad/s"),
+                (
+                    "specific force",
+                    norm(&f),
+                    ::import::MAX_ACCEL_M_S2,
+                    "m/s^2",
+                ),
+            ] {
+                if v.is_nan() || v >= max {
+                    bad = Some(format!(
+                        "{file}: line {}: the {what} has magnitude {v:e} {unit}: expected below \
+                         {max} {unit} (check the units the file was written with)",
+                        k + 2
+                    ));
+                    break;
+                }
+            }
+        }
+        if norm(&w) < G_AT_REST.0 * G {
+            w_below += 1;
+        }
+        k += 1;
+    })?;
+    let span = t1 - t0;
     if window_s > span {
         return Err(format!(
             "--window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
@@ -40,40 +89,28 @@ pub(crate) fn check_plausible(
         )
         .into());
     }
-    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    for k in 0..n {
-        for (what, v, max, unit) in [
-            (
-                "angular rate",
-                norm(&w[k]),
-                ::import::MAX_GYRO_RAD_S,
-                "rad/s",
-            ),
-            (
-                "specific force",
-                norm(&f[k]),
-                ::import::MAX_ACCEL_M_S2,
-                "m/s^2",
-            ),
-        ] {
-            if v.is_nan() || v >= max {
-                return Err(format!(
-                    "{file}: line {}: the {what} has magnitude {v:e} {unit}: expected below \
-                     {max} {unit} (check the units the file was written with)",
-                    k + 2
-                )
-                .into());
-            }
-        }
+    if let Some(message) = bad {
+        return Err(message.into());
     }
     // Gyro and accelerometer columns swapped: the "angular rate" has the magnitude of gravity
     // in m/s^2 for most of the recording (560 deg/s, which no calibration turns at for long)
     // while the "specific force" is far below g. Medians, so the turns of a program or a hand
-    // do not decide it.
-    const G: f64 = ::import::profile::STANDARD_GRAVITY;
-    let mut w_norms: Vec<f64> = w.iter().map(norm).collect();
-    let mut f_norms: Vec<f64> = f.iter().map(norm).collect();
-    let (w_median, f_median) = (self::median(&mut w_norms), self::median(&mut f_norms));
+    // do not decide it. (The median, the element of rank n / 2, is below the band when more
+    // than n / 2 values are: then nothing more is read.)
+    if w_below > n / 2 {
+        return Ok(());
+    }
+    let medians = ::import::select::select_streamed(
+        2,
+        |_, len| len / 2,
+        |visit| {
+            source.read(&mut |_, w, f| {
+                visit(0, norm(&w));
+                visit(1, norm(&f));
+            })
+        },
+    )?;
+    let (w_median, f_median) = (medians[0], medians[1]);
     if (G_AT_REST.0 * G..=G_AT_REST.1 * G).contains(&w_median) && f_median < G_AT_REST.0 * G {
         return Err(format!(
             "{file}: the median angular rate is {} rad/s and the median specific force {} \
@@ -118,6 +155,7 @@ pub(crate) fn check_static_force(seg: &Segmentation, file: &str) -> Result<(), E
 /// The band of the mean specific force of a static interval, in units of g.
 const G_AT_REST: (f64, f64) = (0.5, 1.5);
 
+#[cfg(test)] // the held form, the reference of the streamed one in tests
 /// A recording said to be at rest throughout (`noise --all-at-rest`) must be: refused when its
 /// median specific force is not g (g units, swapped columns), or when it moves in more than
 /// [`MAX_MOVING_FRACTION`] of its windows of `window` records. A window moves when its
@@ -211,6 +249,113 @@ pub(crate) fn check_at_rest(
     Ok(())
 }
 
+/// [`check_at_rest`] of records read again from their source: the medians by streamed
+/// selection ([`::import::select`]), the windows' spreads from a window of records; the same
+/// verdict and message.
+pub(crate) fn check_at_rest_streamed(
+    source: &mut ::import::detect::RateSource,
+    file: &str,
+    window: usize,
+    window_s: f64,
+) -> Result<(), Error> {
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let medians = ::import::select::select_streamed(
+        4,
+        |_, len| len / 2,
+        |visit| {
+            source.read(&mut |_, _, f| {
+                visit(0, norm(&f));
+                for (a, x) in f.into_iter().enumerate() {
+                    visit(1 + a, x);
+                }
+            })
+        },
+    )?;
+    let median_f = medians[0];
+    let ratio = median_f / G;
+    if !(G_AT_REST.0..=G_AT_REST.1).contains(&ratio) {
+        return Err(format!(
+            "{file}: the median specific force of the recording (--all-at-rest) is {} m/s^2 ({} \
+             g): expected g = {G} m/s^2 at rest, within {} .. {} g; the accelerometer values are \
+             not in m/s^2, or the gyro and accelerometer columns are swapped",
+            table::significant(median_f, 4),
+            table::significant(ratio, 4),
+            G_AT_REST.0,
+            G_AT_REST.1
+        )
+        .into());
+    }
+    let window = window.max(2);
+    let windows = source.records / window;
+    if windows < 2 {
+        return Ok(());
+    }
+    let f_median = [medians[1], medians[2], medians[3]];
+    let mean_of = |v: &[[f64; 3]]| {
+        let mut m = [0.0; 3];
+        for x in v {
+            for a in 0..3 {
+                m[a] += x[a] / v.len() as f64;
+            }
+        }
+        m
+    };
+    let spread_of = |v: &[[f64; 3]]| {
+        let m = mean_of(v);
+        let ss: f64 = v
+            .iter()
+            .map(|x| (0..3).map(|a| (x[a] - m[a]).powi(2)).sum::<f64>())
+            .sum();
+        (ss / (v.len() - 1) as f64).sqrt()
+    };
+    // Every full window of records, as `chunks_exact` gives them: (gyro spread, whether its
+    // mean specific force is tilted from the median).
+    let mut windows_of = |visit: &mut dyn FnMut(f64, bool)| {
+        let (mut w_buf, mut f_buf) = (Vec::with_capacity(window), Vec::with_capacity(window));
+        source.read(&mut |_, w, f| {
+            w_buf.push(w);
+            f_buf.push(f);
+            if w_buf.len() == window {
+                let m = mean_of(&f_buf);
+                let tilted = norm(&[m[0] - f_median[0], m[1] - f_median[1], m[2] - f_median[2]])
+                    > MAX_TILT_M_S2;
+                visit(spread_of(&w_buf), tilted);
+                w_buf.clear();
+                f_buf.clear();
+            }
+        })
+    };
+    let typical = ::import::select::select_streamed(
+        1,
+        |_, len| len / 2,
+        |visit| windows_of(&mut |spread, _| visit(0, spread)),
+    )?[0];
+    let (mut spinning, mut tilted) = (0usize, 0usize);
+    windows_of(&mut |spread, tilt| {
+        if spread > MOTION_SPREAD_FACTOR * typical {
+            spinning += 1;
+        }
+        if tilt {
+            tilted += 1;
+        }
+    })?;
+    let moving = spinning.max(tilted);
+    if moving as f64 > MAX_MOVING_FRACTION * windows as f64 {
+        return Err(format!(
+            "{file}: --all-at-rest, but the recording moves: of its {windows} windows of {} s, \
+             {spinning} have a gyro spread above {MOTION_SPREAD_FACTOR} times the median \
+             window's ({} rad/s) and {tilted} a mean specific force more than {MAX_TILT_M_S2} \
+             m/s^2 from the recording's median: expected at most a tenth of them; leave out \
+             --all-at-rest to use the detector's static intervals",
+            table::significant(window_s, 3),
+            table::significant(typical, 3),
+        )
+        .into());
+    }
+    Ok(())
+}
+
 /// A window's gyro spread this many times the median window's is motion: white noise's
 /// windowed spread varies by a few per cent over windows of tens of records, vibration from
 /// the building by a factor of two or three; a turn by hand or a turntable's start and stop by
@@ -226,6 +371,7 @@ const MAX_TILT_M_S2: f64 = 0.5;
 /// slammed or a cable touched now and then is still a recording at rest.
 const MAX_MOVING_FRACTION: f64 = 0.1;
 
+#[cfg(test)] // the held form, the reference of the streamed one in tests
 /// The median of `v` (reordered); NaN when empty.
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
@@ -234,4 +380,62 @@ fn median(v: &mut [f64]) -> f64 {
     let mid = v.len() / 2;
     let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
     *m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use calib::io::{ImuData, ImuKind, ImuRecord};
+
+    /// Records at 100 Hz: at rest with noise, or turning now and then, or with the gyro and
+    /// accelerometer columns swapped.
+    fn records(turning: bool, swapped: bool) -> ImuData {
+        let mut state = 5u64;
+        let mut u = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64 - 0.5
+        };
+        let records = (0..20_000)
+            .map(|i| {
+                let t = 0.01 * (i + 1) as f64;
+                let turn = turning && (i / 500) % 3 == 1;
+                let w = [1e-3 * u(), 1e-3 * u(), if turn { 0.5 } else { 1e-3 * u() }];
+                let f = [0.01 * u(), 0.01 * u(), 9.81 + 0.01 * u()];
+                let (gyro, accel) = if swapped { (f, w) } else { (w, f) };
+                ImuRecord {
+                    t,
+                    gyro,
+                    accel,
+                    temp: None,
+                }
+            })
+            .collect();
+        ImuData {
+            kind: ImuKind::Rates,
+            records,
+        }
+    }
+
+    /// The streamed checks say what the held ones say, message for message.
+    #[test]
+    fn streamed_checks_equal_the_held_ones() {
+        for (turning, swapped) in [(false, false), (true, false), (false, true)] {
+            let data = records(turning, swapped);
+            let mut memory = calib::estimate::MemoryImu::new(&data, "imu.csv");
+            let mut source = ::import::detect::RateSource::new(&mut memory).unwrap();
+            let held = check_at_rest(&data, "imu.csv", 101, 1.0).map_err(|e| e.to_string());
+            let streamed =
+                check_at_rest_streamed(&mut source, "imu.csv", 101, 1.0).map_err(|e| e.to_string());
+            assert_eq!(held, streamed, "turning {turning} swapped {swapped}");
+            assert_eq!(held.is_ok(), !turning && !swapped);
+        }
+        // The swapped columns, refused by the plausibility check too (from its medians).
+        let data = records(false, true);
+        let e = check_plausible(&data, "imu.csv", 1.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("look swapped"), "{e}");
+    }
 }

@@ -4,7 +4,7 @@
 use crate::recording_checks;
 use crate::table::{self, Align, Table};
 use crate::{Error, output, print};
-use ::import::detect::{DetectorSettings, Segmentation, segment};
+use ::import::detect::{DetectorSettings, RateSource, Segmentation, segment_streamed};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -153,10 +153,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(path) = &args.json {
         output::Outputs::new(&[&args.imu]).file(path, "--json")?;
     }
-    let data = calib::io::read_imu_csv(&args.imu)?;
+    // The records are read again for every step rather than held (docs/performance.md,
+    // "Memory of every command on a long run").
+    let mut imu = calib::estimate::FileImu::open(&args.imu)?;
     let file = args.imu.display().to_string();
-    recording_checks::check_plausible(&data, &file, settings.window_s)?;
-    let seg = segment(&data, &settings).map_err(|e| format!("{file}: {e}"))?;
+    let mut source = RateSource::new(&mut imu)?;
+    recording_checks::check_plausible_streamed(&mut source, &file, settings.window_s)?;
+    let seg = segment_streamed(&mut source, &settings).map_err(|e| format!("{file}: {e}"))?;
     recording_checks::check_static_force(&seg, &file)?;
     let c = table::compact;
     let sig = table::significant;

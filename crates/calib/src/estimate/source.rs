@@ -165,8 +165,10 @@ impl ImuSource for FileImu {
             return Ok(None);
         };
         let Some(rec) = reader.next_record()? else {
-            // The first complete reading fills the cache unless it overflowed.
+            // The first complete reading fills the cache unless it overflowed; the reading
+            // stays at its end (a call after the end is not the cache's first record).
             self.cached = !self.overflowed;
+            self.next = self.cache.len();
             return Ok(None);
         };
         let item = (rec, reader.line());
@@ -238,6 +240,19 @@ mod tests {
         assert_eq!(times(&mut imu), all);
         // Now from the cache.
         assert_eq!(times(&mut imu), all);
+        // A reading in chunks that goes on asking after the end gets nothing more, the first
+        // time (from the file) as from the cache.
+        let mut imu = FileImu::open(&path).unwrap();
+        for _ in 0..2 {
+            imu.rewind().unwrap();
+            let mut chunk = Vec::new();
+            let mut n = 0;
+            for _ in 0..4 {
+                imu.next_chunk(&mut chunk, 3).unwrap();
+                n += chunk.len();
+            }
+            assert_eq!(n, 5);
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
