@@ -14,6 +14,8 @@
 //!   weights from the degrees of freedom, the covariance of the coefficients and the fit's
 //!   chi-square;
 //! - [`analyse_axis`]: both for one axis;
+//! - [`thermal`]: how much of the slow variation the temperature explains (a recording with a
+//!   `temp` column);
 //! - [`likelihood`]: the white level, walk and (when the data show one) a Gauss-Markov bias by
 //!   the exact Gaussian likelihood of the data (a Kalman filter on block means), with 68 %
 //!   intervals from the profile likelihood: the levels whose intervals hold up on a seed set,
@@ -53,6 +55,7 @@ pub mod edf;
 pub mod fit;
 pub mod likelihood;
 pub mod stream;
+pub mod thermal;
 
 use serde::{Deserialize, Serialize};
 use std::ops::Range;

@@ -309,6 +309,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
         sensors.push(SensorNoise { axes, ml: mls });
     }
+    let thermal = thermal_fit(&mut source, &intervals, median)?;
     let used: usize = intervals.iter().map(|r| r.len()).sum();
     let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
     let c = table::compact;
@@ -352,6 +353,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&sensors) {
         out += &sensor_table(s, sn);
     }
+    if let Some(t) = &thermal {
+        out += &thermal_table(t);
+    }
     let (base, base_origin) = match &config {
         Some((cfg, origin)) => (cfg.clone(), origin.clone()),
         None => (RunConfig::paper(), String::new()),
@@ -378,9 +382,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let _ = writeln!(out, "\nwrote {}", path.display());
     }
     if let Some(path) = &args.json {
-        let json = json_of(
+        let mut json = json_of(
             &file, whole, &intervals, &times, n, median, &sensors, &block,
         );
+        if let (Some(t), Some(root)) = (&thermal, json.as_object_mut()) {
+            root.insert("temperature".into(), thermal_json(t));
+        }
         let text = serde_json::to_string_pretty(&json)? + "\n";
         crate::output::write_file(path, text.as_bytes())?;
         let _ = writeln!(out, "wrote {}", path.display());
@@ -1090,5 +1097,119 @@ pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedW
         value: value * unit,
         lower: lower[axis].unwrap_or(0.0) * unit,
         upper: upper[axis].map(|u| u * unit),
+    })
+}
+
+/// The thermal part of the static data: the temperatures seen and each axis's (gyros in rad/s,
+/// accelerometers in m/s^2 per K).
+struct Thermal {
+    lo_c: f64,
+    hi_c: f64,
+    axes: Vec<::noise::thermal::AxisThermal>,
+}
+
+/// How much of the intervals' slow variation the `temp` column explains
+/// ([`::noise::thermal`]): one more reading of the records; `None` without a temperature or
+/// when it does not move.
+fn thermal_fit(
+    source: &mut RateSource<'_>,
+    intervals: &[Range<usize>],
+    median: f64,
+) -> Result<Option<Thermal>, Error> {
+    let mut bins: Vec<::noise::thermal::IntervalBins> = intervals
+        .iter()
+        .map(|_| ::noise::thermal::IntervalBins::new(6))
+        .collect();
+    let kind = source.kind();
+    let (mut k, mut at, mut any) = (0usize, 0usize, false);
+    source.records_of(&mut |r, _| {
+        while at < intervals.len() && intervals[at].end <= k {
+            at += 1;
+        }
+        if let (Some(range), Some(temp)) = (intervals.get(at), r.temp)
+            && range.contains(&k)
+        {
+            // Rates: as they are; increments over the median interval.
+            let scale = match kind {
+                ImuKind::Rates => 1.0,
+                ImuKind::Increments => 1.0 / median,
+            };
+            let v = [
+                r.gyro[0] * scale,
+                r.gyro[1] * scale,
+                r.gyro[2] * scale,
+                r.accel[0] * scale,
+                r.accel[1] * scale,
+                r.accel[2] * scale,
+            ];
+            bins[at].push(r.t, temp, &v);
+            any = true;
+        }
+        k += 1;
+    })?;
+    if !any {
+        return Ok(None);
+    }
+    for b in &mut bins {
+        b.close();
+    }
+    Ok(::noise::thermal::fit(&bins).map(|(lo_c, hi_c, axes)| Thermal { lo_c, hi_c, axes }))
+}
+
+/// The console table of [`Thermal`].
+fn thermal_table(t: &Thermal) -> String {
+    let mut s = format!(
+        "\nTemperature: {:.2} .. {:.2} deg C over the intervals; each axis regressed on it \
+         ({}-s means about each interval's mean; docs/temperature.md)\n",
+        t.lo_c,
+        t.hi_c,
+        ::noise::thermal::BIN_S
+    );
+    let mut tab = Table::new(&[
+        ("axis", Align::Left),
+        ("coefficient", Align::Right),
+        ("sigma", Align::Right),
+        ("unit", Align::Left),
+        ("variance explained", Align::Right),
+        ("Allan dev. at tau", Align::Right),
+        ("before", Align::Right),
+        ("after", Align::Right),
+        ("unit ", Align::Left),
+    ]);
+    for (i, a) in t.axes.iter().enumerate() {
+        let (name, f, unit, adev_unit) = if i < 3 {
+            (
+                format!("gyro {}", AXES[i]),
+                1.0 / sins_model::units::DEG_PER_HOUR,
+                "deg/h/K",
+                "deg/h",
+            )
+        } else {
+            (format!("accel {}", AXES[i - 3]), 1.0, "m/s^2/K", "m/s^2")
+        };
+        tab.row(vec![
+            name,
+            table::significant(a.coefficient * f, 3),
+            table::sigma(a.sigma * f),
+            unit.into(),
+            format!("{:.0} %", 100.0 * a.explained),
+            format!("{} s", table::compact(a.tau_s)),
+            table::significant(a.adev_before * f, 3),
+            table::significant(a.adev_after * f, 3),
+            adev_unit.into(),
+        ]);
+    }
+    s += &tab.render();
+    s
+}
+
+/// [`Thermal`] in the JSON file (SI: rad/s/K, m/s^2/K; Allan deviations in rad/s and m/s^2).
+fn thermal_json(t: &Thermal) -> Value {
+    json!({
+        "min_c": t.lo_c,
+        "max_c": t.hi_c,
+        "bin_s": ::noise::thermal::BIN_S,
+        "gyro": &t.axes[..3],
+        "accel": &t.axes[3..],
     })
 }
