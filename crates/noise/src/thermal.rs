@@ -78,6 +78,11 @@ impl IntervalBins {
     pub fn axes(&self) -> usize {
         self.axes
     }
+
+    /// The mean temperature of the closed bins (deg C; NaN without any).
+    pub fn mean_temp(&self) -> f64 {
+        self.bins.iter().map(|b| b.1).sum::<f64>() / self.bins.len() as f64
+    }
 }
 
 /// The thermal part of one axis.
@@ -135,7 +140,10 @@ pub fn fit(intervals: &[IntervalBins]) -> Option<(f64, f64, Vec<AxisThermal>)> {
         })
         .collect();
     let stt: f64 = centred.iter().flatten().map(|(t, _)| t * t).sum();
-    let dof = centred.iter().map(|i| i.len().saturating_sub(1)).sum::<usize>();
+    let dof = centred
+        .iter()
+        .map(|i| i.len().saturating_sub(1))
+        .sum::<usize>();
     if stt.sqrt() < 1e-3 || dof < 3 {
         return None;
     }
@@ -234,7 +242,10 @@ mod tests {
                 let var_t = temps.iter().map(|c| (c - m).powi(2)).sum::<f64>() / 360.0;
                 let signal = b * b * var_t;
                 let expected = signal / (signal + 0.05f64.powi(2) / 100.0);
-                assert!((a.explained - expected).abs() < 0.1, "{a:?}, expected {expected}");
+                assert!(
+                    (a.explained - expected).abs() < 0.1,
+                    "{a:?}, expected {expected}"
+                );
                 assert!(a.adev_after < 0.3 * a.adev_before, "{a:?}");
             } else {
                 assert!(a.explained < 0.05, "{a:?}");

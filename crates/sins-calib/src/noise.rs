@@ -261,55 +261,42 @@ pub fn run(args: &Args) -> Result<(), Error> {
             k += 1;
         })?;
     }
-    // Increments of every record: as they are, or rate times the median interval. The records
-    // are taken as evenly spaced at the median interval (the Allan variance needs a fixed tau0;
-    // gaps end the intervals): a rate times its record's jittered interval would add the jitter
-    // times the rate, which for an accelerometer axis along g (a 0.3-ms jitter, 3 mm/s per
-    // record) is far above its noise, while jittered time stamps of a sensor sampled on its
-    // own clock say nothing of its samples.
-    let kind = source.kind();
-    let increment = move |v: f64| match kind {
-        ImuKind::Increments => v,
-        ImuKind::Rates => v * median,
-    };
     // Both fits of the six axes from two more readings ([`::noise::stream`]): the levels
     // reported are the exact likelihood of the data, each static interval its own filter, on
     // block means above the sensor's correlation time (docs/noise.md, "The maximum-likelihood
     // fit"); the Allan fit above the same correlation time: below it the sensor's own filter
     // shapes the curve, which no term describes.
-    let fits = ::noise::stream::fit_axes_streamed(6, n, median, &intervals, |visit| {
-        let mut k = 0;
-        source.records_of(&mut |r, _| {
-            let v = [
-                increment(r.gyro[0]),
-                increment(r.gyro[1]),
-                increment(r.gyro[2]),
-                increment(r.accel[0]),
-                increment(r.accel[1]),
-                increment(r.accel[2]),
-            ];
-            visit(k, &v);
-            k += 1;
-        })
-    })?;
-    let mut fits = fits.into_iter();
-    let mut sensors = Vec::new();
-    for s in [&GYRO, &ACCEL] {
-        let mut axes = Vec::new();
-        let mut mls = Vec::new();
-        for axis_name in AXES.iter() {
-            let f = fits.next().expect("six axes");
-            let ml =
-                f.ml.map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
-            let axis = f
-                .allan
-                .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
-            axes.push(axis);
-            mls.push(ml);
-        }
-        sensors.push(SensorNoise { axes, ml: mls });
-    }
     let thermal = thermal_fit(&mut source, &intervals, median)?;
+    // A slow change that follows the temperature is no random walk: where an axis's thermal
+    // coefficient stands clear of its sigma, the levels are fitted again with the thermal part
+    // removed, and those are the ones reported (docs/temperature.md).
+    let removed = thermal
+        .as_ref()
+        .map(Thermal::significant)
+        .unwrap_or_default();
+    let as_measured = if removed.iter().any(|c| *c != 0.0) {
+        Some(fit_sensors(
+            &mut source,
+            &intervals,
+            n,
+            median,
+            None,
+            &file,
+        )?)
+    } else {
+        None
+    };
+    let sensors = fit_sensors(
+        &mut source,
+        &intervals,
+        n,
+        median,
+        thermal
+            .as_ref()
+            .filter(|_| as_measured.is_some())
+            .map(|t| (removed, t.interval_means.as_slice())),
+        &file,
+    )?;
     let used: usize = intervals.iter().map(|r| r.len()).sum();
     let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
     let c = table::compact;
@@ -355,6 +342,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     if let Some(t) = &thermal {
         out += &thermal_table(t);
+    }
+    if let Some(measured) = &as_measured {
+        out += &thermal_removed_note(&removed, measured, &sensors);
     }
     let (base, base_origin) = match &config {
         Some((cfg, origin)) => (cfg.clone(), origin.clone()),
@@ -1106,6 +1096,27 @@ struct Thermal {
     lo_c: f64,
     hi_c: f64,
     axes: Vec<::noise::thermal::AxisThermal>,
+    /// Each interval's mean temperature (deg C; NaN without records).
+    interval_means: Vec<f64>,
+}
+
+/// How far from zero, in sigmas, a thermal coefficient is taken as there (the sigma takes the
+/// bin means as independent, optimistic where a walk is left: a wide margin).
+const THERMAL_SIGMAS: f64 = 5.0;
+
+impl Thermal {
+    /// The coefficients (rate per K) of the axes whose coefficient stands [`THERMAL_SIGMAS`]
+    /// clear of zero, 0 for the others.
+    fn significant(&self) -> [f64; 6] {
+        std::array::from_fn(|i| {
+            let a = &self.axes[i];
+            if a.sigma > 0.0 && (a.coefficient / a.sigma).abs() >= THERMAL_SIGMAS {
+                a.coefficient
+            } else {
+                0.0
+            }
+        })
+    }
 }
 
 /// How much of the intervals' slow variation the `temp` column explains
@@ -1153,21 +1164,65 @@ fn thermal_fit(
     for b in &mut bins {
         b.close();
     }
-    Ok(::noise::thermal::fit(&bins).map(|(lo_c, hi_c, axes)| Thermal { lo_c, hi_c, axes }))
+    let interval_means = bins.iter().map(|b| b.mean_temp()).collect();
+    Ok(
+        ::noise::thermal::fit(&bins).map(|(lo_c, hi_c, axes)| Thermal {
+            lo_c,
+            hi_c,
+            axes,
+            interval_means,
+        }),
+    )
+}
+
+/// Which axes had their thermal part removed before the fits, and what it did to their walk.
+fn thermal_removed_note(
+    removed: &[f64; 6],
+    measured: &[SensorNoise],
+    sensors: &[SensorNoise],
+) -> String {
+    let mut s = format!(
+        "the levels above and the [noise] block are fitted with the thermal part removed from \
+         the axes whose coefficient stands {THERMAL_SIGMAS} sigma clear of zero (a drift that \
+         follows the temperature is no random walk):\n"
+    );
+    for (i, _) in removed.iter().enumerate().filter(|(_, c)| **c != 0.0) {
+        let (sensor, axis, k) = if i < 3 {
+            (&GYRO, i, 0)
+        } else {
+            (&ACCEL, i - 3, 1)
+        };
+        let walk = |sn: &[SensorNoise]| sn[k].ml[axis].walk.value * sensor.factors[3];
+        let _ = writeln!(
+            s,
+            "  {} {}: bias walk {} as measured, {} without the thermal part [{}]",
+            sensor.name,
+            AXES[axis],
+            table::significant(walk(measured), 3),
+            table::significant(walk(sensors), 3),
+            sensor.labels[3]
+                .split('[')
+                .nth(1)
+                .unwrap_or("")
+                .trim_end_matches(']'),
+        );
+    }
+    s
 }
 
 /// The console table of [`Thermal`].
 fn thermal_table(t: &Thermal) -> String {
     let mut s = format!(
         "\nTemperature: {:.2} .. {:.2} deg C over the intervals; each axis regressed on it \
-         ({}-s means about each interval's mean; docs/temperature.md)\n",
+         ({}-s means about each interval's mean; the coefficient as the model's gyro.tbias / \
+         accel.tbias; docs/temperature.md)\n",
         t.lo_c,
         t.hi_c,
         ::noise::thermal::BIN_S
     );
     let mut tab = Table::new(&[
         ("axis", Align::Left),
-        ("coefficient", Align::Right),
+        ("tbias", Align::Right),
         ("sigma", Align::Right),
         ("unit", Align::Left),
         ("variance explained", Align::Right),
@@ -1177,10 +1232,12 @@ fn thermal_table(t: &Thermal) -> String {
         ("unit ", Align::Left),
     ]);
     for (i, a) in t.axes.iter().enumerate() {
+        // In the model's convention: a gyro's output is w - nu, so its `gyro.tbias` is the
+        // negative of the output's slope; an accelerometer's output is f + df.
         let (name, f, unit, adev_unit) = if i < 3 {
             (
                 format!("gyro {}", AXES[i]),
-                1.0 / sins_model::units::DEG_PER_HOUR,
+                -1.0 / sins_model::units::DEG_PER_HOUR,
                 "deg/h/K",
                 "deg/h",
             )
@@ -1190,12 +1247,12 @@ fn thermal_table(t: &Thermal) -> String {
         tab.row(vec![
             name,
             table::significant(a.coefficient * f, 3),
-            table::sigma(a.sigma * f),
+            table::sigma(a.sigma * f.abs()),
             unit.into(),
             format!("{:.0} %", 100.0 * a.explained),
             format!("{} s", table::compact(a.tau_s)),
-            table::significant(a.adev_before * f, 3),
-            table::significant(a.adev_after * f, 3),
+            table::significant(a.adev_before * f.abs(), 3),
+            table::significant(a.adev_after * f.abs(), 3),
             adev_unit.into(),
         ]);
     }
@@ -1205,11 +1262,86 @@ fn thermal_table(t: &Thermal) -> String {
 
 /// [`Thermal`] in the JSON file (SI: rad/s/K, m/s^2/K; Allan deviations in rad/s and m/s^2).
 fn thermal_json(t: &Thermal) -> Value {
+    // The gyros' coefficients in the model's convention (`gyro.tbias`: the output is w - nu).
+    let gyro: Vec<::noise::thermal::AxisThermal> = t.axes[..3]
+        .iter()
+        .map(|a| ::noise::thermal::AxisThermal {
+            coefficient: -a.coefficient,
+            ..a.clone()
+        })
+        .collect();
     json!({
         "min_c": t.lo_c,
         "max_c": t.hi_c,
         "bin_s": ::noise::thermal::BIN_S,
-        "gyro": &t.axes[..3],
-        "accel": &t.axes[3..],
+        "gyro_tbias": gyro,
+        "accel_tbias": &t.axes[3..],
     })
+}
+
+/// Both fits of the six axes ([`::noise::stream::fit_axes_streamed`]), from the records as they
+/// are or with a thermal part removed: per axis a coefficient (rate per K; 0 keeps the axis as
+/// it is) times the record's temperature less its interval's mean.
+fn fit_sensors(
+    source: &mut RateSource<'_>,
+    intervals: &[Range<usize>],
+    n: usize,
+    median: f64,
+    thermal: Option<([f64; 6], &[f64])>,
+    file: &str,
+) -> Result<Vec<SensorNoise>, Error> {
+    // Increments of every record: as they are, or rate times the median interval. The records
+    // are taken as evenly spaced at the median interval (the Allan variance needs a fixed tau0;
+    // gaps end the intervals): a rate times its record's jittered interval would add the jitter
+    // times the rate, which for an accelerometer axis along g (a 0.3-ms jitter, 3 mm/s per
+    // record) is far above its noise, while jittered time stamps of a sensor sampled on its
+    // own clock say nothing of its samples.
+    let kind = source.kind();
+    let increment = move |v: f64| match kind {
+        ImuKind::Increments => v,
+        ImuKind::Rates => v * median,
+    };
+    let fits = ::noise::stream::fit_axes_streamed(6, n, median, intervals, |visit| {
+        let (mut k, mut at) = (0usize, 0usize);
+        source.records_of(&mut |r, _| {
+            while at < intervals.len() && intervals[at].end <= k {
+                at += 1;
+            }
+            let mut v = [
+                increment(r.gyro[0]),
+                increment(r.gyro[1]),
+                increment(r.gyro[2]),
+                increment(r.accel[0]),
+                increment(r.accel[1]),
+                increment(r.accel[2]),
+            ];
+            if let (Some((c, means)), Some(temp)) = (thermal, r.temp)
+                && let Some(mean) = means.get(at)
+            {
+                for (x, b) in v.iter_mut().zip(c) {
+                    *x -= b * (temp - mean) * median;
+                }
+            }
+            visit(k, &v);
+            k += 1;
+        })
+    })?;
+    let mut fits = fits.into_iter();
+    let mut sensors = Vec::new();
+    for s in [&GYRO, &ACCEL] {
+        let mut axes = Vec::new();
+        let mut mls = Vec::new();
+        for axis_name in AXES.iter() {
+            let f = fits.next().expect("six axes");
+            let ml =
+                f.ml.map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
+            let axis = f
+                .allan
+                .map_err(|e| format!("{file}: {} {axis_name}: {e}", s.name))?;
+            axes.push(axis);
+            mls.push(ml);
+        }
+        sensors.push(SensorNoise { axes, ml: mls });
+    }
+    Ok(sensors)
 }
