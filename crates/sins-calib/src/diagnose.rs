@@ -454,14 +454,32 @@ pub fn summary(r: &LoopResult) -> String {
             })
             .collect()
     });
-    if !inseparable.is_empty() {
+    let is_thermal = |line: &String| {
+        line.split(' ')
+            .next()
+            .and_then(Candidate::from_id)
+            .is_some_and(|c| c.is_thermal())
+    };
+    let (thermal, motion): (Vec<String>, Vec<String>) =
+        inseparable.into_iter().partition(is_thermal);
+    if !motion.is_empty() {
         let _ = writeln!(
             s,
             "note: this recording cannot separate {}: the base parameters would absorb such an \
              effect, or the motion does not excite it (a time offset and the inner lever arms \
              need specific force measured while the unit turns); `sins-calib design` proposes a \
              turntable program that separates them.",
-            inseparable.join("; ")
+            motion.join("; ")
+        );
+    }
+    if !thermal.is_empty() {
+        let _ = writeln!(
+            s,
+            "note: this recording cannot separate {}: the temperature's course over the program \
+             does not tell the coefficient from the constant terms (a warm-up is not a chamber); \
+             `sins-calib analyse --terms ...` with a [temperature] profile (a ramp, steps) says \
+             which course does (docs/temperature.md).",
+            thermal.join("; ")
         );
     }
     for c in calls {
