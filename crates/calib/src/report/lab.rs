@@ -231,16 +231,23 @@ pub const THERMAL_FINDING_SPAN_K: f64 = 1.0;
 pub fn thermal_finding(est: &crate::estimate::Estimate) -> Option<String> {
     let t = est.temperature.as_ref()?;
     let span = t.max_c.zip(t.min_c).map(|(a, b)| a - b)?;
-    let thermal = est
-        .names
-        .iter()
-        .any(|n| n.contains(".tbias.") || n.contains(".tscale."));
-    (span >= THERMAL_FINDING_SPAN_K && !thermal).then(|| {
+    let has = |triad: &str| {
+        est.names.iter().any(|n| {
+            n.starts_with(triad) && (n.contains(".tbias.") || n.contains(".tscale."))
+        })
+    };
+    let missing: Vec<&str> = [("gyro.", "gyros"), ("accel.", "accelerometers")]
+        .into_iter()
+        .filter(|(p, _)| !has(p))
+        .map(|(_, name)| name)
+        .collect();
+    (span >= THERMAL_FINDING_SPAN_K && !missing.is_empty()).then(|| {
         format!(
             "the temperature moved {span:.1} K over the run and the model has no temperature \
-             coefficients: the biases and scale factors are a mean over it; `diagnose` tests \
-             the thermal terms (gyro_temp_bias, accel_temp_bias, ...), `calibrate --terms` \
-             adds them"
+             coefficient for the {}: their biases and scale factors are a mean over it; \
+             `diagnose` tests the thermal terms (gyro_temp_bias, accel_temp_bias, ...), \
+             `calibrate --terms` adds them",
+            missing.join(" or the ")
         )
     })
 }
