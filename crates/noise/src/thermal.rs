@@ -185,7 +185,7 @@ fn longest_adev(series: &[Vec<f64>]) -> (f64, f64) {
     let longest = series.iter().map(Vec::len).max().unwrap_or(0);
     let m = (longest / 3).max(1);
     let (mut sum, mut count) = (0.0, 0usize);
-    for s in series.iter().filter(|s| s.len() >= 2 * m + 1) {
+    for s in series.iter().filter(|s| s.len() > 2 * m) {
         let cum: Vec<f64> = std::iter::once(0.0)
             .chain(s.iter().scan(0.0, |acc, v| {
                 *acc += v;
