@@ -328,7 +328,11 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) 
         }
     );
     if let Some(path) = json_path {
-        let doc = json!({ "tables": Value::Object(out), "navigation": nav_json });
+        let doc = json!({
+            "schema": calib::schema::Schema::current(calib::schema::PAPER_CHECK),
+            "tables": Value::Object(out),
+            "navigation": nav_json,
+        });
         if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap() + "\n") {
             eprintln!("error: {}: cannot write: {e}", path.display());
             return ExitCode::FAILURE;
@@ -733,7 +737,7 @@ mod tests {
             parameters,
             correlation: Some(correlation),
             correction: None,
-            verdict: None,
+            ..Default::default()
         };
         let dir = std::env::temp_dir().join(format!("xtask-nav-error-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

@@ -561,6 +561,8 @@ pub fn result_file(
         correlation: Some(correlation),
         correction,
         verdict: None,
+        schema: Some(crate::schema::Schema::current(crate::schema::CALIBRATION)),
+        unit: None,
     }
 }
 
