@@ -198,7 +198,7 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
         drift_reach: r.drift_reach.as_ref().map(drift_reach_json),
         noise_rescaled: r.noise_rescaled,
     };
-    Ok(serde_json::to_string_pretty(&j)?)
+    Ok(calib::schema::to_json(calib::schema::DIAGNOSIS, &j)?)
 }
 
 /// One round of the loop: its candidates with their evidence and separability, what was

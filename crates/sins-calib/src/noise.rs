@@ -5,7 +5,7 @@
 //! `[noise]` block to paste (docs/noise.md).
 
 use crate::table::{self, Align, Table};
-use crate::{Error, load_config, print};
+use crate::{Error, load_config};
 use ::import::detect::{DetectorSettings, segment};
 use ::noise::fit::{NoiseFit, Term};
 use ::noise::likelihood::{BLOCKS_PER_CORRELATION, Level, MlFit, fit_ml};
@@ -345,11 +345,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     if let Some(path) = &args.json {
         let json = json_of(&file, whole, &intervals, &t, median, &sensors, &block);
-        let text = serde_json::to_string_pretty(&json)? + "\n";
+        let text = calib::schema::to_json(calib::schema::NOISE, &json)?;
         crate::output::write_file(path, text.as_bytes())?;
-        let _ = writeln!(out, "wrote {}", path.display());
+        if !crate::output::is_stdout(path) {
+            let _ = writeln!(out, "wrote {}", path.display());
+        }
     }
-    print(&out)
+    crate::report(&out, args.json.as_deref())
 }
 
 /// A level with its sigma; a term the fit left out as `-` with the level it could hide.
@@ -1014,6 +1016,12 @@ pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedW
             e.line()
         )
     })?;
+    calib::schema::check(
+        &file,
+        root.get("schema"),
+        &[calib::schema::NOISE],
+        "the JSON that `sins-calib noise --json` writes",
+    )?;
     let key = "bias_walk_deg_h_sqrt_h";
     let axes = |suffix: &str| -> Result<Vec<Option<f64>>, Error> {
         let k = format!("{key}{suffix}");
