@@ -36,34 +36,37 @@ pub struct Args {
     pub accept_other_unit: bool,
 }
 
-/// Refuse a calibration of another unit than the data's (unless `--accept-other-unit`); say
-/// on stderr when either side's identity is unknown.
-fn check_unit(args: &Args, cal_file: &str, cal_unit: Option<&UnitIdentity>) -> Result<(), Error> {
+/// Refuse a calibration of another unit than the data's (unless `--accept-other-unit`);
+/// returns the note for stderr (printed once the records are written) when either side's
+/// identity is unknown or a different unit was accepted.
+fn check_unit(
+    args: &Args,
+    cal_file: &str,
+    cal_unit: Option<&UnitIdentity>,
+) -> Result<Option<String>, Error> {
     let data = crate::provenance::gather(&args.imu, None, &args.unit, &[], false)?;
     let imu_file = args.imu.display();
     let cal_unit = cal_unit.filter(|u| !u.is_empty());
     let Some(cal_unit) = cal_unit else {
-        eprintln!(
+        return Ok(Some(format!(
             "apply: {cal_file} does not say which unit it is of: the unit is not checked{}",
             if data.unit.is_empty() {
                 String::new()
             } else {
                 format!(" (the data's: {})", data.unit.describe())
             }
-        );
-        return Ok(());
+        )));
     };
     if data.unit.is_empty() {
-        eprintln!(
+        return Ok(Some(format!(
             "apply: the unit of {imu_file} is not known (--unit-serial, --unit-model, or the \
              [unit] of its import profile): the calibration's unit ({}) is not checked",
             cal_unit.describe()
-        );
-        return Ok(());
+        )));
     }
     let conflicts = cal_unit.conflicts(&data.unit);
     if conflicts.is_empty() {
-        return Ok(());
+        return Ok(None);
     }
     let what = conflicts
         .iter()
@@ -71,11 +74,10 @@ fn check_unit(args: &Args, cal_file: &str, cal_unit: Option<&UnitIdentity>) -> R
         .collect::<Vec<_>>()
         .join(", ");
     if args.accept_other_unit {
-        eprintln!(
+        return Ok(Some(format!(
             "apply: {cal_file} is of another unit than {imu_file} ({what}); applied as \
              --accept-other-unit asks"
-        );
-        return Ok(());
+        )));
     }
     Err(format!(
         "{cal_file}: this calibration is of another unit than {imu_file} ({what}; the data's \
@@ -227,7 +229,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
              --accept-misfit asks"
         );
     }
-    check_unit(args, &cal_file, result.unit.as_ref())?;
+    let unit_note = check_unit(args, &cal_file, result.unit.as_ref())?;
     let inputs = result
         .correction
         .as_ref()
@@ -268,6 +270,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     })();
     let n = written?;
     guard.keep();
+    if let Some(note) = unit_note {
+        eprintln!("{note}");
+    }
     let mut s = String::new();
     let form = match kind {
         ImuKind::Rates => "rates",

@@ -349,9 +349,6 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
         files.extend(args.truth.as_deref().map(|p| ("truth", p)));
         crate::provenance::gather(&args.imu, config_unit, &args.unit, &files, args.free_motion)?
     };
-    for note in &provenance.notes {
-        eprintln!("calibrate: note: {note}");
-    }
     let turntable = input.tt.as_ref().map(AngleFile::records);
     let bar = progress_bar(input.imu.len_hint().unwrap_or(0));
     let mut progress = |done: usize, total: usize| {
