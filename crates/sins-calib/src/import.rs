@@ -51,7 +51,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let imported = import_recording(&profile, &options)?;
     let out = output::DirOutput::begin(&args.out, &OUTPUTS)?;
     let tmp = write_outputs(&imported, out.tmp_dir())?;
-    stamp_outputs(&args.profile, &profile, &tmp)?;
+    stamp_outputs(&args.profile, &profile, &imported, &tmp)?;
     let written = Written {
         imu: out.final_path("imu.csv"),
         turntable: tmp.turntable.map(|_| out.final_path("turntable.csv")),
@@ -107,23 +107,26 @@ pub fn run(args: &Args) -> Result<(), Error> {
     print(&s)
 }
 
-/// Give the JSON files the `import` crate wrote their schema stamp, and `import.json` the
-/// profile's `[unit]` and the SHA-256 of the profile, the raw files and the files written
+/// Write the JSON files the `import` crate wrote again with their schema stamp first (the
+/// same contents in the same order), and `import.json` with the profile's `[unit]` and the
+/// SHA-256 of the profile, the raw files and the files written
 /// (`crate::provenance::ImportProvenance`): a calibration of the imported records names them.
 fn stamp_outputs(
     profile_path: &std::path::Path,
     profile: &Profile,
+    imported: &Imported,
     written: &Written,
 ) -> Result<(), Error> {
     use crate::provenance::{ImportProvenance, InputHash};
-    let read = |p: &std::path::Path| -> Result<serde_json::Value, Error> {
-        let text =
-            std::fs::read_to_string(p).map_err(|e| format!("{}: cannot read: {e}", p.display()))?;
-        Ok(serde_json::from_str(&text)?)
-    };
-    let write = |p: &std::path::Path, kind: &str, v: &serde_json::Value| -> Result<(), Error> {
-        std::fs::write(p, calib::schema::to_json(kind, v)?)
-            .map_err(|e| format!("{}: cannot write: {e}", p.display()).into())
+    #[derive(serde::Serialize)]
+    struct ImportJson<'a> {
+        #[serde(flatten)]
+        report: &'a ImportReport,
+        #[serde(flatten)]
+        provenance: ImportProvenance,
+    }
+    let write = |p: &std::path::Path, text: String| -> Result<(), Error> {
+        std::fs::write(p, text).map_err(|e| format!("{}: cannot write: {e}", p.display()).into())
     };
     let mut output_sha256 = std::collections::BTreeMap::new();
     output_sha256.insert(
@@ -133,8 +136,11 @@ fn stamp_outputs(
     if let Some(p) = &written.turntable {
         output_sha256.insert("turntable.csv".into(), crate::sha256::of_file(p)?.0);
     }
-    if let Some(p) = &written.sections {
-        write(p, calib::schema::SECTIONS, &read(p)?)?;
+    if let (Some(p), Some(sections)) = (&written.sections, &imported.sections) {
+        write(
+            p,
+            calib::schema::to_json(calib::schema::SECTIONS, sections)?,
+        )?;
         output_sha256.insert("sections.json".into(), crate::sha256::of_file(p)?.0);
     }
     let mut input_files = vec![InputHash::of("import profile", profile_path)?];
@@ -147,16 +153,18 @@ fn stamp_outputs(
             &profile.resolve(&s.file),
         )?);
     }
-    let provenance = serde_json::to_value(ImportProvenance {
-        unit: profile.unit.clone(),
-        input_files,
-        output_sha256,
-    })?;
-    let mut report = read(&written.report)?;
-    if let (Some(r), serde_json::Value::Object(extra)) = (report.as_object_mut(), provenance) {
-        r.extend(extra);
-    }
-    write(&written.report, calib::schema::IMPORT, &report)
+    let json = ImportJson {
+        report: &imported.report,
+        provenance: ImportProvenance {
+            unit: profile.unit.clone(),
+            input_files,
+            output_sha256,
+        },
+    };
+    write(
+        &written.report,
+        calib::schema::to_json(calib::schema::IMPORT, &json)?,
+    )
 }
 
 /// The gaps of the time stamps, or that there are none.
