@@ -70,9 +70,11 @@ enum Command {
         #[arg(long)]
         case: Option<String>,
     },
-    /// Run every `sh` block of README.md and docs/*.md as written (sins-calib: the release
-    /// binary; from a temporary copy of the repository; /tmp/ redirected) and compare the
-    /// `text` blocks after each with its output (excerpt rule: xtask/src/docs_check.rs).
+    /// Run every `sh` block (and untagged block that is a command) of README.md and the .md
+    /// files under docs/ as written (sins-calib: the release binary; from a temporary copy of
+    /// the repository; /tmp/ redirected) and compare the `text` and untagged blocks after each
+    /// with its output (excerpt rule: xtask/src/docs_check.rs); an untagged block after no
+    /// command fails.
     /// Ends with `docs-check: N passed, M failed, K skipped`; exits non-zero on a failure.
     DocsCheck {
         /// Check only these files (paths relative to the repository, e.g. README.md).
