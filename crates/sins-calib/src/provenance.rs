@@ -103,12 +103,13 @@ pub struct ImportBeside {
     pub provenance: ImportProvenance,
 }
 
+/// The `import.json` beside an `imu.csv`: of these records, or a note why it is not used.
+pub type ImportFound = Result<ImportBeside, String>;
+
 /// Look for the `import.json` beside `imu`: `Ok(None)` when there is none; else the hash of
 /// `imu` (taken only then) and the import, or a note (`Err` of the inner result) when the file
 /// is of another `imu.csv` or of an older version without hashes, and is then not used.
-pub fn import_beside(
-    imu: &Path,
-) -> Result<Option<(InputHash, Result<ImportBeside, String>)>, Error> {
+pub fn import_beside(imu: &Path) -> Result<Option<(InputHash, ImportFound)>, Error> {
     let dir = match imu.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -233,7 +234,14 @@ pub fn gather(
     }
     let option_unit = options.identity();
     if !option_unit.is_empty() {
-        sources.push(("--unit-model/--unit-serial".to_string(), option_unit));
+        let given: Vec<&str> = [
+            (options.unit_model.is_some(), "--unit-model"),
+            (options.unit_serial.is_some(), "--unit-serial"),
+        ]
+        .into_iter()
+        .filter_map(|(on, name)| on.then_some(name))
+        .collect();
+        sources.push((given.join(" and "), option_unit));
     }
     Ok(RunProvenance {
         unit: merge_units(&sources)?,
