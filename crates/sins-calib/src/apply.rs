@@ -44,7 +44,7 @@ fn check_unit(
     cal_file: &str,
     cal_unit: Option<&UnitIdentity>,
 ) -> Result<Option<String>, Error> {
-    let data = crate::provenance::gather(&args.imu, None, &args.unit, &[], false)?;
+    let data = crate::provenance::gather(&args.imu, None, &args.unit, false)?;
     let imu_file = args.imu.display();
     let cal_unit = cal_unit.filter(|u| !u.is_empty());
     let Some(cal_unit) = cal_unit else {

@@ -327,27 +327,12 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 .into(),
         );
     }
-    let provenance = {
+    let mut provenance = {
         let config_unit = args
             .config
             .as_deref()
             .map(|_| (input.origin.as_str(), &input.config.unit));
-        let mut files: Vec<(&str, &Path)> = Vec::new();
-        files.extend(args.sections.as_deref().map(|p| ("section list", p)));
-        files.extend(
-            args.terms_from
-                .as_deref()
-                .map(|p| ("diagnose result (--terms-from)", p)),
-        );
-        files.extend(
-            args.config
-                .as_deref()
-                .map(Path::new)
-                .filter(|p| p.is_file())
-                .map(|p| ("run configuration", p)),
-        );
-        files.extend(args.truth.as_deref().map(|p| ("truth", p)));
-        crate::provenance::gather(&args.imu, config_unit, &args.unit, &files, args.free_motion)?
+        crate::provenance::gather(&args.imu, config_unit, &args.unit, args.free_motion)?
     };
     let turntable = input.tt.as_ref().map(AngleFile::records);
     let bar = progress_bar(input.imu.len_hint().unwrap_or(0));
@@ -422,6 +407,25 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     };
     bar.finish_and_clear();
 
+    if args.free_motion {
+        // Hashed now that their readers have read (and bounded) them.
+        let mut files: Vec<(&str, &Path)> = Vec::new();
+        files.extend(args.sections.as_deref().map(|p| ("section list", p)));
+        files.extend(
+            args.terms_from
+                .as_deref()
+                .map(|p| ("diagnose result (--terms-from)", p)),
+        );
+        files.extend(
+            args.config
+                .as_deref()
+                .map(Path::new)
+                .filter(|p| p.is_file())
+                .map(|p| ("run configuration", p)),
+        );
+        files.extend(args.truth.as_deref().map(|p| ("truth", p)));
+        provenance.hash_files(&files)?;
+    }
     let assumptions: Vec<String> = match &hand_turned {
         Some((_, Some(setup))) => setup.assumptions.clone(),
         _ => Vec::new(),

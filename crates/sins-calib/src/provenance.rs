@@ -65,8 +65,16 @@ pub struct InputHash {
 }
 
 impl InputHash {
-    /// Hash the file at `path`.
+    /// Hash the file at `path` (a regular file: a device such as /dev/zero or a pipe is
+    /// refused, it has no content to name).
     pub fn of(role: &str, path: &Path) -> Result<Self, Error> {
+        if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+            return Err(format!(
+                "{}: is not a regular file: expected a file whose SHA-256 names the {role}",
+                path.display()
+            )
+            .into());
+        }
         let (sha256, bytes) = crate::sha256::of_file(path)?;
         Ok(Self {
             role: role.to_string(),
@@ -174,15 +182,25 @@ pub struct RunProvenance {
     pub notes: Vec<String>,
 }
 
+impl RunProvenance {
+    /// Add the SHA-256 of every file of `files` (role, path), once the run has read them
+    /// through their own bounded readers.
+    pub fn hash_files(&mut self, files: &[(&str, &Path)]) -> Result<(), Error> {
+        for (role, path) in files {
+            self.inputs.push(InputHash::of(role, path)?);
+        }
+        Ok(())
+    }
+}
+
 /// Gather a run's provenance: the unit from the configuration (`config_unit`: its name and
 /// `[unit]`), the `import.json` beside `imu` and the options, refused where they contradict
-/// each other; with `hash`, the SHA-256 of `imu`, of every file of `files` (role, path) and of
-/// the import's files.
+/// each other; with `hash`, the SHA-256 of `imu` and of the import's files (the other inputs:
+/// [`RunProvenance::hash_files`]).
 pub fn gather(
     imu: &Path,
     config_unit: Option<(&str, &UnitIdentity)>,
     options: &UnitArgs,
-    files: &[(&str, &Path)],
     hash: bool,
 ) -> Result<RunProvenance, Error> {
     let mut sources: Vec<(String, UnitIdentity)> = Vec::new();
@@ -226,11 +244,6 @@ pub fn gather(
     };
     if hash && imu_hash.is_none() {
         inputs.insert(0, InputHash::of("IMU records", imu)?);
-    }
-    if hash {
-        for (role, path) in files {
-            inputs.push(InputHash::of(role, path)?);
-        }
     }
     let option_unit = options.identity();
     if !option_unit.is_empty() {
