@@ -1,7 +1,8 @@
 //! `cargo xtask docs-check`: the documentation's commands run as written and their printed
 //! output compared with what the documentation shows.
 //!
-//! What is run: every fenced block whose info string is `sh` in `README.md` and `docs/*.md`, in
+//! What is run: every fenced block whose info string is `sh` (or untagged and a command, below) in
+//! `README.md` and every `.md` under `docs/`, in
 //! the order of the file, one `bash` per block (`set -e -o pipefail`, standard error merged into
 //! standard output). Each file's blocks share one working directory: a fresh temporary copy of
 //! the repository (every file but `target/`, `.git/` and `out/`), so the commands' relative paths
@@ -14,6 +15,13 @@
 //! - any other `cargo` command runs in the repository itself (it writes only under `target/`);
 //! - every `/tmp/` is replaced by a `tmp/` directory of the temporary working directory, and in
 //!   the output that directory is written back as `/tmp/`.
+//!
+//! A block without a language tag (a bare fence) is checked too: it is a command block when its
+//! first line that is neither blank nor a `#` comment starts with a command the documentation
+//! runs (`sins-calib`, `cargo`, `wc`, `/usr/bin/time`; [`untagged_is_command`]), and otherwise
+//! the output of the command block before it, as a `text` block. An untagged block that follows
+//! no command block in its section fails the check, naming its line: tag it (`text` for an
+//! illustration that is not a command's output, `sh` for a command, or another language).
 //!
 //! A block is skipped when the line before its fence (blank lines aside) is an HTML comment
 //! `<!-- docs-check: skip (why) -->`; skipped blocks are counted and listed with their reason.
@@ -148,30 +156,52 @@ pub struct Case {
     pub outputs: Vec<Block>,
 }
 
+/// The commands whose first word makes an untagged block a command block.
+const COMMAND_WORDS: [&str; 4] = ["sins-calib", "cargo", "wc", "/usr/bin/time"];
+
+/// Whether an untagged block is a command block: its first line that is neither blank nor a
+/// `#` comment starts with one of [`COMMAND_WORDS`] (or a `$ ` prompt).
+pub fn untagged_is_command(body: &[String]) -> bool {
+    body.iter()
+        .map(|l| l.trim())
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .is_some_and(|l| {
+            l.starts_with("$ ")
+                || COMMAND_WORDS
+                    .iter()
+                    .any(|w| l.split_whitespace().next() == Some(*w))
+        })
+}
+
 /// The `sh` blocks of a file, each with the `text` blocks after it (up to the next `sh` block or
-/// heading).
-pub fn cases(items: &[Item]) -> Vec<Case> {
+/// heading); untagged blocks count as `sh` or `text` ([`untagged_is_command`]). Returns also
+/// the lines of the untagged blocks that are not a command and follow none.
+pub fn cases(items: &[Item]) -> (Vec<Case>, Vec<usize>) {
     let mut cases: Vec<Case> = Vec::new();
+    let mut orphans = Vec::new();
     let mut in_scope = false;
     for item in items {
         match item {
             Item::Heading => in_scope = false,
-            Item::Block(b) if b.lang == "sh" => {
+            Item::Block(b)
+                if b.lang == "sh" || (b.lang.is_empty() && untagged_is_command(&b.body)) =>
+            {
                 cases.push(Case {
                     command: b.clone(),
                     outputs: Vec::new(),
                 });
                 in_scope = true;
             }
-            Item::Block(b) if b.lang == "text" && in_scope => {
+            Item::Block(b) if (b.lang == "text" || b.lang.is_empty()) && in_scope => {
                 if let Some(c) = cases.last_mut() {
                     c.outputs.push(b.clone());
                 }
             }
+            Item::Block(b) if b.lang.is_empty() && b.skip.is_none() => orphans.push(b.line),
             Item::Block(_) => {}
         }
     }
-    cases
+    (cases, orphans)
 }
 
 /// A line with its whitespace normalised.
@@ -361,12 +391,22 @@ fn copy_repository(root: &Path, dest: &Path) -> std::io::Result<()> {
     copy_dir(root, dest, true)
 }
 
-/// The Markdown files checked: `README.md` and `docs/*.md`, in name order.
+/// The Markdown files checked: `README.md` and every `.md` under `docs/` (the report example's
+/// too), in name order.
 fn markdown_files(root: &Path) -> std::io::Result<Vec<PathBuf>> {
-    let mut docs: Vec<PathBuf> = std::fs::read_dir(root.join("docs"))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "md"))
-        .collect();
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
+        for e in std::fs::read_dir(dir)? {
+            let p = e?.path();
+            if p.is_dir() {
+                walk(&p, out)?;
+            } else if p.extension().is_some_and(|x| x == "md") {
+                out.push(p);
+            }
+        }
+        Ok(())
+    }
+    let mut docs = Vec::new();
+    walk(&root.join("docs"), &mut docs)?;
     docs.sort();
     let mut files = vec![root.join("README.md")];
     files.extend(docs);
@@ -399,7 +439,14 @@ fn check_file(rel: &str, file: &Path, work: &Path, root: &Path, bin_dir: &Path) 
         }
     };
     let items = parse_markdown(&text);
-    let cases = cases(&items);
+    let (cases, orphans) = cases(&items);
+    for line in orphans {
+        say!(
+            "FAIL {rel}:{line}: a block without a language tag that is neither a command nor \
+             follows one: tag it (`text` for an illustration, `sh` for a command)"
+        );
+        tally.failed += 1;
+    }
     if cases.is_empty() {
         return (report, tally);
     }
@@ -637,7 +684,8 @@ mod tests {
     #[test]
     fn blocks_skips_and_scopes() {
         let md = "# T\n\n```sh\na\n```\n\nprose\n\n```text\nout\n```\n\n## H\n\n```text\nnot output\n```\n\n<!-- docs-check: skip (takes 3 min) -->\n```sh\nslow\n```\n";
-        let c = cases(&parse_markdown(md));
+        let (c, orphans) = cases(&parse_markdown(md));
+        assert!(orphans.is_empty());
         assert_eq!(c.len(), 2);
         assert_eq!(c[0].command.body, vec!["a"]);
         assert_eq!(c[0].outputs.len(), 1);
@@ -645,6 +693,20 @@ mod tests {
         assert_eq!(c[0].command.skip, None);
         assert_eq!(c[1].command.skip.as_deref(), Some("takes 3 min"));
         assert_eq!(c[1].command.line, 20);
+    }
+
+    #[test]
+    fn untagged_blocks_are_commands_or_outputs() {
+        let md = "# T\n\n```\n# a comment\ncargo xtask paper-check\n```\n\n```\nprinted\n```\n\n## H\n\n```\nnot after a command\n```\n\n```\n$ sins-calib --help\n```\n";
+        let (c, orphans) = cases(&parse_markdown(md));
+        assert_eq!(c.len(), 2);
+        assert_eq!(c[0].command.body[1], "cargo xtask paper-check");
+        assert_eq!(c[0].outputs.len(), 1);
+        assert_eq!(c[0].outputs[0].body, vec!["printed"]);
+        assert_eq!(orphans, vec![14]);
+        assert!(c[1].outputs.is_empty());
+        assert!(!untagged_is_command(&["cargo-like output".to_string()]));
+        assert!(untagged_is_command(&["  sins-calib simulate".to_string()]));
     }
 
     #[test]

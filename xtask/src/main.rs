@@ -70,9 +70,11 @@ enum Command {
         #[arg(long)]
         case: Option<String>,
     },
-    /// Run every `sh` block of README.md and docs/*.md as written (sins-calib: the release
-    /// binary; from a temporary copy of the repository; /tmp/ redirected) and compare the
-    /// `text` blocks after each with its output (excerpt rule: xtask/src/docs_check.rs).
+    /// Run every `sh` block (and untagged block that is a command) of README.md and the .md
+    /// files under docs/ as written (sins-calib: the release binary; from a temporary copy of
+    /// the repository; /tmp/ redirected) and compare the `text` and untagged blocks after each
+    /// with its output (excerpt rule: xtask/src/docs_check.rs); an untagged block after no
+    /// command fails.
     /// Ends with `docs-check: N passed, M failed, K skipped`; exits non-zero on a failure.
     DocsCheck {
         /// Check only these files (paths relative to the repository, e.g. README.md).
@@ -328,7 +330,11 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) 
         }
     );
     if let Some(path) = json_path {
-        let doc = json!({ "tables": Value::Object(out), "navigation": nav_json });
+        let doc = json!({
+            "schema": calib::schema::Schema::current(calib::schema::PAPER_CHECK),
+            "tables": Value::Object(out),
+            "navigation": nav_json,
+        });
         if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap() + "\n") {
             eprintln!("error: {}: cannot write: {e}", path.display());
             return ExitCode::FAILURE;
@@ -733,8 +739,7 @@ mod tests {
             parameters,
             correlation: Some(correlation),
             correction: None,
-            verdict: None,
-            temperature: None,
+            ..Default::default()
         };
         let dir = std::env::temp_dir().join(format!("xtask-nav-error-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

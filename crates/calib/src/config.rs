@@ -512,6 +512,63 @@ fn program_from_angles() -> String {
     PROGRAM_FROM_ANGLES.to_string()
 }
 
+/// The identity of an IMU (`[unit]` of a run configuration or import profile, `--unit-model`
+/// and `--unit-serial` of the commands): what a calibration result says it is of, so that it is
+/// not applied to another unit's records by mistake. Both fields are optional.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UnitIdentity {
+    /// The unit's model (type designation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    /// The unit's serial number.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub serial: Option<String>,
+}
+
+impl UnitIdentity {
+    /// Whether neither model nor serial is known.
+    pub fn is_empty(&self) -> bool {
+        self.model.is_none() && self.serial.is_none()
+    }
+
+    /// `self` with the fields `other` has set replacing its own.
+    pub fn overridden_by(&self, other: &UnitIdentity) -> UnitIdentity {
+        UnitIdentity {
+            model: other.model.clone().or_else(|| self.model.clone()),
+            serial: other.serial.clone().or_else(|| self.serial.clone()),
+        }
+    }
+
+    /// Where two identities contradict each other: a field both give, with different values
+    /// (`(field, self's, other's)`); a field only one gives is no contradiction.
+    pub fn conflicts(&self, other: &UnitIdentity) -> Vec<(&'static str, String, String)> {
+        [
+            ("model", &self.model, &other.model),
+            ("serial", &self.serial, &other.serial),
+        ]
+        .into_iter()
+        .filter_map(|(f, a, b)| match (a, b) {
+            (Some(a), Some(b)) if a.trim() != b.trim() => Some((f, a.clone(), b.clone())),
+            _ => None,
+        })
+        .collect()
+    }
+
+    /// `model M, serial S` (what is known), or `unknown`.
+    pub fn describe(&self) -> String {
+        let parts: Vec<String> = [("model", &self.model), ("serial", &self.serial)]
+            .into_iter()
+            .filter_map(|(f, v)| v.as_ref().map(|v| format!("{f} {v}")))
+            .collect();
+        if parts.is_empty() {
+            "unknown".into()
+        } else {
+            parts.join(", ")
+        }
+    }
+}
+
 /// A whole run configuration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -544,6 +601,10 @@ pub struct RunConfig {
     /// model-extension loop see. Not a file setting.
     #[serde(skip)]
     pub recorded_temperature: Option<(turntable::temperature::TemperatureProfile, f64)>,
+    /// The unit calibrated (model, serial): written into the result and its report, and
+    /// checked by `apply` against the data's unit (absent: unknown).
+    #[serde(default, skip_serializing_if = "UnitIdentity::is_empty")]
+    pub unit: UnitIdentity,
     /// Directory the configuration was read from (for relative program paths).
     #[serde(skip)]
     pub base_dir: Option<PathBuf>,

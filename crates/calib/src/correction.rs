@@ -125,8 +125,10 @@ pub enum CorrectionError {
 #[serde(rename_all = "snake_case")]
 pub enum ExtensionInputs {
     /// The true (corrected) specific force and rate, as the filter and the simulator model them
-    /// (`nu = ... + G f + diag(a) |w|`).
+    /// (`nu = ... + G f + diag(a) |w|`). Written `"corrected"`; `"true"`, the name earlier
+    /// versions wrote (a string a reader could take for a boolean), is read as it.
     #[default]
+    #[serde(rename = "corrected", alias = "true")]
     True,
     /// The measured ones, as the free-motion fit models them (`nu = ... + G f' + diag(a) |w'|`).
     Measured,
@@ -204,7 +206,7 @@ pub struct ThermalBlock {
 pub struct CorrectionBlock {
     /// The formulas the numbers belong to, for a reader of the file.
     pub convention: String,
-    /// What the gyro extension terms are evaluated at (`true` or `measured`).
+    /// What the gyro extension terms are evaluated at (`"corrected"` or `"measured"`).
     pub extension_inputs: ExtensionInputs,
     /// Gyro triad.
     pub gyro: GyroBlock,
@@ -694,6 +696,8 @@ pub fn result_file(
         correction,
         verdict: None,
         temperature,
+        schema: Some(crate::schema::Schema::current(crate::schema::CALIBRATION)),
+        unit: None,
     }
 }
 
@@ -955,6 +959,13 @@ mod tests {
         assert_eq!(back, b);
         assert_eq!(b.gyro.matrix[0][1], c.gyro_matrix[(0, 1)]);
         assert_eq!(b.accel.lever.unwrap()[2][0], c.accel_lever.unwrap()[(2, 0)]);
-        assert!(text.contains("\"extension_inputs\":\"true\""), "{text}");
+        assert!(
+            text.contains("\"extension_inputs\":\"corrected\""),
+            "{text}"
+        );
+        // The name earlier versions wrote reads as the same.
+        let old = text.replace("\"corrected\"", "\"true\"");
+        let back: CorrectionBlock = serde_json::from_str(&old).unwrap();
+        assert_eq!(back.extension_inputs, ExtensionInputs::True);
     }
 }

@@ -63,6 +63,13 @@ pub enum IoError {
         /// What is wrong and what was expected.
         message: String,
     },
+    /// A JSON file of another kind, or of a newer layout than this program reads (the message
+    /// names the file).
+    #[error("{message}")]
+    Stamp {
+        /// What was found and what was expected, with the file.
+        message: String,
+    },
     /// JSON that is not a result file.
     #[error("{file}: not a result file: {source}")]
     Json {
@@ -1145,6 +1152,12 @@ pub struct ResultParameter {
 /// files; other keys such as `fit` are ignored when reading).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ResultFile {
+    /// The file's schema stamp ([`crate::schema`]; absent in files written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub schema: Option<crate::schema::Schema>,
+    /// The unit the result is of (absent: not known).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<crate::config::UnitIdentity>,
     /// Parameters in state order.
     pub parameters: Vec<ResultParameter>,
     /// Correlation matrix of the parameters (rows and columns in the order of `parameters`),
@@ -1221,6 +1234,8 @@ impl From<&Truth> for ResultFile {
                     min_c: None,
                     max_c: None,
                 }),
+            schema: Some(crate::schema::Schema::current(crate::schema::TRUTH)),
+            unit: None,
         }
     }
 }
@@ -1236,7 +1251,15 @@ pub fn write_truth_json(path: &Path, truth: &Truth) -> Result<(), IoError> {
     write_result_json(path, &ResultFile::from(truth))
 }
 
-/// Read a result or truth file.
+/// The kinds of file [`read_result_json`] reads: they all hold `parameters`.
+pub const RESULT_KINDS: [&str; 3] = [
+    crate::schema::CALIBRATION,
+    crate::schema::TRUTH,
+    crate::schema::DIAGNOSIS,
+];
+
+/// Read a result or truth file (refusing one whose schema stamp is of another kind or newer
+/// than this program: [`crate::schema::check`]).
 pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
     let text = read_text(path)?;
     let file = path.display().to_string();
@@ -1244,6 +1267,11 @@ pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
         file: file.clone(),
         source,
     })?;
+    if let Some(stamp) = &result.schema {
+        let v = serde_json::to_value(stamp).expect("plain data");
+        crate::schema::check(&file, Some(&v), &RESULT_KINDS, "a result or truth file")
+            .map_err(|message| IoError::Stamp { message })?;
+    }
     for (i, p) in result.parameters.iter().enumerate() {
         if result.parameters[..i].iter().any(|q| q.name == p.name) {
             return Err(IoError::File {

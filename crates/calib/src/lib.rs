@@ -31,6 +31,7 @@
 //! - [`hand_turned`]: a hand-turned recording's noise and configuration from its own rests;
 //! - [`io`]: the interchange files (readers with file and line in every error, writers);
 //! - [`simulate`]: the truth of a simulated run from a run configuration;
+//! - [`schema`]: the schema stamp of the JSON files written and its check on reading;
 //! - [`stats`]: NEES and chi-square bands;
 //! - [`diagnostics`]: tests of a fit from its innovations (NIS per segment, whiteness, lines at
 //!   the program's frequencies, regression on candidate terms);
@@ -75,5 +76,6 @@ pub mod posterior;
 pub mod program_start;
 pub mod report;
 pub mod rests;
+pub mod schema;
 pub mod simulate;
 pub mod stats;

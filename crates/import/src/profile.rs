@@ -24,6 +24,10 @@ pub struct Profile {
     /// Free text naming the instrument or the recording (printed, written to `import.json`).
     #[serde(default)]
     pub description: Option<String>,
+    /// The unit recorded (`[unit]`: model, serial), written to `import.json` and from there into
+    /// a calibration of the imported records.
+    #[serde(default)]
+    pub unit: calib::config::UnitIdentity,
     /// Whether the sensors give rates (`"rates"`: angular rate and specific force) or increments
     /// (`"increments"`: angle and velocity increments over the interval ending at the time stamp).
     pub form: Form,

@@ -2,7 +2,7 @@
 
 use crate::diagnose::{DriftReachJson, drift_reach_json};
 use crate::table::{self, Align, Table};
-use crate::{Error, load_config, output, print};
+use crate::{Error, load_config, output};
 use calib::covariance::covariance_analysis_ext;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -202,11 +202,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
             walk_reach: reach,
             terms: separations,
         };
-        let text = serde_json::to_string_pretty(&json)? + "\n";
+        let text = calib::schema::to_json(calib::schema::ANALYSIS, &json)?;
         output::write_file(path, text.as_bytes())?;
-        let _ = writeln!(s, "\nwrote {}", path.display());
+        if !output::is_stdout(path) {
+            let _ = writeln!(s, "\nwrote {}", path.display());
+        }
     }
-    print(&s)
+    crate::report(&s, args.json.as_deref())
 }
 
 /// Each asked term's separability from the paper's parameters in the posterior, written into

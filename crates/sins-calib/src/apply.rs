@@ -2,6 +2,7 @@
 //! inverted record by record, `calib::correction`), written in the form they came in.
 
 use crate::{Error, print};
+use calib::config::UnitIdentity;
 use calib::correction::{Correction, ExtensionInputs, correct_record};
 use calib::io::{ImuKind, ImuReader, ImuRecord, format_f64, read_result_json};
 use std::path::{Path, PathBuf};
@@ -24,6 +25,67 @@ pub struct Args {
     /// exit status 3 of `calibrate`): refused without this.
     #[arg(long)]
     pub accept_misfit: bool,
+    /// The unit the --imu records are of (also read from the `[unit]` of the import profile,
+    /// through the import.json beside them): a calibration of another unit (its `unit`) is
+    /// refused.
+    #[command(flatten)]
+    pub unit: crate::provenance::UnitArgs,
+    /// Apply a calibration whose unit (model or serial) differs from the data's: refused
+    /// without this.
+    #[arg(long)]
+    pub accept_other_unit: bool,
+}
+
+/// Refuse a calibration of another unit than the data's (unless `--accept-other-unit`);
+/// returns the note for stderr (printed once the records are written) when either side's
+/// identity is unknown or a different unit was accepted.
+fn check_unit(
+    args: &Args,
+    cal_file: &str,
+    cal_unit: Option<&UnitIdentity>,
+) -> Result<Option<String>, Error> {
+    let data = crate::provenance::gather(&args.imu, None, &args.unit, false)?;
+    let imu_file = args.imu.display();
+    let cal_unit = cal_unit.filter(|u| !u.is_empty());
+    let Some(cal_unit) = cal_unit else {
+        return Ok(Some(format!(
+            "apply: {cal_file} does not say which unit it is of: the unit is not checked{}",
+            if data.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" (the data's: {})", data.unit.describe())
+            }
+        )));
+    };
+    if data.unit.is_empty() {
+        return Ok(Some(format!(
+            "apply: the unit of {imu_file} is not known (--unit-serial, --unit-model, or the \
+             [unit] of its import profile): the calibration's unit ({}) is not checked",
+            cal_unit.describe()
+        )));
+    }
+    let conflicts = cal_unit.conflicts(&data.unit);
+    if conflicts.is_empty() {
+        return Ok(None);
+    }
+    let what = conflicts
+        .iter()
+        .map(|(f, c, d)| format!("{f} \"{c}\" against \"{d}\""))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if args.accept_other_unit {
+        return Ok(Some(format!(
+            "apply: {cal_file} is of another unit than {imu_file} ({what}); applied as \
+             --accept-other-unit asks"
+        )));
+    }
+    Err(format!(
+        "{cal_file}: this calibration is of another unit than {imu_file} ({what}; the data's \
+         unit from {}): its correction belongs to that unit. Give the calibration of this unit, \
+         or --accept-other-unit to apply it anyway",
+        data.unit_sources.join(", ")
+    )
+    .into())
 }
 
 /// The same file, whether or not `b` exists yet.
@@ -171,6 +233,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
              --accept-misfit asks"
         );
     }
+    let unit_note = check_unit(args, &cal_file, result.unit.as_ref())?;
     let inputs = result
         .correction
         .as_ref()
@@ -221,6 +284,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     })();
     let n = written?;
     guard.keep();
+    if let Some(note) = unit_note {
+        eprintln!("{note}");
+    }
     let mut s = String::new();
     let form = match kind {
         ImuKind::Rates => "rates",

@@ -4,6 +4,7 @@ use crate::diagnostic_plots::write_diagnostic_plots;
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config};
 use calib::angle_records::AngleFile;
+use calib::config::UnitIdentity;
 use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
 use calib::estimate::{Estimate, FileImu, FitStatistics, ImuSource as _, estimate_from};
 use calib::extension::ModelExtension;
@@ -111,12 +112,23 @@ pub struct Args {
     /// How rests are found in a recording without a program (and with --free-motion).
     #[command(flatten)]
     pub detector: crate::detector_args::DetectorArgs,
+    /// The unit calibrated.
+    #[command(flatten)]
+    pub unit: crate::provenance::UnitArgs,
 }
 
 /// The JSON result: the parameters as `calib::io::ResultFile` writes them, plus the fit
 /// statistics (readers of `ResultFile` ignore the extra field).
 #[derive(Serialize)]
 struct ResultJson<'a> {
+    /// The unit the data are of (absent: unknown).
+    #[serde(skip_serializing_if = "UnitIdentity::is_empty")]
+    unit: &'a UnitIdentity,
+    /// With --free-motion: every input file with its SHA-256.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    inputs: Option<&'a [crate::provenance::InputHash]>,
+    /// What the run assumed for want of an input (e.g. the site's latitude).
+    assumptions: &'a [String],
     parameters: &'a [ResultParameter],
     /// The posterior correlation of the parameters (docs/formats.md).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -320,6 +332,13 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 .into(),
         );
     }
+    let mut provenance = {
+        let config_unit = args
+            .config
+            .as_deref()
+            .map(|_| (input.origin.as_str(), &input.config.unit));
+        crate::provenance::gather(&args.imu, config_unit, &args.unit, args.free_motion)?
+    };
     let turntable = input.tt.as_ref().map(AngleFile::records);
     let bar = progress_bar(input.imu.len_hint().unwrap_or(0));
     let mut progress = |done: usize, total: usize| {
@@ -398,6 +417,29 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     };
     bar.finish_and_clear();
 
+    if args.free_motion {
+        // Hashed now that their readers have read (and bounded) them.
+        let mut files: Vec<(&str, &Path)> = Vec::new();
+        files.extend(args.sections.as_deref().map(|p| ("section list", p)));
+        files.extend(
+            args.terms_from
+                .as_deref()
+                .map(|p| ("diagnose result (--terms-from)", p)),
+        );
+        files.extend(
+            args.config
+                .as_deref()
+                .map(Path::new)
+                .filter(|p| p.is_file())
+                .map(|p| ("run configuration", p)),
+        );
+        files.extend(args.truth.as_deref().map(|p| ("truth", p)));
+        provenance.hash_files(&files)?;
+    }
+    let assumptions: Vec<String> = match &hand_turned {
+        Some((_, Some(setup))) => setup.assumptions.clone(),
+        _ => Vec::new(),
+    };
     let mut s = header_report(&input, &est);
     for line in missed_rests.iter().flatten() {
         let _ = writeln!(s, "  missed rests    {line}");
@@ -405,6 +447,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     if let Some((r, Some(setup))) = &hand_turned {
         s += &crate::free_motion::header(setup, r, args.holdout);
     }
+    s += &provenance_report(&provenance, &assumptions);
     s.push('\n');
     s += &parameter_report(&est, input.truth.as_ref());
     s.push('\n');
@@ -435,6 +478,8 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     if let Some(path) = &args.json {
         write_result_json(
             path,
+            &provenance,
+            &assumptions,
             &est,
             diagnostics.as_ref(),
             turntable.is_some(),
@@ -461,7 +506,8 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 (c, _) => c,
             },
             &input.config,
-        )?;
+        )?
+        .with_provenance(&provenance, &assumptions);
         let plots = crate::lab_report::write_calibration(dir, id, &est, d, &bad, truth)?;
         let _ = writeln!(s, "wrote the report {} ({plots} plots)", dir.display());
     }
@@ -530,8 +576,11 @@ fn check_truth_units(args: &Args, input: &Inputs, layout: &StateLayout) -> Resul
 }
 
 /// The result JSON (docs/formats.md), written atomically (or to standard output for `-`).
+#[allow(clippy::too_many_arguments)]
 fn write_result_json(
     path: &Path,
+    provenance: &crate::provenance::RunProvenance,
+    assumptions: &[String],
     est: &Estimate,
     diagnostics: Option<&Diagnostics>,
     with_tt: bool,
@@ -541,6 +590,9 @@ fn write_result_json(
     let bad = &verdict.decisive;
     let result = est.to_result_file();
     let json = ResultJson {
+        unit: &provenance.unit,
+        inputs: (!provenance.inputs.is_empty()).then_some(provenance.inputs.as_slice()),
+        assumptions,
         parameters: &result.parameters,
         correlation: result.correlation.as_ref(),
         correction: result.correction.as_ref(),
@@ -561,8 +613,42 @@ fn write_result_json(
         diagnostics,
         free_motion,
     };
-    let text = serde_json::to_string_pretty(&json)? + "\n";
+    let text = calib::schema::to_json(calib::schema::CALIBRATION, &json)?;
     crate::output::write_file(path, text.as_bytes())
+}
+
+/// The report's lines on the unit, the inputs' SHA-256 (with --free-motion) and the
+/// assumptions.
+fn provenance_report(p: &crate::provenance::RunProvenance, assumptions: &[String]) -> String {
+    let mut s = String::new();
+    if p.unit.is_empty() {
+        let _ = writeln!(
+            s,
+            "  unit            unknown (no [unit] in the configuration or import profile; \
+             --unit-model, --unit-serial)"
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "  unit            {} (from {})",
+            p.unit.describe(),
+            p.unit_sources.join(", ")
+        );
+    }
+    for f in &p.inputs {
+        let _ = writeln!(
+            s,
+            "  input           {}: {} ({} bytes, SHA-256 {})",
+            f.role, f.path, f.bytes, f.sha256
+        );
+    }
+    for note in &p.notes {
+        let _ = writeln!(s, "  note            {note}");
+    }
+    for a in assumptions {
+        let _ = writeln!(s, "  ASSUMED         {a}");
+    }
+    s
 }
 
 /// What `calibrate` reads before the filter runs.
@@ -805,6 +891,12 @@ fn report_inputs(args: &Args) -> Vec<(&'static str, &Path)> {
     let mut v: Vec<(&'static str, &Path)> = vec![("IMU records", args.imu.as_path())];
     v.extend(args.turntable.as_deref().map(|p| ("turntable angles", p)));
     v.extend(args.truth.as_deref().map(|p| ("truth", p)));
+    v.extend(args.sections.as_deref().map(|p| ("section list", p)));
+    v.extend(
+        args.terms_from
+            .as_deref()
+            .map(|p| ("diagnose result (--terms-from)", p)),
+    );
     v
 }
 

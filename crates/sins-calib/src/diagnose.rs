@@ -216,7 +216,7 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
             .collect(),
         temperature: r.last.estimate.temperature.clone(),
     };
-    Ok(serde_json::to_string_pretty(&j)?)
+    Ok(calib::schema::to_json(calib::schema::DIAGNOSIS, &j)?)
 }
 
 /// One round of the loop: its candidates with their evidence and separability, what was

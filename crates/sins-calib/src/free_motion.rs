@@ -44,6 +44,9 @@ pub struct Setup {
     pub grade: Option<GradeChoice>,
     /// Known turns of the section list.
     pub turns: Vec<KnownTurn>,
+    /// What the configuration assumed for want of an input (the site's latitude, and the
+    /// gravity from it).
+    pub assumptions: Vec<String>,
 }
 
 /// The configuration: `given` (without a program) with its own noise, or the recording's
@@ -60,6 +63,7 @@ pub fn setup(
     rests: &[Rest],
 ) -> Result<Setup, Error> {
     let mut grade = None;
+    let mut assumptions = Vec::new();
     let (config, origin, measured) = match given {
         Some((config, origin)) => {
             let config = config.clone();
@@ -91,6 +95,14 @@ pub fn setup(
             grade = Some(choice);
             let config = calib::hand_turned::default_config(data, lat, &noise, choice.grade)
                 .ok_or_else(|| format!("{file}: fewer than two records"))?;
+            if latitude.is_none() {
+                assumptions.push(format!(
+                    "latitude {lat} deg assumed: no [site] given (--latitude or a \
+                     configuration's [site] sets it); normal gravity {} m/s^2 and the Earth \
+                     rate's components follow from it",
+                    table::significant(config.site().specific_force_at_rest_enu().norm(), 7)
+                ));
+            }
             let interval = 1.0 / config.filter.imu_rate_hz;
             if interval > MAX_RECORD_INTERVAL_S {
                 return Err(calib::estimate::EstimateError::Rests {
@@ -132,6 +144,7 @@ pub fn setup(
         terms: terms.to_vec(),
         grade,
         turns,
+        assumptions,
     })
 }
 
@@ -151,6 +164,12 @@ pub fn terms_asked(
                 path.display()
             )
         })?;
+        calib::schema::check(
+            &path.display().to_string(),
+            v.get("schema"),
+            &[calib::schema::DIAGNOSIS],
+            "the file `sins-calib diagnose --json` writes",
+        )?;
         let accepted = v
             .get("accepted_terms")
             .and_then(|a| a.as_array())
@@ -192,6 +211,11 @@ pub(crate) fn read_sections(
     path: &std::path::Path,
     data: &calib::io::ImuData,
 ) -> Result<SectionsFile, Error> {
+    crate::provenance::check_stamp(
+        path,
+        &[calib::schema::SECTIONS],
+        "the sections.json `sins-calib import` writes",
+    )?;
     let sections = SectionsFile::read(path)?;
     let times: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     sections
@@ -369,6 +393,8 @@ pub struct SetupSummary {
     pub grade: Option<GradeChoice>,
     /// The terms beyond the paper's model.
     pub terms: Vec<Candidate>,
+    /// What the configuration assumed ([`Setup::assumptions`]).
+    pub assumptions: Vec<String>,
 }
 
 impl Setup {
@@ -378,6 +404,7 @@ impl Setup {
             origin: self.origin.clone(),
             grade: self.grade,
             terms: self.terms.clone(),
+            assumptions: self.assumptions.clone(),
         }
     }
 }

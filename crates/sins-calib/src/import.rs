@@ -51,6 +51,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let imported = import_recording(&profile, &options)?;
     let out = output::DirOutput::begin(&args.out, &OUTPUTS)?;
     let tmp = write_outputs(&imported, out.tmp_dir())?;
+    stamp_outputs(&args.profile, &profile, &imported, &tmp)?;
     let written = Written {
         imu: out.final_path("imu.csv"),
         turntable: tmp.turntable.map(|_| out.final_path("turntable.csv")),
@@ -65,6 +66,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let _ = writeln!(s, "sins-calib import: {}", args.profile.display());
     if let Some(d) = &r.description {
         let _ = writeln!(s, "  {d}");
+    }
+    if !profile.unit.is_empty() {
+        let _ = writeln!(s, "  unit: {}", profile.unit.describe());
     }
     for i in &r.inputs {
         let _ = writeln!(
@@ -101,6 +105,66 @@ pub fn run(args: &Args) -> Result<(), Error> {
     s += &written_lines(&imported, &written);
     let _ = writeln!(s, "  wrote {}", written.report.display());
     print(&s)
+}
+
+/// Write the JSON files the `import` crate wrote again with their schema stamp first (the
+/// same contents in the same order), and `import.json` with the profile's `[unit]` and the
+/// SHA-256 of the profile, the raw files and the files written
+/// (`crate::provenance::ImportProvenance`): a calibration of the imported records names them.
+fn stamp_outputs(
+    profile_path: &std::path::Path,
+    profile: &Profile,
+    imported: &Imported,
+    written: &Written,
+) -> Result<(), Error> {
+    use crate::provenance::{ImportProvenance, InputHash};
+    #[derive(serde::Serialize)]
+    struct ImportJson<'a> {
+        #[serde(flatten)]
+        report: &'a ImportReport,
+        #[serde(flatten)]
+        provenance: ImportProvenance,
+    }
+    let write = |p: &std::path::Path, text: String| -> Result<(), Error> {
+        std::fs::write(p, text).map_err(|e| format!("{}: cannot write: {e}", p.display()).into())
+    };
+    let mut output_sha256 = std::collections::BTreeMap::new();
+    output_sha256.insert(
+        "imu.csv".to_string(),
+        crate::sha256::of_file(&written.imu)?.0,
+    );
+    if let Some(p) = &written.turntable {
+        output_sha256.insert("turntable.csv".into(), crate::sha256::of_file(p)?.0);
+    }
+    if let (Some(p), Some(sections)) = (&written.sections, &imported.sections) {
+        write(
+            p,
+            calib::schema::to_json(calib::schema::SECTIONS, sections)?,
+        )?;
+        output_sha256.insert("sections.json".into(), crate::sha256::of_file(p)?.0);
+    }
+    let mut input_files = vec![InputHash::of("import profile", profile_path)?];
+    for (role, p) in profile.input_files() {
+        input_files.push(InputHash::of(&format!("raw {role} file"), &p)?);
+    }
+    if let Some(s) = &profile.sections {
+        input_files.push(InputHash::of(
+            "raw section list",
+            &profile.resolve(&s.file),
+        )?);
+    }
+    let json = ImportJson {
+        report: &imported.report,
+        provenance: ImportProvenance {
+            unit: profile.unit.clone(),
+            input_files,
+            output_sha256,
+        },
+    };
+    write(
+        &written.report,
+        calib::schema::to_json(calib::schema::IMPORT, &json)?,
+    )
 }
 
 /// The gaps of the time stamps, or that there are none.

@@ -43,7 +43,7 @@ const FAILING_TESTS_SHOWN: usize = 40;
 
 /// A file the run read, identified by its content.
 struct InputFile {
-    role: &'static str,
+    role: String,
     path: PathBuf,
     sha256: String,
     bytes: u64,
@@ -57,6 +57,34 @@ pub struct Identification {
     config_text: String,
     command_line: String,
     date_utc: String,
+    /// The unit the data are of (empty: unknown).
+    unit: calib::config::UnitIdentity,
+    /// What the run assumed for want of an input.
+    assumptions: Vec<String>,
+}
+
+impl Identification {
+    /// Add the run's unit, assumptions and the inputs its provenance hashed (the import's
+    /// profile and raw files) that are not listed yet.
+    pub fn with_provenance(
+        mut self,
+        p: &crate::provenance::RunProvenance,
+        assumptions: &[String],
+    ) -> Self {
+        self.unit = p.unit.clone();
+        self.assumptions = assumptions.to_vec();
+        for f in &p.inputs {
+            if !self.inputs.iter().any(|i| i.sha256 == f.sha256) {
+                self.inputs.push(InputFile {
+                    role: f.role.clone(),
+                    path: PathBuf::from(&f.path),
+                    sha256: f.sha256.clone(),
+                    bytes: f.bytes,
+                });
+            }
+        }
+        self
+    }
 }
 
 /// Identify a run of `sins-calib`: hash the `inputs` (role, path) and the configuration given
@@ -70,7 +98,7 @@ pub fn identify(
     let mut add = |role: &'static str, path: &Path| -> Result<(), Error> {
         let (sha256, bytes) = crate::sha256::of_file(path)?;
         files.push(InputFile {
-            role,
+            role: role.to_string(),
             path: path.to_path_buf(),
             sha256,
             bytes,
@@ -114,6 +142,8 @@ pub fn identify(
         config_text,
         command_line: command_line(),
         date_utc: utc_now(),
+        unit: Default::default(),
+        assumptions: Vec::new(),
     })
 }
 
@@ -295,13 +325,17 @@ fn identification_md(id: &Identification) -> String {
     let mut s = String::from("## 1. Identification\n\n");
     let _ = writeln!(
         s,
-        "| | |\n|---|---|\n| tool | sins-calib {} (git commit {}) |\n| date | {} |\n| command \
-         | `{}` |\n",
+        "| | |\n|---|---|\n| unit | {} |\n| tool | sins-calib {} (git commit {}) |\n| date | {} \
+         |\n| command | `{}` |\n",
+        id.unit.describe().replace('|', "\\|"),
         env!("CARGO_PKG_VERSION"),
         env!("SINS_CALIB_GIT_COMMIT"),
         id.date_utc,
         id.command_line.replace('|', "\\|").replace('`', "'")
     );
+    for a in &id.assumptions {
+        let _ = writeln!(s, "**Assumed:** {a}\n");
+    }
     let _ = writeln!(
         s,
         "Input files:\n\n| role | file | bytes | SHA-256 |\n|---|---|---:|---|"

@@ -33,6 +33,7 @@ mod noise;
 mod noise_plot;
 mod output;
 mod plot;
+mod provenance;
 mod recording_checks;
 mod report_plots;
 mod segment;

@@ -5,7 +5,7 @@
 //! `[noise]` block to paste (docs/noise.md).
 
 use crate::table::{self, Align, Table};
-use crate::{Error, load_config, print};
+use crate::{Error, load_config};
 use ::import::detect::{DetectorSettings, RateSource, segment_streamed};
 use ::noise::AxisNoise;
 use ::noise::fit::{NoiseFit, Term};
@@ -378,11 +378,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
         if let (Some(t), Some(root)) = (&thermal, json.as_object_mut()) {
             root.insert("temperature".into(), thermal_json(t));
         }
-        let text = serde_json::to_string_pretty(&json)? + "\n";
+        let text = calib::schema::to_json(calib::schema::NOISE, &json)?;
         crate::output::write_file(path, text.as_bytes())?;
-        let _ = writeln!(out, "wrote {}", path.display());
+        if !crate::output::is_stdout(path) {
+            let _ = writeln!(out, "wrote {}", path.display());
+        }
     }
-    print(&out)
+    crate::report(&out, args.json.as_deref())
 }
 
 /// A level with its sigma; a term the fit left out as `-` with the level it could hide.
@@ -1050,6 +1052,12 @@ pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedW
             e.line()
         )
     })?;
+    calib::schema::check(
+        &file,
+        root.get("schema"),
+        &[calib::schema::NOISE],
+        "the JSON that `sins-calib noise --json` writes",
+    )?;
     let key = "bias_walk_deg_h_sqrt_h";
     let axes = |suffix: &str| -> Result<Vec<Option<f64>>, Error> {
         let k = format!("{key}{suffix}");

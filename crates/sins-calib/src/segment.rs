@@ -3,7 +3,7 @@
 
 use crate::recording_checks;
 use crate::table::{self, Align, Table};
-use crate::{Error, output, print};
+use crate::{Error, output};
 use ::import::detect::{DetectorSettings, RateSource, Segmentation, segment_streamed};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -277,9 +277,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
             imu: file.clone(),
             segmentation: &seg,
         };
-        let text = serde_json::to_string_pretty(&json)? + "\n";
+        let text = calib::schema::to_json(calib::schema::SEGMENTATION, &json)?;
         output::write_file(path, text.as_bytes())?;
-        let _ = writeln!(s, "\nwrote {}", path.display());
+        if !output::is_stdout(path) {
+            let _ = writeln!(s, "\nwrote {}", path.display());
+        }
     }
-    print(&s)
+    crate::report(&s, args.json.as_deref())
 }

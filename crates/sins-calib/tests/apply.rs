@@ -80,7 +80,7 @@ fn ferraris_corrected_turns_and_static_faces() {
             .all(|(i, row)| row[i] == 1.0 && row.as_array().unwrap().len() == n)
     );
     // The filter models the terms on the true specific force and rate.
-    assert_eq!(r["correction"]["extension_inputs"], "true");
+    assert_eq!(r["correction"]["extension_inputs"], "corrected");
     let g = r["free_motion"]["gravity_m_s2"].as_f64().expect("gravity");
 
     let raw = read_imu_csv(&imu).expect("imu");

@@ -10,6 +10,7 @@ mod common;
 mod diagnose;
 mod free_motion;
 mod import;
+mod json_outputs;
 mod noise;
 mod outputs;
 mod refusals;

@@ -232,9 +232,9 @@ pub fn thermal_finding(est: &crate::estimate::Estimate) -> Option<String> {
     let t = est.temperature.as_ref()?;
     let span = t.max_c.zip(t.min_c).map(|(a, b)| a - b)?;
     let has = |triad: &str| {
-        est.names.iter().any(|n| {
-            n.starts_with(triad) && (n.contains(".tbias.") || n.contains(".tscale."))
-        })
+        est.names
+            .iter()
+            .any(|n| n.starts_with(triad) && (n.contains(".tbias.") || n.contains(".tscale.")))
     };
     let missing: Vec<&str> = [("gyro.", "gyros"), ("accel.", "accelerometers")]
         .into_iter()
