@@ -1208,7 +1208,8 @@ pub fn write_truth_json(path: &Path, truth: &Truth) -> Result<(), IoError> {
     write_result_json(path, &ResultFile::from(truth))
 }
 
-/// Read a result or truth file.
+/// Read a result or truth file: every value finite and within the physical bounds of
+/// [`crate::plausible`], each parameter named once.
 pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
     let text = read_text(path)?;
     let file = path.display().to_string();
@@ -1233,6 +1234,13 @@ pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
                     "parameter `{}`: expected a finite value and sigma",
                     excerpt(&p.name)
                 ),
+            });
+        } // Physical bounds (`crate::plausible`): a bias of 1e308 or a 200 % scale error is a
+        // typing error or a diverged fit, not a calibration to apply or a truth to compare with.
+        if let Err(message) = crate::plausible::check(&p.name, p.value) {
+            return Err(IoError::File {
+                file,
+                message: format!("parameter {message}"),
             });
         }
     }

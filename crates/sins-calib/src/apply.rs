@@ -128,6 +128,36 @@ fn correct_stream(
     Ok(count)
 }
 
+/// Refuse a calibration whose compensation matrices `I - Theta` (gyros) and `I + Gamma`
+/// (accelerometers) are singular or ill-conditioned (a condition number above
+/// [`calib::plausible::MAX_COMPENSATION_CONDITION`]): inverting them would amplify the
+/// records' noise into nonsense. (Each entry is already within its physical bound, which
+/// keeps them well-conditioned; this is the check of what the correction inverts.)
+fn check_compensation(result: &calib::io::ResultFile, file: &str) -> Result<(), Error> {
+    use calib::plausible::{MAX_COMPENSATION_CONDITION, condition_number};
+    const AXES: [char; 3] = ['x', 'y', 'z'];
+    for (prefix, sign, what) in [
+        ("gyro.theta", -1.0, "gyro compensation I - Theta"),
+        ("accel.gamma", 1.0, "accelerometer compensation I + Gamma"),
+    ] {
+        let m = nalgebra::Matrix3::from_fn(|i, j| {
+            let name = format!("{prefix}.{}{}", AXES[i], AXES[j]);
+            let v = result.get(&name).map_or(0.0, |p| p.value);
+            f64::from(u8::from(i == j)) + sign * v
+        });
+        let c = condition_number(&m);
+        if !(c <= MAX_COMPENSATION_CONDITION) {
+            return Err(format!(
+                "{file}: the {what} has condition number {c:.3e} (its {prefix}.* parameters): \
+                 expected at most {MAX_COMPENSATION_CONDITION} (a singular or ill-conditioned \
+                 compensation is no instrument's)"
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
 /// Run `apply`.
 pub fn run(args: &Args) -> Result<(), Error> {
     if same_file(&args.imu, &args.out) {
@@ -167,6 +197,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
              --accept-misfit asks"
         );
     }
+    check_compensation(&result, &cal_file)?;
     let inputs = result
         .correction
         .as_ref()
