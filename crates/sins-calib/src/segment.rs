@@ -150,12 +150,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let setting = e.split(' ').next().unwrap_or_default();
         format!("segment: {}: {e}", option_name(setting))
     })?;
+    crate::detector_args::check_bounds(&settings, &option_name)
+        .map_err(|e| format!("segment: {e}"))?;
     if let Some(path) = &args.json {
         output::Outputs::new(&[&args.imu]).file(path, "--json")?;
     }
     let data = calib::io::read_imu_csv(&args.imu)?;
     let file = args.imu.display().to_string();
     recording_checks::check_plausible(&data, &file, settings.window_s)?;
+    if let (Some(a), Some(b)) = (data.records.first(), data.records.last()) {
+        crate::detector_args::check_span(&settings, b.t - a.t, &file, &option_name)?;
+    }
     let seg = segment(&data, &settings).map_err(|e| format!("{file}: {e}"))?;
     recording_checks::check_static_force(&seg, &file)?;
     let c = table::compact;
