@@ -1122,6 +1122,20 @@ pub fn check_overlap(
             ),
         });
     }
+    // Two records, or a file cut after its first lines: the angles would be measured nowhere
+    // and the refusal would blame the motion ("the angles stay constant").
+    let overlap = b1.min(a1) - b0.max(a0);
+    let least = crate::estimate::MIN_RECORDING_S.min(a1 - a0);
+    if overlap < least {
+        return Err(IoError::File {
+            file: file.to_string(),
+            message: format!(
+                "the turntable records overlap the IMU data for {overlap:.3} s only ({b0} s to \
+                 {b1} s on the IMU clock, the IMU data {a0} s to {a1} s): expected turntable \
+                 records over at least {least} s of the IMU run (a file cut short?)"
+            ),
+        });
+    }
     Ok(())
 }
 

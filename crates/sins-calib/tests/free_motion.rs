@@ -224,7 +224,7 @@ fn a_section_list_of_other_records_is_refused() {
     refused(
         &dir.join("xsens/imu.csv"),
         &sections,
-        "section `x_p` says 5.2734375 .. 12.40234375 s, but its records are stamped",
+        "section `x_p`: start_s .. end_s = 5.2734375 .. 12.40234375 s, but its records are stamped",
     );
     let mut list = json(&sections);
     list["sections"][0]["last_record"] = serde_json::json!(1_000_000);
@@ -328,7 +328,7 @@ fn absurd_recordings_are_refused() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("holdout K = 1000: the recording has 38 rests"),
+        err.contains("holdout K = 1000 (--holdout): the recording has 38 rests"),
         "{err}"
     );
 }
