@@ -158,6 +158,34 @@ fn check_compensation(result: &calib::io::ResultFile, file: &str) -> Result<(), 
     Ok(())
 }
 
+/// Records of the file's beginning the unit checks read.
+const UNIT_CHECK_RECORDS: usize = 100_000;
+
+/// The units `segment` checks, on the file's first [`UNIT_CHECK_RECORDS`] records (the
+/// correction itself streams): time stamps in seconds, gyro and accelerometer columns in their
+/// places, a median specific force of g (not g units). A correction of misread records would
+/// be written without a word.
+fn check_units(path: &Path) -> Result<(), Error> {
+    let mut reader = ImuReader::open(path)?;
+    let mut records = Vec::new();
+    while records.len() < UNIT_CHECK_RECORDS
+        && let Some(r) = reader.next_record()?
+    {
+        records.push(r);
+    }
+    if records.len() < 2 {
+        // `correct_stream` names what is missing.
+        return Ok(());
+    }
+    let data = calib::io::ImuData {
+        kind: reader.kind(),
+        records,
+    };
+    let file = path.display().to_string();
+    crate::recording_checks::check_plausible(&data, &file, 0.0)?;
+    crate::recording_checks::check_median_gravity(&data, &file)
+}
+
 /// Run `apply`.
 pub fn run(args: &Args) -> Result<(), Error> {
     if same_file(&args.imu, &args.out) {
@@ -205,6 +233,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let correction = Correction::from_parameters(&result.parameters, inputs).map_err(|e| {
         format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
     })?;
+    check_units(&args.imu)?;
     let mut reader = ImuReader::open(&args.imu)?;
     let kind = reader.kind();
 

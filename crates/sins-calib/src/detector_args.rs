@@ -157,7 +157,13 @@ pub fn rests_and_segmentation(
     if let (Some(a), Some(b)) = (data.records.first(), data.records.last()) {
         check_span(settings, b.t - a.t, file, &option_name)?;
     }
+    // The units `segment` checks (time stamps in seconds, specific force in m/s^2, the gyro
+    // and accelerometer columns in their places, two records at least): rests found in
+    // misread records would blame the rests ("only 2 directions") instead of the units.
+    crate::recording_checks::check_plausible(data, file, settings.window_s)
+        .map_err(|e| e.to_string())?;
     let seg = ::import::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
+    crate::recording_checks::check_static_force(&seg, file).map_err(|e| e.to_string())?;
     let dt = seg.median_interval_s;
     let rests = seg
         .static_intervals

@@ -88,6 +88,35 @@ pub(crate) fn check_plausible(
     Ok(())
 }
 
+/// The median specific force of a recording (at rest, on a turntable or turned by hand) is
+/// about g: outside [`G_AT_REST`] times g the accelerometer values are not in m/s^2 (in g, or
+/// not an accelerometer's). For commands that find no rests (`apply`).
+pub(crate) fn check_median_gravity(data: &calib::io::ImuData, file: &str) -> Result<(), Error> {
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let (_, _, f) = ::import::detect::rates_of(data);
+    let mut norms: Vec<f64> = f
+        .iter()
+        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+        .collect();
+    if norms.is_empty() {
+        return Ok(());
+    }
+    let m = median(&mut norms);
+    if !(G_AT_REST.0 * G..=G_AT_REST.1 * G).contains(&m) {
+        return Err(format!(
+            "{file}: the median specific force is {} m/s^2 ({} g): expected about g = {G} m/s^2 \
+             (within {} .. {} g); the accelerometer values are not in m/s^2 (in g?) or the \
+             records are not of an IMU",
+            table::significant(m, 4),
+            table::significant(m / G, 4),
+            G_AT_REST.0,
+            G_AT_REST.1
+        )
+        .into());
+    }
+    Ok(())
+}
+
 /// The specific force at rest is gravity: a static interval whose mean |f| is outside
 /// [`G_AT_REST`] times g is refused (the file's accelerometers are not in m/s^2, or read
 /// nothing).
