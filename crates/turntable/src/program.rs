@@ -136,19 +136,17 @@ pub struct ProgramSpec {
     pub segments: Vec<Segment>,
 }
 
-/// A gimbal number, read as any integer so that a wrong one is refused naming the field (a
-/// `u8` read directly reports `-1` as an invalid integer, without the field's name: the
+/// A gimbal number, read as any integer so that one beyond a `u8` is refused naming the field
+/// (a `u8` read directly reports `-1` as an invalid integer, without the field's name: the
 /// segment's kind tag makes the reader buffer the table).
 fn gimbal_number<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
     let v = i64::deserialize(d)?;
-    u8::try_from(v)
-        .ok()
-        .filter(|g| (1..=3).contains(g))
-        .ok_or_else(|| {
-            serde::de::Error::custom(format!(
-                "gimbal = {v}: expected 1, 2 or 3 (heading, bank, pitch)"
-            ))
-        })
+    // Numbers that fit are checked with the segment's index (`segment_problem`).
+    u8::try_from(v).map_err(|_| {
+        serde::de::Error::custom(format!(
+            "gimbal = {v}: expected 1, 2 or 3 (heading, bank, pitch)"
+        ))
+    })
 }
 
 /// Three angles within +-[`MAX_ANGLE_DEG`], or what is wrong with them.
