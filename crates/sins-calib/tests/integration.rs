@@ -12,6 +12,7 @@ mod free_motion;
 mod import;
 mod noise;
 mod outputs;
+mod readers;
 mod refusals;
 mod report;
 mod rests;
