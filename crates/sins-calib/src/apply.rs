@@ -105,8 +105,22 @@ fn correct_stream(
         *count += 1;
         Ok::<(), Error>(())
     };
-    while let Some(r) = reader.next_record()? {
-        window.push((r, reader.line()));
+    // The first records, checked for their units before any is corrected.
+    let mut prefix = Vec::new();
+    while prefix.len() < UNIT_CHECK_RECORDS
+        && let Some(r) = reader.next_record()?
+    {
+        prefix.push((r, reader.line()));
+    }
+    check_units(&prefix, kind, &file)?;
+    let mut prefix = prefix.into_iter();
+    loop {
+        let next = match prefix.next() {
+            Some(x) => Some(x),
+            None => reader.next_record()?.map(|r| (r, reader.line())),
+        };
+        let Some((r, at)) = next else { break };
+        window.push((r, at));
         if window.len() > 4 {
             window.remove(0);
         }
@@ -162,28 +176,20 @@ fn check_compensation(result: &calib::io::ResultFile, file: &str) -> Result<(), 
 const UNIT_CHECK_RECORDS: usize = 100_000;
 
 /// The units `segment` checks, on the file's first [`UNIT_CHECK_RECORDS`] records (the
-/// correction itself streams): time stamps in seconds, gyro and accelerometer columns in their
-/// places, a median specific force of g (not g units). A correction of misread records would
-/// be written without a word.
-fn check_units(path: &Path) -> Result<(), Error> {
-    let mut reader = ImuReader::open(path)?;
-    let mut records = Vec::new();
-    while records.len() < UNIT_CHECK_RECORDS
-        && let Some(r) = reader.next_record()?
-    {
-        records.push(r);
-    }
-    if records.len() < 2 {
+/// correction itself streams, and reads them from this prefix, so that a pipe is read once):
+/// time stamps in seconds, gyro and accelerometer columns in their places, a median specific
+/// force of g (not g units). A correction of misread records would be written without a word.
+fn check_units(prefix: &[(ImuRecord, usize)], kind: ImuKind, file: &str) -> Result<(), Error> {
+    if prefix.len() < 2 {
         // `correct_stream` names what is missing.
         return Ok(());
     }
     let data = calib::io::ImuData {
-        kind: reader.kind(),
-        records,
+        kind,
+        records: prefix.iter().map(|(r, _)| *r).collect(),
     };
-    let file = path.display().to_string();
-    crate::recording_checks::check_plausible(&data, &file, 0.0)?;
-    crate::recording_checks::check_median_gravity(&data, &file)
+    crate::recording_checks::check_plausible(&data, file, 0.0)?;
+    crate::recording_checks::check_median_gravity(&data, file)
 }
 
 /// Run `apply`.
@@ -233,7 +239,6 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let correction = Correction::from_parameters(&result.parameters, inputs).map_err(|e| {
         format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
     })?;
-    check_units(&args.imu)?;
     let mut reader = ImuReader::open(&args.imu)?;
     let kind = reader.kind();
 
