@@ -365,7 +365,7 @@ fn scan_imu(
     }
     // Less than a second holds no specific-force measurement at the usual rates: nothing
     // would be estimated, and the priors would be reported as a calibration.
-    if n < 2 || !(prev - first >= MIN_RECORDING_S) {
+    if n < 2 || (prev - first).is_nan() || prev - first < MIN_RECORDING_S {
         return Err(IoError::File {
             file: imu.file().to_string(),
             message: format!(

@@ -106,7 +106,7 @@ pub fn bound(name: &str) -> Option<Bound> {
 pub fn check(name: &str, value: f64) -> Result<(), String> {
     match bound(name) {
         None if !value.is_finite() => Err(format!("{name} = {value}: expected a finite number")),
-        Some(b) if !(value.abs() <= b.max_abs) => {
+        Some(b) if value.is_nan() || value.abs() > b.max_abs => {
             let unit = if b.unit.is_empty() {
                 String::new()
             } else {

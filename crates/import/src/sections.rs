@@ -141,7 +141,7 @@ impl SectionsFile {
                 {
                     // A measured turn may be 0 (a turn that did not happen is the data's to
                     // show); only its size is bounded.
-                    if field == "expected_turn_deg" || !(v.abs() <= MAX_TURN_DEG) {
+                    if field == "expected_turn_deg" || v.is_nan() || v.abs() > MAX_TURN_DEG {
                         return Err(format!("section `{}`: {field} = {e}", s.name));
                     }
                 }
@@ -156,7 +156,7 @@ impl SectionsFile {
             }
             if s.mean_f_m_s2
                 .iter()
-                .any(|f| !(f.abs() < crate::MAX_ACCEL_M_S2))
+                .any(|f| f.is_nan() || f.abs() >= crate::MAX_ACCEL_M_S2)
             {
                 return Err(format!(
                     "section `{}`: mean_f_m_s2 = {:?}: expected a specific force below {} m/s^2 \

@@ -160,7 +160,7 @@ fn check_compensation(result: &calib::io::ResultFile, file: &str) -> Result<(), 
             f64::from(u8::from(i == j)) + sign * v
         });
         let c = condition_number(&m);
-        if !(c <= MAX_COMPENSATION_CONDITION) {
+        if c.is_nan() || c > MAX_COMPENSATION_CONDITION {
             return Err(format!(
                 "{file}: the {what} has condition number {c:.3e} (its {prefix}.* parameters): \
                  expected at most {MAX_COMPENSATION_CONDITION} (a singular or ill-conditioned \

@@ -222,7 +222,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let given = DetectorSettings {
         adapt_window: true,
         adapt_min_duration: false,
-        ..settings.clone()
+        ..settings
     };
     crate::detector_args::check_bounds(&given, &option).map_err(|e| format!("noise: {e}"))?;
     if let (Some(a), Some(b)) = (data.records.first(), data.records.last()) {
