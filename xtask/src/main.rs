@@ -1,5 +1,6 @@
 //! Project automation: `cargo xtask paper-check` reproduces the paper's tables; `cargo xtask
-//! docs-check` runs the documentation's commands and compares their output with the documents.
+//! docs-check` runs the documentation's commands and compares their output with the documents;
+//! `cargo xtask audit` runs every command on hostile inputs and classifies the outcomes.
 
 #![forbid(unsafe_code)]
 
@@ -11,6 +12,7 @@ use serde_json::{Map, Value, json};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod audit;
 mod docs_check;
 mod hidden;
 mod plot;
@@ -86,6 +88,26 @@ enum Command {
         #[arg(long, default_value_t = 2)]
         jobs: usize,
     },
+    /// Run every command of sins-calib on the hostile inputs of xtask/audit/cases.toml (absurd
+    /// numbers, devices and huge files as inputs, wrong units, bad output paths, closed
+    /// standard output), classify each run (panic/abort, silent success, late refusal, damaged
+    /// output, unclear error, refused good input, ok) and print the count per class. Exits
+    /// non-zero when a run is not ok.
+    Audit {
+        /// Run only the cases whose name contains this.
+        #[arg(long)]
+        case: Option<String>,
+        /// Keep the temporary directory of the cases (its path is printed).
+        #[arg(long)]
+        keep: bool,
+        /// Print every case, not only those that are not ok.
+        #[arg(long)]
+        verbose: bool,
+        /// Audit this sins-calib binary instead of building the workspace's (e.g. an earlier
+        /// build, to compare the counts).
+        #[arg(long)]
+        bin: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -101,6 +123,12 @@ fn main() -> ExitCode {
             case,
         } => hidden::hidden_effects(control_seeds, case.as_deref()),
         Command::DocsCheck { files, keep, jobs } => docs_check::docs_check(&files, keep, jobs),
+        Command::Audit {
+            case,
+            keep,
+            verbose,
+            bin,
+        } => audit::audit(case.as_deref(), keep, verbose, bin.as_deref()),
         Command::NavError { result } => match nav_error(&result) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {

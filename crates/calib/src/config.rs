@@ -80,19 +80,29 @@ mod values {
         }
     }
 
-    /// A finite number, zero or above (a level that may be absent).
-    pub fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-        in_range(d, 0.0, f64::MAX, "a finite number, 0 or more")
-    }
-
     /// An IMU rate: above zero, at most 100 kHz (no IMU's; it would only exhaust memory).
     pub fn rate_hz<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-        let v = positive(d)?;
-        if v <= 1e5 {
+        let v = f64::deserialize(d)?;
+        if v.is_finite() && v > 0.0 && v <= super::MAX_RATE_HZ {
             Ok(v)
         } else {
             Err(D::Error::custom(format!(
-                "{v}: expected a rate of at most 1e5 Hz"
+                "{}: expected a rate above 0 and at most 1e5 Hz",
+                shown(v)
+            )))
+        }
+    }
+
+    /// The length of a simulated run: above zero, at most the longest program.
+    pub fn duration_s<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+        let v = f64::deserialize(d)?;
+        if v.is_finite() && v > 0.0 && v <= turntable::program::MAX_PROGRAM_DURATION_S {
+            Ok(Some(v))
+        } else {
+            Err(D::Error::custom(format!(
+                "{}: expected a duration above 0 and at most {} s (10 days)",
+                shown(v),
+                turntable::program::MAX_PROGRAM_DURATION_S
             )))
         }
     }
@@ -125,7 +135,7 @@ mod values {
 
     /// A bias random walk: 0 (none) or at most [`super::SIGMA_MAX`] of its units.
     pub fn walk<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-        let v = non_negative(d)?;
+        let v = f64::deserialize(d)?;
         if v == 0.0 || (super::SIGMA_MIN..=super::SIGMA_MAX).contains(&v) {
             Ok(v)
         } else {
@@ -174,6 +184,18 @@ pub const SIGMA_MAX: f64 = 1e6;
 /// any recording's clock offset; the covariance analysis and the simulator also step through
 /// the time before the start.
 pub const PROGRAM_START_MAX_S: f64 = 1e7;
+
+/// The largest record rate accepted (Hz): 100 kHz is no IMU's and would only exhaust memory.
+pub const MAX_RATE_HZ: f64 = 1e5;
+
+/// The largest turntable clock offset accepted (s, either sign): 1e10 s (317 years) takes a
+/// turntable clock in Unix time (1.7e9 s) and refuses a typing error like `1e300`, whose time
+/// stamps would lose every digit of the run.
+pub const CLOCK_OFFSET_MAX_S: f64 = 1e10;
+
+/// The largest turntable clock rate error accepted (either sign, exclusive): a clock 10 %
+/// fast is already no laboratory's.
+pub const CLOCK_RATE_ERROR_MAX: f64 = 0.1;
 
 /// Site of the turntable.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -365,10 +387,13 @@ pub struct TruthConfig {
     /// Seed of the random generator (parameter draws and noise).
     pub seed: u64,
     /// IMU output rate (Hz).
+    #[serde(deserialize_with = "values::rate_hz")]
     pub imu_rate_hz: f64,
     /// Turntable angle-sensor output rate (Hz) (its own clock).
+    #[serde(deserialize_with = "values::rate_hz")]
     pub turntable_rate_hz: f64,
     /// Length of the run (s); absent = the program's duration.
+    #[serde(deserialize_with = "values::duration_s")]
     pub duration_s: Option<f64>,
     /// Draw every parameter that `values` does not set from its prior (instrument errors,
     /// installation misalignment, delay, and the base misalignment when it is estimated);
@@ -378,7 +403,8 @@ pub struct TruthConfig {
     /// records, where a consistent calibration's errors are far below its sigmas.
     pub noise: bool,
     /// True values in SI units by documented name (`gyro.bias.x`, `install.delta.z`,
-    /// `turntable.tau`, `base.gamma.x`, ...), overriding the draws.
+    /// `turntable.tau`, `base.gamma.x`, ...), overriding the draws; each within its physical
+    /// bound ([`crate::plausible`]).
     pub values: std::collections::BTreeMap<String, f64>,
 }
 
@@ -740,7 +766,12 @@ impl RunConfig {
             } else {
                 Err(ConfigError::Invalid {
                     origin: origin.to_string(),
-                    message: format!("{name} = {v} must lie in {lo} .. {hi} {unit}"),
+                    message: format!(
+                        "{name} = {} must lie in {} .. {} {unit}",
+                        values::shown(v),
+                        values::shown(lo),
+                        values::shown(hi)
+                    ),
                 })
             }
         };
@@ -765,32 +796,50 @@ impl RunConfig {
             "Hz",
         )?;
         let c = &self.clock;
-        if !(c.turntable_offset_s.is_finite()
-            && c.turntable_rate_error.is_finite()
-            && c.turntable_rate_error.abs() < 0.1)
+        range(
+            "clock.turntable_offset_s",
+            c.turntable_offset_s,
+            -CLOCK_OFFSET_MAX_S,
+            CLOCK_OFFSET_MAX_S,
+            "s",
+        )?;
+        if !(c.turntable_rate_error.is_finite()
+            && c.turntable_rate_error.abs() < CLOCK_RATE_ERROR_MAX)
         {
             return Err(ConfigError::Invalid {
                 origin: origin.to_string(),
-                message: "clock.turntable_offset_s must be finite and clock.turntable_rate_error \
-                          a finite number between -0.1 and 0.1"
-                    .into(),
+                message: format!(
+                    "clock.turntable_rate_error = {} must lie strictly between -{CLOCK_RATE_ERROR_MAX} \
+                     and {CLOCK_RATE_ERROR_MAX}",
+                    values::shown(c.turntable_rate_error)
+                ),
             });
         }
         let t = &self.truth;
         for (name, v) in [
             ("truth.imu_rate_hz", t.imu_rate_hz),
             ("truth.turntable_rate_hz", t.turntable_rate_hz),
-            ("truth.duration_s", t.duration_s.unwrap_or(1.0)),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(bad(name));
             }
         }
-        if let Some((name, v)) = t.values.iter().find(|(_, v)| !v.is_finite()) {
-            return Err(ConfigError::Invalid {
-                origin: origin.to_string(),
-                message: format!("truth.values.\"{name}\" = {v} must be a finite number"),
-            });
+        if let Some(d) = t.duration_s {
+            range(
+                "truth.duration_s",
+                d,
+                f64::MIN_POSITIVE,
+                turntable::program::MAX_PROGRAM_DURATION_S,
+                "s",
+            )?;
+        }
+        for (name, v) in &t.values {
+            if let Err(message) = crate::plausible::check(name, *v) {
+                return Err(ConfigError::Invalid {
+                    origin: origin.to_string(),
+                    message: format!("truth.values.{message}"),
+                });
+            }
         }
         if let Some(temp) = &self.temperature {
             temp.profile().map_err(|message| ConfigError::Invalid {

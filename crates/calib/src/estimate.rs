@@ -424,12 +424,19 @@ fn scan_imu(
                         hi * dt
                     ),
                 };
+                // About a thousand intervals: the stamps are in milliseconds.
+                let ms = if (500.0..2000.0).contains(&(d / dt)) {
+                    " (time stamps in milliseconds? imu.csv holds seconds: `import` with [time] \
+                     unit = \"ms\" converts them)"
+                } else {
+                    ""
+                };
                 return Err(IoError::Line {
                     file: imu.file().to_string(),
                     line,
                     message: format!(
                         "the interval to the previous record is {d} s: expected {expected}; \
-                         gaps and other rates are not interpolated"
+                         gaps and other rates are not interpolated{ms}"
                     ),
                 }
                 .into());
@@ -441,10 +448,20 @@ fn scan_imu(
             progress(n, 3 * hint.max(n));
         }
     }
-    if n < 2 {
+    // Less than a second holds no specific-force measurement at the usual rates: nothing
+    // would be estimated, and the priors would be reported as a calibration.
+    if n < 2 || (prev - first).is_nan() || prev - first < MIN_RECORDING_S {
         return Err(IoError::File {
             file: imu.file().to_string(),
-            message: "expected at least two IMU records".into(),
+            message: format!(
+                "{n} IMU record(s){}: expected at least {MIN_RECORDING_S} s of records (nothing \
+                 is calibrated from less)",
+                if n >= 2 {
+                    format!(" covering {} s", prev - first)
+                } else {
+                    String::new()
+                }
+            ),
         }
         .into());
     }
@@ -460,6 +477,9 @@ fn scan_imu(
         temperature,
     })
 }
+
+/// The shortest recording calibrated (s, first to last time stamp).
+pub const MIN_RECORDING_S: f64 = 1.0;
 
 /// Records between two progress reports.
 const PROGRESS_EVERY: usize = 4096;

@@ -161,7 +161,7 @@ pub enum FreeMotionError {
     },
     /// A hold-out larger than the number of intervals: nothing held out, nothing validated.
     #[error(
-        "holdout K = {k}: the recording has {intervals} static intervals, so every K-th holds \
+        "holdout K = {k} (--holdout): the recording has {intervals} static intervals, so every K-th holds \
          out none and validates nothing: expected K from 2 to {intervals}"
     )]
     HoldsOutNothing {
@@ -172,7 +172,7 @@ pub enum FreeMotionError {
     },
     /// A hold-out of 0 or 1.
     #[error(
-        "holdout K = {0}: expected at least 2 (every K-th static interval is held out; the first gives the gyro bias)"
+        "holdout K = {0} (--holdout): expected at least 2 (every K-th static interval is held out; the first gives the gyro bias)"
     )]
     BadHoldout(usize),
     /// Intervals out of order or out of the records.

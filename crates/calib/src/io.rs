@@ -1129,6 +1129,20 @@ pub fn check_overlap(
             ),
         });
     }
+    // Two records, or a file cut after its first lines: the angles would be measured nowhere
+    // and the refusal would blame the motion ("the angles stay constant").
+    let overlap = b1.min(a1) - b0.max(a0);
+    let least = crate::estimate::MIN_RECORDING_S.min(a1 - a0);
+    if overlap < least {
+        return Err(IoError::File {
+            file: file.to_string(),
+            message: format!(
+                "the turntable records overlap the IMU data for {overlap:.3} s only ({b0} s to \
+                 {b1} s on the IMU clock, the IMU data {a0} s to {a1} s): expected turntable \
+                 records over at least {least} s of the IMU run (a file cut short?)"
+            ),
+        });
+    }
     Ok(())
 }
 
@@ -1258,8 +1272,9 @@ pub const RESULT_KINDS: [&str; 3] = [
     crate::schema::DIAGNOSIS,
 ];
 
-/// Read a result or truth file (refusing one whose schema stamp is of another kind or newer
-/// than this program: [`crate::schema::check`]).
+/// Read a result or truth file: every value finite and within the physical bounds of
+/// [`crate::plausible`], each parameter named once, and its schema stamp neither of another
+/// kind nor newer than this program ([`crate::schema::check`]).
 pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
     let text = read_text(path)?;
     let file = path.display().to_string();
@@ -1289,6 +1304,13 @@ pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
                     "parameter `{}`: expected a finite value and sigma",
                     excerpt(&p.name)
                 ),
+            });
+        } // Physical bounds (`crate::plausible`): a bias of 1e308 or a 200 % scale error is a
+        // typing error or a diverged fit, not a calibration to apply or a truth to compare with.
+        if let Err(message) = crate::plausible::check(&p.name, p.value) {
+            return Err(IoError::File {
+                file,
+                message: format!("parameter {message}"),
             });
         }
     }

@@ -72,6 +72,7 @@ pub mod io;
 pub mod layout;
 pub mod model;
 pub mod paper;
+pub mod plausible;
 pub mod posterior;
 pub mod program_start;
 pub mod report;

@@ -99,7 +99,7 @@ pub enum RestError {
     },
     /// A hold-out that holds out no rest, or the first.
     #[error(
-        "holdout K = {every}: the recording has {rests} rests; every K-th rest is held out, so K \
+        "holdout K = {every} (--holdout): the recording has {rests} rests; every K-th rest is held out, so K \
          must be at least 2 (the first rest levels the start attitude) and at most {rests}"
     )]
     HoldOut {

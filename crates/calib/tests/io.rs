@@ -334,7 +334,17 @@ fn bad_turntable_files_are_refused_with_file_line_and_expectation() {
 #[test]
 fn turntable_data_must_overlap_the_imu_run() {
     assert!(check_overlap((0.0, 100.0), (50.0, 150.0), "tt.csv").is_ok());
-    assert!(check_overlap((0.0, 100.0), (-10.0, 0.0), "tt.csv").is_ok());
+    // Touching the IMU run at one instant, or overlapping it for less than a second (two
+    // records, a file cut short): no angle would be measured.
+    for tt in [(-10.0, 0.0), (99.5, 120.0), (3.0, 3.02)] {
+        let msg = check_overlap((0.0, 100.0), tt, "tt.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("tt.csv") && msg.contains("expected turntable records over at least 1 s"),
+            "{msg}"
+        );
+    }
     for tt in [(200.0, 300.0), (-50.0, -1.0), (f64::NAN, 1.0)] {
         let msg = check_overlap((0.0, 100.0), tt, "run7/turntable.csv")
             .unwrap_err()

@@ -887,9 +887,9 @@ impl Profile {
             ));
         }
         if let Some(s) = &self.sections
-            && !s.expected_turn_deg.is_finite()
+            && let Err(e) = crate::sections::check_turn(s.expected_turn_deg)
         {
-            return err("[sections] expected_turn_deg: expected a finite angle".into());
+            return err(format!("[sections] expected_turn_deg = {e}"));
         }
         Ok(())
     }

@@ -68,6 +68,34 @@ pub struct SectionsFile {
     pub sections: Vec<Section>,
 }
 
+/// The largest turn a section may make (deg, either sign): ten turns, far above a hand-made
+/// turn (one) and below what a typing error gives (`1e300`, whose radians no filter takes).
+pub const MAX_TURN_DEG: f64 = 3600.0;
+
+/// A number as written in a message: plain for ordinary magnitudes, in exponent form for the
+/// extremes.
+fn shown(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e7).contains(&v.abs()) || !v.is_finite() {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// Check a turn's angle: finite, not zero, at most [`MAX_TURN_DEG`] in magnitude; `Err` holds
+/// the value and the range, for a message that names the field.
+pub fn check_turn(deg: f64) -> Result<(), String> {
+    if deg.is_finite() && deg != 0.0 && deg.abs() <= MAX_TURN_DEG {
+        Ok(())
+    } else {
+        Err(format!(
+            "{}: expected a turn in degrees, not 0 and at most {MAX_TURN_DEG} (ten turns) in \
+             magnitude",
+            shown(deg)
+        ))
+    }
+}
+
 impl SectionsFile {
     /// A section by name.
     pub fn get(&self, name: &str) -> Option<&Section> {
@@ -86,13 +114,60 @@ impl SectionsFile {
             file: file.clone(),
             source,
         })?;
-        serde_json::from_str(&text).map_err(|e| {
+        let list: Self = serde_json::from_str(&text).map_err(|e| {
             ImportError::line(
                 &file,
                 e.line(),
                 format!("expected a sections file (docs/formats.md): {e}"),
             )
-        })
+        })?;
+        list.check_values()
+            .map_err(|message| ImportError::file(&file, message))?;
+        Ok(list)
+    }
+
+    /// Refuse numbers no section has, naming the section and the field: a turn beyond
+    /// [`MAX_TURN_DEG`] (or 0), times and forces that are not finite, a specific force beyond
+    /// [`crate::MAX_ACCEL_M_S2`]. (The records and unit vectors are checked against the IMU
+    /// file by [`Self::check_records`].)
+    fn check_values(&self) -> Result<(), String> {
+        for s in &self.sections {
+            for (field, v) in [
+                ("expected_turn_deg", s.expected_turn_deg),
+                ("measured_turn_deg", s.measured_turn_deg),
+            ] {
+                if let Some(v) = v
+                    && let Err(e) = check_turn(v)
+                {
+                    // A measured turn may be 0 (a turn that did not happen is the data's to
+                    // show); only its size is bounded.
+                    if field == "expected_turn_deg" || v.is_nan() || v.abs() > MAX_TURN_DEG {
+                        return Err(format!("section `{}`: {field} = {e}", s.name));
+                    }
+                }
+            }
+            for (field, v) in [("start_s", s.start_s), ("end_s", s.end_s)] {
+                if !v.is_finite() {
+                    return Err(format!(
+                        "section `{}`: {field} = {v}: expected a finite time stamp",
+                        s.name
+                    ));
+                }
+            }
+            if s.mean_f_m_s2
+                .iter()
+                .any(|f| f.is_nan() || f.abs() >= crate::MAX_ACCEL_M_S2)
+            {
+                return Err(format!(
+                    "section `{}`: mean_f_m_s2 = {:?}: expected a specific force below {} m/s^2 \
+                     on each axis",
+                    s.name,
+                    s.mean_f_m_s2.map(shown),
+                    crate::MAX_ACCEL_M_S2
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -167,9 +242,12 @@ impl SectionsFile {
             // A NaN (a non-finite stamp) is refused too.
             if off.is_nan() || off > tolerance {
                 return Err(format!(
-                    "section `{}` says {} .. {} s, but its records are stamped {t0} .. {t1} s in \
-                     the IMU file: a section list of another recording, or of another import?",
-                    s.name, s.start_s, s.end_s
+                    "section `{}`: start_s .. end_s = {} .. {} s, but its records are stamped \
+                     {t0} .. {t1} s in the IMU file: a section list of another recording, or of \
+                     another import?",
+                    s.name,
+                    shown(s.start_s),
+                    shown(s.end_s)
                 ));
             }
         }

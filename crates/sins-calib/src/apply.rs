@@ -171,8 +171,22 @@ fn correct_stream(
         *count += 1;
         Ok::<(), Error>(())
     };
-    while let Some(r) = reader.next_record()? {
-        window.push((r, reader.line()));
+    // The first records, checked for their units before any is corrected.
+    let mut prefix = Vec::new();
+    while prefix.len() < UNIT_CHECK_RECORDS
+        && let Some(r) = reader.next_record()?
+    {
+        prefix.push((r, reader.line()));
+    }
+    check_units(&prefix, kind, &file)?;
+    let mut prefix = prefix.into_iter();
+    loop {
+        let next = match prefix.next() {
+            Some(x) => Some(x),
+            None => reader.next_record()?.map(|r| (r, reader.line())),
+        };
+        let Some((r, at)) = next else { break };
+        window.push((r, at));
         if window.len() > 4 {
             window.remove(0);
         }
@@ -192,6 +206,56 @@ fn correct_stream(
     let k = window.len() - 1;
     flush(&window, k, &mut count)?;
     Ok(count)
+}
+
+/// Refuse a calibration whose compensation matrices `I - Theta` (gyros) and `I + Gamma`
+/// (accelerometers) are singular or ill-conditioned (a condition number above
+/// [`calib::plausible::MAX_COMPENSATION_CONDITION`]): inverting them would amplify the
+/// records' noise into nonsense. (Each entry is already within its physical bound, which
+/// keeps them well-conditioned; this is the check of what the correction inverts.)
+fn check_compensation(result: &calib::io::ResultFile, file: &str) -> Result<(), Error> {
+    use calib::plausible::{MAX_COMPENSATION_CONDITION, condition_number};
+    const AXES: [char; 3] = ['x', 'y', 'z'];
+    for (prefix, sign, what) in [
+        ("gyro.theta", -1.0, "gyro compensation I - Theta"),
+        ("accel.gamma", 1.0, "accelerometer compensation I + Gamma"),
+    ] {
+        let m = nalgebra::Matrix3::from_fn(|i, j| {
+            let name = format!("{prefix}.{}{}", AXES[i], AXES[j]);
+            let v = result.get(&name).map_or(0.0, |p| p.value);
+            f64::from(u8::from(i == j)) + sign * v
+        });
+        let c = condition_number(&m);
+        if c.is_nan() || c > MAX_COMPENSATION_CONDITION {
+            return Err(format!(
+                "{file}: the {what} has condition number {c:.3e} (its {prefix}.* parameters): \
+                 expected at most {MAX_COMPENSATION_CONDITION} (a singular or ill-conditioned \
+                 compensation is no instrument's)"
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// Records of the file's beginning the unit checks read.
+const UNIT_CHECK_RECORDS: usize = 100_000;
+
+/// The units `segment` checks, on the file's first [`UNIT_CHECK_RECORDS`] records (the
+/// correction itself streams, and reads them from this prefix, so that a pipe is read once):
+/// time stamps in seconds, gyro and accelerometer columns in their places, a median specific
+/// force of g (not g units). A correction of misread records would be written without a word.
+fn check_units(prefix: &[(ImuRecord, usize)], kind: ImuKind, file: &str) -> Result<(), Error> {
+    if prefix.len() < 2 {
+        // `correct_stream` names what is missing.
+        return Ok(());
+    }
+    let data = calib::io::ImuData {
+        kind,
+        records: prefix.iter().map(|(r, _)| *r).collect(),
+    };
+    crate::recording_checks::check_plausible(&data, file, 0.0)?;
+    crate::recording_checks::check_median_gravity(&data, file)
 }
 
 /// Run `apply`.
@@ -233,6 +297,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
              --accept-misfit asks"
         );
     }
+    check_compensation(&result, &cal_file)?;
     let unit_note = check_unit(args, &cal_file, result.unit.as_ref())?;
     let inputs = result
         .correction

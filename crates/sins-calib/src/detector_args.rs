@@ -74,8 +74,60 @@ impl DetectorArgs {
                 .unwrap_or_else(|| "a detector option".to_string());
             format!("{option}: {e}")
         })?;
+        check_bounds(&s, &option_name)?;
         Ok(s)
     }
+}
+
+/// Upper bounds of the detector's settings, beyond which nothing is told from a rest (the
+/// detector itself only asks for finite positive values): a window of at most 600 s; standard
+/// deviations of at most 10 m/s^2 (a shaking of 1 g is no rest) and 1 rad/s; a mean rate of at
+/// most 1 rad/s (57 deg/s); a shortest rest of at most 1e6 s; factors of at most 1000. The
+/// message names the option (`option` maps a setting's field name to it).
+pub fn check_bounds(s: &DetectorSettings, option: &dyn Fn(&str) -> String) -> Result<(), String> {
+    for (field, v, max, unit) in [
+        ("window_s", s.window_s, 600.0, " s"),
+        ("max_std_f_m_s2", s.max_std_f_m_s2, 10.0, " m/s^2"),
+        ("max_std_w_rad_s", s.max_std_w_rad_s, 1.0, " rad/s"),
+        ("max_rate_rad_s", s.max_rate_rad_s, 1.0, " rad/s"),
+        ("min_duration_s", s.min_duration_s, 1e6, " s"),
+        ("noise_factor", s.noise_factor, 1000.0, ""),
+        ("gap_factor", s.gap_factor, 1000.0, ""),
+    ] {
+        if v > max {
+            return Err(format!(
+                "{} {}: expected at most {max}{unit} (beyond it nothing is told from a rest)",
+                option(field),
+                crate::table::compact(v)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Refuse a window or a shortest rest longer than the recording (`span_s`, the time from its
+/// first to its last record), naming the option: no rest could be found, and the refusal
+/// would otherwise blame the rests.
+pub fn check_span(
+    s: &DetectorSettings,
+    span_s: f64,
+    file: &str,
+    option: &dyn Fn(&str) -> String,
+) -> Result<(), String> {
+    for (field, v, given) in [
+        ("window_s", s.window_s, !s.adapt_window),
+        ("min_duration_s", s.min_duration_s, !s.adapt_min_duration),
+    ] {
+        if given && v > span_s {
+            return Err(format!(
+                "{} {}: longer than the recording in {file} ({} s): expected at most its length",
+                option(field),
+                crate::table::compact(v),
+                crate::table::compact(span_s)
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The option of a detector setting (`DetectorSettings` field name), for messages and for
@@ -102,7 +154,16 @@ pub fn rests_and_segmentation(
     file: &str,
     settings: &DetectorSettings,
 ) -> Result<(Vec<Rest>, ::import::detect::Segmentation), String> {
+    if let (Some(a), Some(b)) = (data.records.first(), data.records.last()) {
+        check_span(settings, b.t - a.t, file, &option_name)?;
+    }
+    // The units `segment` checks (time stamps in seconds, specific force in m/s^2, the gyro
+    // and accelerometer columns in their places, two records at least): rests found in
+    // misread records would blame the rests ("only 2 directions") instead of the units.
+    crate::recording_checks::check_plausible(data, file, settings.window_s)
+        .map_err(|e| e.to_string())?;
     let seg = ::import::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
+    crate::recording_checks::check_static_force(&seg, file).map_err(|e| e.to_string())?;
     let dt = seg.median_interval_s;
     let rests = seg
         .static_intervals

@@ -221,6 +221,23 @@ pub fn run(args: &Args) -> Result<(), Error> {
     settings
         .check()
         .map_err(|e| format!("noise: --min-duration: {e}"))?;
+    let option = |_: &str| "--min-duration".to_string();
+    let given = DetectorSettings {
+        adapt_window: true,
+        adapt_min_duration: false,
+        ..settings
+    };
+    crate::detector_args::check_bounds(&given, &option).map_err(|e| format!("noise: {e}"))?;
+    let (mut first, mut last) = (f64::NAN, f64::NAN);
+    source.records_of(&mut |r, _| {
+        if first.is_nan() {
+            first = r.t;
+        }
+        last = r.t;
+    })?;
+    if first.is_finite() {
+        crate::detector_args::check_span(&given, last - first, &file, &option)?;
+    }
     // The units `segment` checks (time stamps in seconds, specific force in m/s^2, gyro and
     // accelerometer columns in their places): noise levels of misread records are wrong by
     // the factor of the misreading.
@@ -1077,10 +1094,15 @@ pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedW
                 Value::Null => Ok(None),
                 x => x
                     .as_f64()
-                    .filter(|x| x.is_finite() && *x >= 0.0)
+                    .filter(|x| x.is_finite() && (0.0..=calib::config::SIGMA_MAX).contains(x))
                     .map(Some)
                     .ok_or_else(|| {
-                        format!("{file}: `gyro.{k}`: {x} is not a walk (a number >= 0)").into()
+                        format!(
+                            "{file}: `gyro.{k}`: {x} is not a walk: expected a number in 0 .. \
+                             {:e} deg/h/sqrt(h) (as the configuration's [noise] walks)",
+                            calib::config::SIGMA_MAX
+                        )
+                        .into()
                     }),
             })
             .collect()

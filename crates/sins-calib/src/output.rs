@@ -101,6 +101,33 @@ fn parent_of(path: &Path) -> PathBuf {
     }
 }
 
+/// Refuse `-` (standard output) for `option` when the standard output was closed (`>&-`).
+///
+/// The Rust runtime opens /dev/null (read-write) in place of a closed standard descriptor
+/// before `main`, so writes to a closed standard output succeed and the JSON would be lost with
+/// exit status 0. That /dev/null is told from a redirection (`> /dev/null`, which a shell opens
+/// write-only) by its read-write mode, read from /proc (Linux; elsewhere nothing is refused).
+fn check_stdout_open(option: &str) -> Result<(), Error> {
+    let is_devnull =
+        std::fs::read_link("/proc/self/fd/1").is_ok_and(|target| target == Path::new("/dev/null"));
+    let read_write = || {
+        std::fs::read_to_string("/proc/self/fdinfo/1").is_ok_and(|info| {
+            info.lines()
+                .find_map(|l| l.strip_prefix("flags:"))
+                .and_then(|f| u32::from_str_radix(f.trim(), 8).ok())
+                .is_some_and(|flags| flags & 0o3 == 0o2)
+        })
+    };
+    if is_devnull && read_write() {
+        return Err(format!(
+            "{option} -: standard output is closed: expected an open standard output to write \
+             to (or a file path for {option})"
+        )
+        .into());
+    }
+    Ok(())
+}
+
 /// Check, before any work, that `path` (given by `option`) names a PNG file that can be
 /// written ([`check_file`]): the plots are PNG only.
 pub fn check_png(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Error> {
@@ -122,7 +149,7 @@ pub fn check_png(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Erro
 /// directory, in an existing directory, and none of `inputs`.
 pub fn check_file(path: &Path, option: &str, inputs: &[&Path]) -> Result<(), Error> {
     if is_stdout(path) {
-        return Ok(());
+        return check_stdout_open(option);
     }
     let shown = path.display();
     if path.is_dir() {

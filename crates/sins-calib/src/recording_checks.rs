@@ -5,12 +5,12 @@
 use crate::{Error, table};
 use ::import::detect::Segmentation;
 
-#[cfg(test)] // the held form, the reference of the streamed one in tests
 /// Refuse records no IMU gives before segmenting: a median interval outside
 /// [`import::MEDIAN_INTERVAL_RANGE_S`] (1 Hz at the slowest: stamps in milliseconds read as
 /// seconds are beyond it), a window longer than the recording, a rate or specific
 /// force (increments over their interval) beyond [`import::MAX_GYRO_RAD_S`] /
-/// [`import::MAX_ACCEL_M_S2`], named by line.
+/// [`import::MAX_ACCEL_M_S2`], named by line. The held form, for records already in memory
+/// (`apply`'s first records, a recording of rests); the reference of the streamed one in tests.
 pub(crate) fn check_plausible(
     data: &calib::io::ImuData,
     file: &str,
@@ -119,6 +119,35 @@ pub(crate) fn check_plausible_streamed(
              before fx, fy, fz)",
             table::significant(w_median, 4),
             table::significant(f_median, 4),
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// The median specific force of a recording (at rest, on a turntable or turned by hand) is
+/// about g: outside [`G_AT_REST`] times g the accelerometer values are not in m/s^2 (in g, or
+/// not an accelerometer's). For commands that find no rests (`apply`).
+pub(crate) fn check_median_gravity(data: &calib::io::ImuData, file: &str) -> Result<(), Error> {
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let (_, _, f) = ::import::detect::rates_of(data);
+    let mut norms: Vec<f64> = f
+        .iter()
+        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+        .collect();
+    if norms.is_empty() {
+        return Ok(());
+    }
+    let m = median(&mut norms);
+    if !(G_AT_REST.0 * G..=G_AT_REST.1 * G).contains(&m) {
+        return Err(format!(
+            "{file}: the median specific force is {} m/s^2 ({} g): expected about g = {G} m/s^2 \
+             (within {} .. {} g); the accelerometer values are not in m/s^2 (in g?) or the \
+             records are not of an IMU",
+            table::significant(m, 4),
+            table::significant(m / G, 4),
+            G_AT_REST.0,
+            G_AT_REST.1
         )
         .into());
     }
@@ -371,7 +400,7 @@ const MAX_TILT_M_S2: f64 = 0.5;
 /// slammed or a cable touched now and then is still a recording at rest.
 const MAX_MOVING_FRACTION: f64 = 0.1;
 
-#[cfg(test)] // the held form, the reference of the streamed one in tests
+// The held form's median (`check_median_gravity`, and the references of the streamed checks).
 /// The median of `v` (reordered); NaN when empty.
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {

@@ -150,6 +150,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let setting = e.split(' ').next().unwrap_or_default();
         format!("segment: {}: {e}", option_name(setting))
     })?;
+    crate::detector_args::check_bounds(&settings, &option_name)
+        .map_err(|e| format!("segment: {e}"))?;
     if let Some(path) = &args.json {
         output::Outputs::new(&[&args.imu]).file(path, "--json")?;
     }
@@ -159,6 +161,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let file = args.imu.display().to_string();
     let mut source = RateSource::new(&mut imu)?;
     recording_checks::check_plausible_streamed(&mut source, &file, settings.window_s)?;
+    let (mut first, mut last) = (f64::NAN, f64::NAN);
+    source.records_of(&mut |r, _| {
+        if first.is_nan() {
+            first = r.t;
+        }
+        last = r.t;
+    })?;
+    if first.is_finite() {
+        crate::detector_args::check_span(&settings, last - first, &file, &option_name)?;
+    }
     let seg = segment_streamed(&mut source, &settings).map_err(|e| format!("{file}: {e}"))?;
     recording_checks::check_static_force(&seg, &file)?;
     let c = table::compact;

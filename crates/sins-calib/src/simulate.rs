@@ -71,12 +71,115 @@ fn check_size(
     Ok(())
 }
 
+/// How many prior sigmas a drawn true value must be able to reach within its physical bound.
+const DRAW_SIGMAS: f64 = 5.0;
+
+/// Refuse priors the truth would be drawn from (`truth.draw_from_priors`) when a draw could
+/// pass the physical bound of its parameters (`calib::plausible`): a `gyro_scale` of 1e6 draws
+/// scale factors no instrument has, and writes records calibrate refuses. The priors of
+/// parameters `[truth.values]` sets in full are not drawn and not checked.
+fn check_drawn_priors(config: &calib::config::RunConfig, origin: &str) -> Result<(), Error> {
+    use sins_model::units::{ARCMIN, ARCSEC, DEG_PER_HOUR};
+    let t = &config.truth;
+    if !t.draw_from_priors {
+        return Ok(());
+    }
+    let p = &config.priors;
+    let deg = 1f64.to_radians();
+    let mut groups = vec![
+        (
+            "priors.gyro_bias_deg_h",
+            p.gyro_bias_deg_h,
+            DEG_PER_HOUR,
+            "gyro.bias.",
+            &["x", "y", "z"][..],
+        ),
+        (
+            "priors.gyro_scale",
+            p.gyro_scale,
+            1.0,
+            "gyro.theta.",
+            &["xx", "yy", "zz"][..],
+        ),
+        (
+            "priors.gyro_misalignment_arcmin",
+            p.gyro_misalignment_arcmin,
+            ARCMIN,
+            "gyro.theta.",
+            &["xy", "xz", "yx", "yz", "zx", "zy"][..],
+        ),
+        (
+            "priors.accel_bias_m_s2",
+            p.accel_bias_m_s2,
+            1.0,
+            "accel.bias.",
+            &["x", "y", "z"][..],
+        ),
+        (
+            "priors.accel_scale",
+            p.accel_scale,
+            1.0,
+            "accel.gamma.",
+            &["xx", "yy", "zz"][..],
+        ),
+        (
+            "priors.accel_misalignment_arcmin",
+            p.accel_misalignment_arcmin,
+            ARCMIN,
+            "accel.gamma.",
+            &["yx", "zx", "zy"][..],
+        ),
+        (
+            "priors.install_misalignment_deg",
+            p.install_misalignment_deg,
+            deg,
+            "install.delta.",
+            &["x", "y", "z"][..],
+        ),
+        ("priors.tau_s", p.tau_s, 1.0, "turntable.tau", &[""][..]),
+    ];
+    if config.filter.estimate_base_misalignment {
+        groups.push((
+            "priors.base_misalignment_arcsec",
+            p.base_misalignment_arcsec,
+            ARCSEC,
+            "base.gamma.",
+            &["x", "y", "z"][..],
+        ));
+    }
+    for (field, sigma, unit, prefix, members) in groups {
+        let drawn = members
+            .iter()
+            .any(|m| !t.values.contains_key(&format!("{prefix}{m}")));
+        let Some(b) = calib::plausible::bound(prefix) else {
+            continue;
+        };
+        let reach = DRAW_SIGMAS * sigma * unit;
+        if drawn && reach > b.max_abs {
+            return Err(format!(
+                "{origin}: {field} = {}: simulate draws the true {prefix}* from it \
+                 (truth.draw_from_priors), and {DRAW_SIGMAS} sigma would reach {reach:.3e} {}, \
+                 beyond {} {} (no instrument has such {}): expected a prior within a fifth of \
+                 that bound, or the values set in [truth.values] (or draw_from_priors = false)",
+                crate::table::compact(sigma),
+                b.unit,
+                b.max_abs,
+                b.unit,
+                b.what
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
 /// Run `simulate`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let (mut config, origin) = load_config(&args.config)?;
     if let Some(seed) = args.seed {
         config.truth.seed = seed;
     }
+    check_drawn_priors(&config, &origin)?;
     let program = config.program()?;
     check_size(&config, program.duration(), &origin)?;
     let config_file = std::path::Path::new(&args.config);

@@ -166,14 +166,14 @@ fn simulate_then_calibrate_round_trip() {
 /// A small valid IMU file at 100 Hz (the example configuration's rate).
 fn small_imu(path: &Path, nan_on_line: Option<usize>) {
     let mut t = String::from("t,dthx,dthy,dthz,dvx,dvy,dvz\n");
-    for i in 1..=20 {
+    for i in 1..=200 {
         let line = i + 1;
         let dvz = if nan_on_line == Some(line) {
             "NaN".to_string()
         } else {
             "0.0981".to_string()
         };
-        // The first 0.2 s of the paper's program: 10 deg/s about instrument x.
+        // The first 2 s of the paper's program: 10 deg/s about instrument x.
         t += &format!("{},0.0017453292519943,0,0,0,0,{dvz}\n", i as f64 * 0.01);
     }
     std::fs::write(path, t).unwrap();

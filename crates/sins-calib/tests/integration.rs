@@ -13,6 +13,7 @@ mod import;
 mod json_outputs;
 mod noise;
 mod outputs;
+mod readers;
 mod refusals;
 mod report;
 mod rests;

@@ -125,7 +125,7 @@ fn imu_steps_are_bounded_before_any_allocation() {
     refused(&o, &["records", "at most"]);
     // So does a run longer than its program.
     let long_run = config(&dir, "long_run.toml", |t| {
-        t.replace("# duration_s = 600.0", "duration_s = 1e300")
+        t.replace("# duration_s = 600.0", "duration_s = 800000.0")
     });
     let o = run(&[
         "simulate",
@@ -136,7 +136,22 @@ fn imu_steps_are_bounded_before_any_allocation() {
     ]);
     refused(
         &o,
-        &["long_run.toml", "1e300 s at truth.imu_rate_hz", "at most"],
+        &["long_run.toml", "800000 s at truth.imu_rate_hz", "at most"],
+    );
+    // A duration beyond ten days is refused at load, naming the field and its range.
+    let absurd = config(&dir, "absurd_run.toml", |t| {
+        t.replace("# duration_s = 600.0", "duration_s = 1e300")
+    });
+    let o = run(&[
+        "simulate",
+        "--config",
+        s(&absurd),
+        "--out",
+        s(&dir.join("out")),
+    ]);
+    refused(
+        &o,
+        &["absurd_run.toml", "duration_s = 1e300", "at most 864000 s"],
     );
     // Design runs seven analyses: 2 days of program at 100 Hz is too much for it, not for one.
     let two_days = dwell_config(&dir, "172800.0").0;
@@ -516,7 +531,11 @@ fn segment_refuses_data_no_imu_gives() {
     assert!(o.status.success(), "{}", text(&o.stderr));
     refused(
         &run(&["segment", "--imu", s(&good), "--window", "1e300"]),
-        &["--window 1e300", "longer than the recording", "good.csv"],
+        &["--window 1e300", "at most 600 s"],
+    );
+    refused(
+        &run(&["segment", "--imu", s(&good), "--window", "599"]),
+        &["--window", "longer than the recording", "good.csv"],
     );
     let edit = |name: &str, f: &dyn Fn(usize, &mut Vec<String>)| {
         let text = std::fs::read_to_string(&good).unwrap();

@@ -37,6 +37,11 @@ pub const PAPER_PROGRAM_TOML: &str = include_str!("../programs/paper.toml");
 /// compiled with the file and the segment where the total passes the bound.
 pub const MAX_PROGRAM_DURATION_S: f64 = 864_000.0;
 
+/// The largest gimbal angle accepted in a program's `start_deg` and `target_deg` (deg, either
+/// sign): a hundred turns. A gimbal's angle may count whole turns (a program recorded after
+/// turns), but `1e300` is a typing error whose radians keep no digit of the motion.
+pub const MAX_ANGLE_DEG: f64 = 36_000.0;
+
 /// The fastest gimbal rate accepted (deg/s).
 ///
 /// Calibration turntables turn at up to some hundreds of degrees per second (rate tables for
@@ -86,6 +91,7 @@ pub enum Segment {
     /// One gimbal turns at a constant rate.
     Rotate {
         /// Gimbal number: 1 = heading (outer), 2 = bank (middle), 3 = pitch (inner).
+        #[serde(deserialize_with = "gimbal_number")]
         gimbal: u8,
         /// Rate (deg/s) (signed).
         rate_deg_s: f64,
@@ -130,6 +136,31 @@ pub struct ProgramSpec {
     pub segments: Vec<Segment>,
 }
 
+/// A gimbal number, read as any integer so that one beyond a `u8` is refused naming the field
+/// (a `u8` read directly reports `-1` as an invalid integer, without the field's name: the
+/// segment's kind tag makes the reader buffer the table).
+fn gimbal_number<'de, D: serde::Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
+    let v = i64::deserialize(d)?;
+    // Numbers that fit are checked with the segment's index (`segment_problem`).
+    u8::try_from(v).map_err(|_| {
+        serde::de::Error::custom(format!(
+            "gimbal = {v}: expected 1, 2 or 3 (heading, bank, pitch)"
+        ))
+    })
+}
+
+/// Three angles within +-[`MAX_ANGLE_DEG`], or what is wrong with them.
+fn angles_problem(name: &str, a: &[f64; 3]) -> Option<String> {
+    a.iter()
+        .any(|a| !(a.is_finite() && a.abs() <= MAX_ANGLE_DEG))
+        .then(|| {
+            format!(
+                "{name} = {a:?}: expected three angles in degrees within +-{MAX_ANGLE_DEG} (a \
+                 hundred turns)"
+            )
+        })
+}
+
 /// What is wrong with a segment's numbers, if anything.
 fn segment_problem(seg: &Segment) -> Option<String> {
     let positive = |name: &str, v: f64| {
@@ -163,12 +194,7 @@ fn segment_problem(seg: &Segment) -> Option<String> {
             rate_deg_s,
         } => positive("rate_deg_s", rate_deg_s)
             .or_else(|| rate(rate_deg_s))
-            .or_else(|| {
-                target_deg
-                    .iter()
-                    .any(|a| !a.is_finite())
-                    .then(|| "target_deg must be three finite angles".into())
-            }),
+            .or_else(|| angles_problem("target_deg", &target_deg)),
     }
 }
 
@@ -232,10 +258,10 @@ impl Program {
             kind: seg.kind(),
             message,
         };
-        if spec.start_deg.iter().any(|a| !a.is_finite()) {
+        if let Some(message) = angles_problem("start_deg", &spec.start_deg) {
             return Err(ProgramError::Parse {
                 origin: origin.to_string(),
-                message: "start_deg must be three finite angles in degrees".into(),
+                message,
             });
         }
         let mut k = spec.start_deg.map(f64::to_radians);
