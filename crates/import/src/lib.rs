@@ -914,11 +914,11 @@ fn saturation_reports(
     )
 }
 
+/// A sensor's saturation, its file, and the source line of a record.
+type SaturationOf<'a> = (&'a Saturation, &'a str, &'a dyn Fn(usize) -> usize);
+
 /// [`saturation_reports`] with each sensor's file and the source line of a record.
-fn saturation_reports_of(
-    profile: &Profile,
-    found: [(&Saturation, &str, &dyn Fn(usize) -> usize); 2],
-) -> Vec<SaturationReport> {
+fn saturation_reports_of(profile: &Profile, found: [SaturationOf<'_>; 2]) -> Vec<SaturationReport> {
     [&profile.gyro, &profile.accel]
         .into_iter()
         .zip(["gyro", "accel"])
