@@ -129,31 +129,72 @@ pub fn align_to_program(
     model: &ErrorModel,
     gyro_psd: f64,
 ) -> Option<Alignment> {
+    align_to_program_by(
+        bins.len(),
+        &|i| bins[i],
+        program,
+        site,
+        program_start,
+        t_start,
+        model,
+        gyro_psd,
+    )
+}
+
+/// [`align_to_program`] with bin `i` of `n` made on demand by `bin` (the same bin each time),
+/// in memory independent of `n`: the usable bins are kept as runs of indices, and made again
+/// for the second sum. The same result to the last bit.
+#[allow(clippy::too_many_arguments)]
+pub fn align_to_program_by(
+    n_bins: usize,
+    bin: &dyn Fn(usize) -> RateBin,
+    program: &Program,
+    site: &Site,
+    program_start: f64,
+    t_start: f64,
+    model: &ErrorModel,
+    gyro_psd: f64,
+) -> Option<Alignment> {
     let kin = Kinematics::new(program.clone(), Mounting::default(), *site);
     let changes = RateChanges::new(program);
-    // Platform-frame reference rate of each usable bin, with the bin.
-    let pairs: Vec<(Vector3<f64>, &RateBin)> = bins
-        .iter()
-        .filter(|b| changes.clear(b.t0 - program_start, b.t1 - program_start))
-        .map(|b| {
-            let mid = 0.5 * (b.t0 + b.t1) - program_start;
-            (kin.sample(mid).omega_body, b)
-        })
-        .filter(|(r, _)| r.norm() > MIN_RATE)
-        .collect();
+    // Platform-frame reference rate of a usable bin.
+    let usable = |b: &RateBin| {
+        if !changes.clear(b.t0 - program_start, b.t1 - program_start) {
+            return None;
+        }
+        let mid = 0.5 * (b.t0 + b.t1) - program_start;
+        let r = kin.sample(mid).omega_body;
+        (r.norm() > MIN_RATE).then_some(r)
+    };
+    // The usable bins as runs `[first, end)` of indices (a program's turns come in pieces).
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut used = 0;
     let mut info = Matrix3::zeros();
     let mut b_sum = Matrix3::zeros();
-    for (r, bin) in &pairs {
+    for i in 0..n_bins {
+        let bin = bin(i);
+        let Some(r) = usable(&bin) else { continue };
+        match runs.last_mut() {
+            Some(run) if run.1 == i => run.1 = i + 1,
+            _ => runs.push((i, i + 1)),
+        }
+        used += 1;
         let w = bin.t1 - bin.t0;
         info += (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * w;
         b_sum += bin.rate * r.transpose() * w;
     }
+    let pairs = || {
+        runs.iter().flat_map(|&(a, b)| a..b).map(|i| {
+            let b = bin(i);
+            (usable(&b).expect("a usable bin"), b)
+        })
+    };
     let eig = info.symmetric_eigenvalues();
     let mut sorted = [eig[0], eig[1], eig[2]];
     sorted.sort_by(f64::total_cmp);
     // Rotations about one axis only leave the rotation about that axis unknown.
     let spread_enough = sorted[2] > 0.0 && sorted[0] / sorted[2] >= MIN_AXIS_SPREAD;
-    if pairs.is_empty() || !spread_enough {
+    if used == 0 || !spread_enough {
         return None;
     }
     let r_platform_to_body = wahba(&b_sum)?;
@@ -167,7 +208,7 @@ pub fn align_to_program(
     let n = model.n_params();
     let mut d_b = vec![Matrix3::zeros(); n];
     let mut jac = vec![Vector3::zeros(); n];
-    for (r, bin) in &pairs {
+    for (r, bin) in pairs() {
         let w = bin.t1 - bin.t0;
         let input = SensorInput {
             omega_body: bin.rate,
@@ -205,7 +246,7 @@ pub fn align_to_program(
         c_start,
         jacobian,
         sigma_noise,
-        bins_used: pairs.len(),
+        bins_used: used,
     })
 }
 
@@ -293,8 +334,30 @@ pub fn aligned_prior(
     program_start: f64,
     t_start: f64,
 ) -> Option<(Matrix3<f64>, DMatrix<f64>)> {
-    let al = align_to_program(
-        bins,
+    aligned_prior_by(
+        config,
+        layout,
+        bins.len(),
+        &|i| bins[i],
+        program,
+        program_start,
+        t_start,
+    )
+}
+
+/// [`aligned_prior`] with the bins made on demand ([`align_to_program_by`]).
+pub fn aligned_prior_by(
+    config: &crate::config::RunConfig,
+    layout: &crate::layout::StateLayout,
+    n_bins: usize,
+    bin: &dyn Fn(usize) -> RateBin,
+    program: &Program,
+    program_start: f64,
+    t_start: f64,
+) -> Option<(Matrix3<f64>, DMatrix<f64>)> {
+    let al = align_to_program_by(
+        n_bins,
+        bin,
         program,
         &config.site(),
         program_start,
@@ -312,20 +375,27 @@ pub fn aligned_prior(
 /// Rate bins of the ideal motion of a program (no sensor errors), as the covariance analysis
 /// sees it.
 pub fn ideal_bins(kin: &Kinematics, bin_s: f64) -> Vec<RateBin> {
-    let n = (kin.program.duration() / bin_s).floor() as usize;
-    (0..n)
-        .map(|i| {
-            let (t0, t1) = (i as f64 * bin_s, (i + 1) as f64 * bin_s);
-            // The mean over the bin, by the midpoint rule on ten sub-intervals.
-            let (mut rate, mut f) = (Vector3::zeros(), Vector3::zeros());
-            for k in 0..10 {
-                let s = kin.sample(t0 + (k as f64 + 0.5) * bin_s / 10.0);
-                rate += s.omega_body / 10.0;
-                f += s.f_body / 10.0;
-            }
-            RateBin { t0, t1, rate, f }
-        })
+    (0..ideal_bin_count(kin, bin_s))
+        .map(|i| ideal_bin(kin, bin_s, i))
         .collect()
+}
+
+/// The number of [`ideal_bins`].
+pub fn ideal_bin_count(kin: &Kinematics, bin_s: f64) -> usize {
+    (kin.program.duration() / bin_s).floor() as usize
+}
+
+/// Bin `i` of [`ideal_bins`], made alone.
+pub fn ideal_bin(kin: &Kinematics, bin_s: f64, i: usize) -> RateBin {
+    let (t0, t1) = (i as f64 * bin_s, (i + 1) as f64 * bin_s);
+    // The mean over the bin, by the midpoint rule on ten sub-intervals.
+    let (mut rate, mut f) = (Vector3::zeros(), Vector3::zeros());
+    for k in 0..10 {
+        let s = kin.sample(t0 + (k as f64 + 0.5) * bin_s / 10.0);
+        rate += s.omega_body / 10.0;
+        f += s.f_body / 10.0;
+    }
+    RateBin { t0, t1, rate, f }
 }
 
 /// `p` with the rows and columns of the attitude error (the first three states) zero.

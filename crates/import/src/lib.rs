@@ -38,10 +38,12 @@ mod error;
 pub mod profile;
 pub mod sections;
 pub mod select;
+mod streamed;
 mod text;
 pub mod timing;
 
 pub use error::ImportError;
+pub use streamed::{ImportedFiles, import_into};
 
 use calib::io::{ImuData, ImuKind, ImuRecord, TurntableData, TurntableRecord};
 use profile::{AngleUnit, Column, Form, Join, Profile, STANDARD_GRAVITY, Sensor, Unit};
@@ -204,6 +206,7 @@ struct Layout {
     gyro: Option<usize>,
     accel: Option<usize>,
     angles: Option<usize>,
+    temp: Option<usize>,
 }
 
 fn want<'a>(
@@ -222,11 +225,8 @@ fn want<'a>(
     at
 }
 
-fn read_source(
-    profile: &Profile,
-    role: &'static str,
-    path: &Path,
-) -> Result<(Source, Layout), ImportError> {
+/// The columns wanted of an input file in its role, and where each quantity is among them.
+fn wanted_of<'a>(profile: &'a Profile, role: &str) -> (Vec<Wanted<'a>>, Layout) {
     let mut wanted = Vec::new();
     let mut layout = Layout::default();
     let time = &profile.time;
@@ -255,50 +255,96 @@ fn read_source(
     {
         layout.angles = Some(want(&mut wanted, "angle", &a.columns, ["k1", "k2", "k3"]));
     }
+    if role != "accel"
+        && let Some(tc) = &profile.temperature
+    {
+        layout.temp = Some(wanted.len());
+        wanted.push(Wanted {
+            what: format!("temperature ({})", tc.column),
+            column: &tc.column,
+        });
+    }
+    (wanted, layout)
+}
+
+fn read_source(
+    profile: &Profile,
+    role: &'static str,
+    path: &Path,
+) -> Result<(Source, Layout), ImportError> {
+    let (wanted, layout) = wanted_of(profile, role);
     let table = read_table(path, &profile.input, &wanted, &profile.origin)?;
     let t = times(&table, layout.time, profile)?;
     Ok((Source { role, table, t }, layout))
 }
 
+/// The time of data row `i` (0-based) from its time or counter value, if the profile has one.
+fn time_of(profile: &Profile, value: Option<f64>, i: usize) -> f64 {
+    let time = &profile.time;
+    match (value, time.counter_column.is_some(), time.rate_hz) {
+        (Some(v), false, _) => v / time.unit.unwrap_or_default().per_second(),
+        (Some(v), true, Some(r)) => v / r,
+        (_, _, Some(r)) => i as f64 / r,
+        _ => f64::NAN, // excluded by the profile's check
+    }
+}
+
+/// A time that is not finite, refused.
+fn time_not_finite(file: &str, line: usize, ti: f64) -> ImportError {
+    ImportError::line(
+        file,
+        line,
+        format!(
+            "the time comes out as {ti} s: expected a finite time (check the profile's [time])"
+        ),
+    )
+}
+
+/// A time not after the previous row's (`p`, on line `previous_line`), refused.
+fn time_not_increasing(
+    profile: &Profile,
+    file: &str,
+    line: usize,
+    ti: f64,
+    p: f64,
+    previous_line: usize,
+) -> ImportError {
+    let what = if profile.time.counter_column.is_some() {
+        "sample counter"
+    } else {
+        "time"
+    };
+    ImportError::line(
+        file,
+        line,
+        format!(
+            "t = {} s is not after the previous row's t = {} s (line {}): expected a strictly \
+             increasing {what}",
+            show_t(ti),
+            show_t(p),
+            previous_line
+        ),
+    )
+}
+
 /// Time stamps of a table's rows, checked to increase strictly.
 fn times(table: &Table, column: Option<usize>, profile: &Profile) -> Result<Vec<f64>, ImportError> {
-    let time = &profile.time;
     let mut t = Vec::with_capacity(table.rows());
     for i in 0..table.rows() {
-        let ti = match (column, time.counter_column.is_some(), time.rate_hz) {
-            (Some(j), false, _) => table.get(i, j) / time.unit.unwrap_or_default().per_second(),
-            (Some(j), true, Some(r)) => table.get(i, j) / r,
-            (_, _, Some(r)) => i as f64 / r,
-            _ => f64::NAN, // excluded by the profile's check
-        };
+        let ti = time_of(profile, column.map(|j| table.get(i, j)), i);
         if !ti.is_finite() {
-            return Err(ImportError::line(
-                &table.file,
-                table.lines[i],
-                format!(
-                    "the time comes out as {ti} s: expected a finite time (check the profile's \
-                     [time])"
-                ),
-            ));
+            return Err(time_not_finite(&table.file, table.lines[i], ti));
         }
         if let Some(&p) = t.last()
             && ti.partial_cmp(&p) != Some(std::cmp::Ordering::Greater)
         {
-            let what = if time.counter_column.is_some() {
-                "sample counter"
-            } else {
-                "time"
-            };
-            return Err(ImportError::line(
+            return Err(time_not_increasing(
+                profile,
                 &table.file,
                 table.lines[i],
-                format!(
-                    "t = {} s is not after the previous row's t = {} s (line {}): expected a \
-                     strictly increasing {what}",
-                    show_t(ti),
-                    show_t(p),
-                    table.lines[i - 1]
-                ),
+                ti,
+                p,
+                table.lines[i - 1],
             ));
         }
         t.push(ti);
@@ -308,70 +354,18 @@ fn times(table: &Table, column: Option<usize>, profile: &Profile) -> Result<Vec<
 
 /// Check that two files pair row by row (the join), naming the first row without a partner.
 fn join(profile: &Profile, g: &Source, a: &Source) -> Result<(), ImportError> {
-    let tol = profile
-        .input
-        .join_tolerance_s
-        .unwrap_or_else(|| 0.1 * timing::median_interval(&g.t));
-    let tol = if tol.is_finite() { tol } else { 0.0 };
-    let median = timing::median_interval(&g.t);
-    if profile.input.join_tolerance_s.is_some() && tol >= 0.5 * median {
-        return Err(ImportError::profile(
-            &profile.origin,
-            format!(
-                "[input] join_tolerance_s = {tol}: expected less than half the median interval \
-                 of {} ({} s), so that a row pairs only with the row of its own time",
-                g.table.file,
-                round_sig(median)
-            ),
-        ));
-    }
+    let tol = join_tolerance(profile, &g.table.file, timing::median_interval(&g.t))?;
     let n = g.t.len().min(a.t.len());
-    let has_time = profile.time.column.is_some() || profile.time.counter_column.is_some();
-    match profile.input.join {
-        Join::Time => {
-            for i in 0..n {
-                let d = g.t[i] - a.t[i];
-                if d.abs() > tol {
-                    // The file whose time is earlier has a row the other lacks.
-                    let (lone, other) = if d < 0.0 { (g, a) } else { (a, g) };
-                    return Err(ImportError::line(
-                        &lone.table.file,
-                        lone.table.lines[i],
-                        format!(
-                            "t = {} s has no row with the same time in {} (its row there, line \
-                             {}, has t = {} s): expected the {} and {} files to hold the same \
-                             time stamps, within join_tolerance_s = {tol} s",
-                            show_t(lone.t[i]),
-                            other.table.file,
-                            other.table.lines[i],
-                            show_t(other.t[i]),
-                            g.role,
-                            a.role
-                        ),
-                    ));
-                }
-            }
+    fn at(s: &Source, i: usize) -> JoinRow<'_> {
+        JoinRow {
+            file: &s.table.file,
+            line: s.table.lines[i],
+            t: s.t[i],
         }
-        Join::Row => {
-            if has_time {
-                for i in 0..n {
-                    if (g.t[i] - a.t[i]).abs() > tol {
-                        return Err(ImportError::line(
-                            &a.table.file,
-                            a.table.lines[i],
-                            format!(
-                                "t = {} s, but line {} of {} has t = {} s: expected rows joined \
-                                 by position to have the same time within join_tolerance_s = \
-                                 {tol} s",
-                                show_t(a.t[i]),
-                                g.table.lines[i],
-                                g.table.file,
-                                show_t(g.t[i])
-                            ),
-                        ));
-                    }
-                }
-            }
+    }
+    for i in 0..n {
+        if let Some(e) = join_pair(profile, tol, at(g, i), at(a, i), [g.role, a.role]) {
+            return Err(e);
         }
     }
     if g.t.len() != a.t.len() {
@@ -380,22 +374,110 @@ fn join(profile: &Profile, g: &Source, a: &Source) -> Result<(), ImportError> {
         } else {
             (a, g)
         };
-        return Err(ImportError::line(
-            &long.table.file,
-            long.table.lines[n],
-            format!(
-                "row {} (t = {} s) has no partner: {} ends after {} rows; expected the {} and {} \
-                 files to have as many rows",
-                n + 1,
-                show_t(long.t[n]),
-                short.table.file,
-                short.t.len(),
-                g.role,
-                a.role
-            ),
+        return Err(unpartnered(
+            at(long, n),
+            n,
+            &short.table.file,
+            [g.role, a.role],
         ));
     }
     Ok(())
+}
+
+/// The join's tolerance: the profile's, or a tenth of the gyro file's median interval.
+fn join_tolerance(profile: &Profile, g_file: &str, median: f64) -> Result<f64, ImportError> {
+    let tol = profile.input.join_tolerance_s.unwrap_or(0.1 * median);
+    let tol = if tol.is_finite() { tol } else { 0.0 };
+    if profile.input.join_tolerance_s.is_some() && tol >= 0.5 * median {
+        return Err(ImportError::profile(
+            &profile.origin,
+            format!(
+                "[input] join_tolerance_s = {tol}: expected less than half the median interval \
+                 of {g_file} ({} s), so that a row pairs only with the row of its own time",
+                round_sig(median)
+            ),
+        ));
+    }
+    Ok(tol)
+}
+
+/// A data row as the join names it.
+#[derive(Clone, Copy)]
+struct JoinRow<'a> {
+    file: &'a str,
+    line: usize,
+    t: f64,
+}
+
+/// The error of a gyro row and an accelerometer row of the same position that do not pair.
+fn join_pair(
+    profile: &Profile,
+    tol: f64,
+    g: JoinRow<'_>,
+    a: JoinRow<'_>,
+    roles: [&str; 2],
+) -> Option<ImportError> {
+    let has_time = profile.time.column.is_some() || profile.time.counter_column.is_some();
+    match profile.input.join {
+        Join::Time => {
+            let d = g.t - a.t;
+            if d.abs() > tol {
+                // The file whose time is earlier has a row the other lacks.
+                let (lone, other) = if d < 0.0 { (g, a) } else { (a, g) };
+                return Some(ImportError::line(
+                    lone.file,
+                    lone.line,
+                    format!(
+                        "t = {} s has no row with the same time in {} (its row there, line {}, \
+                         has t = {} s): expected the {} and {} files to hold the same time \
+                         stamps, within join_tolerance_s = {tol} s",
+                        show_t(lone.t),
+                        other.file,
+                        other.line,
+                        show_t(other.t),
+                        roles[0],
+                        roles[1]
+                    ),
+                ));
+            }
+        }
+        Join::Row => {
+            if has_time && (g.t - a.t).abs() > tol {
+                return Some(ImportError::line(
+                    a.file,
+                    a.line,
+                    format!(
+                        "t = {} s, but line {} of {} has t = {} s: expected rows joined by \
+                         position to have the same time within join_tolerance_s = {tol} s",
+                        show_t(a.t),
+                        g.line,
+                        g.file,
+                        show_t(g.t)
+                    ),
+                ));
+            }
+        }
+    }
+    None
+}
+
+/// Row `n` of the longer file (`long`) has no partner: the other file (`short_file`) has `n`
+/// rows.
+fn unpartnered(long: JoinRow<'_>, n: usize, short_file: &str, roles: [&str; 2]) -> ImportError {
+    ImportError::line(
+        long.file,
+        long.line,
+        format!(
+            "row {} (t = {} s) has no partner: {} ends after {} rows; expected the {} and {} files \
+             to have as many rows",
+            n + 1,
+            show_t(long.t),
+            short_file,
+            n,
+            roles[0],
+            roles[1]
+        ),
+    )
 }
 
 /// Saturation bookkeeping of one sensor.
@@ -444,7 +526,7 @@ pub fn import_recording(
         sources.last().expect("one or two"),
         layouts.last().expect("one or two"),
     );
-    let (imu, sat_g, sat_a) = convert_records(profile, gs, gl, as_, al);
+    let (imu, sat_g, sat_a) = convert_records(profile, gs, gl, as_, al)?;
     let n = gs.t.len();
     let t = &gs.t;
     let (timing, gaps, gap_reports) = check_timing(profile, options, gs)?;
@@ -514,7 +596,7 @@ fn convert_records(
     gl: &Layout,
     as_: &Source,
     al: &Layout,
-) -> (ImuData, Saturation, Saturation) {
+) -> Result<(ImuData, Saturation, Saturation), ImportError> {
     let (g_at, a_at) = (gl.gyro.unwrap_or(0), al.accel.unwrap_or(0));
     let kind = match profile.form {
         Form::Rates => ImuKind::Rates,
@@ -528,14 +610,64 @@ fn convert_records(
         let raw_a = triad(&as_.table, k, a_at);
         sat_g.push(k, tk, profile.gyro.saturated(&raw_g));
         sat_a.push(k, tk, profile.accel.saturated(&raw_a));
+        let temp = match (&profile.temperature, gl.temp) {
+            (Some(tc), Some(j)) => Some(celsius(
+                tc,
+                gs.table.get(k, j),
+                &gs.table.file,
+                gs.table.lines[k],
+                &gs.table.place(j, matches!(tc.column, Column::Name(_))),
+            )?),
+            _ => None,
+        };
         records.push(ImuRecord {
             t: tk,
             gyro: profile.gyro.convert(raw_g),
             accel: profile.accel.convert(raw_a),
-            temp: None,
+            temp,
         });
     }
-    (ImuData { kind, records }, sat_g, sat_a)
+    Ok((ImuData { kind, records }, sat_g, sat_a))
+}
+
+/// A file's temperature value in deg C, refused outside [`profile::TEMP_RANGE_C`] with the
+/// file, the line and the field (`place`, as the reader names it).
+fn celsius(
+    tc: &profile::Temperature,
+    raw: f64,
+    file: &str,
+    line: usize,
+    place: &str,
+) -> Result<f64, ImportError> {
+    let c = tc.to_celsius(raw);
+    let (lo, hi) = profile::TEMP_RANGE_C;
+    if (lo..=hi).contains(&c) {
+        return Ok(c);
+    }
+    let conversion = match tc.unit {
+        profile::TempUnit::Counts => format!(
+            "check [temperature] offset ({}) and sensitivity ({} counts per deg C)",
+            tc.offset.unwrap_or(f64::NAN),
+            tc.sensitivity.unwrap_or(f64::NAN)
+        ),
+        u => format!(
+            "check [temperature] unit (\"{}\"; \"degC\", \"K\", \"degF\", or \"counts\" with \
+             offset and sensitivity)",
+            u.name()
+        ),
+    };
+    Err(ImportError::line(
+        file,
+        line,
+        format!(
+            "temperature ({}){place}: `{}` {} gives {} deg C: expected {lo} .. {hi} deg C; \
+             {conversion} and column",
+            tc.column,
+            raw,
+            tc.unit.name(),
+            show_number(c)
+        ),
+    ))
 }
 
 /// Stage 3, timing: jitter kept, gaps refused unless allowed.
@@ -546,56 +678,90 @@ fn check_timing(
 ) -> Result<(timing::Timing, Vec<timing::GapAt>, Vec<GapReport>), ImportError> {
     let t = &gs.t;
     if t.len() < 2 {
-        return Err(ImportError::line(
-            &gs.table.file,
-            gs.table.lines[0],
-            "expected at least two data rows (a recording), found one",
-        ));
+        return Err(too_short(&gs.table.file, gs.table.lines[0]));
     }
     let (timing, gaps) = timing::analyse(t, profile.checks.gap_factor);
-    check_time_base(profile, gs, timing.median_interval_s)?;
-    let gap_reports: Vec<GapReport> = gaps
-        .iter()
+    check_time_base(
+        profile,
+        &gs.table.file,
+        gs.table.lines[0],
+        timing.median_interval_s,
+    )?;
+    let gap_reports = gap_reports(&gaps, &timing, &gs.table.file, |k| gs.table.lines[k]);
+    if !options.allow_gaps {
+        check_gaps(profile, &timing, &gap_reports, |k| gs.table.lines[k])?;
+    }
+    Ok((timing, gaps, gap_reports))
+}
+
+/// A recording of one row, refused.
+fn too_short(file: &str, line: usize) -> ImportError {
+    ImportError::line(
+        file,
+        line,
+        "expected at least two data rows (a recording), found one",
+    )
+}
+
+/// The gaps as the report lists them (`line`: the source line of a record).
+fn gap_reports(
+    gaps: &[GapAt],
+    timing: &Timing,
+    file: &str,
+    line: impl Fn(usize) -> usize,
+) -> Vec<GapReport> {
+    gaps.iter()
         .map(|g| GapReport {
             record: g.index,
-            file: gs.table.file.clone(),
-            line: gs.table.lines[g.index],
+            file: file.to_string(),
+            line: line(g.index),
             t_before_s: g.t_before_s,
             t_after_s: g.t_after_s,
             length_s: g.length_s(),
             median_intervals: g.length_s() / timing.median_interval_s,
         })
-        .collect();
-    if let Some(g) = gap_reports.first()
-        && !options.allow_gaps
-    {
-        return Err(ImportError::line(
-            &g.file,
-            g.line,
-            format!(
-                "a gap of {} s ({:.1} median intervals of {} s) between t = {} s (line {}) and \
-                 t = {} s: expected intervals of at most {} median intervals ({} gap{} in all); \
-                 gaps are never bridged: import with gaps allowed (sins-calib import \
-                 --allow-gaps) to keep the records as they are with the gaps recorded in \
-                 import.json",
-                round_sig(g.length_s),
-                g.median_intervals,
-                round_sig(timing.median_interval_s),
-                show_t(g.t_before_s),
-                gs.table.lines[g.record - 1],
-                show_t(g.t_after_s),
-                profile.checks.gap_factor,
-                gap_reports.len(),
-                if gap_reports.len() == 1 { "" } else { "s" }
-            ),
-        ));
-    }
-    Ok((timing, gaps, gap_reports))
+        .collect()
+}
+
+/// Gaps refused (without `--allow-gaps`), at the first.
+fn check_gaps(
+    profile: &Profile,
+    timing: &Timing,
+    gap_reports: &[GapReport],
+    line: impl Fn(usize) -> usize,
+) -> Result<(), ImportError> {
+    let Some(g) = gap_reports.first() else {
+        return Ok(());
+    };
+    Err(ImportError::line(
+        &g.file,
+        g.line,
+        format!(
+            "a gap of {} s ({:.1} median intervals of {} s) between t = {} s (line {}) and t = {} \
+             s: expected intervals of at most {} median intervals ({} gap{} in all); gaps are \
+             never bridged: import with gaps allowed (sins-calib import --allow-gaps) to keep \
+             the records as they are with the gaps recorded in import.json",
+            round_sig(g.length_s),
+            g.median_intervals,
+            round_sig(timing.median_interval_s),
+            show_t(g.t_before_s),
+            line(g.record - 1),
+            show_t(g.t_after_s),
+            profile.checks.gap_factor,
+            gap_reports.len(),
+            if gap_reports.len() == 1 { "" } else { "s" }
+        ),
+    ))
 }
 
 /// The median interval must be plausible for an IMU; stamps in milliseconds (or micro-,
 /// nanoseconds) declared as seconds are named as such.
-fn check_time_base(profile: &Profile, gs: &Source, median: f64) -> Result<(), ImportError> {
+fn check_time_base(
+    profile: &Profile,
+    file: &str,
+    first_line: usize,
+    median: f64,
+) -> Result<(), ImportError> {
     let (lo, hi) = MEDIAN_INTERVAL_RANGE_S;
     let time = &profile.time;
     let seconds = time.column.is_some() && time.unit.unwrap_or_default() == profile::TimeUnit::S;
@@ -627,8 +793,8 @@ fn check_time_base(profile: &Profile, gs: &Source, median: f64) -> Result<(), Im
         ),
     };
     Err(ImportError::line(
-        &gs.table.file,
-        gs.table.lines[0],
+        file,
+        first_line,
         format!(
             "the time stamps (profile {}) advance by a median {} s ({} Hz) between records: \
              expected {lo} .. {hi} s, an IMU recording at 1 Hz or more; {cause}",
@@ -648,71 +814,88 @@ fn check_magnitudes(
     median: f64,
     sources: [&Source; 2],
 ) -> Result<(), ImportError> {
-    let increments = profile.form == Form::Increments;
     let mut previous: Option<f64> = None;
     for (k, r) in imu.records.iter().enumerate() {
         let dt = previous.map_or(median, |p| r.t - p);
         previous = Some(r.t);
-        let scale = if increments { 1.0 / dt } else { 1.0 };
-        for (name, sensor, values, max, unit, src) in [
-            (
-                "gyro",
-                &profile.gyro,
-                r.gyro,
-                MAX_GYRO_RAD_S,
-                "rad/s",
-                sources[0],
-            ),
-            (
-                "accel",
-                &profile.accel,
-                r.accel,
-                MAX_ACCEL_M_S2,
-                "m/s^2",
-                sources[1],
-            ),
-        ] {
-            for (i, v) in values.iter().enumerate() {
-                let v = v * scale;
-                if v.abs() < max {
-                    continue;
-                }
-                let source = sensor.axes[i].source;
-                let conversion = if sensor.unit == Unit::Counts {
-                    format!(
-                        "check [{name}] offset and sensitivity (counts per {}, here {:e}) and \
-                         sensitivity_unit",
-                        sensor.sensitivity_unit.map_or("?", Unit::name),
-                        sensor.sensitivity.map_or(f64::NAN, |s| s[source])
-                    )
-                } else {
-                    format!(
-                        "the values look like raw counts: set [{name}] unit = \"counts\" with \
-                         offset and sensitivity (unit is \"{}\")",
-                        sensor.unit.name()
-                    )
-                };
-                return Err(ImportError::line(
-                    &src.table.file,
-                    src.table.lines[k],
-                    format!(
-                        "{name} {} ({}) gives {:.4e} {unit}{} after conversion: expected a magnitude \
-                         below {max} {unit}; {conversion}; check the columns in {}",
-                        ["x", "y", "z"][i],
-                        sensor.columns[source],
-                        v,
-                        if increments {
-                            " (increment over its interval)"
-                        } else {
-                            ""
-                        },
-                        profile.origin
-                    ),
-                ));
-            }
+        if let Some((s, i, v)) = beyond_magnitude(profile, r, dt) {
+            let src = &sources[s].table;
+            return Err(magnitude_error(profile, s, i, v, &src.file, src.lines[k]));
         }
     }
     Ok(())
+}
+
+/// The first sensor (0 gyro, 1 accelerometer), axis and value of a record beyond the plausible
+/// magnitude (`dt`: its interval, for increments).
+fn beyond_magnitude(profile: &Profile, r: &ImuRecord, dt: f64) -> Option<(usize, usize, f64)> {
+    let scale = if profile.form == Form::Increments {
+        1.0 / dt
+    } else {
+        1.0
+    };
+    for (s, (values, max)) in [(r.gyro, MAX_GYRO_RAD_S), (r.accel, MAX_ACCEL_M_S2)]
+        .into_iter()
+        .enumerate()
+    {
+        for (i, v) in values.iter().enumerate() {
+            let v = v * scale;
+            if v.abs() >= max {
+                return Some((s, i, v));
+            }
+        }
+    }
+    None
+}
+
+/// The refusal of a converted value `v` of sensor `s` (0 gyro, 1 accelerometer), axis `i`,
+/// beyond the plausible magnitude, on `line` of `file`.
+fn magnitude_error(
+    profile: &Profile,
+    s: usize,
+    i: usize,
+    v: f64,
+    file: &str,
+    line: usize,
+) -> ImportError {
+    let increments = profile.form == Form::Increments;
+    let (name, sensor, max, unit) = if s == 0 {
+        ("gyro", &profile.gyro, MAX_GYRO_RAD_S, "rad/s")
+    } else {
+        ("accel", &profile.accel, MAX_ACCEL_M_S2, "m/s^2")
+    };
+    let source = sensor.axes[i].source;
+    let conversion = if sensor.unit == Unit::Counts {
+        format!(
+            "check [{name}] offset and sensitivity (counts per {}, here {:e}) and \
+             sensitivity_unit",
+            sensor.sensitivity_unit.map_or("?", Unit::name),
+            sensor.sensitivity.map_or(f64::NAN, |s| s[source])
+        )
+    } else {
+        format!(
+            "the values look like raw counts: set [{name}] unit = \"counts\" with offset and \
+             sensitivity (unit is \"{}\")",
+            sensor.unit.name()
+        )
+    };
+    ImportError::line(
+        file,
+        line,
+        format!(
+            "{name} {} ({}) gives {:.4e} {unit}{} after conversion: expected a magnitude below \
+             {max} {unit}; {conversion}; check the columns in {}",
+            ["x", "y", "z"][i],
+            sensor.columns[source],
+            v,
+            if increments {
+                " (increment over its interval)"
+            } else {
+                ""
+            },
+            profile.origin
+        ),
+    )
 }
 
 /// Stage 4: the saturation reports of the sensors with a range (gyro, then accelerometer).
@@ -720,17 +903,33 @@ fn saturation_reports(
     profile: &Profile,
     found: [(&Saturation, &Source); 2],
 ) -> Vec<SaturationReport> {
+    let line_g = |k: usize| found[0].1.table.lines[k];
+    let line_a = |k: usize| found[1].1.table.lines[k];
+    saturation_reports_of(
+        profile,
+        [
+            (found[0].0, &found[0].1.table.file, &line_g),
+            (found[1].0, &found[1].1.table.file, &line_a),
+        ],
+    )
+}
+
+/// A sensor's saturation, its file, and the source line of a record.
+type SaturationOf<'a> = (&'a Saturation, &'a str, &'a dyn Fn(usize) -> usize);
+
+/// [`saturation_reports`] with each sensor's file and the source line of a record.
+fn saturation_reports_of(profile: &Profile, found: [SaturationOf<'_>; 2]) -> Vec<SaturationReport> {
     [&profile.gyro, &profile.accel]
         .into_iter()
         .zip(["gyro", "accel"])
         .zip(found)
-        .filter_map(|((sensor, name), (s, src))| {
+        .filter_map(|((sensor, name), (s, file, line))| {
             sensor.range.map(|range| SaturationReport {
                 sensor: name.into(),
                 range,
                 count: s.count,
-                file: src.table.file.clone(),
-                first_line: s.first.map(|k| src.table.lines[k]),
+                file: file.to_string(),
+                first_line: s.first.map(line),
                 stretches: s.stretches.clone(),
             })
         })
@@ -813,12 +1012,31 @@ fn check_static_force(
         .iter()
         .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
         .collect();
-    let median = timing::median_of(&mut norms);
+    static_force(
+        profile,
+        timing::median_of(&mut norms),
+        std,
+        [t[a], t[b - 1]],
+        &src.table.file,
+        [src.table.lines[a], src.table.lines[b - 1]],
+    )
+}
+
+/// The check of the median specific force `median` over the quietest window (`window_s`, on
+/// `lines` of `file`) against g.
+fn static_force(
+    profile: &Profile,
+    median: f64,
+    std: f64,
+    window_s: [f64; 2],
+    file: &str,
+    lines: [usize; 2],
+) -> Result<StaticForce, ImportError> {
     let ratio = median / STANDARD_GRAVITY;
     let found = StaticForce {
         median_norm_m_s2: median,
         ratio_to_g: ratio,
-        window_s: [t[a], t[b - 1]],
+        window_s,
         std_m_s2: std,
     };
     if (G_BAND.0..=G_BAND.1).contains(&ratio) {
@@ -826,18 +1044,18 @@ fn check_static_force(
     }
     let cause = force_cause(&profile.accel, profile.form, ratio);
     Err(ImportError::line(
-        &src.table.file,
-        src.table.lines[a],
+        file,
+        lines[0],
         format!(
             "the specific force at rest has a median magnitude of {} m/s^2 ({} g) over lines \
              {}..{} (t = {} .. {} s, the quietest {} s of the recording): expected g = {} m/s^2 \
              within {} to {} g; {cause}",
             round_sig(median),
             round_sig(ratio),
-            src.table.lines[a],
-            src.table.lines[b - 1],
-            show_t(t[a]),
-            show_t(t[b - 1]),
+            lines[0],
+            lines[1],
+            show_t(window_s[0]),
+            show_t(window_s[1]),
             QUIET_WINDOW_S,
             STANDARD_GRAVITY,
             G_BAND.0,

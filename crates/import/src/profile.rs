@@ -42,6 +42,10 @@ pub struct Profile {
     /// Turntable angle columns, when the recording has them (written to `turntable.csv`).
     #[serde(default)]
     pub angles: Option<Angles>,
+    /// A temperature column, written to `imu.csv`'s `temp` column in deg C (in the single
+    /// input file, or in the gyro file with two files).
+    #[serde(default)]
+    pub temperature: Option<Temperature>,
     /// A section list carried into `sections.json`.
     #[serde(default)]
     pub sections: Option<SectionsSource>,
@@ -617,6 +621,105 @@ pub enum AngleUnit {
     Rad,
 }
 
+/// Temperatures outside this range (deg C, after conversion) are refused: no IMU works there,
+/// and a value outside it is a wrong column or unit (a counter, raw counts read as degrees).
+pub const TEMP_RANGE_C: (f64, f64) = (-100.0, 200.0);
+
+/// A temperature column and its unit.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Temperature {
+    /// The column (in the single input file, or in the gyro file with two files).
+    pub column: Column,
+    /// `"degC"`, `"K"`, `"degF"` or `"counts"` (with `offset` and `sensitivity`).
+    pub unit: TempUnit,
+    /// Counts only: the reading at 0 deg C (counts).
+    #[serde(default)]
+    pub offset: Option<f64>,
+    /// Counts only: counts per deg C (signed).
+    #[serde(default)]
+    pub sensitivity: Option<f64>,
+}
+
+/// Unit of a temperature column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+pub enum TempUnit {
+    /// Degrees Celsius.
+    #[serde(rename = "degC")]
+    DegC,
+    /// Kelvin.
+    #[serde(rename = "K")]
+    Kelvin,
+    /// Degrees Fahrenheit.
+    #[serde(rename = "degF")]
+    DegF,
+    /// Raw counts: `(value - offset) / sensitivity` deg C.
+    #[serde(rename = "counts")]
+    Counts,
+}
+
+impl TempUnit {
+    /// The unit as a profile names it.
+    pub fn name(self) -> &'static str {
+        match self {
+            TempUnit::DegC => "degC",
+            TempUnit::Kelvin => "K",
+            TempUnit::DegF => "degF",
+            TempUnit::Counts => "counts",
+        }
+    }
+}
+
+impl Temperature {
+    /// The temperature in deg C of a file value.
+    pub fn to_celsius(&self, raw: f64) -> f64 {
+        match self.unit {
+            TempUnit::DegC => raw,
+            TempUnit::Kelvin => raw - 273.15,
+            TempUnit::DegF => (raw - 32.0) * (5.0 / 9.0),
+            TempUnit::Counts => match (self.offset, self.sensitivity) {
+                (Some(o), Some(s)) => (raw - o) / s,
+                _ => f64::NAN, // excluded by `check`
+            },
+        }
+    }
+
+    fn check(&self, file: &str) -> Result<(), ImportError> {
+        let err = |m: String| Err(ImportError::profile(file, m));
+        match (self.unit, self.offset, self.sensitivity) {
+            (TempUnit::Counts, Some(o), Some(s)) => {
+                if !o.is_finite() {
+                    return err(format!(
+                        "[temperature] offset = {o}: expected the finite reading at 0 deg C                          (counts)"
+                    ));
+                }
+                if !(s.is_finite() && s != 0.0) {
+                    return err(format!(
+                        "[temperature] sensitivity = {s}: expected finite, non-zero counts per                          deg C"
+                    ));
+                }
+            }
+            (TempUnit::Counts, _, _) => {
+                return err(
+                    "[temperature] unit = \"counts\" needs offset (the reading at 0 deg \
+                            C) and sensitivity (counts per deg C): deg C = (value - offset) / \
+                            sensitivity"
+                        .into(),
+                );
+            }
+            (u, o, s) if o.is_some() || s.is_some() => {
+                return err(format!(
+                    "[temperature] offset and sensitivity apply to unit = \"counts\" only (unit \
+                     is \"{}\")",
+                    u.name()
+                ));
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
 /// A section list to carry into `sections.json`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -703,6 +806,9 @@ impl Profile {
         gyro_file.extend(triad("gyro", &self.gyro.columns, xyz));
         if let Some(a) = &self.angles {
             gyro_file.extend(triad("angles", &a.columns, ["k1", "k2", "k3"]));
+        }
+        if let Some(t) = &self.temperature {
+            gyro_file.push(("[temperature] column".into(), &t.column));
         }
         let accel = triad("accel", &self.accel.columns, xyz);
         let files = if self.input.file.is_some() {
@@ -869,6 +975,10 @@ impl Profile {
         columns.extend(self.accel.columns.iter());
         if let Some(a) = &self.angles {
             columns.extend(a.columns.iter());
+        }
+        if let Some(t) = &self.temperature {
+            t.check(file)?;
+            columns.push(&t.column);
         }
         self.check_columns_used_once()?;
         if let Some(c) = columns.iter().find(|c| named(c))

@@ -322,117 +322,211 @@ pub(crate) fn carry(
     gyro: &Sensor,
     accel: &Sensor,
 ) -> Result<SectionsFile, ImportError> {
-    let file = path.display().to_string();
-    let text = sins_model::text::read_text_bounded(
-        path,
-        sins_model::text::SECTIONS_MAX_BYTES,
-        "section list",
-    )
-    .map_err(|source| ImportError::Read {
-        file: file.clone(),
-        source,
-    })?;
-    let Entries(list) = serde_json::from_str(&text).map_err(|e| {
-        ImportError::line(
-            &file,
-            e.line(),
-            format!(
-                "expected an imucal section list, a JSON object {{\"x_p\": {{\"start\": 540, \
-                     \"end\": 1271}}, ...}}: {e}"
-            ),
-        )
-    })?;
-    let n = data.records.len();
     let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     let median = crate::timing::median_interval(&t);
-    let mut sections = Vec::new();
-    for (name, value) in list {
-        let Some((kind, axis, sign)) = parse_name(&name) else {
-            return Err(ImportError::file(
+    let mut carried = Carry::new(source, path, data.records.len(), data.kind, median, gyro)?;
+    for r in &data.records {
+        carried.push(r.t, r.gyro, r.accel);
+    }
+    Ok(carried.finish(accel))
+}
+
+/// One section of the list as it is being carried.
+struct Open {
+    name: String,
+    kind: SectionKind,
+    axis: usize,
+    sign: f64,
+    bounds: Bounds,
+    /// Rotations: the gyro axis of the turn in the output axes.
+    dir: [f64; 3],
+    count: f64,
+    mean_f: [f64; 3],
+    turn: f64,
+    start_s: f64,
+    end_s: f64,
+    dt0: f64,
+}
+
+/// A section list put on the records given one at a time, in order ([`Carry::push`]): what is
+/// summed over each section is summed as the records come, so the records need not be held.
+pub(crate) struct Carry {
+    file: String,
+    expected_turn_deg: f64,
+    kind: ImuKind,
+    median: f64,
+    sections: Vec<Open>,
+    k: usize,
+    previous: f64,
+}
+
+impl Carry {
+    /// Read and check the list against `n` records of this `kind` (`median`: their median
+    /// interval, the first record's own).
+    pub(crate) fn new(
+        source: &SectionsSource,
+        path: &Path,
+        n: usize,
+        kind: ImuKind,
+        median: f64,
+        gyro: &Sensor,
+    ) -> Result<Self, ImportError> {
+        let file = path.display().to_string();
+        let text = sins_model::text::read_text_bounded(
+            path,
+            sins_model::text::SECTIONS_MAX_BYTES,
+            "section list",
+        )
+        .map_err(|source| ImportError::Read {
+            file: file.clone(),
+            source,
+        })?;
+        let Entries(list) = serde_json::from_str(&text).map_err(|e| {
+            ImportError::line(
                 &file,
+                e.line(),
                 format!(
-                    "section `{}`: expected imucal's names x_p, x_a, y_p, y_a, z_p, z_a (static \
-                     faces: that axis up or down) and x_rot, y_rot, z_rot (rotations)",
-                    excerpt(&name)
-                ),
-            ));
-        };
-        let b: Bounds = serde_json::from_value(value).map_err(|e| {
-            ImportError::file(
-                &file,
-                format!(
-                    "section `{name}`: expected {{\"start\": row, \"end\": row}} (0-based data \
-                     rows, end exclusive): {e}"
+                    "expected an imucal section list, a JSON object {{\"x_p\": {{\"start\": 540, \
+                     \"end\": 1271}}, ...}}: {e}"
                 ),
             )
         })?;
-        if !(b.start < b.end && b.end <= n) {
-            return Err(ImportError::file(
-                &file,
-                format!(
-                    "section `{name}`: start {} and end {}: expected 0 <= start < end <= {n}, \
-                     the number of data rows imported (rows are 0-based, end exclusive)",
-                    b.start, b.end
-                ),
-            ));
-        }
-        let (a, z) = (b.start, b.end - 1);
-        let recs = &data.records[a..=z];
-        let count = recs.len() as f64;
-        let mut mean_f = [0.0; 3];
-        for r in recs {
-            for (m, a) in mean_f.iter_mut().zip(r.accel) {
-                *m += a / count;
+        let mut sections = Vec::new();
+        for (name, value) in list {
+            let Some((kind, axis, sign)) = parse_name(&name) else {
+                return Err(ImportError::file(
+                    &file,
+                    format!(
+                        "section `{}`: expected imucal's names x_p, x_a, y_p, y_a, z_p, z_a \
+                         (static faces: that axis up or down) and x_rot, y_rot, z_rot \
+                         (rotations)",
+                        excerpt(&name)
+                    ),
+                ));
+            };
+            let b: Bounds = serde_json::from_value(value).map_err(|e| {
+                ImportError::file(
+                    &file,
+                    format!(
+                        "section `{name}`: expected {{\"start\": row, \"end\": row}} (0-based \
+                         data rows, end exclusive): {e}"
+                    ),
+                )
+            })?;
+            if !(b.start < b.end && b.end <= n) {
+                return Err(ImportError::file(
+                    &file,
+                    format!(
+                        "section `{name}`: start {} and end {}: expected 0 <= start < end <= \
+                         {n}, the number of data rows imported (rows are 0-based, end \
+                         exclusive)",
+                        b.start, b.end
+                    ),
+                ));
             }
+            sections.push(Open {
+                name,
+                kind,
+                axis,
+                sign,
+                dir: gyro.map_direction(axis, 1.0),
+                count: (b.end - b.start) as f64,
+                bounds: b,
+                mean_f: [0.0; 3],
+                turn: 0.0,
+                start_s: f64::NAN,
+                end_s: f64::NAN,
+                dt0: f64::NAN,
+            });
         }
-        if data.kind == ImuKind::Increments {
-            // Velocity increments: the mean force is their sum over the section's span.
-            let dt0 = if a == 0 { median } else { t[a] - t[a - 1] };
-            let span = t[z] - t[a] + dt0;
-            mean_f = mean_f.map(|v| v * count / span);
-        }
-        let mut section = Section {
-            name: name.clone(),
+        Ok(Self {
+            file,
+            expected_turn_deg: source.expected_turn_deg,
             kind,
-            source_start: b.start,
-            source_end: b.end,
-            first_record: a,
-            last_record: z,
-            start_s: t[a],
-            end_s: t[z],
-            up: None,
-            axis: None,
-            expected_turn_deg: None,
-            measured_turn_deg: None,
-            mean_f_m_s2: mean_f,
+            median,
+            sections,
+            k: 0,
+            previous: f64::NAN,
+        })
+    }
+
+    /// The next record.
+    pub(crate) fn push(&mut self, t: f64, gyro: [f64; 3], accel: [f64; 3]) {
+        let k = self.k;
+        let dt = if k == 0 {
+            self.median
+        } else {
+            t - self.previous
         };
-        match kind {
-            SectionKind::Static => section.up = Some(accel.map_direction(axis, sign)),
-            SectionKind::Rotation => {
-                let dir = gyro.map_direction(axis, 1.0);
-                let mut turn = 0.0;
-                for k in a..=z {
-                    let g = data.records[k].gyro;
-                    let along = g[0] * dir[0] + g[1] * dir[1] + g[2] * dir[2];
-                    turn += match data.kind {
-                        ImuKind::Rates => {
-                            let dt = if k == 0 { median } else { t[k] - t[k - 1] };
-                            along * dt
-                        }
-                        ImuKind::Increments => along,
-                    };
-                }
-                section.axis = Some(dir);
-                section.expected_turn_deg = Some(source.expected_turn_deg);
-                section.measured_turn_deg = Some(turn.to_degrees());
+        for s in &mut self.sections {
+            if k < s.bounds.start || k >= s.bounds.end {
+                continue;
+            }
+            if k == s.bounds.start {
+                s.start_s = t;
+                s.dt0 = dt;
+            }
+            s.end_s = t;
+            for (m, a) in s.mean_f.iter_mut().zip(accel) {
+                *m += a / s.count;
+            }
+            if s.kind == SectionKind::Rotation {
+                let d = s.dir;
+                let along = gyro[0] * d[0] + gyro[1] * d[1] + gyro[2] * d[2];
+                s.turn += match self.kind {
+                    ImuKind::Rates => along * dt,
+                    ImuKind::Increments => along,
+                };
             }
         }
-        sections.push(section);
+        self.previous = t;
+        self.k += 1;
     }
-    sections.sort_by_key(|s| s.first_record);
-    Ok(SectionsFile {
-        source: file,
-        format: "imucal".into(),
-        sections,
-    })
+
+    /// The sections, in time order.
+    pub(crate) fn finish(self, accel: &Sensor) -> SectionsFile {
+        let mut sections: Vec<Section> = self
+            .sections
+            .into_iter()
+            .map(|s| {
+                let (a, z) = (s.bounds.start, s.bounds.end - 1);
+                let mut mean_f = s.mean_f;
+                if self.kind == ImuKind::Increments {
+                    // Velocity increments: the mean force is their sum over the section's span.
+                    let span = s.end_s - s.start_s + s.dt0;
+                    mean_f = mean_f.map(|v| v * s.count / span);
+                }
+                let mut section = Section {
+                    name: s.name,
+                    kind: s.kind,
+                    source_start: s.bounds.start,
+                    source_end: s.bounds.end,
+                    first_record: a,
+                    last_record: z,
+                    start_s: s.start_s,
+                    end_s: s.end_s,
+                    up: None,
+                    axis: None,
+                    expected_turn_deg: None,
+                    measured_turn_deg: None,
+                    mean_f_m_s2: mean_f,
+                };
+                match s.kind {
+                    SectionKind::Static => section.up = Some(accel.map_direction(s.axis, s.sign)),
+                    SectionKind::Rotation => {
+                        section.axis = Some(s.dir);
+                        section.expected_turn_deg = Some(self.expected_turn_deg);
+                        section.measured_turn_deg = Some(s.turn.to_degrees());
+                    }
+                }
+                section
+            })
+            .collect();
+        sections.sort_by_key(|s| s.first_record);
+        SectionsFile {
+            source: self.file,
+            format: "imucal".into(),
+            sections,
+        }
+    }
 }

@@ -36,12 +36,23 @@ pub(crate) struct Table {
     pub width: usize,
     /// Row-major values, `width` per row.
     pub values: Vec<f64>,
+    /// 0-based field of each wanted column.
+    pub index: Vec<usize>,
 }
 
 impl Table {
     /// Number of data rows.
     pub fn rows(&self) -> usize {
         self.lines.len()
+    }
+
+    /// Where wanted column `j` is, for messages (as [`Rows::place`]).
+    pub fn place(&self, j: usize, named: bool) -> String {
+        if named {
+            format!(", field {}", self.index[j] + 1)
+        } else {
+            String::new()
+        }
     }
 
     /// Value `j` of row `i`.
@@ -126,6 +137,155 @@ impl Lines {
     }
 }
 
+/// The data rows of a file, one at a time: the wanted columns of each as numbers, with its line
+/// number. Nothing is held but the current row.
+pub(crate) struct Rows {
+    lines: Lines,
+    input_delimiter: crate::profile::Delimiter,
+    comment: Option<String>,
+    skip_lines: usize,
+    whats: Vec<String>,
+    named: Vec<bool>,
+    index: Vec<usize>,
+    needed: usize,
+    blank: Option<usize>,
+    rows: usize,
+    /// The wanted values of the current row.
+    pub values: Vec<f64>,
+}
+
+impl Rows {
+    /// Open `path` laid out as `input` says, past the skipped lines (`profile` names the
+    /// profile in messages).
+    pub fn open(
+        path: &Path,
+        input: &Input,
+        wanted: &[Wanted<'_>],
+        profile: &str,
+    ) -> Result<Self, ImportError> {
+        let mut lines = open_lines(path)?;
+        let file = lines.file.clone();
+        let index = column_indices(&mut lines, input, wanted)?;
+        // A column named once by number and once by name is still one column.
+        for (i, a) in index.iter().enumerate() {
+            if let Some(j) = index[..i].iter().position(|b| b == a) {
+                return Err(ImportError::line(
+                    &file,
+                    input.header_line.unwrap_or(1),
+                    format!(
+                        "the profile's {} and {} are the same field {} of the header line: \
+                         expected each column to hold one quantity (check the columns in \
+                         {profile})",
+                        wanted[j].what,
+                        wanted[i].what,
+                        a + 1
+                    ),
+                ));
+            }
+        }
+        let needed = index.iter().max().map_or(0, |m| m + 1);
+        Ok(Self {
+            lines,
+            input_delimiter: input.delimiter,
+            comment: input.comment.clone(),
+            skip_lines: input.skip_lines,
+            whats: wanted.iter().map(|w| w.what.clone()).collect(),
+            named: wanted
+                .iter()
+                .map(|w| matches!(w.column, Column::Name(_)))
+                .collect(),
+            index,
+            needed,
+            blank: None,
+            rows: 0,
+            values: Vec::with_capacity(wanted.len()),
+        })
+    }
+
+    /// The file's name in messages.
+    pub fn file(&self) -> &str {
+        &self.lines.file
+    }
+
+    /// Where wanted column `j` is, for messages: `", field 5"` for a column given by name,
+    /// nothing for one given by number (the profile names it).
+    pub fn place(&self, j: usize) -> String {
+        if self.named[j] {
+            format!(", field {}", self.index[j] + 1)
+        } else {
+            String::new()
+        }
+    }
+
+    /// The next data row (its values in [`Rows::values`]) and its line; `None` after the last.
+    /// A file without data rows is refused at its end.
+    pub fn next_row(&mut self) -> Result<Option<usize>, ImportError> {
+        while let Some((n, text)) = self.lines.next_line()? {
+            let trimmed = text.trim_start();
+            if trimmed.is_empty() {
+                self.blank.get_or_insert(n);
+                continue;
+            }
+            if let Some(c) = &self.comment
+                && trimmed.starts_with(c.as_str())
+            {
+                continue;
+            }
+            let file = &self.lines.file;
+            if let Some(b) = self.blank {
+                return Err(ImportError::line(
+                    file,
+                    b,
+                    "expected a data row, found an empty line before more data",
+                ));
+            }
+            let fields: Vec<&str> = self.input_delimiter.split(&text).collect();
+            if fields.len() < self.needed {
+                let (w, _) = self
+                    .whats
+                    .iter()
+                    .zip(&self.index)
+                    .max_by_key(|(_, i)| **i)
+                    .expect("at least one wanted column");
+                return Err(ImportError::line(
+                    file,
+                    n,
+                    format!(
+                        "expected at least {} fields separated by {} (up to the {}), found {}",
+                        self.needed,
+                        self.input_delimiter.describe(),
+                        w,
+                        fields.len()
+                    ),
+                ));
+            }
+            self.values.clear();
+            parse_row(
+                file,
+                n,
+                &fields,
+                &self.whats,
+                &self.named,
+                &self.index,
+                &mut self.values,
+            )?;
+            self.rows += 1;
+            return Ok(Some(n));
+        }
+        if self.rows == 0 {
+            return Err(ImportError::line(
+                &self.lines.file,
+                self.lines.line + 1,
+                format!(
+                    "expected data rows after the {} skipped lines, found none",
+                    self.skip_lines
+                ),
+            ));
+        }
+        Ok(None)
+    }
+}
+
 /// Read the wanted columns of every data row of `path` laid out as `input` says (`profile`
 /// names the profile in messages).
 pub(crate) fn read_table(
@@ -134,81 +294,17 @@ pub(crate) fn read_table(
     wanted: &[Wanted<'_>],
     profile: &str,
 ) -> Result<Table, ImportError> {
-    let mut lines = open_lines(path)?;
-    let file = lines.file.clone();
-    let index = column_indices(&mut lines, input, wanted)?;
-    // A column named once by number and once by name is still one column.
-    for (i, a) in index.iter().enumerate() {
-        if let Some(j) = index[..i].iter().position(|b| b == a) {
-            return Err(ImportError::line(
-                &file,
-                input.header_line.unwrap_or(1),
-                format!(
-                    "the profile's {} and {} are the same field {} of the header line: expected \
-                     each column to hold one quantity (check the columns in {profile})",
-                    wanted[j].what,
-                    wanted[i].what,
-                    a + 1
-                ),
-            ));
-        }
-    }
-    let needed = index.iter().max().map_or(0, |m| m + 1);
+    let mut rows = Rows::open(path, input, wanted, profile)?;
     let mut table = Table {
-        file: file.clone(),
+        file: rows.file().to_string(),
         lines: Vec::new(),
         width: wanted.len(),
         values: Vec::new(),
+        index: rows.index.clone(),
     };
-    let mut blank: Option<usize> = None;
-    while let Some((n, text)) = lines.next_line()? {
-        let trimmed = text.trim_start();
-        if trimmed.is_empty() {
-            blank.get_or_insert(n);
-            continue;
-        }
-        if let Some(c) = &input.comment
-            && trimmed.starts_with(c.as_str())
-        {
-            continue;
-        }
-        if let Some(b) = blank {
-            return Err(ImportError::line(
-                &file,
-                b,
-                "expected a data row, found an empty line before more data",
-            ));
-        }
-        let fields: Vec<&str> = input.delimiter.split(&text).collect();
-        if fields.len() < needed {
-            let (w, _) = wanted
-                .iter()
-                .zip(&index)
-                .max_by_key(|(_, i)| **i)
-                .expect("at least one wanted column");
-            return Err(ImportError::line(
-                &file,
-                n,
-                format!(
-                    "expected at least {needed} fields separated by {} (up to the {}), found {}",
-                    input.delimiter.describe(),
-                    w.what,
-                    fields.len()
-                ),
-            ));
-        }
-        parse_row(&file, n, &fields, wanted, &index, &mut table.values)?;
+    while let Some(n) = rows.next_row()? {
+        table.values.extend_from_slice(&rows.values);
         table.lines.push(n);
-    }
-    if table.lines.is_empty() {
-        return Err(ImportError::line(
-            &file,
-            lines.line + 1,
-            format!(
-                "expected data rows after the {} skipped lines, found none",
-                input.skip_lines
-            ),
-        ));
     }
     Ok(table)
 }
@@ -290,15 +386,17 @@ fn parse_row(
     file: &str,
     n: usize,
     fields: &[&str],
-    wanted: &[Wanted<'_>],
+    whats: &[String],
+    named: &[bool],
     index: &[usize],
     values: &mut Vec<f64>,
 ) -> Result<(), ImportError> {
-    for (w, &i) in wanted.iter().zip(index) {
+    for ((what, &named), &i) in whats.iter().zip(named).zip(index) {
         let f = fields[i];
-        let place = match w.column {
-            Column::Name(_) => format!(", field {}", i + 1),
-            Column::Number(_) => String::new(),
+        let place = if named {
+            format!(", field {}", i + 1)
+        } else {
+            String::new()
         };
         let v = match f.parse::<f64>() {
             Ok(v) if v.is_finite() => v,
@@ -308,7 +406,7 @@ fn parse_row(
                     n,
                     format!(
                         "{}{place}: expected a finite number, found `{}`",
-                        w.what,
+                        what,
                         excerpt(f)
                     ),
                 ));
@@ -317,11 +415,7 @@ fn parse_row(
                 return Err(ImportError::line(
                     file,
                     n,
-                    format!(
-                        "{}{place}: expected a number, found `{}`",
-                        w.what,
-                        excerpt(f)
-                    ),
+                    format!("{}{place}: expected a number, found `{}`", what, excerpt(f)),
                 ));
             }
         };

@@ -3,7 +3,7 @@
 //! is not g.
 
 use import::profile::Profile;
-use import::{ImportError, ImportOptions, Imported, import_recording, write_outputs};
+use import::{ImportError, ImportOptions, Imported, import_into, import_recording, write_outputs};
 use std::path::{Path, PathBuf};
 
 /// A fresh directory for one test.
@@ -27,7 +27,50 @@ fn setup(dir: &Path, toml: &str, files: &[(&str, String)]) -> Result<Profile, Im
 }
 
 fn import(dir: &Path, toml: &str, files: &[(&str, String)]) -> Result<Imported, ImportError> {
-    import_recording(&setup(dir, toml, files)?, &ImportOptions::default())
+    both(&setup(dir, toml, files)?, &ImportOptions::default())
+}
+
+/// The held import ([`import_recording`]), checked against the streamed one ([`import_into`]):
+/// the same refusal, or the same files byte for byte.
+fn both(profile: &Profile, options: &ImportOptions) -> Result<Imported, ImportError> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static RUN: AtomicUsize = AtomicUsize::new(0);
+    let run = RUN.fetch_add(1, Ordering::Relaxed);
+    let base = Path::new(&profile.origin).parent().unwrap().to_path_buf();
+    let (held_dir, streamed_dir) = (
+        base.join(format!("held-{run}")),
+        base.join(format!("streamed-{run}")),
+    );
+    let _ = std::fs::remove_dir_all(&streamed_dir);
+    std::fs::create_dir_all(&streamed_dir).unwrap();
+    let held = import_recording(profile, options);
+    let streamed = import_into(profile, options, &streamed_dir);
+    match (&held, streamed) {
+        (Err(h), Err(s)) => assert_eq!(h.to_string(), s.to_string()),
+        (Ok(h), Ok(s)) => {
+            let w = write_outputs(h, &held_dir).unwrap();
+            assert_eq!(h.report, s.report);
+            assert_eq!(h.sections, s.sections);
+            let pairs = [
+                (Some(&w.imu), Some(&s.written.imu)),
+                (w.turntable.as_ref(), s.written.turntable.as_ref()),
+                (w.sections.as_ref(), s.written.sections.as_ref()),
+                (Some(&w.report), Some(&s.written.report)),
+            ];
+            for (a, b) in pairs {
+                assert_eq!(a.is_some(), b.is_some(), "{a:?} {b:?}");
+                if let (Some(a), Some(b)) = (a, b) {
+                    assert_eq!(
+                        std::fs::read(a).unwrap(),
+                        std::fs::read(b).unwrap(),
+                        "{b:?}"
+                    );
+                }
+            }
+        }
+        (h, s) => panic!("held {h:?}, streamed {s:?}"),
+    }
+    held
 }
 
 /// `n` rows at 100 Hz of `t,gx,gy,gz,ax,ay,az` (rates in deg/s, force in m/s^2) at rest with z
@@ -366,7 +409,7 @@ fn a_gap_is_refused_with_line_and_length_unless_allowed() {
     );
     assert!(e.contains("--allow-gaps"), "{e}");
     let profile = setup(&dir, REST_PROFILE, &[("data.csv", text)]).unwrap();
-    let imported = import_recording(&profile, &ImportOptions { allow_gaps: true }).unwrap();
+    let imported = both(&profile, &ImportOptions { allow_gaps: true }).unwrap();
     let gaps = &imported.report.gaps;
     assert_eq!(gaps.len(), 1);
     assert_eq!((gaps[0].record, gaps[0].line), (101, 103));
@@ -477,7 +520,7 @@ fn files_cut_off_or_not_text_are_refused() {
     )
     .unwrap();
     let profile = Profile::load(&dir.join("profile.toml")).unwrap();
-    let e = message(import_recording(&profile, &ImportOptions::default()).unwrap_err());
+    let e = message(both(&profile, &ImportOptions::default()).unwrap_err());
     assert!(e.contains("data.csv: line 2: not UTF-8"), "{e}");
     let e = message(Profile::load(&dir.join("none.toml")).unwrap_err());
     assert!(e.contains("none.toml: cannot read"), "{e}");
@@ -536,4 +579,170 @@ unit = "m/s"
     let seg = import::detect::segment(&imported.imu, &Default::default()).unwrap();
     assert_eq!(seg.static_intervals.len(), 1);
     assert!((seg.static_intervals[0].norm_f_m_s2 - 9.81).abs() < 1e-9);
+}
+
+/// `rest_csv` with a temperature column of `temp(i)`.
+fn rest_temp_csv(n: usize, temp: impl Fn(usize) -> String) -> String {
+    let mut s = String::from("time,gx,gy,gz,ax,ay,az,temp\n");
+    for i in 0..n {
+        s += &format!(
+            "{},0.5,-0.25,1.0,0.1,-0.2,9.8,{}\n",
+            i as f64 * 0.01,
+            temp(i)
+        );
+    }
+    s
+}
+
+fn temp_profile(table: &str) -> String {
+    format!("{REST_PROFILE}[temperature]\n{table}\n")
+}
+
+#[test]
+fn a_temperature_column_is_converted_to_deg_c() {
+    let dir = scratch("temperature");
+    for (table, raw, celsius) in [
+        ("column = \"temp\"\nunit = \"degC\"", 21.5, 21.5),
+        ("column = 8\nunit = \"K\"", 300.0, 300.0 - 273.15),
+        (
+            "column = \"temp\"\nunit = \"degF\"",
+            98.6,
+            (98.6 - 32.0) * (5.0 / 9.0),
+        ),
+        (
+            "column = \"temp\"\nunit = \"counts\"\noffset = -12420.2\nsensitivity = 340.0",
+            -2000.0,
+            (-2000.0 + 12420.2) / 340.0,
+        ),
+    ] {
+        let imported = import(
+            &dir,
+            &temp_profile(table),
+            &[("data.csv", rest_temp_csv(300, |_| format!("{raw}")))],
+        )
+        .unwrap();
+        for r in &imported.imu.records {
+            assert_eq!(r.temp, Some(celsius), "{table}");
+        }
+        let written = write_outputs(&imported, &dir.join("out")).unwrap();
+        let text = std::fs::read_to_string(&written.imu).unwrap();
+        assert!(text.starts_with("t,wx,wy,wz,fx,fy,fz,temp\n"), "{text}");
+        let back = calib::io::read_imu_csv(&written.imu).unwrap();
+        assert_eq!(back, imported.imu);
+    }
+    // Without [temperature] no temp column, though the file has one.
+    let imported = import(
+        &dir,
+        REST_PROFILE,
+        &[("data.csv", rest_temp_csv(300, |_| "20".into()))],
+    )
+    .unwrap();
+    assert!(imported.imu.records.iter().all(|r| r.temp.is_none()));
+    let written = write_outputs(&imported, &dir.join("out")).unwrap();
+    let text = std::fs::read_to_string(&written.imu).unwrap();
+    assert!(text.starts_with("t,wx,wy,wz,fx,fy,fz\n"), "{text}");
+}
+
+#[test]
+fn a_temperature_outside_its_range_is_refused_with_file_line_and_field() {
+    let dir = scratch("temperature-refused");
+    // Line 8 is row 6: raw counts declared as deg C.
+    let csv = rest_temp_csv(300, |i| if i == 6 { "412.5".into() } else { "25".into() });
+    let e = message(
+        import(
+            &dir,
+            &temp_profile("column = \"temp\"\nunit = \"degC\""),
+            &[("data.csv", csv)],
+        )
+        .unwrap_err(),
+    );
+    assert!(
+        e.contains("data.csv: line 8: temperature (column `temp`), field 8: `412.5` degC gives 412.5 deg C: expected -100 .. 200 deg C"),
+        "{e}"
+    );
+    // Kelvins declared as deg F come out far above the range; by number, no field is added.
+    let csv = rest_temp_csv(300, |_| "500".into());
+    let e = message(
+        import(
+            &dir,
+            &temp_profile("column = 8\nunit = \"degF\""),
+            &[("data.csv", csv)],
+        )
+        .unwrap_err(),
+    );
+    assert!(
+        e.contains("data.csv: line 2: temperature (column 8): `500` degF gives 260 deg C"),
+        "{e}"
+    );
+    let csv = rest_temp_csv(300, |_| "-200".into());
+    let e = message(
+        import(
+            &dir,
+            &temp_profile("column = 8\nunit = \"K\""),
+            &[("data.csv", csv)],
+        )
+        .unwrap_err(),
+    );
+    assert!(
+        e.contains("line 2: temperature (column 8): `-200` K gives -473.") && e.contains(" deg C"),
+        "{e}"
+    );
+    // The profile's own mistakes.
+    for (table, expected) in [
+        ("column = \"temp\"\nunit = \"counts\"", "needs offset"),
+        (
+            "column = \"temp\"\nunit = \"counts\"\noffset = 0.0\nsensitivity = 0.0",
+            "sensitivity = 0",
+        ),
+        (
+            "column = \"temp\"\nunit = \"K\"\noffset = 1.0",
+            "apply to unit = \"counts\" only",
+        ),
+        ("column = \"temp\"\nunit = \"C\"", "unknown variant `C`"),
+        ("column = \"gx\"\nunit = \"K\"", "is used twice"),
+    ] {
+        let e = message(
+            import(
+                &dir,
+                &temp_profile(table),
+                &[("data.csv", rest_temp_csv(10, |_| "20".into()))],
+            )
+            .unwrap_err(),
+        );
+        assert!(e.contains(expected), "{table}: {e}");
+    }
+}
+
+#[test]
+fn comment_lines_move_the_lines_named_the_same_in_the_streamed_import() {
+    let dir = scratch("comments");
+    // Comments between rows, a gap after one and a row beyond the gyro's range: the lines the
+    // report and the refusals name come from the line map of the streamed import.
+    let mut text = String::from("time,gx,gy,gz,ax,ay,az\n");
+    for i in 0..400 {
+        if i % 37 == 5 {
+            text += "# a comment\n";
+        }
+        let t = if i >= 250 {
+            0.5 + i as f64 * 0.01
+        } else {
+            i as f64 * 0.01
+        };
+        let gx = if i == 301 { 2500.0 } else { 0.5 };
+        text += &format!("{t},{gx},-0.25,1.0,0.1,-0.2,9.8\n");
+    }
+    let toml = format!("{REST_PROFILE}\n[checks]\ngap_factor = 1.5\n")
+        .replace("header_line = 1", "header_line = 1\ncomment = \"#\"")
+        .replace(
+            "unit = \"deg/s\"",
+            "unit = \"deg/s\"\nrange = [-2000.0, 2000.0]",
+        );
+    let profile = setup(&dir, &toml, &[("data.csv", text)]).unwrap();
+    let e = message(both(&profile, &ImportOptions::default()).unwrap_err());
+    assert!(e.contains("a gap of 0.51 s"), "{e}");
+    let imported = both(&profile, &ImportOptions { allow_gaps: true }).unwrap();
+    assert_eq!(imported.report.gaps.len(), 1);
+    let sat = &imported.report.saturation[0];
+    assert_eq!(sat.count, 1);
+    assert_eq!(sat.first_line, Some(2 + 301 + 9));
 }

@@ -4,7 +4,7 @@
 use crate::table;
 use crate::{Error, output, print};
 use ::import::profile::Profile;
-use ::import::{ImportOptions, ImportReport, Imported, Written, import_recording, write_outputs};
+use ::import::{ImportOptions, ImportReport, ImportedFiles, Written, import_into};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -48,14 +48,40 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let options = ImportOptions {
         allow_gaps: args.allow_gaps,
     };
-    let imported = import_recording(&profile, &options)?;
+    // Read, converted and written row by row into the temporary directory (removed on a
+    // refusal): the memory does not grow with the recording.
+    let created = missing_ancestors(&args.out);
     let out = output::DirOutput::begin(&args.out, &OUTPUTS)?;
-    let tmp = write_outputs(&imported, out.tmp_dir())?;
-    stamp_outputs(&args.profile, &profile, &imported, &tmp)?;
+    let imported = match import_into(&profile, &options, out.tmp_dir()) {
+        Ok(imported) => imported,
+        Err(e) => {
+            // Nothing is left of a refused import: the temporary directory goes with `out`,
+            // and the directories made for it (deepest first; only when empty).
+            drop(out);
+            for d in created {
+                let _ = std::fs::remove_dir(d);
+            }
+            return Err(e.into());
+        }
+    };
+    let tmp = &imported.written;
+    stamp_outputs(
+        &args.profile,
+        &profile,
+        &imported.report,
+        imported.sections.as_ref(),
+        tmp,
+    )?;
     let written = Written {
         imu: out.final_path("imu.csv"),
-        turntable: tmp.turntable.map(|_| out.final_path("turntable.csv")),
-        sections: tmp.sections.map(|_| out.final_path("sections.json")),
+        turntable: tmp
+            .turntable
+            .as_ref()
+            .map(|_| out.final_path("turntable.csv")),
+        sections: tmp
+            .sections
+            .as_ref()
+            .map(|_| out.final_path("sections.json")),
         report: out.final_path("import.json"),
     };
     out.commit()?;
@@ -114,7 +140,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
 fn stamp_outputs(
     profile_path: &std::path::Path,
     profile: &Profile,
-    imported: &Imported,
+    report: &ImportReport,
+    sections: Option<&::import::sections::SectionsFile>,
     written: &Written,
 ) -> Result<(), Error> {
     use crate::provenance::{ImportProvenance, InputHash};
@@ -136,7 +163,7 @@ fn stamp_outputs(
     if let Some(p) = &written.turntable {
         output_sha256.insert("turntable.csv".into(), crate::sha256::of_file(p)?.0);
     }
-    if let (Some(p), Some(sections)) = (&written.sections, &imported.sections) {
+    if let (Some(p), Some(sections)) = (&written.sections, sections) {
         write(
             p,
             calib::schema::to_json(calib::schema::SECTIONS, sections)?,
@@ -154,7 +181,7 @@ fn stamp_outputs(
         )?);
     }
     let json = ImportJson {
-        report: &imported.report,
+        report,
         provenance: ImportProvenance {
             unit: profile.unit.clone(),
             input_files,
@@ -165,6 +192,17 @@ fn stamp_outputs(
         &written.report,
         calib::schema::to_json(calib::schema::IMPORT, &json)?,
     )
+}
+
+/// The directories above `out` that do not exist yet, deepest first.
+fn missing_ancestors(out: &std::path::Path) -> Vec<PathBuf> {
+    let absolute = std::path::absolute(out).unwrap_or_else(|_| out.to_path_buf());
+    absolute
+        .ancestors()
+        .skip(1)
+        .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
+        .map(std::path::Path::to_path_buf)
+        .collect()
 }
 
 /// The gaps of the time stamps, or that there are none.
@@ -235,7 +273,7 @@ fn saturation_lines(r: &ImportReport) -> String {
 }
 
 /// The files written (but `import.json`), with the sections carried over.
-fn written_lines(imported: &Imported, written: &Written) -> String {
+fn written_lines(imported: &ImportedFiles, written: &Written) -> String {
     let c = table::compact;
     let mut s = String::new();
     let r = &imported.report;
