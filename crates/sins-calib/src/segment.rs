@@ -57,6 +57,10 @@ struct SegmentJson<'a> {
     imu: String,
     #[serde(flatten)]
     segmentation: &'a Segmentation,
+    /// With a `temp` column: each static interval's mean temperature (deg C), in the order of
+    /// `static_intervals`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    interval_temp_c: Option<Vec<f64>>,
 }
 
 /// A setting to three significant digits, without trailing zeros (1, 0.1, 0.563).
@@ -173,6 +177,27 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     let seg = segment_streamed(&mut source, &settings).map_err(|e| format!("{file}: {e}"))?;
     recording_checks::check_static_force(&seg, &file)?;
+    // The records' temperature, where they have one: each static interval's mean (a thermal
+    // drift between rests shows in their biases, docs/temperature.md).
+    let mut sums = vec![(0.0, 0usize); seg.static_intervals.len()];
+    let (mut k, mut at) = (0usize, 0usize);
+    source.records_of(&mut |r, _| {
+        let intervals = &seg.static_intervals;
+        while at < intervals.len() && intervals[at].last_record < k {
+            at += 1;
+        }
+        if let (Some(x), Some(temp)) = (intervals.get(at), r.temp)
+            && x.first_record <= k
+        {
+            sums[at].0 += temp;
+            sums[at].1 += 1;
+        }
+        k += 1;
+    })?;
+    let interval_temp_c: Option<Vec<f64>> = sums
+        .iter()
+        .any(|(_, n)| *n > 0)
+        .then(|| sums.iter().map(|(t, n)| t / *n as f64).collect());
     let c = table::compact;
     let sig = table::significant;
 
@@ -241,7 +266,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     );
     if n > 0 {
         s.push('\n');
-        let mut t = Table::new(&[
+        let mut columns = vec![
             ("#", Align::Right),
             ("start [s]", Align::Right),
             ("end [s]", Align::Right),
@@ -251,10 +276,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
             ("mean fy", Align::Right),
             ("mean fz [m/s^2]", Align::Right),
             ("|f| [m/s^2]", Align::Right),
-        ]);
+        ];
+        if interval_temp_c.is_some() {
+            columns.push(("temp [deg C]", Align::Right));
+        }
+        let mut t = Table::new(&columns);
         for (i, x) in seg.static_intervals.iter().enumerate() {
             let f = x.mean_f_m_s2;
-            t.row(vec![
+            let mut row = vec![
                 (i + 1).to_string(),
                 format!("{:.3}", x.start_s),
                 format!("{:.3}", x.end_s),
@@ -264,7 +293,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 format!("{:.4}", f[1]),
                 format!("{:.4}", f[2]),
                 format!("{:.4}", x.norm_f_m_s2),
-            ]);
+            ];
+            if let Some(temps) = &interval_temp_c {
+                row.push(format!("{:.2}", temps[i]));
+            }
+            t.row(row);
         }
         s += &t.render();
     }
@@ -288,6 +321,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let json = SegmentJson {
             imu: file.clone(),
             segmentation: &seg,
+            interval_temp_c,
         };
         let text = calib::schema::to_json(calib::schema::SEGMENTATION, &json)?;
         output::write_file(path, text.as_bytes())?;
