@@ -63,14 +63,21 @@ struct AnalysisParameter {
 }
 
 /// The walk `diagnose` is expected to show on this program ([`calib::extend::drift_reach`] at
-/// the loop's default grid and level, over all its candidates), as JSON and text.
+/// the loop's default grid and level, over the candidates it would test), as JSON and text.
 fn walk_reach(
     config: &calib::config::RunConfig,
     with_turntable: bool,
 ) -> Result<Option<(DriftReachJson, String)>, Error> {
     use sins_model::units::DEG_PER_HOUR;
     let settings = calib::extend::LoopSettings::default();
-    let level = settings.level / settings.candidates.len() as f64;
+    // The candidates the loop would test: the thermal ones only where the unit's temperature
+    // moves ([`calib::extend::thermal_untestable`]).
+    let tested = settings
+        .candidates
+        .iter()
+        .filter(|c| !c.is_thermal() || config.temperature.is_some())
+        .count();
+    let level = settings.level / tested as f64;
     let ext = calib::extension::ModelExtension::default();
     let Some(reach) = calib::extend::drift_reach(config, with_turntable, &ext, &settings, level)?
     else {
