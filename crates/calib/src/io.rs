@@ -113,6 +113,18 @@ pub struct ImuRecord {
     pub temp: Option<f64>,
 }
 
+impl ImuRecord {
+    /// An increments record from the truth simulator.
+    pub fn from_sample(s: &ImuSample) -> Self {
+        Self {
+            t: s.t,
+            gyro: [s.dtheta.x, s.dtheta.y, s.dtheta.z],
+            accel: [s.dv.x, s.dv.y, s.dv.z],
+            temp: s.temp,
+        }
+    }
+}
+
 /// The contents of an `imu.csv`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImuData {
@@ -127,15 +139,7 @@ impl ImuData {
     pub fn from_samples(samples: &[ImuSample]) -> Self {
         Self {
             kind: ImuKind::Increments,
-            records: samples
-                .iter()
-                .map(|s| ImuRecord {
-                    t: s.t,
-                    gyro: [s.dtheta.x, s.dtheta.y, s.dtheta.z],
-                    accel: [s.dv.x, s.dv.y, s.dv.z],
-                    temp: s.temp,
-                })
-                .collect(),
+            records: samples.iter().map(ImuRecord::from_sample).collect(),
         }
     }
 
@@ -154,6 +158,16 @@ pub struct TurntableRecord {
     pub k_deg: [f64; 3],
 }
 
+impl TurntableRecord {
+    /// A record from the truth simulator.
+    pub fn from_sample(s: &TurntableSample) -> Self {
+        Self {
+            t: s.t_tt,
+            k_deg: s.k_deg,
+        }
+    }
+}
+
 /// The contents of a `turntable.csv`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TurntableData {
@@ -165,13 +179,7 @@ impl TurntableData {
     /// Records from the truth simulator.
     pub fn from_samples(samples: &[TurntableSample]) -> Self {
         Self {
-            records: samples
-                .iter()
-                .map(|s| TurntableRecord {
-                    t: s.t_tt,
-                    k_deg: s.k_deg,
-                })
-                .collect(),
+            records: samples.iter().map(TurntableRecord::from_sample).collect(),
         }
     }
 
@@ -1049,35 +1057,113 @@ pub fn format_f64(x: f64) -> String {
 /// every record must have one (else an error naming `file`).
 pub fn format_imu_csv(data: &ImuData, file: &str) -> Result<String, IoError> {
     let has_temp = data.records.iter().any(|r| r.temp.is_some());
+    let mut s = imu_csv_header(data.kind, has_temp);
+    for (i, r) in data.records.iter().enumerate() {
+        push_imu_row(&mut s, r, has_temp, i, file)?;
+    }
+    Ok(s)
+}
+
+/// The header line of an `imu.csv`.
+fn imu_csv_header(kind: ImuKind, has_temp: bool) -> String {
     let mut s = String::from("t,");
-    s += &data.kind.columns().join(",");
+    s += &kind.columns().join(",");
     if has_temp {
         s += ",temp";
     }
     s.push('\n');
-    for (i, r) in data.records.iter().enumerate() {
-        s += &format_f64(r.t);
-        for v in r.gyro.iter().chain(&r.accel) {
-            s.push(',');
-            s += &format_f64(*v);
-        }
-        if has_temp {
-            let Some(temp) = r.temp else {
-                return Err(IoError::File {
-                    file: file.to_string(),
-                    message: format!(
-                        "record {} has no temperature while others have: cannot write a \
-                         `temp` column",
-                        i + 1
-                    ),
-                });
-            };
-            s.push(',');
-            s += &format_f64(temp);
-        }
-        s.push('\n');
+    s
+}
+
+/// Append record `r` (the `i`-th, from 0) as an `imu.csv` line.
+fn push_imu_row(
+    s: &mut String,
+    r: &ImuRecord,
+    has_temp: bool,
+    i: usize,
+    file: &str,
+) -> Result<(), IoError> {
+    *s += &format_f64(r.t);
+    for v in r.gyro.iter().chain(&r.accel) {
+        s.push(',');
+        *s += &format_f64(*v);
     }
-    Ok(s)
+    if has_temp {
+        let Some(temp) = r.temp else {
+            return Err(IoError::File {
+                file: file.to_string(),
+                message: format!(
+                    "record {} has no temperature while others have: cannot write a \
+                     `temp` column",
+                    i + 1
+                ),
+            });
+        };
+        s.push(',');
+        *s += &format_f64(temp);
+    }
+    s.push('\n');
+    Ok(())
+}
+
+/// An `imu.csv` written record by record: the bytes of [`write_imu_csv`] for the same records,
+/// without holding them. Whether it has a `temp` column is said at the start; then every record
+/// must have a temperature.
+pub struct ImuCsvWriter {
+    out: std::io::BufWriter<std::fs::File>,
+    file: String,
+    has_temp: bool,
+    records: usize,
+    line: String,
+}
+
+impl ImuCsvWriter {
+    /// Create the file at `path` and write its header.
+    pub fn create(path: &Path, kind: ImuKind, has_temp: bool) -> Result<Self, IoError> {
+        let file = path.display().to_string();
+        let f = std::fs::File::create(path).map_err(|source| IoError::Write {
+            file: file.clone(),
+            source,
+        })?;
+        let mut w = Self {
+            out: std::io::BufWriter::with_capacity(1 << 16, f),
+            file,
+            has_temp,
+            records: 0,
+            line: imu_csv_header(kind, has_temp),
+        };
+        w.flush_line()?;
+        Ok(w)
+    }
+
+    fn flush_line(&mut self) -> Result<(), IoError> {
+        use std::io::Write as _;
+        self.out
+            .write_all(self.line.as_bytes())
+            .map_err(|source| IoError::Write {
+                file: self.file.clone(),
+                source,
+            })?;
+        self.line.clear();
+        Ok(())
+    }
+
+    /// Write one record.
+    pub fn write(&mut self, r: &ImuRecord) -> Result<(), IoError> {
+        push_imu_row(&mut self.line, r, self.has_temp, self.records, &self.file)?;
+        self.records += 1;
+        self.flush_line()
+    }
+
+    /// Flush the file; the number of records written.
+    pub fn finish(mut self) -> Result<usize, IoError> {
+        use std::io::Write as _;
+        self.out.flush().map_err(|source| IoError::Write {
+            file: self.file.clone(),
+            source,
+        })?;
+        Ok(self.records)
+    }
 }
 
 /// Write an `imu.csv`.
@@ -1091,17 +1177,81 @@ pub fn format_turntable_csv(data: &TurntableData) -> String {
     let mut s = TURNTABLE_COLUMNS.join(",");
     s.push('\n');
     for r in &data.records {
-        let _ = write!(
-            s,
-            "{},{},{},{}",
-            format_f64(r.t),
-            format_f64(r.k_deg[0]),
-            format_f64(r.k_deg[1]),
-            format_f64(r.k_deg[2])
-        );
-        s.push('\n');
+        push_turntable_row(&mut s, r);
     }
     s
+}
+
+/// Append record `r` as a `turntable.csv` line.
+fn push_turntable_row(s: &mut String, r: &TurntableRecord) {
+    let _ = write!(
+        s,
+        "{},{},{},{}",
+        format_f64(r.t),
+        format_f64(r.k_deg[0]),
+        format_f64(r.k_deg[1]),
+        format_f64(r.k_deg[2])
+    );
+    s.push('\n');
+}
+
+/// A `turntable.csv` written record by record: the bytes of [`write_turntable_csv`] for the
+/// same records, without holding them.
+pub struct TurntableCsvWriter {
+    out: std::io::BufWriter<std::fs::File>,
+    file: String,
+    records: usize,
+    line: String,
+}
+
+impl TurntableCsvWriter {
+    /// Create the file at `path` and write its header.
+    pub fn create(path: &Path) -> Result<Self, IoError> {
+        let file = path.display().to_string();
+        let f = std::fs::File::create(path).map_err(|source| IoError::Write {
+            file: file.clone(),
+            source,
+        })?;
+        let mut line = TURNTABLE_COLUMNS.join(",");
+        line.push('\n');
+        let mut w = Self {
+            out: std::io::BufWriter::with_capacity(1 << 16, f),
+            file,
+            records: 0,
+            line,
+        };
+        w.flush_line()?;
+        Ok(w)
+    }
+
+    fn flush_line(&mut self) -> Result<(), IoError> {
+        use std::io::Write as _;
+        self.out
+            .write_all(self.line.as_bytes())
+            .map_err(|source| IoError::Write {
+                file: self.file.clone(),
+                source,
+            })?;
+        self.line.clear();
+        Ok(())
+    }
+
+    /// Write one record.
+    pub fn write(&mut self, r: &TurntableRecord) -> Result<(), IoError> {
+        push_turntable_row(&mut self.line, r);
+        self.records += 1;
+        self.flush_line()
+    }
+
+    /// Flush the file; the number of records written.
+    pub fn finish(mut self) -> Result<usize, IoError> {
+        use std::io::Write as _;
+        self.out.flush().map_err(|source| IoError::Write {
+            file: self.file.clone(),
+            source,
+        })?;
+        Ok(self.records)
+    }
 }
 
 /// Write a `turntable.csv`.

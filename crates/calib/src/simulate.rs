@@ -8,12 +8,14 @@ use crate::layout::layout_with;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use sins_model::names;
+use sins_model::terms::ErrorModel;
 use sins_model::terms::Unit;
+use std::sync::Arc;
 use turntable::kinematics::{Kinematics, Mounting};
 use turntable::sensor::AngleSensor;
 use turntable::simulate::{
-    AccelDrift, GyroDrift, SimConfig, SimRng, SimulateError, Simulation, TruthParameter,
-    simulate_walking,
+    AccelDrift, GyroDrift, ImuStream, SimConfig, SimRng, SimulateError, Simulation, Truth,
+    TruthParameter, TurntableStream, simulate_walking,
 };
 
 /// Errors of a simulation.
@@ -98,7 +100,12 @@ pub fn true_values(
 /// `truth.values` may name the parameters of the candidate terms too (`gyro.tbias.x`,
 /// `accel.k2.z`, ...): the unit then has those effects ([`simulate_run_hidden`]).
 pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, SimulationError> {
-    let hidden = HiddenEffects {
+    simulate_run_hidden(config, origin, &truth_hidden(config))
+}
+
+/// The extra terms' values `truth.values` names.
+fn truth_hidden(config: &RunConfig) -> HiddenEffects {
+    HiddenEffects {
         values: config
             .truth
             .values
@@ -107,8 +114,7 @@ pub fn simulate_run(config: &RunConfig, origin: &str) -> Result<Simulation, Simu
             .map(|(n, v)| (n.clone(), *v))
             .collect(),
         gyro_drift: None,
-    };
-    simulate_run_hidden(config, origin, &hidden)
+    }
 }
 
 /// Seed of the gyro drift's own random stream, from the run's seed.
@@ -138,6 +144,90 @@ pub fn simulate_run_hidden(
     origin: &str,
     hidden: &HiddenEffects,
 ) -> Result<Simulation, SimulationError> {
+    let run = prepare_run_hidden(config, origin, hidden)?;
+    let mut out = simulate_walking(
+        &run.kin,
+        &run.model,
+        &run.p_true,
+        &run.sensor,
+        &run.sim,
+        run.drift.as_ref(),
+        run.accel_drift.as_ref(),
+    )?;
+    out.truth = run.truth;
+    Ok(out)
+}
+
+/// What [`simulate_run`] simulates, set up but not run: the records are then generated one at a
+/// time ([`PreparedRun::imu`], then [`PreparedRun::turntable`] with the same rng), in memory
+/// that does not grow with the run. The records and the truth are those of [`simulate_run`].
+pub fn prepare_run(config: &RunConfig, origin: &str) -> Result<PreparedRun, SimulationError> {
+    prepare_run_hidden(config, origin, &truth_hidden(config))
+}
+
+/// A run set up by [`prepare_run`] / [`prepare_run_hidden`].
+pub struct PreparedRun {
+    /// The turntable's motion with the true mounting.
+    pub kin: Kinematics,
+    /// The error model of the true values.
+    pub model: Arc<ErrorModel>,
+    /// The true instrument parameters.
+    pub p_true: Vec<f64>,
+    /// The angle sensor of the turntable records.
+    pub sensor: AngleSensor,
+    /// The simulator's settings (rate, noise, seed, temperature).
+    pub sim: SimConfig,
+    /// The gyro bias walk, when there is one.
+    pub drift: Option<GyroDrift>,
+    /// The accelerometer bias walk, when there is one.
+    pub accel_drift: Option<AccelDrift>,
+    /// The truth file's contents.
+    pub truth: Truth,
+}
+
+impl PreparedRun {
+    /// The rng of the records' noise, seeded with the run's seed: give it to [`Self::imu`],
+    /// then the same to [`Self::turntable`].
+    pub fn rng(&self) -> SimRng {
+        SimRng::seed_from_u64(self.sim.seed)
+    }
+
+    /// The IMU records one at a time.
+    pub fn imu<'a>(&'a self, rng: &'a mut SimRng) -> Result<ImuStream<'a, SimRng>, SimulateError> {
+        ImuStream::new(
+            &self.kin,
+            &self.model,
+            &self.p_true,
+            &self.sim,
+            self.drift.as_ref(),
+            self.accel_drift.as_ref(),
+            rng,
+        )
+    }
+
+    /// Refuse the turntable records' settings before any record is made (the refusal of
+    /// [`Self::turntable`]).
+    pub fn check_turntable(&self) -> Result<(), SimulateError> {
+        turntable::simulate::check_sensor(&self.sensor)
+    }
+
+    /// The turntable records one at a time, covering IMU records up to `imu_duration` (the
+    /// last IMU record's time), with the rng the IMU records left.
+    pub fn turntable<'a>(
+        &'a self,
+        imu_duration: f64,
+        rng: &'a mut SimRng,
+    ) -> Result<TurntableStream<'a, SimRng>, SimulateError> {
+        TurntableStream::new(&self.kin, &self.sensor, imu_duration, rng)
+    }
+}
+
+/// [`prepare_run`] with the extra effects of [`simulate_run_hidden`].
+pub fn prepare_run_hidden(
+    config: &RunConfig,
+    origin: &str,
+    hidden: &HiddenEffects,
+) -> Result<PreparedRun, SimulationError> {
     let values = true_values(config, origin)?;
     let candidates = hidden
         .candidates()
@@ -218,15 +308,7 @@ pub fn simulate_run_hidden(
         intensity,
         seed: accel_drift_seed(config),
     });
-    let mut out = simulate_walking(
-        &kin,
-        &layout.model,
-        &p_true,
-        &sensor,
-        &sim,
-        drift.as_ref(),
-        accel_drift.as_ref(),
-    )?;
+    let mut truth = Truth::new(&layout.model, &p_true, &kin, &sensor);
     for (walk, names, unit) in [
         (
             gyro_walk,
@@ -237,7 +319,7 @@ pub fn simulate_run_hidden(
     ] {
         if let Some(d) = walk {
             for (n, v) in names.iter().zip(d) {
-                out.truth.parameters.push(TruthParameter {
+                truth.parameters.push(TruthParameter {
                     name: n.to_string(),
                     value: v,
                     unit: unit.to_string(),
@@ -245,6 +327,15 @@ pub fn simulate_run_hidden(
             }
         }
     }
-    out.truth.temperature_reference_c = temperature.map(|(_, r)| r);
-    Ok(out)
+    truth.temperature_reference_c = temperature.map(|(_, r)| r);
+    Ok(PreparedRun {
+        kin,
+        model: layout.model,
+        p_true,
+        sensor,
+        sim,
+        drift,
+        accel_drift,
+        truth,
+    })
 }

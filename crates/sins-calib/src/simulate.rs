@@ -1,8 +1,10 @@
 //! `sins-calib simulate`: a simulated run written as interchange files.
 
 use crate::{Error, load_config, output, print};
-use calib::io::{ImuData, TurntableData, write_imu_csv, write_truth_json, write_turntable_csv};
-use calib::simulate::simulate_run;
+use calib::io::{
+    ImuCsvWriter, ImuKind, ImuRecord, TurntableCsvWriter, TurntableRecord, write_truth_json,
+};
+use calib::simulate::prepare_run;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -29,8 +31,9 @@ pub struct Args {
 /// The files `simulate` writes into its directory.
 const OUTPUTS: [&str; 3] = ["imu.csv", "turntable.csv", "truth.json"];
 
-/// Records a simulation may hold: it keeps the whole run in memory, about 200 bytes a record
-/// (50 million records: 139 h at 100 Hz, 10 GB).
+/// Records a simulation may write: the records are written as they are made (memory does not
+/// grow with the run), but `imu.csv` takes about 140 bytes a record (50 million records: 139 h
+/// at 100 Hz, 7 GB).
 const MAX_RECORDS: f64 = 5e7;
 
 /// Refuse a run with no records, or more than [`MAX_RECORDS`], before simulating anything.
@@ -61,8 +64,8 @@ fn check_size(
         }
         if n > MAX_RECORDS {
             return Err(format!(
-                "{origin}: {shown} s at {name} = {rate} gives {n:.3e} records: simulate keeps \
-                 the run in memory (about 200 bytes a record) and accepts at most {MAX_RECORDS:.0e} \
+                "{origin}: {shown} s at {name} = {rate} gives {n:.3e} records: simulate writes \
+                 about 140 bytes of imu.csv a record and accepts at most {MAX_RECORDS:.0e} \
                  records; shorten truth.duration_s or lower the rate"
             )
             .into());
@@ -187,15 +190,33 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let mut inputs = vec![config_file];
     inputs.extend(program_file.as_deref());
     output::Outputs::new(&inputs).dir(&args.out, "--out", &OUTPUTS)?;
-    let sim = simulate_run(&config, &origin)?;
+    let run = prepare_run(&config, &origin)?;
+    let mut rng = run.rng();
+    let imu_stream = run.imu(&mut rng)?;
+    // The settings the turntable records need are checked before anything is written.
+    run.check_turntable()?;
+    let has_temp = run.sim.temperature.is_some();
 
+    // The records are written as they are generated: the IMU records, then the turntable
+    // records with the rng the IMU records left (the draws of the held simulation).
     let out = output::DirOutput::begin(&args.out, &OUTPUTS)?;
     let [imu_name, tt_name, truth_name] = OUTPUTS;
-    let imu = ImuData::from_samples(&sim.imu);
-    let tt = TurntableData::from_samples(&sim.turntable);
-    write_imu_csv(&out.path(imu_name), &imu)?;
-    write_turntable_csv(&out.path(tt_name), &tt)?;
-    write_truth_json(&out.path(truth_name), &sim.truth)?;
+    let mut imu_writer = ImuCsvWriter::create(&out.path(imu_name), ImuKind::Increments, has_temp)?;
+    let mut imu_span: Option<(f64, f64)> = None;
+    for sample in imu_stream {
+        imu_writer.write(&ImuRecord::from_sample(&sample))?;
+        imu_span = Some((imu_span.map_or(sample.t, |(a, _)| a), sample.t));
+    }
+    let imu_records = imu_writer.finish()?;
+    let duration = imu_span.map_or(0.0, |(_, t1)| t1);
+    let mut tt_writer = TurntableCsvWriter::create(&out.path(tt_name))?;
+    let mut tt_span: Option<(f64, f64)> = None;
+    for sample in run.turntable(duration, &mut rng)? {
+        tt_writer.write(&TurntableRecord::from_sample(&sample))?;
+        tt_span = Some((tt_span.map_or(sample.t_tt, |(a, _)| a), sample.t_tt));
+    }
+    let tt_records = tt_writer.finish()?;
+    write_truth_json(&out.path(truth_name), &run.truth)?;
     let imu_path = out.final_path(imu_name);
     let tt_path = out.final_path(tt_name);
     let truth_path = out.final_path(truth_name);
@@ -203,7 +224,6 @@ pub fn run(args: &Args) -> Result<(), Error> {
 
     let t = &config.truth;
     let mut s = String::new();
-    let duration = imu.span().map_or(0.0, |(_, t1)| t1);
     let _ = writeln!(
         s,
         "simulated {} s of program \"{}\" ({} s long) with seed {}, configuration {origin}",
@@ -224,18 +244,18 @@ pub fn run(args: &Args) -> Result<(), Error> {
         s,
         "  wrote {}: {} records at {} Hz, angle and velocity increments, {} (IMU clock)",
         imu_path.display(),
-        imu.records.len(),
+        imu_records,
         t.imu_rate_hz,
-        span(imu.span())
+        span(imu_span)
     );
     let _ = writeln!(
         s,
         "  wrote {}: {} records at {} Hz, gimbal angles, {} (turntable clock: offset {} s, \
          rate error {})",
         tt_path.display(),
-        tt.records.len(),
+        tt_records,
         t.turntable_rate_hz,
-        span(tt.span()),
+        span(tt_span),
         config.clock.turntable_offset_s,
         config.clock.turntable_rate_error
     );
@@ -243,7 +263,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         s,
         "  wrote {}: {} true values (SI)",
         truth_path.display(),
-        sim.truth.parameters.len()
+        run.truth.parameters.len()
     );
     if (t.imu_rate_hz - config.filter.imu_rate_hz).abs() > 1e-9 * t.imu_rate_hz {
         let _ = writeln!(

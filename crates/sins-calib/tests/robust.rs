@@ -114,7 +114,7 @@ fn imu_steps_are_bounded_before_any_allocation() {
         &o,
         &["program.toml", "filter.imu_rate_hz = 1000", "IMU steps"],
     );
-    // Simulate keeps its run in memory.
+    // Simulate writes at most 5e7 records.
     let o = run(&[
         "simulate",
         "--config",

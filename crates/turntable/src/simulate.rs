@@ -383,16 +383,46 @@ pub fn accel_bias_walk(drift: &AccelDrift, dt: f64, n: usize) -> Vec<Vector3<f64
 }
 
 fn bias_walk(intensity: [f64; 3], seed: u64, dt: f64, n: usize) -> Vec<Vector3<f64>> {
-    let mut rng = SimRng::seed_from_u64(seed);
-    let s = Vector3::from(intensity) * dt.sqrt();
-    let mut b = Vector3::zeros();
+    let mut walk = BiasWalk::new(intensity, seed, dt);
     let mut out = Vec::with_capacity(n + 1);
-    out.push(b);
+    out.push(walk.value());
     for _ in 0..n {
-        b += normal3(&mut rng).component_mul(&s);
-        out.push(b);
+        out.push(walk.step());
     }
     out
+}
+
+/// A bias random walk generated step by step: the values of [`gyro_bias_walk`] /
+/// [`accel_bias_walk`] one at a time (same seeded stream, same draws in the same order), holding
+/// only the current value.
+#[derive(Clone, Debug)]
+pub struct BiasWalk {
+    rng: SimRng,
+    s: Vector3<f64>,
+    b: Vector3<f64>,
+}
+
+impl BiasWalk {
+    /// The walk of intensities `intensity` (per sqrt(s)) over steps of `dt`, from its own stream
+    /// seeded with `seed`; it starts at zero.
+    pub fn new(intensity: [f64; 3], seed: u64, dt: f64) -> Self {
+        Self {
+            rng: SimRng::seed_from_u64(seed),
+            s: Vector3::from(intensity) * dt.sqrt(),
+            b: Vector3::zeros(),
+        }
+    }
+
+    /// The current value (zero before the first step).
+    pub fn value(&self) -> Vector3<f64> {
+        self.b
+    }
+
+    /// Advance one step and return the new value.
+    pub fn step(&mut self) -> Vector3<f64> {
+        self.b += normal3(&mut self.rng).component_mul(&self.s);
+        self.b
+    }
 }
 
 fn check(
@@ -475,46 +505,117 @@ pub fn simulate_imu_walking<R: Rng + ?Sized>(
     accel_drift: Option<&AccelDrift>,
     rng: &mut R,
 ) -> Result<Vec<ImuSample>, SimulateError> {
-    let (rule, dt) = check(model, p_true, config)?;
-    let duration = run_duration(kin, config);
-    if !(duration.is_finite() && duration > 0.0) {
-        return Err(SimulateError::Invalid(format!(
-            "run duration must be > 0, got {duration}"
-        )));
-    }
-    let n = (duration * config.imu_rate_hz * (1.0 + 1e-12)).floor() as usize;
-    let sg = (config.gyro_psd * dt).sqrt();
-    let sa = (config.accel_psd * dt).sqrt();
-    if let Some(d) = drift
-        && d.intensity.iter().any(|v| !(v.is_finite() && *v >= 0.0))
-    {
-        return Err(SimulateError::Invalid(format!(
-            "gyro drift intensities must be >= 0, got {:?}",
-            d.intensity
-        )));
-    }
-    if let Some(d) = accel_drift
-        && d.intensity.iter().any(|v| !(v.is_finite() && *v >= 0.0))
-    {
-        return Err(SimulateError::Invalid(format!(
-            "accelerometer drift intensities must be >= 0, got {:?}",
-            d.intensity
-        )));
-    }
-    let walk = drift.map(|d| gyro_bias_walk(d, dt, n));
-    let accel_walk = accel_drift.map(|d| accel_bias_walk(d, dt, n));
-    if let Some((profile, reference)) = &config.temperature {
-        profile.check().map_err(SimulateError::Invalid)?;
-        if !reference.is_finite() {
+    let stream = ImuStream::new(kin, model, p_true, config, drift, accel_drift, rng)?;
+    let mut out = Vec::with_capacity(stream.len());
+    out.extend(stream);
+    Ok(out)
+}
+
+/// The IMU records of [`simulate_imu_walking`] one at a time, holding only the current state
+/// (the bias walks' current values, [`BiasWalk`]): the same records, bit for bit, with the same
+/// draws from `rng` in the same order. Once it is done (or dropped), `rng` goes on where the
+/// collected run leaves it.
+pub struct ImuStream<'a, R: Rng + ?Sized> {
+    kin: &'a Kinematics,
+    model: &'a ErrorModel,
+    p_true: &'a [f64],
+    config: &'a SimConfig,
+    rule: GaussLegendre,
+    dt: f64,
+    n: usize,
+    i: usize,
+    sg: f64,
+    sa: f64,
+    walk: Option<(BiasWalk, Vector3<f64>)>,
+    accel_walk: Option<(BiasWalk, Vector3<f64>)>,
+    rng: &'a mut R,
+}
+
+impl<'a, R: Rng + ?Sized> ImuStream<'a, R> {
+    /// Check the settings (the refusals of [`simulate_imu_walking`]) and start the stream.
+    pub fn new(
+        kin: &'a Kinematics,
+        model: &'a ErrorModel,
+        p_true: &'a [f64],
+        config: &'a SimConfig,
+        drift: Option<&GyroDrift>,
+        accel_drift: Option<&AccelDrift>,
+        rng: &'a mut R,
+    ) -> Result<Self, SimulateError> {
+        let (rule, dt) = check(model, p_true, config)?;
+        let duration = run_duration(kin, config);
+        if !(duration.is_finite() && duration > 0.0) {
             return Err(SimulateError::Invalid(format!(
-                "reference temperature {reference}: expected a finite value"
+                "run duration must be > 0, got {duration}"
             )));
         }
+        let n = (duration * config.imu_rate_hz * (1.0 + 1e-12)).floor() as usize;
+        let sg = (config.gyro_psd * dt).sqrt();
+        let sa = (config.accel_psd * dt).sqrt();
+        if let Some(d) = drift
+            && d.intensity.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+        {
+            return Err(SimulateError::Invalid(format!(
+                "gyro drift intensities must be >= 0, got {:?}",
+                d.intensity
+            )));
+        }
+        if let Some(d) = accel_drift
+            && d.intensity.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+        {
+            return Err(SimulateError::Invalid(format!(
+                "accelerometer drift intensities must be >= 0, got {:?}",
+                d.intensity
+            )));
+        }
+        let start = |w: BiasWalk| {
+            let b = w.value();
+            (w, b)
+        };
+        let walk = drift.map(|d| start(BiasWalk::new(d.intensity, d.seed, dt)));
+        let accel_walk = accel_drift.map(|d| start(BiasWalk::new(d.intensity, d.seed, dt)));
+        if let Some((profile, reference)) = &config.temperature {
+            profile.check().map_err(SimulateError::Invalid)?;
+            if !reference.is_finite() {
+                return Err(SimulateError::Invalid(format!(
+                    "reference temperature {reference}: expected a finite value"
+                )));
+            }
+        }
+        Ok(Self {
+            kin,
+            model,
+            p_true,
+            config,
+            rule,
+            dt,
+            n,
+            i: 0,
+            sg,
+            sa,
+            walk,
+            accel_walk,
+            rng,
+        })
     }
-    let mut out = Vec::with_capacity(n);
-    for i in 1..=n {
+
+    /// How many records the whole run has.
+    pub fn records(&self) -> usize {
+        self.n
+    }
+}
+
+impl<R: Rng + ?Sized> Iterator for ImuStream<'_, R> {
+    type Item = ImuSample;
+
+    fn next(&mut self) -> Option<ImuSample> {
+        if self.i >= self.n {
+            return None;
+        }
+        self.i += 1;
+        let (i, dt) = (self.i, self.dt);
         let t = i as f64 * dt;
-        let (temp, temp_delta) = match &config.temperature {
+        let (temp, temp_delta) = match &self.config.temperature {
             Some((profile, reference)) => {
                 let temp = profile.at(t - 0.5 * dt);
                 (Some(temp), temp - reference)
@@ -522,35 +623,45 @@ pub fn simulate_imu_walking<R: Rng + ?Sized>(
             None => (None, 0.0),
         };
         let (mut dtheta, mut dv) = increments_at(
-            kin,
-            model,
-            p_true,
-            &rule,
+            self.kin,
+            self.model,
+            self.p_true,
+            &self.rule,
             (i - 1) as f64 * dt,
             t,
             temp_delta,
         );
-        if let Some(b) = &walk {
-            dtheta -= (b[i - 1] + b[i]) * (0.5 * dt);
+        if let Some((w, prev)) = &mut self.walk {
+            let b = w.step();
+            dtheta -= (*prev + b) * (0.5 * dt);
+            *prev = b;
         }
-        if let Some(b) = &accel_walk {
-            dv += (b[i - 1] + b[i]) * (0.5 * dt);
+        if let Some((w, prev)) = &mut self.accel_walk {
+            let b = w.step();
+            dv += (*prev + b) * (0.5 * dt);
+            *prev = b;
         }
-        if sg > 0.0 {
-            dtheta += normal3(rng) * sg;
+        if self.sg > 0.0 {
+            dtheta += normal3(self.rng) * self.sg;
         }
-        if sa > 0.0 {
-            dv += normal3(rng) * sa;
+        if self.sa > 0.0 {
+            dv += normal3(self.rng) * self.sa;
         }
-        out.push(ImuSample {
+        Some(ImuSample {
             t,
             dtheta,
             dv,
             temp,
-        });
+        })
     }
-    Ok(out)
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let left = self.n - self.i;
+        (left, Some(left))
+    }
 }
+
+impl<R: Rng + ?Sized> ExactSizeIterator for ImuStream<'_, R> {}
 
 fn normal3<R: Rng + ?Sized>(rng: &mut R) -> Vector3<f64> {
     let mut v = Vector3::zeros();
@@ -570,6 +681,14 @@ pub fn simulate_turntable<R: Rng + ?Sized>(
     imu_duration: f64,
     rng: &mut R,
 ) -> Result<Vec<TurntableSample>, SimulateError> {
+    let stream = TurntableStream::new(kin, sensor, imu_duration, rng)?;
+    let mut out = Vec::with_capacity(stream.size_hint().1.unwrap_or(0));
+    out.extend(stream);
+    Ok(out)
+}
+
+/// Refuse an angle sensor [`simulate_turntable`] cannot simulate.
+pub fn check_sensor(sensor: &AngleSensor) -> Result<(), SimulateError> {
     if !(sensor.rate_hz.is_finite() && sensor.rate_hz > 0.0) {
         return Err(SimulateError::Invalid(format!(
             "angle sensor rate_hz must be > 0, got {}",
@@ -586,29 +705,77 @@ pub fn simulate_turntable<R: Rng + ?Sized>(
             "angle sensor sigma must be >= 0, tau and clock finite, clock rate error > -1".into(),
         ));
     }
-    let t0 = sensor.turntable_time(0.0);
-    let t1 = sensor.turntable_time(imu_duration);
-    let j0 = (t0 * sensor.rate_hz).ceil() as i64;
-    let j1 = (t1 * sensor.rate_hz).floor() as i64;
-    let mut out = Vec::with_capacity((j1 - j0 + 1).max(0) as usize);
-    for j in j0..=j1 {
-        let t_tt = j as f64 / sensor.rate_hz;
-        if t_tt < t0 || t_tt > t1 {
-            continue;
-        }
-        let (k, _) = kin.program.state(sensor.true_time_of_record(t_tt));
-        let k_deg = std::array::from_fn(|g| {
-            let noise = if sensor.sigma[g] > 0.0 {
-                let n: f64 = StandardNormal.sample(rng);
-                sensor.sigma[g] * n
-            } else {
-                0.0
-            };
-            (k[g] + noise).to_degrees()
-        });
-        out.push(TurntableSample { t_tt, k_deg });
+    Ok(())
+}
+
+/// The turntable records of [`simulate_turntable`] one at a time: the same records, bit for bit,
+/// with the same draws from `rng` in the same order.
+pub struct TurntableStream<'a, R: Rng + ?Sized> {
+    kin: &'a Kinematics,
+    sensor: &'a AngleSensor,
+    t0: f64,
+    t1: f64,
+    j: i64,
+    j1: i64,
+    rng: &'a mut R,
+}
+
+impl<'a, R: Rng + ?Sized> TurntableStream<'a, R> {
+    /// Check the sensor ([`check_sensor`]) and start the stream.
+    pub fn new(
+        kin: &'a Kinematics,
+        sensor: &'a AngleSensor,
+        imu_duration: f64,
+        rng: &'a mut R,
+    ) -> Result<Self, SimulateError> {
+        check_sensor(sensor)?;
+        let t0 = sensor.turntable_time(0.0);
+        let t1 = sensor.turntable_time(imu_duration);
+        let j0 = (t0 * sensor.rate_hz).ceil() as i64;
+        let j1 = (t1 * sensor.rate_hz).floor() as i64;
+        Ok(Self {
+            kin,
+            sensor,
+            t0,
+            t1,
+            j: j0,
+            j1,
+            rng,
+        })
     }
-    Ok(out)
+}
+
+impl<R: Rng + ?Sized> Iterator for TurntableStream<'_, R> {
+    type Item = TurntableSample;
+
+    fn next(&mut self) -> Option<TurntableSample> {
+        while self.j <= self.j1 {
+            let j = self.j;
+            self.j += 1;
+            let sensor = self.sensor;
+            let t_tt = j as f64 / sensor.rate_hz;
+            if t_tt < self.t0 || t_tt > self.t1 {
+                continue;
+            }
+            let (k, _) = self.kin.program.state(sensor.true_time_of_record(t_tt));
+            let rng = &mut *self.rng;
+            let k_deg = std::array::from_fn(|g| {
+                let noise = if sensor.sigma[g] > 0.0 {
+                    let n: f64 = StandardNormal.sample(rng);
+                    sensor.sigma[g] * n
+                } else {
+                    0.0
+                };
+                (k[g] + noise).to_degrees()
+            });
+            return Some(TurntableSample { t_tt, k_deg });
+        }
+        None
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        (0, Some((self.j1 - self.j + 1).max(0) as usize))
+    }
 }
 
 /// Simulate a whole run with the seed of `config`: IMU records, turntable records and the truth.
@@ -674,5 +841,227 @@ mod tests {
             }
         }
         assert!(GaussLegendre::new(0).is_err());
+    }
+
+    /// The walk as it was held before [`BiasWalk`].
+    fn held_walk(intensity: [f64; 3], seed: u64, dt: f64, n: usize) -> Vec<Vector3<f64>> {
+        let mut rng = SimRng::seed_from_u64(seed);
+        let s = Vector3::from(intensity) * dt.sqrt();
+        let mut b = Vector3::zeros();
+        let mut out = Vec::with_capacity(n + 1);
+        out.push(b);
+        for _ in 0..n {
+            b += normal3(&mut rng).component_mul(&s);
+            out.push(b);
+        }
+        out
+    }
+
+    /// [`simulate_imu_walking`] as it was before [`ImuStream`]: every record held, the walks too.
+    fn held_imu_walking<R: Rng + ?Sized>(
+        kin: &Kinematics,
+        model: &ErrorModel,
+        p_true: &[f64],
+        config: &SimConfig,
+        drift: Option<&GyroDrift>,
+        accel_drift: Option<&AccelDrift>,
+        rng: &mut R,
+    ) -> Result<Vec<ImuSample>, SimulateError> {
+        let (rule, dt) = check(model, p_true, config)?;
+        let duration = run_duration(kin, config);
+        if !(duration.is_finite() && duration > 0.0) {
+            return Err(SimulateError::Invalid(format!(
+                "run duration must be > 0, got {duration}"
+            )));
+        }
+        let n = (duration * config.imu_rate_hz * (1.0 + 1e-12)).floor() as usize;
+        let sg = (config.gyro_psd * dt).sqrt();
+        let sa = (config.accel_psd * dt).sqrt();
+        if let Some(d) = drift
+            && d.intensity.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+        {
+            return Err(SimulateError::Invalid(format!(
+                "gyro drift intensities must be >= 0, got {:?}",
+                d.intensity
+            )));
+        }
+        if let Some(d) = accel_drift
+            && d.intensity.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+        {
+            return Err(SimulateError::Invalid(format!(
+                "accelerometer drift intensities must be >= 0, got {:?}",
+                d.intensity
+            )));
+        }
+        let walk = drift.map(|d| held_walk(d.intensity, d.seed, dt, n));
+        let accel_walk = accel_drift.map(|d| held_walk(d.intensity, d.seed, dt, n));
+        if let Some((profile, reference)) = &config.temperature {
+            profile.check().map_err(SimulateError::Invalid)?;
+            if !reference.is_finite() {
+                return Err(SimulateError::Invalid(format!(
+                    "reference temperature {reference}: expected a finite value"
+                )));
+            }
+        }
+        let mut out = Vec::with_capacity(n);
+        for i in 1..=n {
+            let t = i as f64 * dt;
+            let (temp, temp_delta) = match &config.temperature {
+                Some((profile, reference)) => {
+                    let temp = profile.at(t - 0.5 * dt);
+                    (Some(temp), temp - reference)
+                }
+                None => (None, 0.0),
+            };
+            let (mut dtheta, mut dv) = increments_at(
+                kin,
+                model,
+                p_true,
+                &rule,
+                (i - 1) as f64 * dt,
+                t,
+                temp_delta,
+            );
+            if let Some(b) = &walk {
+                dtheta -= (b[i - 1] + b[i]) * (0.5 * dt);
+            }
+            if let Some(b) = &accel_walk {
+                dv += (b[i - 1] + b[i]) * (0.5 * dt);
+            }
+            if sg > 0.0 {
+                dtheta += normal3(rng) * sg;
+            }
+            if sa > 0.0 {
+                dv += normal3(rng) * sa;
+            }
+            out.push(ImuSample {
+                t,
+                dtheta,
+                dv,
+                temp,
+            });
+        }
+        Ok(out)
+    }
+
+    /// The streamed records equal the collected ones bit for bit (bias walks and temperature
+    /// included), and the rng goes on to the same turntable records.
+    #[test]
+    fn streamed_records_equal_collected() {
+        use crate::kinematics::Mounting;
+        use crate::program::Program;
+        use crate::temperature::TemperatureProfile;
+        use sins_model::earth::Site;
+        use sins_model::terms::PaperPriors;
+        let kin = Kinematics::new(
+            Program::paper(),
+            Mounting {
+                delta_z: Vector3::new(2e-3, -1e-3, 5e-4),
+                gamma_p: Vector3::new(-3e-4, 2e-4, 1e-3),
+            },
+            Site::from_degrees(55.7, 37.6, 150.0),
+        );
+        let model = ErrorModel::paper(&PaperPriors::paper());
+        let p_true = draw_parameters(&model, &mut SimRng::seed_from_u64(3));
+        let sensor = AngleSensor {
+            sigma: [1e-5; 3],
+            rate_hz: 50.0,
+            tau: 0.02,
+            clock: crate::sensor::Clock {
+                turntable_offset_s: 0.3,
+                turntable_rate_error: 1e-5,
+            },
+        };
+        let config = SimConfig {
+            gyro_psd: 1e-12,
+            accel_psd: 1e-6,
+            duration_s: Some(120.0),
+            seed: 11,
+            temperature: Some((
+                TemperatureProfile::Warmup {
+                    start_c: 20.0,
+                    end_c: 45.0,
+                    time_constant_s: 60.0,
+                },
+                30.0,
+            )),
+            ..SimConfig::default()
+        };
+        let drift = GyroDrift {
+            intensity: [1e-6, 2e-6, 3e-6],
+            seed: 5,
+        };
+        let accel_drift = AccelDrift {
+            intensity: [1e-4, 2e-4, 3e-4],
+            seed: 7,
+        };
+        let held = simulate_walking(
+            &kin,
+            &model,
+            &p_true,
+            &sensor,
+            &config,
+            Some(&drift),
+            Some(&accel_drift),
+        )
+        .unwrap();
+        let mut held_rng = SimRng::seed_from_u64(config.seed);
+        let held_imu = held_imu_walking(
+            &kin,
+            &model,
+            &p_true,
+            &config,
+            Some(&drift),
+            Some(&accel_drift),
+            &mut held_rng,
+        )
+        .unwrap();
+        assert_eq!(held_imu, held.imu);
+        let mut rng = SimRng::seed_from_u64(config.seed);
+        let stream = ImuStream::new(
+            &kin,
+            &model,
+            &p_true,
+            &config,
+            Some(&drift),
+            Some(&accel_drift),
+            &mut rng,
+        )
+        .unwrap();
+        assert_eq!(stream.records(), held.imu.len());
+        let mut n = 0;
+        let mut last = 0.0;
+        for (a, b) in stream.zip(&held.imu) {
+            assert_eq!(a.t.to_bits(), b.t.to_bits());
+            for k in 0..3 {
+                assert_eq!(a.dtheta[k].to_bits(), b.dtheta[k].to_bits());
+                assert_eq!(a.dv[k].to_bits(), b.dv[k].to_bits());
+            }
+            assert_eq!(a.temp.map(f64::to_bits), b.temp.map(f64::to_bits));
+            assert!(a.temp.is_some());
+            last = a.t;
+            n += 1;
+        }
+        assert_eq!(n, held.imu.len());
+        let tt: Vec<_> = TurntableStream::new(&kin, &sensor, last, &mut rng)
+            .unwrap()
+            .collect();
+        assert!(!tt.is_empty());
+        assert_eq!(tt.len(), held.turntable.len());
+        for (a, b) in tt.iter().zip(&held.turntable) {
+            assert_eq!(a.t_tt.to_bits(), b.t_tt.to_bits());
+            for g in 0..3 {
+                assert_eq!(a.k_deg[g].to_bits(), b.k_deg[g].to_bits());
+            }
+        }
+        // The walks step by step are the held walks.
+        let dt = 1.0 / config.imu_rate_hz;
+        let held_walk = held_walk(drift.intensity, drift.seed, dt, 1000);
+        assert_eq!(gyro_bias_walk(&drift, dt, 1000), held_walk);
+        let mut walk = BiasWalk::new(drift.intensity, drift.seed, dt);
+        assert_eq!(walk.value(), held_walk[0]);
+        for b in &held_walk[1..] {
+            assert_eq!(walk.step(), *b);
+        }
     }
 }
