@@ -183,6 +183,41 @@ pub struct ThermalCorrection {
     accel_sensor: Matrix3<f64>,
 }
 
+impl ThermalCorrection {
+    /// The thermal terms given (in [`Candidate::THERMAL`] order; `None`: not estimated) about
+    /// `reference_c`, with the sensor matrices before inversion; `None` without any, refused
+    /// without a reference.
+    fn of(
+        terms: [Option<Vector3<f64>>; 4],
+        reference_c: Option<f64>,
+        gyro_sensor: Matrix3<f64>,
+        accel_sensor: Matrix3<f64>,
+    ) -> Result<Option<Self>, CorrectionError> {
+        if terms.iter().all(Option::is_none) {
+            return Ok(None);
+        }
+        let given: Vec<&str> = Candidate::THERMAL
+            .iter()
+            .zip(&terms)
+            .filter(|(_, v)| v.is_some())
+            .map(|(c, _)| c.id())
+            .collect();
+        let reference_c = reference_c
+            .filter(|t| t.is_finite())
+            .ok_or_else(|| CorrectionError::NoReferenceTemperature(given.join(", ")))?;
+        let [gyro_bias, accel_bias, gyro_scale, accel_scale] = terms.map(Option::unwrap_or_default);
+        Ok(Some(Self {
+            reference_c,
+            gyro_bias,
+            accel_bias,
+            gyro_scale,
+            accel_scale,
+            gyro_sensor,
+            accel_sensor,
+        }))
+    }
+}
+
 /// The `thermal` part of a [`CorrectionBlock`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -373,35 +408,17 @@ impl Correction {
         let vector = |c: Candidate| -> Result<Option<Vector3<f64>>, CorrectionError> {
             Ok(term(c)?.map(|v| Vector3::from_column_slice(&v)))
         };
-        let thermal_terms = [
-            vector(Candidate::GyroTempBias)?,
-            vector(Candidate::AccelTempBias)?,
-            vector(Candidate::GyroTempScale)?,
-            vector(Candidate::AccelTempScale)?,
-        ];
-        let thermal = if thermal_terms.iter().any(Option::is_some) {
-            let given: Vec<&str> = Candidate::THERMAL
-                .iter()
-                .zip(&thermal_terms)
-                .filter(|(_, v)| v.is_some())
-                .map(|(c, _)| c.id())
-                .collect();
-            let reference_c = reference_c
-                .filter(|t| t.is_finite())
-                .ok_or_else(|| CorrectionError::NoReferenceTemperature(given.join(", ")))?;
-            let [gb, ab, gs, as_] = thermal_terms.map(Option::unwrap_or_default);
-            Some(ThermalCorrection {
-                reference_c,
-                gyro_bias: gb,
-                accel_bias: ab,
-                gyro_scale: gs,
-                accel_scale: as_,
-                gyro_sensor: theta,
-                accel_sensor: gamma,
-            })
-        } else {
-            None
-        };
+        let thermal = ThermalCorrection::of(
+            [
+                vector(Candidate::GyroTempBias)?,
+                vector(Candidate::AccelTempBias)?,
+                vector(Candidate::GyroTempScale)?,
+                vector(Candidate::AccelTempScale)?,
+            ],
+            reference_c,
+            theta,
+            gamma,
+        )?;
         Ok(Self {
             gyro_matrix,
             gyro_offset: Vector3::new(p[0], p[1], p[2]),

@@ -726,6 +726,22 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
 }
 
 /// The head of the report: configuration, data, model, program start.
+/// The header's line of the records' temperatures and the thermal terms' reference (empty
+/// without a temperature).
+fn temperature_line(est: &Estimate) -> String {
+    let Some(t) = &est.temperature else {
+        return String::new();
+    };
+    let span = match (t.min_c, t.max_c) {
+        (Some(a), Some(b)) => format!("{a:.2} .. {b:.2} deg C"),
+        _ => "unknown".into(),
+    };
+    format!(
+        "  temperature     {span}; thermal terms about {:.2} deg C ({})\n",
+        t.reference_c, t.reference_reason
+    )
+}
+
 fn header_report(input: &Inputs, est: &Estimate) -> String {
     let config = &input.config;
     let mut s = String::new();
@@ -767,17 +783,7 @@ fn header_report(input: &Inputs, est: &Estimate) -> String {
         table::compact(t0),
         table::compact(t1),
     );
-    if let Some(t) = &est.temperature {
-        let span = match (t.min_c, t.max_c) {
-            (Some(a), Some(b)) => format!("{a:.2} .. {b:.2} deg C"),
-            _ => "unknown".into(),
-        };
-        let _ = writeln!(
-            s,
-            "  temperature     {span}; thermal terms about {:.2} deg C ({})",
-            t.reference_c, t.reference_reason
-        );
-    }
+    s += &temperature_line(est);
     if let Some(tt) = &input.tt {
         let (records, f) = (tt.records(), tt.records().file());
         let summary = records.summary();

@@ -161,8 +161,8 @@ fn residual_panel(
 
 /// Write `path`: the records' temperature over time (1-s means, the reference dashed), then the
 /// specific-force residuals in the instrument's axes against the temperature at their time
-/// (`points`: IMU time and residual, report units), one panel per axis, with their means in 20
-/// bins of temperature and the standard error of each.
+/// (`points`: IMU time and residual, report units), one panel per axis, with their means in
+/// [`TEMPERATURE_BINS`] bins of temperature and the standard error of each.
 pub fn temperature_png(
     path: &Path,
     series: &[[f64; 2]],
@@ -170,54 +170,19 @@ pub fn temperature_png(
     points: &[(f64, [f64; 3])],
 ) -> Result<(), Error> {
     let (unit, _) = residual_unit(MeasurementKind::Accel);
-    let temp_at = |t: f64| {
-        let k = series.partition_point(|p| p[0] <= t);
-        match (k.checked_sub(1).map(|i| series[i]), series.get(k)) {
-            (Some(a), Some(b)) => a[1] + (b[1] - a[1]) * (t - a[0]) / (b[0] - a[0]),
-            (Some(a), None) => a[1],
-            (None, Some(b)) => b[1],
-            (None, None) => f64::NAN,
-        }
-    };
     let (lo, hi) = series
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
             (a.min(p[1]), b.max(p[1]))
         });
-    let pad = ((hi - lo) * 0.05).max(0.05);
-    let (c0, c1) = (lo - pad, hi + pad);
-    let (t0, t1) = (
-        series[0][0],
-        series[series.len() - 1][0].max(series[0][0] + 1.0),
-    );
     let at: Vec<(f64, [f64; 3])> = points
         .iter()
-        .map(|(t, r)| (temp_at(*t), *r))
+        .map(|(t, r)| (temperature_at(series, *t), *r))
         .filter(|(c, _)| c.is_finite())
         .collect();
-    const BINS: usize = 20;
-    let width = ((hi - lo) / BINS as f64).max(1e-9);
-    let bin_means = |axis: usize| -> Vec<(f64, f64, f64)> {
-        let mut sums = [(0.0, 0.0, 0usize); BINS];
-        for (c, r) in &at {
-            let k = (((c - lo) / width) as usize).min(BINS - 1);
-            sums[k].0 += r[axis];
-            sums[k].1 += r[axis] * r[axis];
-            sums[k].2 += 1;
-        }
-        sums.iter()
-            .enumerate()
-            .filter(|(_, s)| s.2 >= 3)
-            .map(|(k, &(sum, sq, n))| {
-                let n = n as f64;
-                let mean = sum / n;
-                let var = ((sq - n * mean * mean) / (n - 1.0)).max(0.0);
-                (lo + (k as f64 + 0.5) * width, mean, (var / n).sqrt())
-            })
-            .collect()
-    };
+    let pad = ((hi - lo) * 0.05).max(0.05);
+    let span = (lo - pad, hi + pad);
     write_png(path, (800, 800), |root| {
-        let pe = |e: &dyn std::fmt::Display| e.to_string();
         let root = root
             .titled(
                 &format!(
@@ -226,85 +191,153 @@ pub fn temperature_png(
                 ),
                 ("sans-serif", 17),
             )
-            .map_err(|e| pe(&e))?;
+            .map_err(|e| e.to_string())?;
         let panels = root.split_evenly((4, 1));
-        let mut chart = ChartBuilder::on(&panels[0])
-            .margin(6)
-            .x_label_area_size(28)
-            .y_label_area_size(62)
-            .build_cartesian_2d(t0..t1, c0..c1)
-            .map_err(|e| pe(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("IMU time [s]")
-            .y_desc("temperature [deg C]")
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|v| table::compact(*v))
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 13))
-            .light_line_style(TRANSPARENT)
-            .draw()
-            .map_err(|e| pe(&e))?;
-        chart
-            .draw_series(LineSeries::new(series.iter().map(|p| (p[0], p[1])), POINTS))
-            .map_err(|e| pe(&e))?;
-        chart
-            .draw_series(DashedLineSeries::new(
-                [(t0, reference_c), (t1, reference_c)],
-                6,
-                4,
-                BAND.into(),
-            ))
-            .map_err(|e| pe(&e))?;
+        temperature_panel(&panels[0], series, reference_c, span)?;
         for (axis, panel) in panels[1..].iter().enumerate() {
-            let means = bin_means(axis);
-            // The scale is the bin means' (with their errors, four times over): a thermal
-            // error is a trend of the means, micro-g under a noise of hundreds; the residuals
-            // beyond the scale are not drawn.
-            let m = means
-                .iter()
-                .map(|(_, v, e)| v.abs() + e)
-                .fold(0.0, f64::max);
-            let y = (4.0 * m).max(1e-9);
-            let mut chart = ChartBuilder::on(panel)
-                .margin(6)
-                .x_label_area_size(28)
-                .y_label_area_size(62)
-                .build_cartesian_2d(c0..c1, -y..y)
-                .map_err(|e| pe(&e))?;
-            chart
-                .configure_mesh()
-                .x_desc("temperature [deg C]")
-                .y_desc(format!("{} [{unit}]", ["x", "y", "z"][axis]))
-                .x_label_formatter(&|x| table::compact(*x))
-                .y_label_formatter(&|v| table::compact(*v))
-                .label_style(("sans-serif", 12))
-                .axis_desc_style(("sans-serif", 13))
-                .light_line_style(TRANSPARENT)
-                .draw()
-                .map_err(|e| pe(&e))?;
-            chart
-                .draw_series(
-                    at.iter()
-                        .filter(|(_, r)| r[axis].abs() <= y)
-                        .map(|(c, r)| Circle::new((*c, r[axis]), 1, SHADE.filled())),
-                )
-                .map_err(|e| pe(&e))?;
-            chart
-                .draw_series(means.iter().map(|&(c, v, e)| {
-                    PathElement::new(vec![(c, v - e), (c, v + e)], RED.stroke_width(2))
-                }))
-                .map_err(|e| pe(&e))?;
-            chart
-                .draw_series(
-                    means
-                        .iter()
-                        .map(|&(c, v, _)| Circle::new((c, v), 3, RED.filled())),
-                )
-                .map_err(|e| pe(&e))?;
+            let means = bin_means(&at, axis, lo, hi);
+            against_temperature_panel(panel, &at, &means, axis, unit, span)?;
         }
         Ok(())
     })
+}
+
+/// Bins of temperature of [`temperature_png`].
+const TEMPERATURE_BINS: usize = 20;
+
+/// The temperature at `t` from the 1-s means, linearly between them, held beyond the ends.
+fn temperature_at(series: &[[f64; 2]], t: f64) -> f64 {
+    let k = series.partition_point(|p| p[0] <= t);
+    match (k.checked_sub(1).map(|i| series[i]), series.get(k)) {
+        (Some(a), Some(b)) => a[1] + (b[1] - a[1]) * (t - a[0]) / (b[0] - a[0]),
+        (Some(a), None) => a[1],
+        (None, Some(b)) => b[1],
+        (None, None) => f64::NAN,
+    }
+}
+
+/// The residuals' means of `axis` in [`TEMPERATURE_BINS`] bins from `lo` to `hi` deg C, as
+/// (bin centre, mean, standard error); bins of fewer than three residuals left out.
+fn bin_means(at: &[(f64, [f64; 3])], axis: usize, lo: f64, hi: f64) -> Vec<(f64, f64, f64)> {
+    let width = ((hi - lo) / TEMPERATURE_BINS as f64).max(1e-9);
+    let mut sums = [(0.0, 0.0, 0usize); TEMPERATURE_BINS];
+    for (c, r) in at {
+        let k = (((c - lo) / width) as usize).min(TEMPERATURE_BINS - 1);
+        sums[k].0 += r[axis];
+        sums[k].1 += r[axis] * r[axis];
+        sums[k].2 += 1;
+    }
+    sums.iter()
+        .enumerate()
+        .filter(|(_, s)| s.2 >= 3)
+        .map(|(k, &(sum, sq, n))| {
+            let n = n as f64;
+            let mean = sum / n;
+            let var = ((sq - n * mean * mean) / (n - 1.0)).max(0.0);
+            (lo + (k as f64 + 0.5) * width, mean, (var / n).sqrt())
+        })
+        .collect()
+}
+
+/// The first panel of [`temperature_png`]: the temperature over IMU time, the reference dashed.
+fn temperature_panel(
+    panel: &Area<'_>,
+    series: &[[f64; 2]],
+    reference_c: f64,
+    (c0, c1): (f64, f64),
+) -> Result<(), String> {
+    let pe = |e: &dyn std::fmt::Display| e.to_string();
+    let (t0, t1) = (
+        series[0][0],
+        series[series.len() - 1][0].max(series[0][0] + 1.0),
+    );
+    let mut chart = ChartBuilder::on(panel)
+        .margin(6)
+        .x_label_area_size(28)
+        .y_label_area_size(62)
+        .build_cartesian_2d(t0..t1, c0..c1)
+        .map_err(|e| pe(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("IMU time [s]")
+        .y_desc("temperature [deg C]")
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|v| table::compact(*v))
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
+        .light_line_style(TRANSPARENT)
+        .draw()
+        .map_err(|e| pe(&e))?;
+    chart
+        .draw_series(LineSeries::new(series.iter().map(|p| (p[0], p[1])), POINTS))
+        .map_err(|e| pe(&e))?;
+    chart
+        .draw_series(DashedLineSeries::new(
+            [(t0, reference_c), (t1, reference_c)],
+            6,
+            4,
+            BAND.into(),
+        ))
+        .map_err(|e| pe(&e))?;
+    Ok(())
+}
+
+/// One axis of [`temperature_png`]: the residuals against the temperature and their bin means.
+/// The scale is the bin means' (with their errors, four times over): a thermal error is a trend
+/// of the means, micro-g under a noise of hundreds; residuals beyond it are not drawn.
+fn against_temperature_panel(
+    panel: &Area<'_>,
+    at: &[(f64, [f64; 3])],
+    means: &[(f64, f64, f64)],
+    axis: usize,
+    unit: &str,
+    (c0, c1): (f64, f64),
+) -> Result<(), String> {
+    let pe = |e: &dyn std::fmt::Display| e.to_string();
+    let m = means
+        .iter()
+        .map(|(_, v, e)| v.abs() + e)
+        .fold(0.0, f64::max);
+    let y = (4.0 * m).max(1e-9);
+    let mut chart = ChartBuilder::on(panel)
+        .margin(6)
+        .x_label_area_size(28)
+        .y_label_area_size(62)
+        .build_cartesian_2d(c0..c1, -y..y)
+        .map_err(|e| pe(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("temperature [deg C]")
+        .y_desc(format!("{} [{unit}]", ["x", "y", "z"][axis]))
+        .x_label_formatter(&|x| table::compact(*x))
+        .y_label_formatter(&|v| table::compact(*v))
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
+        .light_line_style(TRANSPARENT)
+        .draw()
+        .map_err(|e| pe(&e))?;
+    chart
+        .draw_series(
+            at.iter()
+                .filter(|(_, r)| r[axis].abs() <= y)
+                .map(|(c, r)| Circle::new((*c, r[axis]), 1, SHADE.filled())),
+        )
+        .map_err(|e| pe(&e))?;
+    chart
+        .draw_series(
+            means.iter().map(|&(c, v, e)| {
+                PathElement::new(vec![(c, v - e), (c, v + e)], RED.stroke_width(2))
+            }),
+        )
+        .map_err(|e| pe(&e))?;
+    chart
+        .draw_series(
+            means
+                .iter()
+                .map(|&(c, v, _)| Circle::new((c, v), 3, RED.filled())),
+        )
+        .map_err(|e| pe(&e))?;
+    Ok(())
 }
 
 /// A correlation as a colour: blue for -1, white for 0, red for +1.
