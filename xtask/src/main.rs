@@ -279,6 +279,15 @@ fn navigation_check(rec: &(Posterior, Posterior), plot_path: &Path) -> (bool, Va
 }
 
 fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) -> ExitCode {
+    if json_path.as_deref() == Some(Path::new("-")) {
+        // The tables go to standard output: the JSON would be mixed into them (and a file named
+        // `-` is no one's wish).
+        eprintln!(
+            "error: --json -: paper-check prints its tables to standard output; give a file \
+             for the JSON (e.g. --json target/paper-check.json)"
+        );
+        return ExitCode::FAILURE;
+    }
     let checked = match calib::paper::named_or_file(config_name) {
         Ok(c) => c,
         Err(e) => {
