@@ -1,4 +1,4 @@
-//! Both fits of several axes ([`likelihood::fit_ml`] and [`analyse_axis_from`] above the
+//! Both fits of several axes ([`crate::likelihood::fit_ml`] and [`crate::analyse_axis_from`] above the
 //! likelihood's correlation time) from increments read again from their start, without holding
 //! them: the same results to the last bit (`tests::streamed_equals_held`).
 //!

@@ -278,9 +278,9 @@ pub(crate) fn check_at_rest(
     Ok(())
 }
 
-/// [`check_at_rest`] of records read again from their source: the medians by streamed
-/// selection ([`::import::select`]), the windows' spreads from a window of records; the same
-/// verdict and message.
+/// `check_at_rest` (the held form, in tests) of records read again from their source: the
+/// medians by streamed selection ([`::import::select`]), the windows' spreads from a window of
+/// records; the same verdict and message.
 pub(crate) fn check_at_rest_streamed(
     source: &mut ::import::detect::RateSource,
     file: &str,
