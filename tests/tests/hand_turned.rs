@@ -35,12 +35,14 @@ fn config(seed: u64) -> RunConfig {
 
 /// What `calibrate --free-motion` without `--config` makes of a recording: the noise measured
 /// in its rests, the grade chosen from it, the configuration from the data at the site's
-/// latitude (`--latitude`).
+/// latitude and height (`--latitude`, `--height`).
 fn from_data(truth: &RunConfig, imu: &ImuData, rests: &[Rest]) -> (RunConfig, WhiteNoiseAtRest) {
     let noise = hand_turned::white_noise_at_rest(imu, rests).unwrap();
     let grade = hand_turned::choose_grade(imu, rests, &noise);
     println!("{}", grade.describe());
-    let c = hand_turned::default_config(imu, truth.site.latitude_deg, &noise, grade.grade).unwrap();
+    let site = &truth.site;
+    let c = hand_turned::default_config(imu, site.latitude_deg, site.height_m, &noise, grade.grade)
+        .unwrap();
     (c, noise)
 }
 

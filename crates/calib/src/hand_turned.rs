@@ -232,7 +232,7 @@ pub fn white_noise_at_rest(data: &ImuData, rests: &[Rest]) -> Option<WhiteNoiseA
 }
 
 /// The configuration of a hand-turned recording without one: no program, the priors of
-/// `grade` ([`crate::config::grade_priors`]), the site at `latitude_deg` (height 0), the record
+/// `grade` ([`crate::config::grade_priors`]), the site at `latitude_deg` and `height_m`, the record
 /// rate of the data (the mean interval), specific-force windows of the whole records nearest
 /// one second, `noise` (above [`NOISE_FLOOR_GYRO_DEG_H`] and [`NOISE_FLOOR_ACCEL_M_S2`]) and the
 /// grade's starting motion noise ([`start_motion_noise_deg`]). `None` for fewer than two
@@ -240,6 +240,7 @@ pub fn white_noise_at_rest(data: &ImuData, rests: &[Rest]) -> Option<WhiteNoiseA
 pub fn default_config(
     data: &ImuData,
     latitude_deg: f64,
+    height_m: f64,
     noise: &WhiteNoiseAtRest,
     grade: UnitGrade,
 ) -> Option<RunConfig> {
@@ -253,7 +254,7 @@ pub fn default_config(
     c.program = crate::config::PROGRAM_FROM_ANGLES.to_string();
     c.site.latitude_deg = latitude_deg;
     c.site.longitude_deg = 0.0;
-    c.site.height_m = 0.0;
+    c.site.height_m = height_m;
     c.set_grade_priors(grade);
     c.noise.gyro_deg_h = (noise.gyro_rad_s / DEG_PER_HOUR).max(NOISE_FLOOR_GYRO_DEG_H);
     c.noise.accel_m_s2 = noise.accel_m_s2.max(NOISE_FLOOR_ACCEL_M_S2);
@@ -1008,7 +1009,7 @@ mod tests {
         assert!(n.dof > 370, "{n:?}");
         assert!((n.gyro_rad_s / sigma_w - 1.0).abs() < 0.08, "{n:?}");
         assert!((n.accel_m_s2 / sigma_f - 1.0).abs() < 0.08, "{n:?}");
-        let c = default_config(&data, 45.0, &n, UnitGrade::Consumer).unwrap();
+        let c = default_config(&data, 45.0, 0.0, &n, UnitGrade::Consumer).unwrap();
         assert!((c.filter.imu_rate_hz - rate).abs() < 1e-6);
         assert_eq!(c.accel_interval_steps(), 100);
         assert!(c.program_from_angles());

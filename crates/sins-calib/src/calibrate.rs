@@ -80,6 +80,17 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub latitude: Option<f64>,
+    /// With --free-motion and no --config: height of the site above the ellipsoid (m) for
+    /// normal gravity (absent: 0, said as an assumption; gravity falls 3.1e-6 m/s^2 a metre, a
+    /// scale error of 0.3 ppm a metre in the accelerometers).
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "free_motion",
+        conflicts_with = "config",
+        allow_negative_numbers = true
+    )]
+    pub height: Option<f64>,
     /// Write the result to this JSON file: every parameter's name, value, sigma and unit in SI
     /// units, and the fit statistics (docs/formats.md).
     #[arg(long, value_name = "FILE")]
@@ -379,7 +390,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                     .then_some((&input.config, input.origin.as_str()));
                 let setup = crate::free_motion::setup(
                     given,
-                    args.latitude,
+                    (args.latitude, args.height),
                     args.sections.as_deref(),
                     &terms,
                     &data,

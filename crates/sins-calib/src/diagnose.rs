@@ -56,6 +56,17 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub latitude: Option<f64>,
+    /// With --free-motion and no --config: height of the site above the ellipsoid (m) for
+    /// normal gravity (absent: 0, said as an assumption; gravity falls 3.1e-6 m/s^2 a metre, a
+    /// scale error of 0.3 ppm a metre in the accelerometers).
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "free_motion",
+        conflicts_with = "config",
+        allow_negative_numbers = true
+    )]
+    pub height: Option<f64>,
     /// Write the loop's result as JSON: accepted_terms, candidates (last round), gain,
     /// parameters (docs/formats.md).
     #[arg(long, value_name = "FILE")]
@@ -682,7 +693,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
             let given = args.config.is_some().then_some((&config, origin.as_str()));
             let setup = crate::free_motion::setup(
                 given,
-                args.latitude,
+                (args.latitude, args.height),
                 args.sections.as_deref(),
                 &[],
                 &imu,

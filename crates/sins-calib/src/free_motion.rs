@@ -44,18 +44,18 @@ pub struct Setup {
     pub grade: Option<GradeChoice>,
     /// Known turns of the section list.
     pub turns: Vec<KnownTurn>,
-    /// What the configuration assumed for want of an input (the site's latitude, and the
-    /// gravity from it).
+    /// What the configuration assumed for want of an input (the site's latitude and height,
+    /// and the gravity from them).
     pub assumptions: Vec<String>,
 }
 
 /// The configuration: `given` (without a program) with its own noise, or the recording's
-/// defaults ([`calib::hand_turned::default_config`]) at `latitude` with the noise measured in
-/// the rests and the grade from the data ([`calib::hand_turned::choose_grade`]); the model is
-/// the paper's with `terms`.
+/// defaults ([`calib::hand_turned::default_config`]) at the command line's `latitude` and
+/// `height` with the noise measured in the rests and the grade from the data
+/// ([`calib::hand_turned::choose_grade`]); the model is the paper's with `terms`.
 pub fn setup(
     given: Option<(&RunConfig, &str)>,
-    latitude: Option<f64>,
+    (latitude, height): (Option<f64>, Option<f64>),
     sections: Option<&std::path::Path>,
     terms: &[Candidate],
     data: &ImuData,
@@ -93,7 +93,12 @@ pub fn setup(
             })?;
             let choice = calib::hand_turned::choose_grade(data, rests, &noise);
             grade = Some(choice);
-            let config = calib::hand_turned::default_config(data, lat, &noise, choice.grade)
+            let h = height.unwrap_or(0.0);
+            // From the Dead Sea shore to above any laboratory on a mountain, as [site].
+            if !(-500.0..=10_000.0).contains(&h) {
+                return Err(format!("--height {h}: expected -500 .. 10000 m").into());
+            }
+            let config = calib::hand_turned::default_config(data, lat, h, &noise, choice.grade)
                 .ok_or_else(|| format!("{file}: fewer than two records"))?;
             if latitude.is_none() {
                 assumptions.push(format!(
@@ -102,6 +107,14 @@ pub fn setup(
                      rate's components follow from it",
                     table::significant(config.site().specific_force_at_rest_enu().norm(), 7)
                 ));
+            }
+            if height.is_none() {
+                assumptions.push(
+                    "height 0 m assumed: no [site] given (--height or a configuration's [site] \
+                     sets it); gravity falls 3.1e-6 m/s^2 a metre above it, which the \
+                     accelerometers' scale factors take up (0.3 ppm a metre)"
+                        .to_string(),
+                );
             }
             let interval = 1.0 / config.filter.imu_rate_hz;
             if interval > MAX_RECORD_INTERVAL_S {
@@ -116,10 +129,15 @@ pub fn setup(
             (
                 config,
                 format!(
-                    "no configuration: latitude {lat} deg{}, {}-grade priors, white noise \
-                     and motion noise measured in the rests",
+                    "no configuration: latitude {lat} deg{}, height {h} m{}, {}-grade priors, \
+                     white noise and motion noise measured in the rests",
                     if latitude.is_none() {
                         " (assumed: give --latitude)"
+                    } else {
+                        ""
+                    },
+                    if height.is_none() {
+                        " (assumed: give --height)"
                     } else {
                         ""
                     },
