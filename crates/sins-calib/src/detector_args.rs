@@ -130,6 +130,27 @@ pub fn check_span(
     Ok(())
 }
 
+/// [`check_span`] of records read again from their source (one reading for the first and last
+/// time stamps; nothing is checked without records).
+pub fn check_span_streamed(
+    s: &DetectorSettings,
+    source: &mut ::import::detect::RateSource,
+    file: &str,
+    option: &dyn Fn(&str) -> String,
+) -> Result<(), crate::Error> {
+    let (mut first, mut last) = (f64::NAN, f64::NAN);
+    source.records_of(&mut |r, _| {
+        if first.is_nan() {
+            first = r.t;
+        }
+        last = r.t;
+    })?;
+    if first.is_finite() {
+        check_span(s, last - first, file, option)?;
+    }
+    Ok(())
+}
+
 /// The option of a detector setting (`DetectorSettings` field name), for messages and for
 /// `Segmentation::missed_report`.
 pub fn option_name(setting: &str) -> String {

@@ -211,6 +211,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     // The records are read again for every step rather than held (docs/performance.md,
     // "Memory of every command on a long run").
     let mut imu = calib::estimate::FileImu::open(&args.imu)?;
+    let has_temp = imu.has_temp();
     let file = args.imu.display().to_string();
     let mut source = RateSource::new(&mut imu)?;
     let n = source.records;
@@ -228,16 +229,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         ..settings
     };
     crate::detector_args::check_bounds(&given, &option).map_err(|e| format!("noise: {e}"))?;
-    let (mut first, mut last) = (f64::NAN, f64::NAN);
-    source.records_of(&mut |r, _| {
-        if first.is_nan() {
-            first = r.t;
-        }
-        last = r.t;
-    })?;
-    if first.is_finite() {
-        crate::detector_args::check_span(&given, last - first, &file, &option)?;
-    }
+    crate::detector_args::check_span_streamed(&given, &mut source, &file, &option)?;
     // The units `segment` checks (time stamps in seconds, specific force in m/s^2, gyro and
     // accelerometer columns in their places): noise levels of misread records are wrong by
     // the factor of the misreading.
@@ -283,7 +275,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
     // block means above the sensor's correlation time (docs/noise.md, "The maximum-likelihood
     // fit"); the Allan fit above the same correlation time: below it the sensor's own filter
     // shapes the curve, which no term describes.
-    let thermal = thermal_fit(&mut source, &intervals, median)?;
+    let thermal = if has_temp {
+        thermal_fit(&mut source, &intervals, median)?
+    } else {
+        None
+    };
     // A slow change that follows the temperature is no random walk: where an axis's thermal
     // coefficient stands clear of its sigma, the levels are fitted again with the thermal part
     // removed, and those are the ones reported (docs/temperature.md).

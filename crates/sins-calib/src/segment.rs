@@ -162,42 +162,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
     // The records are read again for every step rather than held (docs/performance.md,
     // "Memory of every command on a long run").
     let mut imu = calib::estimate::FileImu::open(&args.imu)?;
+    let has_temp = imu.has_temp();
     let file = args.imu.display().to_string();
     let mut source = RateSource::new(&mut imu)?;
     recording_checks::check_plausible_streamed(&mut source, &file, settings.window_s)?;
-    let (mut first, mut last) = (f64::NAN, f64::NAN);
-    source.records_of(&mut |r, _| {
-        if first.is_nan() {
-            first = r.t;
-        }
-        last = r.t;
-    })?;
-    if first.is_finite() {
-        crate::detector_args::check_span(&settings, last - first, &file, &option_name)?;
-    }
+    crate::detector_args::check_span_streamed(&settings, &mut source, &file, &option_name)?;
     let seg = segment_streamed(&mut source, &settings).map_err(|e| format!("{file}: {e}"))?;
     recording_checks::check_static_force(&seg, &file)?;
     // The records' temperature, where they have one: each static interval's mean (a thermal
     // drift between rests shows in their biases, docs/temperature.md).
-    let mut sums = vec![(0.0, 0usize); seg.static_intervals.len()];
-    let (mut k, mut at) = (0usize, 0usize);
-    source.records_of(&mut |r, _| {
-        let intervals = &seg.static_intervals;
-        while at < intervals.len() && intervals[at].last_record < k {
-            at += 1;
-        }
-        if let (Some(x), Some(temp)) = (intervals.get(at), r.temp)
-            && x.first_record <= k
-        {
-            sums[at].0 += temp;
-            sums[at].1 += 1;
-        }
-        k += 1;
-    })?;
-    let interval_temp_c: Option<Vec<f64>> = sums
-        .iter()
-        .any(|(_, n)| *n > 0)
-        .then(|| sums.iter().map(|(t, n)| t / *n as f64).collect());
+    let interval_temp_c = if has_temp {
+        interval_temperatures(&mut source, &seg)?
+    } else {
+        None
+    };
     let c = table::compact;
     let sig = table::significant;
 
@@ -330,4 +308,31 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
     }
     crate::report(&s, args.json.as_deref())
+}
+
+/// Each static interval's mean temperature (deg C), from one more reading of the records;
+/// `None` when no record of an interval has one.
+fn interval_temperatures(
+    source: &mut RateSource,
+    seg: &Segmentation,
+) -> Result<Option<Vec<f64>>, Error> {
+    let intervals = &seg.static_intervals;
+    let mut sums = vec![(0.0, 0usize); intervals.len()];
+    let (mut k, mut at) = (0usize, 0usize);
+    source.records_of(&mut |r, _| {
+        while at < intervals.len() && intervals[at].last_record < k {
+            at += 1;
+        }
+        if let (Some(x), Some(temp)) = (intervals.get(at), r.temp)
+            && x.first_record <= k
+        {
+            sums[at].0 += temp;
+            sums[at].1 += 1;
+        }
+        k += 1;
+    })?;
+    Ok(sums
+        .iter()
+        .any(|(_, n)| *n > 0)
+        .then(|| sums.iter().map(|(t, n)| t / *n as f64).collect()))
 }

@@ -107,9 +107,15 @@ pub struct FileImu {
     overflowed: bool,
     next: usize,
     size_hint: Option<usize>,
+    has_temp: bool,
 }
 
 impl FileImu {
+    /// Whether the file has a `temp` column (a reading for the temperatures is needed only then).
+    pub fn has_temp(&self) -> bool {
+        self.has_temp
+    }
+
     /// Records kept in memory at most (80 bytes each).
     pub const CACHE_RECORDS: usize = 500_000;
 
@@ -124,6 +130,7 @@ impl FileImu {
             path: path.to_path_buf(),
             file: path.display().to_string(),
             kind: reader.kind(),
+            has_temp: reader.has_temp(),
             reader: Some(reader),
             cache: Vec::new(),
             cached: false,
