@@ -10,8 +10,8 @@
 use calib::config::{RunConfig, TemperatureConfig};
 use calib::estimate::RunData;
 use calib::extend::{LoopResult, LoopSettings, run_loop};
-use calib::extension::HiddenEffects;
 use calib::io::{ImuData, TurntableData};
+use calib::model::extension::HiddenEffects;
 use sins_model::candidates::Candidate;
 use turntable::program::ProgramSpec;
 
@@ -310,7 +310,8 @@ pub fn case_config(case: &HiddenCase) -> RunConfig {
 
 /// The program `design` proposes for `terms` on `config` (with the turntable angles).
 pub fn designed_program(config: &RunConfig, terms: &[Candidate]) -> ProgramSpec {
-    let (recorded, proposals, k) = calib::design::design(config, true, terms).expect("design");
+    let (recorded, proposals, k) =
+        calib::extend::design::design(config, true, terms).expect("design");
     match k {
         Some(k) => proposals[k].program.clone(),
         // The program already separates the terms: `design` keeps it.

@@ -115,7 +115,7 @@ fn walks_at_end(config: &RunConfig, records: usize) -> impl Fn(&str) -> f64 {
 pub struct MonteCarlo {
     /// State names.
     pub names: Vec<String>,
-    /// NEES of each run (all states, on the correlation matrix: [`calib::stats::nees`]).
+    /// NEES of each run (all states, on the correlation matrix: [`calib::check::stats::nees`]).
     pub nees: Vec<f64>,
     /// Normalised errors (error / sigma), per run and state.
     pub z: Vec<Vec<f64>>,
@@ -133,7 +133,7 @@ impl MonteCarlo {
         let n = e.len();
         let cov = nalgebra::DMatrix::from_fn(n, n, |i, j| est.cov[(i, j)]);
         self.nees
-            .push(calib::stats::nees(e, &cov).expect("posterior positive definite"));
+            .push(calib::check::stats::nees(e, &cov).expect("posterior positive definite"));
         self.z.push(e.iter().zip(s).map(|(e, s)| e / s).collect());
         self.names = est.names.clone();
     }
@@ -147,8 +147,8 @@ impl MonteCarlo {
         let runs = self.nees.len() as f64;
         let k = self.names.len();
         let total: f64 = self.nees.iter().sum();
-        let (lo, hi) = calib::stats::chi_square_band(k as f64 * runs, 0.95);
-        let bound = calib::stats::bonferroni_bound(k, 0.05);
+        let (lo, hi) = calib::check::stats::chi_square_band(k as f64 * runs, 0.95);
+        let bound = calib::check::stats::bonferroni_bound(k, 0.05);
         let (worst, name) = (0..k)
             .map(|i| {
                 let mean = self.z.iter().map(|z| z[i]).sum::<f64>() / runs;

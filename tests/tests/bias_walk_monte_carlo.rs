@@ -58,15 +58,15 @@ fn monte_carlo_50_seeds_with_the_walk() {
 }
 
 /// The covariance analysis's expected likelihood-ratio statistic of a walk
-/// ([`calib::drift_visibility`]) against the statistics of simulated runs that carry it: the
+/// ([`calib::extend::drift_visibility`]) against the statistics of simulated runs that carry it: the
 /// walk of 0.3 deg/h/sqrt(h) on the paper's program, the IMU data alone, seeds 900-919, each
 /// run fitted with the walk and without. Fixed before the runs: the mean statistic within 3
 /// standard errors (from the runs' own scatter) of the expected one.
 #[test]
 fn expected_walk_statistic_matches_simulated_runs() {
-    use calib::drift_visibility::DriftAnalysis;
+    use calib::extend::drift_visibility::DriftAnalysis;
     use calib::extend::log_likelihood;
-    use calib::extension::ModelExtension;
+    use calib::model::extension::ModelExtension;
     use sins_model::units::DEG_PER_HOUR;
     let walk = 0.3;
     let q = walk * DEG_PER_HOUR / 60.0;

@@ -1,7 +1,7 @@
 //! Calibration from raw data, one simulated run: recovery of the turntable terms, agreement of
 //! the reported sigma with the covariance analysis, the IMU-only case, refused input.
 
-use calib::covariance::{covariance_analysis_with, layout_for};
+use calib::estimate::covariance::{covariance_analysis_with, layout_for};
 use calib::estimate::{RunData, estimate};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;

@@ -1,6 +1,6 @@
 //! Hand-turned recordings without a configuration (what `calibrate --free-motion` and
 //! `diagnose --free-motion` do when no `--config` is given): the grade, priors, white noise and
-//! motion noise from the recording (`calib::hand_turned`), the verdict from the held-out rests.
+//! motion noise from the recording (`calib::estimate::hand_turned`), the verdict from the held-out rests.
 //!
 //! The recordings are the 19-position runs of `rests.rs` (20-s rests joined by 90-degree turns),
 //! simulated at 25 Hz, with the program's dwells as the rests. Fixed before the runs were looked
@@ -16,13 +16,13 @@
 
 use calib::config::RunConfig;
 use calib::estimate::RunData;
+use calib::estimate::hand_turned::{self, HandTurnedResult, WhiteNoiseAtRest};
 use calib::extend::{LoopSettings, run_loop_at_rests};
-use calib::extension::HiddenEffects;
-use calib::hand_turned::{self, HandTurnedResult, WhiteNoiseAtRest};
 use calib::io::ImuData;
-use calib::layout::layout_for;
+use calib::model::extension::HiddenEffects;
+use calib::model::layout::layout_for;
+use calib::motion::rests::Rest;
 use calib::report::lab::RunVerdict;
-use calib::rests::Rest;
 use sins_model::candidates::UnitGrade;
 
 /// The 19-position run of `rests.rs` at 25 Hz.

@@ -145,7 +145,8 @@ fn an_inseparable_term_is_reported_not_guessed_and_design_separates_it() {
     assert!(conf.iter().any(|n| n.starts_with("gyro.bias.")), "{conf:?}");
     // `design` from that program proposes one under which it is separable.
     let config = case_config(&case);
-    let (recorded, proposals, k) = calib::design::design(&config, true, &case.terms).unwrap();
+    let (recorded, proposals, k) =
+        calib::extend::design::design(&config, true, &case.terms).unwrap();
     let k = k.expect("a proposal: the first cycle does not separate the asymmetry");
     println!(
         "design: {} (worst ratio {:.3})",

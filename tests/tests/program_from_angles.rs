@@ -1,11 +1,11 @@
 //! A turntable run calibrated without a program in the configuration: the program read from
-//! the angle records (`calib::angles_program`) matches the one the turntable ran, and the
+//! the angle records (`calib::motion::angles_program`) matches the one the turntable ran, and the
 //! calibration with it matches the calibration with the true program.
 
-use calib::angles_program::program_from_angles;
 use calib::config::PROGRAM_FROM_ANGLES;
 use calib::estimate::{RunData, estimate};
 use calib::io::{ImuData, TurntableData};
+use calib::motion::angles_program::program_from_angles;
 use turntable::program::Program;
 use workspace_tests::simulated_run_config;
 

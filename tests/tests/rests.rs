@@ -15,8 +15,8 @@
 use calib::config::RunConfig;
 use calib::estimate::{MemoryImu, RunData, estimate, estimate_at_rests};
 use calib::io::ImuData;
-use calib::layout::layout_for;
-use calib::rests::Rest;
+use calib::model::layout::layout_for;
+use calib::motion::rests::Rest;
 use workspace_tests::{MonteCarlo, parallel_map, simulated_run_config, state_errors};
 
 /// Length of each rest (s).
@@ -249,7 +249,7 @@ fn consumer_grade_without_the_program_50_seeds() {
     run_consumer(850..=899);
 }
 
-/// A known turn is a measurement of the filter (`calib::rests::Turn`): on a consumer-grade
+/// A known turn is a measurement of the filter (`calib::motion::rests::Turn`): on a consumer-grade
 /// 19-position recording (25 Hz, seed 810, fixed before the run), the first 90-degree turn
 /// given with its true angle (from an error-free copy of the run) is met by the calibration
 /// within 0.2 deg, with a turn NIS below 9. Given 1 deg too large, the calibrated turn moves
@@ -260,7 +260,7 @@ fn consumer_grade_without_the_program_50_seeds() {
 /// rests fix this angle to about 0.04 deg, so the move is a few thousandths.)
 #[test]
 fn a_known_turn_pulls_the_calibration_towards_its_angle() {
-    use calib::free_motion::KnownTurn;
+    use calib::motion::free_motion::KnownTurn;
     let mut config = consumer_config(810);
     config.truth.imu_rate_hz = 25.0;
     config.filter.imu_rate_hz = 25.0;
@@ -297,19 +297,27 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
     };
     let g = config.site().specific_force_at_rest_enu().norm();
     // The calibrated turn (deg) for parameter values `values` (by state index).
-    let turn_of = |names: &[String], values: &[f64], intervals: &[calib::free_motion::Interval]| {
-        let value = |n: &str| names.iter().position(|m| m == n).map(|i| values[i]);
-        let none = calib::free_motion::EarthRotation::at(0.0, f64::INFINITY);
-        let e =
-            calib::free_motion::evaluate(&imu, intervals, &[known(angle)], None, g, &none, &value);
-        e.turns[0].after_rad.to_degrees()
-    };
+    let turn_of =
+        |names: &[String], values: &[f64], intervals: &[calib::motion::free_motion::Interval]| {
+            let value = |n: &str| names.iter().position(|m| m == n).map(|i| values[i]);
+            let none = calib::motion::free_motion::EarthRotation::at(0.0, f64::INFINITY);
+            let e = calib::motion::free_motion::evaluate(
+                &imu,
+                intervals,
+                &[known(angle)],
+                None,
+                g,
+                &none,
+                &value,
+            );
+            e.turns[0].after_rad.to_degrees()
+        };
     let calibrated = |offset_deg: Option<f64>| {
         let turns: Vec<KnownTurn> = offset_deg
             .map(|o| known(angle + o.to_radians()))
             .into_iter()
             .collect();
-        calib::hand_turned::calibrate(
+        calib::estimate::hand_turned::calibrate(
             &config,
             &layout,
             &imu,
@@ -327,7 +335,7 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
         calibrated(Some(0.0)),
         calibrated(Some(1.0)),
     );
-    let turn = |r: &calib::hand_turned::HandTurnedResult| {
+    let turn = |r: &calib::estimate::hand_turned::HandTurnedResult| {
         turn_of(&r.estimate.names, &r.estimate.values, &r.intervals)
     };
     let (a_none, a_exact, a_off) = (turn(&none), turn(&exact), turn(&off));
@@ -352,7 +360,7 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
                 .sum::<f64>()
         })
         .sum();
-    let sigma2 = (calib::rests::TURN_SIGMA_RAD.to_degrees()).powi(2);
+    let sigma2 = (calib::motion::rests::TURN_SIGMA_RAD.to_degrees()).powi(2);
     let expected = 1.0 * s2 / (s2 + sigma2);
     let truth = angle.to_degrees();
     let stats = exact.estimate.stats;

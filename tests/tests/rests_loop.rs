@@ -37,9 +37,9 @@
 use calib::config::RunConfig;
 use calib::estimate::RunData;
 use calib::extend::{LoopSettings, run_loop_at_rests};
-use calib::extension::HiddenEffects;
 use calib::io::ImuData;
-use calib::rests::Rest;
+use calib::model::extension::HiddenEffects;
+use calib::motion::rests::Rest;
 
 fn config(seed: u64) -> RunConfig {
     let mut c = crate::rests::config(seed);
@@ -256,7 +256,7 @@ fn the_loop_accepts_nothing_on_a_clean_tactical_recording_turned_both_ways() {
 /// - A walk of 0.3 deg/h/sqrt(h) (a navigation-grade unit's largest) in the navigation-grade
 ///   19-position recording, seed 704: nothing accepted (likelihood ratio p = 0.23). Its
 ///   expected statistic there, with the program known, is 5.1 against the threshold 8.6
-///   (`calib::drift_visibility`).
+///   (`calib::extend::drift_visibility`).
 /// - 1 deg/h/sqrt(h) on this recording (expected statistic 89 with the program known), seed
 ///   707: 4.4 without the program, 10.3 with it. The expected statistic is the mean of a
 ///   skewed distribution, so the size was then taken from a pilot on seeds of its own

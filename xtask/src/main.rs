@@ -5,7 +5,7 @@
 #![forbid(unsafe_code)]
 
 use calib::config::{NoiseReading, RunConfig};
-use calib::covariance::{Posterior, covariance_analysis};
+use calib::estimate::covariance::{Posterior, covariance_analysis};
 use calib::report::{COLUMNS, PaperTable};
 use clap::{Parser, Subcommand};
 use serde_json::{Map, Value, json};
@@ -368,7 +368,7 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) 
     );
     if let Some(path) = json_path {
         let doc = json!({
-            "schema": calib::schema::Schema::current(calib::schema::PAPER_CHECK),
+            "schema": calib::io::schema::Schema::current(calib::io::schema::PAPER_CHECK),
             "tables": Value::Object(out),
             "navigation": nav_json,
         });
@@ -770,8 +770,9 @@ mod tests {
             })
             .collect();
         let k = keep.clone();
-        let correlation =
-            calib::posterior::correlation(keep.len(), 0..keep.len(), |a, b| p.cov[(k[a], k[b])]);
+        let correlation = calib::io::posterior::correlation(keep.len(), 0..keep.len(), |a, b| {
+            p.cov[(k[a], k[b])]
+        });
         let result = calib::io::ResultFile {
             parameters,
             correlation: Some(correlation),

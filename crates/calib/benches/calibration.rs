@@ -56,7 +56,7 @@ fn bench(c: &mut Criterion) {
     }
     g.bench_function("covariance_analysis_28_states", |b| {
         b.iter(|| {
-            calib::covariance::covariance_analysis(black_box(&config), true)
+            calib::estimate::covariance::covariance_analysis(black_box(&config), true)
                 .unwrap()
                 .cov[(3, 3)]
         })

@@ -3,7 +3,7 @@
 //! rate (measurement rate Hz for both), reading (average|sample), tilt, heading (deg).
 use calib::{
     config::{NoiseReading, RunConfig},
-    covariance::covariance_analysis,
+    estimate::covariance::covariance_analysis,
     report::PaperTable,
 };
 fn main() {

@@ -2,9 +2,9 @@
 //! then [`turntable::simulate`] for the records.
 
 use crate::config::{ConfigError, RunConfig};
-use crate::covariance::layout_for;
-use crate::extension::{HiddenEffects, ModelExtension};
-use crate::layout::layout_with;
+use crate::estimate::covariance::layout_for;
+use crate::model::extension::{HiddenEffects, ModelExtension};
+use crate::model::layout::layout_with;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use sins_model::names;

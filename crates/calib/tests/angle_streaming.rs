@@ -1,11 +1,11 @@
-//! The angle records of a calibration streamed from their file (`calib::angle_records`): the
+//! The angle records of a calibration streamed from their file (`calib::io::angle_records`): the
 //! same estimates, covariance and statistics, bit for bit, as with the records in memory, with
 //! the program given and with the program read from the angles.
 
 use crate::paper_20hz::paper_20hz_run;
-use calib::angle_records::AngleFile;
 use calib::config::PROGRAM_FROM_ANGLES;
 use calib::estimate::{RunData, estimate};
+use calib::io::angle_records::AngleFile;
 use calib::io::write_turntable_csv;
 
 #[test]

@@ -3,10 +3,10 @@
 //! layout and in the covariance analysis. Seeds and bounds fixed before the first run.
 
 use calib::config::{AttitudePrior, RunConfig};
-use calib::covariance::covariance_analysis;
+use calib::estimate::covariance::covariance_analysis;
 use calib::estimate::{Estimate, RunData, estimate};
 use calib::io::{ImuData, TurntableData};
-use calib::layout::layout_for;
+use calib::model::layout::layout_for;
 use calib::simulate::{accel_drift_seed, drift_seed, simulate_run};
 use sins_model::names;
 use sins_model::units::DEG_PER_HOUR;
@@ -237,13 +237,13 @@ fn walks_are_read_from_noise_and_checked_with_their_line() {
     );
 }
 
-/// The reach of a walk on the paper's program (`calib::drift_visibility`): the expected
+/// The reach of a walk on the paper's program (`calib::extend::drift_visibility`): the expected
 /// statistic is zero without a walk beyond the configured one, grows with the intensity, and
 /// the smallest visible walk is where it crosses the threshold (within the bisection's 2 %).
 #[test]
 fn the_smallest_visible_walk_is_where_the_expected_statistic_crosses_the_threshold() {
-    use calib::drift_visibility::{DriftAnalysis, drift_threshold, smallest_visible_drift};
-    use calib::extension::ModelExtension;
+    use calib::extend::drift_visibility::{DriftAnalysis, drift_threshold, smallest_visible_drift};
+    use calib::model::extension::ModelExtension;
     let unit = DEG_PER_HOUR / 60.0;
     let c = RunConfig::paper();
     let a = DriftAnalysis::new(&c, true, &ModelExtension::default(), 1e-3 * unit * unit).unwrap();

@@ -13,11 +13,11 @@
 //! 0.35 sigma (raw) for the mounting and the delay.
 
 use calib::config::{AttitudePrior, RunConfig};
-use calib::covariance::{covariance_analysis, covariance_analysis_ext};
+use calib::estimate::covariance::{covariance_analysis, covariance_analysis_ext};
 use calib::estimate::{Estimate, RunData, estimate, estimate_ext};
-use calib::extension::{HiddenEffects, ModelExtension};
 use calib::io::{ImuData, TurntableData};
-use calib::layout::{layout_for, layout_with};
+use calib::model::extension::{HiddenEffects, ModelExtension};
+use calib::model::layout::{layout_for, layout_with};
 use calib::simulate::{drift_seed, simulate_run, simulate_run_hidden};
 use sins_model::candidates::Candidate;
 use turntable::simulate::{GyroDrift, Simulation, gyro_bias_walk};
@@ -375,8 +375,8 @@ fn drift_in_the_filter_keeps_the_run_consistent() {
             nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| est.cov[(idx[a], idx[b])]);
         let bias = nalgebra::DMatrix::from_fn(3, 3, |a, b| est.cov[(3 + a, 3 + b)]);
         (
-            calib::stats::nees(&e, &cov).unwrap(),
-            calib::stats::nees(&e[..3], &bias).unwrap(),
+            calib::check::stats::nees(&e, &cov).unwrap(),
+            calib::check::stats::nees(&e[..3], &bias).unwrap(),
             idx.len(),
         )
     };
@@ -386,8 +386,8 @@ fn drift_in_the_filter_keeps_the_run_consistent() {
     };
     let est = run(&c, &sim, true, &ext);
     let (nees, nees_bias, k) = nees_of(&est);
-    let (_, hi) = calib::stats::chi_square_band(k as f64, 0.998);
-    let (_, hi3) = calib::stats::chi_square_band(3.0, 0.998);
+    let (_, hi) = calib::check::stats::chi_square_band(k as f64, 0.998);
+    let (_, hi3) = calib::check::stats::chi_square_band(3.0, 0.998);
     println!(
         "with the drift: NEES {nees:.1} ({k} states, bound {hi:.1}), biases {nees_bias:.1}; mean NIS accel {:.3}, turntable {:.3}",
         est.stats.accel_mean_nis, est.stats.turntable_mean_nis

@@ -2,8 +2,8 @@
 //! (printed; `cargo test --release -p calib --test integration candidates_table:: -- --ignored --nocapture`).
 
 use calib::config::RunConfig;
-use calib::covariance::covariance_analysis_ext;
-use calib::extension::ModelExtension;
+use calib::estimate::covariance::covariance_analysis_ext;
+use calib::model::extension::ModelExtension;
 use sins_model::candidates::Candidate;
 
 #[test]

@@ -3,9 +3,9 @@
 //! simulated without them (same program, mounting and delay).
 
 use calib::config::RunConfig;
-use calib::correction::{Correction, ExtensionInputs, correct_records};
-use calib::extension::HiddenEffects;
 use calib::io::{ImuData, ImuKind, ImuRecord, ResultFile};
+use calib::model::correction::{Correction, ExtensionInputs, correct_records};
+use calib::model::extension::HiddenEffects;
 use calib::simulate::simulate_run_hidden;
 use nalgebra::Vector3;
 use sins_model::candidates::Candidate;

@@ -2,8 +2,8 @@
 //! fits; runs corrupted with an effect the model lacks are (or are not) flagged, and by which
 //! statistics. Seeds and effect sizes fixed before the runs.
 
+use calib::check::diagnostics::{DiagnosticSettings, Diagnostics, diagnose, segments};
 use calib::config::{AttitudePrior, RunConfig};
-use calib::diagnostics::{DiagnosticSettings, Diagnostics, diagnose, segments};
 use calib::estimate::{Estimate, RunData, estimate};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;
@@ -61,7 +61,7 @@ fn headline(d: &Diagnostics) -> String {
             format!(
                 "{}: NIS/dof {:.4} p {:.2e}, min segment p {seg:.2e}, Ljung-Box p [{}], \
                  min line p {line:.2e}",
-                calib::diagnostics::kind_label(k.kind),
+                calib::check::diagnostics::kind_label(k.kind),
                 k.nis.sum / k.nis.dof,
                 k.nis.p_value,
                 lb.join(", ")
@@ -188,7 +188,9 @@ fn unmodelled_effects_are_flagged() {
 }
 
 mod arbitrary {
-    use calib::diagnostics::{DiagnosticSettings, Innovation, Segment, diagnose, regression_test};
+    use calib::check::diagnostics::{
+        DiagnosticSettings, Innovation, Segment, diagnose, regression_test,
+    };
     use calib::model::MeasurementKind;
     use nalgebra::{Matrix3, Vector3};
     use proptest::prelude::*;

@@ -10,8 +10,8 @@
 //! cargo test --release -p calib --test integration free_motion_real:: -- --ignored --nocapture
 //! ```
 
-use calib::free_motion::{FreeMotionSettings, Interval, KnownTurn, calibrate_free_motion};
 use calib::io::read_imu_csv;
+use calib::motion::free_motion::{FreeMotionSettings, Interval, KnownTurn, calibrate_free_motion};
 use std::path::{Path, PathBuf};
 
 fn out(dir: &str, file: &str) -> PathBuf {

@@ -2,8 +2,8 @@
 //! differences of the nonlinear model it linearises.
 
 use calib::config::RunConfig;
-use calib::layout::StateLayout;
-use calib::layout::layout_for;
+use calib::model::layout::StateLayout;
+use calib::model::layout::layout_for;
 use calib::model::{AngleSample, LinearModel, MeasurementKind};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{apply_attitude_error, attitude_error, exp_so3, log_so3};
@@ -380,8 +380,8 @@ fn the_same_filter_gives_the_same_answer_at_any_averaged_measurement_rate() {
     b.filter.accel_rate_hz = 0.5;
     b.filter.turntable_rate_hz = 0.5;
     for tt in [false, true] {
-        let pa = calib::covariance::covariance_analysis(&a, tt).unwrap();
-        let pb = calib::covariance::covariance_analysis(&b, tt).unwrap();
+        let pa = calib::estimate::covariance::covariance_analysis(&a, tt).unwrap();
+        let pb = calib::estimate::covariance::covariance_analysis(&b, tt).unwrap();
         for name in [
             "gyro.theta.xx",
             "accel.gamma.yy",

@@ -178,8 +178,8 @@ impl SectionsFile {
     /// calibrated).
     pub fn known_turns(
         &self,
-        intervals: &[calib::free_motion::Interval],
-    ) -> Vec<calib::free_motion::KnownTurn> {
+        intervals: &[calib::motion::free_motion::Interval],
+    ) -> Vec<calib::motion::free_motion::KnownTurn> {
         self.sections
             .iter()
             .filter(|s| s.kind == SectionKind::Rotation)
@@ -194,7 +194,7 @@ impl SectionsFile {
                     .iter()
                     .find(|iv| iv.first_record > s.last_record)
                     .map_or(s.last_record, |iv| iv.first_record);
-                Some(calib::free_motion::KnownTurn {
+                Some(calib::motion::free_motion::KnownTurn {
                     name: s.name.clone(),
                     first_record: first.max(1),
                     last_record: last,

@@ -3,7 +3,7 @@
 use crate::diagnose::{DriftReachJson, drift_reach_json};
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config, output};
-use calib::covariance::covariance_analysis_ext;
+use calib::estimate::covariance::covariance_analysis_ext;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -78,7 +78,7 @@ fn walk_reach(
         .filter(|c| !c.is_thermal() || config.temperature.is_some())
         .count();
     let level = settings.level / tested as f64;
-    let ext = calib::extension::ModelExtension::default();
+    let ext = calib::model::extension::ModelExtension::default();
     let Some(reach) = calib::extend::drift_reach(config, with_turntable, &ext, &settings, level)?
     else {
         return Ok(None);
@@ -133,7 +133,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         )
         .into());
     }
-    let ext = calib::extension::ModelExtension::with_grade(&terms, config.unit_grade());
+    let ext = calib::model::extension::ModelExtension::with_grade(&terms, config.unit_grade());
     let post = covariance_analysis_ext(&config, with_turntable, &ext)?;
 
     let mut s = String::new();
@@ -209,7 +209,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             walk_reach: reach,
             terms: separations,
         };
-        let text = calib::schema::to_json(calib::schema::ANALYSIS, &json)?;
+        let text = calib::io::schema::to_json(calib::io::schema::ANALYSIS, &json)?;
         output::write_file(path, text.as_bytes())?;
         if !output::is_stdout(path) {
             let _ = writeln!(s, "\nwrote {}", path.display());
@@ -222,7 +222,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
 /// `s` (with the temperature the thermal terms see), for the JSON.
 fn term_separations(
     config: &calib::config::RunConfig,
-    post: &calib::covariance::Posterior,
+    post: &calib::estimate::covariance::Posterior,
     terms: &[sins_model::candidates::Candidate],
     s: &mut String,
 ) -> Vec<TermSeparationJson> {
@@ -262,7 +262,7 @@ fn term_separations(
     }
     let mut out = Vec::new();
     for c in terms {
-        let sep = calib::evidence::separability(
+        let sep = calib::extend::evidence::separability(
             &post.names,
             &post.prior_sigma,
             &post.cov,

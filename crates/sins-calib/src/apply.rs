@@ -1,10 +1,10 @@
 //! `sins-calib apply`: raw IMU records corrected with a calibration result (the estimated model
-//! inverted record by record, `calib::correction`), written in the form they came in.
+//! inverted record by record, `calib::model::correction`), written in the form they came in.
 
 use crate::{Error, print};
 use calib::config::UnitIdentity;
-use calib::correction::{Correction, ExtensionInputs, correct_record};
 use calib::io::{ImuKind, ImuReader, ImuRecord, format_f64, read_result_json};
+use calib::model::correction::{Correction, ExtensionInputs, correct_record};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `apply`.
@@ -210,11 +210,11 @@ fn correct_stream(
 
 /// Refuse a calibration whose compensation matrices `I - Theta` (gyros) and `I + Gamma`
 /// (accelerometers) are singular or ill-conditioned (a condition number above
-/// [`calib::plausible::MAX_COMPENSATION_CONDITION`]): inverting them would amplify the
+/// [`calib::config::plausible::MAX_COMPENSATION_CONDITION`]): inverting them would amplify the
 /// records' noise into nonsense. (Each entry is already within its physical bound, which
 /// keeps them well-conditioned; this is the check of what the correction inverts.)
 fn check_compensation(result: &calib::io::ResultFile, file: &str) -> Result<(), Error> {
-    use calib::plausible::{MAX_COMPENSATION_CONDITION, condition_number};
+    use calib::config::plausible::{MAX_COMPENSATION_CONDITION, condition_number};
     const AXES: [char; 3] = ['x', 'y', 'z'];
     for (prefix, sign, what) in [
         ("gyro.theta", -1.0, "gyro compensation I - Theta"),

@@ -3,13 +3,13 @@
 use crate::diagnostic_plots::write_diagnostic_plots;
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config};
-use calib::angle_records::AngleFile;
+use calib::check::diagnostics::{self, DiagnosticSettings, Diagnostics};
 use calib::config::UnitIdentity;
-use calib::diagnostics::{self, DiagnosticSettings, Diagnostics};
 use calib::estimate::{Estimate, FileImu, FitStatistics, ImuSource as _, estimate_from};
-use calib::extension::ModelExtension;
+use calib::io::angle_records::AngleFile;
 use calib::io::{ImuKind, ResultFile, ResultParameter, read_imu_csv, read_result_json};
-use calib::layout::{StateLayout, layout_with};
+use calib::model::extension::ModelExtension;
+use calib::model::layout::{StateLayout, layout_with};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -144,9 +144,9 @@ struct ResultJson<'a> {
     /// The posterior correlation of the parameters (docs/formats.md).
     #[serde(skip_serializing_if = "Option::is_none")]
     correlation: Option<&'a Vec<Vec<f64>>>,
-    /// The estimated model inverted (`calib::correction`).
+    /// The estimated model inverted (`calib::model::correction`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    correction: Option<&'a calib::correction::CorrectionBlock>,
+    correction: Option<&'a calib::model::correction::CorrectionBlock>,
     /// The records' temperatures and the thermal terms' reference, when the records have a
     /// temperature.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -154,7 +154,7 @@ struct ResultJson<'a> {
     /// Whether the model fits the data, with the reasons when it does not.
     verdict: VerdictJson,
     fit: FitJson,
-    /// With --diagnostics: `calib::diagnostics::Diagnostics`.
+    /// With --diagnostics: `calib::check::diagnostics::Diagnostics`.
     #[serde(skip_serializing_if = "Option::is_none")]
     diagnostics: Option<&'a Diagnostics>,
     /// With --free-motion: the noise, the known turns and the held-out rests.
@@ -409,7 +409,7 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
                 )
             };
             check_truth_units(args, &input, &layout)?;
-            let r = calib::hand_turned::calibrate(
+            let r = calib::estimate::hand_turned::calibrate(
                 &input.config,
                 &layout,
                 &data,
@@ -528,7 +528,10 @@ pub fn run(args: &Args) -> Result<Outcome, Error> {
     }
     let advice = match (&hand_turned, &input.program) {
         (Some((r, _)), _)
-            if matches!(r.noise, calib::hand_turned::NoiseSource::Measured { .. }) =>
+            if matches!(
+                r.noise,
+                calib::estimate::hand_turned::NoiseSource::Measured { .. }
+            ) =>
         {
             "the held-out rests contradict the calibration\n  {}\nThe estimates above are not \
              to be trusted: an error the model lacks outweighs the noise (`sins-calib diagnose \
@@ -624,7 +627,7 @@ fn write_result_json(
         diagnostics,
         free_motion,
     };
-    let text = calib::schema::to_json(calib::schema::CALIBRATION, &json)?;
+    let text = calib::io::schema::to_json(calib::io::schema::CALIBRATION, &json)?;
     crate::output::write_file(path, text.as_bytes())
 }
 
@@ -714,7 +717,7 @@ fn load_inputs(args: &Args) -> Result<Inputs, Error> {
     let tt = args.turntable.as_deref().map(AngleFile::open).transpose()?;
     // Without a program in the configuration the turntable's angles give it (the estimation
     // reads it again, taking its first piece back to the first IMU record).
-    let program = match calib::angles_program::resolve_program(
+    let program = match calib::motion::angles_program::resolve_program(
         &config,
         tt.as_ref().map(AngleFile::records),
         None,

@@ -1,5 +1,5 @@
 //! `sins-calib design`: a program that separates the given candidate terms from the paper's
-//! parameters, printed as TOML with its predicted sigmas (`calib::design`).
+//! parameters, printed as TOML with its predicted sigmas (`calib::extend::design`).
 
 use crate::diagnose::parse_terms;
 use crate::{Error, load_config, output, print};
@@ -50,7 +50,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     check_distinct_terms(&args.terms)?;
     let terms = parse_terms(&args.terms)?;
     let (recorded, proposals, chosen) =
-        calib::design::design(&config, args.with_turntable, &terms)?;
+        calib::extend::design::design(&config, args.with_turntable, &terms)?;
     let mut s = String::new();
     let _ = writeln!(
         s,

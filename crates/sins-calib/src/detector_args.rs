@@ -2,7 +2,7 @@
 //! rests in a recording (`calibrate` without a program, `calibrate --free-motion`).
 
 use ::import::detect::DetectorSettings;
-use calib::rests::Rest;
+use calib::motion::rests::Rest;
 
 /// Options of the static detector (`import::detect`; the defaults are
 /// `DetectorSettings::default()`).

@@ -3,13 +3,13 @@
 //! (`calib::extend`; method in docs/model-extension.md).
 
 use crate::{Error, load_config};
-use calib::angle_records::AngleFile;
+use calib::check::stats::p_value_text;
 use calib::estimate::RunData;
 use calib::extend::{
     CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop, run_loop_at_rests,
 };
+use calib::io::angle_records::AngleFile;
 use calib::io::{ResultParameter, read_imu_csv};
-use calib::report::p_value_text;
 use serde::Serialize;
 use sins_model::candidates::Candidate;
 use std::collections::BTreeMap;
@@ -227,7 +227,10 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
             .collect(),
         temperature: r.last.estimate.temperature.clone(),
     };
-    Ok(calib::schema::to_json(calib::schema::DIAGNOSIS, &j)?)
+    Ok(calib::io::schema::to_json(
+        calib::io::schema::DIAGNOSIS,
+        &j,
+    )?)
 }
 
 /// One round of the loop: its candidates with their evidence and separability, what was
@@ -673,8 +676,10 @@ pub fn run(args: &Args) -> Result<bool, Error> {
         );
     }
     let mut measured_input = None;
-    let mut rests_input: Option<(Vec<calib::rests::Rest>, Vec<calib::free_motion::KnownTurn>)> =
-        None;
+    let mut rests_input: Option<(
+        Vec<calib::motion::rests::Rest>,
+        Vec<calib::motion::free_motion::KnownTurn>,
+    )> = None;
     let result = if rests_mode {
         let detector = args
             .detector
@@ -710,7 +715,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
             let turns = setup
                 .turns
                 .iter()
-                .filter_map(|k| calib::rests::Turn::of(k, &imu))
+                .filter_map(|k| calib::motion::rests::Turn::of(k, &imu))
                 .collect();
             (turns, setup.turns)
         } else {
@@ -746,8 +751,8 @@ pub fn run(args: &Args) -> Result<bool, Error> {
                 "(against the measured noise: the held-out rests decide, below)",
             );
             let every = args.holdout.unwrap_or(calib::extend::HOLD_OUT_EVERY);
-            let layout = calib::layout::layout_with(&config, false, &result.last.extension);
-            let r = calib::hand_turned::calibrate(
+            let layout = calib::model::layout::layout_with(&config, false, &result.last.extension);
+            let r = calib::estimate::hand_turned::calibrate(
                 &config,
                 &layout,
                 &imu,

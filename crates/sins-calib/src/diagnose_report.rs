@@ -4,8 +4,8 @@
 use crate::Error;
 use crate::lab_report::{FitView, Identification, Report, Verdict, with_turntable};
 use crate::table;
+use calib::check::stats::p_value_text;
 use calib::extend::LoopResult;
-use calib::report::p_value_text;
 use std::fmt::Write as _;
 use std::path::Path;
 

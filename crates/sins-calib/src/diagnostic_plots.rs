@@ -1,11 +1,11 @@
-//! PNG plots of the diagnostics of a fit (`calib::diagnostics`): per measurement kind the
+//! PNG plots of the diagnostics of a fit (`calib::check::diagnostics`): per measurement kind the
 //! whitened innovations against time, their periodograms with the program's lines, their
 //! autocorrelations with the white-noise band, and the NIS per program segment against its
 //! band. An optional second fit ("after", e.g. with an extended model) is overlaid in another
 //! colour (NIS per segment: side by side).
 
 use crate::Error;
-use calib::diagnostics::{Diagnostics, Innovation, KindDiagnostics, kind_label, whiten};
+use calib::check::diagnostics::{Diagnostics, Innovation, KindDiagnostics, kind_label, whiten};
 use calib::model::MeasurementKind;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -84,7 +84,7 @@ pub fn write_plots(
         if fits.iter().all(|f| f.diag.kind(kind).is_none()) {
             continue;
         }
-        let tag = calib::diagnostics::kind_serde::name(kind);
+        let tag = calib::check::diagnostics::kind_serde::name(kind);
         let plots: [(&str, PlotFn); 4] = [
             ("innovations", innovations_plot),
             ("spectrum", spectrum_plot),
@@ -323,7 +323,7 @@ fn autocorrelation_plot(
             .iter()
             .filter_map(|(f, k)| {
                 let w = k.whiteness.get(a)?;
-                let p = calib::report::p_value_text(w.p_value);
+                let p = calib::check::stats::p_value_text(w.p_value);
                 Some(if fits.len() > 1 {
                     format!("{p} ({})", f.name)
                 } else {
@@ -423,7 +423,7 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
     let m = ks.len().max(1) as f64;
     for (n, (f, k)) in ks.iter().enumerate() {
         let dx = if m > 1.0 { (n as f64 - 0.5) * 0.2 } else { 0.0 };
-        let d = |s: &calib::diagnostics::SegmentNis| s.nis.dof.max(1.0);
+        let d = |s: &calib::check::diagnostics::SegmentNis| s.nis.dof.max(1.0);
         chart
             .draw_series(k.segments.iter().map(|s| {
                 let x = s.segment as f64 + dx;
@@ -464,7 +464,7 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
-    use calib::diagnostics::{DiagnosticSettings, diagnose};
+    use calib::check::diagnostics::{DiagnosticSettings, diagnose};
     use nalgebra::{Matrix3, Vector3};
 
     fn innovations(scale: f64) -> Vec<Innovation> {

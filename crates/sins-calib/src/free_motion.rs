@@ -1,19 +1,19 @@
 //! `--free-motion` (`calibrate` and `diagnose`): a hand-turned multi-position recording without
 //! a rotation program or turntable, through the filter of a recording of rests. What this
 //! module adds to that path: the configuration from the recording when none is given
-//! (`calib::hand_turned`), the section list's known turns, and the blocks of the report and
+//! (`calib::estimate::hand_turned`), the section list's known turns, and the blocks of the report and
 //! the JSON that only such a recording has (noise measured in the rests, held-out rests, turns).
 
 use crate::Error;
 use crate::table;
 use ::import::sections::SectionsFile;
 use calib::config::RunConfig;
-use calib::extension::ModelExtension;
-use calib::free_motion::{EarthRateTreatment, Evaluation, KnownTurn};
-use calib::hand_turned::{GradeChoice, HandTurnedResult, NoiseSource, WhiteNoiseAtRest};
+use calib::estimate::hand_turned::{GradeChoice, HandTurnedResult, NoiseSource, WhiteNoiseAtRest};
 use calib::io::ImuData;
-use calib::layout::StateLayout;
-use calib::rests::Rest;
+use calib::model::extension::ModelExtension;
+use calib::model::layout::StateLayout;
+use calib::motion::free_motion::{EarthRateTreatment, Evaluation, KnownTurn};
+use calib::motion::rests::Rest;
 use serde::Serialize;
 use sins_model::candidates::Candidate;
 use sins_model::units::DEG_PER_HOUR;
@@ -50,9 +50,9 @@ pub struct Setup {
 }
 
 /// The configuration: `given` (without a program) with its own noise, or the recording's
-/// defaults ([`calib::hand_turned::default_config`]) at the command line's `latitude` and
+/// defaults ([`calib::estimate::hand_turned::default_config`]) at the command line's `latitude` and
 /// `height` with the noise measured in the rests and the grade from the data
-/// ([`calib::hand_turned::choose_grade`]); the model is the paper's with `terms`.
+/// ([`calib::estimate::hand_turned::choose_grade`]); the model is the paper's with `terms`.
 pub fn setup(
     given: Option<(&RunConfig, &str)>,
     (latitude, height): (Option<f64>, Option<f64>),
@@ -85,21 +85,24 @@ pub fn setup(
             if !(-90.0..=90.0).contains(&lat) {
                 return Err(format!("--latitude {lat}: expected -90 .. 90 deg").into());
             }
-            let noise = calib::hand_turned::white_noise_at_rest(data, rests).ok_or_else(|| {
-                format!(
-                    "{file}: no rest holds two whole seconds: the white noise cannot be \
+            let noise = calib::estimate::hand_turned::white_noise_at_rest(data, rests).ok_or_else(
+                || {
+                    format!(
+                        "{file}: no rest holds two whole seconds: the white noise cannot be \
                      measured in the rests (give a configuration with [noise], --config)"
-                )
-            })?;
-            let choice = calib::hand_turned::choose_grade(data, rests, &noise);
+                    )
+                },
+            )?;
+            let choice = calib::estimate::hand_turned::choose_grade(data, rests, &noise);
             grade = Some(choice);
             let h = height.unwrap_or(0.0);
             // From the Dead Sea shore to above any laboratory on a mountain, as [site].
             if !(-500.0..=10_000.0).contains(&h) {
                 return Err(format!("--height {h}: expected -500 .. 10000 m").into());
             }
-            let config = calib::hand_turned::default_config(data, lat, h, &noise, choice.grade)
-                .ok_or_else(|| format!("{file}: fewer than two records"))?;
+            let config =
+                calib::estimate::hand_turned::default_config(data, lat, h, &noise, choice.grade)
+                    .ok_or_else(|| format!("{file}: fewer than two records"))?;
             if latitude.is_none() {
                 assumptions.push(format!(
                     "latitude {lat} deg assumed: no [site] given (--latitude or a \
@@ -120,7 +123,7 @@ pub fn setup(
             if interval > MAX_RECORD_INTERVAL_S {
                 return Err(calib::estimate::EstimateError::Rests {
                     file: file.to_string(),
-                    source: calib::rests::RestError::SlowRecords {
+                    source: calib::motion::rests::RestError::SlowRecords {
                         interval_s: interval,
                     },
                 }
@@ -148,8 +151,8 @@ pub fn setup(
         }
     };
     let ext = ModelExtension::with_grade(terms, config.unit_grade());
-    let layout = calib::layout::layout_with(&config, false, &ext);
-    let intervals = calib::hand_turned::intervals_of(data, rests);
+    let layout = calib::model::layout::layout_with(&config, false, &ext);
+    let intervals = calib::estimate::hand_turned::intervals_of(data, rests);
     let turns = match sections {
         Some(p) => read_sections(p, data)?.known_turns(&intervals),
         None => Vec::new(),
@@ -182,10 +185,10 @@ pub fn terms_asked(
                 path.display()
             )
         })?;
-        calib::schema::check(
+        calib::io::schema::check(
             &path.display().to_string(),
             v.get("schema"),
-            &[calib::schema::DIAGNOSIS],
+            &[calib::io::schema::DIAGNOSIS],
             "the file `sins-calib diagnose --json` writes",
         )?;
         let accepted = v
@@ -231,7 +234,7 @@ pub(crate) fn read_sections(
 ) -> Result<SectionsFile, Error> {
     crate::provenance::check_stamp(
         path,
-        &[calib::schema::SECTIONS],
+        &[calib::io::schema::SECTIONS],
         "the sections.json `sins-calib import` writes",
     )?;
     let sections = SectionsFile::read(path)?;
@@ -536,7 +539,7 @@ pub fn evaluation_report(e: &Evaluation) -> String {
         );
     }
     let fitted: Vec<_> = e.poses.iter().filter(|p| !p.held_out).collect();
-    let rms = |f: fn(&calib::free_motion::PoseResidual) -> f64| {
+    let rms = |f: fn(&calib::motion::free_motion::PoseResidual) -> f64| {
         (fitted.iter().map(|p| f(p).powi(2)).sum::<f64>() / fitted.len().max(1) as f64).sqrt()
     };
     let _ = writeln!(

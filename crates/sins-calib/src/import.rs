@@ -166,7 +166,7 @@ fn stamp_outputs(
     if let (Some(p), Some(sections)) = (&written.sections, sections) {
         write(
             p,
-            calib::schema::to_json(calib::schema::SECTIONS, sections)?,
+            calib::io::schema::to_json(calib::io::schema::SECTIONS, sections)?,
         )?;
         output_sha256.insert("sections.json".into(), crate::sha256::of_file(p)?.0);
     }
@@ -190,7 +190,7 @@ fn stamp_outputs(
     };
     write(
         &written.report,
-        calib::schema::to_json(calib::schema::IMPORT, &json)?,
+        calib::io::schema::to_json(calib::io::schema::IMPORT, &json)?,
     )
 }
 

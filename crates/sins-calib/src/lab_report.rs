@@ -11,13 +11,13 @@
 use crate::Error;
 use crate::output::DirOutput;
 use crate::table;
+use calib::check::diagnostics::{Diagnostics, kind_serde};
+use calib::check::stats::p_value_text;
 use calib::config::RunConfig;
-use calib::diagnostics::{Diagnostics, kind_serde};
 use calib::estimate::Estimate;
 use calib::io::ResultFile;
 use calib::model::MeasurementKind;
 use calib::report::lab;
-use calib::report::p_value_text;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -467,7 +467,7 @@ fn parameters_md(report: &Report<'_>) -> String {
         ".\n\n| parameter | value | 1 sigma | unit |\n|---|---:|---:|---|\n"
     };
     let names: Vec<String> = est.names.clone();
-    let first = calib::layout::StateLayout::INSTRUMENT;
+    let first = calib::model::layout::StateLayout::INSTRUMENT;
     for (title, members) in table::grouped(&names) {
         let _ = writeln!(
             s,
@@ -568,7 +568,7 @@ fn residuals_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<St
         let _ = writeln!(
             s,
             "![{} residuals in {unit}]({name})\n",
-            calib::diagnostics::kind_label(kind)
+            calib::check::diagnostics::kind_label(kind)
         );
     }
     if let Some(t) = &est.temperature
@@ -577,14 +577,14 @@ fn residuals_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<St
         // In the instrument's axes, where a sensor's thermal error stays on its own axis
         // (in the local frame a turning unit spreads it over all three).
         let (_, factor) = lab::residual_unit(MeasurementKind::Accel);
-        let accel: Vec<&calib::diagnostics::Innovation> = est
+        let accel: Vec<&calib::check::diagnostics::Innovation> = est
             .innovations
             .iter()
             .filter(|i| i.kind == MeasurementKind::Accel && i.nu.iter().all(|x| x.is_finite()))
             .collect();
         // Updates with a typical band only (at most twice the median): the first ones of a fit,
         // or those after a motion between rests, are the prior's, not the temperature's.
-        let width = |i: &calib::diagnostics::Innovation| (i.s.trace() / 3.0).max(0.0).sqrt();
+        let width = |i: &calib::check::diagnostics::Innovation| (i.s.trace() / 3.0).max(0.0).sqrt();
         let mut widths: Vec<f64> = accel.iter().map(|i| width(i)).collect();
         widths.sort_by(f64::total_cmp);
         let median = widths.get(widths.len() / 2).copied().unwrap_or(0.0);
@@ -654,7 +654,7 @@ fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<Str
             s,
             "{}:\n\n| # | segment | IMU time [s] | updates | NIS/dof | band | p | \
              |\n|---:|---|---|---:|---:|---|---:|---|",
-            calib::diagnostics::kind_label(kind)
+            calib::check::diagnostics::kind_label(kind)
         );
         for r in rows.iter().filter(|r| r.kind == kind) {
             let span = r.span_s.map_or("-".into(), |(a, b)| {

@@ -391,7 +391,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         if let (Some(t), Some(root)) = (&thermal, json.as_object_mut()) {
             root.insert("temperature".into(), thermal_json(t));
         }
-        let text = calib::schema::to_json(calib::schema::NOISE, &json)?;
+        let text = calib::io::schema::to_json(calib::io::schema::NOISE, &json)?;
         crate::output::write_file(path, text.as_bytes())?;
         if !crate::output::is_stdout(path) {
             let _ = writeln!(out, "wrote {}", path.display());
@@ -433,7 +433,7 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
             row.push(level(f, j, s.factors[j]));
         }
         row.push(format!("{:.2}/{}", f.chi2, f.dof));
-        row.push(calib::report::p_value_text(f.p_value));
+        row.push(calib::check::stats::p_value_text(f.p_value));
         let last = ax.curve.points.last().map_or(0.0, |p| p.tau_s);
         row.push(format!(
             "{} .. {}",
@@ -555,9 +555,10 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
             ml_level(&m.walk, s.factors[3]),
             gm,
             tc,
-            calib::report::p_value_text(m.lr_p_value),
-            m.whiteness
-                .map_or("-".to_string(), |w| calib::report::p_value_text(w.p_value)),
+            calib::check::stats::p_value_text(m.lr_p_value),
+            m.whiteness.map_or("-".to_string(), |w| {
+                calib::check::stats::p_value_text(w.p_value)
+            }),
             format!("{} x {} s", m.blocks, table::significant(m.block_s, 3)),
         ]);
     }
@@ -1065,10 +1066,10 @@ pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedW
             e.line()
         )
     })?;
-    calib::schema::check(
+    calib::io::schema::check(
         &file,
         root.get("schema"),
-        &[calib::schema::NOISE],
+        &[calib::io::schema::NOISE],
         "the JSON that `sins-calib noise --json` writes",
     )?;
     let key = "bias_walk_deg_h_sqrt_h";

@@ -3,7 +3,7 @@
 //! the `ttf-noto-sans` crate), so nothing needs a system font or library.
 
 use crate::Error;
-use calib::free_motion::PoseResidual;
+use calib::motion::free_motion::PoseResidual;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! Where a result comes from: the unit it is of (`[unit]` of a configuration or import profile,
 //! `--unit-model` / `--unit-serial`), the SHA-256 of every input file, the `import.json` an
 //! `imu.csv` was imported with (its profile and raw files), and the schema stamp of the JSON
-//! files the commands read (`calib::schema`).
+//! files the commands read (`calib::io::schema`).
 
 use crate::Error;
 use calib::config::UnitIdentity;
@@ -130,10 +130,10 @@ pub fn import_beside(imu: &Path) -> Result<Option<(InputHash, ImportFound)>, Err
     let text = read_small(&path, "import report JSON")?;
     let v: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| format!("{shown}: not an import report (JSON): {e}"))?;
-    calib::schema::check(
+    calib::io::schema::check(
         &shown,
         v.get("schema"),
-        &[calib::schema::IMPORT],
+        &[calib::io::schema::IMPORT],
         "the import.json of `sins-calib import`",
     )?;
     let provenance: ImportProvenance = serde_json::from_value(v)
@@ -271,11 +271,11 @@ pub fn read_small(path: &Path, kind: &str) -> Result<String, Error> {
 }
 
 /// Check the schema stamp of the JSON file at `path` (read whole) against the kinds `accepted`
-/// (`calib::schema::check`); a file that is not JSON is left to its reader's message.
+/// (`calib::io::schema::check`); a file that is not JSON is left to its reader's message.
 pub fn check_stamp(path: &Path, accepted: &[&str], expected: &str) -> Result<(), Error> {
     let text = read_small(path, "JSON file")?;
     if let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) {
-        calib::schema::check(
+        calib::io::schema::check(
             &path.display().to_string(),
             v.get("schema"),
             accepted,

@@ -5,7 +5,7 @@
 use crate::Error;
 use crate::plot::write_png;
 use crate::table;
-use calib::diagnostics::{Segment, kind_label};
+use calib::check::diagnostics::{Segment, kind_label};
 use calib::model::MeasurementKind;
 use calib::report::lab::{Residual, residual_unit};
 use plotters::coord::Shift;

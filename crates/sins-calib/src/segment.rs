@@ -301,7 +301,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             segmentation: &seg,
             interval_temp_c,
         };
-        let text = calib::schema::to_json(calib::schema::SEGMENTATION, &json)?;
+        let text = calib::io::schema::to_json(calib::io::schema::SEGMENTATION, &json)?;
         output::write_file(path, text.as_bytes())?;
         if !output::is_stdout(path) {
             let _ = writeln!(s, "\nwrote {}", path.display());

@@ -78,7 +78,7 @@ fn check_size(
 const DRAW_SIGMAS: f64 = 5.0;
 
 /// Refuse priors the truth would be drawn from (`truth.draw_from_priors`) when a draw could
-/// pass the physical bound of its parameters (`calib::plausible`): a `gyro_scale` of 1e6 draws
+/// pass the physical bound of its parameters (`calib::config::plausible`): a `gyro_scale` of 1e6 draws
 /// scale factors no instrument has, and writes records calibrate refuses. The priors of
 /// parameters `[truth.values]` sets in full are not drawn and not checked.
 fn check_drawn_priors(config: &calib::config::RunConfig, origin: &str) -> Result<(), Error> {
@@ -154,7 +154,7 @@ fn check_drawn_priors(config: &calib::config::RunConfig, origin: &str) -> Result
         let drawn = members
             .iter()
             .any(|m| !t.values.contains_key(&format!("{prefix}{m}")));
-        let Some(b) = calib::plausible::bound(prefix) else {
+        let Some(b) = calib::config::plausible::bound(prefix) else {
             continue;
         };
         let reach = DRAW_SIGMAS * sigma * unit;

@@ -2,8 +2,8 @@
 //! test), the file form kept, and the refusals.
 
 use crate::common::{self, BIN, s, text};
-use calib::correction::{Correction, ExtensionInputs, correct_records};
 use calib::io::{ImuKind, read_imu_csv, read_result_json};
+use calib::model::correction::{Correction, ExtensionInputs, correct_records};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -149,7 +149,7 @@ fn ferraris_corrected_turns_and_static_faces() {
         );
         // `apply` inverts the model as the filter has it (the g-sensitivity and asymmetry on
         // the true specific force and rate); the fit's figures take them on the measured ones,
-        // as the batch fit did (calib::free_motion::evaluate): a product of two errors apart.
+        // as the batch fit did (calib::motion::free_motion::evaluate): a product of two errors apart.
         assert!((got - fit).abs() < 0.05, "turn {got} deg, the fit's {fit}");
     }
 

@@ -1,8 +1,8 @@
 //! The turntable angle records read onto the IMU time line.
 
-use crate::angle_records::RecordWindow;
 use crate::config::ClockConfig;
 use crate::io::IoError;
+use crate::io::angle_records::RecordWindow;
 use turntable::gimbal::wrap_deg;
 
 /// One interpolated set of gimbal angles.
@@ -195,7 +195,7 @@ mod tests {
             })
             .collect();
         let data = crate::io::TurntableData { records };
-        let records: crate::angle_records::AngleRecords = (&data, "tt.csv").into();
+        let records: crate::io::angle_records::AngleRecords = (&data, "tt.csv").into();
         let mut interp =
             AngleInterpolator::new(records.window().unwrap(), ClockConfig::default(), 0.02);
         // Queries at a third of the record spacing, and one at every record: every pair is

@@ -14,7 +14,7 @@
 //! The product is not Gaussian and not in the state, so it is treated as a consider parameter:
 //! its covariance `B` follows from the posterior of `beta` and of the accelerometer errors; the
 //! sensitivity `S` of the estimate to a constant residual offset is carried through the final
-//! pass beside the estimate ([`crate::engine::OffsetSensitivity`]); the posterior covariance
+//! pass beside the estimate ([`crate::model::engine::OffsetSensitivity`]); the posterior covariance
 //! grows by `S B S^T` over the principal directions of `B` that matter. The product is
 //! evaluated at the final attitude, exact for a static run; on a rotating program where it is
 //! not negligible it is an approximation of its mean size.
@@ -29,7 +29,7 @@
 
 use super::Estimate;
 use crate::config::RunConfig;
-use crate::layout::StateLayout;
+use crate::model::layout::StateLayout;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use sins_model::terms::{Sensor, SensorInput};
 
@@ -65,7 +65,7 @@ fn cross_product_covariance(p_beta: &Matrix3<f64>, p_d: &Matrix3<f64>) -> Matrix
 /// Adds the consider covariance of the second-order specific-force error to `est` (whose
 /// states follow `layout`, which carries the copy of the start attitude error), from the final
 /// pass's sensitivity `sens` (`n x 3`) of its estimate to a constant residual offset
-/// ([`crate::engine::OffsetSensitivity`]; its attitude rows that of the final attitude).
+/// ([`crate::model::engine::OffsetSensitivity`]; its attitude rows that of the final attitude).
 pub(super) fn second_order_accel(
     config: &RunConfig,
     layout: &StateLayout,

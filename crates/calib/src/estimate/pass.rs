@@ -4,12 +4,12 @@
 
 use super::angles::AngleInterpolator;
 use super::{EstimateError, FitStatistics};
-use crate::diagnostics::Innovation;
-use crate::engine::{Engine, InstantReport, Phase, RateChanges};
+use crate::check::diagnostics::Innovation;
 use crate::io::{ImuKind, ImuRecord};
-use crate::layout::StateLayout;
+use crate::model::engine::{Engine, InstantReport, Phase, RateChanges};
+use crate::model::layout::StateLayout;
 use crate::model::{AngleSample, MeasurementKind};
-use crate::rests::RestGate;
+use crate::motion::rests::RestGate;
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use sins_model::attitude::{attitude_error, exp_so3, log_so3, orthonormalize, right_jacobian_inv};
 use sins_model::terms::{AffineError, ErrorModel, Sensor, SensorInput};
@@ -432,7 +432,7 @@ pub(super) struct Pass<'a> {
     pub angles: Option<AngleReader<'a>>,
     pub stats: FitStatistics,
     /// A recording of rests: the specific force is measured only in windows that lie wholly
-    /// in a rest ([`crate::rests`]); `None` for a program, where it is known throughout.
+    /// in a rest ([`crate::motion::rests`]); `None` for a program, where it is known throughout.
     pub rest_gate: Option<RestGate>,
     /// Whether every step of the open specific-force window so far lay in a rest.
     window_at_rest: bool,
@@ -466,9 +466,9 @@ pub(super) struct Pass<'a> {
     /// order, and the first not yet passed.
     pub held_out: Vec<(f64, f64)>,
     held_out_next: usize,
-    /// Known turns in time order ([`crate::rests::Turn`]), the first not yet measured, and
+    /// Known turns in time order ([`crate::motion::rests::Turn`]), the first not yet measured, and
     /// the one under way: its integrated angle and its row of `H`.
-    pub turns: Vec<crate::rests::Turn>,
+    pub turns: Vec<crate::motion::rests::Turn>,
     turn_next: usize,
     turn_angle: f64,
     turn_h: Vec<f64>,
@@ -575,10 +575,10 @@ impl<'a> Pass<'a> {
         if t >= turn.t1 - eps {
             let h = std::mem::replace(&mut self.turn_h, vec![0.0; self.layout.dim()]);
             self.engine
-                .queue_parameter_measurement(crate::engine::ParameterMeasurement {
+                .queue_parameter_measurement(crate::model::engine::ParameterMeasurement {
                     z: turn.angle_rad - self.turn_angle,
                     h,
-                    variance: crate::rests::TURN_SIGMA_RAD.powi(2),
+                    variance: crate::motion::rests::TURN_SIGMA_RAD.powi(2),
                 });
             self.turn_angle = 0.0;
             self.turn_next += 1;
@@ -963,7 +963,7 @@ pub(super) struct PassResult {
     /// Every update in order (segment 0: the caller assigns them).
     pub innovations: Vec<Innovation>,
     /// When the pass carried it: the sensitivity of `values` to a constant offset of the
-    /// specific-force residual (`n x 3`; [`crate::engine::OffsetSensitivity`], the mounting
+    /// specific-force residual (`n x 3`; [`crate::model::engine::OffsetSensitivity`], the mounting
     /// rows mapped as `cov`'s), its attitude rows that of the final attitude (`log(C' C^T)`).
     pub offset_sensitivity: Option<nalgebra::DMatrix<f64>>,
 }

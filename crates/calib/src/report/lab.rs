@@ -11,11 +11,11 @@
 //! - [`correlation`] and [`strongest_correlations`]: the posterior correlation of the
 //!   parameters.
 
-use crate::diagnostics::{Diagnostics, Innovation, Segment, kind_label};
+use crate::check::diagnostics::{Diagnostics, Innovation, Segment, kind_label};
 use crate::estimate::{Estimate, FitStatistics};
 use crate::io::ResultFile;
-use crate::layout::StateLayout;
 use crate::model::MeasurementKind;
+use crate::model::layout::StateLayout;
 use sins_model::terms::STANDARD_GRAVITY;
 use sins_model::units::ARCSEC;
 
@@ -96,7 +96,7 @@ pub fn truth_comparison(est: &Estimate, truth: &ResultFile) -> Option<TruthCompa
     let cov = nalgebra::DMatrix::from_fn(n, n, |a, b| est.cov[(idx[a], idx[b])]);
     Some(TruthComparison {
         parameters: n,
-        nees: crate::stats::nees(&errors, &cov).filter(|x| x.is_finite()),
+        nees: crate::check::stats::nees(&errors, &cov).filter(|x| x.is_finite()),
         sum_squared_sigmas: z.iter().map(|v| v * v).sum(),
         largest: (est.names[worst].clone(), worst_z),
     })
@@ -206,7 +206,7 @@ fn turn_reason(stats: &FitStatistics) -> Option<String> {
 /// rests on. With a configured noise the innovations against it decide
 /// ([`misfit_reasons`]). With noise a hand-turned calibration measured from the data itself the
 /// innovations' scatter is no test (the noise was brought to it): the held-out rests and the
-/// known turns decide ([`crate::hand_turned::verdict`]), and the innovation diagnostics inform.
+/// known turns decide ([`crate::estimate::hand_turned::verdict`]), and the innovation diagnostics inform.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunVerdict {
     /// Reasons for exit status 3 (empty: the model fits, or nothing contradicts it).
@@ -256,12 +256,16 @@ impl RunVerdict {
     /// The verdict of `est` (with its hand-turned result where it is one).
     pub fn of(
         est: &crate::estimate::Estimate,
-        hand_turned: Option<&crate::hand_turned::HandTurnedResult>,
+        hand_turned: Option<&crate::estimate::hand_turned::HandTurnedResult>,
         diagnostics: Option<&Diagnostics>,
         with_turntable: bool,
     ) -> Self {
-        let measured = hand_turned
-            .filter(|r| matches!(r.noise, crate::hand_turned::NoiseSource::Measured { .. }));
+        let measured = hand_turned.filter(|r| {
+            matches!(
+                r.noise,
+                crate::estimate::hand_turned::NoiseSource::Measured { .. }
+            )
+        });
         let Some(r) = measured else {
             return Self {
                 decisive: misfit_reasons(&est.stats, diagnostics, with_turntable),
@@ -282,7 +286,7 @@ impl RunVerdict {
                 tested: true,
             };
         };
-        let tests = crate::hand_turned::verdict(r);
+        let tests = crate::estimate::hand_turned::verdict(r);
         let mut decisive: Vec<String> = tests
             .iter()
             .filter(|t| t.decides && t.fails)
@@ -433,11 +437,11 @@ pub fn residuals(innovations: &[Innovation], kind: MeasurementKind) -> Vec<Resid
 }
 
 /// The parameters' names and their posterior correlation matrix (attitude errors left out),
-/// as the result file holds it ([`crate::posterior::correlation`]).
+/// as the result file holds it ([`crate::io::posterior::correlation`]).
 pub fn correlation(est: &Estimate) -> (Vec<String>, Vec<Vec<f64>>) {
     let range = StateLayout::INSTRUMENT..est.names.len();
     let names = est.names[range.clone()].to_vec();
-    let r = crate::posterior::correlation(est.names.len(), range, |i, j| est.cov[(i, j)]);
+    let r = crate::io::posterior::correlation(est.names.len(), range, |i, j| est.cov[(i, j)]);
     (names, r)
 }
 
@@ -463,7 +467,7 @@ pub fn strongest_correlations(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnostics::{DiagnosticSettings, diagnose};
+    use crate::check::diagnostics::{DiagnosticSettings, diagnose};
     use nalgebra::{Matrix3, Vector3};
 
     #[test]

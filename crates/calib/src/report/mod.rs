@@ -2,26 +2,11 @@
 //! group, in the paper's units), the one number format of p-values ([`p_value_text`]), and in
 //! [`lab`] the figures of the report a laboratory files (`sins-calib calibrate --report`).
 
-use crate::covariance::Posterior;
+use crate::estimate::covariance::Posterior;
 use serde::{Deserialize, Serialize};
 use sins_model::terms::GAMMA_INDEX;
 
 pub mod lab;
-
-/// A p-value as every report prints it: `{:.3}` from 1e-3 up, `{:.2e}` below (three figures
-/// that mean something either way), `0` for one computed as exactly 0 (an underflow, or a
-/// `1 - F` that lost every digit: how small it is, the caller's method says).
-pub fn p_value_text(p: f64) -> String {
-    if p.is_nan() {
-        "NaN".into()
-    } else if p == 0.0 {
-        "0".into()
-    } else if p.abs() >= 1e-3 {
-        format!("{p:.3}")
-    } else {
-        format!("{p:.2e}")
-    }
-}
 
 /// One row of the paper's tables.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -161,7 +146,7 @@ impl Default for Groups {
 
 #[cfg(test)]
 mod tests {
-    use super::p_value_text;
+    use crate::check::stats::p_value_text;
 
     #[test]
     fn p_values_are_printed_one_way() {

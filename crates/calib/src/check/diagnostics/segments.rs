@@ -26,7 +26,7 @@ pub struct Segment {
     pub rotation_hz: f64,
     /// The rest of a recording without a program in which the start attitude is levelled:
     /// its specific force gave the start tilt's prior (ten times wider than the levelling's
-    /// sigma, [`crate::rests::PRIOR_WIDENING`]), so its innovations are small by
+    /// sigma, [`crate::motion::rests::PRIOR_WIDENING`]), so its innovations are small by
     /// construction and its NIS test is one-sided (too large only). A one-window first rest
     /// of the Ferraris session had NIS 1e-4 on 3 degrees of freedom (p = 2e-7).
     #[serde(default)]

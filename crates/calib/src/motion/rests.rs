@@ -15,8 +15,8 @@
 //! The attitude is carried by the gyros through every motion with the Earth rate in the model,
 //! exactly as through a program's rotations.
 
-use crate::align::RateBin;
-use crate::diagnostics::Segment;
+use crate::check::diagnostics::Segment;
+use crate::motion::align::RateBin;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::earth::Site;
 use sins_model::terms::{ErrorModel, Sensor, SensorInput};
@@ -176,7 +176,7 @@ pub fn check_rests(rests: &[Rest], t_start: f64, slack_s: f64) -> Result<(), Res
 }
 
 /// Standard deviation of a known turn's angle (rad): a hand-made turn against a box edge
-/// (the batch fit's default, [`crate::free_motion::FreeMotionSettings::turn_sigma_rad`]).
+/// (the batch fit's default, [`crate::motion::free_motion::FreeMotionSettings::turn_sigma_rad`]).
 pub const TURN_SIGMA_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
 
 /// A turn of known angle in a recording of rests (a section list's 360-degree turns): a
@@ -200,7 +200,10 @@ pub struct Turn {
 impl Turn {
     /// The turn of `known` (record indices into `data`); `None` when its records are not in
     /// `data` or its axis is zero.
-    pub fn of(known: &crate::free_motion::KnownTurn, data: &crate::io::ImuData) -> Option<Self> {
+    pub fn of(
+        known: &crate::motion::free_motion::KnownTurn,
+        data: &crate::io::ImuData,
+    ) -> Option<Self> {
         let (a, b) = (
             data.records.get(known.first_record)?,
             data.records.get(known.last_record)?,
@@ -429,7 +432,7 @@ pub fn level(w: &Vector3<f64>, f: &Vector3<f64>, gyrocompass: bool) -> Option<Ma
 /// The prior covariance of all states with the start attitude error of a rest alignment:
 /// independent of the other states, with the alignment's tilt and heading sigmas.
 pub fn rest_covariance(p0: &DMatrix<f64>, al: &RestAlignment) -> DMatrix<f64> {
-    let mut p = crate::align::without_attitude(p0);
+    let mut p = crate::motion::align::without_attitude(p0);
     p[(0, 0)] = al.tilt_prior_rad.powi(2);
     p[(1, 1)] = al.tilt_prior_rad.powi(2);
     p[(2, 2)] = al.heading_prior_rad.powi(2);

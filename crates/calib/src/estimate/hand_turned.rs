@@ -1,7 +1,7 @@
 //! A hand-turned recording without a program, a turntable or a configuration: what the filter
 //! of a recording of rests ([`crate::estimate::calibrate_rests`]) needs that a laboratory
 //! configuration would give, taken from the recording itself, and the held-out figures of
-//! [`crate::free_motion`] for its result.
+//! [`crate::motion::free_motion`] for its result.
 //!
 //! - **White noise** ([`white_noise_at_rest`]): the scatter of the 1-s means inside the rests
 //!   (each rest's own mean removed), the quantity the configuration's `[noise]` levels are
@@ -23,12 +23,12 @@
 //! - **The verdict** ([`verdict`]): with noise the tool set itself, the innovations' scatter is
 //!   no test of the model; the held-out rests are. Exit status 3 only where they contradict it.
 
+use crate::check::diagnostics::Innovation;
 use crate::config::RunConfig;
-use crate::diagnostics::Innovation;
-use crate::free_motion::{EarthRotation, Evaluation, Interval};
 use crate::io::{ImuData, ImuKind};
 use crate::model::MeasurementKind;
-use crate::rests::{REST_MARGIN_S, Rest};
+use crate::motion::free_motion::{EarthRotation, Evaluation, Interval};
+use crate::motion::rests::{REST_MARGIN_S, Rest};
 use nalgebra::{Matrix3, Vector3};
 use sins_model::candidates::UnitGrade;
 use sins_model::earth::EARTH_RATE;
@@ -415,7 +415,7 @@ pub fn noise_ml(
         if inn.held_out {
             continue;
         }
-        // Rest k is segment 2k ([`crate::rests::segments`]); rest 0 follows no motion.
+        // Rest k is segment 2k ([`crate::motion::rests::segments`]); rest 0 follows no motion.
         let after_motion =
             first && inn.segment > 0 && inn.segment % 2 == 0 && inn.segment < 2 * rests;
         let mut s0 = inn.s - Matrix3::identity() * (k_fit * k_fit * base_window_var);
@@ -505,7 +505,7 @@ pub fn noise_ml(
 /// tilt's prior is levelled from the same data, so its NIS is small by construction), and the
 /// held-out ones. A rest's first window also holds what the motion before it did to the
 /// attitude: with the vertical row taken to second order in the tilt
-/// ([`crate::engine::Engine::vertical_second_order`]) that is a tilt the window measures, and
+/// ([`crate::model::engine::Engine::vertical_second_order`]) that is a tilt the window measures, and
 /// what remains is the unit settling (on the shipped Xsens recording a few first windows are 3
 /// to 6 sigma off in the vertical alone), which is part of the scatter the noise level has to
 /// carry. (Before the correction those windows were left out: their mean NIS was 55.)
@@ -519,16 +519,16 @@ pub struct InnovationScatter {
 
 impl InnovationScatter {
     /// From a fit's innovation log: the windows it used.
-    pub fn of(innovations: &[crate::diagnostics::Innovation]) -> Self {
+    pub fn of(innovations: &[crate::check::diagnostics::Innovation]) -> Self {
         Self::of_kind(innovations, false)
     }
 
     /// The held-out windows' (predicted, not used).
-    pub fn held_out(innovations: &[crate::diagnostics::Innovation]) -> Self {
+    pub fn held_out(innovations: &[crate::check::diagnostics::Innovation]) -> Self {
         Self::of_kind(innovations, true)
     }
 
-    fn of_kind(innovations: &[crate::diagnostics::Innovation], held_out: bool) -> Self {
+    fn of_kind(innovations: &[crate::check::diagnostics::Innovation], held_out: bool) -> Self {
         let (mut windows, mut nis) = (0usize, 0.0);
         let accel = innovations
             .iter()
@@ -559,10 +559,10 @@ pub struct HandTurnedResult {
     pub config: RunConfig,
     /// Where its noise levels came from.
     pub noise: NoiseSource,
-    /// The rests as static intervals of the data ([`crate::free_motion::Interval`]).
+    /// The rests as static intervals of the data ([`crate::motion::free_motion::Interval`]).
     pub intervals: Vec<Interval>,
     /// What the calibration does to the rests, the known turns and (with a hold-out) the
-    /// held-out rests ([`crate::free_motion::evaluate`]).
+    /// held-out rests ([`crate::motion::free_motion::evaluate`]).
     pub evaluation: Evaluation,
 }
 
@@ -592,7 +592,7 @@ pub struct RestsInput<'a> {
     /// The rests.
     pub rests: &'a [Rest],
     /// Known turns, as filter measurements.
-    pub turns: &'a [crate::rests::Turn],
+    pub turns: &'a [crate::motion::rests::Turn],
 }
 
 /// A fit of a recording of rests with its noise measured: the filter's estimate and where its
@@ -618,7 +618,7 @@ pub struct MeasuredFit {
 /// configuration's); a fit of a model close to one already measured starts from its values.
 pub fn fit_measuring_noise(
     config: &RunConfig,
-    layout: &crate::layout::StateLayout,
+    layout: &crate::model::layout::StateLayout,
     input: RestsInput,
     measured: Option<WhiteNoiseAtRest>,
     start: Option<(f64, f64)>,
@@ -737,11 +737,11 @@ pub fn fit_measuring_noise(
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     config: &RunConfig,
-    layout: &crate::layout::StateLayout,
+    layout: &crate::model::layout::StateLayout,
     data: &ImuData,
     file: &str,
     rests: &[Rest],
-    turns: &[crate::free_motion::KnownTurn],
+    turns: &[crate::motion::free_motion::KnownTurn],
     holdout: Option<usize>,
     measured: Option<WhiteNoiseAtRest>,
     progress: &mut dyn FnMut(usize, usize),
@@ -751,18 +751,18 @@ pub fn calibrate(
         source,
     };
     if let Some(every) = holdout.filter(|&k| k < 2 || k > rests.len()) {
-        return Err(refuse(crate::rests::RestError::HoldOut {
+        return Err(refuse(crate::motion::rests::RestError::HoldOut {
             every,
             rests: rests.len(),
         }));
     }
-    crate::free_motion::check_poses(data, &intervals_of(data, rests), holdout)
-        .map_err(|e| refuse(crate::rests::RestError::Poses(e.to_string())))?;
+    crate::motion::free_motion::check_poses(data, &intervals_of(data, rests), holdout)
+        .map_err(|e| refuse(crate::motion::rests::RestError::Poses(e.to_string())))?;
     let mut config = config.clone();
     config.filter.hold_out_every = holdout;
-    let filter_turns: Vec<crate::rests::Turn> = turns
+    let filter_turns: Vec<crate::motion::rests::Turn> = turns
         .iter()
-        .filter_map(|k| crate::rests::Turn::of(k, data))
+        .filter_map(|k| crate::motion::rests::Turn::of(k, data))
         .collect();
     let input = RestsInput {
         data,
@@ -784,7 +784,7 @@ pub fn calibrate(
     let earth = EarthRotation::at(config.site.latitude_deg.to_radians(), bias_sigma);
     let value = |name: &str| estimate.value(name);
     let evaluation =
-        crate::free_motion::evaluate(data, &intervals, turns, holdout, g, &earth, &value);
+        crate::motion::free_motion::evaluate(data, &intervals, turns, holdout, g, &earth, &value);
     Ok(HandTurnedResult {
         estimate,
         config,

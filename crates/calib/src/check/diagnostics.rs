@@ -16,8 +16,8 @@
 //! [`diagnose`] makes every test and gives a verdict at a family-wise level with a Bonferroni
 //! correction; [`regression_test`] tests candidate regressors (unmodelled terms).
 
+use crate::check::stats::p_value_text;
 use crate::model::MeasurementKind;
-use crate::report::p_value_text;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use statrs::distribution::{ChiSquared, ContinuousCDF};

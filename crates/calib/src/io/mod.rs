@@ -20,6 +20,14 @@
 //! no comments, `\n` or `\r\n` line ends, fields trimmed of spaces; every line is checked (UTF-8,
 //! blank lines, a line end after the last one, number of fields, numbers).
 
+pub mod angle_records;
+pub mod correction_block;
+pub mod posterior;
+pub mod schema;
+
+/// The shortest recording calibrated (s, first to last time stamp).
+pub const MIN_RECORDING_S: f64 = 1.0;
+
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::io::{BufRead, Read};
@@ -891,7 +899,7 @@ pub fn parse_turntable_csv(text: &str, file: &str) -> Result<TurntableData, IoEr
 }
 
 /// A `turntable.csv` read record by record, every record checked as it comes (numbers, time
-/// order), so that a calibration need not hold the whole file ([`crate::angle_records`]).
+/// order), so that a calibration need not hold the whole file ([`crate::io::angle_records`]).
 pub struct TurntableReader<R: Read = Box<dyn Read>> {
     rows: Rows<R>,
     names: Vec<String>,
@@ -1034,7 +1042,7 @@ fn read_turntable<R: Read>(reader: R, file: &str, bytes: usize) -> Result<Turnta
 }
 
 /// Read a `turntable.csv` whole (a calibration streams it instead:
-/// [`crate::angle_records::AngleFile`]).
+/// [`crate::io::angle_records::AngleFile`]).
 pub fn read_turntable_csv(path: &Path) -> Result<TurntableData, IoError> {
     read_turntable(
         open_reader(path)?,
@@ -1282,7 +1290,7 @@ pub fn check_overlap(
     // Two records, or a file cut after its first lines: the angles would be measured nowhere
     // and the refusal would blame the motion ("the angles stay constant").
     let overlap = b1.min(a1) - b0.max(a0);
-    let least = crate::estimate::MIN_RECORDING_S.min(a1 - a0);
+    let least = MIN_RECORDING_S.min(a1 - a0);
     if overlap < least {
         return Err(IoError::File {
             file: file.to_string(),
@@ -1316,21 +1324,21 @@ pub struct ResultParameter {
 /// files; other keys such as `fit` are ignored when reading).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ResultFile {
-    /// The file's schema stamp ([`crate::schema`]; absent in files written before it).
+    /// The file's schema stamp ([`crate::io::schema`]; absent in files written before it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub schema: Option<crate::schema::Schema>,
+    pub schema: Option<crate::io::schema::Schema>,
     /// The unit the result is of (absent: not known).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit: Option<crate::config::UnitIdentity>,
     /// Parameters in state order.
     pub parameters: Vec<ResultParameter>,
     /// Correlation matrix of the parameters (rows and columns in the order of `parameters`),
-    /// [`crate::posterior::correlation`].
+    /// [`crate::io::posterior::correlation`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub correlation: Option<Vec<Vec<f64>>>,
-    /// The estimated model inverted, in matrix form ([`crate::correction`]).
+    /// The estimated model inverted, in matrix form ([`crate::model::correction`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub correction: Option<crate::correction::CorrectionBlock>,
+    pub correction: Option<correction_block::CorrectionBlock>,
     /// The verdict `calibrate` wrote beside them (read only: the writer of the result file
     /// writes its own), so that `apply` can refuse a calibration the data contradicted.
     #[serde(default, skip_serializing)]
@@ -1398,7 +1406,7 @@ impl From<&Truth> for ResultFile {
                     min_c: None,
                     max_c: None,
                 }),
-            schema: Some(crate::schema::Schema::current(crate::schema::TRUTH)),
+            schema: Some(crate::io::schema::Schema::current(crate::io::schema::TRUTH)),
             unit: None,
         }
     }
@@ -1417,14 +1425,14 @@ pub fn write_truth_json(path: &Path, truth: &Truth) -> Result<(), IoError> {
 
 /// The kinds of file [`read_result_json`] reads: they all hold `parameters`.
 pub const RESULT_KINDS: [&str; 3] = [
-    crate::schema::CALIBRATION,
-    crate::schema::TRUTH,
-    crate::schema::DIAGNOSIS,
+    crate::io::schema::CALIBRATION,
+    crate::io::schema::TRUTH,
+    crate::io::schema::DIAGNOSIS,
 ];
 
 /// Read a result or truth file: every value finite and within the physical bounds of
-/// [`crate::plausible`], each parameter named once, and its schema stamp neither of another
-/// kind nor newer than this program ([`crate::schema::check`]).
+/// [`crate::config::plausible`], each parameter named once, and its schema stamp neither of another
+/// kind nor newer than this program ([`crate::io::schema::check`]).
 pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
     let text = read_text(path)?;
     let file = path.display().to_string();
@@ -1434,7 +1442,7 @@ pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
     })?;
     if let Some(stamp) = &result.schema {
         let v = serde_json::to_value(stamp).expect("plain data");
-        crate::schema::check(&file, Some(&v), &RESULT_KINDS, "a result or truth file")
+        crate::io::schema::check(&file, Some(&v), &RESULT_KINDS, "a result or truth file")
             .map_err(|message| IoError::Stamp { message })?;
     }
     for (i, p) in result.parameters.iter().enumerate() {
@@ -1455,9 +1463,9 @@ pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
                     excerpt(&p.name)
                 ),
             });
-        } // Physical bounds (`crate::plausible`): a bias of 1e308 or a 200 % scale error is a
+        } // Physical bounds (`crate::config::plausible`): a bias of 1e308 or a 200 % scale error is a
         // typing error or a diverged fit, not a calibration to apply or a truth to compare with.
-        if let Err(message) = crate::plausible::check(&p.name, p.value) {
+        if let Err(message) = crate::config::plausible::check(&p.name, p.value) {
             return Err(IoError::File {
                 file,
                 message: format!("parameter {message}"),
@@ -1465,7 +1473,7 @@ pub fn read_result_json(path: &Path) -> Result<ResultFile, IoError> {
         }
     }
     if let Some(r) = &result.correlation {
-        crate::posterior::check_correlation(r, result.parameters.len())
+        crate::io::posterior::check_correlation(r, result.parameters.len())
             .map_err(|message| IoError::File { file, message })?;
     }
     Ok(result)

@@ -2,8 +2,8 @@
 //! or rate that cannot be a turntable run in SI units. Each refusal names the file, the line or
 //! time, and the likely cause (units, column order, a dead sensor).
 
-use crate::align::RateBin;
 use crate::io::{ImuKind, ImuRecord, IoError};
+use crate::motion::align::RateBin;
 
 /// Largest angular rate accepted (rad/s): 100 rad/s is 5700 deg/s, beyond any turntable and
 /// beyond the range of navigation and tactical gyros (up to about 1000 deg/s).

@@ -4,14 +4,14 @@
 //!
 //! Each round:
 //! 1. every candidate term not yet in the model is fitted together with the model
-//!    ([`crate::estimate::estimate_ext`]); its score statistic ([`crate::evidence::score_test`])
+//!    ([`crate::estimate::estimate_ext`]); its score statistic ([`crate::extend::evidence::score_test`])
 //!    says whether the innovations call for it, with a chi-square p-value; the gyro bias random
 //!    walk, a noise process and not a state, is tested by the likelihood ratio of the
 //!    innovations over a grid of intensities, with the chi-bar-square p-value of a parameter on
 //!    the boundary;
 //! 2. a covariance analysis of the extended model on the recorded program
-//!    ([`crate::covariance::covariance_analysis_ext`]) says whether each candidate is separable
-//!    from the parameters already in the model ([`crate::evidence::separability`]);
+//!    ([`crate::estimate::covariance::covariance_analysis_ext`]) says whether each candidate is separable
+//!    from the parameters already in the model ([`crate::extend::evidence::separability`]);
 //! 3. the candidate with the smallest p-value is accepted if that p-value is below the level
 //!    divided by the number of candidates tested in the round (Bonferroni: the family-wise
 //!    chance of accepting a term the data do not call for stays under the level) and it is
@@ -23,21 +23,25 @@
 //!
 //! A significant candidate that is not separable is reported with the base parameters it is
 //! confounded with and is not accepted: under this program its effect cannot be told from
-//! theirs ([`crate::design`] proposes a program that separates it).
+//! theirs ([`crate::extend::design`] proposes a program that separates it).
 
+pub mod design;
+pub mod drift_visibility;
+pub mod evidence;
+
+use crate::check::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose};
 use crate::config::RunConfig;
-use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
-use crate::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose};
-use crate::drift_visibility::{
+use crate::estimate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
+use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
+use crate::extend::drift_visibility::{
     DriftAnalysis, DriftVisibility, drift_threshold, smallest_visible_drift,
 };
-use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
-use crate::evidence::{
+use crate::extend::evidence::{
     InformationGain, ScoreTest, Separability, chi_bar_square_sf, ln_chi_square_sf, score_test,
     separability,
 };
-use crate::extension::ModelExtension;
-use crate::layout::StateLayout;
+use crate::model::extension::ModelExtension;
+use crate::model::layout::StateLayout;
 use serde::Serialize;
 use sins_model::candidates::{Candidate, UnitGrade};
 use std::collections::BTreeMap;
@@ -63,11 +67,11 @@ pub struct LoopSettings {
     /// A recording of rests whose white noise was measured in its rests (a hand-turned
     /// recording without a configuration): every fit brings the specific-force level to its
     /// own innovations and measures its own motion noise
-    /// ([`crate::hand_turned::fit_measuring_noise`]), so that a term is compared with the
+    /// ([`crate::estimate::hand_turned::fit_measuring_noise`]), so that a term is compared with the
     /// model without it each at the noise the data give it (a missing term's misfit read as
     /// motion noise would otherwise hide the term's own information). `None`: the configured
     /// noise.
-    pub measured_noise: Option<crate::hand_turned::WhiteNoiseAtRest>,
+    pub measured_noise: Option<crate::estimate::hand_turned::WhiteNoiseAtRest>,
 }
 
 /// Every fourth segment with measurements is held out for the held-out check: two of the
@@ -345,7 +349,7 @@ pub struct NoiseRescale {
 }
 
 /// The smallest gyro bias random walk a program is expected to find
-/// ([`crate::drift_visibility`]): below it a walk goes unseen and the reported gyro-bias sigmas
+/// ([`crate::extend::drift_visibility`]): below it a walk goes unseen and the reported gyro-bias sigmas
 /// are too small.
 #[derive(Clone, Debug)]
 pub struct DriftReach {
@@ -435,9 +439,9 @@ struct Context<'a> {
     measured_start: Option<(f64, f64)>,
     data: &'a RunData<'a>,
     /// A recording of rests without a program ([`run_loop_at_rests`]).
-    rests: Option<&'a [crate::rests::Rest]>,
+    rests: Option<&'a [crate::motion::rests::Rest]>,
     /// Its known turns, measured in every fit.
-    turns: &'a [crate::rests::Turn],
+    turns: &'a [crate::motion::rests::Turn],
     settings: &'a LoopSettings,
     progress: &'a mut dyn FnMut(&str),
     /// The recording's temperature on the program's clock and the thermal terms' reference:
@@ -489,10 +493,10 @@ impl Context<'_> {
         let estimate = match self.rests {
             None => estimate_ext(config, *self.data, ext)?,
             Some(rests) => {
-                let fit = crate::hand_turned::fit_measuring_noise(
+                let fit = crate::estimate::hand_turned::fit_measuring_noise(
                     config,
-                    &crate::layout::layout_with(config, false, ext),
-                    crate::hand_turned::RestsInput {
+                    &crate::model::layout::layout_with(config, false, ext),
+                    crate::estimate::hand_turned::RestsInput {
                         data: self.data.imu,
                         file: self.data.imu_file,
                         rests,
@@ -502,7 +506,7 @@ impl Context<'_> {
                     self.measured_start,
                     &mut |_, _| {},
                 )?;
-                if let crate::hand_turned::NoiseSource::Measured {
+                if let crate::estimate::hand_turned::NoiseSource::Measured {
                     accel_factor,
                     motion_noise_deg,
                     ..
@@ -792,8 +796,9 @@ pub fn run_loop(
         .records
         .first()
         .map(|r| r.t - 1.0 / config.filter.imu_rate_hz);
-    let resolved = crate::angles_program::resolve_program(config, data.turntable, imu_start)
-        .map_err(EstimateError::from)?;
+    let resolved =
+        crate::motion::angles_program::resolve_program(config, data.turntable, imu_start)
+            .map_err(EstimateError::from)?;
     let config = resolved.as_ref().unwrap_or(config);
     let cx = Context {
         config,
@@ -837,8 +842,8 @@ fn check_coverage(config: &RunConfig, data: &RunData, est: &Estimate) -> Result<
 pub fn run_loop_at_rests(
     config: &RunConfig,
     data: &RunData,
-    rests: &[crate::rests::Rest],
-    turns: &[crate::rests::Turn],
+    rests: &[crate::motion::rests::Rest],
+    turns: &[crate::motion::rests::Turn],
     settings: &LoopSettings,
     progress: &mut dyn FnMut(&str),
 ) -> Result<LoopResult, LoopError> {

@@ -21,8 +21,8 @@
 //! bound of what the program finds, not a promise.
 
 use crate::config::RunConfig;
-use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
-use crate::extension::ModelExtension;
+use crate::estimate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
+use crate::model::extension::ModelExtension;
 use sins_model::names::GYRO_BIAS;
 
 /// What the data of a program show of a gyro bias random walk of one intensity.
@@ -156,7 +156,7 @@ pub fn drift_threshold(level: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::evidence::chi_bar_square_sf;
+    use crate::extend::evidence::chi_bar_square_sf;
 
     #[test]
     fn the_threshold_is_where_the_p_value_reaches_the_level() {

@@ -374,7 +374,7 @@ pub struct FreeMotionResult {
     /// Prior sigma of each parameter (SI), in the same order.
     pub prior_sigma: Vec<f64>,
     /// Posterior correlation matrix of the parameters, in their order
-    /// ([`crate::posterior::correlation`]).
+    /// ([`crate::io::posterior::correlation`]).
     pub correlation: Vec<Vec<f64>>,
     /// Accelerometer stage (`|f| = g` alone; its parameters are the starting point of the
     /// joint stage, which gives the reported values).
@@ -393,12 +393,12 @@ pub struct FreeMotionResult {
 impl FreeMotionResult {
     /// The result file of the calibration: parameters, correlation and the correction block,
     /// whose g-sensitivity and asymmetry act on the measured specific force and rate as in this
-    /// fit ([`crate::correction::ExtensionInputs::Measured`]).
+    /// fit ([`crate::model::correction::ExtensionInputs::Measured`]).
     pub fn to_result_file(&self) -> crate::io::ResultFile {
-        crate::correction::result_file(
+        crate::model::correction::result_file(
             self.parameters.clone(),
             self.correlation.clone(),
-            crate::correction::ExtensionInputs::Measured,
+            crate::model::correction::ExtensionInputs::Measured,
             None,
         )
     }
@@ -418,7 +418,7 @@ impl FreeMotionResult {
                 "{name}: reduced chi-square {:.4} over {:.1} degrees of freedom (p = {})",
                 f.reduced_chi2,
                 f.dof(),
-                crate::report::p_value_text(p)
+                crate::check::stats::p_value_text(p)
             );
             // A NaN p-value fails too.
             if p.is_nan() || p < DOES_NOT_FIT_P {
@@ -849,7 +849,7 @@ pub fn calibrate_free_motion(
         &EarthRotation::at(0.0, f64::INFINITY),
     );
     let correlation =
-        crate::posterior::correlation(prior.len(), 0..prior.len(), |i, j| joint.cov[(i, j)]);
+        crate::io::posterior::correlation(prior.len(), 0..prior.len(), |i, j| joint.cov[(i, j)]);
     Ok(FreeMotionResult {
         parameters,
         prior_sigma: prior,

@@ -10,7 +10,7 @@
 //! simulation alike.
 
 use crate::config::{AttitudePrior, RunConfig};
-use crate::extension::ModelExtension;
+use crate::model::extension::ModelExtension;
 use nalgebra::{DMatrix, DVector, Matrix3};
 use sins_model::names;
 use sins_model::terms::{ErrorModel, PaperPriors, ParamSpec, Unit};
@@ -33,7 +33,7 @@ pub struct StateLayout {
     /// Index of `gamma_p` (3 states), when estimated.
     pub base: Option<usize>,
     /// Random-walk intensity of each gyro bias (rad/s/sqrt(s)): process noise on the states
-    /// `gyro.bias.*` ([`crate::extension::ModelExtension::gyro_drift`]); `None`: constant biases.
+    /// `gyro.bias.*` ([`crate::model::extension::ModelExtension::gyro_drift`]); `None`: constant biases.
     pub gyro_drift: Option<[f64; 3]>,
     /// Random-walk intensity of each accelerometer bias (m/s^2/sqrt(s)): process noise on the
     /// states `accel.bias.*` (`[noise] accel_bias_walk_m_s2_sqrt_s`); `None`: constant biases.

@@ -5,13 +5,15 @@
 //!
 //! [`KalmanFilter`]: kalman::KalmanFilter
 
-use crate::align::{aligned_prior_by, ideal_bin, ideal_bin_count};
 use crate::config::{AttitudePrior, ConfigError, RunConfig};
-use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule, prior_filter};
-use crate::extension::ModelExtension;
-use crate::layout::StateLayout;
-pub use crate::layout::{initial_covariance, layout_for, layout_with, non_instrument_priors};
+use crate::model::engine::{Engine, MeasurementNoise, RateChanges, Schedule, prior_filter};
+use crate::model::extension::ModelExtension;
+use crate::model::layout::StateLayout;
+pub use crate::model::layout::{
+    initial_covariance, layout_for, layout_with, non_instrument_priors,
+};
 use crate::model::{AngleSample, LinearModel};
+use crate::motion::align::{aligned_prior_by, ideal_bin, ideal_bin_count};
 use nalgebra::{DMatrix, Vector3};
 use sins_model::terms::{SensorInput, Unit};
 use turntable::gimbal::gimbal_jacobian;
@@ -69,7 +71,7 @@ pub struct Posterior {
     pub cov: DMatrix<f64>,
     /// `ln det` of the covariance of every measurement the analysis took (the prior and the
     /// noise model included; `NaN` where the posterior did not come from an analysis): what
-    /// [`crate::drift_visibility`] compares between two noise models.
+    /// [`crate::extend::drift_visibility`] compares between two noise models.
     pub log_det_data: f64,
 }
 
@@ -158,7 +160,7 @@ pub fn covariance_analysis_with(
     let c0 = kin.sample(0.0).c_body_to_enu;
     let use_tt = layout.install.is_some();
     // Without the turntable angles the estimation aligns the start attitude to the program's
-    // rotations (crate::align); the analysis does the same on the ideal motion.
+    // rotations (crate::motion::align); the analysis does the same on the ideal motion.
     let aligned = (!use_tt && config.filter.attitude_prior == AttitudePrior::Installation)
         .then(|| {
             // The bins made on demand: a ten-day program has 8.6 million (550 MB held).

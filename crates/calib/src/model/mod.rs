@@ -27,7 +27,12 @@
 //! average, ten times the accelerometer noise in tilt) the mean NIS of the specific force came out
 //! 2.2-2.7 for 3 and the NEES 71 per run for 24 states (tests/tests/rests.rs, consumer grade).
 
-use crate::layout::StateLayout;
+pub mod correction;
+pub mod engine;
+pub mod extension;
+pub mod layout;
+
+use crate::model::layout::StateLayout;
 use faer::{Mat, MatRef};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::errors;
@@ -331,7 +336,7 @@ pub struct Measurement {
     /// the window before through the angle records the two share, added to `r` for the
     /// parameters' sake ([`LinearModel::turntable_measurement`]). The innovation then scatters
     /// by `S - r_shared`, not `S`, and its NIS averages `3 - tr(S^-1 r_shared)`
-    /// ([`crate::engine::UpdateRecord::expected_nis`]). Zero for the specific force.
+    /// ([`crate::model::engine::UpdateRecord::expected_nis`]). Zero for the specific force.
     pub r_shared: Matrix3<f64>,
     /// Cross-covariance `E[beta v^T]` of the attitude error at the instant and the noise (the
     /// gyro noise within the window: module docs); the other states' rows are zero.

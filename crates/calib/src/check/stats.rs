@@ -40,6 +40,21 @@ pub fn bonferroni_bound(k: usize, alpha: f64) -> f64 {
     n.inverse_cdf(1.0 - alpha / (2.0 * k.max(1) as f64))
 }
 
+/// A p-value as every report prints it: `{:.3}` from 1e-3 up, `{:.2e}` below (three figures
+/// that mean something either way), `0` for one computed as exactly 0 (an underflow, or a
+/// `1 - F` that lost every digit: how small it is, the caller's method says).
+pub fn p_value_text(p: f64) -> String {
+    if p.is_nan() {
+        "NaN".into()
+    } else if p == 0.0 {
+        "0".into()
+    } else if p.abs() >= 1e-3 {
+        format!("{p:.3}")
+    } else {
+        format!("{p:.2e}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -16,9 +16,9 @@
 //! earlier; the estimation finds the program's start from the IMU rates and estimates `tau`, as
 //! with a program given in the configuration.
 
-use crate::angle_records::AngleRecords;
 use crate::config::RunConfig;
 use crate::io::IoError;
+use crate::io::angle_records::AngleRecords;
 use turntable::program::{ProgramSpec, Segment};
 use turntable::sensor::Clock;
 

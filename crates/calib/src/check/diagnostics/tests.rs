@@ -154,7 +154,7 @@ fn regression_recovers_a_coefficient_and_is_chi_square_on_noise() {
             small += 1;
         }
     }
-    let (lo, hi) = crate::stats::chi_square_band(400.0, 0.99);
+    let (lo, hi) = crate::check::stats::chi_square_band(400.0, 0.99);
     println!("pure noise: sum {sum:.1} in [{lo:.1}, {hi:.1}], {small} of 200 below 5 %");
     assert!((lo..=hi).contains(&sum) && small <= 20);
 }

@@ -13,30 +13,30 @@
 //! - Turntable angles: interpolated (linearly, wrap-aware) at the turntable-clock time of
 //!   `t + tau_hat`, turned into the attitude `C_tt` with the current installation estimate, and
 //!   compared with `C`; one sample per record when the records are sparse.
-//! - Filter: the error-state model of [`crate::model`] with [`crate::engine`], shared with the
+//! - Filter: the error-state model of [`crate::model`] with [`crate::model::engine`], shared with the
 //!   covariance analysis; a closed-loop first pass, then passes linearised about the one before
 //!   until the parameters settle; the mounting covariances mapped to rotation-vector
 //!   coordinates; the second-order specific-force error carried as a consider parameter where
 //!   it matters (`consider`).
 
-use crate::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
-use crate::angle_records::AngleRecords;
+use crate::check::diagnostics::{self, Innovation};
 use crate::config::{AttitudePrior, ClockConfig, ConfigError, RunConfig};
-use crate::data_checks::{
+use crate::estimate::data_checks::{
     check_gyros_alive, check_record, check_specific_force, check_specific_force_within,
 };
-use crate::diagnostics::{self, Innovation};
-use crate::engine::prior_filter;
-use crate::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
-use crate::extension::ModelExtension;
+use crate::io::angle_records::AngleRecords;
 use crate::io::{ImuData, ImuKind, ImuRecord, IoError, ResultFile, ResultParameter, check_overlap};
-use crate::layout::{StateLayout, initial_covariance, layout_for, layout_with};
 use crate::model::LinearModel;
-use crate::program_start::{
+use crate::model::engine::prior_filter;
+use crate::model::engine::{Engine, MeasurementNoise, RateChanges, Schedule};
+use crate::model::extension::ModelExtension;
+use crate::model::layout::{StateLayout, initial_covariance, layout_for, layout_with};
+use crate::motion::align::{DirectionErrors, RateBin, RateBinner, aligned_prior, fit_mounting};
+use crate::motion::program_start::{
     ProgramStart, ProgramStartError, TurntableClockError, check_program_start,
     check_turntable_clock, find_program_start,
 };
-use crate::rests::{Rest, RestError};
+use crate::motion::rests::{Rest, RestError};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::{exp_so3, log_so3};
 use sins_model::terms::Unit;
@@ -44,6 +44,9 @@ use turntable::gimbal::c_platform_to_base;
 
 mod angles;
 mod consider;
+pub mod covariance;
+pub mod data_checks;
+pub mod hand_turned;
 mod pass;
 mod source;
 
@@ -107,7 +110,7 @@ pub struct RunData<'a> {
     /// Name of the IMU file (for messages).
     pub imu_file: &'a str,
     /// Turntable records and their file name (`(&data, "tt.csv").into()`, or an
-    /// [`crate::angle_records::AngleFile`]'s records); `None` for an IMU-only (24-state)
+    /// [`crate::io::angle_records::AngleFile`]'s records); `None` for an IMU-only (24-state)
     /// calibration.
     pub turntable: Option<AngleRecords<'a>>,
 }
@@ -127,7 +130,7 @@ pub struct FitStatistics {
     /// fits: [`Self::turntable_expected_nis`]).
     pub turntable_mean_nis: f64,
     /// What [`Self::turntable_mean_nis`] averages when the model fits: the mean over the
-    /// updates of `3 - tr(S^-1 R_shared)` ([`crate::engine::UpdateRecord::expected_nis`]),
+    /// updates of `3 - tr(S^-1 R_shared)` ([`crate::model::engine::UpdateRecord::expected_nis`]),
     /// below 3 by the share of each window's `R` that covers the records it shares with the
     /// window before (about 0.03 with 50-Hz angle records). 3 without updates.
     pub turntable_expected_nis: f64,
@@ -195,7 +198,7 @@ pub struct Estimate {
     /// Whether that start was found from the data (rather than given).
     pub program_start_found: bool,
     /// Every update of the reported pass in order: innovation, its covariance, IMU time and the
-    /// program segment ([`crate::diagnostics`]).
+    /// program segment ([`crate::check::diagnostics`]).
     pub innovations: Vec<Innovation>,
     /// The segments the innovations are assigned to: the program's pieces, or the rests and
     /// the motions between them.
@@ -203,7 +206,7 @@ pub struct Estimate {
     /// A recording without a program: its rests ([`estimate_at_rests`]); empty with a program.
     pub rests: Vec<Rest>,
     /// A recording without a program: how its start attitude was found; `None` with a program.
-    pub start_alignment: Option<crate::rests::RestAlignment>,
+    pub start_alignment: Option<crate::motion::rests::RestAlignment>,
     /// The records' temperatures and the reference of the thermal terms, when the records have
     /// a temperature.
     pub temperature: Option<crate::io::ResultTemperature>,
@@ -261,11 +264,11 @@ impl Estimate {
             .collect();
         let range = StateLayout::INSTRUMENT..self.names.len();
         let correlation =
-            crate::posterior::correlation(self.names.len(), range, |i, j| self.cov[(i, j)]);
-        crate::correction::result_file(
+            crate::io::posterior::correlation(self.names.len(), range, |i, j| self.cov[(i, j)]);
+        crate::model::correction::result_file(
             parameters,
             correlation,
-            crate::correction::ExtensionInputs::True,
+            crate::model::correction::ExtensionInputs::True,
             self.temperature.clone(),
         )
     }
@@ -478,8 +481,7 @@ fn scan_imu(
     })
 }
 
-/// The shortest recording calibrated (s, first to last time stamp).
-pub const MIN_RECORDING_S: f64 = 1.0;
+pub use crate::io::MIN_RECORDING_S;
 
 /// Records between two progress reports.
 const PROGRESS_EVERY: usize = 4096;
@@ -497,7 +499,7 @@ pub fn estimate(
 }
 
 /// Calibrate from recorded data in memory with the paper's model extended by `ext`
-/// ([`crate::layout::layout_with`]: the extra terms' parameters are states after the paper's,
+/// ([`crate::model::layout::layout_with`]: the extra terms' parameters are states after the paper's,
 /// a gyro drift is process noise on the gyro biases). With an empty extension this is
 /// [`estimate`], bit for bit.
 pub fn estimate_ext(
@@ -539,7 +541,8 @@ pub fn estimate_from(
 ) -> Result<Estimate, EstimateError> {
     let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Fixed, progress)?;
     let imu_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
-    let resolved = crate::angles_program::resolve_program(config, turntable, Some(imu_start))?;
+    let resolved =
+        crate::motion::angles_program::resolve_program(config, turntable, Some(imu_start))?;
     let config = resolved.as_ref().unwrap_or(config);
     let program = config.program()?;
     let turns = program.pieces().iter().any(|p| p.rate != [0.0; 3]);
@@ -581,10 +584,10 @@ fn first_pass_feedback(config: &RunConfig) -> Feedback {
 /// Calibrate a recording without a program or turntable angles: the unit rests in several
 /// orientations (`rests`, on the IMU clock, in time order) and is turned between them in any
 /// way. The same filter as for a program ([`estimate_from`]), with the specific force measured
-/// only where every step of a window lies in a rest (less [`crate::rests::REST_MARGIN_S`] at
+/// only where every step of a window lies in a rest (less [`crate::motion::rests::REST_MARGIN_S`] at
 /// both ends), the start attitude levelled in the first rest (and gyrocompassed where the gyros
 /// resolve the Earth rate), and the attitude carried by the gyros through every motion
-/// ([`crate::rests`]). The layout must be an IMU-only one.
+/// ([`crate::motion::rests`]). The layout must be an IMU-only one.
 ///
 /// `coarse` is where the first pass starts: the totals of the instrument parameters (in the
 /// layout's order), or `None` for the prior means. Units whose errors are large (per-cent scale
@@ -594,7 +597,7 @@ pub fn estimate_at_rests(
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
     rests: &[Rest],
-    turns: &[crate::rests::Turn],
+    turns: &[crate::motion::rests::Turn],
     coarse: Option<&[f64]>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
@@ -631,10 +634,10 @@ pub fn estimate_at_rests(
         file: imu.file().to_string(),
         source,
     };
-    crate::rests::check_rests(rests, scan.span.0 - dt, dt).map_err(refuse)?;
+    crate::motion::rests::check_rests(rests, scan.span.0 - dt, dt).map_err(refuse)?;
     scan.program_start = scan.span.0 - dt;
     scan.program_start_found = false;
-    let usable = crate::rests::usable(rests);
+    let usable = crate::motion::rests::usable(rests);
     let first = usable
         .first()
         .copied()
@@ -654,7 +657,7 @@ pub fn estimate_at_rests(
         }
         None => vec![0.0; instrument.len()],
     };
-    let align = crate::rests::align_in_rest(
+    let align = crate::motion::rests::align_in_rest(
         &scan.bins,
         &first,
         &config.site(),
@@ -723,7 +726,7 @@ pub fn estimate_at_rests(
 }
 
 /// [`estimate_at_rests`] on records in memory, with a coarse start where the priors call for
-/// one ([`needs_coarse_start`]): the batch fit of [`crate::free_motion`] (the paper's 21
+/// one ([`needs_coarse_start`]): the batch fit of [`crate::motion::free_motion`] (the paper's 21
 /// parameters from the rests' mean specific forces and the rotations between them), whose
 /// values the filter's first pass linearises about. Without it the first closed-loop pass
 /// runs away on a consumer-grade unit: on the shipped Xsens recording the accelerometer bias
@@ -735,7 +738,7 @@ pub fn calibrate_rests(
     data: &ImuData,
     file: &str,
     rests: &[Rest],
-    turns: &[crate::rests::Turn],
+    turns: &[crate::motion::rests::Turn],
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let coarse = if needs_coarse_start(config) {
@@ -744,7 +747,7 @@ pub fn calibrate_rests(
         let fitted: Vec<Rest> = rests
             .iter()
             .enumerate()
-            .filter(|(i, _)| !crate::rests::held_out(*i, config.filter.hold_out_every))
+            .filter(|(i, _)| !crate::motion::rests::held_out(*i, config.filter.hold_out_every))
             .map(|(_, r)| *r)
             .collect();
         Some(coarse_start(config, layout, data, file, &fitted, turns)?)
@@ -785,9 +788,9 @@ fn coarse_start(
     data: &ImuData,
     file: &str,
     rests: &[Rest],
-    turns: &[crate::rests::Turn],
+    turns: &[crate::motion::rests::Turn],
 ) -> Result<Vec<f64>, EstimateError> {
-    use crate::free_motion::{FreeMotionSettings, Interval, calibrate_free_motion};
+    use crate::motion::free_motion::{FreeMotionSettings, Interval, calibrate_free_motion};
     let grouped = coarse_records(data);
     let data = &grouped;
     let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
@@ -815,14 +818,14 @@ fn coarse_start(
     settings.scale_asymmetry_prior = None;
     // The known turns on the grouped records: from the group that holds the first record to
     // the one that holds the last (a group reaches up to COARSE_GROUP_S into the rest before).
-    let known: Vec<crate::free_motion::KnownTurn> = turns
+    let known: Vec<crate::motion::free_motion::KnownTurn> = turns
         .iter()
         .filter_map(|turn| {
             let first = t.partition_point(|&x| x < turn.t0);
             let last = t
                 .partition_point(|&x| x < turn.t1)
                 .min(t.len().checked_sub(1)?);
-            (first <= last).then(|| crate::free_motion::KnownTurn {
+            (first <= last).then(|| crate::motion::free_motion::KnownTurn {
                 name: turn.name.clone(),
                 first_record: first,
                 last_record: last,
@@ -858,18 +861,18 @@ const MEAN_INTERVAL_TOLERANCE: f64 = 0.01;
 enum Motion {
     /// A turntable program (given, or read from the angle records).
     Program(turntable::program::Program),
-    /// Rests between motions that are not known ([`crate::rests`]).
+    /// Rests between motions that are not known ([`crate::motion::rests`]).
     Rests {
         /// The rests as given.
         rests: Vec<Rest>,
         /// Less their margins.
         usable: Vec<Rest>,
         /// The start attitude from the first.
-        align: crate::rests::RestAlignment,
+        align: crate::motion::rests::RestAlignment,
         /// The coarse start, the prior mean of the instrument parameters in place of zero.
         coarse: Option<Vec<f64>>,
-        /// Known turns, measured ([`crate::rests::Turn`]).
-        turns: Vec<crate::rests::Turn>,
+        /// Known turns, measured ([`crate::motion::rests::Turn`]).
+        turns: Vec<crate::motion::rests::Turn>,
     },
 }
 
@@ -973,8 +976,8 @@ fn iterate_passes(
 }
 
 /// The start heading's posterior sigma above which a pass does not move the next pass's start
-/// heading (rad): the gyrocompassing threshold of [`crate::rests`].
-const HEADING_UNRESOLVED_RAD: f64 = crate::rests::GYROCOMPASS_MAX_SIGMA_RAD;
+/// heading (rad): the gyrocompassing threshold of [`crate::motion::rests`].
+const HEADING_UNRESOLVED_RAD: f64 = crate::motion::rests::GYROCOMPASS_MAX_SIGMA_RAD;
 
 /// Length of the record groups of the coarse start (s).
 const COARSE_GROUP_S: f64 = 0.1;
@@ -1226,7 +1229,7 @@ impl<'a> TurntableSetup<'a> {
 /// attitude is the program's with the nominal mounting (`c_nominal`) and its error is tied to the
 /// installation misalignment ([`initial_covariance`]). Without them it comes from the
 /// alignment to the program's rotations where the program turns about two axes
-/// ([`crate::align`]), with the error tied to the gyro parameters.
+/// ([`crate::motion::align`]), with the error tied to the gyro parameters.
 fn start_prior(
     config: &RunConfig,
     layout: &StateLayout,
@@ -1238,8 +1241,8 @@ fn start_prior(
         Motion::Program(program) => program,
         Motion::Rests { align, .. } => {
             let p = initial_covariance(config, layout, &align.c_start);
-            let mut p = crate::rests::rest_covariance(&p, align);
-            crate::layout::copy_start_attitude(&mut p, layout);
+            let mut p = crate::motion::rests::rest_covariance(&p, align);
+            crate::model::layout::copy_start_attitude(&mut p, layout);
             return (align.c_start, p);
         }
     };
@@ -1358,7 +1361,7 @@ fn start_filter(
 fn held_out_windows(motion: &Motion, program_start: f64, every: usize) -> Vec<(f64, f64)> {
     let segments = match motion {
         Motion::Program(program) => diagnostics::segments(program, program_start),
-        Motion::Rests { rests, .. } => crate::rests::segments(rests)
+        Motion::Rests { rests, .. } => crate::motion::rests::segments(rests)
             .into_iter()
             .filter(|s| s.label.starts_with("rest"))
             .collect(),
@@ -1366,7 +1369,7 @@ fn held_out_windows(motion: &Motion, program_start: f64, every: usize) -> Vec<(f
     segments
         .iter()
         .enumerate()
-        .filter(|(k, _)| crate::rests::held_out(*k, Some(every)))
+        .filter(|(k, _)| crate::motion::rests::held_out(*k, Some(every)))
         .map(|(_, s)| (s.t0, s.t1))
         .collect()
 }
@@ -1414,7 +1417,7 @@ fn run_pass(
     let mut engine = Engine::new(filter, model, Schedule::new(config), noise, false);
     engine.vertical_second_order = matches!(motion, Motion::Rests { .. });
     if track_offset {
-        engine.offset_sensitivity = Some(crate::engine::OffsetSensitivity::new(
+        engine.offset_sensitivity = Some(crate::model::engine::OffsetSensitivity::new(
             layout.dim(),
             engine.filter.max_measurement_dim(),
         ));
@@ -1442,7 +1445,7 @@ fn run_pass(
     );
     pass.stats = stats;
     if let Motion::Rests { usable, turns, .. } = motion {
-        pass.rest_gate = Some(crate::rests::RestGate::new(usable.clone()));
+        pass.rest_gate = Some(crate::motion::rests::RestGate::new(usable.clone()));
         pass.turns = turns.clone();
     }
     if let Some(every) = config.filter.hold_out_every {
@@ -1505,7 +1508,7 @@ fn run_pass(
     } = pass.finish();
     let segments = match motion {
         Motion::Program(program) => diagnostics::segments(program, scan.program_start),
-        Motion::Rests { rests, .. } => crate::rests::segments(rests),
+        Motion::Rests { rests, .. } => crate::motion::rests::segments(rests),
     };
     diagnostics::assign_segments(&mut innovations, &segments);
     let (rests, start_alignment) = match motion {

@@ -4,7 +4,7 @@
 //! (the true motion, or the strapdown solution and the recorded data).
 
 use crate::config::RunConfig;
-use crate::layout::StateLayout;
+use crate::model::layout::StateLayout;
 use crate::model::{LinearModel, Measurement};
 use faer::{Mat, MatRef};
 use kalman::{KalmanError, KalmanFilter};
@@ -365,7 +365,7 @@ pub struct Engine {
     /// the first window after a hand turn finds the attitude degrees off, and the linear row
     /// read that as a vertical misfit: on the shipped Xsens recording those windows had a mean
     /// NIS of 55 (the rest of the windows 5.6), and 13 without the correction once the noise was
-    /// fitted; 6.6 with it ([`crate::hand_turned`]). Where the tilt is small (a program, whose
+    /// fitted; 6.6 with it ([`crate::estimate::hand_turned`]). Where the tilt is small (a program, whose
     /// trajectory knows it) the term is nothing.
     pub vertical_second_order: bool,
     /// Scratch for the measurement noise as a faer matrix.

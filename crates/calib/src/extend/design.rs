@@ -16,9 +16,9 @@
 //! - combinations of these.
 
 use crate::config::{ConfigError, RunConfig};
-use crate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
-use crate::evidence::{Separability, separability};
-use crate::extension::ModelExtension;
+use crate::estimate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
+use crate::extend::evidence::{Separability, separability};
+use crate::model::extension::ModelExtension;
 use serde::Serialize;
 use sins_model::candidates::Candidate;
 use turntable::program::{ProgramSpec, Segment};
@@ -42,7 +42,7 @@ pub enum DesignError {
         "{origin}: designing runs {programs} covariance analyses of {total_s} s of programs in \
          all, {steps:.3e} IMU steps at filter.imu_rate_hz = {rate_hz} Hz: expected at most \
          {max:.0e}; design with a shorter program or a lower filter.imu_rate_hz",
-        max = crate::covariance::MAX_ANALYSIS_STEPS
+        max = crate::estimate::covariance::MAX_ANALYSIS_STEPS
     )]
     TooManySteps {
         /// The configuration's program.
@@ -242,7 +242,7 @@ pub fn evaluate(
     let base: Vec<String> = post
         .names
         .iter()
-        .skip(crate::layout::StateLayout::INSTRUMENT)
+        .skip(crate::model::layout::StateLayout::INSTRUMENT)
         .filter(|n| !requested.contains(n))
         .cloned()
         .collect();
@@ -318,7 +318,7 @@ pub fn design(
     }
     let rate_hz = config.filter.imu_rate_hz;
     let steps = total_s * rate_hz;
-    if !(steps.is_finite() && steps <= crate::covariance::MAX_ANALYSIS_STEPS) {
+    if !(steps.is_finite() && steps <= crate::estimate::covariance::MAX_ANALYSIS_STEPS) {
         return Err(DesignError::TooManySteps {
             origin: format!("program \"{}\"", config.program),
             programs: menu.len() + 1,

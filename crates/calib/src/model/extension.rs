@@ -2,8 +2,8 @@
 //! carries ([`ModelExtension`]) and which extra effects a simulated unit has
 //! ([`HiddenEffects`]). The terms themselves live in [`sins_model::candidates`].
 //!
-//! The entry points that take an extension: [`crate::layout::layout_with`],
-//! [`crate::covariance::covariance_analysis_ext`], [`crate::estimate::estimate_ext`] and
+//! The entry points that take an extension: [`crate::model::layout::layout_with`],
+//! [`crate::estimate::covariance::covariance_analysis_ext`], [`crate::estimate::estimate_ext`] and
 //! [`crate::simulate::simulate_run_hidden`].
 
 use sins_model::candidates::{Candidate, UnitGrade};

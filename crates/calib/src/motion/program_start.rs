@@ -10,7 +10,7 @@
 //! bin's mean by 3.5e-3 rad/s at the paper's reversals, against 2e-4 rad/s from a 1e-3 scale
 //! error).
 
-use crate::align::RateBin;
+use crate::motion::align::RateBin;
 use sins_model::earth::Site;
 use turntable::kinematics::{Kinematics, Mounting};
 use turntable::program::Program;
@@ -178,7 +178,7 @@ pub fn find_program_start(
     let coarse = coarse_start(bins, &profile, duration, lo, hi);
     // Bins around the coarse start, then golden-section search between neighbouring bins.
     let step = first.t1 - first.t0;
-    let changes = crate::engine::RateChanges::new(program);
+    let changes = crate::model::engine::RateChanges::new(program);
     let near = |s: f64| misfit_near_changes(bins, &profile, changes.times(), s, 3.0);
     let mut best = (f64::INFINITY, coarse);
     let mut s = (coarse - 2.0).max(lo);
@@ -231,7 +231,7 @@ pub fn check_program_start(
         });
     }
     // Where do the rate changes near the given start put it?
-    let changes = crate::engine::RateChanges::new(program);
+    let changes = crate::model::engine::RateChanges::new(program);
     if !changes.times().is_empty() {
         let step = bins.first().map_or(0.1, |b| b.t1 - b.t0);
         let near = |s: f64| misfit_near_changes(bins, &profile, changes.times(), s, 3.0);

@@ -18,7 +18,7 @@
 //! least (the paper's program turns about three); otherwise there is no alignment and the
 //! start attitude keeps the installation prior.
 
-use crate::engine::RateChanges;
+use crate::model::engine::RateChanges;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::log_so3;
 use sins_model::earth::Site;
@@ -328,7 +328,7 @@ fn wahba(b: &Matrix3<f64>) -> Option<Matrix3<f64>> {
 /// it). `None` when the program does not turn about two axes.
 pub fn aligned_prior(
     config: &crate::config::RunConfig,
-    layout: &crate::layout::StateLayout,
+    layout: &crate::model::layout::StateLayout,
     bins: &[RateBin],
     program: &Program,
     program_start: f64,
@@ -348,7 +348,7 @@ pub fn aligned_prior(
 /// [`aligned_prior`] with the bins made on demand ([`align_to_program_by`]).
 pub fn aligned_prior_by(
     config: &crate::config::RunConfig,
-    layout: &crate::layout::StateLayout,
+    layout: &crate::model::layout::StateLayout,
     n_bins: usize,
     bin: &dyn Fn(usize) -> RateBin,
     program: &Program,
@@ -365,10 +365,10 @@ pub fn aligned_prior_by(
         &layout.model,
         config.gyro_psd(),
     )?;
-    let off = crate::layout::StateLayout::INSTRUMENT;
-    let p = crate::layout::initial_covariance(config, layout, &al.c_start);
+    let off = crate::model::layout::StateLayout::INSTRUMENT;
+    let p = crate::model::layout::initial_covariance(config, layout, &al.c_start);
     let mut p = aligned_covariance(&p, off..off + layout.n_instrument(), &al);
-    crate::layout::copy_start_attitude(&mut p, layout);
+    crate::model::layout::copy_start_attitude(&mut p, layout);
     Some((al.c_start, p))
 }
 

@@ -3,6 +3,8 @@
 //! Values are in the paper's units at this edge (field names carry the unit) and converted to SI by
 //! [`RunConfig::priors_si`] and friends.
 
+pub mod plausible;
+
 use serde::{Deserialize, Serialize};
 use sins_model::earth::Site;
 use sins_model::terms::PaperPriors;
@@ -10,7 +12,7 @@ use std::path::{Path, PathBuf};
 use turntable::program::{PAPER_PROGRAM_TOML, Program, ProgramSpec};
 
 /// The paper's run configuration, embedded.
-pub const PAPER_CONFIG_TOML: &str = include_str!("../configs/paper.toml");
+pub const PAPER_CONFIG_TOML: &str = include_str!("../../configs/paper.toml");
 
 use sins_model::units::{ARCMIN, ARCSEC, DEG_PER_HOUR as DEG_H};
 
@@ -361,13 +363,13 @@ pub struct FilterConfig {
     /// vibration) is otherwise read as calibration errors: on the Ferraris session, turned at
     /// up to 900 deg/s, the x gyro's scale factor followed the rests around the turns and missed
     /// its known 360-degree turn by 2.4 deg. `calibrate --free-motion` measures it from the
-    /// innovations ([`crate::hand_turned`]); no effect on a program.
+    /// innovations ([`crate::estimate::hand_turned`]); no effect on a program.
     #[serde(default, deserialize_with = "values::attitude_noise_deg")]
     pub motion_attitude_noise_deg: f64,
     /// Hold out the measurements of every `k`-th segment that has measurements (the program's
     /// segments; the rests of a recording without a program), counted from 1 so the first is
     /// never held out: each is evaluated as a prediction (its innovation and innovation
-    /// covariance, [`crate::diagnostics::Innovation::held_out`]) and not used. Not a file
+    /// covariance, [`crate::check::diagnostics::Innovation::held_out`]) and not used. Not a file
     /// setting: the model-extension loop sets it for its held-out check ([`crate::extend`]).
     #[serde(skip)]
     pub hold_out_every: Option<usize>,
@@ -404,7 +406,7 @@ pub struct TruthConfig {
     pub noise: bool,
     /// True values in SI units by documented name (`gyro.bias.x`, `install.delta.z`,
     /// `turntable.tau`, `base.gamma.x`, ...), overriding the draws; each within its physical
-    /// bound ([`crate::plausible`]).
+    /// bound ([`crate::config::plausible`]).
     pub values: std::collections::BTreeMap<String, f64>,
 }
 
@@ -601,7 +603,7 @@ impl UnitIdentity {
 pub struct RunConfig {
     /// `"paper"` for the embedded program, a path relative to the configuration file, or
     /// `"from-angles"` (also when absent): the program is read from the turntable's angle
-    /// records ([`crate::angles_program`]), so a turntable file is needed.
+    /// records ([`crate::motion::angles_program`]), so a turntable file is needed.
     #[serde(default = "program_from_angles")]
     pub program: String,
     /// Site.
@@ -834,7 +836,7 @@ impl RunConfig {
             )?;
         }
         for (name, v) in &t.values {
-            if let Err(message) = crate::plausible::check(name, *v) {
+            if let Err(message) = crate::config::plausible::check(name, *v) {
                 return Err(ConfigError::Invalid {
                     origin: origin.to_string(),
                     message: format!("truth.values.{message}"),

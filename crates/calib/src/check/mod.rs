@@ -1,0 +1,8 @@
+//! Checks of a fit: the innovation diagnostics and the consistency statistics.
+//!
+//! - [`diagnostics`]: tests of a fit from its innovations (NIS per segment, whiteness, lines at
+//!   the program's frequencies, regression on candidate terms);
+//! - [`stats`]: NEES and chi-square bands.
+
+pub mod diagnostics;
+pub mod stats;

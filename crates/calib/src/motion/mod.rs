@@ -1,0 +1,15 @@
+//! The motion of a recording: the program (declared or read from the turntable's angles), where
+//! it starts on the IMU clock, the coarse start attitude, and, for recordings without a program,
+//! the rests and the turns between them.
+//!
+//! - [`angles_program`]: the program read from the turntable's angle records;
+//! - [`program_start`]: where the program starts on the IMU clock;
+//! - [`align`]: coarse alignment of the start attitude to the program's rotations;
+//! - [`rests`]: recordings without a program: the rests in place of the program;
+//! - [`free_motion`]: the coarse start of a hand-turned multi-position recording (no turntable).
+
+pub mod align;
+pub mod angles_program;
+pub mod free_motion;
+pub mod program_start;
+pub mod rests;
