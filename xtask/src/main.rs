@@ -16,6 +16,7 @@ mod audit;
 mod docs_check;
 mod hidden;
 mod plot;
+mod structure;
 
 /// The paper's navigation figures after 1 h of the snake flight (m).
 const PAPER_RHO_IMU_ONLY_M: f64 = sins_model::paper::RHO_IMU_ONLY_M;
@@ -108,6 +109,10 @@ enum Command {
         #[arg(long)]
         bin: Option<PathBuf>,
     },
+    /// The shape of the code, from the sources: functions over 100 lines in crates/*/src, the
+    /// entries at the top of crates/calib/src (at most 12), module cycles in calib (between its
+    /// rooms, and between sibling files of a room). Exits non-zero when a bound is broken.
+    Structure,
 }
 
 fn main() -> ExitCode {
@@ -129,6 +134,17 @@ fn main() -> ExitCode {
             verbose,
             bin,
         } => audit::audit(case.as_deref(), keep, verbose, bin.as_deref()),
+        Command::Structure => {
+            let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+            match structure::run(&root) {
+                Ok(true) => ExitCode::SUCCESS,
+                Ok(false) => ExitCode::FAILURE,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Command::NavError { result } => match nav_error(&result) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
