@@ -1,7 +1,7 @@
 //! # import
 //!
-//! Recordings in other layouts turned into the project's interchange files, and static
-//! detection on them.
+//! Recordings in other layouts turned into the project's interchange files. (Static detection
+//! on them is calib's: [`calib::motion::detect`].)
 //!
 //! - [`profile`]: the import profile (TOML): input files, delimiter, skipped lines, which column
 //!   is which, the time base, rates or increments, units (physical or counts with offset and
@@ -12,7 +12,6 @@
 //!   with the likely cause; [`write_outputs`] writes `imu.csv` (with `calib::io`'s writer),
 //!   `turntable.csv` when the source has angles, `sections.json` when the profile has a section
 //!   list, and the report `import.json`;
-//! - [`detect`]: the static detector, splitting an `imu.csv` into static intervals and motion;
 //! - [`sections`]: section lists (static faces, rotations) carried onto the imported records.
 //!
 //! Every refusal is an [`ImportError`] naming the file, the line where there is one, and what was
@@ -25,7 +24,7 @@
 //! let profile = Profile::load(Path::new("examples/xsens_mti.toml"))?;
 //! let imported = import_recording(&profile, &ImportOptions::default())?;
 //! write_outputs(&imported, Path::new("out/xsens"))?;
-//! let segmentation = import::detect::segment(&imported.imu, &Default::default())?;
+//! let segmentation = calib::motion::detect::segment(&imported.imu, &Default::default())?;
 //! assert_eq!(segmentation.static_intervals.len(), 38);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -33,25 +32,23 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod detect;
 mod error;
 pub mod profile;
 pub mod sections;
-pub mod select;
 mod streamed;
 mod text;
-pub mod timing;
 
 pub use error::ImportError;
 pub use streamed::{ImportedFiles, import_into};
 
+use calib::io::timing::{self, GapAt, Timing};
 use calib::io::{ImuData, ImuKind, ImuRecord, TurntableData, TurntableRecord};
+use calib::motion::detect;
 use profile::{AngleUnit, Column, Form, Join, Profile, STANDARD_GRAVITY, Sensor, Unit};
 use sections::SectionsFile;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use text::{Table, Wanted, read_table};
-use timing::{GapAt, Timing};
 
 /// The specific force at rest must have a median magnitude within this band, in units of
 /// standard gravity, over the quietest window of the recording.

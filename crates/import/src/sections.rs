@@ -212,7 +212,7 @@ impl SectionsFile {
     /// silently used or skipped. `Err` holds the message: which section, and what was expected.
     pub fn check_records(&self, times: &[f64]) -> Result<(), String> {
         let n = times.len();
-        let tolerance = 0.5 * crate::timing::median_interval(times);
+        let tolerance = 0.5 * calib::io::timing::median_interval(times);
         for s in &self.sections {
             for (what, v) in [("up", s.up), ("axis", s.axis)] {
                 let Some(v) = v else { continue };
@@ -323,7 +323,7 @@ pub(crate) fn carry(
     accel: &Sensor,
 ) -> Result<SectionsFile, ImportError> {
     let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
-    let median = crate::timing::median_interval(&t);
+    let median = calib::io::timing::median_interval(&t);
     let mut carried = Carry::new(source, path, data.records.len(), data.kind, median, gyro)?;
     for r in &data.records {
         carried.push(r.t, r.gyro, r.accel);

@@ -2,7 +2,7 @@
 //! found with the defaults (the window and minimum duration taken from the data), long rests of
 //! a navigation-grade unit found as before, and rests too short to use reported as missed.
 
-use import::detect::{DetectorSettings, MissReason, Segmentation, Source};
+use calib::motion::detect::{DetectorSettings, MissReason, Segmentation, Source};
 
 /// The detector on the records held, checked against the streamed detector (the same
 /// segmentation to the last bit, missed stretches and suggestions included).
@@ -12,8 +12,8 @@ fn detect_static(
     f: &[[f64; 3]],
     settings: &DetectorSettings,
 ) -> Result<Segmentation, String> {
-    let held = import::detect::detect_static(t, w, f, settings);
-    let streamed = import::detect::detect_static_streamed(
+    let held = calib::motion::detect::detect_static(t, w, f, settings);
+    let streamed = calib::motion::detect::detect_static_streamed(
         &mut |visit| {
             for i in 0..t.len() {
                 visit(t[i], w[i], f[i]);

@@ -2,7 +2,7 @@
 //! the fixed 1-s window and 2-s minimum, which the defaults therefore keep, so the intervals are
 //! those of the fixed settings, and the motion suggests no rest the detector missed.
 
-use import::detect::{DetectorSettings, Segmentation, Source, segment};
+use calib::motion::detect::{DetectorSettings, Segmentation, Source, segment};
 use import::profile::Profile;
 use import::{ImportOptions, import_recording};
 use std::path::Path;

@@ -576,7 +576,7 @@ unit = "m/s"
         header.starts_with("t,dthx,dthy,dthz,dvx,dvy,dvz\n"),
         "{header:.40}"
     );
-    let seg = import::detect::segment(&imported.imu, &Default::default()).unwrap();
+    let seg = calib::motion::detect::segment(&imported.imu, &Default::default()).unwrap();
     assert_eq!(seg.static_intervals.len(), 1);
     assert!((seg.static_intervals[0].norm_f_m_s2 - 9.81).abs() < 1e-9);
 }

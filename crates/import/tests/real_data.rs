@@ -2,7 +2,7 @@
 //! (two raw-count files with jittered time) and the Ferraris session (one CSV, a sample counter
 //! and a section list).
 
-use import::detect::{DetectorSettings, segment};
+use calib::motion::detect::{DetectorSettings, segment};
 use import::profile::Profile;
 use import::sections::SectionKind;
 use import::{ImportOptions, Imported, import_recording};

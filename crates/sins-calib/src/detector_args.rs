@@ -1,10 +1,10 @@
 //! The static detector's settings as command-line options, shared by every command that finds
 //! rests in a recording (`calibrate` without a program, `calibrate --free-motion`).
 
-use ::import::detect::DetectorSettings;
+use ::calib::motion::detect::DetectorSettings;
 use calib::motion::rests::Rest;
 
-/// Options of the static detector (`import::detect`; the defaults are
+/// Options of the static detector (`calib::motion::detect`; the defaults are
 /// `DetectorSettings::default()`).
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Static detection (recordings without a program)")]
@@ -134,7 +134,7 @@ pub fn check_span(
 /// time stamps; nothing is checked without records).
 pub fn check_span_streamed(
     s: &DetectorSettings,
-    source: &mut ::import::detect::RateSource,
+    source: &mut ::calib::motion::detect::RateSource,
     file: &str,
     option: &dyn Fn(&str) -> String,
 ) -> Result<(), crate::Error> {
@@ -174,7 +174,7 @@ pub fn rests_and_segmentation(
     data: &calib::io::ImuData,
     file: &str,
     settings: &DetectorSettings,
-) -> Result<(Vec<Rest>, ::import::detect::Segmentation), String> {
+) -> Result<(Vec<Rest>, ::calib::motion::detect::Segmentation), String> {
     if let (Some(a), Some(b)) = (data.records.first(), data.records.last()) {
         check_span(settings, b.t - a.t, file, &option_name)?;
     }
@@ -183,7 +183,8 @@ pub fn rests_and_segmentation(
     // misread records would blame the rests ("only 2 directions") instead of the units.
     crate::recording_checks::check_plausible(data, file, settings.window_s)
         .map_err(|e| e.to_string())?;
-    let seg = ::import::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
+    let seg =
+        ::calib::motion::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
     crate::recording_checks::check_static_force(&seg, file).map_err(|e| e.to_string())?;
     let dt = seg.median_interval_s;
     let rests = seg

@@ -6,7 +6,7 @@
 
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config};
-use ::import::detect::{DetectorSettings, RateSource, segment_streamed};
+use ::calib::motion::detect::{DetectorSettings, RateSource, segment_streamed};
 use ::noise::AxisNoise;
 use ::noise::fit::{NoiseFit, Term};
 use ::noise::likelihood::{Level, MlFit};
@@ -162,7 +162,7 @@ fn check_outputs(args: &Args) -> Result<(), Error> {
 /// The record ranges the Allan variance is taken over: the whole recording split at its gaps,
 /// or the detector's static intervals; refused when there is none.
 fn intervals_of(
-    seg: &::import::detect::Segmentation,
+    seg: &::calib::motion::detect::Segmentation,
     whole: bool,
     n: usize,
     settings: &DetectorSettings,

@@ -3,7 +3,7 @@
 //! force of g at rest (not g units, not the gyro columns), magnitudes an IMU gives.
 
 use crate::{Error, table};
-use ::import::detect::Segmentation;
+use ::calib::motion::detect::Segmentation;
 
 /// Refuse records no IMU gives before segmenting: a median interval outside
 /// [`import::MEDIAN_INTERVAL_RANGE_S`] (1 Hz at the slowest: stamps in milliseconds read as
@@ -17,14 +17,14 @@ pub(crate) fn check_plausible(
     window_s: f64,
 ) -> Result<(), Error> {
     let mut memory = calib::estimate::MemoryImu::new(data, file);
-    let mut source = ::import::detect::RateSource::new(&mut memory)?;
+    let mut source = ::calib::motion::detect::RateSource::new(&mut memory)?;
     check_plausible_streamed(&mut source, file, window_s)
 }
 
 /// [`check_plausible`] of records read again from their source: one reading, two more for
 /// the medians of the magnitudes only when the rates' median could be that of g.
 pub(crate) fn check_plausible_streamed(
-    source: &mut ::import::detect::RateSource,
+    source: &mut ::calib::motion::detect::RateSource,
     file: &str,
     window_s: f64,
 ) -> Result<(), Error> {
@@ -100,7 +100,7 @@ pub(crate) fn check_plausible_streamed(
     if w_below > n / 2 {
         return Ok(());
     }
-    let medians = ::import::select::select_streamed(
+    let medians = ::calib::motion::detect::select::select_streamed(
         2,
         |_, len| len / 2,
         |visit| {
@@ -130,7 +130,7 @@ pub(crate) fn check_plausible_streamed(
 /// not an accelerometer's). For commands that find no rests (`apply`).
 pub(crate) fn check_median_gravity(data: &calib::io::ImuData, file: &str) -> Result<(), Error> {
     const G: f64 = ::import::profile::STANDARD_GRAVITY;
-    let (_, _, f) = ::import::detect::rates_of(data);
+    let (_, _, f) = ::calib::motion::detect::rates_of(data);
     let mut norms: Vec<f64> = f
         .iter()
         .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
@@ -199,7 +199,7 @@ pub(crate) fn check_at_rest(
     window_s: f64,
 ) -> Result<(), Error> {
     const G: f64 = ::import::profile::STANDARD_GRAVITY;
-    let (_, w, f) = ::import::detect::rates_of(data);
+    let (_, w, f) = ::calib::motion::detect::rates_of(data);
     let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let mut norms: Vec<f64> = f.iter().map(norm).collect();
     let median_f = median(&mut norms);
@@ -279,17 +279,17 @@ pub(crate) fn check_at_rest(
 }
 
 /// `check_at_rest` (the held form, in tests) of records read again from their source: the
-/// medians by streamed selection ([`::import::select`]), the windows' spreads from a window of
+/// medians by streamed selection ([`::calib::motion::detect::select`]), the windows' spreads from a window of
 /// records; the same verdict and message.
 pub(crate) fn check_at_rest_streamed(
-    source: &mut ::import::detect::RateSource,
+    source: &mut ::calib::motion::detect::RateSource,
     file: &str,
     window: usize,
     window_s: f64,
 ) -> Result<(), Error> {
     const G: f64 = ::import::profile::STANDARD_GRAVITY;
     let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let medians = ::import::select::select_streamed(
+    let medians = ::calib::motion::detect::select::select_streamed(
         4,
         |_, len| len / 2,
         |visit| {
@@ -355,7 +355,7 @@ pub(crate) fn check_at_rest_streamed(
             }
         })
     };
-    let typical = ::import::select::select_streamed(
+    let typical = ::calib::motion::detect::select::select_streamed(
         1,
         |_, len| len / 2,
         |visit| windows_of(&mut |spread, _| visit(0, spread)),
@@ -453,7 +453,7 @@ mod tests {
         for (turning, swapped) in [(false, false), (true, false), (false, true)] {
             let data = records(turning, swapped);
             let mut memory = calib::estimate::MemoryImu::new(&data, "imu.csv");
-            let mut source = ::import::detect::RateSource::new(&mut memory).unwrap();
+            let mut source = ::calib::motion::detect::RateSource::new(&mut memory).unwrap();
             let held = check_at_rest(&data, "imu.csv", 101, 1.0).map_err(|e| e.to_string());
             let streamed =
                 check_at_rest_streamed(&mut source, "imu.csv", 101, 1.0).map_err(|e| e.to_string());

@@ -4,7 +4,7 @@
 use crate::recording_checks;
 use crate::table::{self, Align, Table};
 use crate::{Error, output};
-use ::import::detect::{DetectorSettings, RateSource, Segmentation, segment_streamed};
+use ::calib::motion::detect::{DetectorSettings, RateSource, Segmentation, segment_streamed};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -86,7 +86,7 @@ fn option_name(setting: &str) -> String {
 
 /// How the window and the minimum duration were chosen, as a line of the printout.
 fn chosen(seg: &Segmentation) -> String {
-    use ::import::detect::Source;
+    use ::calib::motion::detect::Source;
     let a = &seg.adaptation;
     let sig = table::significant;
     let why = |source: Source, what: &str, fraction: &str, lower: &str| match source {

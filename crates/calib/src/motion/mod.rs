@@ -6,10 +6,13 @@
 //! - [`program_start`]: where the program starts on the IMU clock;
 //! - [`align`]: coarse alignment of the start attitude to the program's rotations;
 //! - [`rests`]: recordings without a program: the rests in place of the program;
+//! - [`detect`]: rests found in the records (static detection), for recordings without a
+//!   program;
 //! - [`free_motion`]: the coarse start of a hand-turned multi-position recording (no turntable).
 
 pub mod align;
 pub mod angles_program;
+pub mod detect;
 pub mod free_motion;
 pub mod program_start;
 pub mod rests;

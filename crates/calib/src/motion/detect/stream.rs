@@ -6,7 +6,7 @@
 //! pass, prefix sums, copies of the records) is worked out again at every reading instead: a
 //! window of `2 h + 2` prefix sums slides along the records ([`Windower`], the same sums as
 //! [`Prefix`] from the same first record of each gap-free block, so the same bits), and each
-//! pass takes its noise floor by an exact streamed selection ([`crate::select`]). What is kept
+//! pass takes its noise floor by an exact streamed selection ([`super::select`]). What is kept
 //! is what the answer needs: the runs of static and of clearly moving records of the first pass
 //! (a few per rest and per motion), the static intervals with their sums, the gaps.
 //!
@@ -15,8 +15,8 @@
 //! for the intervals; with rests missed, one more for their deviations (two or more) and the
 //! suggested settings' pass (three).
 
+use super::select::{quantile_rank, select_streamed};
 use super::*;
-use crate::select::{quantile_rank, select_streamed};
 use std::collections::VecDeque;
 
 /// Records in rate form `(t, w, f)` (s, rad/s, m/s^2), visited from the first at every call.

@@ -32,11 +32,12 @@
 //! [`Segmentation::missed_suggestion`] gives settings that would take them, tried on the same
 //! data. [`Segmentation::missed_report`] words both for a printout.
 
-use crate::timing::{self, GapAt};
-use calib::estimate::ImuSource;
-use calib::io::{ImuData, ImuKind, ImuRecord};
+use crate::estimate::ImuSource;
+use crate::io::timing::{self, GapAt};
+use crate::io::{ImuData, ImuKind, ImuRecord};
 use serde::{Deserialize, Serialize};
 
+pub mod select;
 mod stream;
 pub use stream::{Reading, detect_static_streamed};
 
