@@ -706,6 +706,72 @@ fn holds_rest(intervals: &[StaticInterval], first: usize, last: usize) -> bool {
         .any(|s| s.first_record <= last && first <= s.last_record)
 }
 
+/// The window and minimum duration of the detecting pass, chosen from the first pass's quiet
+/// stretches (`quiet_s`: their durations) as the module's doc says ("Window and minimum duration
+/// from the data"), and what was chosen and why.
+pub(crate) fn adapt(
+    settings: &DetectorSettings,
+    quiet_s: &[f64],
+    first_window_s: f64,
+    floor_f: f64,
+    median: f64,
+) -> (DetectorSettings, Adaptation) {
+    let quiet: Vec<f64> = quiet_s
+        .iter()
+        .filter(|&&d| d >= first_window_s)
+        .map(|d| d + first_window_s)
+        .collect();
+    let typical = (!quiet.is_empty()).then(|| quantile(&quiet, TYPICAL_REST_QUANTILE));
+    // Records for a standard error of USABLE_MEAN_SE_M_S2 on each axis of the mean specific
+    // force, at the first pass's noise floor (the root of the three axes' summed variances).
+    let sigma_axis = floor_f / 3f64.sqrt();
+    let noise_min_duration_s = (sigma_axis / USABLE_MEAN_SE_M_S2).powi(2) * median;
+    let (window_s, window_source) = match typical {
+        _ if !settings.adapt_window => (settings.window_s, Source::Given),
+        None => (settings.window_s, Source::Default),
+        Some(d) => bounded(d * WINDOW_PER_REST, first_window_s, settings.window_s),
+    };
+    let (min_duration_s, min_duration_source) = match typical {
+        _ if !settings.adapt_min_duration => (settings.min_duration_s, Source::Given),
+        None => (settings.min_duration_s, Source::Default),
+        Some(d) => bounded(
+            d * MIN_DURATION_PER_REST,
+            window_s.max(noise_min_duration_s),
+            settings.min_duration_s,
+        ),
+    };
+    let used = DetectorSettings {
+        window_s,
+        min_duration_s,
+        ..*settings
+    };
+    let adaptation = Adaptation {
+        first_pass_window_s: first_window_s,
+        quiet_stretches: quiet.len(),
+        typical_rest_s: typical,
+        noise_min_duration_s,
+        window: window_source,
+        min_duration: min_duration_source,
+    };
+    (used, adaptation)
+}
+
+/// The motion: every record outside the static intervals, as spans.
+fn motion_between(t: &[f64], intervals: &[StaticInterval]) -> Vec<Span> {
+    let mut motion = Vec::new();
+    let mut next = 0;
+    for s in intervals {
+        if s.first_record > next {
+            motion.push(span(t, next, s.first_record - 1));
+        }
+        next = s.last_record + 1;
+    }
+    if next < t.len() {
+        motion.push(span(t, next, t.len() - 1));
+    }
+    motion
+}
+
 /// Split a recording (time stamps, angular rates (rad/s), specific forces (m/s^2), at least two
 /// records with strictly increasing time) into static intervals and motion.
 pub fn detect_static(
@@ -730,52 +796,17 @@ pub fn detect_static(
     let h1 = half_window(FIRST_PASS_WINDOW_S, median).max(MIN_HALF_WINDOW_RECORDS);
     let first = Pass::new(w, f, &blocks, h1, settings, settings.noise_factor);
     let first_window_s = 2.0 * h1 as f64 * median;
-    let quiet: Vec<f64> = first
+    let quiet = first
         .runs(&blocks, |i| first.is_static(i))
         .iter()
         .map(|&(i, j)| t[j] - t[i])
-        .filter(|&d| d >= first_window_s)
-        .map(|d| d + first_window_s)
-        .collect();
-    let typical = (!quiet.is_empty()).then(|| quantile(&quiet, TYPICAL_REST_QUANTILE));
-    // Records for a standard error of USABLE_MEAN_SE_M_S2 on each axis of the mean specific
-    // force, at the first pass's noise floor (the root of the three axes' summed variances).
-    let sigma_axis = first.floor_f / 3f64.sqrt();
-    let noise_min_duration_s = (sigma_axis / USABLE_MEAN_SE_M_S2).powi(2) * median;
-    let (window_s, window_source) = match typical {
-        _ if !settings.adapt_window => (settings.window_s, Source::Given),
-        None => (settings.window_s, Source::Default),
-        Some(d) => bounded(d * WINDOW_PER_REST, first_window_s, settings.window_s),
-    };
-    let (min_duration_s, min_duration_source) = match typical {
-        _ if !settings.adapt_min_duration => (settings.min_duration_s, Source::Given),
-        None => (settings.min_duration_s, Source::Default),
-        Some(d) => bounded(
-            d * MIN_DURATION_PER_REST,
-            window_s.max(noise_min_duration_s),
-            settings.min_duration_s,
-        ),
-    };
-    let used = DetectorSettings {
-        window_s,
-        min_duration_s,
-        ..*settings
-    };
-
-    let h = half_window(window_s, median);
+        .collect::<Vec<_>>();
+    let (used, adaptation) = adapt(settings, &quiet, first_window_s, first.floor_f, median);
+    let noise_min_duration_s = adaptation.noise_min_duration_s;
+    let h = half_window(used.window_s, median);
     let pass = Pass::new(w, f, &blocks, h, settings, settings.noise_factor);
     let intervals = intervals_of(t, w, f, &pass, &blocks, &used, median);
-    let mut motion = Vec::new();
-    let mut next = 0;
-    for s in &intervals {
-        if s.first_record > next {
-            motion.push(span(t, next, s.first_record - 1));
-        }
-        next = s.last_record + 1;
-    }
-    if next < n {
-        motion.push(span(t, next, n - 1));
-    }
+    let motion = motion_between(t, &intervals);
 
     let (motion_events, missed) = missed_stretches(t, &first, &blocks, &intervals);
     let missed_suggestion = (!missed.is_empty()).then(|| {
@@ -806,14 +837,7 @@ pub fn detect_static(
         noise_floor_w_rad_s: pass.floor_w,
         threshold_std_f_m_s2: pass.max_std_f,
         threshold_std_w_rad_s: pass.max_std_w,
-        adaptation: Adaptation {
-            first_pass_window_s: first_window_s,
-            quiet_stretches: quiet.len(),
-            typical_rest_s: typical,
-            noise_min_duration_s,
-            window: window_source,
-            min_duration: min_duration_source,
-        },
+        adaptation,
         motion_events,
         missed_quiet_stretches: missed,
         missed_suggestion,

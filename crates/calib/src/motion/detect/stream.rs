@@ -77,6 +77,83 @@ fn stats(
     (mean, var)
 }
 
+/// The window sums of [`read_windows`] over the block being read.
+struct State {
+    // Prefix sums of the block at indices `base ..= len`.
+    p: VecDeque<Sums>,
+    base: usize,
+    // Records `next ..< len` of the block, not yet visited.
+    pending: VecDeque<(f64, [f64; 3], [f64; 3])>,
+    next: usize,
+    len: usize,
+    block0: usize,
+    rf: [f64; 3],
+    rw: [f64; 3],
+    last_t: f64,
+    index: usize,
+}
+/// Visit the next pending record with its window's deviations and mean rate.
+fn emit(s: &mut State, h: usize, visit: &mut dyn Visit) {
+    let i = s.next;
+    let a = i.saturating_sub(h);
+    let b = (i + h + 1).min(s.len);
+    let (pa, pb) = (&s.p[a - s.base], &s.p[b - s.base]);
+    let m = (b - a) as f64;
+    let (_, vf) = stats(&pa.sf, &pa.qf, &pb.sf, &pb.qf, m, &s.rf);
+    let (mw, vw) = stats(&pa.sw, &pa.qw, &pb.sw, &pb.qw, m, &s.rw);
+    let (t, w, f) = s.pending.pop_front().expect("a pending record");
+    visit.record(&Win {
+        index: s.block0 + i,
+        t,
+        w,
+        f,
+        std_f: vf.sqrt(),
+        std_w: vw.sqrt(),
+        rate: norm(mw),
+    });
+    s.next += 1;
+    // The prefix sums still needed start at the next record's window.
+    while s.base < s.next.saturating_sub(h) {
+        s.p.pop_front();
+        s.base += 1;
+    }
+}
+/// Visit the block's records still pending (at its end).
+fn flush(s: &mut State, h: usize, visit: &mut dyn Visit) {
+    while s.next < s.len {
+        emit(s, h, visit);
+    }
+}
+
+/// A new block starts at the record being read: its sums start at zero, taken about its first
+/// record's values (sums of differences keep the variances accurate over long blocks).
+fn start_block(s: &mut State, w: [f64; 3], f: [f64; 3]) {
+    s.p.clear();
+    s.p.push_back(Sums::default());
+    s.pending.clear();
+    s.base = 0;
+    s.next = 0;
+    s.len = 0;
+    s.block0 = s.index;
+    s.rf = f;
+    s.rw = w;
+}
+
+/// The record's prefix sums, and the record held until its window is whole.
+fn push_record(s: &mut State, t: f64, w: [f64; 3], f: [f64; 3]) {
+    let mut x = *s.p.back().expect("a prefix sum");
+    for k in 0..3 {
+        let d = f[k] - s.rf[k];
+        x.sf[k] += d;
+        x.qf[k] += d * d;
+        let d = w[k] - s.rw[k];
+        x.sw[k] += d;
+        x.qw[k] += d * d;
+    }
+    s.p.push_back(x);
+    s.pending.push_back((t, w, f));
+}
+
 /// One reading of the records with windows of `h` records each side, cut at the blocks.
 pub(super) fn read_windows(
     read: &mut Reading,
@@ -85,50 +162,6 @@ pub(super) fn read_windows(
     h: usize,
     visit: &mut dyn Visit,
 ) -> Result<(), String> {
-    struct State {
-        // Prefix sums of the block at indices `base ..= len`.
-        p: VecDeque<Sums>,
-        base: usize,
-        // Records `next ..< len` of the block, not yet visited.
-        pending: VecDeque<(f64, [f64; 3], [f64; 3])>,
-        next: usize,
-        len: usize,
-        block0: usize,
-        rf: [f64; 3],
-        rw: [f64; 3],
-        last_t: f64,
-        index: usize,
-    }
-    fn emit(s: &mut State, h: usize, visit: &mut dyn Visit) {
-        let i = s.next;
-        let a = i.saturating_sub(h);
-        let b = (i + h + 1).min(s.len);
-        let (pa, pb) = (&s.p[a - s.base], &s.p[b - s.base]);
-        let m = (b - a) as f64;
-        let (_, vf) = stats(&pa.sf, &pa.qf, &pb.sf, &pb.qf, m, &s.rf);
-        let (mw, vw) = stats(&pa.sw, &pa.qw, &pb.sw, &pb.qw, m, &s.rw);
-        let (t, w, f) = s.pending.pop_front().expect("a pending record");
-        visit.record(&Win {
-            index: s.block0 + i,
-            t,
-            w,
-            f,
-            std_f: vf.sqrt(),
-            std_w: vw.sqrt(),
-            rate: norm(mw),
-        });
-        s.next += 1;
-        // The prefix sums still needed start at the next record's window.
-        while s.base < s.next.saturating_sub(h) {
-            s.p.pop_front();
-            s.base += 1;
-        }
-    }
-    fn flush(s: &mut State, h: usize, visit: &mut dyn Visit) {
-        while s.next < s.len {
-            emit(s, h, visit);
-        }
-    }
     let mut s = State {
         p: VecDeque::with_capacity(2 * h + 3),
         base: 0,
@@ -148,28 +181,10 @@ pub(super) fn read_windows(
                 flush(&mut s, h, visit);
                 visit.block_end(s.index, Some(t));
             }
-            s.p.clear();
-            s.p.push_back(Sums::default());
-            s.pending.clear();
-            s.base = 0;
-            s.next = 0;
-            s.len = 0;
-            s.block0 = s.index;
-            s.rf = f;
-            s.rw = w;
+            start_block(&mut s, w, f);
             visit.block_start(s.index, t, gap.then_some(s.last_t));
         }
-        let mut x = *s.p.back().expect("a prefix sum");
-        for k in 0..3 {
-            let d = f[k] - s.rf[k];
-            x.sf[k] += d;
-            x.qf[k] += d * d;
-            let d = w[k] - s.rw[k];
-            x.sw[k] += d;
-            x.qw[k] += d * d;
-        }
-        s.p.push_back(x);
-        s.pending.push_back((t, w, f));
+        push_record(&mut s, t, w, f);
         s.len += 1;
         s.last_t = t;
         s.index += 1;
@@ -455,6 +470,120 @@ impl Acc {
     }
 }
 
+/// The runs of static records of one pass, kept as static intervals as they end.
+struct IntervalRuns<'a> {
+    lv: Levels,
+    settings: &'a DetectorSettings,
+    median: f64,
+    n: usize,
+    // The run being summed: its own sums, and the sums continuing the last interval kept
+    // when the run starts right after it.
+    run: Option<(Acc, Option<Acc>, f64, f64)>,
+    block_first: usize,
+    gap_before: Option<f64>,
+    out: Vec<(StaticInterval, f64, f64)>,
+    chain: Option<Acc>,
+    prev_t: f64,
+    // Intervals whose record after is still to come.
+    want_after: bool,
+}
+impl IntervalRuns<'_> {
+    /// The run ends: kept when long enough (or at a short gap, to be merged), merged with the
+    /// interval before when adjacent with the same gravity direction.
+    fn end_run(&mut self, after_block: Option<(usize, Option<f64>)>) {
+        let Some((own, cont, t_before, t_last)) = self.run.take() else {
+            return;
+        };
+        let (i, j) = (own.first, own.first + own.records - 1);
+        let s = self.settings;
+        let at_short_gap = match after_block {
+            Some((b1, after)) => {
+                s.merge_across_short_gaps
+                    && j + 1 == b1
+                    && b1 < self.n
+                    && after.is_some_and(|ta| ta - t_last <= MERGE_GAP_INTERVALS * self.median)
+            }
+            None => false,
+        };
+        let starts_after_short_gap = s.merge_across_short_gaps
+            && i == self.block_first
+            && i > 0
+            && self
+                .gap_before
+                .is_some_and(|tb| own.t_first - tb <= MERGE_GAP_INTERVALS * self.median);
+        if !(t_last - own.t_first >= s.min_duration_s || at_short_gap || starts_after_short_gap) {
+            return;
+        }
+        let mine = own.interval(j, t_last);
+        if s.merge_across_short_gaps
+            && let (Some((prev, _, _)), Some(cont)) = (self.out.last(), cont)
+        {
+            let adjacent = mine.first_record == prev.last_record + 1
+                && mine.start_s - prev.end_s <= MERGE_GAP_INTERVALS * self.median;
+            let (a, b) = (prev.mean_f_m_s2, mine.mean_f_m_s2);
+            let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (norm(a) * norm(b));
+            if adjacent && cos >= MERGE_MAX_ANGLE_RAD.cos() {
+                let (_, before, _) = self.out.pop().expect("the interval before");
+                self.out.push((cont.interval(j, t_last), before, f64::NAN));
+                self.chain = Some(cont);
+                self.want_after = true;
+                return;
+            }
+        }
+        self.out.push((mine, t_before, f64::NAN));
+        self.chain = Some(own);
+        self.want_after = true;
+    }
+}
+impl Visit for IntervalRuns<'_> {
+    fn block_start(&mut self, first: usize, _: f64, before: Option<f64>) {
+        self.block_first = first;
+        self.gap_before = before;
+    }
+    fn record(&mut self, x: &Win) {
+        if self.want_after {
+            if let Some(last) = self.out.last_mut() {
+                last.2 = x.t;
+            }
+            self.want_after = false;
+        }
+        if self.lv.is_static(x) {
+            match &mut self.run {
+                Some((own, cont, _, t_last)) => {
+                    own.add(x);
+                    if let Some(c) = cont {
+                        c.add(x);
+                    }
+                    *t_last = x.t;
+                }
+                None => {
+                    let cont = match (self.out.last(), self.chain) {
+                        (Some((prev, _, _)), Some(mut c)) if prev.last_record + 1 == x.index => {
+                            c.add(x);
+                            Some(c)
+                        }
+                        _ => None,
+                    };
+                    self.run = Some((Acc::new(x), cont, self.prev_t, x.t));
+                }
+            }
+        } else {
+            self.end_run(None);
+            // `end_run` may have kept the run that ended at the record before this one.
+            if self.want_after {
+                if let Some(last) = self.out.last_mut() {
+                    last.2 = x.t;
+                }
+                self.want_after = false;
+            }
+        }
+        self.prev_t = x.t;
+    }
+    fn block_end(&mut self, end: usize, after: Option<f64>) {
+        self.end_run(Some((end, after)));
+    }
+}
+
 /// The static intervals of one pass ([`intervals_of`]), with for each the time of the record
 /// before it and after it (for the motion between them).
 fn intervals_streamed(
@@ -464,120 +593,7 @@ fn intervals_streamed(
     lv: &Levels,
     settings: &DetectorSettings,
 ) -> Result<Vec<(StaticInterval, f64, f64)>, String> {
-    struct V<'a> {
-        lv: Levels,
-        settings: &'a DetectorSettings,
-        median: f64,
-        n: usize,
-        // The run being summed: its own sums, and the sums continuing the last interval kept
-        // when the run starts right after it.
-        run: Option<(Acc, Option<Acc>, f64, f64)>,
-        block_first: usize,
-        gap_before: Option<f64>,
-        out: Vec<(StaticInterval, f64, f64)>,
-        chain: Option<Acc>,
-        prev_t: f64,
-        // Intervals whose record after is still to come.
-        want_after: bool,
-    }
-    impl V<'_> {
-        fn end_run(&mut self, after_block: Option<(usize, Option<f64>)>) {
-            let Some((own, cont, t_before, t_last)) = self.run.take() else {
-                return;
-            };
-            let (i, j) = (own.first, own.first + own.records - 1);
-            let s = self.settings;
-            let at_short_gap = match after_block {
-                Some((b1, after)) => {
-                    s.merge_across_short_gaps
-                        && j + 1 == b1
-                        && b1 < self.n
-                        && after.is_some_and(|ta| ta - t_last <= MERGE_GAP_INTERVALS * self.median)
-                }
-                None => false,
-            };
-            let starts_after_short_gap = s.merge_across_short_gaps
-                && i == self.block_first
-                && i > 0
-                && self
-                    .gap_before
-                    .is_some_and(|tb| own.t_first - tb <= MERGE_GAP_INTERVALS * self.median);
-            if !(t_last - own.t_first >= s.min_duration_s || at_short_gap || starts_after_short_gap)
-            {
-                return;
-            }
-            let mine = own.interval(j, t_last);
-            if s.merge_across_short_gaps
-                && let (Some((prev, _, _)), Some(cont)) = (self.out.last(), cont)
-            {
-                let adjacent = mine.first_record == prev.last_record + 1
-                    && mine.start_s - prev.end_s <= MERGE_GAP_INTERVALS * self.median;
-                let (a, b) = (prev.mean_f_m_s2, mine.mean_f_m_s2);
-                let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (norm(a) * norm(b));
-                if adjacent && cos >= MERGE_MAX_ANGLE_RAD.cos() {
-                    let (_, before, _) = self.out.pop().expect("the interval before");
-                    self.out.push((cont.interval(j, t_last), before, f64::NAN));
-                    self.chain = Some(cont);
-                    self.want_after = true;
-                    return;
-                }
-            }
-            self.out.push((mine, t_before, f64::NAN));
-            self.chain = Some(own);
-            self.want_after = true;
-        }
-    }
-    impl Visit for V<'_> {
-        fn block_start(&mut self, first: usize, _: f64, before: Option<f64>) {
-            self.block_first = first;
-            self.gap_before = before;
-        }
-        fn record(&mut self, x: &Win) {
-            if self.want_after {
-                if let Some(last) = self.out.last_mut() {
-                    last.2 = x.t;
-                }
-                self.want_after = false;
-            }
-            if self.lv.is_static(x) {
-                match &mut self.run {
-                    Some((own, cont, _, t_last)) => {
-                        own.add(x);
-                        if let Some(c) = cont {
-                            c.add(x);
-                        }
-                        *t_last = x.t;
-                    }
-                    None => {
-                        let cont = match (self.out.last(), self.chain) {
-                            (Some((prev, _, _)), Some(mut c))
-                                if prev.last_record + 1 == x.index =>
-                            {
-                                c.add(x);
-                                Some(c)
-                            }
-                            _ => None,
-                        };
-                        self.run = Some((Acc::new(x), cont, self.prev_t, x.t));
-                    }
-                }
-            } else {
-                self.end_run(None);
-                // `end_run` may have kept the run that ended at the record before this one.
-                if self.want_after {
-                    if let Some(last) = self.out.last_mut() {
-                        last.2 = x.t;
-                    }
-                    self.want_after = false;
-                }
-            }
-            self.prev_t = x.t;
-        }
-        fn block_end(&mut self, end: usize, after: Option<f64>) {
-            self.end_run(Some((end, after)));
-        }
-    }
-    let mut v = V {
+    let mut v = IntervalRuns {
         lv: *lv,
         settings,
         median: frame.median,
@@ -596,16 +612,13 @@ fn intervals_streamed(
     Ok(out)
 }
 
-/// [`detect_static`] on records read again at every call of `read` (rate form, strictly
-/// increasing time, at least two records), in memory independent of their number; `median`
-/// is the median record interval when the caller has it (the same as
-/// [`timing::median_interval`]), else it is found with four readings.
-pub fn detect_static_streamed(
+/// The records' count, first and last time and median interval (`median` when the caller has
+/// it), by one reading (four more for the median).
+fn scan(
     read: &mut Reading,
     median: Option<f64>,
     settings: &DetectorSettings,
-) -> Result<Segmentation, String> {
-    settings.check()?;
+) -> Result<(Frame, f64, f64), String> {
     let mut n = 0usize;
     let (mut t_first, mut t_last) = (f64::NAN, f64::NAN);
     let mut first_median = sins_model::timing::StreamedIntervalMedian::new();
@@ -634,49 +647,17 @@ pub fn detect_static_streamed(
         median,
         gap_factor: settings.gap_factor,
     };
+    Ok((frame, t_first, t_last))
+}
 
-    // First pass: a short window sees the quiet stretches, however short the rests.
-    let h1 = half_window(FIRST_PASS_WINDOW_S, median).max(MIN_HALF_WINDOW_RECORDS);
-    let first = levels(read, &frame, h1, settings, settings.noise_factor)?;
-    let first_window_s = 2.0 * h1 as f64 * median;
-    let runs = first_runs(read, &frame, h1, &first)?;
-    let quiet: Vec<f64> = runs
-        .quiet
-        .iter()
-        .map(|r| r.t_last - r.t_first)
-        .filter(|&d| d >= first_window_s)
-        .map(|d| d + first_window_s)
-        .collect();
-    let typical = (!quiet.is_empty()).then(|| quantile(&quiet, TYPICAL_REST_QUANTILE));
-    let sigma_axis = first.floor_f / 3f64.sqrt();
-    let noise_min_duration_s = (sigma_axis / USABLE_MEAN_SE_M_S2).powi(2) * median;
-    let (window_s, window_source) = match typical {
-        _ if !settings.adapt_window => (settings.window_s, Source::Given),
-        None => (settings.window_s, Source::Default),
-        Some(d) => bounded(d * WINDOW_PER_REST, first_window_s, settings.window_s),
-    };
-    let (min_duration_s, min_duration_source) = match typical {
-        _ if !settings.adapt_min_duration => (settings.min_duration_s, Source::Given),
-        None => (settings.min_duration_s, Source::Default),
-        Some(d) => bounded(
-            d * MIN_DURATION_PER_REST,
-            window_s.max(noise_min_duration_s),
-            settings.min_duration_s,
-        ),
-    };
-    let used = DetectorSettings {
-        window_s,
-        min_duration_s,
-        ..*settings
-    };
-
-    let h = half_window(window_s, median);
-    let pass = levels(read, &frame, h, settings, settings.noise_factor)?;
-    let found = intervals_streamed(read, &frame, h, &pass, &used)?;
+/// The motion between the static intervals found (each with the times of the records around
+/// it), from the first record at `t[0]` to the last at `t[1]` of `n`.
+fn motion_streamed(found: &[(StaticInterval, f64, f64)], n: usize, t: [f64; 2]) -> Vec<Span> {
+    let [t_first, t_last] = t;
     let mut motion = Vec::new();
     let mut next = 0;
     let mut t_next = t_first;
-    for (s, before, after) in &found {
+    for (s, before, after) in found {
         if s.first_record > next {
             motion.push(Span {
                 first_record: next,
@@ -698,6 +679,35 @@ pub fn detect_static_streamed(
             duration_s: t_last - t_next,
         });
     }
+    motion
+}
+
+/// [`detect_static`] on records read again at every call of `read` (rate form, strictly
+/// increasing time, at least two records), in memory independent of their number; `median`
+/// is the median record interval when the caller has it (the same as
+/// [`timing::median_interval`]), else it is found with four readings.
+pub fn detect_static_streamed(
+    read: &mut Reading,
+    median: Option<f64>,
+    settings: &DetectorSettings,
+) -> Result<Segmentation, String> {
+    settings.check()?;
+    let (frame, t_first, t_last) = scan(read, median, settings)?;
+    let (n, median) = (frame.n, frame.median);
+
+    // First pass: a short window sees the quiet stretches, however short the rests.
+    let h1 = half_window(FIRST_PASS_WINDOW_S, median).max(MIN_HALF_WINDOW_RECORDS);
+    let first = levels(read, &frame, h1, settings, settings.noise_factor)?;
+    let first_window_s = 2.0 * h1 as f64 * median;
+    let runs = first_runs(read, &frame, h1, &first)?;
+    let quiet: Vec<f64> = runs.quiet.iter().map(|r| r.t_last - r.t_first).collect();
+    let (used, adaptation) = adapt(settings, &quiet, first_window_s, first.floor_f, median);
+    let noise_min_duration_s = adaptation.noise_min_duration_s;
+
+    let h = half_window(used.window_s, median);
+    let pass = levels(read, &frame, h, settings, settings.noise_factor)?;
+    let found = intervals_streamed(read, &frame, h, &pass, &used)?;
+    let motion = motion_streamed(&found, n, [t_first, t_last]);
     let intervals: Vec<StaticInterval> = found.into_iter().map(|x| x.0).collect();
 
     let (motion_events, missed) = missed_streamed(&runs, &intervals);
@@ -730,14 +740,7 @@ pub fn detect_static_streamed(
         noise_floor_w_rad_s: pass.floor_w,
         threshold_std_f_m_s2: pass.max_std_f,
         threshold_std_w_rad_s: pass.max_std_w,
-        adaptation: Adaptation {
-            first_pass_window_s: first_window_s,
-            quiet_stretches: quiet.len(),
-            typical_rest_s: typical,
-            noise_min_duration_s,
-            window: window_source,
-            min_duration: min_duration_source,
-        },
+        adaptation,
         motion_events,
         missed_quiet_stretches: missed,
         missed_suggestion,
@@ -806,6 +809,28 @@ fn missed_streamed(runs: &FirstRuns, intervals: &[StaticInterval]) -> (usize, Ve
     (events, missed)
 }
 
+/// Feeds each too-noisy stretch's records' deviation ratios (to the first pass's floors) to a
+/// streamed selection.
+struct Feed<'a> {
+    noisy: &'a [&'a QuietStretch],
+    at: usize,
+    first: Levels,
+    visit: &'a mut dyn FnMut(usize, f64),
+}
+impl Visit for Feed<'_> {
+    fn record(&mut self, x: &Win) {
+        while self.at < self.noisy.len() && self.noisy[self.at].last_record < x.index {
+            self.at += 1;
+        }
+        if let Some(m) = self.noisy.get(self.at)
+            && m.first_record <= x.index
+        {
+            let r = (x.std_f / self.first.floor_f).max(x.std_w / self.first.floor_w);
+            (self.visit)(self.at, r);
+        }
+    }
+}
+
 /// [`suggest`] on the records read again.
 #[allow(clippy::too_many_arguments)]
 fn suggest_streamed(
@@ -852,25 +877,6 @@ fn suggest_streamed(
         .collect();
     if !noisy.is_empty() {
         // The median ratio of each too-noisy stretch, by streamed selection over its records.
-        struct Feed<'a> {
-            noisy: &'a [&'a QuietStretch],
-            at: usize,
-            first: Levels,
-            visit: &'a mut dyn FnMut(usize, f64),
-        }
-        impl Visit for Feed<'_> {
-            fn record(&mut self, x: &Win) {
-                while self.at < self.noisy.len() && self.noisy[self.at].last_record < x.index {
-                    self.at += 1;
-                }
-                if let Some(m) = self.noisy.get(self.at)
-                    && m.first_record <= x.index
-                {
-                    let r = (x.std_f / self.first.floor_f).max(x.std_w / self.first.floor_w);
-                    (self.visit)(self.at, r);
-                }
-            }
-        }
         let medians = select_streamed(
             noisy.len(),
             |_, n| quantile_rank(n, 0.5),
