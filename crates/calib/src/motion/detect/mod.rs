@@ -772,6 +772,34 @@ fn motion_between(t: &[f64], intervals: &[StaticInterval]) -> Vec<Span> {
     motion
 }
 
+/// The window and minimum duration that would take the missed rests (`rests`: the longest quiet
+/// run in each, s), chosen as [`adapt`] chooses them from all rests; `used`'s without any.
+pub(crate) fn suggested_lengths(
+    rests: &[f64],
+    used: &DetectorSettings,
+    first_window_s: f64,
+    noise_min_duration_s: f64,
+) -> (f64, f64) {
+    if rests.is_empty() {
+        return (used.window_s, used.min_duration_s);
+    }
+    let d = quantile(rests, TYPICAL_REST_QUANTILE);
+    let window = bounded(d * WINDOW_PER_REST, first_window_s, used.window_s).0;
+    let min = bounded(
+        d * MIN_DURATION_PER_REST,
+        window.max(noise_min_duration_s),
+        used.min_duration_s,
+    )
+    .0;
+    (window, min)
+}
+
+/// The noise factor that puts a too-noisy stretch's median deviation ratio (to the floor) a
+/// quarter below the threshold, rounded up to a half.
+pub(crate) fn noise_factor_for(median_ratio: f64) -> f64 {
+    (median_ratio * 1.25 * 2.0).ceil() / 2.0
+}
+
 /// Split a recording (time stamps, angular rates (rad/s), specific forces (m/s^2), at least two
 /// records with strictly increasing time) into static intervals and motion.
 pub fn detect_static(
@@ -930,19 +958,8 @@ fn suggest(
             longest + first_window_s
         })
         .collect();
-    let (window_s, min_duration_s) = if rests.is_empty() {
-        (used.window_s, used.min_duration_s)
-    } else {
-        let d = quantile(&rests, TYPICAL_REST_QUANTILE);
-        let window = bounded(d * WINDOW_PER_REST, first_window_s, used.window_s).0;
-        let min = bounded(
-            d * MIN_DURATION_PER_REST,
-            window.max(noise_min_duration_s),
-            used.min_duration_s,
-        )
-        .0;
-        (window, min)
-    };
+    let (window_s, min_duration_s) =
+        suggested_lengths(&rests, used, first_window_s, noise_min_duration_s);
     // The noise factor that puts the too-noisy stretches' typical (median) deviation, relative
     // to the floor, a quarter below the threshold; rounded up to a half.
     let mut noise_factor = used.noise_factor;
@@ -950,7 +967,7 @@ fn suggest(
         let ratios: Vec<f64> = (m.first_record..=m.last_record)
             .map(|i| (first.win.std_f[i] / first.floor_f).max(first.win.std_w[i] / first.floor_w))
             .collect();
-        let needed = (quantile(&ratios, 0.5) * 1.25 * 2.0).ceil() / 2.0;
+        let needed = noise_factor_for(quantile(&ratios, 0.5));
         if needed.is_finite() {
             noise_factor = noise_factor.max(needed);
         }

@@ -857,19 +857,8 @@ fn suggest_streamed(
             longest + first_window_s
         })
         .collect();
-    let (window_s, min_duration_s) = if rests.is_empty() {
-        (used.window_s, used.min_duration_s)
-    } else {
-        let d = quantile(&rests, TYPICAL_REST_QUANTILE);
-        let window = bounded(d * WINDOW_PER_REST, first_window_s, used.window_s).0;
-        let min = bounded(
-            d * MIN_DURATION_PER_REST,
-            window.max(noise_min_duration_s),
-            used.min_duration_s,
-        )
-        .0;
-        (window, min)
-    };
+    let (window_s, min_duration_s) =
+        suggested_lengths(&rests, used, first_window_s, noise_min_duration_s);
     let mut noise_factor = used.noise_factor;
     let noisy: Vec<&QuietStretch> = missed
         .iter()
@@ -891,7 +880,7 @@ fn suggest_streamed(
             },
         )?;
         for m in medians {
-            let needed = (m * 1.25 * 2.0).ceil() / 2.0;
+            let needed = noise_factor_for(m);
             if needed.is_finite() {
                 noise_factor = noise_factor.max(needed);
             }
