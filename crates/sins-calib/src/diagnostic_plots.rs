@@ -5,9 +5,14 @@
 //! colour (NIS per segment: side by side).
 
 use crate::Error;
+use crate::plot::{
+    beyond, beyond_note, count_tick, linear_ticks, log_key_points, log_tick, off_axis,
+    robust_limit, titled,
+};
 use calib::check::diagnostics::{Diagnostics, Innovation, KindDiagnostics, kind_label, whiten};
 use calib::model::MeasurementKind;
 use plotters::coord::Shift;
+use plotters::coord::combinators::{LogCoord, WithKeyPoints};
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -16,8 +21,8 @@ const AFTER: RGBColor = RGBColor(255, 127, 14);
 const BAND: RGBColor = RGBColor(120, 120, 120);
 const AXES: [&str; 3] = ["x", "y", "z"];
 const FAILS: RGBColor = RGBColor(214, 39, 40);
-/// Title font size (px): the titles fit an 800-pixel-wide plot.
-const TITLE_SIZE: u32 = 18;
+/// Title font size (px), smaller or wrapped where a title does not fit the width.
+const TITLE_SIZE: f64 = 18.0;
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
@@ -124,10 +129,7 @@ fn range(values: impl Iterator<Item = f64>, symmetric: bool) -> (f64, f64) {
 }
 
 fn three_panels<'a>(root: &Area<'a>, title: &str) -> Result<Vec<Area<'a>>, String> {
-    let root = root
-        .titled(title, ("sans-serif", TITLE_SIZE))
-        .map_err(|e| perr(&e))?;
-    Ok(root.split_evenly((3, 1)))
+    Ok(titled(root, title, TITLE_SIZE)?.split_evenly((3, 1)))
 }
 
 fn innovations_plot(
@@ -155,8 +157,10 @@ fn innovations_plot(
         .collect();
     let (t0, t1) = range(series.iter().flatten().map(|p| p.0), false);
     for (a, panel) in panels.iter().enumerate() {
-        let (_, y) = range(series.iter().flatten().map(|p| p.1[a]), true);
-        let y = y.max(4.0);
+        // At least 4 sigma; a few outliers beyond the 99th percentile of the magnitudes (with
+        // half as much again) are marked at the edge instead of stretching the axis.
+        let values = || series.iter().flatten().map(|p| p.1[a]);
+        let y = robust_limit(values(), 0.99, 1.5, 4.0);
         let mut chart = ChartBuilder::on(panel)
             .margin(8)
             .x_label_area_size(30)
@@ -165,8 +169,8 @@ fn innovations_plot(
             .map_err(|e| perr(&e))?;
         chart
             .configure_mesh()
-            .y_label_formatter(&|v| crate::table::tick(*v))
-            .x_label_formatter(&|v| crate::table::tick(*v))
+            .y_label_formatter(&linear_ticks(-y, y))
+            .x_label_formatter(&linear_ticks(t0, t1))
             .x_desc("IMU time [s]")
             .y_desc(format!("axis {} [sigma]", AXES[a]))
             .label_style(("sans-serif", 13))
@@ -174,11 +178,16 @@ fn innovations_plot(
             .draw()
             .map_err(|e| perr(&e))?;
         for (f, s) in fits.iter().zip(&series) {
+            let on_axis = s.iter().filter(|p| p.1[a].abs() <= y);
             chart
                 .draw_series(
-                    s.iter()
-                        .map(|p| Circle::new((p.0, p.1[a]), 1, f.colour.mix(0.6).filled())),
+                    on_axis.map(|p| Circle::new((p.0, p.1[a]), 1, f.colour.mix(0.6).filled())),
                 )
+                .map_err(|e| perr(&e))?;
+            chart
+                .draw_series(s.iter().filter(|p| p.1[a].abs() > y).map(|p| {
+                    EmptyElement::at((p.0, 0.985 * y.copysign(p.1[a]))) + off_axis(p.1[a] > 0.0)
+                }))
                 .map_err(|e| perr(&e))?;
         }
         for b in [-3.0, 3.0] {
@@ -186,6 +195,7 @@ fn innovations_plot(
                 .draw_series(LineSeries::new([(t0, b), (t1, b)], BAND.stroke_width(1)))
                 .map_err(|e| perr(&e))?;
         }
+        beyond_note(panel, beyond(values(), y), 13.0)?;
     }
     Ok(())
 }
@@ -215,16 +225,28 @@ fn kinds<'a>(
         .collect()
 }
 
+/// The title of [`spectrum_plot`]: the program's lines named where they are drawn.
+fn spectrum_title(kind: MeasurementKind, has_lines: bool, fits: &[Fit<'_>]) -> String {
+    format!(
+        "{}: periodogram of whitened innovations; {}line: fail level{}",
+        kind_label(kind),
+        if has_lines {
+            "triangles: program lines, "
+        } else {
+            ""
+        },
+        fits_note(fits)
+    )
+}
+
 fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<(), String> {
-    let panels = three_panels(
-        root,
-        &format!(
-            "{}: periodogram of whitened innovations; triangles: program lines, line: fail level{}",
-            kind_label(kind),
-            fits_note(fits)
-        ),
-    )?;
     let ks = kinds(fits, kind);
+    // The program's lines are drawn (and named) only where there are some: a recording of
+    // rests has no program.
+    let has_lines = ks
+        .iter()
+        .any(|(_, k)| k.lines.iter().any(|l| l.frequency_hz > 0.0));
+    let panels = three_panels(root, &spectrum_title(kind, has_lines, fits))?;
     let freqs = ks
         .iter()
         .flat_map(|(_, k)| k.spectrum.frequency_hz.iter().copied())
@@ -245,12 +267,12 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
             .margin(8)
             .x_label_area_size(30)
             .y_label_area_size(50)
-            .build_cartesian_2d((f0..f1).log_scale(), (1e-3..hi).log_scale())
+            .build_cartesian_2d(log_axis(f0, f1), log_axis(1e-3, hi))
             .map_err(|e| perr(&e))?;
         chart
             .configure_mesh()
-            .y_label_formatter(&|v| crate::table::tick(*v))
-            .x_label_formatter(&|v| crate::table::tick(*v))
+            .y_label_formatter(&log_tick)
+            .x_label_formatter(&log_tick)
             .x_desc("frequency [Hz]")
             .y_desc(format!("axis {} [power / white]", AXES[a]))
             .label_style(("sans-serif", 13))
@@ -289,6 +311,15 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
         }
     }
     Ok(())
+}
+
+/// A logarithmic axis from `lo` to `hi` with the ticks of [`log_key_points`].
+fn log_axis(lo: f64, hi: f64) -> WithKeyPoints<LogCoord<f64>> {
+    let (bold, light) = log_key_points(lo, hi);
+    (lo..hi)
+        .log_scale()
+        .with_key_points(bold)
+        .with_light_points(light)
 }
 
 fn autocorrelation_plot(
@@ -331,20 +362,21 @@ fn autocorrelation_plot(
                 })
             })
             .collect();
-        let mut chart = ChartBuilder::on(panel)
+        let panel = titled(
+            panel,
+            &format!("axis {}: Ljung-Box p = {}", AXES[a], ljung_box.join(", ")),
+            13.0,
+        )?;
+        let mut chart = ChartBuilder::on(&panel)
             .margin(8)
-            .caption(
-                format!("axis {}: Ljung-Box p = {}", AXES[a], ljung_box.join(", ")),
-                ("sans-serif", 13),
-            )
             .x_label_area_size(30)
             .y_label_area_size(50)
             .build_cartesian_2d(0.0..lags as f64 + 1.0, -y..y)
             .map_err(|e| perr(&e))?;
         chart
             .configure_mesh()
-            .y_label_formatter(&|v| crate::table::tick(*v))
-            .x_label_formatter(&|x| format!("{x:.0}"))
+            .y_label_formatter(&linear_ticks(-y, y))
+            .x_label_formatter(&count_tick)
             .x_desc("lag [updates]")
             .y_desc(format!("axis {} [correlation]", AXES[a]))
             .label_style(("sans-serif", 13))
@@ -376,16 +408,15 @@ fn autocorrelation_plot(
 }
 
 fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<(), String> {
-    let root = root
-        .titled(
-            &format!(
-                "{}: NIS / dof per segment, bars: band at the per-test level, red ring: fails{}",
-                kind_label(kind),
-                fits_note(fits)
-            ),
-            ("sans-serif", TITLE_SIZE),
-        )
-        .map_err(|e| perr(&e))?;
+    let root = titled(
+        root,
+        &format!(
+            "{}: NIS / dof per segment, bars: band at the per-test level, red ring: fails{}",
+            kind_label(kind),
+            fits_note(fits)
+        ),
+        TITLE_SIZE,
+    )?;
     let ks = kinds(fits, kind);
     let n_seg = ks
         .iter()
@@ -398,18 +429,19 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
             .flat_map(|s| [s.nis.sum, s.nis.band.0, s.nis.band.1].map(|v| v / s.nis.dof.max(1.0)))
     });
     let (lo, hi) = range(vals.chain([1.0]), false);
+    let (lo, hi) = (lo.min(0.9), hi.max(1.1));
     let mut chart = ChartBuilder::on(&root)
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d(-0.5..n_seg as f64 - 0.5, lo.min(0.9)..hi.max(1.1))
+        .build_cartesian_2d(-0.5..n_seg as f64 - 0.5, lo..hi)
         .map_err(|e| perr(&e))?;
     chart
         .configure_mesh()
-        .y_label_formatter(&|v| crate::table::tick(*v))
+        .y_label_formatter(&linear_ticks(lo, hi))
         .x_desc("segment number (names: report.md, or the diagnostics in the JSON)")
         .y_desc("NIS / dof [1 expected]")
-        .x_label_formatter(&|x| format!("{x:.0}"))
+        .x_label_formatter(&count_tick)
         .label_style(("sans-serif", 14))
         .light_line_style(RGBColor(240, 240, 240))
         .draw()
@@ -486,6 +518,27 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    #[test]
+    fn program_lines_are_named_only_where_there_are_some() {
+        let a = innovations(1.0);
+        let settings = DiagnosticSettings::default();
+        let d = diagnose(&a, &[], &settings);
+        let fits = [Fit {
+            diag: &d,
+            innov: &a,
+            colour: BEFORE,
+            name: "fit",
+        }];
+        let kind = MeasurementKind::Accel;
+        // No program (a hand-turned recording): no lines drawn, none named.
+        let k = fits[0].diag.kind(kind).unwrap();
+        assert!(k.lines.iter().all(|l| l.frequency_hz <= 0.0));
+        let title = spectrum_title(kind, false, &fits);
+        assert!(!title.contains("triangles"), "{title}");
+        assert!(title.contains("line: fail level"));
+        assert!(spectrum_title(kind, true, &fits).contains("triangles: program lines"));
     }
 
     #[test]

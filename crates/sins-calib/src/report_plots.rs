@@ -3,8 +3,9 @@
 //! and the posterior correlation matrix as a heat map.
 
 use crate::Error;
-use crate::plot::write_png;
-use crate::table;
+use crate::plot::{
+    beyond, beyond_note, linear_ticks, off_axis, robust_limit, titled, write_png, write_png_keeping,
+};
 use calib::check::diagnostics::{Segment, kind_label};
 use calib::model::MeasurementKind;
 use calib::report::lab::{Residual, residual_unit};
@@ -32,6 +33,19 @@ fn quantile_abs(values: impl Iterator<Item = f64>, q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
+/// The limit of the residual axis `axis`: from updates with a typical band (at most twice the
+/// median sigma), the 98th percentile of their magnitudes with half as much again, at least
+/// three median sigmas ([`robust_limit`]). A few outliers, and updates with a wider band (the
+/// first of a fit, or after a motion between rests), go beyond it and are marked at its edge.
+fn residual_limit(residuals: &[Residual], axis: usize) -> f64 {
+    let typical_sigma = quantile_abs(residuals.iter().map(|r| r.sigma[axis]), 0.5);
+    let typical = residuals
+        .iter()
+        .filter(|r| r.sigma[axis] <= 2.0 * typical_sigma)
+        .map(|r| r.value[axis]);
+    robust_limit(typical, 0.98, 1.5, 3.0 * typical_sigma)
+}
+
 /// What a residual plot shows besides the residuals: the segments and which of them fail.
 pub struct SegmentMarks<'a> {
     /// The fit's segments (program pieces or rests), numbered as in the report's tables.
@@ -51,13 +65,12 @@ pub fn residuals_png(
 ) -> Result<(), Error> {
     let (unit, _) = residual_unit(kind);
     let title = format!(
-        "{} residuals z - Hx [{unit}]; grey: +-1 sigma of S; red: segment fails; off scale: at the edge",
+        "{} residuals z - Hx [{unit}]; grey: +-1 sigma of S; red: segment fails; \
+         triangles: beyond the axis",
         kind_label(kind)
     );
     write_png(path, (800, 600), |root| {
-        let root = root
-            .titled(&title, ("sans-serif", 17))
-            .map_err(|e| e.to_string())?;
+        let root = titled(root, &title, 17.0)?;
         let panels = root.split_evenly((3, 1));
         for (axis, panel) in panels.iter().enumerate() {
             residual_panel(panel, axis, unit, residuals, marks, axis == 0)?;
@@ -80,18 +93,7 @@ fn residual_panel(
         (Some(a), Some(b)) if b.t > a.t => (a.t, b.t),
         _ => (0.0, 1.0),
     };
-    // The scale holds 99.5 % of the residuals of updates with a typical band (at most twice
-    // the median sigma) and three median sigmas; updates with a wider band (the first of a fit
-    // or after a motion between rests) may go off it and are drawn at its edge.
-    let typical_sigma = quantile_abs(residuals.iter().map(|r| r.sigma[axis]), 0.5);
-    let typical = residuals
-        .iter()
-        .filter(|r| r.sigma[axis] <= 2.0 * typical_sigma)
-        .map(|r| r.value[axis]);
-    let y = quantile_abs(typical, 0.995)
-        .max(3.0 * typical_sigma)
-        .max(1e-9)
-        * 1.25;
+    let y = residual_limit(residuals, axis);
     let mut chart = ChartBuilder::on(panel)
         .margin(6)
         .x_label_area_size(28)
@@ -117,29 +119,45 @@ fn residual_panel(
         .configure_mesh()
         .x_desc("IMU time [s]")
         .y_desc(format!("{} [{unit}]", ENU[axis]))
-        .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_label_formatter(&|v| table::compact(*v))
+        .x_label_formatter(&linear_ticks(t0, t1))
+        .y_label_formatter(&linear_ticks(-y, y))
         .label_style(("sans-serif", 12))
         .axis_desc_style(("sans-serif", 13))
         .light_line_style(TRANSPARENT)
         .draw()
         .map_err(|e| pe(&e))?;
     // The band as dots: the sigma of the angles changes from one update to the next as the
-    // gimbals turn, and a line through it would fill the panel.
+    // gimbals turn, and a line through it would fill the panel. A band wider than the axis is
+    // left out (at the edge it would look like residuals).
     for sign in [-1.0, 1.0] {
         chart
-            .draw_series(residuals.iter().map(|r| {
-                let v = (sign * r.sigma[axis]).clamp(-y, y);
-                Circle::new((r.t, v), 1, BAND.filled())
-            }))
+            .draw_series(
+                residuals
+                    .iter()
+                    .filter(|r| r.sigma[axis] <= y)
+                    .map(|r| Circle::new((r.t, sign * r.sigma[axis]), 1, BAND.filled())),
+            )
             .map_err(|e| pe(&e))?;
     }
+    let value = |r: &&Residual| r.value[axis];
     chart
-        .draw_series(residuals.iter().map(|r| {
-            let v = r.value[axis].clamp(-y, y);
-            Circle::new((r.t, v), 1, POINTS.filled())
+        .draw_series(
+            residuals
+                .iter()
+                .filter(|r| value(r).abs() <= y)
+                .map(|r| Circle::new((r.t, value(&r)), 1, POINTS.filled())),
+        )
+        .map_err(|e| pe(&e))?;
+    chart
+        .draw_series(residuals.iter().filter(|r| value(r).abs() > y).map(|r| {
+            EmptyElement::at((r.t, 0.985 * y.copysign(value(&r)))) + off_axis(value(&r) > 0.0)
         }))
         .map_err(|e| pe(&e))?;
+    beyond_note(
+        panel,
+        beyond(residuals.iter().map(|r| r.value[axis]), y),
+        12.0,
+    )?;
     if numbered {
         // A number where there is room for it (about 18 px).
         let width_px = panel.dim_in_pixel().0.saturating_sub(70).max(1) as f64;
@@ -183,15 +201,14 @@ pub fn temperature_png(
     let pad = ((hi - lo) * 0.05).max(0.05);
     let span = (lo - pad, hi + pad);
     write_png(path, (800, 800), |root| {
-        let root = root
-            .titled(
-                &format!(
-                    "temperature (reference {reference_c:.2} deg C dashed); specific-force \
-                     residuals [{unit}] in the instrument axes, bin means red"
-                ),
-                ("sans-serif", 17),
-            )
-            .map_err(|e| e.to_string())?;
+        let root = titled(
+            root,
+            &format!(
+                "temperature (reference {reference_c:.2} deg C dashed); specific-force \
+                 residuals [{unit}] in the instrument axes, bin means red"
+            ),
+            17.0,
+        )?;
         let panels = root.split_evenly((4, 1));
         temperature_panel(&panels[0], series, reference_c, span)?;
         for (axis, panel) in panels[1..].iter().enumerate() {
@@ -261,8 +278,8 @@ fn temperature_panel(
         .configure_mesh()
         .x_desc("IMU time [s]")
         .y_desc("temperature [deg C]")
-        .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_label_formatter(&|v| table::compact(*v))
+        .x_label_formatter(&linear_ticks(t0, t1))
+        .y_label_formatter(&linear_ticks(c0, c1))
         .label_style(("sans-serif", 12))
         .axis_desc_style(("sans-serif", 13))
         .light_line_style(TRANSPARENT)
@@ -309,8 +326,8 @@ fn against_temperature_panel(
         .configure_mesh()
         .x_desc("temperature [deg C]")
         .y_desc(format!("{} [{unit}]", ["x", "y", "z"][axis]))
-        .x_label_formatter(&|x| table::compact(*x))
-        .y_label_formatter(&|v| table::compact(*v))
+        .x_label_formatter(&linear_ticks(c0, c1))
+        .y_label_formatter(&linear_ticks(-y, y))
         .label_style(("sans-serif", 12))
         .axis_desc_style(("sans-serif", 13))
         .light_line_style(TRANSPARENT)
@@ -340,10 +357,16 @@ fn against_temperature_panel(
     Ok(())
 }
 
-/// A correlation as a colour: blue for -1, white for 0, red for +1.
+/// Steps of the correlation's colour scale per unit: cells and bar are drawn in the same
+/// 2 * 50 + 1 colours, each kept exactly in the indexed PNG (finer than the eye tells apart).
+const COLOUR_STEPS: i32 = 50;
+
+/// A correlation as a colour: blue for -1, white for 0, red for +1, in steps of
+/// 1 / [`COLOUR_STEPS`].
 fn correlation_colour(r: f64) -> RGBColor {
+    let steps = f64::from(COLOUR_STEPS);
     let r = if r.is_finite() {
-        r.clamp(-1.0, 1.0)
+        (r.clamp(-1.0, 1.0) * steps).round() / steps
     } else {
         0.0
     };
@@ -363,9 +386,17 @@ pub fn correlation_png(path: &Path, names: &[String], r: &[Vec<f64>]) -> Result<
     // Cells of 22 px for the 25 parameters of a calibration with the turntable angles.
     let side = (570 / n).clamp(2, 22);
     let height = (CORRELATION_TOP + CORRELATION_LABELS) as u32 + n * side + 10;
-    write_png(path, (800, height.max(300)), |root| {
+    write_png_keeping(path, (800, height.max(300)), &correlation_scale(), |root| {
         draw_correlation(root, names, r, side as i32)
     })
+}
+
+/// Every colour of [`correlation_colour`], from -1 to +1.
+fn correlation_scale() -> Vec<[u8; 3]> {
+    (-COLOUR_STEPS..=COLOUR_STEPS)
+        .map(|k| correlation_colour(f64::from(k) / f64::from(COLOUR_STEPS)))
+        .map(|c| [c.0, c.1, c.2])
+        .collect()
 }
 
 /// Room above the matrix (title) and below it (the rotated names), px.
@@ -474,5 +505,57 @@ mod tests {
         assert_eq!(correlation_colour(1.0), RGBColor(178, 24, 43));
         assert_eq!(correlation_colour(-1.0), RGBColor(33, 102, 172));
         assert_eq!(correlation_colour(f64::NAN), RGBColor(255, 255, 255));
+    }
+
+    /// The RGB pixels of a PNG file, and its width.
+    fn decoded(path: &Path) -> (Vec<u8>, usize) {
+        let mut decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
+        decoder.set_transformations(png::Transformations::EXPAND);
+        let mut reader = decoder.read_info().unwrap();
+        let mut rgb = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut rgb).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgb);
+        (rgb, info.width as usize)
+    }
+
+    #[test]
+    fn the_colour_bar_runs_smoothly_in_the_cells_colours() {
+        // 30 parameters with correlations of every value: more colours than an indexed PNG
+        // holds. The bar was drawn in the most frequent ones, in bands of grey.
+        let n: i32 = 30;
+        let names: Vec<String> = (0..n).map(|k| format!("p{k}")).collect();
+        let r: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| (0.37 * f64::from(i * n + j)).sin())
+                    .collect()
+            })
+            .collect();
+        let dir = std::env::temp_dir().join(format!("sins-calib-corr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("correlation.png");
+        correlation_png(&path, &names, &r).unwrap();
+        let (rgb, width) = decoded(&path);
+        let _ = std::fs::remove_dir_all(&dir);
+        // The bar: 9 px into its 18, from the top of the matrix down its height.
+        let side = 570 / n;
+        let (x, top, height) = (140 + n * side + 24 + 9, CORRELATION_TOP, n * side);
+        let pixel = |x: i32, y: i32| {
+            let k = 3 * (y as usize * width + x as usize);
+            RGBColor(rgb[k], rgb[k + 1], rgb[k + 2])
+        };
+        let mut shades = std::collections::HashSet::new();
+        for k in 1..height - 1 {
+            let v = 1.0 - 2.0 * f64::from(k) / f64::from(height - 1);
+            assert_eq!(pixel(x, top + k), correlation_colour(v), "row {k}, r = {v}");
+            shades.insert(pixel(x, top + k));
+        }
+        assert_eq!(shades.len(), 2 * COLOUR_STEPS as usize + 1);
+        // Each cell exactly in its colour of the scale.
+        for (i, j) in [(0, 1), (7, 19), (29, 3)] {
+            let (cx, cy) = (140 + j * side + side / 2, top + i * side + side / 2);
+            let want = correlation_colour(r[i as usize][j as usize]);
+            assert_eq!(pixel(cx, cy), want, "cell {i}, {j}");
+        }
     }
 }
