@@ -4,7 +4,7 @@
 use crate::config::{ConfigError, RunConfig};
 use crate::estimate::covariance::layout_for;
 use crate::model::extension::{HiddenEffects, ModelExtension};
-use crate::model::layout::layout_with;
+use crate::model::layout::{StateLayout, layout_with};
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use sins_model::names;
@@ -17,6 +17,7 @@ use turntable::simulate::{
     AccelDrift, GyroDrift, ImuStream, SimConfig, SimRng, SimulateError, Simulation, Truth,
     TruthParameter, TurntableStream, simulate_walking,
 };
+use turntable::temperature::TemperatureProfile;
 
 /// Errors of a simulation.
 #[derive(Debug, thiserror::Error)]
@@ -236,21 +237,73 @@ pub fn prepare_run_hidden(
             name,
             expected: "the parameters of the candidate terms (sins_model::candidates)".into(),
         })?;
-    let get = |name: &str| {
-        values
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| *v)
-            .expect("layout names")
-    };
     let layout = layout_with(config, false, &ModelExtension::with(&candidates));
+    let p_true = true_instrument(config, &layout, &values, hidden);
+    let mounting = Mounting {
+        delta_z: nalgebra::Vector3::from_fn(|i, _| value_of(&values, names::INSTALL_DELTA[i])),
+        gamma_p: nalgebra::Vector3::from_fn(|i, _| value_of(&values, names::BASE_GAMMA[i])),
+    };
+    let kin = Kinematics::new(config.program()?, mounting, config.site());
+    let temperature = run_temperature(config, &kin, &candidates, origin)?;
+    let sensor = angle_sensor(config, value_of(&values, names::TURNTABLE_TAU));
+    let t = &config.truth;
+    let on = if t.noise { 1.0 } else { 0.0 };
+    let sim = SimConfig {
+        imu_rate_hz: t.imu_rate_hz,
+        gyro_psd: on * config.gyro_psd(),
+        accel_psd: on * config.accel_psd(),
+        duration_s: t.duration_s,
+        seed: t.seed,
+        temperature: temperature.clone(),
+        ..SimConfig::default()
+    };
+    let walks = Walks::of(config, hidden);
+    let mut truth = Truth::new(&layout.model, &p_true, &kin, &sensor);
+    walks.add_to(&mut truth);
+    truth.temperature_reference_c = temperature.map(|(_, r)| r);
+    Ok(PreparedRun {
+        kin,
+        model: layout.model,
+        p_true,
+        sensor,
+        sim,
+        drift: walks.gyro.map(|intensity| GyroDrift {
+            intensity,
+            seed: drift_seed(config),
+        }),
+        accel_drift: walks.accel.map(|intensity| AccelDrift {
+            intensity,
+            seed: accel_drift_seed(config),
+        }),
+        truth,
+    })
+}
+
+/// The true value of the parameter `name` among `values` ([`true_values`]' layout names).
+fn value_of(values: &[(String, f64)], name: &str) -> f64 {
+    values
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| *v)
+        .expect("layout names")
+}
+
+/// The true instrument parameters in the order of `layout` (the paper's model extended by the
+/// hidden terms): the paper's from `values`, the extra terms' from `hidden` (the last value
+/// named; zero when not named).
+fn true_instrument(
+    config: &RunConfig,
+    layout: &StateLayout,
+    values: &[(String, f64)],
+    hidden: &HiddenEffects,
+) -> Vec<f64> {
     let n_paper = layout_for(config, false).n_instrument();
-    let p_true: Vec<f64> = layout.entries()[3..]
+    layout.entries()[3..]
         .iter()
         .enumerate()
         .map(|(k, e)| {
             if k < n_paper {
-                get(&e.name)
+                value_of(values, &e.name)
             } else {
                 hidden
                     .values
@@ -260,12 +313,17 @@ pub fn prepare_run_hidden(
                     .map_or(0.0, |(_, v)| *v)
             }
         })
-        .collect();
-    let mounting = Mounting {
-        delta_z: nalgebra::Vector3::from_fn(|i, _| get(names::INSTALL_DELTA[i])),
-        gamma_p: nalgebra::Vector3::from_fn(|i, _| get(names::BASE_GAMMA[i])),
-    };
-    let kin = Kinematics::new(config.program()?, mounting, config.site());
+        .collect()
+}
+
+/// The temperature over the run of the records `kin` and `config.truth` give, with the thermal
+/// terms' reference; refused when a hidden thermal term has none to act on.
+fn run_temperature(
+    config: &RunConfig,
+    kin: &Kinematics,
+    candidates: &[sins_model::candidates::Candidate],
+    origin: &str,
+) -> Result<Option<(TemperatureProfile, f64)>, SimulationError> {
     let t = &config.truth;
     let duration = t.duration_s.unwrap_or_else(|| kin.program.duration());
     let n_records = (duration * t.imu_rate_hz * (1.0 + 1e-12)).floor() as usize;
@@ -278,64 +336,61 @@ pub fn prepare_run_hidden(
             term: c.id().to_string(),
         });
     }
+    Ok(temperature)
+}
+
+/// The turntable's angle sensor: the configured angle noise at the truth's record rate (none
+/// when `truth.noise` is false), the delay `tau` and the clock relation.
+fn angle_sensor(config: &RunConfig, tau: f64) -> AngleSensor {
+    let t = &config.truth;
     let on = if t.noise { 1.0 } else { 0.0 };
     let sigma = on * (config.angle_psd() * t.turntable_rate_hz).sqrt();
-    let sensor = AngleSensor {
+    AngleSensor {
         sigma: [sigma; 3],
         rate_hz: t.turntable_rate_hz,
-        tau: get(names::TURNTABLE_TAU),
+        tau,
         clock: config.clock,
-    };
-    let sim = SimConfig {
-        imu_rate_hz: t.imu_rate_hz,
-        gyro_psd: on * config.gyro_psd(),
-        accel_psd: on * config.accel_psd(),
-        duration_s: t.duration_s,
-        seed: t.seed,
-        temperature: temperature.clone(),
-        ..SimConfig::default()
-    };
-    let configured = |walk: Option<[f64; 3]>| walk.filter(|_| t.noise);
-    let gyro_walk = hidden
-        .gyro_drift
-        .or(configured(config.noise.gyro_bias_walk()));
-    let accel_walk = configured(config.noise.accel_bias_walk());
-    let drift = gyro_walk.map(|intensity| GyroDrift {
-        intensity,
-        seed: drift_seed(config),
-    });
-    let accel_drift = accel_walk.map(|intensity| AccelDrift {
-        intensity,
-        seed: accel_drift_seed(config),
-    });
-    let mut truth = Truth::new(&layout.model, &p_true, &kin, &sensor);
-    for (walk, names, unit) in [
-        (
-            gyro_walk,
-            names::GYRO_DRIFT,
-            Unit::RadPerSecondPerSqrtSecond.si_name(),
-        ),
-        (accel_walk, names::ACCEL_DRIFT, "m/s^2/sqrt(s)"),
-    ] {
-        if let Some(d) = walk {
-            for (n, v) in names.iter().zip(d) {
-                truth.parameters.push(TruthParameter {
-                    name: n.to_string(),
-                    value: v,
-                    unit: unit.to_string(),
-                });
+    }
+}
+
+/// The bias random walks of a simulated run (intensities per axis): the gyro's `hidden`'s when
+/// it has one, else the configured one; the accelerometer's the configured one; the
+/// configured ones only when `truth.noise` is on.
+struct Walks {
+    gyro: Option<[f64; 3]>,
+    accel: Option<[f64; 3]>,
+}
+
+impl Walks {
+    fn of(config: &RunConfig, hidden: &HiddenEffects) -> Self {
+        let configured = |walk: Option<[f64; 3]>| walk.filter(|_| config.truth.noise);
+        Self {
+            gyro: hidden
+                .gyro_drift
+                .or(configured(config.noise.gyro_bias_walk())),
+            accel: configured(config.noise.accel_bias_walk()),
+        }
+    }
+
+    /// The walks' intensities as parameters of the truth (`gyro.drift.*`, `accel.drift.*`).
+    fn add_to(&self, truth: &mut Truth) {
+        for (walk, names, unit) in [
+            (
+                self.gyro,
+                names::GYRO_DRIFT,
+                Unit::RadPerSecondPerSqrtSecond.si_name(),
+            ),
+            (self.accel, names::ACCEL_DRIFT, "m/s^2/sqrt(s)"),
+        ] {
+            if let Some(d) = walk {
+                for (n, v) in names.iter().zip(d) {
+                    truth.parameters.push(TruthParameter {
+                        name: n.to_string(),
+                        value: v,
+                        unit: unit.to_string(),
+                    });
+                }
             }
         }
     }
-    truth.temperature_reference_c = temperature.map(|(_, r)| r);
-    Ok(PreparedRun {
-        kin,
-        model: layout.model,
-        p_true,
-        sensor,
-        sim,
-        drift,
-        accel_drift,
-        truth,
-    })
 }

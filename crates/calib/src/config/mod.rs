@@ -675,179 +675,130 @@ impl RunConfig {
         Ok(c)
     }
 
+    /// Refuse values no run can have, naming the field and its range; the first found (in
+    /// the order: filter rates, sigmas, program start, rate ratios, site and record rates,
+    /// clock, truth, temperature).
     fn validate(&self, origin: &str) -> Result<(), ConfigError> {
-        let bad = |what: &str| ConfigError::Invalid {
-            origin: origin.to_string(),
-            message: format!("{what} must be a finite positive number"),
-        };
         let f = &self.filter;
         for (name, v) in [
             ("filter.imu_rate_hz", f.imu_rate_hz),
             ("filter.accel_rate_hz", f.accel_rate_hz),
             ("filter.turntable_rate_hz", f.turntable_rate_hz),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(name));
-            }
+            check_positive(origin, name, v)?;
         }
         // The same ranges as the deserializers' (`values`), for configurations built in code
         // (`design`'s proposals, tests) that never went through them.
-        for (name, v) in [
-            ("noise.gyro_deg_h", self.noise.gyro_deg_h),
-            ("noise.accel_m_s2", self.noise.accel_m_s2),
-            ("noise.angle_arcsec", self.noise.angle_arcsec),
-            ("priors.gyro_bias_deg_h", self.priors.gyro_bias_deg_h),
-            ("priors.gyro_scale", self.priors.gyro_scale),
+        for (name, v) in self.sigma_fields() {
+            check_sigma(origin, name, v)?;
+        }
+        check_program_start(origin, f.program_start_s)?;
+        check_rate_ratios(origin, f)?;
+        self.check_site_and_record_rates(origin)?;
+        check_clock(origin, &self.clock)?;
+        self.check_truth(origin)?;
+        if let Some(temp) = &self.temperature {
+            temp.profile().map_err(|message| invalid(origin, message))?;
+        }
+        Ok(())
+    }
+
+    /// Every standard deviation of `[noise]` and `[priors]`, by its name in the file.
+    fn sigma_fields(&self) -> [(&'static str, f64); 14] {
+        let (n, p) = (&self.noise, &self.priors);
+        [
+            ("noise.gyro_deg_h", n.gyro_deg_h),
+            ("noise.accel_m_s2", n.accel_m_s2),
+            ("noise.angle_arcsec", n.angle_arcsec),
+            ("priors.gyro_bias_deg_h", p.gyro_bias_deg_h),
+            ("priors.gyro_scale", p.gyro_scale),
             (
                 "priors.gyro_misalignment_arcmin",
-                self.priors.gyro_misalignment_arcmin,
+                p.gyro_misalignment_arcmin,
             ),
-            ("priors.accel_bias_m_s2", self.priors.accel_bias_m_s2),
-            ("priors.accel_scale", self.priors.accel_scale),
+            ("priors.accel_bias_m_s2", p.accel_bias_m_s2),
+            ("priors.accel_scale", p.accel_scale),
             (
                 "priors.accel_misalignment_arcmin",
-                self.priors.accel_misalignment_arcmin,
+                p.accel_misalignment_arcmin,
             ),
             (
                 "priors.install_misalignment_deg",
-                self.priors.install_misalignment_deg,
+                p.install_misalignment_deg,
             ),
-            ("priors.tau_s", self.priors.tau_s),
-            ("priors.initial_tilt_deg", self.priors.initial_tilt_deg),
-            (
-                "priors.initial_heading_deg",
-                self.priors.initial_heading_deg,
-            ),
+            ("priors.tau_s", p.tau_s),
+            ("priors.initial_tilt_deg", p.initial_tilt_deg),
+            ("priors.initial_heading_deg", p.initial_heading_deg),
             (
                 "priors.base_misalignment_arcsec",
-                self.priors.base_misalignment_arcsec,
+                p.base_misalignment_arcsec,
             ),
-        ] {
-            if !(v.is_finite() && (SIGMA_MIN..=SIGMA_MAX).contains(&v)) {
-                return Err(ConfigError::Invalid {
-                    origin: origin.to_string(),
-                    message: format!(
-                        "{name} = {} must lie in {SIGMA_MIN:e} .. {SIGMA_MAX:e} (a standard \
-                         deviation in the units the field's name gives)",
-                        values::shown(v)
-                    ),
-                });
-            }
-        }
-        if let Some(t0) = f.program_start_s
-            && !(t0.is_finite() && t0.abs() <= PROGRAM_START_MAX_S)
-        {
-            return Err(ConfigError::Invalid {
-                origin: origin.to_string(),
-                message: format!(
-                    "filter.program_start_s = {} must lie in -{PROGRAM_START_MAX_S:e} .. \
-                         {PROGRAM_START_MAX_S:e} s",
-                    values::shown(t0)
-                ),
-            });
-        }
-        for (name, r) in [
-            ("filter.accel_rate_hz", f.accel_rate_hz),
-            ("filter.turntable_rate_hz", f.turntable_rate_hz),
-        ] {
-            let ratio = f.imu_rate_hz / r;
-            if (ratio - ratio.round()).abs() > 1e-9 || ratio.round() < 1.0 {
-                return Err(ConfigError::Invalid {
-                    origin: origin.to_string(),
-                    message: format!(
-                        "{name} = {r} must divide filter.imu_rate_hz = {} into a whole number of IMU samples",
-                        f.imu_rate_hz
-                    ),
-                });
-            }
-        }
+        ]
+    }
+
+    /// The site, and the record rates within what an IMU or a turntable gives.
+    fn check_site_and_record_rates(&self, origin: &str) -> Result<(), ConfigError> {
         let site = &self.site;
-        let range = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| {
-            if v.is_finite() && (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                Err(ConfigError::Invalid {
-                    origin: origin.to_string(),
-                    message: format!(
-                        "{name} = {} must lie in {} .. {} {unit}",
-                        values::shown(v),
-                        values::shown(lo),
-                        values::shown(hi)
-                    ),
-                })
-            }
-        };
-        range("site.latitude_deg", site.latitude_deg, -90.0, 90.0, "deg")?;
-        range(
+        check_range(
+            origin,
+            "site.latitude_deg",
+            site.latitude_deg,
+            (-90.0, 90.0),
+            "deg",
+        )?;
+        check_range(
+            origin,
             "site.longitude_deg",
             site.longitude_deg,
-            -180.0,
-            360.0,
+            (-180.0, 360.0),
             "deg",
         )?;
         // From the Dead Sea shore to above any laboratory on a mountain.
-        range("site.height_m", site.height_m, -500.0, 10_000.0, "m")?;
+        check_range(
+            origin,
+            "site.height_m",
+            site.height_m,
+            (-500.0, 10_000.0),
+            "m",
+        )?;
         // Rates beyond 100 kHz are no IMU's; they would only exhaust memory.
-        range("filter.imu_rate_hz", f.imu_rate_hz, 0.0, 1e5, "Hz")?;
-        range("truth.imu_rate_hz", self.truth.imu_rate_hz, 0.0, 1e5, "Hz")?;
-        range(
-            "truth.turntable_rate_hz",
-            self.truth.turntable_rate_hz,
-            0.0,
-            1e5,
-            "Hz",
-        )?;
-        let c = &self.clock;
-        range(
-            "clock.turntable_offset_s",
-            c.turntable_offset_s,
-            -CLOCK_OFFSET_MAX_S,
-            CLOCK_OFFSET_MAX_S,
-            "s",
-        )?;
-        if !(c.turntable_rate_error.is_finite()
-            && c.turntable_rate_error.abs() < CLOCK_RATE_ERROR_MAX)
-        {
-            return Err(ConfigError::Invalid {
-                origin: origin.to_string(),
-                message: format!(
-                    "clock.turntable_rate_error = {} must lie strictly between -{CLOCK_RATE_ERROR_MAX} \
-                     and {CLOCK_RATE_ERROR_MAX}",
-                    values::shown(c.turntable_rate_error)
-                ),
-            });
+        let t = &self.truth;
+        for (name, v) in [
+            ("filter.imu_rate_hz", self.filter.imu_rate_hz),
+            ("truth.imu_rate_hz", t.imu_rate_hz),
+            ("truth.turntable_rate_hz", t.turntable_rate_hz),
+        ] {
+            check_range(origin, name, v, (0.0, 1e5), "Hz")?;
         }
+        Ok(())
+    }
+
+    /// The truth of a simulated run: positive rates, a duration a program can have, and
+    /// plausible values.
+    fn check_truth(&self, origin: &str) -> Result<(), ConfigError> {
         let t = &self.truth;
         for (name, v) in [
             ("truth.imu_rate_hz", t.imu_rate_hz),
             ("truth.turntable_rate_hz", t.turntable_rate_hz),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(name));
-            }
+            check_positive(origin, name, v)?;
         }
         if let Some(d) = t.duration_s {
-            range(
+            check_range(
+                origin,
                 "truth.duration_s",
                 d,
-                f64::MIN_POSITIVE,
-                turntable::program::MAX_PROGRAM_DURATION_S,
+                (
+                    f64::MIN_POSITIVE,
+                    turntable::program::MAX_PROGRAM_DURATION_S,
+                ),
                 "s",
             )?;
         }
         for (name, v) in &t.values {
             if let Err(message) = crate::config::plausible::check(name, *v) {
-                return Err(ConfigError::Invalid {
-                    origin: origin.to_string(),
-                    message: format!("truth.values.{message}"),
-                });
+                return Err(invalid(origin, format!("truth.values.{message}")));
             }
-        }
-        if let Some(temp) = &self.temperature {
-            temp.profile().map_err(|message| ConfigError::Invalid {
-                origin: origin.to_string(),
-                message,
-            })?;
         }
         Ok(())
     }
@@ -1042,6 +993,120 @@ impl RunConfig {
     pub fn base_sigma(&self) -> f64 {
         self.priors.base_misalignment_arcsec * ARCSEC
     }
+}
+
+/// A configuration from `origin` refused with `message`.
+fn invalid(origin: &str, message: String) -> ConfigError {
+    ConfigError::Invalid {
+        origin: origin.to_string(),
+        message,
+    }
+}
+
+/// `name = v` must be a finite positive number.
+fn check_positive(origin: &str, name: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        return Ok(());
+    }
+    Err(invalid(
+        origin,
+        format!("{name} must be a finite positive number"),
+    ))
+}
+
+/// `name = v` must be a standard deviation within [`SIGMA_MIN`] .. [`SIGMA_MAX`].
+fn check_sigma(origin: &str, name: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && (SIGMA_MIN..=SIGMA_MAX).contains(&v) {
+        return Ok(());
+    }
+    Err(invalid(
+        origin,
+        format!(
+            "{name} = {} must lie in {SIGMA_MIN:e} .. {SIGMA_MAX:e} (a standard \
+             deviation in the units the field's name gives)",
+            values::shown(v)
+        ),
+    ))
+}
+
+/// `name = v` must lie in `lo ..= hi` (`unit` in the message).
+fn check_range(
+    origin: &str,
+    name: &str,
+    v: f64,
+    (lo, hi): (f64, f64),
+    unit: &str,
+) -> Result<(), ConfigError> {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        return Ok(());
+    }
+    Err(invalid(
+        origin,
+        format!(
+            "{name} = {} must lie in {} .. {} {unit}",
+            values::shown(v),
+            values::shown(lo),
+            values::shown(hi)
+        ),
+    ))
+}
+
+/// `filter.program_start_s`, when given, within +-[`PROGRAM_START_MAX_S`].
+fn check_program_start(origin: &str, start: Option<f64>) -> Result<(), ConfigError> {
+    match start {
+        Some(t0) if !(t0.is_finite() && t0.abs() <= PROGRAM_START_MAX_S) => Err(invalid(
+            origin,
+            format!(
+                "filter.program_start_s = {} must lie in -{PROGRAM_START_MAX_S:e} .. \
+                 {PROGRAM_START_MAX_S:e} s",
+                values::shown(t0)
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// The measurement rates must divide the IMU rate into a whole number of samples.
+fn check_rate_ratios(origin: &str, f: &FilterConfig) -> Result<(), ConfigError> {
+    for (name, r) in [
+        ("filter.accel_rate_hz", f.accel_rate_hz),
+        ("filter.turntable_rate_hz", f.turntable_rate_hz),
+    ] {
+        let ratio = f.imu_rate_hz / r;
+        if (ratio - ratio.round()).abs() > 1e-9 || ratio.round() < 1.0 {
+            return Err(invalid(
+                origin,
+                format!(
+                    "{name} = {r} must divide filter.imu_rate_hz = {} into a whole number of IMU samples",
+                    f.imu_rate_hz
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The turntable clock: an offset within +-[`CLOCK_OFFSET_MAX_S`], a rate error strictly
+/// within +-[`CLOCK_RATE_ERROR_MAX`].
+fn check_clock(origin: &str, c: &ClockConfig) -> Result<(), ConfigError> {
+    check_range(
+        origin,
+        "clock.turntable_offset_s",
+        c.turntable_offset_s,
+        (-CLOCK_OFFSET_MAX_S, CLOCK_OFFSET_MAX_S),
+        "s",
+    )?;
+    if c.turntable_rate_error.is_finite() && c.turntable_rate_error.abs() < CLOCK_RATE_ERROR_MAX {
+        return Ok(());
+    }
+    Err(invalid(
+        origin,
+        format!(
+            "clock.turntable_rate_error = {} must lie strictly between -{CLOCK_RATE_ERROR_MAX} \
+             and {CLOCK_RATE_ERROR_MAX}",
+            values::shown(c.turntable_rate_error)
+        ),
+    ))
 }
 
 /// The instrument-error priors of a unit of `grade` (SI): the one place they are written.

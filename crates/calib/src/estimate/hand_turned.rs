@@ -25,6 +25,7 @@
 
 use crate::check::diagnostics::Innovation;
 use crate::config::RunConfig;
+use crate::estimate::noise::{MeasuredLevels, variance_ratio};
 use crate::io::{ImuData, ImuKind};
 use crate::model::MeasurementKind;
 use crate::motion::free_motion::{EarthRotation, Evaluation, Interval};
@@ -277,33 +278,7 @@ pub const MOTION_NOISE_NEGLIGIBLE_RAD: f64 = 1e-6;
 /// measure the motion noise.
 pub const MAX_NOISE_FITS: usize = 10;
 
-/// Where the white-noise levels of a calibration came from.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum NoiseSource {
-    /// The configuration's `[noise]` and `filter.motion_attitude_noise_deg`.
-    Configured,
-    /// Measured in the rests ([`white_noise_at_rest`]); the specific force's level then
-    /// multiplied by `accel_factor` (above or below 1) to the scatter of the filter's
-    /// innovations, and the motion noise measured ([`noise_ml`]); `fits` fits made.
-    Measured {
-        /// The rests' scatter.
-        at_rest: WhiteNoiseAtRest,
-        /// The factor on its specific-force level.
-        accel_factor: f64,
-        /// The innovations' scatter at the rests' own level: the F-test of whether the
-        /// windows scatter more than the rests' noise says.
-        excess: ScatterExcess,
-        /// The same of the held-out windows (with a hold-out).
-        held_out_excess: Option<ScatterExcess>,
-        /// The attitude noise of a motion measured from the first windows after the motions
-        /// (deg), and how many windows it rests on.
-        motion_noise_deg: f64,
-        /// First windows after a motion behind it.
-        motion_windows: usize,
-        /// Fits made.
-        fits: usize,
-    },
-}
+pub use crate::estimate::noise::NoiseSource;
 
 /// Whether the specific-force innovations scatter more than the rests' own noise says: the
 /// ratio of their variance to it, `F = accel_factor^2` (the fit's mean NIS over 3 at the
@@ -402,42 +377,82 @@ pub fn noise_ml(
     min_factor: f64,
     g: f64,
 ) -> Option<NoiseMl> {
-    let (k_fit, sigma_fit) = fitted;
-    let d = Matrix3::from_diagonal(&Vector3::new(g * g, g * g, 0.0));
-    let mut windows: Vec<(Vector3<f64>, Matrix3<f64>, bool)> = Vec::new();
-    let mut last_segment = None;
-    let accel = innovations
-        .iter()
-        .filter(|i| i.kind == MeasurementKind::Accel);
-    for inn in accel.skip(1) {
-        let first = last_segment != Some(inn.segment);
-        last_segment = Some(inn.segment);
-        if inn.held_out {
-            continue;
-        }
-        // Rest k is segment 2k ([`crate::motion::rests::segments`]); rest 0 follows no motion.
-        let after_motion =
-            first && inn.segment > 0 && inn.segment % 2 == 0 && inn.segment < 2 * rests;
-        let mut s0 = inn.s - Matrix3::identity() * (k_fit * k_fit * base_window_var);
-        if after_motion {
-            s0 -= d * (sigma_fit * sigma_fit);
-        }
-        // Symmetric, and no less than a small part of S (rounding).
-        let s0 = (s0 + s0.transpose()) * 0.5;
-        if s0.cholesky().is_some() {
-            windows.push((inn.nu, s0, after_motion));
-        }
-    }
-    if windows.is_empty() {
+    let windows = MlWindows::of(innovations, rests, fitted, base_window_var, g);
+    if windows.windows.is_empty() {
         return None;
     }
-    let motion_windows = windows.iter().filter(|w| w.2).count();
-    let log_likelihood = |k: f64, q: f64| -> f64 {
-        let r = Matrix3::identity() * (k * k * base_window_var);
-        windows
+    let motion_windows = windows.windows.iter().filter(|w| w.2).count();
+    let (k, sigma) = windows.maximise(fitted, min_factor, motion_windows > 0);
+    Some(NoiseMl {
+        accel_factor: k,
+        motion_sigma_rad: sigma,
+        windows: windows.windows.len(),
+        motion_windows,
+    })
+}
+
+/// The specific-force windows [`noise_ml`] weighs, with what their likelihood needs.
+struct MlWindows {
+    /// Innovation, `S0` and whether the window is the first after a motion.
+    windows: Vec<(Vector3<f64>, Matrix3<f64>, bool)>,
+    /// The white-noise variance of a window at the base level.
+    base_window_var: f64,
+    /// `g^2 diag(1, 1, 0)`: a tilt variance's share of a window's covariance.
+    d: Matrix3<f64>,
+}
+
+impl MlWindows {
+    /// The windows of a fit made at `fitted` (factor, motion sigma in rad), each with `S0`, its
+    /// `S` less the noise of both at the fitted values; a window whose `S0` is not positive
+    /// definite (rounding) is left out.
+    fn of(
+        innovations: &[Innovation],
+        rests: usize,
+        fitted: (f64, f64),
+        base_window_var: f64,
+        g: f64,
+    ) -> Self {
+        let (k_fit, sigma_fit) = fitted;
+        let d = Matrix3::from_diagonal(&Vector3::new(g * g, g * g, 0.0));
+        let mut windows: Vec<(Vector3<f64>, Matrix3<f64>, bool)> = Vec::new();
+        let mut last_segment = None;
+        let accel = innovations
+            .iter()
+            .filter(|i| i.kind == MeasurementKind::Accel);
+        for inn in accel.skip(1) {
+            let first = last_segment != Some(inn.segment);
+            last_segment = Some(inn.segment);
+            if inn.held_out {
+                continue;
+            }
+            // Rest k is segment 2k ([`crate::motion::rests::segments`]); rest 0 follows no
+            // motion.
+            let after_motion =
+                first && inn.segment > 0 && inn.segment % 2 == 0 && inn.segment < 2 * rests;
+            let mut s0 = inn.s - Matrix3::identity() * (k_fit * k_fit * base_window_var);
+            if after_motion {
+                s0 -= d * (sigma_fit * sigma_fit);
+            }
+            // Symmetric, and no less than a small part of S (rounding).
+            let s0 = (s0 + s0.transpose()) * 0.5;
+            if s0.cholesky().is_some() {
+                windows.push((inn.nu, s0, after_motion));
+            }
+        }
+        Self {
+            windows,
+            base_window_var,
+            d,
+        }
+    }
+
+    /// The log-likelihood of the windows at the factor `k` and the motion variance `q`.
+    fn log_likelihood(&self, k: f64, q: f64) -> f64 {
+        let r = Matrix3::identity() * (k * k * self.base_window_var);
+        self.windows
             .iter()
             .map(|(nu, s0, first)| {
-                let s = if *first { s0 + r + d * q } else { s0 + r };
+                let s = if *first { s0 + r + self.d * q } else { s0 + r };
                 match s.cholesky() {
                     Some(c) => {
                         let l = c.l();
@@ -448,57 +463,65 @@ pub fn noise_ml(
                 }
             })
             .sum()
-    };
-    let golden = |f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64| -> f64 {
-        let r = (5f64.sqrt() - 1.0) / 2.0;
-        for _ in 0..40 {
-            let (c, e) = (b - r * (b - a), a + r * (b - a));
-            if f(c) > f(e) {
-                b = e;
-            } else {
-                a = c;
+    }
+
+    /// The factor and the motion sigma (rad) of the largest likelihood, coordinate by
+    /// coordinate from `fitted`: the factor in its logarithm from `min_factor` (at least 1e-3)
+    /// to 1e4, then (with windows after a motion) the motion sigma on a grid of `10^x` rad,
+    /// or none, refined by golden section; four rounds.
+    fn maximise(&self, fitted: (f64, f64), min_factor: f64, motions: bool) -> (f64, f64) {
+        let (mut k, mut sigma) = (fitted.0.max(1e-3), fitted.1);
+        for _ in 0..4 {
+            let lk = golden_max(
+                &|x: f64| self.log_likelihood(x.exp(), sigma * sigma),
+                min_factor.max(1e-3).ln(),
+                1e4f64.ln(),
+            );
+            k = lk.exp();
+            if !motions {
+                break;
             }
+            sigma = self.best_motion_sigma(k);
         }
-        0.5 * (a + b)
-    };
-    let (mut k, mut sigma) = (k_fit.max(1e-3), sigma_fit);
-    for _ in 0..4 {
-        // The scale, in its logarithm.
-        let lk = golden(
-            &|x: f64| log_likelihood(x.exp(), sigma * sigma),
-            min_factor.max(1e-3).ln(),
-            1e4f64.ln(),
-        );
-        k = lk.exp();
-        if motion_windows == 0 {
-            break;
-        }
-        // The motion noise: sigma = 10^x rad on a grid, or none; then golden section.
-        let (mut best_x, mut best) = (f64::NEG_INFINITY, log_likelihood(k, 0.0));
+        (k, sigma)
+    }
+
+    /// The motion sigma (rad) of the largest likelihood at the factor `k`: `10^x` on a grid
+    /// of 0.1 from 1e-8 to [`MAX_MOTION_NOISE_RAD`], or none, then golden section about the
+    /// best grid point.
+    fn best_motion_sigma(&self, k: f64) -> f64 {
+        let (mut best_x, mut best) = (f64::NEG_INFINITY, self.log_likelihood(k, 0.0));
         let mut x = -8.0;
         while x <= MAX_MOTION_NOISE_RAD.log10() + 1e-9 {
-            let l = log_likelihood(k, 10f64.powf(2.0 * x));
+            let l = self.log_likelihood(k, 10f64.powf(2.0 * x));
             if l > best {
                 (best_x, best) = (x, l);
             }
             x += 0.1;
         }
-        sigma = if best_x.is_finite() {
-            10f64.powf(golden(
-                &|x: f64| log_likelihood(k, 10f64.powf(2.0 * x)),
-                best_x - 0.1,
-                best_x + 0.1,
-            ))
-        } else {
-            0.0
-        };
+        if !best_x.is_finite() {
+            return 0.0;
+        }
+        10f64.powf(golden_max(
+            &|x: f64| self.log_likelihood(k, 10f64.powf(2.0 * x)),
+            best_x - 0.1,
+            best_x + 0.1,
+        ))
     }
-    Some(NoiseMl {
-        accel_factor: k,
-        motion_sigma_rad: sigma,
-        windows: windows.len(),
-        motion_windows,
-    })
+}
+
+/// The maximum of `f` on `[a, b]` by 40 steps of golden section.
+fn golden_max(f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    let r = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..40 {
+        let (c, e) = (b - r * (b - a), a + r * (b - a));
+        if f(c) > f(e) {
+            b = e;
+        } else {
+            a = c;
+        }
+    }
+    0.5 * (a + b)
 }
 
 /// The mean NIS of the specific-force windows, the recording's first left out (the start
@@ -608,34 +631,34 @@ pub struct MeasuredFit {
 
 /// Fit a recording of rests with `config` and `layout`; with `measured` noise (the
 /// configuration's levels taken from [`white_noise_at_rest`]), bring the specific-force level
-/// to the fit's innovations ([`InnovationScatter`]: scaled by `sqrt(NIS / 3)`, up or down) and
-/// measure the motion noise ([`noise_ml`]), refitting up to [`MAX_NOISE_FITS`] times
-/// until both settle (the factor within 3 %, the motion noise within 5 % or below 1e-6 rad).
-/// Sigmas from a noise the innovations contradict are wrong in either direction: too small
-/// when the windows scatter more, too large when they scatter less.
+/// to the fit's innovations and measure the motion noise ([`noise_ml`]), refitting up to
+/// [`MAX_NOISE_FITS`] times until both settle (the factor within 3 %, the motion noise within
+/// 5 % or below 1e-6 rad). The innovations' scatter against the rests' own noise is then
+/// [`crate::estimate::noise::variance_ratio`] of [`InnovationScatter`]. Sigmas from a noise
+/// the innovations contradict are wrong in either direction: too small when the windows
+/// scatter more, too large when they scatter less.
 ///
-/// `start`: the factor and motion noise (rad) the first fit is made with (`None`: 1 and the
-/// configuration's); a fit of a model close to one already measured starts from its values.
+/// `start`: the levels the first fit is made with (`None`: the configuration's,
+/// [`MeasuredLevels::configured`]); a fit of a model close to one already measured starts from
+/// its levels ([`NoiseSource::measured_levels`]).
 pub fn fit_measuring_noise(
     config: &RunConfig,
     layout: &crate::model::layout::StateLayout,
     input: RestsInput,
     measured: Option<WhiteNoiseAtRest>,
-    start: Option<(f64, f64)>,
+    start: Option<MeasuredLevels>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<MeasuredFit, crate::estimate::EstimateError> {
-    let mut config = config.clone();
     let base_accel = config.noise.accel_m_s2;
     let g = config.site().specific_force_at_rest_enu().norm();
-    let (mut factor, mut fits) = (1.0, 0);
-    let mut motion = config.filter.motion_attitude_noise_deg.to_radians();
-    if let Some((k, m)) = start.filter(|_| measured.is_some()) {
-        (factor, motion) = (k, m);
-    }
+    let mut levels = start
+        .filter(|_| measured.is_some())
+        .unwrap_or_else(|| MeasuredLevels::configured(config));
+    let mut fits = 0;
     let mut previous_motion: Option<(f64, f64)> = None;
     loop {
-        config.noise.accel_m_s2 = base_accel * factor;
-        config.filter.motion_attitude_noise_deg = motion.to_degrees();
+        let mut config = config.clone();
+        levels.apply(&mut config, base_accel);
         let est = crate::estimate::calibrate_rests(
             &config,
             layout,
@@ -653,79 +676,114 @@ pub fn fit_measuring_noise(
                 noise: NoiseSource::Configured,
             });
         };
-        let scatter = InnovationScatter::of(&est.innovations);
         let ml = noise_ml(
             &est.innovations,
             input.rests.len(),
-            (factor, motion),
+            (levels.accel_factor, levels.motion_rad),
             base_accel * base_accel * config.filter.accel_rate_hz,
             NOISE_FLOOR_ACCEL_M_S2 / base_accel,
             g,
         );
-        let (next_factor, next_motion) =
-            ml.map_or((factor, motion), |m| (m.accel_factor, m.motion_sigma_rad));
-        let motion_windows = ml.map_or(0, |m| m.motion_windows);
-        let settled_factor = (next_factor / factor - 1.0).abs() <= 0.03;
-        let settled_motion = (next_motion - motion).abs() <= 0.05 * next_motion.max(motion)
-            || next_motion.max(motion) < MOTION_NOISE_NEGLIGIBLE_RAD;
-        if (settled_factor && settled_motion) || fits == MAX_NOISE_FITS {
-            let excess = ScatterExcess::of(
-                factor * factor * scatter.mean_nis / 3.0,
-                scatter.windows,
-                at_rest.dof,
-            );
-            let held = InnovationScatter::held_out(&est.innovations);
-            let held_out_excess = (held.windows > 0).then(|| {
-                ScatterExcess::of(
-                    factor * factor * held.mean_nis / 3.0,
-                    held.windows,
-                    at_rest.dof,
-                )
-            });
+        let next = ml.map_or(levels, |m| MeasuredLevels {
+            accel_factor: m.accel_factor,
+            motion_rad: m.motion_sigma_rad,
+        });
+        if settled(levels, next) || fits == MAX_NOISE_FITS {
+            let motion_windows = ml.map_or(0, |m| m.motion_windows);
+            let noise = measured_source(&est, at_rest, levels, motion_windows, fits);
             return Ok(MeasuredFit {
                 estimate: est,
                 config,
-                noise: NoiseSource::Measured {
-                    at_rest,
-                    accel_factor: factor,
-                    excess,
-                    held_out_excess,
-                    motion_noise_deg: motion.to_degrees(),
-                    motion_windows,
-                    fits,
-                },
+                noise,
             });
         }
-        factor = next_factor;
-        // The one-step estimate of the motion noise swings about its fixed point (a fit with
-        // more motion noise lets the states absorb more of the first windows, whose
-        // innovations then call for less): halfway at first, then the secant of the map from
-        // the motion noise fitted with to the one estimated, aimed at its fixed point (within a
-        // factor of four of the last), which a damped step reaches only slowly where the map's
-        // slope is near -1 (the Ferraris session: 0.12 to 0.15 deg for eight fits).
-        let step = match previous_motion {
-            Some((m0, e0)) if (motion - m0).abs() > 1e-12 => {
-                let slope = (next_motion - e0) / (motion - m0);
-                if slope < 0.9 {
-                    motion + (next_motion - motion) / (1.0 - slope)
-                } else {
-                    0.5 * (motion + next_motion)
-                }
+        let motion = next_motion(levels.motion_rad, next.motion_rad, previous_motion);
+        previous_motion = Some((levels.motion_rad, next.motion_rad));
+        levels = MeasuredLevels {
+            accel_factor: next.accel_factor,
+            motion_rad: motion,
+        };
+    }
+}
+
+/// Whether the levels a fit estimated (`next`) are those it was made with (`now`): the factor
+/// within 3 %, the motion noise within 5 % or both below [`MOTION_NOISE_NEGLIGIBLE_RAD`].
+fn settled(now: MeasuredLevels, next: MeasuredLevels) -> bool {
+    let settled_factor = (next.accel_factor / now.accel_factor - 1.0).abs() <= 0.03;
+    let (motion, next_motion) = (now.motion_rad, next.motion_rad);
+    let settled_motion = (next_motion - motion).abs() <= 0.05 * next_motion.max(motion)
+        || next_motion.max(motion) < MOTION_NOISE_NEGLIGIBLE_RAD;
+    settled_factor && settled_motion
+}
+
+/// The noise of a fit whose levels settled (or that was the last): the levels it was made
+/// with, and the scatter of its windows and its held-out windows against the rests' own
+/// noise ([`ScatterExcess`]).
+fn measured_source(
+    est: &crate::estimate::Estimate,
+    at_rest: WhiteNoiseAtRest,
+    levels: MeasuredLevels,
+    motion_windows: usize,
+    fits: usize,
+) -> NoiseSource {
+    let factor = levels.accel_factor;
+    let scatter = InnovationScatter::of(&est.innovations);
+    let excess = ScatterExcess::of(
+        variance_ratio(factor, scatter.mean_nis),
+        scatter.windows,
+        at_rest.dof,
+    );
+    let held = InnovationScatter::held_out(&est.innovations);
+    let held_out_excess = (held.windows > 0).then(|| {
+        ScatterExcess::of(
+            variance_ratio(factor, held.mean_nis),
+            held.windows,
+            at_rest.dof,
+        )
+    });
+    NoiseSource::Measured {
+        at_rest,
+        accel_factor: factor,
+        excess,
+        held_out_excess,
+        motion_noise_deg: levels.motion_rad.to_degrees(),
+        motion_windows,
+        fits,
+    }
+}
+
+/// The motion noise (rad) of the next fit, from the one the fit before was made with
+/// (`motion`), the one it estimated (`estimated`) and the same of the fit before it
+/// (`previous`).
+///
+/// The one-step estimate of the motion noise swings about its fixed point (a fit with more
+/// motion noise lets the states absorb more of the first windows, whose innovations then call
+/// for less): halfway at first, then the secant of the map from the motion noise fitted with
+/// to the one estimated, aimed at its fixed point (within a factor of four of the last), which
+/// a damped step reaches only slowly where the map's slope is near -1 (the Ferraris session:
+/// 0.12 to 0.15 deg for eight fits).
+fn next_motion(motion: f64, estimated: f64, previous: Option<(f64, f64)>) -> f64 {
+    let step = match previous {
+        Some((m0, e0)) if (motion - m0).abs() > 1e-12 => {
+            let slope = (estimated - e0) / (motion - m0);
+            if slope < 0.9 {
+                motion + (estimated - motion) / (1.0 - slope)
+            } else {
+                0.5 * (motion + estimated)
             }
-            _ => 0.5 * (motion + next_motion),
-        };
-        previous_motion = Some((motion, next_motion));
-        let step = if motion > 0.0 {
-            step.clamp(motion / 4.0, motion * 4.0)
-        } else {
-            step
-        };
-        let step = step.clamp(0.0, MAX_MOTION_NOISE_RAD);
-        motion = if step < MOTION_NOISE_NEGLIGIBLE_RAD {
-            0.0
-        } else {
-            step
-        };
+        }
+        _ => 0.5 * (motion + estimated),
+    };
+    let step = if motion > 0.0 {
+        step.clamp(motion / 4.0, motion * 4.0)
+    } else {
+        step
+    };
+    let step = step.clamp(0.0, MAX_MOTION_NOISE_RAD);
+    if step < MOTION_NOISE_NEGLIGIBLE_RAD {
+        0.0
+    } else {
+        step
     }
 }
 
@@ -831,57 +889,7 @@ pub struct VerdictTest {
 /// Exit status 3 only where a held-out test fails. Without a hold-out nothing tests the model,
 /// and the verdict says so.
 pub fn verdict(r: &HandTurnedResult) -> Vec<VerdictTest> {
-    let mut out = Vec::new();
-    if let NoiseSource::Measured {
-        excess,
-        held_out_excess,
-        ..
-    } = r.noise
-    {
-        out.push(VerdictTest {
-            name: "scatter",
-            statistic: excess.ratio,
-            p_value: excess.p_value,
-            decides: false,
-            fails: excess.significant(),
-            line: format!(
-                "the innovations scatter {:.2} times the variance of the rests' own noise \
-                 (p = {:.2e}){}",
-                excess.ratio,
-                excess.p_value,
-                if excess.gross() {
-                    ": the model lacks an error larger than the noise"
-                } else if excess.significant() {
-                    ": the rests differ by more than their noise (settling, drift, or a small \
-                     unmodelled error)"
-                } else {
-                    ""
-                }
-            ),
-        });
-        if let Some(h) = held_out_excess {
-            let p = ScatterExcess::of(h.ratio / GROSS_VARIANCE_RATIO, h.windows, h.dof).p_value;
-            out.push(VerdictTest {
-                name: "held-out scatter",
-                statistic: h.ratio,
-                p_value: p,
-                decides: true,
-                fails: h.gross(),
-                line: format!(
-                    "held-out rests: their windows scatter {:.2} times the variance of the \
-                     rests' own noise over {} windows (above {GROSS_VARIANCE_RATIO}: p = \
-                     {p:.2e}){}",
-                    h.ratio,
-                    h.windows,
-                    if h.gross() {
-                        ": the calibration's error on poses it has not seen outweighs the noise"
-                    } else {
-                        ""
-                    }
-                ),
-            });
-        }
-    }
+    let mut out = scatter_tests(&r.noise);
     let Some(v) = r.evaluation.validation else {
         return out;
     };
@@ -892,58 +900,126 @@ pub fn verdict(r: &HandTurnedResult) -> Vec<VerdictTest> {
             .filter(|n| n.starts_with(prefix))
             .count()
     };
-    let level = EXCESS_LEVEL / 2.0;
-    let mut predictive = |name: &'static str,
-                          held: (f64, usize),
-                          fitted: (f64, usize),
-                          parameters: usize,
-                          unit: (&str, f64)| {
-        let (n_h, n_f) = (held.1, fitted.1);
-        if n_h == 0 || n_f <= parameters {
-            return;
-        }
-        let dof_f = n_f - parameters;
-        let var_f = fitted.0.powi(2) * n_f as f64 / dof_f as f64;
-        let var_h = held.0.powi(2) / (1.0 + parameters as f64 / n_f as f64);
-        let ratio = var_h / var_f.max(f64::MIN_POSITIVE);
-        let p = f_upper_tail(ratio, n_h as f64, dof_f as f64);
-        let fails = p < level;
-        out.push(VerdictTest {
-            name,
-            statistic: ratio,
-            p_value: p,
-            decides: true,
-            fails,
-            line: format!(
-                "held-out {name}: RMS {:.4} {} against {:.4} on the fitted ones, variance \
-                 ratio {ratio:.2} (F with {n_h} and {dof_f} dof, p = {p:.2e}){}",
-                held.0 / unit.1,
-                unit.0,
-                fitted.0 / unit.1,
-                if fails {
-                    ": the calibration does not predict the poses it has not seen"
-                } else {
-                    ""
-                }
-            ),
-        });
-    };
-    predictive(
+    out.extend(predictive_test(
         "static |f| - g",
         (v.static_rms_after_m_s2, v.intervals),
         (v.fitted_static_rms_m_s2, v.fitted_intervals),
         count("accel."),
         ("m/s^2", 1.0),
-    );
+    ));
     // Each motion's gravity-direction error has two components.
-    predictive(
+    out.extend(predictive_test(
         "rotation over a motion",
         (v.held_out_motion_rms_rad, 2 * v.held_out_motions),
         (v.fitted_motion_rms_rad, 2 * v.fitted_motions),
         count("gyro."),
         ("deg", 1f64.to_radians()),
-    );
+    ));
     out
+}
+
+/// The tests of the innovations' scatter against the rests' own noise, when the noise was
+/// measured: all the windows' (informs), the held-out windows' (decides: gross, above
+/// [`GROSS_VARIANCE_RATIO`]).
+fn scatter_tests(noise: &NoiseSource) -> Vec<VerdictTest> {
+    let mut out = Vec::new();
+    let NoiseSource::Measured {
+        excess,
+        held_out_excess,
+        ..
+    } = *noise
+    else {
+        return out;
+    };
+    out.push(VerdictTest {
+        name: "scatter",
+        statistic: excess.ratio,
+        p_value: excess.p_value,
+        decides: false,
+        fails: excess.significant(),
+        line: format!(
+            "the innovations scatter {:.2} times the variance of the rests' own noise \
+             (p = {:.2e}){}",
+            excess.ratio,
+            excess.p_value,
+            if excess.gross() {
+                ": the model lacks an error larger than the noise"
+            } else if excess.significant() {
+                ": the rests differ by more than their noise (settling, drift, or a small \
+                 unmodelled error)"
+            } else {
+                ""
+            }
+        ),
+    });
+    if let Some(h) = held_out_excess {
+        let p = ScatterExcess::of(h.ratio / GROSS_VARIANCE_RATIO, h.windows, h.dof).p_value;
+        out.push(VerdictTest {
+            name: "held-out scatter",
+            statistic: h.ratio,
+            p_value: p,
+            decides: true,
+            fails: h.gross(),
+            line: format!(
+                "held-out rests: their windows scatter {:.2} times the variance of the \
+                 rests' own noise over {} windows (above {GROSS_VARIANCE_RATIO}: p = \
+                 {p:.2e}){}",
+                h.ratio,
+                h.windows,
+                if h.gross() {
+                    ": the calibration's error on poses it has not seen outweighs the noise"
+                } else {
+                    ""
+                }
+            ),
+        });
+    }
+    out
+}
+
+/// The predictive F-test of a held-out figure against the fitted one: `held` and `fitted`
+/// are each an RMS and its number of values, `parameters` those of the sensor the figure
+/// tests (the fitted figure's degrees of freedom are its values less them; the held-out
+/// variance is divided by `1 + p / n` for what the parameters' uncertainty adds), `unit` the
+/// unit of the report line and its size in SI. At half [`EXCESS_LEVEL`] (Bonferroni over the
+/// two figures). `None` without held-out values or without degrees of freedom.
+fn predictive_test(
+    name: &'static str,
+    held: (f64, usize),
+    fitted: (f64, usize),
+    parameters: usize,
+    unit: (&str, f64),
+) -> Option<VerdictTest> {
+    let level = EXCESS_LEVEL / 2.0;
+    let (n_h, n_f) = (held.1, fitted.1);
+    if n_h == 0 || n_f <= parameters {
+        return None;
+    }
+    let dof_f = n_f - parameters;
+    let var_f = fitted.0.powi(2) * n_f as f64 / dof_f as f64;
+    let var_h = held.0.powi(2) / (1.0 + parameters as f64 / n_f as f64);
+    let ratio = var_h / var_f.max(f64::MIN_POSITIVE);
+    let p = f_upper_tail(ratio, n_h as f64, dof_f as f64);
+    let fails = p < level;
+    Some(VerdictTest {
+        name,
+        statistic: ratio,
+        p_value: p,
+        decides: true,
+        fails,
+        line: format!(
+            "held-out {name}: RMS {:.4} {} against {:.4} on the fitted ones, variance \
+             ratio {ratio:.2} (F with {n_h} and {dof_f} dof, p = {p:.2e}){}",
+            held.0 / unit.1,
+            unit.0,
+            fitted.0 / unit.1,
+            if fails {
+                ": the calibration does not predict the poses it has not seen"
+            } else {
+                ""
+            }
+        ),
+    })
 }
 
 /// `P(F > x)` for an F distribution with `d1` and `d2` degrees of freedom.

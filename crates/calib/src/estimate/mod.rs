@@ -47,6 +47,7 @@ mod consider;
 pub mod covariance;
 pub mod data_checks;
 pub mod hand_turned;
+pub mod noise;
 mod pass;
 mod source;
 
@@ -507,8 +508,26 @@ pub fn estimate_ext(
     data: RunData,
     ext: &ModelExtension,
 ) -> Result<Estimate, EstimateError> {
+    estimate_ext_kept(config, data, ext, &mut None)
+}
+
+/// [`estimate_ext`] with the program kept for the next fit ([`estimate_from_kept`]).
+pub(crate) fn estimate_ext_kept(
+    config: &RunConfig,
+    data: RunData,
+    ext: &ModelExtension,
+    program: &mut Option<turntable::program::Program>,
+) -> Result<Estimate, EstimateError> {
     let layout = layout_with(config, data.turntable.is_some(), ext);
-    estimate_with(config, &layout, &data, &mut |_, _| {})
+    let mut imu = MemoryImu::new(data.imu, data.imu_file);
+    estimate_from_kept(
+        config,
+        &layout,
+        &mut imu,
+        data.turntable,
+        program,
+        &mut |_, _| {},
+    )
 }
 
 /// [`estimate`] with any state layout (e.g. an extended instrument model).
@@ -539,12 +558,31 @@ pub fn estimate_from(
     turntable: Option<AngleRecords>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
+    estimate_from_kept(config, layout, imu, turntable, &mut None, progress)
+}
+
+/// [`estimate_from`] with the program kept in `program` for fits of the same configuration
+/// (the model-extension loop's): used when there, else compiled (after the records are read,
+/// so that the errors come in the same order) and left there. Only the noise, the model and
+/// the held-out segments may differ between the configurations of the fits that share it: a
+/// program that `config` reads from the angle records must have been resolved into it.
+pub(crate) fn estimate_from_kept(
+    config: &RunConfig,
+    layout: &StateLayout,
+    imu: &mut dyn ImuSource,
+    turntable: Option<AngleRecords>,
+    program: &mut Option<turntable::program::Program>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Estimate, EstimateError> {
     let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Fixed, progress)?;
     let imu_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
     let resolved =
         crate::motion::angles_program::resolve_program(config, turntable, Some(imu_start))?;
     let config = resolved.as_ref().unwrap_or(config);
-    let program = config.program()?;
+    let program = match program {
+        Some(p) => p.clone(),
+        None => program.insert(config.program()?).clone(),
+    };
     let turns = program.pieces().iter().any(|p| p.rate != [0.0; 3]);
     check_gyros_alive(&scan.bins, turns, imu.file())?;
     let g = config.site().specific_force_at_rest_enu().norm();
@@ -556,17 +594,14 @@ pub fn estimate_from(
     };
     let motion = Motion::Program(program);
     let first = first_linearisation_point(config, layout, &scan, &motion);
-    iterate_passes(
+    let inp = PassInputs {
         config,
         layout,
-        imu,
-        tt_setup.as_ref(),
-        &scan,
-        &motion,
-        first,
-        first_pass_feedback(config),
-        progress,
-    )
+        turntable: tt_setup.as_ref(),
+        scan: &scan,
+        motion: &motion,
+    };
+    iterate_passes(&inp, imu, first, first_pass_feedback(config), progress)
 }
 
 /// What the first pass from the prior feeds back: everything (closed loop), except in a fit
@@ -608,13 +643,41 @@ pub fn estimate_at_rests(
         });
     }
     let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Jittered, progress)?;
+    check_recording_of_rests(config, &scan, rests, imu.file())?;
+    scan.program_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
+    scan.program_start_found = false;
+    let (motion, first_point) = motion_at_rests(config, layout, &scan, rests, turns, coarse)
+        .map_err(|source| EstimateError::Rests {
+            file: imu.file().to_string(),
+            source,
+        })?;
+    let feedback = first_feedback_at_rests(config, &motion, first_point.is_some());
+    let inp = PassInputs {
+        config,
+        layout,
+        turntable: None,
+        scan: &scan,
+        motion: &motion,
+    };
+    iterate_passes(&inp, imu, first_point, feedback, progress)
+}
+
+/// The checks of a recording of rests before any filter: the records' mean rate is the
+/// configured one, the gyros are alive, the specific force's magnitude is within what the
+/// priors allow, and the rests lie within the records.
+fn check_recording_of_rests(
+    config: &RunConfig,
+    scan: &Scan,
+    rests: &[Rest],
+    file: &str,
+) -> Result<(), EstimateError> {
     let dt = 1.0 / config.filter.imu_rate_hz;
     // Jittered stamps are integrated as they are, but their mean rate must be the configured
     // one: the filter's transitions and the Earth rate step at it.
     let mean_dt = (scan.span.1 - scan.span.0) / (scan.n - 1) as f64;
     if (mean_dt / dt - 1.0).abs() > MEAN_INTERVAL_TOLERANCE {
         return Err(IoError::File {
-            file: imu.file().to_string(),
+            file: file.to_string(),
             message: format!(
                 "the records come every {mean_dt} s on average: expected {dt} s \
                  (filter.imu_rate_hz = {}) within {} %",
@@ -624,35 +687,43 @@ pub fn estimate_at_rests(
         }
         .into());
     }
-    check_gyros_alive(&scan.bins, true, imu.file())?;
+    check_gyros_alive(&scan.bins, true, file)?;
     let g = config.site().specific_force_at_rest_enu().norm();
     // Three sigma of what the priors allow the magnitude to be off by.
     let p = config.priors_si();
     let tol = 3.0 * (p.accel_scale + p.accel_bias / g);
-    check_specific_force_within(&scan.bins, g, tol, imu.file())?;
-    let refuse = |source| EstimateError::Rests {
-        file: imu.file().to_string(),
-        source,
-    };
-    crate::motion::rests::check_rests(rests, scan.span.0 - dt, dt).map_err(refuse)?;
-    scan.program_start = scan.span.0 - dt;
-    scan.program_start_found = false;
+    check_specific_force_within(&scan.bins, g, tol, file)?;
+    crate::motion::rests::check_rests(rests, scan.span.0 - dt, dt).map_err(|source| {
+        EstimateError::Rests {
+            file: file.to_string(),
+            source,
+        }
+    })
+}
+
+/// What the unit did on a recording of rests: its rests, those less their margins, the start
+/// attitude levelled in the first (and gyrocompassed where the gyros resolve the Earth rate)
+/// about the coarse start or the prior means, the known turns in time order. With a coarse
+/// start also the point the first pass linearises about: the coarse start, from the start
+/// attitude levelled with it.
+fn motion_at_rests(
+    config: &RunConfig,
+    layout: &StateLayout,
+    scan: &Scan,
+    rests: &[Rest],
+    turns: &[crate::motion::rests::Turn],
+    coarse: Option<&[f64]>,
+) -> Result<(Motion, Option<Nominal>), RestError> {
     let usable = crate::motion::rests::usable(rests);
-    let first = usable
-        .first()
-        .copied()
-        .ok_or_else(|| refuse(RestError::None))?;
+    let first = usable.first().copied().ok_or(RestError::None)?;
     let pri = layout.prior_sigma();
     let instrument = StateLayout::INSTRUMENT..StateLayout::INSTRUMENT + layout.n_instrument();
     let p0 = match coarse {
         Some(c) if c.len() == instrument.len() => c.to_vec(),
         Some(c) => {
-            return Err(EstimateError::Rests {
-                file: imu.file().to_string(),
-                source: RestError::CoarseStart {
-                    got: c.len(),
-                    expected: instrument.len(),
-                },
+            return Err(RestError::CoarseStart {
+                got: c.len(),
+                expected: instrument.len(),
             });
         }
         None => vec![0.0; instrument.len()],
@@ -667,14 +738,10 @@ pub fn estimate_at_rests(
         config.gyro_psd(),
         config.accel_psd(),
     )
-    .ok_or_else(|| {
-        refuse(RestError::NoData {
-            t0: first.t0,
-            t1: first.t1,
-        })
+    .ok_or(RestError::NoData {
+        t0: first.t0,
+        t1: first.t1,
     })?;
-    // With a coarse start the first pass linearises about it, from the start attitude levelled
-    // with it.
     let first_point = coarse.map(|_| {
         let mut totals = vec![0.0; layout.dim()];
         totals[instrument.clone()].copy_from_slice(&p0);
@@ -685,13 +752,22 @@ pub fn estimate_at_rests(
     });
     let mut turns = turns.to_vec();
     turns.sort_by(|a, b| a.t0.total_cmp(&b.t0));
-    let heading_free = !align.gyrocompassed;
     let motion = Motion::Rests {
         rests: rests.to_vec(),
         usable,
         align,
         coarse: coarse.map(<[f64]>::to_vec),
         turns,
+    };
+    Ok((motion, first_point))
+}
+
+/// What the first pass over a recording of rests feeds back: the tilt alone from a coarse
+/// start or where the heading is free (not gyrocompassed), else [`first_pass_feedback`].
+fn first_feedback_at_rests(config: &RunConfig, motion: &Motion, coarse_start: bool) -> Feedback {
+    let heading_free = match motion {
+        Motion::Rests { align, .. } => !align.gyrocompassed,
+        Motion::Program(_) => false,
     };
     // A coarse start is good enough to linearise the parameters about, not to feed the
     // poorly observed ones back as the first updates move them (closed loop from the Xsens
@@ -707,22 +783,11 @@ pub fn estimate_at_rests(
     // about every axis (tests/tests/rests_loop.rs) had a first closed-loop pass at a mean NIS
     // of 167 on a clean run (seed 793), and the passes after it wandered for five passes
     // before they found the solution; with a walk in the data they never did.
-    let feedback = match first_point {
-        Some(_) => Feedback::Tilt,
-        None if heading_free => Feedback::Tilt,
-        None => first_pass_feedback(config),
-    };
-    iterate_passes(
-        config,
-        layout,
-        imu,
-        None,
-        &scan,
-        &motion,
-        first_point,
-        feedback,
-        progress,
-    )
+    if coarse_start || heading_free {
+        Feedback::Tilt
+    } else {
+        first_pass_feedback(config)
+    }
 }
 
 /// [`estimate_at_rests`] on records in memory, with a coarse start where the priors call for
@@ -881,19 +946,20 @@ enum Motion {
 /// linearised about the one before until no parameter moves by more than
 /// [`CONVERGED_SIGMA`]; the second-order specific-force error is then carried into the
 /// covariance through the final pass's sensitivity to a residual offset.
-#[allow(clippy::too_many_arguments)]
 fn iterate_passes(
-    config: &RunConfig,
-    layout: &StateLayout,
+    inp: &PassInputs,
     imu: &mut dyn ImuSource,
-    tt_setup: Option<&TurntableSetup>,
-    scan: &Scan,
-    motion: &Motion,
     first: Option<Nominal>,
     first_feedback: Feedback,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
-    let n = scan.n;
+    let PassInputs {
+        config,
+        layout,
+        motion,
+        ..
+    } = *inp;
+    let n = inp.scan.n;
     // Later passes keep their trajectory on a program. On a recording of rests they feed the
     // tilt back: their trajectory is the pass before's, integrated with its estimates, and the
     // gyro noise of a MEMS unit (120 deg/h in a 1-s average) walks its tilt by about a degree
@@ -906,6 +972,10 @@ fn iterate_passes(
     // start from the estimate of the start attitude (a fixed-point smoother).
     let smoother = layout.with_start_attitude();
     let s = smoother.start_attitude.expect("set by with_start_attitude");
+    let inp = PassInputs {
+        layout: &smoother,
+        ..*inp
+    };
     // Recordings of rests may carry per-cent errors, about which the linearised model converges
     // more slowly (a consumer-grade simulated run: NEES 79 after four passes, 40 after eight).
     let (max_passes, converged) = match motion {
@@ -928,12 +998,8 @@ fn iterate_passes(
             Feedback::None
         };
         let (est, c_start, sens) = run_pass(
-            config,
-            &smoother,
+            &inp,
             imu,
-            tt_setup,
-            scan,
-            motion,
             nominal.as_ref(),
             feedback,
             nominal.is_some(),
@@ -1378,101 +1444,155 @@ fn held_out_windows(motion: &Motion, program_start: f64, every: usize) -> Vec<(f
 /// for, its sensitivity to a constant specific-force residual offset (`n x 3`).
 type PassOutcome = (Estimate, Matrix3<f64>, Option<DMatrix<f64>>);
 
+/// What every pass of a calibration reads: the configuration, the state layout, the turntable
+/// side (set up only for a layout with the mounting states: [`estimate_from`]), the scan of
+/// the IMU data and what the unit did.
+#[derive(Clone, Copy)]
+struct PassInputs<'r, 't> {
+    config: &'r RunConfig,
+    layout: &'r StateLayout,
+    turntable: Option<&'r TurntableSetup<'t>>,
+    scan: &'r Scan,
+    motion: &'r Motion,
+}
+
 /// One pass over the data, linearised about `nominal` (the prior means and the program's
 /// start attitude if `None`): compensation, turntable reading and start attitude with the
 /// nominal values, the prior mean of each error state the prior mean less the nominal value.
 /// `feedback` says what the pass feeds back as it goes ([`Feedback`]).
-#[allow(clippy::too_many_arguments)]
 fn run_pass(
-    config: &RunConfig,
-    layout: &StateLayout,
+    inp: &PassInputs,
     imu: &mut dyn ImuSource,
-    turntable: Option<&TurntableSetup>,
-    scan: &Scan,
-    motion: &Motion,
     nominal: Option<&Nominal>,
     feedback: Feedback,
     track_offset: bool,
     progress: &mut dyn FnMut(usize),
 ) -> Result<PassOutcome, EstimateError> {
-    let dt = 1.0 / config.filter.imu_rate_hz;
-    let site = config.site();
-    let u_enu = site.earth_rate_enu();
-    let mut stats = FitStatistics::default();
-    // `turntable` is set up only for a layout with the mounting states (`estimate_from`).
-    let (angles, angle_var) = match turntable {
-        Some(tt) => {
-            stats.turntable_record_rate_hz = tt.record_rate_hz;
-            (Some(tt.reader(scan.program_start)?), Some(tt.angle_var))
-        }
-        None => (None, None),
+    let angles = match inp.turntable {
+        Some(tt) => Some(tt.reader(inp.scan.program_start)?),
+        None => None,
     };
-    let totals = nominal.map_or_else(|| vec![0.0; layout.dim()], |n| n.totals.clone());
-    let (filter, c0) = start_filter(config, layout, scan, motion, nominal, &totals)?;
+    let totals = nominal.map_or_else(|| vec![0.0; inp.layout.dim()], |n| n.totals.clone());
+    let (filter, c0) = start_filter(
+        inp.config, inp.layout, inp.scan, inp.motion, nominal, &totals,
+    )?;
+    let engine = pass_engine(inp, filter, track_offset);
+    let settings = pass_settings(inp, imu.kind(), feedback);
+    let mut pass = set_up_pass(inp, settings, engine, c0, &totals, angles);
+    let final_time = run_records(&mut pass, imu, inp.scan.span.0, progress)?;
+    let (estimate, offset_sensitivity) = pass_estimate(inp, imu.kind(), final_time, pass.finish());
+    Ok((estimate, c0, offset_sensitivity))
+}
+
+/// The filter engine of a pass: the linear model of the layout at the IMU step, the schedule
+/// of the measurements and their configured noise, the vertical row to second order in the
+/// tilt on a recording of rests, and the sensitivity to a specific-force residual offset when
+/// `track_offset`.
+fn pass_engine(inp: &PassInputs, filter: kalman::KalmanFilter, track_offset: bool) -> Engine {
+    let config = inp.config;
+    let dt = 1.0 / config.filter.imu_rate_hz;
+    let u_enu = config.site().earth_rate_enu();
     let noise = MeasurementNoise {
         accel_psd: config.accel_psd(),
-        angle_var_per_record: angle_var,
+        angle_var_per_record: inp.turntable.map(|tt| tt.angle_var),
     };
-    let model = LinearModel::new(layout, dt, &u_enu, config.gyro_psd());
+    let model = LinearModel::new(inp.layout, dt, &u_enu, config.gyro_psd());
     let mut engine = Engine::new(filter, model, Schedule::new(config), noise, false);
-    engine.vertical_second_order = matches!(motion, Motion::Rests { .. });
+    engine.vertical_second_order = matches!(inp.motion, Motion::Rests { .. });
     if track_offset {
         engine.offset_sensitivity = Some(crate::model::engine::OffsetSensitivity::new(
-            layout.dim(),
+            inp.layout.dim(),
             engine.filter.max_measurement_dim(),
         ));
     }
-    let settings = PassSettings {
-        kind: imu.kind(),
+    engine
+}
+
+/// The fixed settings of a pass over records of `kind`.
+fn pass_settings(inp: &PassInputs, kind: ImuKind, feedback: Feedback) -> PassSettings {
+    let config = inp.config;
+    let dt = 1.0 / config.filter.imu_rate_hz;
+    let site = config.site();
+    PassSettings {
+        kind,
         dt,
         inv_dt: 1.0 / dt,
-        u_enu,
+        u_enu: site.earth_rate_enu(),
         f_enu: site.specific_force_at_rest_enu(),
         feedback,
-        n_steps: scan.n,
-        own_intervals: matches!(motion, Motion::Rests { .. }),
+        n_steps: inp.scan.n,
+        own_intervals: matches!(inp.motion, Motion::Rests { .. }),
         motion_attitude_noise_rad: config.filter.motion_attitude_noise_deg.to_radians(),
-        temp_reference_c: scan.temperature(config).map(|t| t.reference_c),
-    };
-    let lin = Linearisation::from_totals(layout, &totals);
-    let mut pass = Pass::new(
-        layout,
-        settings,
-        engine,
-        Strapdown::new(c0, &u_enu, dt),
-        lin,
-        angles,
-    );
-    pass.stats = stats;
-    if let Motion::Rests { usable, turns, .. } = motion {
+        temp_reference_c: inp.scan.temperature(config).map(|t| t.reference_c),
+    }
+}
+
+/// The pass at its start: the strapdown from the start attitude `c0`, the linearisation point
+/// `totals`, the turntable reader; on a recording of rests the gate of its rests and its known
+/// turns; the held-out windows; the motion before the first record where the model takes rate
+/// derivatives.
+fn set_up_pass<'r>(
+    inp: &PassInputs<'r, '_>,
+    settings: PassSettings,
+    engine: Engine,
+    c0: Matrix3<f64>,
+    totals: &[f64],
+    angles: Option<AngleReader<'r>>,
+) -> Pass<'r> {
+    let nav = Strapdown::new(c0, &settings.u_enu, settings.dt);
+    let lin = Linearisation::from_totals(inp.layout, totals);
+    let mut pass = Pass::new(inp.layout, settings, engine, nav, lin, angles);
+    if let Some(tt) = inp.turntable {
+        pass.stats.turntable_record_rate_hz = tt.record_rate_hz;
+    }
+    if let Motion::Rests { usable, turns, .. } = inp.motion {
         pass.rest_gate = Some(crate::motion::rests::RestGate::new(usable.clone()));
         pass.turns = turns.clone();
     }
-    if let Some(every) = config.filter.hold_out_every {
-        pass.held_out = held_out_windows(motion, scan.program_start, every);
+    if let Some(every) = inp.config.filter.hold_out_every {
+        pass.held_out = held_out_windows(inp.motion, inp.scan.program_start, every);
     }
-    if layout.model.uses_rate_derivatives() {
-        // The motion in the middle of the interval before the first record, in the body through
-        // the start attitude (the middle: the program's start is found to a few microseconds,
-        // and a jump at the first record's start must fall after it). A recording of rests
-        // starts at rest.
-        let platform = match motion {
-            Motion::Program(program) => {
-                let t_before = scan.span.0 - 1.5 * dt - scan.program_start;
-                let (k, k_dot) = program.state(t_before);
-                turntable::gimbal::platform_rate_base(&k, &k_dot)
-            }
-            Motion::Rests { .. } => Vector3::zeros(),
-        };
-        pass.set_motion_before(
-            c0.transpose() * (u_enu + platform),
-            c0.transpose() * site.specific_force_at_rest_enu(),
-        );
+    if inp.layout.model.uses_rate_derivatives() {
+        let (omega_body, f_body) = motion_before(inp, &c0);
+        pass.set_motion_before(omega_body, f_body);
     }
+    pass
+}
+
+/// The motion in the middle of the interval before the first record (body rate and specific
+/// force), in the body through the start attitude `c0`: the middle, because the program's
+/// start is found to a few microseconds, and a jump at the first record's start must fall
+/// after it. A recording of rests starts at rest.
+fn motion_before(inp: &PassInputs, c0: &Matrix3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let dt = 1.0 / inp.config.filter.imu_rate_hz;
+    let site = inp.config.site();
+    let platform = match inp.motion {
+        Motion::Program(program) => {
+            let t_before = inp.scan.span.0 - 1.5 * dt - inp.scan.program_start;
+            let (k, k_dot) = program.state(t_before);
+            turntable::gimbal::platform_rate_base(&k, &k_dot)
+        }
+        Motion::Rests { .. } => Vector3::zeros(),
+    };
+    (
+        c0.transpose() * (site.earth_rate_enu() + platform),
+        c0.transpose() * site.specific_force_at_rest_enu(),
+    )
+}
+
+/// Every IMU record through the pass, read in chunks of [`PROGRESS_EVERY`] (one call through
+/// the source per chunk) and stepped with the best instruction set the processor has
+/// ([`Steps`]); `progress` hears the records done. The last record's time (`first_time`
+/// without records).
+fn run_records(
+    pass: &mut Pass,
+    imu: &mut dyn ImuSource,
+    first_time: f64,
+    progress: &mut dyn FnMut(usize),
+) -> Result<f64, EstimateError> {
     imu.rewind()?;
     let mut j = 0;
-    let mut final_time = scan.span.0;
-    // Records in chunks of PROGRESS_EVERY: one call through the source per chunk.
+    let mut final_time = first_time;
     let mut chunk = Vec::with_capacity(PROGRESS_EVERY);
     loop {
         imu.next_chunk(&mut chunk, PROGRESS_EVERY)?;
@@ -1485,7 +1605,7 @@ fn run_pass(
             pulp::Arch::new()
         };
         arch.dispatch(Steps {
-            pass: &mut pass,
+            pass,
             chunk: &chunk,
         })?;
         if let Some((rec, _)) = chunk.last() {
@@ -1498,6 +1618,17 @@ fn run_pass(
     if let Some(e) = pass.angles.as_mut().and_then(|a| a.interp.take_error()) {
         return Err(e.into());
     }
+    Ok(final_time)
+}
+
+/// The estimate of a finished pass over records of `imu_kind` that ended at `final_time`,
+/// its innovations assigned to the motion's segments; and the pass's offset sensitivity.
+fn pass_estimate(
+    inp: &PassInputs,
+    imu_kind: ImuKind,
+    final_time: f64,
+    result: PassResult,
+) -> (Estimate, Option<DMatrix<f64>>) {
     let PassResult {
         values,
         c,
@@ -1505,13 +1636,14 @@ fn run_pass(
         cov,
         mut innovations,
         offset_sensitivity,
-    } = pass.finish();
-    let segments = match motion {
+    } = result;
+    let (scan, layout) = (inp.scan, inp.layout);
+    let segments = match inp.motion {
         Motion::Program(program) => diagnostics::segments(program, scan.program_start),
         Motion::Rests { rests, .. } => crate::motion::rests::segments(rests),
     };
     diagnostics::assign_segments(&mut innovations, &segments);
-    let (rests, start_alignment) = match motion {
+    let (rests, start_alignment) = match inp.motion {
         Motion::Program(_) => (vec![], None),
         Motion::Rests { rests, align, .. } => (rests.clone(), Some(align.clone())),
     };
@@ -1525,21 +1657,21 @@ fn run_pass(
         final_c_body_to_enu: c,
         stats,
         imu_span: scan.span,
-        imu_kind: imu.kind(),
+        imu_kind,
         program_start_s: scan.program_start,
         program_start_found: scan.program_start_found,
         innovations,
         segments,
         rests,
         start_alignment,
-        temperature: scan.temperature(config),
+        temperature: scan.temperature(inp.config),
         temperature_series: scan
             .temperature
             .as_ref()
             .map(|t| t.series.clone())
             .unwrap_or_default(),
     };
-    Ok((estimate, c0, offset_sensitivity))
+    (estimate, offset_sensitivity)
 }
 
 #[cfg(test)]

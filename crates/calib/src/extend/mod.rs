@@ -32,7 +32,8 @@ pub mod evidence;
 use crate::check::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose};
 use crate::config::RunConfig;
 use crate::estimate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
-use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext};
+use crate::estimate::noise::MeasuredLevels;
+use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext_kept};
 use crate::extend::drift_visibility::{
     DriftAnalysis, DriftVisibility, drift_threshold, smallest_visible_drift,
 };
@@ -45,6 +46,7 @@ use crate::model::layout::StateLayout;
 use serde::Serialize;
 use sins_model::candidates::{Candidate, UnitGrade};
 use std::collections::BTreeMap;
+use turntable::program::Program;
 
 /// Settings of the loop.
 #[derive(Clone, Debug, PartialEq)]
@@ -337,16 +339,7 @@ pub fn thermal_untestable(est: &Estimate) -> Option<String> {
     }
 }
 
-/// Factors on the configured white-noise levels (`[noise] accel_m_s2`, `angle_arcsec`): the
-/// root of the mean NIS over 3 of the paper's model with the configured levels, 1 where that
-/// mean is inside its band.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct NoiseRescale {
-    /// Factor on the specific-force noise.
-    pub accel_factor: f64,
-    /// Factor on the angle noise.
-    pub angle_factor: f64,
-}
+pub use crate::estimate::noise::NoiseRescale;
 
 /// The smallest gyro bias random walk a program is expected to find
 /// ([`crate::extend::drift_visibility`]): below it a walk goes unseen and the reported gyro-bias sigmas
@@ -434,9 +427,11 @@ struct Context<'a> {
     /// `config` with its white noise scaled to the data, for a round whose current model's
     /// mean NIS contradicts the configured noise ([`noise_rescale`]).
     scaled: Option<RunConfig>,
-    /// The noise factor and motion noise (rad) the paper's model's fit measured (a recording
-    /// whose noise every fit measures): the next fits start from them.
-    measured_start: Option<(f64, f64)>,
+    /// The levels the paper's model's fit measured (a recording whose noise every fit
+    /// measures): the next fits start from them.
+    measured_start: Option<MeasuredLevels>,
+    /// The program of a programmed run, compiled by the first fit and kept for the others.
+    program: Option<Program>,
     data: &'a RunData<'a>,
     /// A recording of rests without a program ([`run_loop_at_rests`]).
     rests: Option<&'a [crate::motion::rests::Rest]>,
@@ -491,7 +486,7 @@ impl Context<'_> {
 
     fn fit_with(&mut self, config: &RunConfig, ext: &ModelExtension) -> Result<Fit, LoopError> {
         let estimate = match self.rests {
-            None => estimate_ext(config, *self.data, ext)?,
+            None => estimate_ext_kept(config, *self.data, ext, &mut self.program)?,
             Some(rests) => {
                 let fit = crate::estimate::hand_turned::fit_measuring_noise(
                     config,
@@ -506,14 +501,8 @@ impl Context<'_> {
                     self.measured_start,
                     &mut |_, _| {},
                 )?;
-                if let crate::estimate::hand_turned::NoiseSource::Measured {
-                    accel_factor,
-                    motion_noise_deg,
-                    ..
-                } = fit.noise
-                {
-                    self.measured_start
-                        .get_or_insert((accel_factor, motion_noise_deg.to_radians()));
+                if let Some(levels) = fit.noise.measured_levels() {
+                    self.measured_start.get_or_insert(levels);
                 }
                 fit.estimate
             }
@@ -804,6 +793,7 @@ pub fn run_loop(
         config,
         scaled: None,
         measured_start: None,
+        program: None,
         data,
         rests: None,
         turns: &[],
@@ -814,9 +804,14 @@ pub fn run_loop(
     loop_in(cx)
 }
 
-/// Refuse a fit of data that cover only part of the program ([`LoopError::PartialProgram`]).
-fn check_coverage(config: &RunConfig, data: &RunData, est: &Estimate) -> Result<(), LoopError> {
-    let duration_s = config.program().map_err(EstimateError::from)?.duration();
+/// Refuse a fit of data that cover only part of `program` ([`LoopError::PartialProgram`]).
+fn check_coverage(
+    config: &RunConfig,
+    program: &Program,
+    data: &RunData,
+    est: &Estimate,
+) -> Result<(), LoopError> {
+    let duration_s = program.duration();
     let dt = 1.0 / config.filter.imu_rate_hz;
     let (Some(first), Some(last)) = (data.imu.records.first(), data.imu.records.last()) else {
         return Ok(());
@@ -851,6 +846,7 @@ pub fn run_loop_at_rests(
         config,
         scaled: None,
         measured_start: None,
+        program: None,
         data,
         rests: Some(rests),
         turns,
@@ -866,7 +862,8 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
     (cx.progress)("fitting the paper's model");
     let base = cx.fit(&ModelExtension::default())?;
     if cx.rests.is_none() {
-        check_coverage(cx.config, cx.data, &base.estimate)?;
+        let program = cx.program.as_ref().expect("a fit of a program keeps it");
+        check_coverage(cx.config, program, cx.data, &base.estimate)?;
     }
     let est = &base.estimate;
     if let (Some(t), None) = (&est.temperature, cx.rests) {
@@ -885,27 +882,27 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
     loop_from(cx, base)
 }
 
-/// The factors by which the configured white noise of each measurement is scaled to the data:
-/// the root of its mean NIS over the mean expected when the model fits (3, for the turntable
-/// angles a little less: `FitStatistics::turntable_expected_nis`) where that mean is outside
-/// its band (`None`: both inside, or no updates).
+/// The factors by which the configured white noise of each measurement is scaled to the data
+/// ([`NoiseRescale::to_innovations`]): the root of its mean NIS over the mean expected when the
+/// model fits (3, for the turntable angles a little less:
+/// `FitStatistics::turntable_expected_nis`) where that mean is outside its band
+/// ([`crate::report::lab::mean_nis_figures`]; `None`: both inside, or no updates).
 fn noise_rescale(
     stats: &crate::estimate::FitStatistics,
     with_turntable: bool,
 ) -> Option<NoiseRescale> {
     let figures = crate::report::lab::mean_nis_figures(stats, with_turntable);
-    let factor = |kind: crate::model::MeasurementKind| {
+    let outside = |kind: crate::model::MeasurementKind| {
         figures
             .iter()
             .find(|m| m.kind == kind)
-            .filter(|m| !m.consistent() && m.mean.is_finite() && m.mean > 0.0)
-            .map_or(1.0, |m| (m.mean / m.expected).sqrt())
+            .filter(|m| !m.consistent())
+            .map(|m| (m.mean, m.expected))
     };
-    let r = NoiseRescale {
-        accel_factor: factor(crate::model::MeasurementKind::Accel),
-        angle_factor: factor(crate::model::MeasurementKind::Turntable),
-    };
-    (r.accel_factor != 1.0 || r.angle_factor != 1.0).then_some(r)
+    NoiseRescale::to_innovations(
+        outside(crate::model::MeasurementKind::Accel),
+        outside(crate::model::MeasurementKind::Turntable),
+    )
 }
 
 /// The loop's rounds from the fitted base model.
@@ -918,58 +915,18 @@ fn noise_rescale(
 /// extended model (a real effect's share of the misfit is not taken for noise twice).
 fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
     let settings = cx.settings;
-    let with_turntable = cx.data.turntable.is_some();
-    let mut current = base.clone();
-    let mut noise_rescaled = None;
-    let (mut accepted, mut rounds, mut gains) = (Vec::new(), Vec::new(), BTreeMap::new());
-    let mut not_tested = Vec::new();
+    let thermal_off = thermal_untestable(&base.estimate);
+    let mut st = LoopState {
+        current: base.clone(),
+        accepted: Vec::new(),
+        rounds: Vec::new(),
+        gains: BTreeMap::new(),
+        noise_rescaled: None,
+        not_tested: Vec::new(),
+    };
     loop {
-        cx.scaled = None;
-        // A fit that measures its own noise ([`LoopSettings::measured_noise`]) is at the data's
-        // scale already.
-        let rescale = match settings.measured_noise {
-            Some(_) => None,
-            None => noise_rescale(&current.estimate.stats, with_turntable),
-        };
-        let reference = match rescale {
-            Some(r) => {
-                let mut scaled = cx.config.clone();
-                scaled.noise.accel_m_s2 *= r.accel_factor;
-                scaled.noise.angle_arcsec *= r.angle_factor;
-                cx.scaled = Some(scaled);
-                (cx.progress)(&format!(
-                    "the configured noise does not match the data (specific force x{:.3}, \
-                     angles x{:.3}): this round tests with it scaled",
-                    r.accel_factor, r.angle_factor
-                ));
-                if rounds.is_empty() {
-                    noise_rescaled = Some(r);
-                }
-                cx.fit(&current.extension)?
-            }
-            None => current.clone(),
-        };
-        let mut evidence: Vec<(CandidateEvidence, Fit)> = Vec::new();
-        let thermal_off = thermal_untestable(&base.estimate);
-        for &c in &settings.candidates {
-            if has_term(&reference.extension, c) {
-                continue;
-            }
-            if c.is_thermal()
-                && let Some(why) = &thermal_off
-            {
-                if rounds.is_empty() {
-                    not_tested.push((c.id().to_string(), why.clone()));
-                }
-                continue;
-            }
-            evidence.push(if c == Candidate::GyroBiasDrift {
-                cx.drift(&reference)?
-            } else {
-                cx.constant_term(&reference, c)?
-            });
-        }
-        evidence.sort_by(|a, b| a.0.ln_p_value.total_cmp(&b.0.ln_p_value));
+        let reference = cx.round_reference(&mut st)?;
+        let mut evidence = cx.round_evidence(&reference, thermal_off.as_deref(), &mut st)?;
         let threshold = settings.level / evidence.len().max(1) as f64;
         // Only the best-supported candidate may be accepted: when it is significant but not
         // separable, a weaker separable candidate accepted in its place would absorb part of its
@@ -978,7 +935,7 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
             .first()
             .filter(|(e, _)| e.separable && e.ln_p_value < threshold.ln())
             .map(|_| 0)
-            .filter(|_| accepted.len() < settings.max_terms);
+            .filter(|_| st.accepted.len() < settings.max_terms);
         let mut round = Round {
             candidates: evidence.iter().map(|(e, _)| e.clone()).collect(),
             threshold,
@@ -986,7 +943,7 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
             held_out: None,
         };
         let Some(k) = pick else {
-            rounds.push(round);
+            st.rounds.push(round);
             break;
         };
         if let Some(every) = settings.hold_out_every {
@@ -997,59 +954,148 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
             if refused {
                 // The data call for the term, but it predicts held-out data worse: it would be
                 // fitting the recording, not the instrument. The loop stops and says so.
-                rounds.push(round);
+                st.rounds.push(round);
                 break;
             }
         }
-        let (e, fit) = evidence.swap_remove(k);
+        cx.accept(&mut st, round, evidence.swap_remove(k), &reference)?;
+    }
+    let drift_reach = cx.last_drift_reach(&st)?;
+    Ok(LoopResult {
+        accepted_terms: st.accepted,
+        rounds: st.rounds,
+        gain: st.gains,
+        base,
+        last: st.current,
+        drift_reach,
+        noise_rescaled: st.noise_rescaled,
+        not_tested: st.not_tested,
+    })
+}
+
+/// What the loop's rounds have found so far.
+struct LoopState {
+    /// The model with the terms accepted, fitted with the configured noise.
+    current: Fit,
+    /// Term ids in the order accepted.
+    accepted: Vec<String>,
+    rounds: Vec<Round>,
+    gains: BTreeMap<String, TermGain>,
+    /// The first round's noise factors, when it scaled the noise.
+    noise_rescaled: Option<NoiseRescale>,
+    /// Candidates not tested, with why.
+    not_tested: Vec<(String, String)>,
+}
+
+impl Context<'_> {
+    /// The fit a round tests its candidates against: the current model, or, where its mean
+    /// NIS contradicts the configured noise, the current model fitted again with the noise
+    /// scaled to the data ([`noise_rescale`]; the first round's factors are the result's).
+    /// A fit that measures its own noise ([`LoopSettings::measured_noise`]) is at the data's
+    /// scale already.
+    fn round_reference(&mut self, st: &mut LoopState) -> Result<Fit, LoopError> {
+        self.scaled = None;
+        let rescale = match self.settings.measured_noise {
+            Some(_) => None,
+            None => noise_rescale(&st.current.estimate.stats, self.data.turntable.is_some()),
+        };
+        let Some(r) = rescale else {
+            return Ok(st.current.clone());
+        };
+        self.scaled = Some(r.scaled(self.config));
+        (self.progress)(&format!(
+            "the configured noise does not match the data (specific force x{:.3}, \
+             angles x{:.3}): this round tests with it scaled",
+            r.accel_factor, r.angle_factor
+        ));
+        if st.rounds.is_empty() {
+            st.noise_rescaled = Some(r);
+        }
+        self.fit(&st.current.extension)
+    }
+
+    /// The evidence for every candidate of the settings not in `reference`'s model against
+    /// it, the best supported first. The thermal candidates are left out where `thermal_off`
+    /// says why (noted in the first round).
+    fn round_evidence(
+        &mut self,
+        reference: &Fit,
+        thermal_off: Option<&str>,
+        st: &mut LoopState,
+    ) -> Result<Vec<(CandidateEvidence, Fit)>, LoopError> {
+        let settings = self.settings;
+        let mut evidence: Vec<(CandidateEvidence, Fit)> = Vec::new();
+        for &c in &settings.candidates {
+            if has_term(&reference.extension, c) {
+                continue;
+            }
+            if c.is_thermal()
+                && let Some(why) = thermal_off
+            {
+                if st.rounds.is_empty() {
+                    st.not_tested.push((c.id().to_string(), why.to_string()));
+                }
+                continue;
+            }
+            evidence.push(if c == Candidate::GyroBiasDrift {
+                self.drift(reference)?
+            } else {
+                self.constant_term(reference, c)?
+            });
+        }
+        evidence.sort_by(|a, b| a.0.ln_p_value.total_cmp(&b.0.ln_p_value));
+        Ok(evidence)
+    }
+
+    /// Accept the candidate `(e, fit)` of `round`: its gain against `reference`, and the
+    /// current model becomes its fit (fitted again with the configured noise in a round that
+    /// scaled it).
+    fn accept(
+        &mut self,
+        st: &mut LoopState,
+        mut round: Round,
+        (e, fit): (CandidateEvidence, Fit),
+        reference: &Fit,
+    ) -> Result<(), LoopError> {
         let added = fit.estimate.names.len() - reference.estimate.names.len();
         let added = if e.term == Candidate::GyroBiasDrift.id() {
             3
         } else {
             added
         };
-        gains.insert(e.term.clone(), gain(&reference, &fit, added));
+        st.gains
+            .insert(e.term.clone(), gain(reference, &fit, added));
         round.accepted = Some(e.term.clone());
-        accepted.push(e.term.clone());
-        rounds.push(round);
-        current = if cx.scaled.take().is_some() {
-            cx.fit(&fit.extension)?
+        st.accepted.push(e.term.clone());
+        st.rounds.push(round);
+        st.current = if self.scaled.take().is_some() {
+            self.fit(&fit.extension)?
         } else {
             fit
         };
+        Ok(())
     }
-    let drift_reach = match (cx.rests, rounds.last()) {
-        (None, Some(last)) => {
-            let tried = last
-                .candidates
-                .iter()
-                .find(|c| c.term == Candidate::GyroBiasDrift.id());
-            match tried {
-                Some(_) if last.accepted.as_deref() != Some(Candidate::GyroBiasDrift.id()) => {
-                    (cx.progress)("how large a walk this program would show");
-                    drift_reach(
-                        cx.config(),
-                        cx.data.turntable.is_some(),
-                        &current.extension,
-                        settings,
-                        last.threshold,
-                    )?
-                }
-                _ => None,
-            }
+
+    /// What the program can see of a gyro bias random walk ([`drift_reach`]), when the last
+    /// round tried the walk and did not accept it (a programmed run; `None` otherwise).
+    fn last_drift_reach(&mut self, st: &LoopState) -> Result<Option<DriftReach>, LoopError> {
+        let (None, Some(last)) = (self.rests, st.rounds.last()) else {
+            return Ok(None);
+        };
+        let drift = Candidate::GyroBiasDrift.id();
+        let tried = last.candidates.iter().any(|c| c.term == drift);
+        if !tried || last.accepted.as_deref() == Some(drift) {
+            return Ok(None);
         }
-        _ => None,
-    };
-    Ok(LoopResult {
-        accepted_terms: accepted,
-        rounds,
-        gain: gains,
-        base,
-        last: current,
-        drift_reach,
-        noise_rescaled,
-        not_tested,
-    })
+        (self.progress)("how large a walk this program would show");
+        drift_reach(
+            self.config(),
+            self.data.turntable.is_some(),
+            &st.current.extension,
+            self.settings,
+            last.threshold,
+        )
+    }
 }
 
 /// [`DriftReach`] of the program of `config` with the model `ext`, for the loop's drift grid

@@ -212,6 +212,19 @@ struct AccelWindow {
     t: f64,
 }
 
+impl AccelWindow {
+    /// An empty window over `nd` dynamic columns and `n_instr` instrument parameters.
+    fn new(nd: usize, n_instr: usize) -> Self {
+        Self {
+            beta: PhiMean::new(nd),
+            noise: WindowNoise::default(),
+            c_jac: vec![Vector3::zeros(); n_instr],
+            dv_enu: Vector3::zeros(),
+            t: 0.0,
+        }
+    }
+}
+
 /// Accumulators of the turntable-angle measurement window.
 #[derive(Clone, Debug)]
 struct TurntableWindow {
@@ -229,6 +242,23 @@ struct TurntableWindow {
     /// the two measurements' noises correlated.
     prev_records: Vec<(usize, Matrix3<f64>)>,
     prev_count: usize,
+}
+
+impl TurntableWindow {
+    /// An empty window over `nd` dynamic columns, room for 64 records reserved.
+    fn new(nd: usize) -> Self {
+        Self {
+            beta: PhiMean::new(nd),
+            noise: WindowNoise::default(),
+            c_sum: Matrix3::zeros(),
+            omega_sum: Vector3::zeros(),
+            y_sum: Vector3::zeros(),
+            count: 0,
+            records: Vec::with_capacity(64),
+            prev_records: Vec::with_capacity(64),
+            prev_count: 0,
+        }
+    }
 }
 
 /// Accumulates the transition and measurement matrices of one filter interval.
@@ -277,6 +307,52 @@ pub struct LinearModel {
     accel_drift: Option<(usize, Vector3<f64>)>,
 }
 
+/// The gyro terms' parameters of `layout`: (index into the instrument parameters, column of
+/// `phi_top` among the dynamic ones, after the three attitude errors).
+fn gyro_params_of(layout: &StateLayout) -> Vec<(usize, usize)> {
+    (0..layout.model.terms().len())
+        .filter(|&k| layout.model.terms()[k].sensor() == Sensor::Gyro)
+        .flat_map(|k| {
+            let o = layout.model.offset(k);
+            o..o + layout.model.terms()[k].params().len()
+        })
+        .enumerate()
+        .map(|(c, i)| (i, 3 + c))
+        .collect()
+}
+
+/// The gyro Jacobian in axis-column form when the model's terms give it, each column given by
+/// its dynamic column: `(column, axis, feature slot)`.
+fn gyro_axis_columns(
+    layout: &StateLayout,
+    gyro_params: &[(usize, usize)],
+) -> Option<Vec<(usize, usize, usize)>> {
+    layout.model.axis_jacobian(Sensor::Gyro).map(|ax| {
+        ax.entries()
+            .iter()
+            .map(|&(k, axis, slot)| {
+                let c = gyro_params
+                    .iter()
+                    .find(|p| p.0 == k)
+                    .expect("a gyro parameter")
+                    .1;
+                (c, axis, slot)
+            })
+            .collect()
+    })
+}
+
+/// The accelerometer biases' random walk of `layout`, when it carries one: the index of the
+/// state `accel.bias.x` and the PSD of each bias's walk ((m/s^2)^2/s).
+fn accel_drift_of(layout: &StateLayout) -> Option<(usize, Vector3<f64>)> {
+    layout.accel_drift.map(|d| {
+        let bias = layout
+            .index(sins_model::names::ACCEL_BIAS[0])
+            .expect("a drifting accelerometer bias needs the states accel.bias.*");
+        (bias, Vector3::from(d).component_mul(&Vector3::from(d)))
+    })
+}
+
 /// Process noise of the attitude error and the drifting gyro biases (states 3..6) over one
 /// transition interval, accumulated step by step exactly as the discrete model
 /// `beta' = A beta + C dt b`, `b' = b + w` (`w` of variance `q dt`) propagates it.
@@ -290,6 +366,25 @@ struct DriftNoise {
 }
 
 impl DriftNoise {
+    /// The gyro biases' random walk of `layout`, when it carries one (its biases must be the
+    /// first instrument term).
+    fn of(layout: &StateLayout) -> Option<Self> {
+        layout.gyro_drift.map(|d| {
+            let bias = layout.index(sins_model::names::GYRO_BIAS[0]);
+            assert_eq!(
+                bias,
+                Some(StateLayout::INSTRUMENT),
+                "a drifting gyro bias must be the first instrument term"
+            );
+            DriftNoise {
+                q: Vector3::from(d).component_mul(&Vector3::from(d)),
+                q_bb: Matrix3::zeros(),
+                q_beta_b: Matrix3::zeros(),
+                q_beta_beta: Matrix3::zeros(),
+            }
+        })
+    }
+
     fn reset(&mut self) {
         self.q_bb = Matrix3::zeros();
         self.q_beta_b = Matrix3::zeros();
@@ -363,15 +458,7 @@ impl LinearModel {
     pub fn new(layout: &StateLayout, dt: f64, u_enu: &Vector3<f64>, psd_gyro: f64) -> Self {
         let n = layout.dim();
         let n_instr = layout.n_instrument();
-        let gyro_params: Vec<(usize, usize)> = (0..layout.model.terms().len())
-            .filter(|&k| layout.model.terms()[k].sensor() == Sensor::Gyro)
-            .flat_map(|k| {
-                let o = layout.model.offset(k);
-                o..o + layout.model.terms()[k].params().len()
-            })
-            .enumerate()
-            .map(|(c, i)| (i, 3 + c))
-            .collect();
+        let gyro_params = gyro_params_of(layout);
         let dynamic: Vec<usize> = (0..3)
             .chain(
                 gyro_params
@@ -380,39 +467,9 @@ impl LinearModel {
             )
             .collect();
         let nd = dynamic.len();
-        let gyro_axis = layout.model.axis_jacobian(Sensor::Gyro).map(|ax| {
-            ax.entries()
-                .iter()
-                .map(|&(k, axis, slot)| {
-                    let c = gyro_params
-                        .iter()
-                        .find(|p| p.0 == k)
-                        .expect("a gyro parameter")
-                        .1;
-                    (c, axis, slot)
-                })
-                .collect()
-        });
-        let drift = layout.gyro_drift.map(|d| {
-            let bias = layout.index(sins_model::names::GYRO_BIAS[0]);
-            assert_eq!(
-                bias,
-                Some(StateLayout::INSTRUMENT),
-                "a drifting gyro bias must be the first instrument term"
-            );
-            DriftNoise {
-                q: Vector3::from(d).component_mul(&Vector3::from(d)),
-                q_bb: Matrix3::zeros(),
-                q_beta_b: Matrix3::zeros(),
-                q_beta_beta: Matrix3::zeros(),
-            }
-        });
-        let accel_drift = layout.accel_drift.map(|d| {
-            let bias = layout
-                .index(sins_model::names::ACCEL_BIAS[0])
-                .expect("a drifting accelerometer bias needs the states accel.bias.*");
-            (bias, Vector3::from(d).component_mul(&Vector3::from(d)))
-        });
+        let gyro_axis = gyro_axis_columns(layout, &gyro_params);
+        let drift = DriftNoise::of(layout);
+        let accel_drift = accel_drift_of(layout);
         // The dynamic rows: the attitude error, and the drifting biases with it (the
         // transition's rows down to the last drifting bias; the rows between are identity).
         let k = match (&accel_drift, drift.is_some()) {
@@ -433,24 +490,8 @@ impl LinearModel {
             phi_top: DynamicRows::zeros(nd),
             jac: vec![Vector3::zeros(); n_instr],
             dt,
-            acc: AccelWindow {
-                beta: PhiMean::new(nd),
-                noise: WindowNoise::default(),
-                c_jac: vec![Vector3::zeros(); n_instr],
-                dv_enu: Vector3::zeros(),
-                t: 0.0,
-            },
-            tt: TurntableWindow {
-                beta: PhiMean::new(nd),
-                noise: WindowNoise::default(),
-                c_sum: Matrix3::zeros(),
-                omega_sum: Vector3::zeros(),
-                y_sum: Vector3::zeros(),
-                count: 0,
-                records: Vec::with_capacity(64),
-                prev_records: Vec::with_capacity(64),
-                prev_count: 0,
-            },
+            acc: AccelWindow::new(nd, n_instr),
+            tt: TurntableWindow::new(nd),
             scratch: DynamicRows::zeros(nd),
             phi_mat: Mat::zeros(k, n),
             q_mat: Mat::zeros(k, k),

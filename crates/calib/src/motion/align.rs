@@ -155,88 +155,27 @@ pub fn align_to_program_by(
     model: &ErrorModel,
     gyro_psd: f64,
 ) -> Option<Alignment> {
-    let kin = Kinematics::new(program.clone(), Mounting::default(), *site);
-    let changes = RateChanges::new(program);
-    // Platform-frame reference rate of a usable bin.
-    let usable = |b: &RateBin| {
-        if !changes.clear(b.t0 - program_start, b.t1 - program_start) {
-            return None;
-        }
-        let mid = 0.5 * (b.t0 + b.t1) - program_start;
-        let r = kin.sample(mid).omega_body;
-        (r.norm() > MIN_RATE).then_some(r)
+    let bins = ProgramBins {
+        bin,
+        kin: Kinematics::new(program.clone(), Mounting::default(), *site),
+        changes: RateChanges::new(program),
+        program_start,
     };
-    // The usable bins as runs `[first, end)` of indices (a program's turns come in pieces).
-    let mut runs: Vec<(usize, usize)> = Vec::new();
-    let mut used = 0;
-    let mut info = Matrix3::zeros();
-    let mut b_sum = Matrix3::zeros();
-    for i in 0..n_bins {
-        let bin = bin(i);
-        let Some(r) = usable(&bin) else { continue };
-        match runs.last_mut() {
-            Some(run) if run.1 == i => run.1 = i + 1,
-            _ => runs.push((i, i + 1)),
-        }
-        used += 1;
-        let w = bin.t1 - bin.t0;
-        info += (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * w;
-        b_sum += bin.rate * r.transpose() * w;
-    }
-    let pairs = || {
-        runs.iter().flat_map(|&(a, b)| a..b).map(|i| {
-            let b = bin(i);
-            (usable(&b).expect("a usable bin"), b)
-        })
-    };
-    let eig = info.symmetric_eigenvalues();
+    let sums = bins.sums(n_bins);
+    let eig = sums.info.symmetric_eigenvalues();
     let mut sorted = [eig[0], eig[1], eig[2]];
     sorted.sort_by(f64::total_cmp);
     // Rotations about one axis only leave the rotation about that axis unknown.
     let spread_enough = sorted[2] > 0.0 && sorted[0] / sorted[2] >= MIN_AXIS_SPREAD;
-    if used == 0 || !spread_enough {
+    if sums.used == 0 || !spread_enough {
         return None;
     }
-    let r_platform_to_body = wahba(&b_sum)?;
+    let r_platform_to_body = wahba(&sums.b_sum)?;
     let c_body_to_platform = r_platform_to_body.transpose();
     let (k0, _) = program.state(t_start - program_start);
     let c_p0 = c_platform_to_base(&k0);
     let c_start = c_p0 * c_body_to_platform;
-
-    // d beta_0 / d p by central differences of the fit: a parameter p_i changes the measured
-    // rates by -d nu / d p_i, hence the fit's B by -sum (d nu / d p_i) r^T w.
-    let n = model.n_params();
-    let mut d_b = vec![Matrix3::zeros(); n];
-    let mut jac = vec![Vector3::zeros(); n];
-    for (r, bin) in pairs() {
-        let w = bin.t1 - bin.t0;
-        let input = SensorInput {
-            omega_body: bin.rate,
-            f_body: bin.f,
-            ..SensorInput::default()
-        };
-        model.jacobian(Sensor::Gyro, &vec![0.0; n], &input, &mut jac);
-        for (d, j) in d_b.iter_mut().zip(&jac) {
-            *d -= j * r.transpose() * w;
-        }
-    }
-    let mut jacobian = DMatrix::zeros(3, n);
-    let scale = b_sum.norm();
-    for (i, d) in d_b.iter().enumerate() {
-        if d.norm() == 0.0 {
-            continue;
-        }
-        let h = 1e-6 * scale / d.norm();
-        let attitude = |s: f64| wahba(&(b_sum + d * s)).map(|r| c_p0 * r.transpose());
-        let (Some(plus), Some(minus)) = (attitude(h), attitude(-h)) else {
-            continue;
-        };
-        // beta_0(p) = log(C_true C_start(p)^T), C_true the fit without the error.
-        let col = (log_so3(&(c_start * plus.transpose()))
-            - log_so3(&(c_start * minus.transpose())))
-            / (2.0 * h);
-        jacobian.set_column(i, &col);
-    }
+    let jacobian = bins.start_jacobian(&sums, model, &c_p0, &c_start);
     // Noise: white rate noise of PSD q on a bin of length w has variance q / w; the fit's
     // attitude covariance is then q info^-1 (platform axes); take its largest value, with a
     // floor of 1e-6 rad for what the model leaves out.
@@ -246,8 +185,113 @@ pub fn align_to_program_by(
         c_start,
         jacobian,
         sigma_noise,
-        bins_used: used,
+        bins_used: sums.used,
     })
+}
+
+/// The rate bins of [`align_to_program_by`] against the program's platform rates.
+struct ProgramBins<'b> {
+    /// Bin `i`, made on demand.
+    bin: &'b dyn Fn(usize) -> RateBin,
+    kin: Kinematics,
+    changes: RateChanges,
+    program_start: f64,
+}
+
+/// What one reading of the bins gives the fit.
+struct BinSums {
+    /// The usable bins as runs `[first, end)` of indices (a program's turns come in pieces).
+    runs: Vec<(usize, usize)>,
+    /// Usable bins.
+    used: usize,
+    /// The rotation information `sum (|r|^2 I - r r^T) w`.
+    info: Matrix3<f64>,
+    /// Wahba's `B = sum rate r^T w`.
+    b_sum: Matrix3<f64>,
+}
+
+impl ProgramBins<'_> {
+    /// The platform-frame reference rate of a usable bin: one clear of the program's rate
+    /// changes whose reference rate is above [`MIN_RATE`].
+    fn usable(&self, b: &RateBin) -> Option<Vector3<f64>> {
+        let start = self.program_start;
+        if !self.changes.clear(b.t0 - start, b.t1 - start) {
+            return None;
+        }
+        let mid = 0.5 * (b.t0 + b.t1) - start;
+        let r = self.kin.sample(mid).omega_body;
+        (r.norm() > MIN_RATE).then_some(r)
+    }
+
+    /// The sums over the usable bins of the `n_bins`, and where they are.
+    fn sums(&self, n_bins: usize) -> BinSums {
+        let mut sums = BinSums {
+            runs: Vec::new(),
+            used: 0,
+            info: Matrix3::zeros(),
+            b_sum: Matrix3::zeros(),
+        };
+        for i in 0..n_bins {
+            let bin = (self.bin)(i);
+            let Some(r) = self.usable(&bin) else { continue };
+            match sums.runs.last_mut() {
+                Some(run) if run.1 == i => run.1 = i + 1,
+                _ => sums.runs.push((i, i + 1)),
+            }
+            sums.used += 1;
+            let w = bin.t1 - bin.t0;
+            sums.info += (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * w;
+            sums.b_sum += bin.rate * r.transpose() * w;
+        }
+        sums
+    }
+
+    /// `d beta_0 / d p` (3 x parameters of `model`) by central differences of the fit: a
+    /// parameter `p_i` changes the measured rates by `-d nu / d p_i`, hence the fit's `B` by
+    /// `-sum (d nu / d p_i) r^T w` over the usable bins (made again).
+    fn start_jacobian(
+        &self,
+        sums: &BinSums,
+        model: &ErrorModel,
+        c_p0: &Matrix3<f64>,
+        c_start: &Matrix3<f64>,
+    ) -> DMatrix<f64> {
+        let n = model.n_params();
+        let mut d_b = vec![Matrix3::zeros(); n];
+        let mut jac = vec![Vector3::zeros(); n];
+        for i in sums.runs.iter().flat_map(|&(a, b)| a..b) {
+            let bin = (self.bin)(i);
+            let r = self.usable(&bin).expect("a usable bin");
+            let w = bin.t1 - bin.t0;
+            let input = SensorInput {
+                omega_body: bin.rate,
+                f_body: bin.f,
+                ..SensorInput::default()
+            };
+            model.jacobian(Sensor::Gyro, &vec![0.0; n], &input, &mut jac);
+            for (d, j) in d_b.iter_mut().zip(&jac) {
+                *d -= j * r.transpose() * w;
+            }
+        }
+        let mut jacobian = DMatrix::zeros(3, n);
+        let scale = sums.b_sum.norm();
+        for (i, d) in d_b.iter().enumerate() {
+            if d.norm() == 0.0 {
+                continue;
+            }
+            let h = 1e-6 * scale / d.norm();
+            let attitude = |s: f64| wahba(&(sums.b_sum + d * s)).map(|r| c_p0 * r.transpose());
+            let (Some(plus), Some(minus)) = (attitude(h), attitude(-h)) else {
+                continue;
+            };
+            // beta_0(p) = log(C_true C_start(p)^T), C_true the fit without the error.
+            let col = (log_so3(&(c_start * plus.transpose()))
+                - log_so3(&(c_start * minus.transpose())))
+                / (2.0 * h);
+            jacobian.set_column(i, &col);
+        }
+        jacobian
+    }
 }
 
 /// How well the two kinds of direction are known before calibration: the scale of the errors

@@ -408,54 +408,22 @@ pub fn check_turntable_clock(
     if sample.len() < 2 {
         return Ok(());
     }
-    let duration = program.duration();
-    let prog_deg = |t: f64| program.state(t).0.map(f64::to_degrees);
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    let mut max_abs: f64 = 0.0;
-    for r in sample {
-        for g in 0..3 {
-            lo[g] = lo[g].min(r.k_deg[g]);
-            hi[g] = hi[g].max(r.k_deg[g]);
-            max_abs = max_abs.max(r.k_deg[g].abs());
-        }
-    }
-    let spread = (0..3).map(|g| hi[g] - lo[g]).fold(0.0, f64::max);
-    let (mut plo, mut phi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    let mut prog_abs: f64 = 0.0;
-    for i in 0..=2000 {
-        let k = prog_deg(duration * i as f64 / 2000.0);
-        for g in 0..3 {
-            plo[g] = plo[g].min(k[g]);
-            phi[g] = phi[g].max(k[g]);
-            prog_abs = prog_abs.max(k[g].abs());
-        }
-    }
-    let prog_spread = (0..3).map(|g| phi[g] - plo[g]).fold(0.0, f64::max);
+    let misfit = AngleMisfit {
+        sample,
+        clock,
+        program,
+        program_start,
+        duration: program.duration(),
+    };
+    let (spread, max_abs) = extent(sample.iter().map(|r| r.k_deg));
+    let (prog_spread, prog_abs) = misfit.program_extent();
     if prog_spread > 10.0 && spread < 0.01 * prog_spread {
         return Err(TurntableClockError::Constant {
             range_deg: spread,
             program_deg: prog_spread,
         });
     }
-    // RMS angle misfit (deg) of the records inside the program with the records taken `shift`
-    // later on the IMU clock, the recorded values multiplied by `scale`.
-    let rms_scaled = |shift: f64, scale: f64| {
-        let (mut sse, mut n) = (0.0, 0usize);
-        for r in sample {
-            let t = clock.imu_time(r.t) - program_start - shift;
-            if !(0.0..=duration).contains(&t) {
-                continue;
-            }
-            for (recorded, expected) in r.k_deg.iter().zip(prog_deg(t)) {
-                let d = turntable::gimbal::wrap_deg(scale * recorded - expected);
-                sse += d * d;
-            }
-            n += 3;
-        }
-        (n > 0).then(|| (sse / n as f64).sqrt())
-    };
-    let rms = |shift: f64| rms_scaled(shift, 1.0);
-    let at_zero = rms(0.0).unwrap_or(f64::INFINITY);
+    let at_zero = misfit.rms(0.0).unwrap_or(f64::INFINITY);
     // The fastest gimbal rate times the largest delay, plus sensor noise and a margin.
     let max_rate = program
         .pieces()
@@ -467,29 +435,12 @@ pub fn check_turntable_clock(
     if at_zero <= limit {
         return Ok(());
     }
-    // Search shifts of up to a tenth of the program (1-s grid, then 10 ms).
-    let reach = (0.1 * duration).max(5.0);
-    let mut best = (at_zero, 0.0);
-    let mut s = -reach;
-    while s <= reach {
-        if let Some(v) = rms(s)
-            && v < best.0
-        {
-            best = (v, s);
-        }
-        s += 1.0;
-    }
-    let centre = best.1;
-    let mut s = centre - 1.0;
-    while s <= centre + 1.0 {
-        if let Some(v) = rms(s)
-            && v < best.0
-        {
-            best = (v, s);
-        }
-        s += 0.01;
-    }
-    if best.0 > limit && rms_scaled(0.0, 180.0 / std::f64::consts::PI).is_some_and(|v| v <= limit) {
+    let best = misfit.best_shift(at_zero);
+    let radians = |m: &AngleMisfit| {
+        m.rms_scaled(0.0, 180.0 / std::f64::consts::PI)
+            .is_some_and(|v| v <= limit)
+    };
+    if best.0 > limit && radians(&misfit) {
         return Err(TurntableClockError::Radians {
             max_abs,
             program_deg: prog_abs,
@@ -507,4 +458,91 @@ pub fn check_turntable_clock(
         rms_deg: best.0,
         limit_deg: limit,
     })
+}
+
+/// The largest spread of a gimbal angle over `angles` (deg) and their largest magnitude.
+fn extent(angles: impl Iterator<Item = [f64; 3]>) -> (f64, f64) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let mut max_abs: f64 = 0.0;
+    for k in angles {
+        for g in 0..3 {
+            lo[g] = lo[g].min(k[g]);
+            hi[g] = hi[g].max(k[g]);
+            max_abs = max_abs.max(k[g].abs());
+        }
+    }
+    let spread = (0..3).map(|g| hi[g] - lo[g]).fold(0.0, f64::max);
+    (spread, max_abs)
+}
+
+/// The turntable records of [`check_turntable_clock`] against the program.
+struct AngleMisfit<'a> {
+    sample: &'a [crate::io::TurntableRecord],
+    clock: &'a crate::config::ClockConfig,
+    program: &'a Program,
+    program_start: f64,
+    duration: f64,
+}
+
+impl AngleMisfit<'_> {
+    /// The program's gimbal angles at program time `t` (deg).
+    fn program_deg(&self, t: f64) -> [f64; 3] {
+        self.program.state(t).0.map(f64::to_degrees)
+    }
+
+    /// [`extent`] of the program's angles, at 2001 instants over the program.
+    fn program_extent(&self) -> (f64, f64) {
+        extent((0..=2000).map(|i| self.program_deg(self.duration * i as f64 / 2000.0)))
+    }
+
+    /// RMS angle misfit (deg) of the records inside the program with the records taken
+    /// `shift` later on the IMU clock, the recorded values multiplied by `scale` (`None`: no
+    /// record inside).
+    fn rms_scaled(&self, shift: f64, scale: f64) -> Option<f64> {
+        let (mut sse, mut n) = (0.0, 0usize);
+        for r in self.sample {
+            let t = self.clock.imu_time(r.t) - self.program_start - shift;
+            if !(0.0..=self.duration).contains(&t) {
+                continue;
+            }
+            for (recorded, expected) in r.k_deg.iter().zip(self.program_deg(t)) {
+                let d = turntable::gimbal::wrap_deg(scale * recorded - expected);
+                sse += d * d;
+            }
+            n += 3;
+        }
+        (n > 0).then(|| (sse / n as f64).sqrt())
+    }
+
+    fn rms(&self, shift: f64) -> Option<f64> {
+        self.rms_scaled(shift, 1.0)
+    }
+
+    /// The shift (s) of the smallest misfit within a tenth of the program (at least 5 s) on a
+    /// 1-s grid, then within a second of it on a 10-ms grid, with that misfit: `(rms, shift)`,
+    /// from `(at_zero, 0)`.
+    fn best_shift(&self, at_zero: f64) -> (f64, f64) {
+        let reach = (0.1 * self.duration).max(5.0);
+        let mut best = (at_zero, 0.0);
+        let mut s = -reach;
+        while s <= reach {
+            if let Some(v) = self.rms(s)
+                && v < best.0
+            {
+                best = (v, s);
+            }
+            s += 1.0;
+        }
+        let centre = best.1;
+        let mut s = centre - 1.0;
+        while s <= centre + 1.0 {
+            if let Some(v) = self.rms(s)
+                && v < best.0
+            {
+                best = (v, s);
+            }
+            s += 0.01;
+        }
+        best
+    }
 }
