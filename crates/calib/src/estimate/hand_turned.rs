@@ -167,18 +167,6 @@ fn mean_rate(data: &ImuData, a: f64, b: f64) -> Option<(Vector3<f64>, f64)> {
     (span > 0.0).then(|| (sum / span, span))
 }
 
-/// The white-noise levels measured in the rests of a recording: each the standard deviation of
-/// a 1-s mean of one axis, pooled over the rests and the three axes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct WhiteNoiseAtRest {
-    /// Gyro (rad/s).
-    pub gyro_rad_s: f64,
-    /// Accelerometer (m/s^2).
-    pub accel_m_s2: f64,
-    /// Degrees of freedom of the pooled variance (per axis).
-    pub dof: usize,
-}
-
 /// The scatter of the 1-s means in the rests ([`WhiteNoiseAtRest`]); each rest less
 /// [`REST_MARGIN_S`] at both ends, cut into whole seconds, its own mean removed. `None` when no
 /// rest holds two whole seconds.
@@ -278,68 +266,9 @@ pub const MOTION_NOISE_NEGLIGIBLE_RAD: f64 = 1e-6;
 /// measure the motion noise.
 pub const MAX_NOISE_FITS: usize = 10;
 
-pub use crate::estimate::noise::NoiseSource;
-
-/// Whether the specific-force innovations scatter more than the rests' own noise says: the
-/// ratio of their variance to it, `F = accel_factor^2` (the fit's mean NIS over 3 at the
-/// measured level), against the F distribution of `3 windows` and `3 dof` degrees of freedom
-/// (one-sided, the upper [`EXCESS_LEVEL`] tail; the log-normal approximation
-/// `ln F ~ N(0, 2/d1 + 2/d2)`). An excess says the rests differ by more than their noise: the
-/// model lacks an error, or the unit settles or warms after each turn. Not a verdict alone:
-/// the held-out rests decide ([`verdict`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ScatterExcess {
-    /// The variance ratio.
-    pub ratio: f64,
-    /// Its one-sided p-value.
-    pub p_value: f64,
-    /// Windows behind it.
-    pub windows: usize,
-    /// Degrees of freedom of the rests' noise (per axis).
-    pub dof: usize,
-}
-
-/// The level of the one-sided tests of [`ScatterExcess`] and [`verdict`].
-pub const EXCESS_LEVEL: f64 = 0.01;
-
-impl ScatterExcess {
-    fn of(ratio: f64, windows: usize, dof: usize) -> Self {
-        let v = 2.0 / (3 * windows.max(1)) as f64 + 2.0 / (3 * dof.max(1)) as f64;
-        let z = ratio.max(f64::MIN_POSITIVE).ln() / v.sqrt();
-        Self {
-            ratio,
-            p_value: normal_upper_tail(z),
-            windows,
-            dof,
-        }
-    }
-
-    /// Whether the excess is significant.
-    pub fn significant(&self) -> bool {
-        self.p_value < EXCESS_LEVEL
-    }
-
-    /// Whether the excess is gross: the variance ratio significantly above
-    /// [`GROSS_VARIANCE_RATIO`] (the same one-sided test of `ratio / GROSS_VARIANCE_RATIO`).
-    pub fn gross(&self) -> bool {
-        ScatterExcess::of(self.ratio / GROSS_VARIANCE_RATIO, self.windows, self.dof).significant()
-    }
-}
-
-/// The variance ratio of innovations to the rests' own noise above which what the model
-/// lacks outweighs the noise: at 4 the part of the scatter that the rests' noise does not
-/// explain is three times the part it does (residuals twice the noise in sigma). Below it a
-/// real unit's settling after a hand turn, slow drift and sensor filtering (the shipped Xsens
-/// recording with its g-sensitivity: 1.9) are within what a calibration is judged on; above it
-/// the calibration is dominated by an error it does not model (the same recording without the
-/// g-sensitivity: 65).
-pub const GROSS_VARIANCE_RATIO: f64 = 4.0;
-
-/// `P(Z > z)` for a standard normal `Z`.
-fn normal_upper_tail(z: f64) -> f64 {
-    use statrs::distribution::{ContinuousCDF, Normal};
-    Normal::new(0.0, 1.0).map_or(f64::NAN, |n| n.sf(z))
-}
+pub use crate::estimate::noise::{
+    EXCESS_LEVEL, GROSS_VARIANCE_RATIO, NoiseSource, ScatterExcess, WhiteNoiseAtRest,
+};
 
 /// The noise of a fit measured from its own innovations ([`noise_ml`]).
 #[derive(Clone, Copy, Debug, PartialEq)]

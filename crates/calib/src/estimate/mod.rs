@@ -49,12 +49,11 @@ pub mod data_checks;
 pub mod hand_turned;
 pub mod noise;
 mod pass;
-mod source;
 
+pub use crate::io::source::{FileImu, ImuSource, MemoryImu};
 use angles::AngleInterpolator;
 use pass::{AngleReader, Feedback, Linearisation, Pass, PassResult, PassSettings, Strapdown};
 use sins_model::timing::median_interval_of as median_interval;
-pub use source::{FileImu, ImuSource, MemoryImu};
 
 /// Errors of an estimation run.
 #[derive(Debug, thiserror::Error)]

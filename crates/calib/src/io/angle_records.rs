@@ -1,6 +1,6 @@
 //! The turntable's angle records as a calibration reads them: in memory (a simulation, a parsed
 //! file) or streamed from their file once per pass, like the IMU records
-//! ([`crate::estimate::FileImu`]), so that memory does not grow with the run's length or the
+//! ([`crate::io::source::FileImu`]), so that memory does not grow with the run's length or the
 //! angle rate.
 //!
 //! A calibration needs of the records, before the passes: their number, first and last stamps

@@ -24,6 +24,7 @@ pub mod angle_records;
 pub mod correction_block;
 pub mod posterior;
 pub mod schema;
+pub mod source;
 pub mod timing;
 
 /// The shortest recording calibrated (s, first to last time stamp).

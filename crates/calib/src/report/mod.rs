@@ -1,5 +1,5 @@
 //! The paper's tables (each entry the largest posterior sigma over the axes or elements of a
-//! group, in the paper's units), the one number format of p-values ([`p_value_text`]), and in
+//! group, in the paper's units), the one number format of p-values ([`crate::check::stats::p_value_text`]), and in
 //! [`lab`] the figures of the report a laboratory files (`sins-calib calibrate --report`).
 
 use crate::estimate::covariance::Posterior;

@@ -32,7 +32,7 @@
 //! [`Segmentation::missed_suggestion`] gives settings that would take them, tried on the same
 //! data. [`Segmentation::missed_report`] words both for a printout.
 
-use crate::estimate::ImuSource;
+use crate::io::source::ImuSource;
 use crate::io::timing::{self, GapAt};
 use crate::io::{ImuData, ImuKind, ImuRecord};
 use serde::{Deserialize, Serialize};
