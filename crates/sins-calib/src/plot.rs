@@ -17,7 +17,7 @@ use std::sync::OnceLock;
 
 const FITTED: RGBColor = RGBColor(31, 119, 180);
 const HELD_OUT: RGBColor = RGBColor(214, 39, 40);
-/// Points beyond a residual axis, drawn at its edge ([`OffAxis`]).
+/// Points beyond a residual axis, drawn at its edge.
 pub(crate) const BEYOND: RGBColor = RGBColor(120, 20, 20);
 
 pub(crate) fn ensure_fonts() -> Result<(), String> {
