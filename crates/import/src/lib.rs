@@ -35,6 +35,7 @@
 
 pub mod detect;
 mod error;
+mod fields;
 pub mod profile;
 pub mod sections;
 pub mod select;
