@@ -30,6 +30,8 @@ mod free_motion;
 mod import;
 mod lab_report;
 mod noise;
+mod noise_json;
+mod noise_model;
 mod noise_plot;
 mod output;
 mod plot;
