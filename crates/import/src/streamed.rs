@@ -503,21 +503,7 @@ pub fn import_into(
         profile,
         [(sat_g, &g.file, &line_g), (sat_a, &a.file, &line_a)],
     );
-    let sections = match &profile.sections {
-        Some(s) => {
-            let mut carry = sections::Carry::new(
-                s,
-                &profile.resolve(&s.file),
-                imu.records,
-                imu.kind,
-                median,
-                &profile.gyro,
-            )?;
-            read_imu(&imu.path, |r| carry.push(r.t, r.gyro, r.accel))?;
-            Some(carry.finish(&profile.accel))
-        }
-        None => None,
-    };
+    let sections = carry_sections(profile, &imu)?;
     let report = ImportReport {
         profile: profile.origin.clone(),
         description: profile.description.clone(),
@@ -662,6 +648,27 @@ fn quietest_force(
         &a.file,
         [a.lines.line(wa), a.lines.line(wb - 1)],
     )
+}
+
+/// The profile's section list carried onto the written records (one more reading), when it
+/// has one.
+fn carry_sections(
+    profile: &Profile,
+    imu: &WrittenImu,
+) -> Result<Option<SectionsFile>, ImportError> {
+    let Some(s) = &profile.sections else {
+        return Ok(None);
+    };
+    let mut carry = sections::Carry::new(
+        s,
+        &profile.resolve(&s.file),
+        imu.records,
+        imu.kind,
+        imu.median,
+        &profile.gyro,
+    )?;
+    read_imu(&imu.path, |r| carry.push(r.t, r.gyro, r.accel))?;
+    Ok(Some(carry.finish(&profile.accel)))
 }
 
 /// Write `sections.json` (with a section list) and `import.json`; the files written.
