@@ -33,6 +33,7 @@
 #![warn(missing_docs)]
 
 mod error;
+mod fields;
 pub mod profile;
 pub mod sections;
 mod streamed;

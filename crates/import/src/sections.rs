@@ -3,7 +3,7 @@
 //! imported file (format: `docs/formats.md`, "Sections file").
 
 use crate::error::ImportError;
-use crate::profile::{SectionsSource, Sensor};
+use crate::fields::{SectionsSource, Sensor};
 use crate::text::excerpt;
 use calib::io::{ImuData, ImuKind};
 use serde::{Deserialize, Serialize};

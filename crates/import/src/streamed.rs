@@ -466,35 +466,122 @@ pub fn import_into(
     let converted = convert(profile, &scans, dir)?;
     let (g, a) = (&scans[0], scans.last().expect("one or two"));
     let imu_path = dir.join("imu.csv");
-    let n = converted.records;
-    if n < 2 {
+    if converted.records < 2 {
         return Err(too_short(&g.file, g.lines.line(0)));
     }
     let median = converted
         .median
         .finish(|visit| read_imu(&imu_path, |r| visit(r.t)))?;
+    let imu = WrittenImu {
+        path: imu_path,
+        kind: converted.kind,
+        records: converted.records,
+        median,
+    };
     check_time_base(profile, &g.file, g.lines.line(0), median)?;
+    let read = read_timing(profile, &imu)?;
+    let gap_reports = gap_reports(&read.gaps, &read.timing, &g.file, |k| g.lines.line(k));
+    if !options.allow_gaps {
+        check_gaps(profile, &read.timing, &gap_reports, |k| g.lines.line(k))?;
+    }
+    if let Some((k, s, i, v)) = read.beyond {
+        let src = if s == 0 { g } else { a };
+        return Err(magnitude_error(
+            profile,
+            s,
+            i,
+            v,
+            &src.file,
+            src.lines.line(k),
+        ));
+    }
+    let static_force = quietest_force(profile, &imu, read.quiet, a)?;
+    let line_g = |k: usize| g.lines.line(k);
+    let line_a = |k: usize| a.lines.line(k);
+    let [sat_g, sat_a] = &converted.saturation;
+    let saturation = saturation_reports_of(
+        profile,
+        [(sat_g, &g.file, &line_g), (sat_a, &a.file, &line_a)],
+    );
+    let sections = carry_sections(profile, &imu)?;
+    let report = ImportReport {
+        profile: profile.origin.clone(),
+        description: profile.description.clone(),
+        inputs: scans.iter().map(Scan::input_file).collect(),
+        form: match imu.kind {
+            ImuKind::Rates => "rates",
+            ImuKind::Increments => "increments",
+        }
+        .into(),
+        records: imu.records,
+        t_first_s: converted.t_first,
+        t_last_s: converted.t_last,
+        timing: read.timing,
+        gaps: gap_reports,
+        saturation,
+        static_force,
+        turntable: converted.turntable.is_some(),
+        sections: sections.as_ref().map(|s| s.sections.len()),
+    };
+    let written = write_reports(
+        dir,
+        &report,
+        sections.as_ref(),
+        imu.path,
+        converted.turntable,
+    )?;
+    Ok(ImportedFiles {
+        report,
+        sections,
+        written,
+    })
+}
 
-    // One reading: the intervals, the gaps, the magnitudes and the quietest second.
-    let gap_factor = profile.checks.gap_factor;
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    let mut gaps = Vec::new();
-    let mut beyond: Option<(usize, usize, usize, f64)> = None;
-    let mut quiet = Quietest::new(n, median);
-    let mut previous: Option<f64> = None;
-    let mut k = 0;
-    let kind = converted.kind;
-    let rate_force = |r: &ImuRecord, k: usize, previous: Option<f64>| match kind {
+/// The written `imu.csv` as the checks read it again: its path, form, number of records and
+/// median interval.
+struct WrittenImu {
+    path: PathBuf,
+    kind: ImuKind,
+    records: usize,
+    median: f64,
+}
+
+/// The specific force of record `k` as a rate (m/s^2): increments over the interval to the
+/// record before (`previous`, its time), over the median interval for the first record.
+fn rate_force(imu: &WrittenImu, r: &ImuRecord, k: usize, previous: Option<f64>) -> [f64; 3] {
+    match imu.kind {
         ImuKind::Rates => r.accel,
         ImuKind::Increments => {
             let dt = match previous {
                 Some(p) if k > 0 => r.t - p,
-                _ => median,
+                _ => imu.median,
             };
             r.accel.map(|x| x / dt)
         }
-    };
-    read_imu(&imu_path, |r| {
+    }
+}
+
+/// What one reading of the written records finds: the intervals' range, the gaps, the first
+/// value beyond a plausible magnitude (`(record, sensor, axis, value)`) and the quietest
+/// window's search.
+struct TimingReading {
+    timing: Timing,
+    gaps: Vec<GapAt>,
+    beyond: Option<(usize, usize, usize, f64)>,
+    quiet: Quietest,
+}
+
+/// One reading of the written records: the intervals, the gaps, the magnitudes and the
+/// quietest second.
+fn read_timing(profile: &Profile, imu: &WrittenImu) -> Result<TimingReading, ImportError> {
+    let (median, gap_factor) = (imu.median, profile.checks.gap_factor);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut gaps = Vec::new();
+    let mut beyond: Option<(usize, usize, usize, f64)> = None;
+    let mut quiet = Quietest::new(imu.records, median);
+    let mut previous: Option<f64> = None;
+    let mut k = 0;
+    read_imu(&imu.path, |r| {
         if let Some(p) = previous {
             let d = r.t - p;
             lo = lo.min(d);
@@ -512,40 +599,38 @@ pub fn import_into(
             let dt = previous.map_or(median, |p| r.t - p);
             beyond = beyond_magnitude(profile, r, dt).map(|(s, i, v)| (k, s, i, v));
         }
-        quiet.push(rate_force(r, k, previous));
+        quiet.push(rate_force(imu, r, k, previous));
         previous = Some(r.t);
         k += 1;
     })?;
-    let timing = Timing {
-        median_interval_s: median,
-        min_interval_s: lo,
-        max_interval_s: hi,
-        gap_factor,
-    };
-    let gap_reports = gap_reports(&gaps, &timing, &g.file, |k| g.lines.line(k));
-    if !options.allow_gaps {
-        check_gaps(profile, &timing, &gap_reports, |k| g.lines.line(k))?;
-    }
-    if let Some((k, s, i, v)) = beyond {
-        let src = if s == 0 { g } else { a };
-        return Err(magnitude_error(
-            profile,
-            s,
-            i,
-            v,
-            &src.file,
-            src.lines.line(k),
-        ));
-    }
+    Ok(TimingReading {
+        timing: Timing {
+            median_interval_s: median,
+            min_interval_s: lo,
+            max_interval_s: hi,
+            gap_factor,
+        },
+        gaps,
+        beyond,
+        quiet,
+    })
+}
 
-    // The quietest second read again: its specific force's median magnitude.
-    let (wa, wb, std) = quiet.finish(n);
+/// The quietest second read again: its specific force's median magnitude, checked against
+/// gravity (the lines named are the accelerometer file's, `a`).
+fn quietest_force(
+    profile: &Profile,
+    imu: &WrittenImu,
+    quiet: Quietest,
+    a: &Scan,
+) -> Result<StaticForce, ImportError> {
+    let (wa, wb, std) = quiet.finish(imu.records);
     let mut norms = Vec::with_capacity(wb - wa);
     let mut window_s = [f64::NAN; 2];
     let (mut previous, mut k) = (None, 0);
-    read_imu(&imu_path, |r| {
+    read_imu(&imu.path, |r| {
         if (wa..wb).contains(&k) {
-            let v = rate_force(r, k, previous);
+            let v = rate_force(imu, r, k, previous);
             norms.push((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
             if k == wa {
                 window_s[0] = r.t;
@@ -555,58 +640,52 @@ pub fn import_into(
         previous = Some(r.t);
         k += 1;
     })?;
-    let static_force = static_force(
+    static_force(
         profile,
         timing::median_of(&mut norms),
         std,
         window_s,
         &a.file,
         [a.lines.line(wa), a.lines.line(wb - 1)],
+    )
+}
+
+/// The profile's section list carried onto the written records (one more reading), when it
+/// has one.
+fn carry_sections(
+    profile: &Profile,
+    imu: &WrittenImu,
+) -> Result<Option<SectionsFile>, ImportError> {
+    let Some(s) = &profile.sections else {
+        return Ok(None);
+    };
+    let mut carry = sections::Carry::new(
+        s,
+        &profile.resolve(&s.file),
+        imu.records,
+        imu.kind,
+        imu.median,
+        &profile.gyro,
     )?;
-    let line_g = |k: usize| g.lines.line(k);
-    let line_a = |k: usize| a.lines.line(k);
-    let [sat_g, sat_a] = &converted.saturation;
-    let saturation = saturation_reports_of(
-        profile,
-        [(sat_g, &g.file, &line_g), (sat_a, &a.file, &line_a)],
-    );
+    read_imu(&imu.path, |r| carry.push(r.t, r.gyro, r.accel))?;
+    Ok(Some(carry.finish(&profile.accel)))
+}
 
-    let sections = match &profile.sections {
-        Some(s) => {
-            let mut carry =
-                sections::Carry::new(s, &profile.resolve(&s.file), n, kind, median, &profile.gyro)?;
-            read_imu(&imu_path, |r| carry.push(r.t, r.gyro, r.accel))?;
-            Some(carry.finish(&profile.accel))
-        }
-        None => None,
-    };
-
-    let report = ImportReport {
-        profile: profile.origin.clone(),
-        description: profile.description.clone(),
-        inputs: scans.iter().map(Scan::input_file).collect(),
-        form: match kind {
-            ImuKind::Rates => "rates",
-            ImuKind::Increments => "increments",
-        }
-        .into(),
-        records: n,
-        t_first_s: converted.t_first,
-        t_last_s: converted.t_last,
-        timing,
-        gaps: gap_reports,
-        saturation,
-        static_force,
-        turntable: converted.turntable.is_some(),
-        sections: sections.as_ref().map(|s| s.sections.len()),
-    };
+/// Write `sections.json` (with a section list) and `import.json`; the files written.
+fn write_reports(
+    dir: &Path,
+    report: &ImportReport,
+    sections: Option<&SectionsFile>,
+    imu: PathBuf,
+    turntable: Option<PathBuf>,
+) -> Result<Written, ImportError> {
     let json = |path: &Path, text: String| {
         std::fs::write(path, text + "\n").map_err(|source| ImportError::Write {
             file: path.display().to_string(),
             source,
         })
     };
-    let sections_path = match &sections {
+    let sections_path = match sections {
         Some(s) => {
             let p = dir.join("sections.json");
             json(&p, serde_json::to_string_pretty(s).expect("plain data"))?;
@@ -617,16 +696,12 @@ pub fn import_into(
     let report_path = dir.join("import.json");
     json(
         &report_path,
-        serde_json::to_string_pretty(&report).expect("plain data"),
+        serde_json::to_string_pretty(report).expect("plain data"),
     )?;
-    Ok(ImportedFiles {
-        report,
-        sections,
-        written: Written {
-            imu: imu_path,
-            turntable: converted.turntable,
-            sections: sections_path,
-            report: report_path,
-        },
+    Ok(Written {
+        imu,
+        turntable,
+        sections: sections_path,
+        report: report_path,
     })
 }

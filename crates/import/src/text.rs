@@ -2,7 +2,7 @@
 //! with its line number, every refusal naming the file, the line and what was expected.
 
 use crate::error::ImportError;
-use crate::profile::{Column, Input};
+use crate::fields::{Column, Input};
 use std::io::BufRead;
 use std::path::Path;
 
@@ -141,7 +141,7 @@ impl Lines {
 /// number. Nothing is held but the current row.
 pub(crate) struct Rows {
     lines: Lines,
-    input_delimiter: crate::profile::Delimiter,
+    input_delimiter: crate::fields::Delimiter,
     comment: Option<String>,
     skip_lines: usize,
     whats: Vec<String>,

@@ -98,6 +98,23 @@ impl Default for SnakeConfig {
     }
 }
 
+/// A field out of its range.
+fn bad(field: &'static str, reason: impl Into<String>) -> ConfigError {
+    ConfigError::Invalid {
+        field,
+        reason: reason.into(),
+    }
+}
+
+/// A field that must be a finite number.
+fn finite(field: &'static str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(bad(field, format!("must be a finite number, got {v}")))
+    }
+}
+
 impl SnakeConfig {
     /// The documented default flight, parsed from [`DEFAULT_SNAKE_TOML`].
     pub fn default_config() -> Self {
@@ -120,19 +137,12 @@ impl SnakeConfig {
 
     /// Check every field's range; the error names the field.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        fn bad(field: &'static str, reason: impl Into<String>) -> ConfigError {
-            ConfigError::Invalid {
-                field,
-                reason: reason.into(),
-            }
-        }
-        fn finite(field: &'static str, v: f64) -> Result<(), ConfigError> {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                Err(bad(field, format!("must be a finite number, got {v}")))
-            }
-        }
+        self.validate_flight()?;
+        self.validate_turn()
+    }
+
+    /// The straight flight: speed, legs, roll time, altitude, start and duration.
+    fn validate_flight(&self) -> Result<(), ConfigError> {
         finite("speed_m_s", self.speed_m_s)?;
         if !(self.speed_m_s > 0.0 && self.speed_m_s <= 1000.0) {
             return Err(bad(
@@ -180,6 +190,13 @@ impl SnakeConfig {
                 format!("must be in (0, 172800] s, got {}", self.duration_s),
             ));
         }
+        Ok(())
+    }
+
+    /// The turns: one of radius and rate, a bank angle the aircraft can fly, roll-in and
+    /// roll-out that leave a constant-bank part. Needs the flight checked first (the bank
+    /// depends on the speed and the start).
+    fn validate_turn(&self) -> Result<(), ConfigError> {
         match (self.turn_radius_m, self.turn_rate_deg_s) {
             (Some(_), Some(_)) => {
                 return Err(bad(

@@ -10,6 +10,7 @@
 //! `accel.bias.{x,y,z}` (m/s^2), `accel.gamma.{xx,yx,yy,zx,zy,zz}` (-).
 
 use nalgebra::{DMatrix, SMatrix};
+use sins_model::terms::{ErrorModel, PaperPriors};
 
 use crate::NavError;
 
@@ -21,7 +22,7 @@ pub const INSTRUMENT_DIM: usize = 21;
 /// owner of the names; navigation only takes them over).
 pub static INSTRUMENT_NAMES: std::sync::LazyLock<[&'static str; INSTRUMENT_DIM]> =
     std::sync::LazyLock::new(|| {
-        let names: Vec<&'static str> = crate::model::paper_model()
+        let names: Vec<&'static str> = paper_model()
             .params()
             .into_iter()
             .map(|p| &*Box::leak(p.name.into_boxed_str()))
@@ -30,6 +31,14 @@ pub static INSTRUMENT_NAMES: std::sync::LazyLock<[&'static str; INSTRUMENT_DIM]>
             .try_into()
             .expect("the paper's model has INSTRUMENT_DIM parameters")
     });
+
+/// The paper's instrument model (gyro bias, Theta, accelerometer bias, lower-triangular Gamma),
+/// whose parameters are navigation's instrument state and whose Jacobians navigation uses
+/// (their values do not depend on the priors it is built with).
+pub fn paper_model() -> &'static ErrorModel {
+    static MODEL: std::sync::OnceLock<ErrorModel> = std::sync::OnceLock::new();
+    MODEL.get_or_init(|| ErrorModel::paper(&PaperPriors::paper()))
+}
 
 /// Index of the first gyro bias in the instrument state.
 pub const GYRO_BIAS: usize = 0;

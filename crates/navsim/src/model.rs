@@ -29,10 +29,13 @@
 use nalgebra::{Matrix3, SMatrix, Vector3};
 use sins_model::attitude::skew;
 use sins_model::earth::Site;
-use sins_model::terms::{ErrorModel, PaperPriors, Sensor, SensorInput};
+use sins_model::terms::{Sensor, SensorInput};
 
 use crate::NavError;
+// The instrument model is the instruments module's (its parameters are navigation's instrument
+// state); re-exported here, where navigation takes its Jacobians.
 use crate::instruments::INSTRUMENT_DIM;
+pub use crate::instruments::paper_model;
 use crate::trajectory::TrajectoryPoint;
 
 /// Number of navigation error states.
@@ -62,13 +65,6 @@ pub type NavMatrix = SMatrix<f64, NAV_DIM, NAV_DIM>;
 pub type NavInstrumentMatrix = SMatrix<f64, NAV_DIM, INSTRUMENT_DIM>;
 /// 3x21 map from instrument parameters to the attitude error after alignment.
 pub type AlignmentMap = SMatrix<f64, 3, INSTRUMENT_DIM>;
-
-/// The paper's instrument model (gyro bias, Theta, accelerometer bias, lower-triangular Gamma),
-/// whose Jacobians navigation uses (their values do not depend on the priors it is built with).
-pub fn paper_model() -> &'static ErrorModel {
-    static MODEL: std::sync::OnceLock<ErrorModel> = std::sync::OnceLock::new();
-    MODEL.get_or_init(|| ErrorModel::paper(&PaperPriors::paper()))
-}
 
 /// `C nu` and `C df` as linear maps of the instrument state: rows 0..3 give the gyro error in ENU,
 /// rows 3..6 the accelerometer error in ENU. The sensor errors' Jacobians are those of the

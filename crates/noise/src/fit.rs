@@ -652,38 +652,7 @@ pub fn fit_terms_from(curve: &mut AllanCurve, tau_min_s: f64) -> Result<NoiseFit
     if fitted < 2 {
         return Err(NoiseError::TooFewPoints(fitted));
     }
-    let mut prob = problem(&curve.points[first..]).ok_or(NoiseError::NoFit)?;
-    let mut fit = select(&prob, &curve.points[first..]).ok_or(NoiseError::NoFit)?;
-    let mut iterations = 1;
-    // The noise type of each point (and with it its degrees of freedom and the variance of its
-    // logarithm) is that of the term dominating the fitted model there: iterate until settled.
-    for _ in 0..30 {
-        let types: Vec<NoiseType> = curve
-            .points
-            .iter()
-            .map(|p| {
-                let j = columns(fit.mask)
-                    .into_iter()
-                    .max_by(|&a, &b| {
-                        let ca = fit.coef[a] * p.tau_s.powi(Term::ALL[a].exponent());
-                        let cb = fit.coef[b] * p.tau_s.powi(Term::ALL[b].exponent());
-                        ca.total_cmp(&cb)
-                    })
-                    .expect("a term");
-                Term::ALL[j].noise_type()
-            })
-            .collect();
-        curve.set_noise_types(&types);
-        prob = problem(&curve.points[first..]).ok_or(NoiseError::NoFit)?;
-        let next = select(&prob, &curve.points[first..]).ok_or(NoiseError::NoFit)?;
-        iterations += 1;
-        let settled = next.mask == fit.mask
-            && (0..5).all(|j| (next.coef[j] - fit.coef[j]).abs() <= 1e-7 * fit.coef[j].abs());
-        fit = next;
-        if settled {
-            break;
-        }
-    }
+    let (prob, fit, iterations) = fit_with_settled_types(curve, first)?;
     let dof = fitted - fit.k;
     let p_value = if dof > 0 {
         ChiSquared::new(dof as f64).map_or(f64::NAN, |d| 1.0 - d.cdf(fit.chi2))
@@ -695,7 +664,72 @@ pub fn fit_terms_from(curve: &mut AllanCurve, tau_min_s: f64) -> Result<NoiseFit
     } else {
         1.0
     };
-    let terms = Term::ALL
+    let terms = term_estimates(&prob, &fit, scale2);
+    let misfits = band_check(curve, first, &|t| model(&fit, t));
+    Ok(NoiseFit {
+        terms,
+        chi2: fit.chi2,
+        dof,
+        p_value,
+        sigma_scale: scale2.sqrt(),
+        iterations,
+        tau_min_s: curve.points[first].tau_s,
+        points_fitted: fitted,
+        misfits,
+    })
+}
+
+/// The fit of the points from `first` on, with the noise type of each point (and with it its
+/// degrees of freedom and the variance of its logarithm) that of the term dominating the
+/// fitted model there: the types and the fit iterated until they settle (at most 30 passes
+/// after the first). The curve keeps the last types; `(problem, fit, passes)`.
+fn fit_with_settled_types(
+    curve: &mut AllanCurve,
+    first: usize,
+) -> Result<(Problem, SubsetFit, usize), NoiseError> {
+    let mut prob = problem(&curve.points[first..]).ok_or(NoiseError::NoFit)?;
+    let mut fit = select(&prob, &curve.points[first..]).ok_or(NoiseError::NoFit)?;
+    let mut iterations = 1;
+    for _ in 0..30 {
+        let types = dominant_types(curve, &fit);
+        curve.set_noise_types(&types);
+        prob = problem(&curve.points[first..]).ok_or(NoiseError::NoFit)?;
+        let next = select(&prob, &curve.points[first..]).ok_or(NoiseError::NoFit)?;
+        iterations += 1;
+        let settled = next.mask == fit.mask
+            && (0..5).all(|j| (next.coef[j] - fit.coef[j]).abs() <= 1e-7 * fit.coef[j].abs());
+        fit = next;
+        if settled {
+            break;
+        }
+    }
+    Ok((prob, fit, iterations))
+}
+
+/// The noise type of every point of `curve`: that of the term of `fit` largest there.
+fn dominant_types(curve: &AllanCurve, fit: &SubsetFit) -> Vec<NoiseType> {
+    curve
+        .points
+        .iter()
+        .map(|p| {
+            let j = columns(fit.mask)
+                .into_iter()
+                .max_by(|&a, &b| {
+                    let ca = fit.coef[a] * p.tau_s.powi(Term::ALL[a].exponent());
+                    let cb = fit.coef[b] * p.tau_s.powi(Term::ALL[b].exponent());
+                    ca.total_cmp(&cb)
+                })
+                .expect("a term");
+            Term::ALL[j].noise_type()
+        })
+        .collect()
+}
+
+/// Every term's level and sigma from the chosen subset `fit` (its covariance scaled by
+/// `scale2`); a term left out gets 0 and, as its sigma, the level the data could hide
+/// ([`left_out_variance`]).
+fn term_estimates(prob: &Problem, fit: &SubsetFit, scale2: f64) -> Vec<TermEstimate> {
+    Term::ALL
         .iter()
         .enumerate()
         .map(|(j, &term)| {
@@ -715,7 +749,7 @@ pub fn fit_terms_from(curve: &mut AllanCurve, tau_min_s: f64) -> Result<NoiseFit
                     coefficient_sigma: sd_log * c,
                 }
             } else {
-                let cs = (left_out_variance(&prob, &fit, j) * scale2).sqrt();
+                let cs = (left_out_variance(prob, fit, j) * scale2).sqrt();
                 TermEstimate {
                     term,
                     included: false,
@@ -726,19 +760,7 @@ pub fn fit_terms_from(curve: &mut AllanCurve, tau_min_s: f64) -> Result<NoiseFit
                 }
             }
         })
-        .collect();
-    let misfits = band_check(curve, first, &|t| model(&fit, t));
-    Ok(NoiseFit {
-        terms,
-        chi2: fit.chi2,
-        dof,
-        p_value,
-        sigma_scale: scale2.sqrt(),
-        iterations,
-        tau_min_s: curve.points[first].tau_s,
-        points_fitted: fitted,
-        misfits,
-    })
+        .collect()
 }
 
 /// The runs of points where the fitted deviation `sqrt(avar(tau))` is outside the

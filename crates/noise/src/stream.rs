@@ -29,7 +29,6 @@ pub struct AxisFits {
 
 /// The fits of `axes` axes whose increments (one value per axis and record, SI) `read` visits
 /// as `(record index, values)` for every one of the `len` records in order, at every call.
-#[allow(clippy::needless_range_loop)] // axes and lags index several tables alike
 pub fn fit_axes_streamed<E>(
     axes: usize,
     len: usize,
@@ -37,135 +36,218 @@ pub fn fit_axes_streamed<E>(
     intervals: &[Range<usize>],
     mut read: impl FnMut(&mut dyn FnMut(usize, &[f64])) -> Result<(), E>,
 ) -> Result<Vec<AxisFits>, E> {
-    let checked = allan::check_intervals(len, intervals);
-    let refuse = |e: &NoiseError| -> Vec<AxisFits> {
-        (0..axes)
-            .map(|_| AxisFits {
-                ml: Err(clone_error(e)),
-                allan: Err(clone_error(e)),
-            })
-            .collect()
-    };
-    if let Err(e) = checked {
-        return Ok(refuse(&e));
+    if let Err(e) = allan::check_intervals(len, intervals) {
+        return Ok((0..axes).map(|_| refused(&e)).collect());
     }
-    // Which interval a record is in, walked along with the records.
-    let which = |i: usize, at: &mut usize| -> Option<usize> {
-        while *at < intervals.len() && intervals[*at].end <= i {
-            *at += 1;
-        }
-        intervals.get(*at).filter(|r| r.start <= i).map(|_| *at)
-    };
-
-    // First reading: the intervals' sums, the first non-finite value, the lagged products.
-    let diff_lens: Vec<usize> = intervals
-        .iter()
-        .filter(|r| r.len() >= 3)
-        .map(|r| r.len() - 1)
-        .collect();
-    let n_diffs: usize = diff_lens.iter().sum();
-    let max_lag = (diff_lens.iter().copied().max().unwrap_or(0) / 10).clamp(1, 1000);
-    let mut sums = vec![vec![-0.0f64; intervals.len()]; axes];
-    let mut non_finite: Vec<Option<usize>> = vec![None; axes];
-    let mut g0 = vec![-0.0f64; axes];
-    let mut gk = vec![vec![-0.0f64; max_lag + 1]; axes];
-    let mut gk_here = vec![vec![-0.0f64; max_lag + 1]; axes];
-    let mut diffs: Vec<VecDeque<f64>> = vec![VecDeque::with_capacity(max_lag + 1); axes];
-    let mut previous = vec![0.0f64; axes];
-    let mut at = 0;
-    let mut current: Option<usize> = None;
-    read(&mut |i, v| {
-        for a in 0..axes {
-            if non_finite[a].is_none() && !v[a].is_finite() {
-                non_finite[a] = Some(i);
-            }
-        }
-        let here = which(i, &mut at);
-        if here != current {
-            // An interval ended: its lagged products join the totals (those longer than the
-            // lag only, as the held sum filters them).
-            if let Some(c) = current {
-                let l = intervals[c].len();
-                if l >= 3 {
-                    for a in 0..axes {
-                        for k in 1..=max_lag {
-                            if l - 1 > k {
-                                gk[a][k] += gk_here[a][k];
-                            }
-                            gk_here[a][k] = -0.0;
-                        }
-                        diffs[a].clear();
-                    }
+    let mut first = FirstReading::new(axes, intervals);
+    read(&mut |i, v| first.visit(i, v))?;
+    first.finish();
+    let k_of = first.correlation_lengths();
+    let means = first.means();
+    let block_len = block_lengths(&k_of, intervals);
+    let mut second = SecondReading::new(axes, tau0_s, intervals, means, block_len);
+    read(&mut |i, v| second.visit(i, v))?;
+    second.finish();
+    let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
+    Ok((0..axes)
+        .map(|a| {
+            let correlation_s = k_of[a] as f64 * tau0_s;
+            match first.non_finite[a] {
+                _ if !(tau0_s.is_finite() && tau0_s > 0.0) => {
+                    refused(&NoiseError::BadInterval0(tau0_s))
                 }
+                Some(record) => refused(&NoiseError::NotFinite { record }),
+                None => second.axis_fits(a, longest, correlation_s),
             }
-            current = here;
+        })
+        .collect())
+}
+
+/// Both fits of an axis refused with `e`.
+fn refused(e: &NoiseError) -> AxisFits {
+    AxisFits {
+        ml: Err(clone_error(e)),
+        allan: Err(clone_error(e)),
+    }
+}
+
+/// Which interval a record is in, walked along with the records (they come in order).
+struct IntervalWalk<'a> {
+    intervals: &'a [Range<usize>],
+    at: usize,
+}
+
+impl<'a> IntervalWalk<'a> {
+    fn new(intervals: &'a [Range<usize>]) -> Self {
+        Self { intervals, at: 0 }
+    }
+
+    /// The index of the interval holding record `i` (`i` not below the last one asked about).
+    fn of(&mut self, i: usize) -> Option<usize> {
+        while self.at < self.intervals.len() && self.intervals[self.at].end <= i {
+            self.at += 1;
+        }
+        self.intervals
+            .get(self.at)
+            .filter(|r| r.start <= i)
+            .map(|_| self.at)
+    }
+}
+
+/// The first reading: each interval's sum (its mean), the first non-finite value, and the
+/// lagged products of the first differences that [`likelihood::correlation_records`] sums, all
+/// per axis. The products of an interval are kept apart until it ends: they join the totals
+/// only for the lags shorter than its differences, as the held sum filters them.
+struct FirstReading<'a> {
+    intervals: &'a [Range<usize>],
+    walk: IntervalWalk<'a>,
+    current: Option<usize>,
+    /// Differences summed over all intervals, and the longest lag searched.
+    n_diffs: usize,
+    max_lag: usize,
+    /// Per axis: each interval's sum, the first non-finite record.
+    sums: Vec<Vec<f64>>,
+    non_finite: Vec<Option<usize>>,
+    /// Per axis: the sum of squared differences, the lagged products (lag 1 ..= `max_lag`) of
+    /// the intervals ended and of the current one, its last `max_lag` differences, and the last
+    /// value.
+    g0: Vec<f64>,
+    gk: Vec<Vec<f64>>,
+    gk_here: Vec<Vec<f64>>,
+    diffs: Vec<VecDeque<f64>>,
+    previous: Vec<f64>,
+}
+
+impl<'a> FirstReading<'a> {
+    fn new(axes: usize, intervals: &'a [Range<usize>]) -> Self {
+        let diff_lens: Vec<usize> = intervals
+            .iter()
+            .filter(|r| r.len() >= 3)
+            .map(|r| r.len() - 1)
+            .collect();
+        let max_lag = (diff_lens.iter().copied().max().unwrap_or(0) / 10).clamp(1, 1000);
+        Self {
+            intervals,
+            walk: IntervalWalk::new(intervals),
+            current: None,
+            n_diffs: diff_lens.iter().sum(),
+            max_lag,
+            sums: vec![vec![-0.0f64; intervals.len()]; axes],
+            non_finite: vec![None; axes],
+            g0: vec![-0.0f64; axes],
+            gk: vec![vec![-0.0f64; max_lag + 1]; axes],
+            gk_here: vec![vec![-0.0f64; max_lag + 1]; axes],
+            diffs: vec![VecDeque::with_capacity(max_lag + 1); axes],
+            previous: vec![0.0f64; axes],
+        }
+    }
+
+    fn visit(&mut self, i: usize, v: &[f64]) {
+        let v = &v[..self.g0.len()];
+        for (a, x) in v.iter().enumerate() {
+            if self.non_finite[a].is_none() && !x.is_finite() {
+                self.non_finite[a] = Some(i);
+            }
+        }
+        let here = self.walk.of(i);
+        if here != self.current {
+            self.finish();
+            self.current = here;
         }
         let Some(c) = here else {
             return;
         };
-        let r = &intervals[c];
-        for a in 0..axes {
-            sums[a][c] += v[a];
-            if r.len() >= 3 && i > r.start {
-                let d = v[a] - previous[a];
-                g0[a] += d * d;
-                let ring = &mut diffs[a];
-                for (k, &e) in ring.iter().rev().enumerate() {
-                    gk_here[a][k + 1] += e * d;
-                }
-                if ring.len() == max_lag {
-                    ring.pop_front();
-                }
-                ring.push_back(d);
+        let differences = self.intervals[c].len() >= 3 && i > self.intervals[c].start;
+        for (a, &x) in v.iter().enumerate() {
+            self.sums[a][c] += x;
+            if differences {
+                self.push_difference(a, x - self.previous[a]);
             }
-            previous[a] = v[a];
-        }
-    })?;
-    if let Some(c) = current {
-        let l = intervals[c].len();
-        if l >= 3 {
-            for a in 0..axes {
-                for k in 1..=max_lag {
-                    if l - 1 > k {
-                        gk[a][k] += gk_here[a][k];
-                    }
-                }
-            }
+            self.previous[a] = x;
         }
     }
-    // The correlation length of each axis, as `correlation_records` decides it.
-    let k_of: Vec<usize> = (0..axes)
-        .map(|a| {
-            if n_diffs < 10 || g0[a].is_nan() || g0[a] <= 0.0 {
-                return 0;
-            }
-            let z =
-                statrs::distribution::Normal::standard().inverse_cdf(1.0 - 0.005 / max_lag as f64);
-            let threshold = z * (1.5 / n_diffs as f64).sqrt();
-            let mut last = 0;
-            for k in 1..=max_lag {
-                let white = if k == 1 { -0.5 } else { 0.0 };
-                if (gk[a][k] / g0[a] - white).abs() > threshold {
-                    last = k;
+
+    /// A first difference `d` of axis `a`: its square and its products with the differences
+    /// before it.
+    fn push_difference(&mut self, a: usize, d: f64) {
+        self.g0[a] += d * d;
+        let ring = &mut self.diffs[a];
+        for (k, &e) in ring.iter().rev().enumerate() {
+            self.gk_here[a][k + 1] += e * d;
+        }
+        if ring.len() == self.max_lag {
+            ring.pop_front();
+        }
+        ring.push_back(d);
+    }
+
+    /// The current interval ended (or the records did): its lagged products join the totals.
+    fn finish(&mut self) {
+        let Some(c) = self.current else {
+            return;
+        };
+        let l = self.intervals[c].len();
+        if l < 3 {
+            return;
+        }
+        for a in 0..self.g0.len() {
+            for k in 1..=self.max_lag {
+                if l - 1 > k {
+                    self.gk[a][k] += self.gk_here[a][k];
                 }
+                self.gk_here[a][k] = -0.0;
             }
-            last
-        })
-        .collect();
-    let means: Vec<Vec<f64>> = (0..axes)
-        .map(|a| {
-            intervals
-                .iter()
-                .zip(&sums[a])
-                .map(|(r, s)| s / r.len() as f64)
-                .collect()
-        })
-        .collect();
+            self.diffs[a].clear();
+        }
+    }
+
+    /// The correlation length of each axis, as [`likelihood::correlation_records`] decides it.
+    fn correlation_lengths(&self) -> Vec<usize> {
+        (0..self.g0.len())
+            .map(|a| {
+                let g0 = self.g0[a];
+                if self.n_diffs < 10 || g0.is_nan() || g0 <= 0.0 {
+                    return 0;
+                }
+                let z = statrs::distribution::Normal::standard()
+                    .inverse_cdf(1.0 - 0.005 / self.max_lag as f64);
+                let threshold = z * (1.5 / self.n_diffs as f64).sqrt();
+                let mut last = 0;
+                for k in 1..=self.max_lag {
+                    let white = if k == 1 { -0.5 } else { 0.0 };
+                    if (self.gk[a][k] / g0 - white).abs() > threshold {
+                        last = k;
+                    }
+                }
+                last
+            })
+            .collect()
+    }
+
+    /// Each axis's mean over each interval.
+    fn means(&self) -> Vec<Vec<f64>> {
+        self.sums
+            .iter()
+            .map(|sums| {
+                self.intervals
+                    .iter()
+                    .zip(sums)
+                    .map(|(r, s)| s / r.len() as f64)
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// The block length of each axis (records), as [`likelihood::fit_ml`] chooses it from the
+/// correlation length `k_of`: [`BLOCKS_PER_CORRELATION`] of them, at most a
+/// [`MIN_BLOCKS_PER_INTERVAL`]th of the longest interval, and long enough for at most
+/// [`likelihood::MAX_BLOCKS`] blocks.
+fn block_lengths(k_of: &[usize], intervals: &[Range<usize>]) -> Vec<usize> {
     let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
     let total: usize = intervals.iter().map(|r| r.len()).sum();
     let cap = (longest / MIN_BLOCKS_PER_INTERVAL).max(1);
-    let block_len: Vec<usize> = k_of
-        .iter()
+    k_of.iter()
         .map(|&k| {
             let min_records = (BLOCKS_PER_CORRELATION * k).min(cap);
             total
@@ -173,163 +255,197 @@ pub fn fit_axes_streamed<E>(
                 .max(min_records)
                 .max(1)
         })
-        .collect();
+        .collect()
+}
 
-    // Second reading: block means and Allan sums.
-    let mut ms = Vec::new();
-    let mut m = 1;
-    while 2 * m <= longest {
-        ms.push(m);
-        m *= 2;
+/// The second reading: the block means of every axis and the Allan sums at every octave, each
+/// interval's mean removed. The Allan term at `k` is added when the phase reaches `k + 2m`,
+/// from a window of the last `2m + 1` phase values.
+struct SecondReading<'a> {
+    intervals: &'a [Range<usize>],
+    tau0_s: f64,
+    walk: IntervalWalk<'a>,
+    current: Option<usize>,
+    /// Per axis and interval, from the first reading.
+    means: Vec<Vec<f64>>,
+    block_len: Vec<usize>,
+    /// The averaging factors (octaves up to half the longest interval) and the phase window.
+    ms: Vec<usize>,
+    width: usize,
+    /// Per axis: the blocks of each interval, and the block being summed.
+    blocks: Vec<Vec<Vec<(f64, f64)>>>,
+    block_sum: Vec<f64>,
+    block_n: Vec<usize>,
+    /// Per axis: the phase window and the phase now; per axis and octave the current
+    /// interval's Allan sum and the total over the intervals ended.
+    phase: Vec<VecDeque<f64>>,
+    x_now: Vec<f64>,
+    acc: Vec<Vec<f64>>,
+    allan_sums: Vec<Vec<f64>>,
+    /// Per octave: the Allan terms over all intervals.
+    terms: Vec<usize>,
+}
+
+impl<'a> SecondReading<'a> {
+    fn new(
+        axes: usize,
+        tau0_s: f64,
+        intervals: &'a [Range<usize>],
+        means: Vec<Vec<f64>>,
+        block_len: Vec<usize>,
+    ) -> Self {
+        let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
+        let mut ms = Vec::new();
+        let mut m = 1;
+        while 2 * m <= longest {
+            ms.push(m);
+            m *= 2;
+        }
+        let width = ms.last().map_or(1, |m| 2 * m + 1);
+        Self {
+            intervals,
+            tau0_s,
+            walk: IntervalWalk::new(intervals),
+            current: None,
+            means,
+            block_len,
+            blocks: vec![Vec::with_capacity(intervals.len()); axes],
+            block_sum: vec![-0.0f64; axes],
+            block_n: vec![0usize; axes],
+            phase: vec![VecDeque::with_capacity(width); axes],
+            x_now: vec![0.0f64; axes],
+            acc: vec![vec![0.0f64; ms.len()]; axes],
+            allan_sums: vec![vec![0.0f64; ms.len()]; axes],
+            terms: vec![0usize; ms.len()],
+            ms,
+            width,
+        }
     }
-    let width = ms.last().map_or(1, |m| 2 * m + 1);
-    let mut blocks: Vec<Vec<Vec<(f64, f64)>>> = vec![Vec::with_capacity(intervals.len()); axes];
-    let mut block_sum = vec![-0.0f64; axes];
-    let mut block_n = vec![0usize; axes];
-    let mut phase: Vec<VecDeque<f64>> = vec![VecDeque::with_capacity(width); axes];
-    let mut x_now = vec![0.0f64; axes];
-    let mut acc = vec![vec![0.0f64; ms.len()]; axes];
-    let mut allan_sums = vec![vec![0.0f64; ms.len()]; axes];
-    let mut terms = vec![0usize; ms.len()];
-    let mut at = 0;
-    let mut current: Option<usize> = None;
-    let close = |c: usize,
-                 blocks: &mut Vec<Vec<Vec<(f64, f64)>>>,
-                 block_sum: &mut Vec<f64>,
-                 block_n: &mut Vec<usize>,
-                 acc: &mut Vec<Vec<f64>>,
-                 allan_sums: &mut Vec<Vec<f64>>,
-                 terms: &mut Vec<usize>| {
-        let l = intervals[c].len();
-        for a in 0..axes {
-            if block_n[a] > 0 {
-                let d = block_n[a] as f64 * tau0_s;
-                blocks[a][c].push((block_sum[a] / d, d));
-                block_sum[a] = -0.0;
-                block_n[a] = 0;
-            }
-            for (j, &m) in ms.iter().enumerate() {
-                if 2 * m > l {
-                    break;
-                }
-                allan_sums[a][j] += acc[a][j];
-                acc[a][j] = 0.0;
-            }
-        }
-        for (j, &m) in ms.iter().enumerate() {
-            if 2 * m > l {
-                break;
-            }
-            terms[j] += l + 1 - 2 * m;
-        }
-    };
-    read(&mut |i, v| {
-        let here = which(i, &mut at);
-        if here != current {
-            if let Some(c) = current {
-                close(
-                    c,
-                    &mut blocks,
-                    &mut block_sum,
-                    &mut block_n,
-                    &mut acc,
-                    &mut allan_sums,
-                    &mut terms,
-                );
-            }
+
+    fn visit(&mut self, i: usize, v: &[f64]) {
+        let here = self.walk.of(i);
+        if here != self.current {
+            self.finish();
             if let Some(c) = here {
-                for a in 0..axes {
-                    blocks[a].resize(c + 1, Vec::new());
-                    phase[a].clear();
-                    phase[a].push_back(0.0);
-                    x_now[a] = 0.0;
-                }
+                self.open(c);
             }
-            current = here;
+            self.current = here;
         }
         let Some(c) = here else {
             return;
         };
-        for a in 0..axes {
-            let centred = v[a] - means[a][c];
-            block_sum[a] += centred;
-            block_n[a] += 1;
-            if block_n[a] == block_len[a] {
-                let d = block_n[a] as f64 * tau0_s;
-                blocks[a][c].push((block_sum[a] / d, d));
-                block_sum[a] = -0.0;
-                block_n[a] = 0;
-            }
-            x_now[a] += centred;
-            let ring = &mut phase[a];
-            ring.push_back(x_now[a]);
-            // The phase values `x_{j-2m}, x_{j-m}, x_j` with `j` the newest.
-            let j = ring.len() - 1;
-            for (o, &m) in ms.iter().enumerate() {
-                if 2 * m > j {
-                    break;
-                }
-                let d = ring[j] - 2.0 * ring[j - m] + ring[j - 2 * m];
-                acc[a][o] += d * d;
-            }
-            if ring.len() == width {
-                ring.pop_front();
-            }
+        for (a, &x) in v[..self.phase.len()].iter().enumerate() {
+            let centred = x - self.means[a][c];
+            self.push_block(a, c, centred);
+            self.push_phase(a, centred);
         }
-    })?;
-    if let Some(c) = current {
-        close(
-            c,
-            &mut blocks,
-            &mut block_sum,
-            &mut block_n,
-            &mut acc,
-            &mut allan_sums,
-            &mut terms,
-        );
     }
 
-    let mut out = Vec::with_capacity(axes);
-    for a in 0..axes {
-        let bad = |e: NoiseError| AxisFits {
-            ml: Err(clone_error(&e)),
-            allan: Err(e),
-        };
-        if !(tau0_s.is_finite() && tau0_s > 0.0) {
-            out.push(bad(NoiseError::BadInterval0(tau0_s)));
-            continue;
+    /// Interval `c` starts: an empty block list, the phase at 0.
+    fn open(&mut self, c: usize) {
+        for a in 0..self.phase.len() {
+            self.blocks[a].resize(c + 1, Vec::new());
+            self.phase[a].clear();
+            self.phase[a].push_back(0.0);
+            self.x_now[a] = 0.0;
         }
-        if let Some(record) = non_finite[a] {
-            out.push(bad(NoiseError::NotFinite { record }));
-            continue;
+    }
+
+    /// Add a centred value of axis `a` to its block in interval `c`, and close the block when
+    /// full.
+    fn push_block(&mut self, a: usize, c: usize, centred: f64) {
+        self.block_sum[a] += centred;
+        self.block_n[a] += 1;
+        if self.block_n[a] == self.block_len[a] {
+            self.close_block(a, c);
         }
-        let correlation_s = k_of[a] as f64 * tau0_s;
-        let ml = {
-            let b = std::mem::take(&mut blocks[a]);
-            if b.iter().all(|x| x.len() < 3) {
-                Err(NoiseError::TooShort { longest })
-            } else {
-                let blocks = Blocks {
-                    block_s: block_len[a] as f64 * tau0_s,
-                    intervals: b,
-                };
-                likelihood::fit_blocks(&blocks).map(|mut f| {
-                    f.correlation_s = correlation_s;
-                    f
-                })
+    }
+
+    /// The block being summed on axis `a` as a mean rate over its duration.
+    fn close_block(&mut self, a: usize, c: usize) {
+        let d = self.block_n[a] as f64 * self.tau0_s;
+        self.blocks[a][c].push((self.block_sum[a] / d, d));
+        self.block_sum[a] = -0.0;
+        self.block_n[a] = 0;
+    }
+
+    /// Advance axis `a`'s phase by a centred value: the Allan terms that end here.
+    fn push_phase(&mut self, a: usize, centred: f64) {
+        self.x_now[a] += centred;
+        let ring = &mut self.phase[a];
+        ring.push_back(self.x_now[a]);
+        // The phase values `x_{j-2m}, x_{j-m}, x_j` with `j` the newest.
+        let j = ring.len() - 1;
+        for (o, &m) in self.ms.iter().enumerate() {
+            if 2 * m > j {
+                break;
             }
+            let d = ring[j] - 2.0 * ring[j - m] + ring[j - 2 * m];
+            self.acc[a][o] += d * d;
+        }
+        if ring.len() == self.width {
+            ring.pop_front();
+        }
+    }
+
+    /// The current interval ended (or the records did): its last, shorter block, and its Allan
+    /// sums and terms at the octaves it is long enough for.
+    fn finish(&mut self) {
+        let Some(c) = self.current else {
+            return;
+        };
+        let l = self.intervals[c].len();
+        for a in 0..self.phase.len() {
+            if self.block_n[a] > 0 {
+                self.close_block(a, c);
+            }
+            for (j, &m) in self.ms.iter().enumerate() {
+                if 2 * m > l {
+                    break;
+                }
+                self.allan_sums[a][j] += self.acc[a][j];
+                self.acc[a][j] = 0.0;
+            }
+        }
+        for (j, &m) in self.ms.iter().enumerate() {
+            if 2 * m > l {
+                break;
+            }
+            self.terms[j] += l + 1 - 2 * m;
+        }
+    }
+
+    /// Both fits of axis `a` from its blocks and Allan sums (its correlation time
+    /// `correlation_s`; the blocks are taken out).
+    fn axis_fits(&mut self, a: usize, longest: usize, correlation_s: f64) -> AxisFits {
+        let b = std::mem::take(&mut self.blocks[a]);
+        let ml = if b.iter().all(|x| x.len() < 3) {
+            Err(NoiseError::TooShort { longest })
+        } else {
+            let blocks = Blocks {
+                block_s: self.block_len[a] as f64 * self.tau0_s,
+                intervals: b,
+            };
+            likelihood::fit_blocks(&blocks).map(|mut f| {
+                f.correlation_s = correlation_s;
+                f
+            })
         };
         let allan = if longest < 2 {
             Err(NoiseError::TooShort { longest })
         } else {
-            let mut curve: AllanCurve =
-                allan::curve_of(tau0_s, intervals, &ms, &allan_sums[a], &terms);
+            let mut curve: AllanCurve = allan::curve_of(
+                self.tau0_s,
+                self.intervals,
+                &self.ms,
+                &self.allan_sums[a],
+                &self.terms,
+            );
             let tau_min = BLOCKS_PER_CORRELATION as f64 * correlation_s;
             fit::fit_terms_from(&mut curve, tau_min).map(|fit| AxisNoise { curve, fit })
         };
-        out.push(AxisFits { ml, allan });
+        AxisFits { ml, allan }
     }
-    Ok(out)
 }
 
 fn clone_error(e: &NoiseError) -> NoiseError {

@@ -30,6 +30,8 @@ mod free_motion;
 mod import;
 mod lab_report;
 mod noise;
+mod noise_json;
+mod noise_model;
 mod noise_plot;
 mod output;
 mod plot;
@@ -108,8 +110,9 @@ enum Command {
     /// white noise, bias instability, bias random walk, rate ramp) with their uncertainties, and
     /// a `[noise]` block to paste (docs/noise.md).
     ///
-    /// Uses the static intervals the detector finds (as `segment`), or the whole recording with
-    /// --all-at-rest; the longest interval bounds the longest averaging time.
+    /// Uses the static intervals the detector finds (as `segment`), each less a detector window
+    /// at an end next to motion, or the whole recording with --all-at-rest; the longest interval
+    /// bounds the longest averaging time.
     Noise(noise::Args),
     /// Find what the paper's model gets wrong: fit it, test every candidate error term against
     /// the innovations, add the best-supported one the program can separate, measure the gain,

@@ -4,6 +4,8 @@
 //! maximum-likelihood fit with their profile intervals in `[noise]`'s convention, and a
 //! `[noise]` block to paste (docs/noise.md).
 
+use crate::noise_json::{Recording, json_of};
+use crate::noise_model::{ACCEL, AXES, GYRO, Sensor, SensorNoise, configured};
 use crate::table::{self, Align, Table};
 use crate::{Error, load_config};
 use ::calib::motion::detect::{DetectorSettings, RateSource, segment_streamed};
@@ -12,7 +14,7 @@ use ::noise::fit::{NoiseFit, Term};
 use ::noise::likelihood::{Level, MlFit};
 use calib::config::{NoiseConfig, RunConfig};
 use calib::io::ImuKind;
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 use sins_model::units::DEG_PER_HOUR;
 use std::fmt::Write as _;
 use std::ops::Range;
@@ -48,101 +50,6 @@ pub struct Args {
     pub min_duration: f64,
 }
 
-/// Units of one sensor's terms in reports (`Term::ALL` order).
-struct Sensor {
-    name: &'static str,
-    key: &'static str,
-    /// JSON key (with unit) of each term.
-    keys: [&'static str; 5],
-    /// Column heading (with unit) of each term.
-    labels: [&'static str; 5],
-    /// SI to report unit, each term.
-    factors: [f64; 5],
-    /// SI to report unit of the deviation, and its name.
-    adev_factor: f64,
-    adev_unit: &'static str,
-    adev_key: &'static str,
-}
-
-const GYRO: Sensor = Sensor {
-    name: "gyro",
-    key: "gyro",
-    keys: [
-        "quantisation_rad",
-        "white_deg_h",
-        "bias_instability_deg_h",
-        "bias_walk_deg_h_sqrt_h",
-        "rate_ramp_deg_h_h",
-    ],
-    labels: [
-        "quantisation [rad]",
-        "white [deg/h]",
-        "bias instab. [deg/h]",
-        "bias walk [deg/h/sqrt(h)]",
-        "rate ramp [deg/h/h]",
-    ],
-    factors: [
-        1.0,
-        1.0 / DEG_PER_HOUR,
-        1.0 / DEG_PER_HOUR,
-        60.0 / DEG_PER_HOUR,
-        3600.0 / DEG_PER_HOUR,
-    ],
-    adev_factor: 1.0 / DEG_PER_HOUR,
-    adev_unit: "deg/h",
-    adev_key: "deg_h",
-};
-
-const ACCEL: Sensor = Sensor {
-    name: "accelerometer",
-    key: "accel",
-    keys: [
-        "quantisation_m_s",
-        "white_m_s2",
-        "bias_instability_m_s2",
-        "bias_walk_m_s2_sqrt_s",
-        "rate_ramp_m_s3",
-    ],
-    labels: [
-        "quantisation [m/s]",
-        "white [m/s^2]",
-        "bias instab. [m/s^2]",
-        "bias walk [m/s^2/sqrt(s)]",
-        "rate ramp [m/s^3]",
-    ],
-    factors: [1.0; 5],
-    adev_factor: 1.0,
-    adev_unit: "m/s^2",
-    adev_key: "m_s2",
-};
-
-const AXES: [&str; 3] = ["x", "y", "z"];
-
-/// The analysis of one sensor: three axes, each with its Allan curve and fit and its
-/// maximum-likelihood fit (the white level and walk reported).
-pub(crate) struct SensorNoise {
-    pub(crate) axes: Vec<AxisNoise>,
-    pub(crate) ml: Vec<MlFit>,
-}
-
-/// The configured noise model of a sensor as term levels (SI): white and walk.
-pub(crate) fn configured(noise: &NoiseConfig, gyro: bool) -> [(Term, f64); 2] {
-    if gyro {
-        [
-            (Term::White, noise.gyro_deg_h * DEG_PER_HOUR),
-            (
-                Term::RandomWalk,
-                noise.gyro_bias_walk_deg_h_sqrt_h * DEG_PER_HOUR / 60.0,
-            ),
-        ]
-    } else {
-        [
-            (Term::White, noise.accel_m_s2),
-            (Term::RandomWalk, noise.accel_bias_walk_m_s2_sqrt_s),
-        ]
-    }
-}
-
 /// The outputs checked before the work: never onto an input, plots as PNG.
 fn check_outputs(args: &Args) -> Result<(), Error> {
     let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
@@ -159,8 +66,9 @@ fn check_outputs(args: &Args) -> Result<(), Error> {
     Ok(())
 }
 
-/// The record ranges the Allan variance is taken over: the whole recording split at its gaps,
-/// or the detector's static intervals; refused when there is none.
+/// The record ranges both fits are taken over: the whole recording split at its gaps, or the
+/// detector's static intervals less their edges next to motion ([`settled_rests`]); refused
+/// when there is none.
 fn intervals_of(
     seg: &::calib::motion::detect::Segmentation,
     whole: bool,
@@ -182,10 +90,7 @@ fn intervals_of(
             .filter(|r| r.len() >= 2)
             .collect()
     } else {
-        seg.static_intervals
-            .iter()
-            .map(|s| s.first_record..s.last_record + 1)
-            .collect()
+        settled_rests(seg, n)
     };
     if intervals.is_empty() {
         return Err(format!(
@@ -204,6 +109,42 @@ fn intervals_of(
     Ok(intervals)
 }
 
+/// The detector's static intervals as the noise is measured on them: each without one detector
+/// window (`window_records`) at an end that records not at rest adjoin (an end at the
+/// recording's first or last record, or at a gap, is kept); a rest left with fewer than two
+/// records is dropped.
+///
+/// Why: the detector judges a record by the window centred on it, against thresholds made to
+/// find poses (a rate spread of 2.9 deg/s, a mean rate of 5.7 deg/s), far above a sensor's
+/// noise, so the first and last window of a rest can still hold the end of the motion before it
+/// or the start of the one after. Those records are no noise. The likelihood fit takes every
+/// block at its face value: on the Xsens recording one rest that began 0.25 s before its turn
+/// had ended (up to 6.9 deg/s, against a noise of 130 deg/h at 1 Hz) put gyro x's white level
+/// 20 % up and a walk of 4800 deg/h/sqrt(h) into the fit, whose Allan deviation then lay far
+/// above the measured one; the Allan variance, where such a stretch enters a few of its terms,
+/// had barely moved (docs/noise.md, "Which records").
+fn settled_rests(seg: &::calib::motion::detect::Segmentation, n: usize) -> Vec<Range<usize>> {
+    let w = seg.window_records;
+    let gap_before = |k: usize| seg.gaps.iter().any(|g| g.record == k);
+    seg.static_intervals
+        .iter()
+        .filter_map(|s| {
+            let (first, end) = (s.first_record, s.last_record + 1);
+            let start = if first == 0 || gap_before(first) {
+                first
+            } else {
+                first + w
+            };
+            let stop = if end == n || gap_before(end) {
+                end
+            } else {
+                end.saturating_sub(w)
+            };
+            (stop >= start + 2).then_some(start..stop)
+        })
+        .collect()
+}
+
 /// Run `noise`.
 pub fn run(args: &Args) -> Result<(), Error> {
     check_outputs(args)?;
@@ -214,6 +155,73 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let has_temp = imu.has_temp();
     let file = args.imu.display().to_string();
     let mut source = RateSource::new(&mut imu)?;
+    let rest = find_rest(args, &mut source, &file)?;
+    let fits = fit_levels(&mut source, &rest, has_temp, &file)?;
+    let mut out = summary(args, &file, &rest, &fits.sensors);
+    out += &tables(&fits);
+    let (base, base_origin) = match &config {
+        Some((cfg, origin)) => (cfg.clone(), origin.clone()),
+        None => (RunConfig::paper(), String::new()),
+    };
+    if let Some((cfg, origin)) = &config {
+        out += &comparison(cfg, origin, &fits.sensors);
+    }
+    let block = noise_block(&base.noise, &base_origin, &fits.sensors);
+    let _ = writeln!(
+        out,
+        "\n[noise] block (the largest of the three axes; white levels as the sigma of a 1-s \
+         average):\n"
+    );
+    out += &block;
+    if let Some(path) = &args.plot {
+        crate::output::write_with(path, |tmp| {
+            crate::noise_plot::allan_png(
+                tmp,
+                &file,
+                &fits.sensors,
+                config.as_ref().map(|(c, _)| &c.noise),
+            )
+        })?;
+        let _ = writeln!(out, "\nwrote {}", path.display());
+    }
+    if let Some(path) = &args.json {
+        let recording = Recording {
+            file: &file,
+            whole: rest.whole,
+            intervals: &rest.intervals,
+            times: &rest.times,
+            records: rest.n,
+            median: rest.median,
+        };
+        let mut json = json_of(&recording, &fits.sensors, &block);
+        if let (Some(t), Some(root)) = (&fits.thermal, json.as_object_mut()) {
+            root.insert("temperature".into(), thermal_json(t));
+        }
+        let text = calib::io::schema::to_json(calib::io::schema::NOISE, &json)?;
+        crate::output::write_file(path, text.as_bytes())?;
+        if !crate::output::is_stdout(path) {
+            let _ = writeln!(out, "wrote {}", path.display());
+        }
+    }
+    crate::report(&out, args.json.as_deref())
+}
+
+/// Where the recording is at rest: its segmentation, the records used and their intervals.
+struct AtRest {
+    seg: ::calib::motion::detect::Segmentation,
+    /// Records in the file and their median interval (s).
+    n: usize,
+    median: f64,
+    /// Whether the whole recording is used (split at gaps only).
+    whole: bool,
+    /// The intervals used (record ranges) and the time stamps of their first and last records.
+    intervals: Vec<Range<usize>>,
+    times: Vec<(f64, f64)>,
+}
+
+/// The records at rest: the detector's settings checked, the recording checked as `segment`
+/// checks it (and with `--all-at-rest` that it is at rest), segmented, and the intervals used.
+fn find_rest(args: &Args, source: &mut RateSource<'_>, file: &str) -> Result<AtRest, Error> {
     let n = source.records;
     let settings = DetectorSettings {
         min_duration_s: args.min_duration,
@@ -229,54 +237,88 @@ pub fn run(args: &Args) -> Result<(), Error> {
         ..settings
     };
     crate::detector_args::check_bounds(&given, &option).map_err(|e| format!("noise: {e}"))?;
-    crate::detector_args::check_span_streamed(&given, &mut source, &file, &option)?;
+    crate::detector_args::check_span_streamed(&given, source, file, &option)?;
     // The units `segment` checks (time stamps in seconds, specific force in m/s^2, gyro and
     // accelerometer columns in their places): noise levels of misread records are wrong by
     // the factor of the misreading.
-    crate::recording_checks::check_plausible_streamed(&mut source, &file, settings.window_s)?;
-    let seg = segment_streamed(&mut source, &settings).map_err(|e| format!("{file}: {e}"))?;
-    crate::recording_checks::check_static_force(&seg, &file)?;
+    crate::recording_checks::check_plausible_streamed(source, file, settings.window_s)?;
+    let seg = segment_streamed(source, &settings).map_err(|e| format!("{file}: {e}"))?;
+    crate::recording_checks::check_static_force(&seg, file)?;
     if args.all_at_rest {
         crate::recording_checks::check_at_rest_streamed(
-            &mut source,
-            &file,
+            source,
+            file,
             seg.window_records,
             seg.settings.window_s,
         )?;
     }
-    let median = seg.median_interval_s;
     let whole = args.all_at_rest
         || (seg.static_intervals.len() == 1
             && seg.static_intervals[0].first_record == 0
             && seg.static_intervals[0].last_record + 1 == n);
-    let intervals = intervals_of(&seg, whole, n, &settings, &file)?;
-    // The time stamps of the intervals' first and last records (for the JSON file).
+    let intervals = intervals_of(&seg, whole, n, &settings, file)?;
+    let times = interval_times(source, &intervals)?;
+    Ok(AtRest {
+        n,
+        median: seg.median_interval_s,
+        whole,
+        intervals,
+        times,
+        seg,
+    })
+}
+
+/// The time stamps of the intervals' first and last records (for the JSON file).
+fn interval_times(
+    source: &mut RateSource<'_>,
+    intervals: &[Range<usize>],
+) -> Result<Vec<(f64, f64)>, Error> {
     let mut times = vec![(f64::NAN, f64::NAN); intervals.len()];
-    {
-        let mut at = 0;
-        let mut k = 0;
-        source.read(&mut |t, _, _| {
-            while at < intervals.len() && intervals[at].end <= k {
-                at += 1;
+    let mut at = 0;
+    let mut k = 0;
+    source.read(&mut |t, _, _| {
+        while at < intervals.len() && intervals[at].end <= k {
+            at += 1;
+        }
+        if let Some(r) = intervals.get(at) {
+            if k == r.start {
+                times[at].0 = t;
             }
-            if let Some(r) = intervals.get(at) {
-                if k == r.start {
-                    times[at].0 = t;
-                }
-                if k + 1 == r.end {
-                    times[at].1 = t;
-                }
+            if k + 1 == r.end {
+                times[at].1 = t;
             }
-            k += 1;
-        })?;
-    }
-    // Both fits of the six axes from two more readings ([`::noise::stream`]): the levels
-    // reported are the exact likelihood of the data, each static interval its own filter, on
-    // block means above the sensor's correlation time (docs/noise.md, "The maximum-likelihood
-    // fit"); the Allan fit above the same correlation time: below it the sensor's own filter
-    // shapes the curve, which no term describes.
+        }
+        k += 1;
+    })?;
+    Ok(times)
+}
+
+/// The levels of both sensors, and what the temperature explains of them.
+struct Fitted {
+    /// The regression on the temperature (a recording with a `temp` column that moves).
+    thermal: Option<Thermal>,
+    /// The thermal coefficients removed before the fits (0: the axis as it is).
+    removed: [f64; 6],
+    /// The fits of the records as they are, where a thermal part was removed from any axis.
+    as_measured: Option<Vec<SensorNoise>>,
+    /// The fits reported.
+    sensors: Vec<SensorNoise>,
+}
+
+/// Both fits of the six axes from two more readings ([`::noise::stream`]): the levels reported
+/// are the exact likelihood of the data, each static interval its own filter, on block means
+/// above the sensor's correlation time (docs/noise.md, "The maximum-likelihood fit"); the Allan
+/// fit above the same correlation time: below it the sensor's own filter shapes the curve, which
+/// no term describes.
+fn fit_levels(
+    source: &mut RateSource<'_>,
+    rest: &AtRest,
+    has_temp: bool,
+    file: &str,
+) -> Result<Fitted, Error> {
+    let (intervals, n, median) = (&rest.intervals, rest.n, rest.median);
     let thermal = if has_temp {
-        thermal_fit(&mut source, &intervals, median)?
+        thermal_fit(source, intervals, median)?
     } else {
         None
     };
@@ -288,35 +330,45 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .map(Thermal::significant)
         .unwrap_or_default();
     let as_measured = if removed.iter().any(|c| *c != 0.0) {
-        Some(fit_sensors(
-            &mut source,
-            &intervals,
-            n,
-            median,
-            None,
-            &file,
-        )?)
+        Some(fit_sensors(source, intervals, n, median, None, file)?)
     } else {
         None
     };
     let sensors = fit_sensors(
-        &mut source,
-        &intervals,
+        source,
+        intervals,
         n,
         median,
         thermal
             .as_ref()
             .filter(|_| as_measured.is_some())
             .map(|t| (removed, t.interval_means.as_slice())),
-        &file,
+        file,
     )?;
+    Ok(Fitted {
+        thermal,
+        removed,
+        as_measured,
+        sensors,
+    })
+}
+
+/// The first lines of the report: the recording and the records used.
+fn summary(args: &Args, file: &str, rest: &AtRest, sensors: &[SensorNoise]) -> String {
+    let (seg, median, intervals) = (&rest.seg, rest.median, &rest.intervals);
     let used: usize = intervals.iter().map(|r| r.len()).sum();
     let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
     let c = table::compact;
+    let rests = format!(
+        "static intervals found by the detector, less a detector window ({} s) at each end \
+         next to motion",
+        c(seg.settings.window_s)
+    );
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "sins-calib noise: {file}: {n} records, t = {} .. {} s, median interval {} s ({} Hz)",
+        "sins-calib noise: {file}: {} records, t = {} .. {} s, median interval {} s ({} Hz)",
+        rest.n,
         c(seg.t_first_s),
         c(seg.t_last_s),
         c(median),
@@ -325,14 +377,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let _ = writeln!(
         out,
         "  {}: {} interval{}, {used} records ({} s), the longest {} s (longest tau {} s)",
-        if whole {
+        if rest.whole {
             if args.all_at_rest {
                 "the whole recording (--all-at-rest)"
             } else {
                 "the whole recording (at rest throughout)"
             }
         } else {
-            "static intervals found by the detector"
+            &rests
         },
         intervals.len(),
         if intervals.len() == 1 { "" } else { "s" },
@@ -347,57 +399,25 @@ pub fn run(args: &Args) -> Result<(), Error> {
             4
         ),
     );
-    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&sensors) {
+    out
+}
+
+/// The tables of both fits, the thermal regression, and what removing it did.
+fn tables(fits: &Fitted) -> String {
+    let mut out = String::new();
+    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {
         out += &ml_table(s, sn);
     }
-    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&sensors) {
+    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {
         out += &sensor_table(s, sn);
     }
-    if let Some(t) = &thermal {
+    if let Some(t) = &fits.thermal {
         out += &thermal_table(t);
     }
-    if let Some(measured) = &as_measured {
-        out += &thermal_removed_note(&removed, measured, &sensors);
+    if let Some(measured) = &fits.as_measured {
+        out += &thermal_removed_note(&fits.removed, measured, &fits.sensors);
     }
-    let (base, base_origin) = match &config {
-        Some((cfg, origin)) => (cfg.clone(), origin.clone()),
-        None => (RunConfig::paper(), String::new()),
-    };
-    if let Some((cfg, origin)) = &config {
-        out += &comparison(cfg, origin, &sensors);
-    }
-    let block = noise_block(&base.noise, &base_origin, &sensors);
-    let _ = writeln!(
-        out,
-        "\n[noise] block (the largest of the three axes; white levels as the sigma of a 1-s \
-         average):\n"
-    );
-    out += &block;
-    if let Some(path) = &args.plot {
-        crate::output::write_with(path, |tmp| {
-            crate::noise_plot::allan_png(
-                tmp,
-                &file,
-                &sensors,
-                config.as_ref().map(|(c, _)| &c.noise),
-            )
-        })?;
-        let _ = writeln!(out, "\nwrote {}", path.display());
-    }
-    if let Some(path) = &args.json {
-        let mut json = json_of(
-            &file, whole, &intervals, &times, n, median, &sensors, &block,
-        );
-        if let (Some(t), Some(root)) = (&thermal, json.as_object_mut()) {
-            root.insert("temperature".into(), thermal_json(t));
-        }
-        let text = calib::io::schema::to_json(calib::io::schema::NOISE, &json)?;
-        crate::output::write_file(path, text.as_bytes())?;
-        if !crate::output::is_stdout(path) {
-            let _ = writeln!(out, "wrote {}", path.display());
-        }
-    }
-    crate::report(&out, args.json.as_deref())
+    out
 }
 
 /// A level with its sigma; a term the fit left out as `-` with the level it could hide.
@@ -800,223 +820,6 @@ fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> Str
         1.0,
     );
     s
-}
-
-#[allow(clippy::too_many_arguments)]
-fn json_of(
-    file: &str,
-    whole: bool,
-    intervals: &[Range<usize>],
-    times: &[(f64, f64)],
-    records: usize,
-    median: f64,
-    sensors: &[SensorNoise],
-    block: &str,
-) -> Value {
-    let mut root = Map::new();
-    root.insert("imu".into(), json!(file));
-    root.insert("records".into(), json!(records));
-    root.insert("median_interval_s".into(), json!(median));
-    root.insert("whole_recording".into(), json!(whole));
-    root.insert(
-        "intervals".into(),
-        Value::Array(
-            intervals
-                .iter()
-                .zip(times)
-                .map(|(r, t)| {
-                    json!({
-                        "first_record": r.start,
-                        "last_record": r.end - 1,
-                        "start_s": t.0,
-                        "end_s": t.1,
-                    })
-                })
-                .collect(),
-        ),
-    );
-    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(sensors) {
-        let mut m = Map::new();
-        for j in 0..5 {
-            // White level and walk: the maximum-likelihood values, their sigma the mean
-            // half-width of the profile interval, and its ends; the other terms: the Allan fit.
-            let ml = |f: &MlFit| match j {
-                1 => Some(f.white),
-                3 => Some(f.walk),
-                _ => None,
-            };
-            if ml(&sn.ml[0]).is_some() {
-                let get = |g: fn(&Level) -> f64| -> Vec<f64> {
-                    sn.ml
-                        .iter()
-                        .map(|f| ml(f).map_or(0.0, |l| g(&l)) * s.factors[j])
-                        .collect()
-                };
-                m.insert(s.keys[j].into(), json!(get(|l| l.value)));
-                m.insert(
-                    format!("{}_sigma", s.keys[j]),
-                    json!(get(Level::mean_half_width)),
-                );
-                m.insert(format!("{}_lower", s.keys[j]), json!(get(|l| l.lower)));
-                m.insert(format!("{}_upper", s.keys[j]), json!(get(|l| l.upper)));
-                continue;
-            }
-            let vals: Vec<f64> = sn
-                .axes
-                .iter()
-                .map(|a| a.fit.terms[j].value * s.factors[j])
-                .collect();
-            let sig: Vec<f64> = sn
-                .axes
-                .iter()
-                .map(|a| a.fit.terms[j].sigma * s.factors[j])
-                .collect();
-            m.insert(s.keys[j].into(), json!(vals));
-            m.insert(format!("{}_sigma", s.keys[j]), json!(sig));
-        }
-        // The Gauss-Markov bias of the maximum-likelihood fit (0 and null where not selected).
-        let gm_key = s.keys[2].replace("bias_instability", "gauss_markov");
-        let gm = |g: fn(&Level) -> f64| -> Vec<f64> {
-            sn.ml
-                .iter()
-                .map(|f| f.gauss_markov.map_or(0.0, |x| g(&x.sigma)) * s.factors[2])
-                .collect()
-        };
-        m.insert(gm_key.clone(), json!(gm(|l| l.value)));
-        m.insert(format!("{gm_key}_sigma"), json!(gm(Level::mean_half_width)));
-        m.insert(format!("{gm_key}_lower"), json!(gm(|l| l.lower)));
-        m.insert(format!("{gm_key}_upper"), json!(gm(|l| l.upper)));
-        m.insert(
-            "gauss_markov_tc_s".into(),
-            json!(
-                sn.ml
-                    .iter()
-                    .map(|f| f.gauss_markov.map(|g| g.correlation_time_s))
-                    .collect::<Vec<_>>()
-            ),
-        );
-        m.insert(
-            "ml".into(),
-            json!(
-                sn.ml
-                    .iter()
-                    .map(|f| json!({
-                        "gauss_markov": f.gauss_markov.is_some(),
-                        "lr_statistic": f.lr_statistic,
-                        "lr_p_value": f.lr_p_value,
-                        "check_p_value": f.whiteness.map(|w| w.p_value),
-                        "check_window_s": f.whiteness.map(|w| w.window_blocks as f64 * f.block_s),
-                        "check_variance_ratio": f.whiteness.map(|w| w.variance_ratio),
-                        "neg2_log_likelihood": f.neg2_log_likelihood,
-                        "passes": f.passes(),
-                        "correlation_s": f.correlation_s,
-                        "tc_at_bound": f.tc_at_bound,
-                        "block_s": f.block_s,
-                        "blocks": f.blocks,
-                    }))
-                    .collect::<Vec<_>>()
-            ),
-        );
-        m.insert(
-            "terms".into(),
-            json!(
-                sn.axes
-                    .iter()
-                    .map(|a| a
-                        .fit
-                        .terms
-                        .iter()
-                        .filter(|e| e.included)
-                        .map(|e| e.term.name())
-                        .collect::<Vec<_>>())
-                    .collect::<Vec<_>>()
-            ),
-        );
-        m.insert(
-            "fit".into(),
-            json!(
-                sn.axes
-                    .iter()
-                    .map(|a| {
-                        let (w, k) = (a.fit.term(Term::White), a.fit.term(Term::RandomWalk));
-                        let mut o = Map::new();
-                        o.insert("chi2".into(), json!(a.fit.chi2));
-                        o.insert("dof".into(), json!(a.fit.dof));
-                        o.insert("p_value".into(), json!(a.fit.p_value));
-                        o.insert("sigma_scale".into(), json!(a.fit.sigma_scale));
-                        o.insert("passes".into(), json!(a.fit.passes()));
-                        o.insert("tau_min_s".into(), json!(a.fit.tau_min_s));
-                        o.insert("misfits".into(), json!(a.fit.misfits));
-                        // The Allan fit's white level and walk, for comparison.
-                        o.insert(s.keys[1].into(), json!(w.value * s.factors[1]));
-                        o.insert(
-                            format!("{}_sigma", s.keys[1]),
-                            json!(w.sigma * s.factors[1]),
-                        );
-                        o.insert(s.keys[3].into(), json!(k.value * s.factors[3]));
-                        o.insert(
-                            format!("{}_sigma", s.keys[3]),
-                            json!(k.sigma * s.factors[3]),
-                        );
-                        Value::Object(o)
-                    })
-                    .collect::<Vec<_>>()
-            ),
-        );
-        let k = s.adev_key;
-        let f = s.adev_factor;
-        m.insert(
-            "curve".into(),
-            Value::Array(
-                sn.axes
-                    .iter()
-                    .enumerate()
-                    .map(|(i, a)| {
-                        let p = &a.curve.points;
-                        let mut c = Map::new();
-                        c.insert("axis".into(), json!(AXES[i]));
-                        c.insert(
-                            "tau_s".into(),
-                            json!(p.iter().map(|x| x.tau_s).collect::<Vec<_>>()),
-                        );
-                        for (name, get) in [
-                            (
-                                "adev",
-                                (|x: &::noise::allan::AllanPoint| x.adev) as fn(_) -> f64,
-                            ),
-                            ("lower", |x| x.lower),
-                            ("upper", |x| x.upper),
-                        ] {
-                            c.insert(
-                                format!("{name}_{k}"),
-                                json!(p.iter().map(|x| get(x) * f).collect::<Vec<_>>()),
-                            );
-                        }
-                        c.insert(
-                            "edf".into(),
-                            json!(p.iter().map(|x| x.edf).collect::<Vec<_>>()),
-                        );
-                        c.insert(
-                            "noise_type".into(),
-                            json!(p.iter().map(|x| x.noise_type).collect::<Vec<_>>()),
-                        );
-                        Value::Object(c)
-                    })
-                    .collect(),
-            ),
-        );
-        root.insert(s.key.into(), Value::Object(m));
-    }
-    root.insert("noise_toml".into(), json!(block));
-    Value::Object(root)
-}
-
-/// Names of the plot: each sensor's deviation unit.
-pub(crate) fn adev_units() -> [(&'static str, &'static str, f64); 2] {
-    [
-        (GYRO.name, GYRO.adev_unit, GYRO.adev_factor),
-        (ACCEL.name, ACCEL.adev_unit, ACCEL.adev_factor),
-    ]
 }
 
 /// The gyro bias random walk a `sins-calib noise --json` file identified (rad/s/sqrt(s)): the

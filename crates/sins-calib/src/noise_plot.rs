@@ -5,7 +5,7 @@
 //! model; one legend for all panels, below them, so that it covers no data.
 
 use crate::Error;
-use crate::noise::{SensorNoise, adev_units, configured};
+use crate::noise_model::{SensorNoise, adev_units, configured};
 use crate::plot::ensure_fonts;
 use ::noise::fit::Term;
 use calib::config::NoiseConfig;
@@ -62,36 +62,8 @@ fn panel(
 ) -> Result<(), String> {
     let p = &axis.curve.points;
     let (t0, t1) = (p[0].tau_s / 1.5, p[p.len() - 1].tau_s * 1.5);
-    let grid = log_grid(t0, t1, 120);
-    let fit = &axis.fit;
-    let sum: Vec<(f64, f64)> = grid
-        .iter()
-        .map(|&t| (t, fit.avar(t).sqrt() * factor))
-        .collect();
-    let model = ml.model();
-    let ml_curve: Vec<(f64, f64)> = grid
-        .iter()
-        .map(|&t| (t, model.avar(t).sqrt() * factor))
-        .collect();
-    let cfg: Option<Vec<(f64, f64)>> = config.map(|c| {
-        grid.iter()
-            .map(|&t| {
-                let v: f64 = c.iter().map(|(term, x)| term.avar(*x, t)).sum();
-                (t, v.sqrt() * factor)
-            })
-            .collect()
-    });
-    let mut lo = f64::INFINITY;
-    let mut hi: f64 = 0.0;
-    for x in p {
-        lo = lo.min(x.lower * factor).min(x.adev * factor);
-        hi = hi.max(x.upper.min(x.adev * 20.0) * factor);
-    }
-    for (_, v) in sum.iter().chain(&ml_curve).chain(cfg.iter().flatten()) {
-        lo = lo.min(*v);
-        hi = hi.max(*v);
-    }
-    let (lo, hi) = (lo / 2.0, hi * 2.0);
+    let curves = Curves::new(axis, ml, config, factor, log_grid(t0, t1, 120));
+    let (lo, hi) = curves.range;
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 18))
         .margin(10)
@@ -110,36 +82,117 @@ fn panel(
         .light_line_style(RGBColor(240, 240, 240))
         .draw()
         .map_err(|e| perr(&e))?;
-    for (j, e) in fit.terms.iter().enumerate() {
-        if !e.included {
-            continue;
-        }
-        let pts: Vec<(f64, f64)> = grid
+    curves.draw(&mut chart, &axis.fit)?;
+    draw_measured(&mut chart, p, factor, (lo, hi))?;
+    draw_misfits(&mut chart, axis, factor, (lo, hi))
+}
+
+type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+
+/// The model curves of a panel over a grid of averaging times (report unit), and the range of
+/// deviations the panel shows: the measured points and every curve, with room around them.
+struct Curves {
+    grid: Vec<f64>,
+    factor: f64,
+    /// The Allan fit's sum, the maximum-likelihood model, the configured model.
+    sum: Vec<(f64, f64)>,
+    ml: Vec<(f64, f64)>,
+    config: Option<Vec<(f64, f64)>>,
+    range: (f64, f64),
+}
+
+impl Curves {
+    fn new(
+        axis: &::noise::AxisNoise,
+        ml: &::noise::likelihood::MlFit,
+        config: Option<[(Term, f64); 2]>,
+        factor: f64,
+        grid: Vec<f64>,
+    ) -> Self {
+        let fit = &axis.fit;
+        let sum: Vec<(f64, f64)> = grid
             .iter()
-            .map(|&t| (t, e.term.avar(e.value, t).sqrt() * factor))
-            .filter(|(_, v)| *v >= lo && *v <= hi)
+            .map(|&t| (t, fit.avar(t).sqrt() * factor))
             .collect();
-        chart
-            .draw_series(DashedLineSeries::new(
-                pts,
-                6,
-                4,
-                TERM_COLOURS[j].stroke_width(2),
-            ))
-            .map_err(|e| perr(&e))?;
+        let model = ml.model();
+        let ml_curve: Vec<(f64, f64)> = grid
+            .iter()
+            .map(|&t| (t, model.avar(t).sqrt() * factor))
+            .collect();
+        let cfg: Option<Vec<(f64, f64)>> = config.map(|c| {
+            grid.iter()
+                .map(|&t| {
+                    let v: f64 = c.iter().map(|(term, x)| term.avar(*x, t)).sum();
+                    (t, v.sqrt() * factor)
+                })
+                .collect()
+        });
+        let mut lo = f64::INFINITY;
+        let mut hi: f64 = 0.0;
+        for x in &axis.curve.points {
+            lo = lo.min(x.lower * factor).min(x.adev * factor);
+            hi = hi.max(x.upper.min(x.adev * 20.0) * factor);
+        }
+        for (_, v) in sum.iter().chain(&ml_curve).chain(cfg.iter().flatten()) {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+        Self {
+            grid,
+            factor,
+            sum,
+            ml: ml_curve,
+            config: cfg,
+            range: (lo / 2.0, hi * 2.0),
+        }
     }
-    chart
-        .draw_series(LineSeries::new(sum, SUM.stroke_width(2)))
-        .map_err(|e| perr(&e))?;
-    chart
-        .draw_series(LineSeries::new(ml_curve, ML.stroke_width(3)))
-        .map_err(|e| perr(&e))?;
-    if let Some(c) = cfg {
+
+    /// Every term of the Allan fit (dashed, where inside the range), their sum, the
+    /// maximum-likelihood model and the configured model.
+    fn draw(self, chart: &mut Chart<'_, '_>, fit: &::noise::fit::NoiseFit) -> Result<(), String> {
+        let (lo, hi) = self.range;
+        for (j, e) in fit.terms.iter().enumerate() {
+            if !e.included {
+                continue;
+            }
+            let pts: Vec<(f64, f64)> = self
+                .grid
+                .iter()
+                .map(|&t| (t, e.term.avar(e.value, t).sqrt() * self.factor))
+                .filter(|(_, v)| *v >= lo && *v <= hi)
+                .collect();
+            chart
+                .draw_series(DashedLineSeries::new(
+                    pts,
+                    6,
+                    4,
+                    TERM_COLOURS[j].stroke_width(2),
+                ))
+                .map_err(|e| perr(&e))?;
+        }
         chart
-            .draw_series(DashedLineSeries::new(c, 10, 5, CONFIG.stroke_width(2)))
+            .draw_series(LineSeries::new(self.sum, SUM.stroke_width(2)))
             .map_err(|e| perr(&e))?;
+        chart
+            .draw_series(LineSeries::new(self.ml, ML.stroke_width(3)))
+            .map_err(|e| perr(&e))?;
+        if let Some(c) = self.config {
+            chart
+                .draw_series(DashedLineSeries::new(c, 10, 5, CONFIG.stroke_width(2)))
+                .map_err(|e| perr(&e))?;
+        }
+        Ok(())
     }
-    // The 68 % confidence band, then each point's interval over it.
+}
+
+/// The measured deviation: its 68 % confidence band, then each point's interval and the point
+/// over it (clipped to the range `lo .. hi`).
+fn draw_measured(
+    chart: &mut Chart<'_, '_>,
+    p: &[::noise::allan::AllanPoint],
+    factor: f64,
+    (lo, hi): (f64, f64),
+) -> Result<(), String> {
     let band: Vec<(f64, f64)> = p
         .iter()
         .map(|x| (x.tau_s, (x.upper * factor).min(hi)))
@@ -172,8 +225,18 @@ fn panel(
                 .map(|x| Circle::new((x.tau_s, x.adev * factor), 4, MEASURED.filled())),
         )
         .map_err(|e| perr(&e))?;
-    // The misfit made visible: a ring round every point whose 95 % band the fitted sum
-    // leaves (red where fitted, grey below the fitted range), and the fitted range's start.
+    Ok(())
+}
+
+/// The misfit made visible: a ring round every point whose 95 % band the fitted sum leaves
+/// (red where fitted, grey below the fitted range), and the fitted range's start.
+fn draw_misfits(
+    chart: &mut Chart<'_, '_>,
+    axis: &::noise::AxisNoise,
+    factor: f64,
+    (lo, hi): (f64, f64),
+) -> Result<(), String> {
+    let (p, fit) = (&axis.curve.points, &axis.fit);
     let misses: Vec<(f64, bool)> = p
         .iter()
         .filter_map(|x| {

@@ -211,6 +211,88 @@ pub struct Piece {
     pub rate: [f64; 3],
 }
 
+/// The pieces compiled so far, and the gimbal angles (rad) and time (s) they end at.
+struct Pieces {
+    k: [f64; 3],
+    t: f64,
+    pieces: Vec<Piece>,
+}
+
+impl Pieces {
+    /// The pieces of a checked segment, from where the ones before end.
+    fn push(&mut self, seg: &Segment) {
+        let (k, t) = (&mut self.k, &mut self.t);
+        match *seg {
+            Segment::Rotate {
+                gimbal,
+                rate_deg_s,
+                duration_s,
+            } => {
+                let mut rate = [0.0; 3];
+                rate[gimbal as usize - 1] = rate_deg_s.to_radians();
+                self.pieces.push(Piece {
+                    t0: *t,
+                    t1: *t + duration_s,
+                    k0: *k,
+                    rate,
+                });
+                k[gimbal as usize - 1] += rate[gimbal as usize - 1] * duration_s;
+                *t += duration_s;
+            }
+            Segment::Dwell { duration_s } => {
+                self.pieces.push(Piece {
+                    t0: *t,
+                    t1: *t + duration_s,
+                    k0: *k,
+                    rate: [0.0; 3],
+                });
+                *t += duration_s;
+            }
+            Segment::Move {
+                target_deg,
+                rate_deg_s,
+            } => {
+                // One gimbal after the other, each at the rate; one already there takes no
+                // piece.
+                for g in 0..3 {
+                    let delta = target_deg[g].to_radians() - k[g];
+                    if delta.abs() < 1e-12 {
+                        continue;
+                    }
+                    let w = rate_deg_s.to_radians() * delta.signum();
+                    let d = delta / w;
+                    let mut rate = [0.0; 3];
+                    rate[g] = w;
+                    self.pieces.push(Piece {
+                        t0: *t,
+                        t1: *t + d,
+                        k0: *k,
+                        rate,
+                    });
+                    k[g] = target_deg[g].to_radians();
+                    *t += d;
+                }
+            }
+        }
+    }
+}
+
+/// Why a spec that compiled to no piece is refused: no segment, or only moves to where the
+/// gimbals already are.
+fn no_time_message(spec: &ProgramSpec) -> String {
+    if spec.segments.is_empty() {
+        "a program needs at least one [[segment]]".to_string()
+    } else {
+        format!(
+            "the program takes no time: its {} segment(s) only move to where the gimbals \
+             already are (start_deg = {:?}); expected a segment that rotates, dwells or \
+             moves somewhere",
+            spec.segments.len(),
+            spec.start_deg
+        )
+    }
+}
+
 /// A compiled program: piecewise-linear gimbal angles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Program {
@@ -264,64 +346,18 @@ impl Program {
                 message,
             });
         }
-        let mut k = spec.start_deg.map(f64::to_radians);
-        let mut t = 0.0;
-        let mut pieces = Vec::new();
+        let mut pieces = Pieces {
+            k: spec.start_deg.map(f64::to_radians),
+            t: 0.0,
+            pieces: Vec::new(),
+        };
         for (i, seg) in spec.segments.iter().enumerate() {
             if let Some(message) = segment_problem(seg) {
                 return Err(err(i, seg, message));
             }
-            let t_before = t;
-            match *seg {
-                Segment::Rotate {
-                    gimbal,
-                    rate_deg_s,
-                    duration_s,
-                } => {
-                    let mut rate = [0.0; 3];
-                    rate[gimbal as usize - 1] = rate_deg_s.to_radians();
-                    pieces.push(Piece {
-                        t0: t,
-                        t1: t + duration_s,
-                        k0: k,
-                        rate,
-                    });
-                    k[gimbal as usize - 1] += rate[gimbal as usize - 1] * duration_s;
-                    t += duration_s;
-                }
-                Segment::Dwell { duration_s } => {
-                    pieces.push(Piece {
-                        t0: t,
-                        t1: t + duration_s,
-                        k0: k,
-                        rate: [0.0; 3],
-                    });
-                    t += duration_s;
-                }
-                Segment::Move {
-                    target_deg,
-                    rate_deg_s,
-                } => {
-                    for g in 0..3 {
-                        let delta = target_deg[g].to_radians() - k[g];
-                        if delta.abs() < 1e-12 {
-                            continue;
-                        }
-                        let w = rate_deg_s.to_radians() * delta.signum();
-                        let d = delta / w;
-                        let mut rate = [0.0; 3];
-                        rate[g] = w;
-                        pieces.push(Piece {
-                            t0: t,
-                            t1: t + d,
-                            k0: k,
-                            rate,
-                        });
-                        k[g] = target_deg[g].to_radians();
-                        t += d;
-                    }
-                }
-            }
+            let t_before = pieces.t;
+            pieces.push(seg);
+            let t = pieces.t;
             if t > MAX_PROGRAM_DURATION_S {
                 return Err(err(
                     i,
@@ -336,26 +372,15 @@ impl Program {
                 ));
             }
         }
-        if pieces.is_empty() {
-            let message = if spec.segments.is_empty() {
-                "a program needs at least one [[segment]]".to_string()
-            } else {
-                format!(
-                    "the program takes no time: its {} segment(s) only move to where the gimbals \
-                     already are (start_deg = {:?}); expected a segment that rotates, dwells or \
-                     moves somewhere",
-                    spec.segments.len(),
-                    spec.start_deg
-                )
-            };
+        if pieces.pieces.is_empty() {
             return Err(ProgramError::Parse {
                 origin: origin.to_string(),
-                message,
+                message: no_time_message(spec),
             });
         }
         Ok(Self {
             name: spec.name.clone(),
-            pieces,
+            pieces: pieces.pieces,
             start: spec.start_deg.map(f64::to_radians),
         })
     }
