@@ -790,7 +790,7 @@ fn coarse_start(
     rests: &[Rest],
     turns: &[crate::motion::rests::Turn],
 ) -> Result<Vec<f64>, EstimateError> {
-    use crate::motion::free_motion::{FreeMotionSettings, Interval, calibrate_free_motion};
+    use crate::motion::free_motion::{CoarseSettings, Interval, coarse_fit};
     let grouped = coarse_records(data);
     let data = &grouped;
     let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
@@ -806,16 +806,16 @@ fn coarse_start(
             })
         })
         .collect();
-    let mut settings = FreeMotionSettings::new(config.site().specific_force_at_rest_enu().norm());
-    settings.priors = config.priors_si();
     // The paper's 21 parameters only: the terms beyond them start at zero. A consumer unit's
     // g-sensitivity turns its attitude by degrees in a hand turn, but the first pass feeds
     // back only the tilt, which each rest's first window corrects (with the batch fit's
     // g-sensitivity and asymmetry in the coarse start the Xsens and Ferraris results moved by
     // hundredths of their sigmas, and the start took twice as long: 0.47 against 0.24 s of
     // CPU on a 324-s, 200-Hz recording).
-    settings.g_sensitivity_prior = None;
-    settings.scale_asymmetry_prior = None;
+    let settings = CoarseSettings {
+        gravity_m_s2: config.site().specific_force_at_rest_enu().norm(),
+        priors: config.priors_si(),
+    };
     // The known turns on the grouped records: from the group that holds the first record to
     // the one that holds the last (a group reaches up to COARSE_GROUP_S into the rest before).
     let known: Vec<crate::motion::free_motion::KnownTurn> = turns
@@ -834,12 +834,11 @@ fn coarse_start(
             })
         })
         .collect();
-    let fit = calibrate_free_motion(data, &intervals, &known, &settings).map_err(|e| {
-        EstimateError::Rests {
+    let fit =
+        coarse_fit(data, &intervals, &known, &settings).map_err(|e| EstimateError::Rests {
             file: file.to_string(),
             source: RestError::CoarseFit(e.to_string()),
-        }
-    })?;
+        })?;
     let names = layout.entries();
     Ok(
         (StateLayout::INSTRUMENT..StateLayout::INSTRUMENT + layout.n_instrument())

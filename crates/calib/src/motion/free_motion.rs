@@ -1,60 +1,44 @@
-//! Free-motion calibration: the paper's instrument model estimated from a hand-turned
-//! multi-position recording, without a rotation program or turntable angles.
+//! The batch fit of a hand-turned multi-position recording (no rotation program, no turntable)
+//! and the figures a calibration of such a recording is judged on.
 //!
-//! The method is a batch Gauss-Newton least-squares fit with priors, in two stages:
+//! - **The coarse start** ([`coarse_fit`]): the filter of a recording of rests
+//!   ([`crate::estimate::calibrate_rests`]) linearises its first pass about these values where
+//!   the priors are wide (a consumer unit: per-cent scale factors, degrees per second of bias).
+//!   A Gauss-Newton least-squares fit with priors of the paper's 21 parameters (gyro bias, full
+//!   `Theta`, accelerometer bias, lower-triangular `Gamma`) to three kinds of residual:
+//!   - `|f| - g` of every static interval's calibrated mean specific force, weighted by the
+//!     noise of the mean (`std / sqrt(records)`) and a floor ([`ACCEL_FLOOR_M_S2`]);
+//!   - the gyro bias measured by the mean rate of every static interval (the Earth rate, which a
+//!     consumer gyro cannot see, taken as part of that measurement's noise);
+//!   - the rotation between consecutive static intervals integrated from the calibrated
+//!     increments over each record's own interval (jittered time stamps are used as they are: a
+//!     rate record is the mean over the interval ending at its stamp), the calibrated gravity
+//!     direction of one pose rotated into the next, and its mismatch with the direction measured
+//!     there (the cross product of the two unit vectors, in rad; floor [`DIRECTION_FLOOR_RAD`]).
+//!     The directions come from the accelerometer parameters being fitted, so the carries observe
+//!     the accelerometer non-orthogonality that `|f| = g` cannot see with one axis along gravity;
+//!   - a known turn (a section list's 360-degree rotation): the integrated angle about its axis
+//!     against the expected one (sigma [`crate::motion::rests::TURN_SIGMA_RAD`]).
 //!
-//! 1. **Accelerometers alone** (`accel.bias.*`, lower-triangular `accel.gamma.*`, 9
-//!    parameters): in every static interval the calibrated specific force
-//!    `f = (I + Gamma)^-1 (f' - df0)` must have the magnitude `g`. One residual per interval,
-//!    `|f| - g`, weighted by the noise of the interval's mean (`std / sqrt(records)`) and a floor
-//!    ([`FreeMotionSettings::accel_floor_m_s2`]). Reported as a fit of its own; its values are
-//!    not the result.
-//! 2. **Gyros and accelerometers together** (`gyro.bias.*`, full `gyro.theta.*`, the
-//!    g-sensitivity `gyro.gsens.*` and the scale-factor asymmetry `gyro.asym.*` when their
-//!    priors are set, and the accelerometer parameters again): the residuals of stage 1; the
-//!    bias `nu0 + G f'` measured by the mean rate of every fitted static interval (the Earth
-//!    rate, which a consumer gyro cannot see, is taken as part of that measurement's noise); the
-//!    rotation between consecutive static intervals integrated from the calibrated increments
-//!    `(I - Theta)^-1 (dth' + (nu0 + G f') dt + diag(a) |dth'|)` over each record's own
-//!    interval (jittered time stamps are used as they are: a rate record is the mean over the
-//!    interval ending at its time stamp), the calibrated gravity direction of one pose rotated
-//!    into the next, and its mismatch with the direction measured there as a residual (the
-//!    cross product of the two unit vectors, in rad). The directions come from the
-//!    accelerometer parameters being fitted, so the carries observe the accelerometer
-//!    non-orthogonality that `|f| = g` cannot see with one axis along gravity. A known turn
-//!    (e.g. a 360-degree rotation of a section list) adds the integrated angle about its axis as
-//!    a measurement of that angle.
+//!   Parameters are normalised by their prior sigma and the prior enters as a pseudo-measurement
+//!   of zero; the covariance is the inverse of the normal matrix with the data's weights scaled
+//!   down by the reduced chi-square where it exceeds 1.
+//! - **The figures of a calibration** ([`evaluate`]): every static interval's `|f| - g` before
+//!   and after, the known turns before and after, and with a hold-out the held-out validation
+//!   ([`Validation`]): what `calibrate --free-motion` reports of the filter's result.
+//! - **The poses check** ([`check_poses`]): rests that cannot separate the accelerometer
+//!   parameters are refused before any fit.
 //!
-//! Parameters are normalised by their prior sigma; the prior enters as a pseudo-measurement of
-//! zero, so parameters the data do not observe keep their prior (and are named by
-//! [`FreeMotionResult::unobserved`]). The covariance is the inverse of the normal matrix, with
-//! the measurement weights scaled down by the reduced chi-square when it exceeds 1 (the residual
-//! scatter, not the assumed noise, then sets the sigmas); the degrees of freedom are the number
-//! of residuals less the effective number of parameters (trace of the data's share of the normal
-//! matrix).
-//!
-//! Held-out validation ([`FreeMotionSettings::holdout`]) leaves every K-th static interval out of
-//! both fits and checks the calibration on those only ([`Validation`]).
-//!
-//! Sensor models (the paper's, with two gyro terms more): `w' = w - nu`,
-//! `nu = nu0 + Theta w + G f' + diag(a) |w|`; `f' = f + df`, `df = df0 + Gamma f`. Everything
-//! is SI. `docs/real-data.md` ("Cause of the gyro misfit") has the measurements behind the two
-//! extra terms and the joint stage.
+//! Everything is SI. `docs/real-data.md` ("Cause of the gyro misfit") has the measurements that
+//! shaped the fit (the accelerometers fitted with the gyros, the bias at every rest).
 
 use crate::io::{ImuData, ImuKind, ResultParameter};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use sins_model::attitude::exp_so3;
 use sins_model::earth::EARTH_RATE;
-use sins_model::terms::{GAMMA_INDEX, PaperPriors};
-
-/// Posterior sigma over prior sigma above which a parameter counts as unobserved.
-pub const UNOBSERVED_RATIO: f64 = 0.9;
+use sins_model::terms::{ErrorModel, GAMMA_INDEX, PaperPriors};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
-
-/// SI unit of the g-sensitivity terms `gyro.gsens.*` in the result.
-pub const GSENS_UNIT: &str = "rad/s/(m/s^2)";
-use sins_model::units::DEG;
 
 /// A static interval: inclusive 0-based record indices into the [`ImuData`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -80,66 +64,22 @@ pub struct KnownTurn {
     pub angle_rad: f64,
 }
 
-/// Prior standard deviations of the 21 parameters (SI): the paper's four-term model's priors
-/// ([`PaperPriors`]; from a run configuration with [`crate::config::RunConfig::priors_si`]).
-pub type FreeMotionPriors = PaperPriors;
-
-/// Consumer-grade MEMS priors: gyro bias 1 deg/s, scale 0.05, misalignment 60 arcmin;
-/// accelerometer bias 1 m/s^2, scale 0.05, non-orthogonality 60 arcmin.
-pub fn consumer_priors() -> PaperPriors {
-    crate::config::grade_priors(sins_model::candidates::UnitGrade::Consumer)
-}
-
-/// Settings of a free-motion calibration.
+/// Settings of the coarse fit ([`coarse_fit`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FreeMotionSettings {
+pub struct CoarseSettings {
     /// Magnitude of gravity at the site (m/s^2).
     pub gravity_m_s2: f64,
-    /// Priors of the parameters.
-    pub priors: FreeMotionPriors,
-    /// Leave every K-th static interval (1-based: K, 2K, ...) out of the fit and validate on
-    /// those; `None`: fit on all. K must be at least 2 (the first interval gives the gyro bias).
-    pub holdout: Option<usize>,
-    /// Noise floor of a static interval's `|f|` (m/s^2), added in quadrature to the noise of its
-    /// mean. Default 5e-4.
-    pub accel_floor_m_s2: f64,
-    /// Noise floor of a pose-to-pose gravity-direction mismatch (rad). Default 0.1 deg.
-    pub direction_floor_rad: f64,
-    /// Sigma of a known turn's angle (rad). Default 0.5 deg.
-    pub turn_sigma_rad: f64,
-    /// Measure the gyro bias (`nu0 + G f'`) by the mean rate in every fitted static interval
-    /// instead of the first only. Default true: with the g-sensitivity estimated, the rest
-    /// rate of each pose is its most direct measurement.
-    pub bias_from_all_intervals: bool,
-    /// Prior sigma of the gyros' g-sensitivity (rad/s per m/s^2): the nine terms of `G` in
-    /// `nu = nu0 + Theta w + G f'` (`f'` the measured specific force), named
-    /// `gyro.gsens.xy` (row: gyro axis, column: specific-force axis). `None`: not estimated
-    /// (the paper's four-term model). Default 0.01 deg/s per m/s^2 (about 0.1 deg/s per g,
-    /// consumer-grade).
-    pub g_sensitivity_prior: Option<f64>,
-    /// Prior sigma of the gyros' scale-factor asymmetry (1): the three terms `a` of
-    /// `nu = ... + diag(a) |w|`, i.e. an axis reads positive rates with the scale factor
-    /// `1 - theta - a` and negative ones with `1 - theta + a`; named `gyro.asym.x`. `None`:
-    /// not estimated. Default 0.01.
-    pub scale_asymmetry_prior: Option<f64>,
+    /// Priors of the paper's 21 parameters (SI; from a run configuration with
+    /// [`crate::config::RunConfig::priors_si`]).
+    pub priors: PaperPriors,
 }
 
-impl FreeMotionSettings {
-    /// Defaults with the given gravity and consumer-grade priors, no hold-out.
-    pub fn new(gravity_m_s2: f64) -> Self {
-        Self {
-            gravity_m_s2,
-            priors: consumer_priors(),
-            holdout: None,
-            accel_floor_m_s2: 5e-4,
-            direction_floor_rad: 0.1f64.to_radians(),
-            turn_sigma_rad: 0.5f64.to_radians(),
-            bias_from_all_intervals: true,
-            g_sensitivity_prior: Some(0.01 * DEG),
-            scale_asymmetry_prior: Some(0.01),
-        }
-    }
-}
+/// Noise floor of a static interval's `|f|` (m/s^2), added in quadrature to the noise of its
+/// mean.
+pub const ACCEL_FLOOR_M_S2: f64 = 5e-4;
+
+/// Noise floor of a pose-to-pose gravity-direction mismatch (rad): 0.1 deg.
+pub const DIRECTION_FLOOR_RAD: f64 = 0.1 * (std::f64::consts::PI / 180.0);
 
 /// Why a free-motion calibration could not run.
 #[derive(Debug, thiserror::Error)]
@@ -159,22 +99,6 @@ pub enum FreeMotionError {
         /// Distinct directions among them.
         directions: usize,
     },
-    /// A hold-out larger than the number of intervals: nothing held out, nothing validated.
-    #[error(
-        "holdout K = {k} (--holdout): the recording has {intervals} static intervals, so every K-th holds \
-         out none and validates nothing: expected K from 2 to {intervals}"
-    )]
-    HoldsOutNothing {
-        /// The hold-out.
-        k: usize,
-        /// Static intervals found.
-        intervals: usize,
-    },
-    /// A hold-out of 0 or 1.
-    #[error(
-        "holdout K = {0} (--holdout): expected at least 2 (every K-th static interval is held out; the first gives the gyro bias)"
-    )]
-    BadHoldout(usize),
     /// Intervals out of order or out of the records.
     #[error("static interval {0} is empty, out of order or outside the records")]
     BadInterval(usize),
@@ -197,47 +121,6 @@ pub struct StageFit {
     pub reduced_chi2: f64,
     /// Gauss-Newton iterations run.
     pub iterations: usize,
-}
-
-impl StageFit {
-    /// Degrees of freedom of the stage's chi-square: residuals less effective parameters (at
-    /// least 1, as the stage's own sigma scaling takes them).
-    pub fn dof(&self) -> f64 {
-        (self.residuals as f64 - self.effective_parameters).max(1.0)
-    }
-
-    /// The probability of a chi-square at least this large if the model and the noise levels
-    /// estimated from the data were right.
-    pub fn p_value(&self) -> f64 {
-        use statrs::distribution::{ChiSquared, ContinuousCDF};
-        let dof = self.dof();
-        let x = self.reduced_chi2 * dof;
-        if !x.is_finite() {
-            return 0.0;
-        }
-        ChiSquared::new(dof).map_or(f64::NAN, |c| c.sf(x))
-    }
-}
-
-/// A stage's chi-square below this p-value: the model does not describe the data (units,
-/// another recording's sections, a rotation laid over a rest). Fixed before looking at the
-/// shipped recordings' figures in this light: far outside the band, not at its edge, because
-/// the noise levels themselves come from the data's scatter (the shipped Xsens and Ferraris
-/// recordings give p = 0.0017 and 0.0045 in one stage, reported as marginal).
-pub const DOES_NOT_FIT_P: f64 = 1e-6;
-
-/// A stage's chi-square below this p-value (and above [`DOES_NOT_FIT_P`]): the fit is marginal.
-pub const MARGINAL_FIT_P: f64 = 0.01;
-
-/// Whether the batch fit describes its data.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FreeMotionVerdict {
-    /// The model describes the data (no reason below).
-    pub fits: bool,
-    /// Why not: one line per failed check.
-    pub reasons: Vec<String>,
-    /// Stages whose chi-square is at the edge of its band (fits, but only just).
-    pub marginal: Vec<String>,
 }
 
 /// One static interval, before and after calibration.
@@ -364,112 +247,14 @@ impl EarthRotation {
 /// a rest's heading counts as gyrocompassed for the rotation checks ([`EarthRotation`]).
 pub const GYROCOMPASS_FRACTION: f64 = 0.2;
 
-/// The outcome of a free-motion calibration.
+/// The coarse fit's outcome ([`coarse_fit`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct FreeMotionResult {
-    /// The 21 parameters in the paper's order (gyro bias, Theta, accel bias, Gamma), then the
-    /// nine g-sensitivity terms `gyro.gsens.*` and the three scale-factor asymmetries
-    /// `gyro.asym.*` when they are estimated; SI.
+pub struct CoarseFit {
+    /// The paper's 21 parameters in the paper model's order (gyro bias, `Theta` row by row,
+    /// accelerometer bias, `Gamma` in [`GAMMA_INDEX`] order), SI, with their sigmas.
     pub parameters: Vec<ResultParameter>,
-    /// Prior sigma of each parameter (SI), in the same order.
-    pub prior_sigma: Vec<f64>,
-    /// Posterior correlation matrix of the parameters, in their order
-    /// ([`crate::io::posterior::correlation`]).
-    pub correlation: Vec<Vec<f64>>,
-    /// Accelerometer stage (`|f| = g` alone; its parameters are the starting point of the
-    /// joint stage, which gives the reported values).
-    pub accel_fit: StageFit,
-    /// Joint stage: gyros and accelerometers together (gravity-direction carries, known
-    /// turns, gyro bias at rest and `|f| = g`).
-    pub gyro_fit: StageFit,
-    /// Every static interval, before and after.
-    pub poses: Vec<PoseResidual>,
-    /// Known turns, before and after.
-    pub turns: Vec<TurnCheck>,
-    /// Held-out validation, with a hold-out.
-    pub validation: Option<Validation>,
-}
-
-impl FreeMotionResult {
-    /// The result file of the calibration: parameters, correlation and the correction block,
-    /// whose g-sensitivity and asymmetry act on the measured specific force and rate as in this
-    /// fit ([`crate::model::correction::ExtensionInputs::Measured`]).
-    pub fn to_result_file(&self) -> crate::io::ResultFile {
-        crate::model::correction::result_file(
-            self.parameters.clone(),
-            self.correlation.clone(),
-            crate::model::correction::ExtensionInputs::Measured,
-            None,
-        )
-    }
-
-    /// Whether the fit describes its data: each stage's chi-square against
-    /// [`DOES_NOT_FIT_P`], every estimate and sigma finite, and the calibration not making the
-    /// fitted rests' `|f| - g` worse than the raw data.
-    pub fn verdict(&self) -> FreeMotionVerdict {
-        let mut reasons = Vec::new();
-        let mut marginal = Vec::new();
-        for (name, f) in [
-            ("accelerometer stage", &self.accel_fit),
-            ("joint stage", &self.gyro_fit),
-        ] {
-            let p = f.p_value();
-            let line = format!(
-                "{name}: reduced chi-square {:.4} over {:.1} degrees of freedom (p = {})",
-                f.reduced_chi2,
-                f.dof(),
-                crate::check::stats::p_value_text(p)
-            );
-            // A NaN p-value fails too.
-            if p.is_nan() || p < DOES_NOT_FIT_P {
-                reasons.push(line);
-            } else if p < MARGINAL_FIT_P {
-                marginal.push(line);
-            }
-        }
-        let bad: Vec<&str> = self
-            .parameters
-            .iter()
-            .filter(|p| !p.value.is_finite() || !p.sigma.is_some_and(f64::is_finite))
-            .map(|p| p.name.as_str())
-            .collect();
-        if !bad.is_empty() {
-            reasons.push(format!(
-                "estimates or sigmas not finite: {} (a degenerate input: a rotation axis of \
-                 zero length, or poses the fit cannot tell apart)",
-                bad.join(", ")
-            ));
-        }
-        let rms = |f: &dyn Fn(&PoseResidual) -> f64| {
-            let v: Vec<f64> = self.poses.iter().filter(|p| !p.held_out).map(f).collect();
-            (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
-        };
-        let (before, after) = (rms(&|p| p.before_m_s2), rms(&|p| p.after_m_s2));
-        if after.is_nan() || after > before {
-            reasons.push(format!(
-                "the calibration makes the fitted rests' |f| - g worse: RMS {before:.5} -> \
-                 {after:.5} m/s^2 (accelerometer data in g rather than m/s^2?)"
-            ));
-        }
-        FreeMotionVerdict {
-            fits: reasons.is_empty(),
-            reasons,
-            marginal,
-        }
-    }
-
-    /// Parameters the data leave at their prior: `(name, posterior sigma / prior sigma)` for
-    /// those above [`UNOBSERVED_RATIO`].
-    pub fn unobserved(&self) -> Vec<(String, f64)> {
-        self.parameters
-            .iter()
-            .zip(&self.prior_sigma)
-            .filter_map(|(p, s0)| {
-                let r = p.sigma.unwrap_or(*s0) / s0;
-                (r > UNOBSERVED_RATIO).then(|| (p.name.clone(), r))
-            })
-            .collect()
-    }
+    /// The fit's residuals, effective parameters and reduced chi-square.
+    pub fit: StageFit,
 }
 
 /// Calibrated accelerometer: `f = (I + Gamma)^-1 (f' - df0)`.
@@ -743,23 +528,10 @@ fn check_inputs(
     data: &ImuData,
     intervals: &[Interval],
     turns: &[KnownTurn],
-    settings: &FreeMotionSettings,
+    settings: &CoarseSettings,
 ) -> Result<(), FreeMotionError> {
     if !(settings.gravity_m_s2.is_finite() && settings.gravity_m_s2 > 0.0) {
         return Err(FreeMotionError::BadGravity(settings.gravity_m_s2));
-    }
-    if let Some(k) = settings.holdout
-        && k < 2
-    {
-        return Err(FreeMotionError::BadHoldout(k));
-    }
-    if let Some(k) = settings.holdout
-        && k > intervals.len()
-    {
-        return Err(FreeMotionError::HoldsOutNothing {
-            k,
-            intervals: intervals.len(),
-        });
     }
     let n = data.records.len();
     let mut prev_end: Option<usize> = None;
@@ -783,82 +555,58 @@ fn held_out(i: usize, holdout: Option<usize>) -> bool {
     holdout.is_some_and(|k| (i + 1).is_multiple_of(k))
 }
 
-/// Calibrate the accelerometers and gyros from static intervals (and known turns) of a
-/// hand-turned recording. See the module documentation for the method.
-pub fn calibrate_free_motion(
+/// The coarse start of a hand-turned recording: the paper's 21 parameters fitted to the static
+/// `intervals` (every one of them: a caller with a hold-out leaves the held-out ones out) and
+/// the known `turns`. See the module documentation for the method.
+pub fn coarse_fit(
     data: &ImuData,
     intervals: &[Interval],
     turns: &[KnownTurn],
-    settings: &FreeMotionSettings,
-) -> Result<FreeMotionResult, FreeMotionError> {
+    settings: &CoarseSettings,
+) -> Result<CoarseFit, FreeMotionError> {
     check_inputs(data, intervals, turns, settings)?;
     let inc = Increments::new(data);
     let stats: Vec<PoseStat> = intervals.iter().map(|iv| pose_stat(&inc, *iv)).collect();
-    let fit_idx: Vec<usize> = (0..intervals.len())
-        .filter(|&i| !held_out(i, settings.holdout))
-        .collect();
-    if fit_idx.len() < 3 {
-        return Err(FreeMotionError::TooFewIntervals(fit_idx.len()));
+    if stats.len() < 3 {
+        return Err(FreeMotionError::TooFewIntervals(stats.len()));
     }
-    let directions = distinct_directions(fit_idx.iter().map(|&i| stats[i].f));
+    let directions = distinct_directions(stats.iter().map(|s| s.f));
     if directions < 3 {
         return Err(FreeMotionError::TooFewDirections {
-            intervals: fit_idx.len(),
+            intervals: stats.len(),
             directions,
         });
     }
-    let g = settings.gravity_m_s2;
-
-    // Stage 1: accelerometers alone (|f| = g).
-    let accel = accel_stage(&stats, &fit_idx, settings);
-
-    // Stage 2: gyros and accelerometers together.
     let ctx = GyroContext {
         inc: &inc,
         intervals,
         stats: &stats,
-        fit_idx: &fit_idx,
         turns,
-        settings,
-        g,
+        g: settings.gravity_m_s2,
     };
-    let prior = joint_prior(settings);
+    let specs = ErrorModel::paper(&settings.priors).params();
+    let prior: Vec<f64> = specs.iter().map(|s| s.prior_sigma).collect();
     let joint = gauss_newton(prior.len(), &|x: &[f64]| {
-        let (gyro_cal, accel_cal) = calibrations(&scaled(x, &prior), settings);
-        let mut e = accel_residuals(&stats, &fit_idx, settings, &accel_cal);
+        let (gyro_cal, accel_cal) = calibrations(&scaled(x, &prior));
+        let mut e = ctx.accel_residuals(&accel_cal);
         e.extend(ctx.residuals(&gyro_cal, &up_vectors(&stats, &accel_cal)));
         e
     });
     let p = scaled(joint.x.as_slice(), &prior);
-    let (gyro_cal, accel_cal) = calibrations(&p, settings);
-
-    let parameters = parameters(&p, &joint.cov, &prior, settings);
-    let Evaluation {
-        poses,
-        turns: turn_checks,
-        validation,
-    } = figures(
-        &inc,
-        intervals,
-        &stats,
-        turns,
-        settings.holdout,
-        g,
-        &gyro_cal,
-        &accel_cal,
-        &EarthRotation::at(0.0, f64::INFINITY),
-    );
-    let correlation =
-        crate::io::posterior::correlation(prior.len(), 0..prior.len(), |i, j| joint.cov[(i, j)]);
-    Ok(FreeMotionResult {
+    let parameters = specs
+        .into_iter()
+        .zip(&p)
+        .enumerate()
+        .map(|(k, (s, &value))| ResultParameter {
+            name: s.name,
+            value,
+            sigma: Some(joint.cov[(k, k)].max(0.0).sqrt() * prior[k]),
+            unit: s.unit.si_name().into(),
+        })
+        .collect();
+    Ok(CoarseFit {
         parameters,
-        prior_sigma: prior,
-        correlation,
-        accel_fit: accel.fit,
-        gyro_fit: joint.fit,
-        poses,
-        turns: turn_checks,
-        validation,
+        fit: joint.fit,
     })
 }
 
@@ -919,13 +667,12 @@ fn figures(
     }
 }
 
-/// [`Evaluation`] of a calibration given by its parameter values (SI, by the names of
-/// [`FreeMotionResult::parameters`], which the filter's result shares: `gyro.bias.x`,
-/// `gyro.theta.xy`, `accel.gamma.yx`, `gyro.gsens.xz`, `gyro.asym.z`, ...; a name `value`
-/// does not know is 0): the batch fit's held-out figures for any estimator. The g-sensitivity
-/// acts on the measured specific force and the asymmetry on the measured increment, as in the
-/// batch fit; the filter's act on the compensated ones, which differs by products of two
-/// errors. `intervals` and `holdout` as for [`calibrate_free_motion`].
+/// [`Evaluation`] of a calibration given by its parameter values (SI, by the names of the
+/// filter's result and [`CoarseFit::parameters`]: `gyro.bias.x`, `gyro.theta.xy`,
+/// `accel.gamma.yx`, `gyro.gsens.xz`, `gyro.asym.z`, ...; a name `value` does not know is 0).
+/// The g-sensitivity acts on the measured specific force and the asymmetry on the measured
+/// increment; the filter's act on the compensated ones, which differs by products of two
+/// errors. Every `holdout`-th interval (counted from 1) is held out.
 pub fn evaluate(
     data: &ImuData,
     intervals: &[Interval],
@@ -976,73 +723,10 @@ fn scaled(x: &[f64], prior: &[f64]) -> Vec<f64> {
     x.iter().zip(prior).map(|(a, s)| a * s).collect()
 }
 
-/// The calibrations of a joint parameter vector `[nu0 (3), Theta (9), df0 (3), Gamma (6),
-/// G (9, if estimated), a (3, if estimated)]` (SI).
-fn calibrations(p: &[f64], settings: &FreeMotionSettings) -> (GyroCal, AccelCal) {
-    let mut next = 21;
-    let gsens = settings.g_sensitivity_prior.map(|_| {
-        next += 9;
-        &p[21..30]
-    });
-    let mut gyro = GyroCal::new(&p[..12], gsens);
-    if settings.scale_asymmetry_prior.is_some() {
-        gyro.asym = Vector3::new(p[next], p[next + 1], p[next + 2]);
-    }
-    (gyro, AccelCal::new(&p[12..21]))
-}
-
-/// Prior sigmas of the accelerometer parameters `[df0 (3), Gamma (6)]`.
-fn accel_prior(settings: &FreeMotionSettings) -> Vec<f64> {
-    let pr = &settings.priors;
-    [pr.accel_bias; 3]
-        .into_iter()
-        .chain(GAMMA_INDEX.iter().map(|&(i, j)| {
-            if i == j {
-                pr.accel_scale
-            } else {
-                pr.accel_misalignment
-            }
-        }))
-        .collect()
-}
-
-/// Prior sigmas of the joint parameter vector (see [`calibrations`]).
-fn joint_prior(settings: &FreeMotionSettings) -> Vec<f64> {
-    let pr = &settings.priors;
-    let gyro = [pr.gyro_bias; 3].into_iter().chain((0..9).map(|k| {
-        if k % 4 == 0 {
-            pr.gyro_scale
-        } else {
-            pr.gyro_misalignment
-        }
-    }));
-    let gsens = settings
-        .g_sensitivity_prior
-        .map_or(Vec::new(), |s| vec![s; 9]);
-    let asym = settings
-        .scale_asymmetry_prior
-        .map_or(Vec::new(), |s| vec![s; 3]);
-    gyro.chain(accel_prior(settings))
-        .chain(gsens)
-        .chain(asym)
-        .collect()
-}
-
-/// `|f| - g` of every fitted static interval over its sigma.
-fn accel_residuals(
-    stats: &[PoseStat],
-    fit_idx: &[usize],
-    settings: &FreeMotionSettings,
-    cal: &AccelCal,
-) -> Vec<f64> {
-    fit_idx
-        .iter()
-        .map(|&i| {
-            let s = &stats[i];
-            let sigma = s.sigma_f.hypot(settings.accel_floor_m_s2);
-            (cal.apply(&s.f).norm() - settings.gravity_m_s2) / sigma
-        })
-        .collect()
+/// The calibrations of the paper's parameter vector `[nu0 (3), Theta (9), df0 (3), Gamma (6)]`
+/// (SI).
+fn calibrations(p: &[f64]) -> (GyroCal, AccelCal) {
+    (GyroCal::new(&p[..12], None), AccelCal::new(&p[12..21]))
 }
 
 /// The calibrated gravity direction (unit vector, body frame) of every static interval.
@@ -1050,48 +734,42 @@ fn up_vectors(stats: &[PoseStat], cal: &AccelCal) -> Vec<Vector3<f64>> {
     stats.iter().map(|s| cal.apply(&s.f).normalize()).collect()
 }
 
-/// The accelerometer stage (`|f| = g` alone): its fit, normalised by [`accel_prior`].
-fn accel_stage(stats: &[PoseStat], fit_idx: &[usize], settings: &FreeMotionSettings) -> GnSolution {
-    let prior = accel_prior(settings);
-    gauss_newton(9, &|x: &[f64]| {
-        let cal = AccelCal::new(&scaled(x, &prior));
-        accel_residuals(stats, fit_idx, settings, &cal)
-    })
-}
-
-/// What the gyro residuals need.
+/// What the residuals of the fit need.
 struct GyroContext<'a> {
     inc: &'a Increments,
     intervals: &'a [Interval],
     stats: &'a [PoseStat],
-    fit_idx: &'a [usize],
     turns: &'a [KnownTurn],
-    settings: &'a FreeMotionSettings,
     g: f64,
 }
 
 impl GyroContext<'_> {
-    /// Bias measurement (3), gravity-direction mismatches (3 per pair of consecutive fitted
-    /// poses, with the calibrated directions `up`), known turns (1 each); all divided by their
-    /// sigma.
+    /// `|f| - g` of every static interval over its sigma.
+    fn accel_residuals(&self, cal: &AccelCal) -> Vec<f64> {
+        self.stats
+            .iter()
+            .map(|s| {
+                let sigma = s.sigma_f.hypot(ACCEL_FLOOR_M_S2);
+                (cal.apply(&s.f).norm() - self.g) / sigma
+            })
+            .collect()
+    }
+
+    /// Bias measurements (3 per static interval), gravity-direction mismatches (3 per pair of
+    /// consecutive intervals, with the calibrated directions `up`), known turns (1 each); all
+    /// divided by their sigma.
     fn residuals(&self, cal: &GyroCal, up: &[Vector3<f64>]) -> Vec<f64> {
         let mut out = Vec::new();
-        // Bias from the first fitted interval; the Earth rate is part of its noise.
-        let bias_from = if self.settings.bias_from_all_intervals {
-            self.fit_idx
-        } else {
-            &self.fit_idx[..1]
-        };
-        for &i in bias_from {
-            let s = &self.stats[i];
+        // The bias from every interval; the Earth rate is part of its noise.
+        for s in self.stats {
             let sb = s.sigma_w.hypot(EARTH_RATE);
             let b = cal.bias_at(&s.f);
             for a in 0..3 {
                 out.push((b[a] + s.w[a]) / sb);
             }
         }
-        for pair in self.fit_idx.windows(2) {
-            let (i, j) = (pair[0], pair[1]);
+        for i in 1..self.stats.len() {
+            let (i, j) = (i - 1, i);
             let c = self.inc.rotation(
                 self.intervals[i].last_record + 1,
                 self.intervals[j].first_record,
@@ -1100,67 +778,16 @@ impl GyroContext<'_> {
             let predicted = c.transpose() * up[i];
             let mismatch = up[j].cross(&predicted);
             let su = |k: usize| self.stats[k].sigma_f / self.g;
-            let sigma =
-                (su(i).powi(2) + su(j).powi(2) + self.settings.direction_floor_rad.powi(2)).sqrt();
+            let sigma = (su(i).powi(2) + su(j).powi(2) + DIRECTION_FLOOR_RAD.powi(2)).sqrt();
             out.extend(mismatch.iter().map(|m| m / sigma));
         }
         for t in self.turns {
             let a = Vector3::from(t.axis).normalize();
             let angle = self.inc.turn(t.first_record, t.last_record, &a, cal);
-            out.push((angle - t.angle_rad) / self.settings.turn_sigma_rad);
+            out.push((angle - t.angle_rad) / crate::motion::rests::TURN_SIGMA_RAD);
         }
         out
     }
-}
-
-/// The result parameters (order of [`calibrations`]) with their sigmas from the normalised
-/// covariance.
-fn parameters(
-    p: &[f64],
-    cov: &DMatrix<f64>,
-    prior: &[f64],
-    settings: &FreeMotionSettings,
-) -> Vec<ResultParameter> {
-    let mut names: Vec<(String, &str)> = Vec::with_capacity(p.len());
-    for a in AXES {
-        names.push((format!("gyro.bias.{a}"), "rad/s"));
-    }
-    for (i, a) in AXES.iter().enumerate() {
-        for (j, b) in AXES.iter().enumerate() {
-            let unit = if i == j { "1" } else { "rad" };
-            names.push((format!("gyro.theta.{a}{b}"), unit));
-        }
-    }
-    for a in AXES {
-        names.push((format!("accel.bias.{a}"), "m/s^2"));
-    }
-    for &(i, j) in GAMMA_INDEX.iter() {
-        let unit = if i == j { "1" } else { "rad" };
-        names.push((format!("accel.gamma.{}{}", AXES[i], AXES[j]), unit));
-    }
-    if settings.g_sensitivity_prior.is_some() {
-        for a in AXES {
-            for b in AXES {
-                names.push((format!("gyro.gsens.{a}{b}"), GSENS_UNIT));
-            }
-        }
-    }
-    if settings.scale_asymmetry_prior.is_some() {
-        for a in AXES {
-            names.push((format!("gyro.asym.{a}"), "1"));
-        }
-    }
-    names
-        .into_iter()
-        .zip(p)
-        .enumerate()
-        .map(|(k, ((name, unit), &value))| ResultParameter {
-            name,
-            value,
-            sigma: Some(cov[(k, k)].max(0.0).sqrt() * prior[k]),
-            unit: unit.into(),
-        })
-        .collect()
 }
 
 fn rms(v: &[f64]) -> f64 {
@@ -1332,21 +959,32 @@ mod tests {
         ]
     }
 
-    /// A hand-turned recording: rests of 5 s at `poses`, constant-rate turns of 2 s between them
-    /// (plus a 360-degree turn about body z after the 4th pose), rate form, time steps of 10 ms
-    /// with `jitter` (relative, uniform), white noise.
+    /// The coarse fit's settings with consumer-grade priors.
+    fn settings() -> CoarseSettings {
+        CoarseSettings {
+            gravity_m_s2: G,
+            priors: crate::config::grade_priors(sins_model::candidates::UnitGrade::Consumer),
+        }
+    }
+
+    /// A hand-turned recording of a unit with the errors [`truth`]: rests of 5 s at `poses`,
+    /// constant-rate turns of 2 s between them (plus a 360-degree turn about body z after the
+    /// 4th pose), rate form, time steps of 10 ms with `jitter` (relative, uniform), white noise.
     fn simulate(
         poses: &[Matrix3<f64>],
         jitter: f64,
-        gsens: Matrix3<f64>,
-        asym: Vector3<f64>,
         rng: &mut Lcg,
     ) -> (ImuData, Vec<Interval>, KnownTurn) {
         let p = truth();
-        let (gyro, accel) = (GyroCal::new(&p[..12], None), AccelCal::new(&p[12..]));
-        let (m_gyro, m_accel) = (
-            gyro.inv.try_inverse().unwrap(),
-            accel.inv.try_inverse().unwrap(),
+        // The sensor models: w' = (I - Theta) w - nu0, f' = (I + Gamma) f + df0.
+        let m_gyro = Matrix3::identity() - Matrix3::from_row_slice(&p[3..12]);
+        let mut m_accel = Matrix3::identity();
+        for (k, &(i, j)) in GAMMA_INDEX.iter().enumerate() {
+            m_accel[(i, j)] += p[15 + k];
+        }
+        let (nu0, df0) = (
+            Vector3::from_column_slice(&p[..3]),
+            Vector3::from_column_slice(&p[12..15]),
         );
         let mut records = Vec::new();
         let mut t = 0.0;
@@ -1359,9 +997,8 @@ mod tests {
                         c: &Matrix3<f64>| {
             *t += dt;
             let f = c.transpose() * Vector3::new(0.0, 0.0, G);
-            let fr = m_accel * f + accel.bias + Vector3::from_fn(|_, _| 0.01 * rng.normal());
-            let wr = m_gyro * w - gyro.bias - gsens * fr - asym.component_mul(&w.abs())
-                + Vector3::from_fn(|_, _| 0.003 * rng.normal());
+            let fr = m_accel * f + df0 + Vector3::from_fn(|_, _| 0.01 * rng.normal());
+            let wr = m_gyro * w - nu0 + Vector3::from_fn(|_, _| 0.003 * rng.normal());
             records.push(ImuRecord {
                 t: *t,
                 gyro: wr.into(),
@@ -1430,7 +1067,7 @@ mod tests {
             .collect()
     }
 
-    fn max_error_in_sigmas(r: &FreeMotionResult) -> (f64, String) {
+    fn max_error_in_sigmas(r: &CoarseFit) -> (f64, String) {
         r.parameters
             .iter()
             .zip(truth())
@@ -1438,44 +1075,27 @@ mod tests {
             .fold((0.0, String::new()), |a, b| if b.0 > a.0 { b } else { a })
     }
 
-    /// [`evaluate`] with the batch fit's own parameters (by name) gives the batch fit's figures:
-    /// the held-out figures of any estimator are the same computation.
-    #[test]
-    fn evaluate_reproduces_the_fits_own_figures() {
-        let mut rng = Lcg(11);
-        let poses = poses(&mut rng, 16);
-        let (data, intervals, turn) = simulate(
-            &poses,
-            0.2,
-            xsens_like_gsens(),
-            Vector3::new(1e-3, -2e-3, 5e-4),
-            &mut rng,
-        );
-        let mut settings = FreeMotionSettings::new(G);
-        settings.holdout = Some(4);
-        let r = calibrate_free_motion(&data, &intervals, std::slice::from_ref(&turn), &settings)
-            .unwrap();
-        let value = |n: &str| r.parameters.iter().find(|p| p.name == n).map(|p| p.value);
-        let none = EarthRotation::at(0.0, f64::INFINITY);
-        let e = evaluate(&data, &intervals, &[turn], Some(4), G, &none, &value);
-        assert_eq!(e.poses, r.poses);
-        assert_eq!(e.turns, r.turns);
-        assert_eq!(e.validation, r.validation);
-    }
-
+    /// The fit on every 5th interval left out recovers the errors within three sigma, and the
+    /// evaluation of its values checks out on the intervals it has not seen.
     #[test]
     fn recovers_known_errors_within_three_sigma() {
         let mut rng = Lcg(7);
         let poses = poses(&mut rng, 24);
-        let (data, intervals, turn) =
-            simulate(&poses, 0.2, Matrix3::zeros(), Vector3::zeros(), &mut rng);
-        let mut settings = FreeMotionSettings::new(G);
-        settings.holdout = Some(5);
-        let r = calibrate_free_motion(&data, &intervals, &[turn], &settings).unwrap();
+        let (data, intervals, turn) = simulate(&poses, 0.2, &mut rng);
+        let fitted: Vec<Interval> = intervals
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !held_out(*i, Some(5)))
+            .map(|(_, iv)| *iv)
+            .collect();
+        let turns = std::slice::from_ref(&turn);
+        let r = coarse_fit(&data, &fitted, turns, &settings()).unwrap();
         let (worst, name) = max_error_in_sigmas(&r);
         assert!(worst < 3.0, "{name}: {worst} sigma");
-        assert!(r.unobserved().is_empty(), "{:?}", r.unobserved());
-        let v = r.validation.unwrap();
+        let value = |n: &str| r.parameters.iter().find(|p| p.name == n).map(|p| p.value);
+        let none = EarthRotation::at(0.0, f64::INFINITY);
+        let e = evaluate(&data, &intervals, turns, Some(5), G, &none, &value);
+        let v = e.validation.unwrap();
         // The held-out |f| noise alone is 0.01 m/s^2 / sqrt(500 records) per axis.
         assert!(
             v.static_rms_after_m_s2 < 0.02 * v.static_rms_before_m_s2,
@@ -1485,7 +1105,7 @@ mod tests {
             v.rotation_rms_after_rad < 0.05 * v.rotation_rms_before_rad,
             "{v:?}"
         );
-        let t = &r.turns[0];
+        let t = &e.turns[0];
         assert!(
             (t.after_rad - t.expected_rad).abs() < 0.2f64.to_radians(),
             "{t:?}"
@@ -1496,14 +1116,8 @@ mod tests {
     fn jittered_time_stamps_are_integrated_over_their_own_intervals() {
         let mut rng = Lcg(11);
         let poses = poses(&mut rng, 16);
-        let (data, intervals, turn) =
-            simulate(&poses, 0.3, Matrix3::zeros(), Vector3::zeros(), &mut rng);
-        // The paper's model alone: the extra terms would absorb part of a timing error.
-        let mut settings = FreeMotionSettings::new(G);
-        settings.g_sensitivity_prior = None;
-        settings.scale_asymmetry_prior = None;
-        let r = calibrate_free_motion(&data, &intervals, std::slice::from_ref(&turn), &settings)
-            .unwrap();
+        let (data, intervals, turn) = simulate(&poses, 0.3, &mut rng);
+        let r = coarse_fit(&data, &intervals, std::slice::from_ref(&turn), &settings()).unwrap();
         let (worst, name) = max_error_in_sigmas(&r);
         assert!(worst < 3.0, "{name}: {worst} sigma");
         // The same records on a fixed 10-ms grid (a fixed-dt integration): the estimates are
@@ -1512,91 +1126,9 @@ mod tests {
         for (k, rec) in fixed.records.iter_mut().enumerate() {
             rec.t = 0.01 * (k + 1) as f64;
         }
-        let rf = calibrate_free_motion(&fixed, &intervals, &[turn], &settings).unwrap();
+        let rf = coarse_fit(&fixed, &intervals, &[turn], &settings()).unwrap();
         let (worst_fixed, _) = max_error_in_sigmas(&rf);
         assert!(worst_fixed > 10.0, "fixed dt: only {worst_fixed} sigma off");
-    }
-
-    /// The gyro g-sensitivity of the Xsens MTi recording (`docs/real-data.md`), about 60 deg/h
-    /// per m/s^2 in its largest terms (rad/s per m/s^2).
-    fn xsens_like_gsens() -> Matrix3<f64> {
-        Matrix3::new(0.0, -11.0, -28.0, 61.0, -4.0, -34.0, 35.0, 34.0, -10.0)
-            * sins_model::units::DEG_PER_HOUR
-    }
-
-    fn gyro_misfit(r: &FreeMotionResult) -> f64 {
-        r.gyro_fit.reduced_chi2
-    }
-
-    #[test]
-    fn g_sensitivity_explains_a_pose_dependent_gyro_bias() {
-        let mut rng = Lcg(21);
-        let poses = poses(&mut rng, 24);
-        let gsens = xsens_like_gsens();
-        let (data, intervals, turn) = simulate(&poses, 0.0, gsens, Vector3::zeros(), &mut rng);
-        let turns = std::slice::from_ref(&turn);
-        // The paper's model alone (no g-sensitivity) cannot fit the carried gravity directions.
-        let mut paper = FreeMotionSettings::new(G);
-        paper.holdout = Some(5);
-        paper.g_sensitivity_prior = None;
-        let r0 = calibrate_free_motion(&data, &intervals, turns, &paper).unwrap();
-        assert!(gyro_misfit(&r0) > 5.0, "{:?}", r0.gyro_fit);
-        // With it, the fit is at the noise and every term is recovered.
-        let mut settings = FreeMotionSettings::new(G);
-        settings.holdout = Some(5);
-        let r = calibrate_free_motion(&data, &intervals, turns, &settings).unwrap();
-        assert!(gyro_misfit(&r) < 2.0, "{:?}", r.gyro_fit);
-        let (worst, name) = max_error_in_sigmas(&r);
-        assert!(worst < 3.0, "{name}: {worst} sigma");
-        for (k, p) in r.parameters[21..30].iter().enumerate() {
-            let t = gsens[(k / 3, k % 3)];
-            assert!(
-                (p.value - t).abs() < 3.0 * p.sigma.unwrap(),
-                "{p:?} against {t}"
-            );
-        }
-        let (v0, v) = (r0.validation.unwrap(), r.validation.unwrap());
-        assert!(
-            v.rotation_rms_after_rad < 0.3 * v0.rotation_rms_after_rad,
-            "{v0:?} {v:?}"
-        );
-    }
-
-    #[test]
-    fn scale_factor_asymmetry_explains_turns_against_flips() {
-        let mut rng = Lcg(33);
-        let poses = poses(&mut rng, 24);
-        let asym = Vector3::new(0.004, -0.003, 0.005);
-        let (data, intervals, turn) = simulate(&poses, 0.0, Matrix3::zeros(), asym, &mut rng);
-        let turns = std::slice::from_ref(&turn);
-        let mut without = FreeMotionSettings::new(G);
-        without.holdout = Some(5);
-        without.scale_asymmetry_prior = None;
-        let r0 = calibrate_free_motion(&data, &intervals, turns, &without).unwrap();
-        let mut settings = FreeMotionSettings::new(G);
-        settings.holdout = Some(5);
-        let r = calibrate_free_motion(&data, &intervals, turns, &settings).unwrap();
-        assert!(gyro_misfit(&r0) > 3.0, "{:?}", r0.gyro_fit);
-        assert!(gyro_misfit(&r) < 2.0, "{:?}", r.gyro_fit);
-        let (worst, name) = max_error_in_sigmas(&r);
-        assert!(worst < 3.0, "{name}: {worst} sigma");
-        for (k, p) in r.parameters[30..33].iter().enumerate() {
-            assert!(
-                (p.value - asym[k]).abs() < 3.0 * p.sigma.unwrap(),
-                "{p:?} against {}",
-                asym[k]
-            );
-        }
-        let t = &r.turns[0];
-        assert!(
-            (t.after_rad - t.expected_rad).abs() < 0.2f64.to_radians(),
-            "{t:?}"
-        );
-        let (v0, v) = (r0.validation.unwrap(), r.validation.unwrap());
-        assert!(
-            v.rotation_rms_after_rad < 0.3 * v0.rotation_rms_after_rad,
-            "{v0:?} {v:?}"
-        );
     }
 
     #[test]
@@ -1622,12 +1154,9 @@ mod tests {
                 exp_so3(v) * exp_so3(&tilt)
             })
             .collect();
-        let (data, intervals, turn) =
-            simulate(&poses, 0.0, Matrix3::zeros(), Vector3::zeros(), &mut rng);
-        let mut settings = FreeMotionSettings::new(G);
-        settings.g_sensitivity_prior = None;
-        let r = calibrate_free_motion(&data, &intervals, &[turn], &settings).unwrap();
-        assert!(gyro_misfit(&r) < 2.0, "{:?}", r.gyro_fit);
+        let (data, intervals, turn) = simulate(&poses, 0.0, &mut rng);
+        let r = coarse_fit(&data, &intervals, &[turn], &settings()).unwrap();
+        assert!(r.fit.reduced_chi2 < 2.0, "{:?}", r.fit);
         let (worst, name) = max_error_in_sigmas(&r);
         assert!(worst < 3.0, "{name}: {worst} sigma");
         for name in ["accel.gamma.yx", "accel.gamma.zx", "accel.gamma.zy"] {
@@ -1640,23 +1169,31 @@ mod tests {
     fn refuses_bad_input() {
         let mut rng = Lcg(3);
         let poses = poses(&mut rng, 4);
-        let (data, intervals, _) =
-            simulate(&poses, 0.0, Matrix3::zeros(), Vector3::zeros(), &mut rng);
-        let mut s = FreeMotionSettings::new(G);
-        s.holdout = Some(1);
+        let (data, intervals, _) = simulate(&poses, 0.0, &mut rng);
+        let s = settings();
         assert!(matches!(
-            calibrate_free_motion(&data, &intervals, &[], &s),
-            Err(FreeMotionError::BadHoldout(1))
-        ));
-        s.holdout = Some(2);
-        assert!(matches!(
-            calibrate_free_motion(&data, &intervals, &[], &s),
+            coarse_fit(&data, &intervals[..2], &[], &s),
             Err(FreeMotionError::TooFewIntervals(2))
         ));
         let mut back = intervals.clone();
         back.swap(0, 1);
-        let s = FreeMotionSettings::new(G);
-        assert!(calibrate_free_motion(&data, &back, &[], &s).is_err());
+        assert!(matches!(
+            coarse_fit(&data, &back, &[], &s),
+            Err(FreeMotionError::BadInterval(2))
+        ));
+        let mut bad = s;
+        bad.gravity_m_s2 = f64::NAN;
+        assert!(matches!(
+            coarse_fit(&data, &intervals, &[], &bad),
+            Err(FreeMotionError::BadGravity(_))
+        ));
+        // Four rests on one face: one direction.
+        let same = vec![poses[0]; 4];
+        let (data, intervals, _) = simulate(&same, 0.0, &mut rng);
+        assert!(matches!(
+            check_poses(&data, &intervals, None),
+            Err(FreeMotionError::TooFewDirections { directions: 1, .. })
+        ));
     }
 
     /// A unit at rest for 600 s with perfect sensors: its gyros read the Earth rate, its

@@ -176,7 +176,7 @@ pub fn check_rests(rests: &[Rest], t_start: f64, slack_s: f64) -> Result<(), Res
 }
 
 /// Standard deviation of a known turn's angle (rad): a hand-made turn against a box edge
-/// (the batch fit's default, [`crate::motion::free_motion::FreeMotionSettings::turn_sigma_rad`]).
+/// (the filter's and the coarse fit's, [`crate::motion::free_motion::coarse_fit`]).
 pub const TURN_SIGMA_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
 
 /// A turn of known angle in a recording of rests (a section list's 360-degree turns): a
