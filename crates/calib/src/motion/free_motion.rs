@@ -33,35 +33,47 @@
 //! shaped the fit (the accelerometers fitted with the gyros, the bias at every rest).
 
 use crate::io::{ImuData, ImuKind, ResultParameter};
+use crate::motion::rests::{Rest, TURN_SIGMA_RAD, Turn, held_out};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use sins_model::attitude::exp_so3;
 use sins_model::earth::EARTH_RATE;
 use sins_model::terms::{ErrorModel, GAMMA_INDEX, PaperPriors};
+use std::ops::Range;
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
-/// A static interval: inclusive 0-based record indices into the [`ImuData`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Interval {
-    /// First record.
-    pub first_record: usize,
-    /// Last record.
-    pub last_record: usize,
+/// A rest as the records hold it: its place in the rest list (what a hold-out counts), the
+/// rest, and its records ([`Rest::records`]).
+#[derive(Clone, Debug)]
+struct Pose {
+    index: usize,
+    rest: Rest,
+    records: Range<usize>,
 }
 
-/// A rotation whose angle is known (e.g. a hand-made 360-degree turn against a box edge).
-#[derive(Clone, Debug, PartialEq)]
-pub struct KnownTurn {
-    /// Name for reports (`x_rot`).
-    pub name: String,
-    /// First record of the turn.
-    pub first_record: usize,
-    /// Last record of the turn.
-    pub last_record: usize,
-    /// Body axis of the turn (unit vector).
-    pub axis: [f64; 3],
-    /// Angle the turn makes about `axis`, right-handed (rad).
-    pub angle_rad: f64,
+/// Fewest records of a rest that counts as a pose (the noise of its mean needs two).
+const MIN_POSE_RECORDS: usize = 2;
+
+/// The rests of `rests` with at least [`MIN_POSE_RECORDS`] records in `data`, in order.
+fn poses_of(data: &ImuData, rests: &[Rest]) -> Vec<Pose> {
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    rests
+        .iter()
+        .enumerate()
+        .map(|(index, rest)| Pose {
+            index,
+            rest: *rest,
+            records: rest.records(&t),
+        })
+        .filter(|p| p.records.len() >= MIN_POSE_RECORDS)
+        .collect()
+}
+
+/// The records the gyros carry the attitude over from pose `a` to pose `b`: from the record
+/// after `a` through the first record of `b` (the motion between them, the record that
+/// straddles `b`'s start included, and one record at rest).
+fn carry_records(a: &Pose, b: &Pose) -> std::ops::RangeInclusive<usize> {
+    a.records.end..=b.records.start
 }
 
 /// Settings of the coarse fit ([`coarse_fit`]).
@@ -99,11 +111,11 @@ pub enum FreeMotionError {
         /// Distinct directions among them.
         directions: usize,
     },
-    /// Intervals out of order or out of the records.
-    #[error("static interval {0} is empty, out of order or outside the records")]
+    /// Rests out of order.
+    #[error("static interval {0} is out of order")]
     BadInterval(usize),
-    /// A known turn outside the records.
-    #[error("known turn `{0}` lies outside the records")]
+    /// A known turn at the first record.
+    #[error("known turn `{0}` starts at the first record")]
     BadTurn(String),
     /// Gravity not a positive number.
     #[error("gravity {0} m/s^2: expected a positive number")]
@@ -126,8 +138,8 @@ pub struct StageFit {
 /// One static interval, before and after calibration.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PoseResidual {
-    /// The interval.
-    pub interval: Interval,
+    /// The rest.
+    pub rest: Rest,
     /// Held out of the fit.
     pub held_out: bool,
     /// `|f'| - g` of the uncalibrated mean (m/s^2).
@@ -352,38 +364,36 @@ impl Increments {
         cal.inv * (d + cal.bias_at(&self.f[k]) * self.dt[k] + cal.asym.component_mul(&d.abs()))
     }
 
-    /// Rotation of the body from before record `from` to after record `to` (inclusive):
+    /// Rotation of the body from before the first of `records` to after the last:
     /// `c_end_to_start`, the product of the steps' rotations.
-    fn rotation(&self, from: usize, to: usize, cal: &GyroCal) -> Matrix3<f64> {
+    fn rotation(&self, records: impl Iterator<Item = usize>, cal: &GyroCal) -> Matrix3<f64> {
         let mut c = Matrix3::identity();
-        for k in from..=to {
+        for k in records {
             c *= exp_so3(&self.calibrated(k, cal));
         }
         c
     }
 
-    /// The calibrated increments integrated about `axis` over the records `from..=to`.
-    fn turn(&self, from: usize, to: usize, axis: &Vector3<f64>, cal: &GyroCal) -> f64 {
-        (from..=to)
-            .map(|k| axis.dot(&self.calibrated(k, cal)))
-            .sum()
+    /// The calibrated increments integrated about `axis` over `records`.
+    fn turn(&self, records: Range<usize>, axis: &Vector3<f64>, cal: &GyroCal) -> f64 {
+        records.map(|k| axis.dot(&self.calibrated(k, cal))).sum()
     }
 }
 
 /// Refuse rests that cannot separate the accelerometer parameters, whatever the estimator:
-/// fewer than three fitted intervals (every `holdout`-th held out), or fitted intervals whose
-/// specific force points in fewer than three directions [`MIN_POSE_SEPARATION_DEG`] apart.
+/// fewer than three fitted rests (every `holdout`-th held out, [`held_out`]), or fitted rests
+/// whose specific force points in fewer than three directions [`MIN_POSE_SEPARATION_DEG`]
+/// apart.
 pub fn check_poses(
     data: &ImuData,
-    intervals: &[Interval],
+    rests: &[Rest],
     holdout: Option<usize>,
 ) -> Result<(), FreeMotionError> {
     let inc = Increments::new(data);
-    let fitted: Vec<Vector3<f64>> = intervals
+    let fitted: Vec<Vector3<f64>> = poses_of(data, rests)
         .iter()
-        .enumerate()
-        .filter(|(i, _)| !held_out(*i, holdout))
-        .map(|(_, iv)| pose_stat(&inc, *iv).f)
+        .filter(|p| !held_out(p.index, holdout))
+        .map(|p| pose_stat(&inc, &p.records).f)
         .collect();
     if fitted.len() < 3 {
         return Err(FreeMotionError::TooFewIntervals(fitted.len()));
@@ -427,10 +437,10 @@ struct PoseStat {
     sigma_w: f64,
 }
 
-fn pose_stat(inc: &Increments, iv: Interval) -> PoseStat {
-    let n = (iv.last_record - iv.first_record + 1) as f64;
+fn pose_stat(inc: &Increments, records: &Range<usize>) -> PoseStat {
+    let n = records.len() as f64;
     let (mut sf, mut sw) = (Vector3::zeros(), Vector3::zeros());
-    let rows = iv.first_record..=iv.last_record;
+    let rows = records.clone();
     let force = |k: usize| inc.f[k];
     for k in rows.clone() {
         sf += force(k);
@@ -524,49 +534,58 @@ fn gauss_newton(n: usize, residuals: &dyn Fn(&[f64]) -> Vec<f64>) -> GnSolution 
     }
 }
 
-fn check_inputs(
+/// The poses and known turns of the coarse fit, refused where gravity is not a positive number,
+/// the rests are out of order or a turn starts at the first record (whose interval is not
+/// known).
+fn check_inputs<'a>(
     data: &ImuData,
-    intervals: &[Interval],
-    turns: &[KnownTurn],
+    rests: &[Rest],
+    turns: &'a [Turn],
     settings: &CoarseSettings,
-) -> Result<(), FreeMotionError> {
+) -> Result<(Vec<Pose>, Vec<TurnRecords<'a>>), FreeMotionError> {
     if !(settings.gravity_m_s2.is_finite() && settings.gravity_m_s2 > 0.0) {
         return Err(FreeMotionError::BadGravity(settings.gravity_m_s2));
     }
-    let n = data.records.len();
-    let mut prev_end: Option<usize> = None;
-    for (i, iv) in intervals.iter().enumerate() {
-        let ordered = prev_end.is_none_or(|p| iv.first_record > p);
-        if iv.first_record >= iv.last_record || iv.last_record >= n || !ordered {
-            return Err(FreeMotionError::BadInterval(i + 1));
-        }
-        prev_end = Some(iv.last_record);
-    }
-    for t in turns {
-        if t.first_record > t.last_record || t.last_record >= n || t.first_record == 0 {
-            return Err(FreeMotionError::BadTurn(t.name.clone()));
+    let poses = poses_of(data, rests);
+    for (i, pair) in poses.windows(2).enumerate() {
+        if pair[1].records.start < pair[0].records.end {
+            return Err(FreeMotionError::BadInterval(i + 2));
         }
     }
-    Ok(())
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    let mut known = Vec::with_capacity(turns.len());
+    for turn in turns {
+        let records = turn.records(&t);
+        if records.is_empty() {
+            continue;
+        }
+        if records.start == 0 {
+            return Err(FreeMotionError::BadTurn(turn.name.clone()));
+        }
+        known.push(TurnRecords { turn, records });
+    }
+    Ok((poses, known))
 }
 
-/// Whether the `i`-th (0-based) static interval is held out.
-fn held_out(i: usize, holdout: Option<usize>) -> bool {
-    holdout.is_some_and(|k| (i + 1).is_multiple_of(k))
+/// A known turn with its records.
+struct TurnRecords<'a> {
+    turn: &'a Turn,
+    records: Range<usize>,
 }
 
-/// The coarse start of a hand-turned recording: the paper's 21 parameters fitted to the static
-/// `intervals` (every one of them: a caller with a hold-out leaves the held-out ones out) and
-/// the known `turns`. See the module documentation for the method.
+/// The coarse start of a hand-turned recording: the paper's 21 parameters fitted to the `rests`
+/// (every one of them with two records or more: a caller with a hold-out leaves the held-out
+/// ones out) and the known `turns` (those in the records). See the module documentation for
+/// the method.
 pub fn coarse_fit(
     data: &ImuData,
-    intervals: &[Interval],
-    turns: &[KnownTurn],
+    rests: &[Rest],
+    turns: &[Turn],
     settings: &CoarseSettings,
 ) -> Result<CoarseFit, FreeMotionError> {
-    check_inputs(data, intervals, turns, settings)?;
+    let (poses, turns) = check_inputs(data, rests, turns, settings)?;
     let inc = Increments::new(data);
-    let stats: Vec<PoseStat> = intervals.iter().map(|iv| pose_stat(&inc, *iv)).collect();
+    let stats: Vec<PoseStat> = poses.iter().map(|p| pose_stat(&inc, &p.records)).collect();
     if stats.len() < 3 {
         return Err(FreeMotionError::TooFewIntervals(stats.len()));
     }
@@ -579,9 +598,9 @@ pub fn coarse_fit(
     }
     let ctx = GyroContext {
         inc: &inc,
-        intervals,
+        poses: &poses,
         stats: &stats,
-        turns,
+        turns: &turns,
         g: settings.gravity_m_s2,
     };
     let specs = ErrorModel::paper(&settings.priors).params();
@@ -626,42 +645,42 @@ pub struct Evaluation {
 #[allow(clippy::too_many_arguments)]
 fn figures(
     inc: &Increments,
-    intervals: &[Interval],
+    t: &[f64],
+    poses: &[Pose],
     stats: &[PoseStat],
-    turns: &[KnownTurn],
+    turns: &[Turn],
     holdout: Option<usize>,
     g: f64,
     gyro_cal: &GyroCal,
     accel_cal: &AccelCal,
     earth: &EarthRotation,
 ) -> Evaluation {
-    let poses = intervals
+    let residuals = poses
         .iter()
         .zip(stats)
-        .enumerate()
-        .map(|(i, (iv, s))| PoseResidual {
-            interval: *iv,
-            held_out: held_out(i, holdout),
+        .map(|(p, s)| PoseResidual {
+            rest: p.rest,
+            held_out: held_out(p.index, holdout),
             before_m_s2: s.f.norm() - g,
             after_m_s2: accel_cal.apply(&s.f).norm() - g,
         })
         .collect::<Vec<_>>();
     let turns = turns
         .iter()
-        .map(|t| {
-            let a = Vector3::from(t.axis).normalize();
+        .map(|turn| {
+            let (a, records) = (turn.axis.normalize(), turn.records(t));
             TurnCheck {
-                name: t.name.clone(),
-                expected_rad: t.angle_rad,
-                before_rad: inc.turn(t.first_record, t.last_record, &a, &GyroCal::raw()),
-                after_rad: inc.turn(t.first_record, t.last_record, &a, gyro_cal),
+                name: turn.name.clone(),
+                expected_rad: turn.angle_rad,
+                before_rad: inc.turn(records.clone(), &a, &GyroCal::raw()),
+                after_rad: inc.turn(records, &a, gyro_cal),
             }
         })
         .collect();
     let validation =
-        holdout.map(|_| validate(inc, intervals, stats, &poses, accel_cal, gyro_cal, earth));
+        holdout.map(|_| validate(inc, poses, stats, &residuals, accel_cal, gyro_cal, earth));
     Evaluation {
-        poses,
+        poses: residuals,
         turns,
         validation,
     }
@@ -672,11 +691,12 @@ fn figures(
 /// `accel.gamma.yx`, `gyro.gsens.xz`, `gyro.asym.z`, ...; a name `value` does not know is 0).
 /// The g-sensitivity acts on the measured specific force and the asymmetry on the measured
 /// increment; the filter's act on the compensated ones, which differs by products of two
-/// errors. Every `holdout`-th interval (counted from 1) is held out.
+/// errors. Every `holdout`-th rest is held out ([`held_out`]); rests with fewer than two records
+/// are left out (and keep their place in the count).
 pub fn evaluate(
     data: &ImuData,
-    intervals: &[Interval],
-    turns: &[KnownTurn],
+    rests: &[Rest],
+    turns: &[Turn],
     holdout: Option<usize>,
     gravity_m_s2: f64,
     earth: &EarthRotation,
@@ -704,10 +724,13 @@ pub fn evaluate(
     gyro_cal.asym = Vector3::from_iterator(AXES.iter().map(|a| v(format!("gyro.asym.{a}"))));
     let accel_cal = AccelCal::new(&p[12..21]);
     let inc = Increments::new(data);
-    let stats: Vec<PoseStat> = intervals.iter().map(|iv| pose_stat(&inc, *iv)).collect();
+    let poses = poses_of(data, rests);
+    let stats: Vec<PoseStat> = poses.iter().map(|p| pose_stat(&inc, &p.records)).collect();
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     figures(
         &inc,
-        intervals,
+        &t,
+        &poses,
         &stats,
         turns,
         holdout,
@@ -737,9 +760,9 @@ fn up_vectors(stats: &[PoseStat], cal: &AccelCal) -> Vec<Vector3<f64>> {
 /// What the residuals of the fit need.
 struct GyroContext<'a> {
     inc: &'a Increments,
-    intervals: &'a [Interval],
+    poses: &'a [Pose],
     stats: &'a [PoseStat],
-    turns: &'a [KnownTurn],
+    turns: &'a [TurnRecords<'a>],
     g: f64,
 }
 
@@ -770,11 +793,9 @@ impl GyroContext<'_> {
         }
         for i in 1..self.stats.len() {
             let (i, j) = (i - 1, i);
-            let c = self.inc.rotation(
-                self.intervals[i].last_record + 1,
-                self.intervals[j].first_record,
-                cal,
-            );
+            let c = self
+                .inc
+                .rotation(carry_records(&self.poses[i], &self.poses[j]), cal);
             let predicted = c.transpose() * up[i];
             let mismatch = up[j].cross(&predicted);
             let su = |k: usize| self.stats[k].sigma_f / self.g;
@@ -782,9 +803,9 @@ impl GyroContext<'_> {
             out.extend(mismatch.iter().map(|m| m / sigma));
         }
         for t in self.turns {
-            let a = Vector3::from(t.axis).normalize();
-            let angle = self.inc.turn(t.first_record, t.last_record, &a, cal);
-            out.push((angle - t.angle_rad) / crate::motion::rests::TURN_SIGMA_RAD);
+            let a = t.turn.axis.normalize();
+            let angle = self.inc.turn(t.records.clone(), &a, cal);
+            out.push((angle - t.turn.angle_rad) / TURN_SIGMA_RAD);
         }
         out
     }
@@ -808,23 +829,25 @@ fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 /// ones, which compare like with like (one motion each).
 fn validate(
     inc: &Increments,
-    intervals: &[Interval],
+    poses: &[Pose],
     stats: &[PoseStat],
-    poses: &[PoseResidual],
+    residuals: &[PoseResidual],
     accel: &AccelCal,
     gyro: &GyroCal,
     earth: &EarthRotation,
 ) -> Validation {
-    let held: Vec<usize> = (0..poses.len()).filter(|&i| poses[i].held_out).collect();
-    let before: Vec<f64> = held.iter().map(|&i| poses[i].before_m_s2).collect();
-    let after: Vec<f64> = held.iter().map(|&i| poses[i].after_m_s2).collect();
-    let fitted: Vec<f64> = (0..poses.len())
-        .filter(|&i| !poses[i].held_out)
-        .map(|i| poses[i].after_m_s2)
+    let held: Vec<usize> = (0..residuals.len())
+        .filter(|&i| residuals[i].held_out)
+        .collect();
+    let before: Vec<f64> = held.iter().map(|&i| residuals[i].before_m_s2).collect();
+    let after: Vec<f64> = held.iter().map(|&i| residuals[i].after_m_s2).collect();
+    let fitted: Vec<f64> = (0..residuals.len())
+        .filter(|&i| !residuals[i].held_out)
+        .map(|i| residuals[i].after_m_s2)
         .collect();
     let carry = Carry {
         inc,
-        intervals,
+        poses,
         stats,
         accel,
         gyro,
@@ -834,8 +857,7 @@ fn validate(
     let (mut resolved, mut floor) = (true, Vec::new());
     for pair in held.windows(2) {
         let (i, j) = (pair[0], pair[1]);
-        let (from, to) = (intervals[i].last_record + 1, intervals[j].first_record);
-        let raw = inc.rotation(from, to, &GyroCal::raw());
+        let raw = inc.rotation(carry_records(&poses[i], &poses[j]), &GyroCal::raw());
         let (ui, uj) = (stats[i].f.normalize(), stats[j].f.normalize());
         rb.push(angle_between(&(raw.transpose() * ui), &uj));
         let (angle, compensated, span_s) = carry.error(i, j);
@@ -844,10 +866,10 @@ fn validate(
         floor.push(earth.horizontal_rad_s * span_s);
     }
     let (mut moved_held, mut moved_fitted) = (Vec::new(), Vec::new());
-    for i in 1..poses.len() {
+    for i in 1..residuals.len() {
         let (angle, compensated, _) = carry.error(i - 1, i);
         resolved &= compensated;
-        if poses[i - 1].held_out || poses[i].held_out {
+        if residuals[i - 1].held_out || residuals[i].held_out {
             moved_held.push(angle);
         } else {
             moved_fitted.push(angle);
@@ -879,7 +901,7 @@ fn validate(
 /// The gravity direction carried by the calibrated gyros from one rest to a later one.
 struct Carry<'a> {
     inc: &'a Increments,
-    intervals: &'a [Interval],
+    poses: &'a [Pose],
     stats: &'a [PoseStat],
     accel: &'a AccelCal,
     gyro: &'a GyroCal,
@@ -892,19 +914,17 @@ impl Carry<'_> {
     /// is resolved in rest `i`), and the one measured in rest `j`; whether the Earth's rotation
     /// was taken out; the span (s).
     fn error(&self, i: usize, j: usize) -> (f64, bool, f64) {
-        let (a, b) = (self.intervals[i], self.intervals[j]);
-        let (from, to) = (a.last_record + 1, b.first_record);
-        let c = self.inc.rotation(from, to, self.gyro);
-        let span_s: f64 = (from..=to).map(|k| self.inc.dt[k]).sum();
+        let (a, b) = (&self.poses[i], &self.poses[j]);
+        let c = self.inc.rotation(carry_records(a, b), self.gyro);
+        let span_s: f64 = carry_records(a, b).map(|k| self.inc.dt[k]).sum();
         let (ci, cj) = (
             self.accel.apply(&self.stats[i].f),
             self.accel.apply(&self.stats[j].f),
         );
         let up = ci.normalize();
         // The calibrated mean rate of rest i.
-        let rows = a.first_record..=a.last_record;
         let (mut sum, mut dt) = (Vector3::zeros(), 0.0);
-        for k in rows {
+        for k in a.records.clone() {
             sum += self.inc.calibrated(k, self.gyro);
             dt += self.inc.dt[k];
         }
@@ -970,11 +990,7 @@ mod tests {
     /// A hand-turned recording of a unit with the errors [`truth`]: rests of 5 s at `poses`,
     /// constant-rate turns of 2 s between them (plus a 360-degree turn about body z after the
     /// 4th pose), rate form, time steps of 10 ms with `jitter` (relative, uniform), white noise.
-    fn simulate(
-        poses: &[Matrix3<f64>],
-        jitter: f64,
-        rng: &mut Lcg,
-    ) -> (ImuData, Vec<Interval>, KnownTurn) {
+    fn simulate(poses: &[Matrix3<f64>], jitter: f64, rng: &mut Lcg) -> (ImuData, Vec<Rest>, Turn) {
         let p = truth();
         // The sensor models: w' = (I - Theta) w - nu0, f' = (I + Gamma) f + df0.
         let m_gyro = Matrix3::identity() - Matrix3::from_row_slice(&p[3..12]);
@@ -988,7 +1004,7 @@ mod tests {
         );
         let mut records = Vec::new();
         let mut t = 0.0;
-        let mut intervals = Vec::new();
+        let mut rests = Vec::new();
         let mut turn = None;
         let mut push = |records: &mut Vec<ImuRecord>,
                         t: &mut f64,
@@ -1013,14 +1029,12 @@ mod tests {
         };
         let mut rng_j = Lcg(99);
         for (i, c) in poses.iter().enumerate() {
-            let first = records.len();
+            // The rest begins as the motion before it ends: its first record is the one after.
+            let t0 = t - 1e-6;
             for dt in steps(if i == 0 { 2000 } else { 500 }, &mut rng_j) {
                 push(&mut records, &mut t, dt, Vector3::zeros(), c);
             }
-            intervals.push(Interval {
-                first_record: first,
-                last_record: records.len() - 1,
-            });
+            rests.push(Rest { t0, t1: t });
             let mut moves = Vec::new();
             if i == 3 {
                 moves.push(Vector3::new(0.0, 0.0, 2.0 * std::f64::consts::PI));
@@ -1038,11 +1052,11 @@ mod tests {
                     push(&mut records, &mut t, dt, w, &now);
                 }
                 if i == 3 && m == 0 {
-                    turn = Some(KnownTurn {
+                    turn = Some(Turn {
                         name: "z_rot".into(),
-                        first_record: start,
-                        last_record: records.len() - 1,
-                        axis: [0.0, 0.0, 1.0],
+                        t0: records[start].t,
+                        t1: t,
+                        axis: Vector3::z(),
                         angle_rad: 2.0 * std::f64::consts::PI,
                     });
                 }
@@ -1053,7 +1067,7 @@ mod tests {
                 kind: ImuKind::Rates,
                 records,
             },
-            intervals,
+            rests,
             turn.unwrap(),
         )
     }
@@ -1081,12 +1095,12 @@ mod tests {
     fn recovers_known_errors_within_three_sigma() {
         let mut rng = Lcg(7);
         let poses = poses(&mut rng, 24);
-        let (data, intervals, turn) = simulate(&poses, 0.2, &mut rng);
-        let fitted: Vec<Interval> = intervals
+        let (data, rests, turn) = simulate(&poses, 0.2, &mut rng);
+        let fitted: Vec<Rest> = rests
             .iter()
             .enumerate()
             .filter(|(i, _)| !held_out(*i, Some(5)))
-            .map(|(_, iv)| *iv)
+            .map(|(_, r)| *r)
             .collect();
         let turns = std::slice::from_ref(&turn);
         let r = coarse_fit(&data, &fitted, turns, &settings()).unwrap();
@@ -1094,7 +1108,7 @@ mod tests {
         assert!(worst < 3.0, "{name}: {worst} sigma");
         let value = |n: &str| r.parameters.iter().find(|p| p.name == n).map(|p| p.value);
         let none = EarthRotation::at(0.0, f64::INFINITY);
-        let e = evaluate(&data, &intervals, turns, Some(5), G, &none, &value);
+        let e = evaluate(&data, &rests, turns, Some(5), G, &none, &value);
         let v = e.validation.unwrap();
         // The held-out |f| noise alone is 0.01 m/s^2 / sqrt(500 records) per axis.
         assert!(
@@ -1116,8 +1130,8 @@ mod tests {
     fn jittered_time_stamps_are_integrated_over_their_own_intervals() {
         let mut rng = Lcg(11);
         let poses = poses(&mut rng, 16);
-        let (data, intervals, turn) = simulate(&poses, 0.3, &mut rng);
-        let r = coarse_fit(&data, &intervals, std::slice::from_ref(&turn), &settings()).unwrap();
+        let (data, rests, turn) = simulate(&poses, 0.3, &mut rng);
+        let r = coarse_fit(&data, &rests, std::slice::from_ref(&turn), &settings()).unwrap();
         let (worst, name) = max_error_in_sigmas(&r);
         assert!(worst < 3.0, "{name}: {worst} sigma");
         // The same records on a fixed 10-ms grid (a fixed-dt integration): the estimates are
@@ -1126,7 +1140,26 @@ mod tests {
         for (k, rec) in fixed.records.iter_mut().enumerate() {
             rec.t = 0.01 * (k + 1) as f64;
         }
-        let rf = coarse_fit(&fixed, &intervals, &[turn], &settings()).unwrap();
+        // The same records of each rest and of the turn, on the new stamps.
+        let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+        let tf: Vec<f64> = fixed.records.iter().map(|r| r.t).collect();
+        let rests: Vec<Rest> = rests
+            .iter()
+            .map(|r| {
+                let k = r.records(&t);
+                Rest {
+                    t0: tf[k.start - 1],
+                    t1: tf[k.end - 1],
+                }
+            })
+            .collect();
+        let k = turn.records(&t);
+        let turn = Turn {
+            t0: tf[k.start],
+            t1: tf[k.end - 1],
+            ..turn
+        };
+        let rf = coarse_fit(&fixed, &rests, &[turn], &settings()).unwrap();
         let (worst_fixed, _) = max_error_in_sigmas(&rf);
         assert!(worst_fixed > 10.0, "fixed dt: only {worst_fixed} sigma off");
     }
@@ -1154,8 +1187,8 @@ mod tests {
                 exp_so3(v) * exp_so3(&tilt)
             })
             .collect();
-        let (data, intervals, turn) = simulate(&poses, 0.0, &mut rng);
-        let r = coarse_fit(&data, &intervals, &[turn], &settings()).unwrap();
+        let (data, rests, turn) = simulate(&poses, 0.0, &mut rng);
+        let r = coarse_fit(&data, &rests, &[turn], &settings()).unwrap();
         assert!(r.fit.reduced_chi2 < 2.0, "{:?}", r.fit);
         let (worst, name) = max_error_in_sigmas(&r);
         assert!(worst < 3.0, "{name}: {worst} sigma");
@@ -1169,13 +1202,13 @@ mod tests {
     fn refuses_bad_input() {
         let mut rng = Lcg(3);
         let poses = poses(&mut rng, 4);
-        let (data, intervals, _) = simulate(&poses, 0.0, &mut rng);
+        let (data, rests, _) = simulate(&poses, 0.0, &mut rng);
         let s = settings();
         assert!(matches!(
-            coarse_fit(&data, &intervals[..2], &[], &s),
+            coarse_fit(&data, &rests[..2], &[], &s),
             Err(FreeMotionError::TooFewIntervals(2))
         ));
-        let mut back = intervals.clone();
+        let mut back = rests.clone();
         back.swap(0, 1);
         assert!(matches!(
             coarse_fit(&data, &back, &[], &s),
@@ -1184,14 +1217,14 @@ mod tests {
         let mut bad = s;
         bad.gravity_m_s2 = f64::NAN;
         assert!(matches!(
-            coarse_fit(&data, &intervals, &[], &bad),
+            coarse_fit(&data, &rests, &[], &bad),
             Err(FreeMotionError::BadGravity(_))
         ));
         // Four rests on one face: one direction.
         let same = vec![poses[0]; 4];
-        let (data, intervals, _) = simulate(&same, 0.0, &mut rng);
+        let (data, rests, _) = simulate(&same, 0.0, &mut rng);
         assert!(matches!(
-            check_poses(&data, &intervals, None),
+            check_poses(&data, &rests, None),
             Err(FreeMotionError::TooFewDirections { directions: 1, .. })
         ));
     }
@@ -1232,21 +1265,18 @@ mod tests {
             kind: ImuKind::Rates,
             records,
         };
-        let intervals: Vec<Interval> = [0.0, 150.0, 300.0, 450.0]
+        let rests: Vec<Rest> = [0.0, 150.0, 300.0, 450.0]
             .iter()
-            .map(|&t0| Interval {
-                first_record: (t0 * rate) as usize + 1,
-                last_record: ((t0 + 100.0) * rate) as usize,
-            })
+            .map(|&t0| Rest { t0, t1: t0 + 100.0 })
             .collect();
         let value = |_: &str| None;
         let known = EarthRotation::at(lat, 1e-8);
-        let e = evaluate(&data, &intervals, &[], Some(2), G, &known, &value);
+        let e = evaluate(&data, &rests, &[], Some(2), G, &known, &value);
         let v = e.validation.unwrap();
         assert_eq!(v.earth_rate, EarthRateTreatment::Compensated);
         assert!(v.rotation_rms_after_rad.to_degrees() < 1e-4, "{v:?}");
         let unknown = EarthRotation::at(lat, 1e-3);
-        let e = evaluate(&data, &intervals, &[], Some(2), G, &unknown, &value);
+        let e = evaluate(&data, &rests, &[], Some(2), G, &unknown, &value);
         let v = e.validation.unwrap();
         let expected = EARTH_RATE * lat.cos() * 200.0;
         let EarthRateTreatment::NotResolved { floor_rad } = v.earth_rate else {
