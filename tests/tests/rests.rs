@@ -297,8 +297,12 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
     };
     let g = config.site().specific_force_at_rest_enu().norm();
     // The calibrated turn (deg) for parameter values `values` (by state index).
-    let turn_of = |names: &[String], values: &[f64]| {
-        let value = |n: &str| names.iter().position(|m| m == n).map(|i| values[i]);
+    let turn_of = |est: &calib::estimate::Estimate, values: &[f64]| {
+        let mut file = est.to_result_file();
+        for p in &mut file.parameters {
+            p.value = values[est.names.iter().position(|m| *m == p.name).unwrap()];
+        }
+        let correction = calib::model::correction::Correction::of_result(&file).unwrap();
         let none = calib::motion::free_motion::EarthRotation::at(0.0, f64::INFINITY);
         let e = calib::motion::free_motion::evaluate(
             &imu,
@@ -307,8 +311,9 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
             None,
             g,
             &none,
-            &value,
-        );
+            &correction,
+        )
+        .unwrap();
         e.turns[0].after_rad.to_degrees()
     };
     let calibrated = |offset_deg: Option<f64>| {
@@ -335,7 +340,7 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
         calibrated(Some(1.0)),
     );
     let turn = |r: &calib::estimate::hand_turned::HandTurnedResult| {
-        turn_of(&r.estimate.names, &r.estimate.values)
+        turn_of(&r.estimate, &r.estimate.values)
     };
     let (a_none, a_exact, a_off) = (turn(&none), turn(&exact), turn(&off));
     // The calibration's sigma of the turn without it: the gradient by central differences.
@@ -346,9 +351,9 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
             let h = 1e-3 * est.cov[(i, i)].sqrt().max(1e-12);
             let mut v = est.values.clone();
             v[i] += h;
-            let up = turn_of(&est.names, &v);
+            let up = turn_of(est, &v);
             v[i] -= 2.0 * h;
-            let down = turn_of(&est.names, &v);
+            let down = turn_of(est, &v);
             (up - down) / (2.0 * h)
         })
         .collect();

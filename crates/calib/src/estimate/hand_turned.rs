@@ -754,9 +754,12 @@ pub fn calibrate(
         .filter_map(|a| estimate.sigma(&format!("gyro.bias.{a}")))
         .fold(0.0, f64::max);
     let earth = EarthRotation::at(config.site.latitude_deg.to_radians(), bias_sigma);
-    let value = |name: &str| estimate.value(name);
-    let evaluation =
-        crate::motion::free_motion::evaluate(data, rests, turns, holdout, g, &earth, &value);
+    // The correction `apply` makes of the result file.
+    let evaluation = crate::model::correction::Correction::of_result(&estimate.to_result_file())
+        .and_then(|c| {
+            crate::motion::free_motion::evaluate(data, rests, turns, holdout, g, &earth, &c)
+        })
+        .map_err(|e| refuse(crate::motion::rests::RestError::Evaluation(e.to_string())))?;
     Ok(HandTurnedResult {
         estimate,
         config,

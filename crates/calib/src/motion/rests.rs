@@ -153,6 +153,9 @@ pub enum RestError {
     /// The batch fit that gives the coarse start failed.
     #[error("the coarse start (batch fit of the rests) failed: {0}")]
     CoarseFit(String),
+    /// The calibration's correction cannot be applied to the records for its figures.
+    #[error("the calibration's correction cannot be applied to the records: {0}")]
+    Evaluation(String),
     /// The first rest is too short to level in.
     #[error(
         "the first rest ({t0} .. {t1} s) is shorter than {min} s after its margins of \
@@ -391,18 +394,10 @@ pub fn align_in_rest(
         return None;
     }
     let (raw_w, raw_f) = (w / t, f / t);
-    // The sensor models inverted at p0 by fixed-point iteration: w' = w - nu(w, f),
-    // f' = f + df(w, f).
-    let (mut w, mut f) = (raw_w, raw_f);
-    for _ in 0..20 {
-        let input = SensorInput {
-            omega_body: w,
-            f_body: f,
-            ..SensorInput::default()
-        };
-        w = raw_w + model.error(Sensor::Gyro, p0, &input);
-        f = raw_f - model.error(Sensor::Accel, p0, &input);
-    }
+    // The sensor models inverted at p0 (the filter's compensation, the means as the increments
+    // of one second).
+    let (w, f) = crate::model::correction::Compensation::new(model, p0)
+        .apply(model, p0, &raw_w, &raw_f, 1.0, 0.0, &mut None);
     let up = f.try_normalize(0.0)?;
     let g = site.specific_force_at_rest_enu().norm();
     let omega_h = site.earth_rate_enu().y.abs().max(1e-300);
