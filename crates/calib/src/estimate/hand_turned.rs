@@ -178,8 +178,8 @@ pub struct WhiteNoiseAtRest {
 }
 
 /// The scatter of the 1-s means in the rests ([`WhiteNoiseAtRest`]); each rest less
-/// [`REST_MARGIN_S`] at both ends, cut into whole seconds, its own mean removed. `None` when no
-/// rest holds two whole seconds.
+/// [`REST_MARGIN_S`](crate::motion::rests::REST_MARGIN_S) at both ends, cut into whole
+/// seconds, its own mean removed. `None` when no rest holds two whole seconds.
 pub fn white_noise_at_rest(data: &ImuData, rests: &[Rest]) -> Option<WhiteNoiseAtRest> {
     let records = &data.records;
     let t: Vec<f64> = records.iter().map(|r| r.t).collect();
