@@ -260,7 +260,7 @@ fn consumer_grade_without_the_program_50_seeds() {
 /// rests fix this angle to about 0.04 deg, so the move is a few thousandths.)
 #[test]
 fn a_known_turn_pulls_the_calibration_towards_its_angle() {
-    use calib::motion::free_motion::KnownTurn;
+    use calib::motion::rests::Turn;
     let mut config = consumer_config(810);
     config.truth.imu_rate_hz = 25.0;
     config.filter.imu_rate_hz = 25.0;
@@ -288,32 +288,36 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
     );
     let layout = layout_for(&config, false);
     let rests = rests(&config);
-    let known = |angle_rad: f64| KnownTurn {
+    let known = |angle_rad: f64| Turn {
         name: "first".into(),
-        first_record: first,
-        last_record: last,
-        axis: axis.into(),
+        t0: t[first],
+        t1: t[last],
+        axis,
         angle_rad,
     };
     let g = config.site().specific_force_at_rest_enu().norm();
     // The calibrated turn (deg) for parameter values `values` (by state index).
-    let turn_of =
-        |names: &[String], values: &[f64], intervals: &[calib::motion::free_motion::Interval]| {
-            let value = |n: &str| names.iter().position(|m| m == n).map(|i| values[i]);
-            let none = calib::motion::free_motion::EarthRotation::at(0.0, f64::INFINITY);
-            let e = calib::motion::free_motion::evaluate(
-                &imu,
-                intervals,
-                &[known(angle)],
-                None,
-                g,
-                &none,
-                &value,
-            );
-            e.turns[0].after_rad.to_degrees()
-        };
+    let turn_of = |est: &calib::estimate::Estimate, values: &[f64]| {
+        let mut file = est.to_result_file();
+        for p in &mut file.parameters {
+            p.value = values[est.names.iter().position(|m| *m == p.name).unwrap()];
+        }
+        let correction = calib::model::correction::Correction::of_result(&file).unwrap();
+        let none = calib::motion::free_motion::EarthRotation::at(0.0, f64::INFINITY);
+        let e = calib::motion::free_motion::evaluate(
+            &imu,
+            &rests,
+            &[known(angle)],
+            None,
+            g,
+            &none,
+            &correction,
+        )
+        .unwrap();
+        e.turns[0].after_rad.to_degrees()
+    };
     let calibrated = |offset_deg: Option<f64>| {
-        let turns: Vec<KnownTurn> = offset_deg
+        let turns: Vec<Turn> = offset_deg
             .map(|o| known(angle + o.to_radians()))
             .into_iter()
             .collect();
@@ -336,7 +340,7 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
         calibrated(Some(1.0)),
     );
     let turn = |r: &calib::estimate::hand_turned::HandTurnedResult| {
-        turn_of(&r.estimate.names, &r.estimate.values, &r.intervals)
+        turn_of(&r.estimate, &r.estimate.values)
     };
     let (a_none, a_exact, a_off) = (turn(&none), turn(&exact), turn(&off));
     // The calibration's sigma of the turn without it: the gradient by central differences.
@@ -347,9 +351,9 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
             let h = 1e-3 * est.cov[(i, i)].sqrt().max(1e-12);
             let mut v = est.values.clone();
             v[i] += h;
-            let up = turn_of(&est.names, &v, &none.intervals);
+            let up = turn_of(est, &v);
             v[i] -= 2.0 * h;
-            let down = turn_of(&est.names, &v, &none.intervals);
+            let down = turn_of(est, &v);
             (up - down) / (2.0 * h)
         })
         .collect();

@@ -10,7 +10,6 @@ mod candidates_table;
 mod correction;
 mod diagnostics;
 mod dispatch;
-mod free_motion_real;
 mod io;
 mod jacobians;
 mod paper_20hz;

@@ -172,35 +172,43 @@ impl SectionsFile {
 }
 
 impl SectionsFile {
-    /// The known turns of the list: its rotations with an expected angle, each widened to the
-    /// whole motion between the static `intervals` around it (a list's bounds may cut off the
-    /// start or end of the turn; the rest on either side adds only the bias, which is
-    /// calibrated).
+    /// The known turns of the list on the records stamped `t`: its rotations with an expected
+    /// angle and an axis, each widened to the whole motion between the `rests` around it (a
+    /// list's bounds may cut off the start or end of the turn; the rest on either side adds only
+    /// the bias, which is calibrated): from the first record after the rest before it through
+    /// the first record of the rest after it ([`calib::motion::rests::Rest::records`]; the
+    /// span the coarse fit carries the attitude over from one rest to the next); never from the
+    /// first record.
     pub fn known_turns(
         &self,
-        intervals: &[calib::motion::free_motion::Interval],
-    ) -> Vec<calib::motion::free_motion::KnownTurn> {
+        rests: &[calib::motion::rests::Rest],
+        t: &[f64],
+    ) -> Vec<calib::motion::rests::Turn> {
+        let rest_records: Vec<std::ops::Range<usize>> = rests
+            .iter()
+            .map(|r| r.records(t))
+            .filter(|r| !r.is_empty())
+            .collect();
         self.sections
             .iter()
             .filter(|s| s.kind == SectionKind::Rotation)
             .filter_map(|s| {
-                let first = intervals
+                let first = rest_records
                     .iter()
-                    .filter(|iv| iv.last_record < s.first_record)
-                    .map(|iv| iv.last_record + 1)
+                    .filter(|r| r.end <= s.first_record)
+                    .map(|r| r.end)
                     .next_back()
                     .unwrap_or(s.first_record);
-                let last = intervals
+                let last = rest_records
                     .iter()
-                    .find(|iv| iv.first_record > s.last_record)
-                    .map_or(s.last_record, |iv| iv.first_record);
-                Some(calib::motion::free_motion::KnownTurn {
-                    name: s.name.clone(),
-                    first_record: first.max(1),
-                    last_record: last,
-                    axis: s.axis?,
-                    angle_rad: s.expected_turn_deg?.to_radians(),
-                })
+                    .find(|r| r.start > s.last_record)
+                    .map_or(s.last_record, |r| r.start);
+                calib::motion::rests::Turn::about(
+                    &s.name,
+                    (*t.get(first.max(1))?, *t.get(last)?),
+                    s.axis?,
+                    s.expected_turn_deg?.to_radians(),
+                )
             })
             .collect()
     }

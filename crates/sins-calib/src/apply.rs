@@ -299,15 +299,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     check_compensation(&result, &cal_file)?;
     let unit_note = check_unit(args, &cal_file, result.unit.as_ref())?;
-    let inputs = result
-        .correction
-        .as_ref()
-        .map_or(ExtensionInputs::True, |b| b.extension_inputs);
-    let reference = result.temperature.as_ref().map(|t| t.reference_c);
-    let correction = Correction::from_parameters_at(&result.parameters, inputs, reference)
-        .map_err(|e| {
-            format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
-        })?;
+    let correction = Correction::of_result(&result).map_err(|e| {
+        format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
+    })?;
     let mut reader = ImuReader::open(&args.imu)?;
     let kind = reader.kind();
     if correction.thermal.is_some() && !reader.has_temp() {
@@ -360,7 +354,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     s += &format!(
         "sins-calib apply\n  calibration  {cal_file}: {}{}\n  wrote        {}: {n} records ({form}), corrected\n",
         terms(&correction),
-        match inputs {
+        match correction.extension_inputs {
             ExtensionInputs::True => "",
             ExtensionInputs::Measured =>
                 " (g-sensitivity and asymmetry on the measured values, as fitted)",

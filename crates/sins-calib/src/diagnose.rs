@@ -678,7 +678,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
     let mut measured_input = None;
     let mut rests_input: Option<(
         Vec<calib::motion::rests::Rest>,
-        Vec<calib::motion::free_motion::KnownTurn>,
+        Vec<calib::motion::rests::Turn>,
     )> = None;
     let result = if rests_mode {
         let detector = args
@@ -712,12 +712,7 @@ pub fn run(args: &Args) -> Result<bool, Error> {
                 eprintln!("diagnose: {}", g.describe());
             }
             measured_input = setup.measured;
-            let turns = setup
-                .turns
-                .iter()
-                .filter_map(|k| calib::motion::rests::Turn::of(k, &imu))
-                .collect();
-            (turns, setup.turns)
+            (setup.turns.clone(), setup.turns)
         } else {
             (Vec::new(), Vec::new())
         };

@@ -12,8 +12,8 @@ use calib::estimate::hand_turned::{GradeChoice, HandTurnedResult, NoiseSource, W
 use calib::io::ImuData;
 use calib::model::extension::ModelExtension;
 use calib::model::layout::StateLayout;
-use calib::motion::free_motion::{EarthRateTreatment, Evaluation, KnownTurn};
-use calib::motion::rests::Rest;
+use calib::motion::free_motion::{EarthRateTreatment, Evaluation};
+use calib::motion::rests::{Rest, Turn};
 use serde::Serialize;
 use sins_model::candidates::Candidate;
 use sins_model::units::DEG_PER_HOUR;
@@ -43,7 +43,7 @@ pub struct Setup {
     /// The grade chosen from the data (without a configuration).
     pub grade: Option<GradeChoice>,
     /// Known turns of the section list.
-    pub turns: Vec<KnownTurn>,
+    pub turns: Vec<Turn>,
     /// What the configuration assumed for want of an input (the site's latitude and height,
     /// and the gravity from them).
     pub assumptions: Vec<String>,
@@ -152,9 +152,9 @@ pub fn setup(
     };
     let ext = ModelExtension::with_grade(terms, config.unit_grade());
     let layout = calib::model::layout::layout_with(&config, false, &ext);
-    let intervals = calib::estimate::hand_turned::intervals_of(data, rests);
+    let times: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     let turns = match sections {
-        Some(p) => read_sections(p, data)?.known_turns(&intervals),
+        Some(p) => read_sections(p, data)?.known_turns(rests, &times),
         None => Vec::new(),
     };
     Ok(Setup {
@@ -359,7 +359,7 @@ pub fn json(r: &HandTurnedResult, setup: &SetupSummary, holdout: Option<usize>) 
         motion_attitude_noise_deg: r.config.filter.motion_attitude_noise_deg,
         measured,
         gravity_m_s2: r.config.site().specific_force_at_rest_enu().norm(),
-        static_intervals: r.intervals.len(),
+        static_intervals: r.estimate.rests.len(),
         held_out_every: holdout,
         grade: setup.grade.map(|g| GradeJson {
             grade: g.grade.name(),

@@ -28,8 +28,8 @@ use crate::config::RunConfig;
 use crate::estimate::noise::{MeasuredLevels, variance_ratio};
 use crate::io::{ImuData, ImuKind};
 use crate::model::MeasurementKind;
-use crate::motion::free_motion::{EarthRotation, Evaluation, Interval};
-use crate::motion::rests::{REST_MARGIN_S, Rest};
+use crate::motion::free_motion::{EarthRotation, Evaluation};
+use crate::motion::rests::Rest;
 use nalgebra::{Matrix3, Vector3};
 use sins_model::candidates::UnitGrade;
 use sins_model::earth::EARTH_RATE;
@@ -117,7 +117,7 @@ pub fn choose_grade(data: &ImuData, rests: &[Rest], noise: &WhiteNoiseAtRest) ->
     let mut excess: Vec<f64> = rests
         .iter()
         .filter_map(|r| {
-            let (w, span) = mean_rate(data, r.t0 + REST_MARGIN_S, r.t1 - REST_MARGIN_S)?;
+            let (w, span) = mean_rate(data, &r.less_margins())?;
             let sigma_mean = noise.gyro_rad_s * (3.0 / span.max(BLOCK_S)).sqrt();
             Some((w.norm() - EARTH_RATE - 3.0 * sigma_mean).max(0.0))
         })
@@ -146,13 +146,12 @@ pub fn choose_grade(data: &ImuData, rests: &[Rest], noise: &WhiteNoiseAtRest) ->
     }
 }
 
-/// The mean rate (rad/s) of the records whose whole interval lies in `[a, b]`, and their span.
-fn mean_rate(data: &ImuData, a: f64, b: f64) -> Option<(Vector3<f64>, f64)> {
+/// The mean rate (rad/s) of the records of `rest` ([`Rest::records`]), and their span.
+fn mean_rate(data: &ImuData, rest: &Rest) -> Option<(Vector3<f64>, f64)> {
     let records = &data.records;
-    let first = records.partition_point(|r| r.t < a) + 1;
-    let last = records.partition_point(|r| r.t <= b);
+    let t: Vec<f64> = records.iter().map(|r| r.t).collect();
     let (mut sum, mut span) = (Vector3::zeros(), 0.0);
-    for k in first..last.min(records.len()) {
+    for k in rest.records(&t) {
         let dt = records[k].t - records[k - 1].t;
         if dt <= 0.0 {
             continue;
@@ -168,20 +167,16 @@ fn mean_rate(data: &ImuData, a: f64, b: f64) -> Option<(Vector3<f64>, f64)> {
 }
 
 /// The scatter of the 1-s means in the rests ([`WhiteNoiseAtRest`]); each rest less
-/// [`REST_MARGIN_S`] at both ends, cut into whole seconds, its own mean removed. `None` when no
-/// rest holds two whole seconds.
+/// [`REST_MARGIN_S`](crate::motion::rests::REST_MARGIN_S) at both ends, cut into whole
+/// seconds, its own mean removed. `None` when no rest holds two whole seconds.
 pub fn white_noise_at_rest(data: &ImuData, rests: &[Rest]) -> Option<WhiteNoiseAtRest> {
     let records = &data.records;
     let t: Vec<f64> = records.iter().map(|r| r.t).collect();
     let (mut ss_w, mut ss_f, mut dof) = (0.0, 0.0, 0usize);
     for rest in rests {
-        let (a, b) = (rest.t0 + REST_MARGIN_S, rest.t1 - REST_MARGIN_S);
-        // Records whose whole interval (from the record before) lies in [a, b].
-        let first = t.partition_point(|&x| x < a) + 1;
-        let last = t.partition_point(|&x| x <= b);
         let mut blocks: Vec<([f64; 3], [f64; 3])> = Vec::new();
         let (mut sw, mut sf, mut span) = ([0.0; 3], [0.0; 3], 0.0);
-        for k in first..last.min(records.len()) {
+        for k in rest.less_margins().records(&t) {
             let dt = t[k] - t[k - 1];
             if dt <= 0.0 {
                 continue;
@@ -511,27 +506,9 @@ pub struct HandTurnedResult {
     pub config: RunConfig,
     /// Where its noise levels came from.
     pub noise: NoiseSource,
-    /// The rests as static intervals of the data ([`crate::motion::free_motion::Interval`]).
-    pub intervals: Vec<Interval>,
     /// What the calibration does to the rests, the known turns and (with a hold-out) the
     /// held-out rests ([`crate::motion::free_motion::evaluate`]).
     pub evaluation: Evaluation,
-}
-
-/// The rests as the records whose whole interval lies in them.
-pub fn intervals_of(data: &ImuData, rests: &[Rest]) -> Vec<Interval> {
-    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
-    rests
-        .iter()
-        .filter_map(|r| {
-            let first = t.partition_point(|&x| x <= r.t0);
-            let last = t.partition_point(|&x| x <= r.t1).checked_sub(1)?;
-            (first <= last).then_some(Interval {
-                first_record: first,
-                last_record: last,
-            })
-        })
-        .collect()
 }
 
 /// What a recording of rests is calibrated from: the data, its rests and known turns.
@@ -728,7 +705,7 @@ pub fn calibrate(
     data: &ImuData,
     file: &str,
     rests: &[Rest],
-    turns: &[crate::motion::free_motion::KnownTurn],
+    turns: &[crate::motion::rests::Turn],
     holdout: Option<usize>,
     measured: Option<WhiteNoiseAtRest>,
     progress: &mut dyn FnMut(usize, usize),
@@ -743,40 +720,37 @@ pub fn calibrate(
             rests: rests.len(),
         }));
     }
-    crate::motion::free_motion::check_poses(data, &intervals_of(data, rests), holdout)
+    crate::motion::free_motion::check_poses(data, rests, holdout)
         .map_err(|e| refuse(crate::motion::rests::RestError::Poses(e.to_string())))?;
     let mut config = config.clone();
     config.filter.hold_out_every = holdout;
-    let filter_turns: Vec<crate::motion::rests::Turn> = turns
-        .iter()
-        .filter_map(|k| crate::motion::rests::Turn::of(k, data))
-        .collect();
     let input = RestsInput {
         data,
         file,
         rests,
-        turns: &filter_turns,
+        turns,
     };
     let MeasuredFit {
         estimate,
         config,
         noise,
     } = fit_measuring_noise(&config, layout, input, measured, None, progress)?;
-    let intervals = intervals_of(data, rests);
     let g = config.site().specific_force_at_rest_enu().norm();
     let bias_sigma = ["x", "y", "z"]
         .iter()
         .filter_map(|a| estimate.sigma(&format!("gyro.bias.{a}")))
         .fold(0.0, f64::max);
     let earth = EarthRotation::at(config.site.latitude_deg.to_radians(), bias_sigma);
-    let value = |name: &str| estimate.value(name);
-    let evaluation =
-        crate::motion::free_motion::evaluate(data, &intervals, turns, holdout, g, &earth, &value);
+    // The correction `apply` makes of the result file.
+    let evaluation = crate::model::correction::Correction::of_result(&estimate.to_result_file())
+        .and_then(|c| {
+            crate::motion::free_motion::evaluate(data, rests, turns, holdout, g, &earth, &c)
+        })
+        .map_err(|e| refuse(crate::motion::rests::RestError::Evaluation(e.to_string())))?;
     Ok(HandTurnedResult {
         estimate,
         config,
         noise,
-        intervals,
         evaluation,
     })
 }

@@ -854,55 +854,25 @@ fn coarse_start(
     rests: &[Rest],
     turns: &[crate::motion::rests::Turn],
 ) -> Result<Vec<f64>, EstimateError> {
-    use crate::motion::free_motion::{FreeMotionSettings, Interval, calibrate_free_motion};
+    use crate::motion::free_motion::{CoarseSettings, coarse_fit};
+    // The rests and turns on the grouped records: a rest's groups are those that lie wholly in
+    // it, a turn's those that hold any of it (a group reaches up to COARSE_GROUP_S into the
+    // rest before): `Rest::records`, `Turn::records`.
     let grouped = coarse_records(data);
     let data = &grouped;
-    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
-    let intervals: Vec<Interval> = rests
-        .iter()
-        .filter_map(|r| {
-            // Records whose whole interval lies in the rest.
-            let first = t.partition_point(|&x| x <= r.t0) + 1;
-            let last = t.partition_point(|&x| x <= r.t1).checked_sub(1)?;
-            (first < last && last < t.len()).then_some(Interval {
-                first_record: first,
-                last_record: last,
-            })
-        })
-        .collect();
-    let mut settings = FreeMotionSettings::new(config.site().specific_force_at_rest_enu().norm());
-    settings.priors = config.priors_si();
     // The paper's 21 parameters only: the terms beyond them start at zero. A consumer unit's
     // g-sensitivity turns its attitude by degrees in a hand turn, but the first pass feeds
     // back only the tilt, which each rest's first window corrects (with the batch fit's
     // g-sensitivity and asymmetry in the coarse start the Xsens and Ferraris results moved by
     // hundredths of their sigmas, and the start took twice as long: 0.47 against 0.24 s of
     // CPU on a 324-s, 200-Hz recording).
-    settings.g_sensitivity_prior = None;
-    settings.scale_asymmetry_prior = None;
-    // The known turns on the grouped records: from the group that holds the first record to
-    // the one that holds the last (a group reaches up to COARSE_GROUP_S into the rest before).
-    let known: Vec<crate::motion::free_motion::KnownTurn> = turns
-        .iter()
-        .filter_map(|turn| {
-            let first = t.partition_point(|&x| x < turn.t0);
-            let last = t
-                .partition_point(|&x| x < turn.t1)
-                .min(t.len().checked_sub(1)?);
-            (first <= last).then(|| crate::motion::free_motion::KnownTurn {
-                name: turn.name.clone(),
-                first_record: first,
-                last_record: last,
-                axis: turn.axis.into(),
-                angle_rad: turn.angle_rad,
-            })
-        })
-        .collect();
-    let fit = calibrate_free_motion(data, &intervals, &known, &settings).map_err(|e| {
-        EstimateError::Rests {
-            file: file.to_string(),
-            source: RestError::CoarseFit(e.to_string()),
-        }
+    let settings = CoarseSettings {
+        gravity_m_s2: config.site().specific_force_at_rest_enu().norm(),
+        priors: config.priors_si(),
+    };
+    let fit = coarse_fit(data, rests, turns, &settings).map_err(|e| EstimateError::Rests {
+        file: file.to_string(),
+        source: RestError::CoarseFit(e.to_string()),
     })?;
     let names = layout.entries();
     Ok(

@@ -21,13 +21,42 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::earth::Site;
 use sins_model::terms::{ErrorModel, Sensor, SensorInput};
 
-/// A stretch of a recording in which the unit is at rest, on the IMU clock (s).
+/// A stretch of a recording in which the unit is at rest, on the IMU clock (s): the one type of
+/// a static interval (the filter's gate, the coarse fit, the held-out figures and the noise
+/// measured in the rests all take it). Its records are those whose whole interval lies in it
+/// ([`Rest::records`], a range whose end is exclusive).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Rest {
     /// First instant at rest (s).
     pub t0: f64,
-    /// Last instant at rest (s).
+    /// Last instant at rest (s), included.
     pub t1: f64,
+}
+
+impl Rest {
+    /// The records of the rest in the increasing time stamps `t`: those whose whole interval
+    /// (from the stamp before, excluded, to their own) lies in it, i.e. from the first record
+    /// whose previous stamp is at or after `t0` to the last one stamped at or before `t1`.
+    /// 0-based indices into `t`, the end exclusive; empty when no record's interval lies in the
+    /// rest (the first record, whose interval is not known, never counts). The record that
+    /// straddles `t0` (stamped after it, its interval begun before it) belongs to the motion
+    /// before the rest; a grouped record (the coarse fit's) likewise belongs to the rest only
+    /// when all of it does. A detector's rest begins at the start of its first record's
+    /// interval, the stamp before it, so that record is the first.
+    pub fn records(&self, t: &[f64]) -> std::ops::Range<usize> {
+        let end = t.partition_point(|&x| x <= self.t1);
+        let start = (t.partition_point(|&x| x < self.t0) + 1).min(end);
+        start..end
+    }
+
+    /// The rest with [`REST_MARGIN_S`] cut from both ends (empty, `t1 < t0`, for a rest
+    /// shorter than the two margins).
+    pub fn less_margins(&self) -> Rest {
+        Rest {
+            t0: self.t0 + REST_MARGIN_S,
+            t1: self.t1 - REST_MARGIN_S,
+        }
+    }
 }
 
 /// What is cut from both ends of a rest before its specific force is used (s): a static
@@ -124,6 +153,9 @@ pub enum RestError {
     /// The batch fit that gives the coarse start failed.
     #[error("the coarse start (batch fit of the rests) failed: {0}")]
     CoarseFit(String),
+    /// The calibration's correction cannot be applied to the records for its figures.
+    #[error("the calibration's correction cannot be applied to the records: {0}")]
+    Evaluation(String),
     /// The first rest is too short to level in.
     #[error(
         "the first rest ({t0} .. {t1} s) is shorter than {min} s after its margins of \
@@ -176,13 +208,15 @@ pub fn check_rests(rests: &[Rest], t_start: f64, slack_s: f64) -> Result<(), Res
 }
 
 /// Standard deviation of a known turn's angle (rad): a hand-made turn against a box edge
-/// (the batch fit's default, [`crate::motion::free_motion::FreeMotionSettings::turn_sigma_rad`]).
+/// (the filter's and the coarse fit's, [`crate::motion::free_motion::coarse_fit`]).
 pub const TURN_SIGMA_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
 
 /// A turn of known angle in a recording of rests (a section list's 360-degree turns): a
 /// measurement of the gyros' integrated angle about `axis` over the records stamped `t0` to
 /// `t1` (each record's increment over its own interval ending at its stamp), against
-/// `angle_rad`, with the sigma [`TURN_SIGMA_RAD`].
+/// `angle_rad`, with the sigma [`TURN_SIGMA_RAD`]. The one type of a known turn: the filter,
+/// the coarse fit and the held-out figures take it, each on its own records
+/// ([`Turn::records`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Turn {
     /// Name for reports (`x_rot`).
@@ -198,23 +232,30 @@ pub struct Turn {
 }
 
 impl Turn {
-    /// The turn of `known` (record indices into `data`); `None` when its records are not in
-    /// `data` or its axis is zero.
-    pub fn of(
-        known: &crate::motion::free_motion::KnownTurn,
-        data: &crate::io::ImuData,
-    ) -> Option<Self> {
-        let (a, b) = (
-            data.records.get(known.first_record)?,
-            data.records.get(known.last_record)?,
-        );
+    /// The turn `name` over the records stamped `t0` to `t1` (`stamps`) about `axis` (body
+    /// axes, made a unit vector) by `angle_rad`; `None` for an axis of zero length.
+    pub fn about(name: &str, stamps: (f64, f64), axis: [f64; 3], angle_rad: f64) -> Option<Self> {
         Some(Self {
-            name: known.name.clone(),
-            t0: a.t,
-            t1: b.t,
-            axis: Vector3::from(known.axis).try_normalize(0.0)?,
-            angle_rad: known.angle_rad,
+            name: name.to_string(),
+            t0: stamps.0,
+            t1: stamps.1,
+            axis: Vector3::from(axis).try_normalize(0.0)?,
+            angle_rad,
         })
+    }
+
+    /// The records of the turn in the increasing time stamps `t`: those that hold any of it,
+    /// from the first stamped at or after `t0` to the first stamped at or after `t1` (or the
+    /// last record). 0-based indices into `t`, the end exclusive; empty when the turn lies
+    /// after the records. On the records the turn was given on these are the ones stamped `t0`
+    /// to `t1`; on records grouped into longer ones (the coarse fit's) the groups that hold them.
+    pub fn records(&self, t: &[f64]) -> std::ops::Range<usize> {
+        let Some(last) = t.len().checked_sub(1) else {
+            return 0..0;
+        };
+        let end = t.partition_point(|&x| x < self.t1).min(last) + 1;
+        let start = t.partition_point(|&x| x < self.t0).min(end);
+        start..end
     }
 }
 
@@ -224,16 +265,16 @@ pub fn usable(rests: &[Rest]) -> Vec<Rest> {
     rests
         .iter()
         .filter(|r| r.t1 - r.t0 > 2.0 * REST_MARGIN_S)
-        .map(|r| Rest {
-            t0: r.t0 + REST_MARGIN_S,
-            t1: r.t1 - REST_MARGIN_S,
-        })
+        .map(Rest::less_margins)
         .collect()
 }
 
 /// Whether the `i`-th segment with measurements (counted from 0; on a recording of rests the
 /// `i`-th rest) is held out by a fit with `filter.hold_out_every = every`: every `every`-th,
-/// counted from 1.
+/// counted from 1. The one rule of a hold-out: the filter's held-out windows, the rests the
+/// coarse start leaves out and the held-out figures all take it. `None` and `Some(0)` hold out
+/// nothing (no caller passes 0: `--holdout` below 2 is refused before; `Some(0)` is not "every
+/// rest", which would hold out the first, whose windows level the start attitude).
 pub fn held_out(i: usize, every: Option<usize>) -> bool {
     every.is_some_and(|k| k > 0 && (i + 1).is_multiple_of(k))
 }
@@ -353,18 +394,10 @@ pub fn align_in_rest(
         return None;
     }
     let (raw_w, raw_f) = (w / t, f / t);
-    // The sensor models inverted at p0 by fixed-point iteration: w' = w - nu(w, f),
-    // f' = f + df(w, f).
-    let (mut w, mut f) = (raw_w, raw_f);
-    for _ in 0..20 {
-        let input = SensorInput {
-            omega_body: w,
-            f_body: f,
-            ..SensorInput::default()
-        };
-        w = raw_w + model.error(Sensor::Gyro, p0, &input);
-        f = raw_f - model.error(Sensor::Accel, p0, &input);
-    }
+    // The sensor models inverted at p0 (the filter's compensation, the means as the increments
+    // of one second).
+    let (w, f) = crate::model::correction::Compensation::new(model, p0)
+        .apply(model, p0, &raw_w, &raw_f, 1.0, 0.0, &mut None);
     let up = f.try_normalize(0.0)?;
     let g = site.specific_force_at_rest_enu().norm();
     let omega_h = site.earth_rate_enu().y.abs().max(1e-300);
@@ -478,6 +511,50 @@ mod tests {
         for (t, at_rest) in cases {
             assert_eq!(g.step_at_rest(t, 0.1), at_rest, "t = {t}");
         }
+    }
+
+    /// A rest's records are those whose whole interval lies in it; a turn's those that hold
+    /// any of it, on the records it was given on and on grouped ones.
+    #[test]
+    fn rests_and_turns_have_one_rule_for_their_records() {
+        // Records stamped 1, 2, ..., 20 s (record k at k + 1).
+        let t: Vec<f64> = (1..=20).map(f64::from).collect();
+        // Record 4, over (4, 5], straddles the start: the rest's records are 5 (over (5, 6])
+        // to 11 (stamped 12).
+        assert_eq!(Rest { t0: 4.5, t1: 12.0 }.records(&t), 5..12);
+        // From the stamp of record 3 on, record 4's interval lies in the rest.
+        assert_eq!(Rest { t0: t[3], t1: 12.0 }.records(&t), 4..12);
+        assert!(Rest { t0: 25.0, t1: 30.0 }.records(&t).is_empty());
+        assert!(Rest { t0: 4.2, t1: 4.8 }.records(&t).is_empty());
+        let turn = |t0: f64, t1: f64| Turn {
+            name: "x".into(),
+            t0,
+            t1,
+            axis: Vector3::x(),
+            angle_rad: 1.0,
+        };
+        assert_eq!(turn(t[4], t[9]).records(&t), 4..10);
+        assert_eq!(turn(t[4], 90.0).records(&t), 4..20);
+        assert!(turn(90.0, 100.0).records(&t).is_empty());
+        assert!(turn(0.0, 1.0).records(&[]).is_empty());
+        // Grouped by five (stamps 5, 10, 15, 20): the groups that hold records 4 .. 9, 5 .. 10.
+        let grouped: Vec<f64> = t.iter().skip(4).step_by(5).copied().collect();
+        assert_eq!(turn(t[4], t[9]).records(&grouped), 0..2);
+        assert_eq!(turn(t[5], t[10]).records(&grouped), 1..3);
+        // A turn's axis is made a unit vector; a zero one is no turn.
+        let about = Turn::about("y", (t[4], t[9]), [0.0, 2.0, 0.0], 1.0).unwrap();
+        assert_eq!(about.axis, Vector3::y());
+        assert!(Turn::about("z", (t[4], t[9]), [0.0; 3], 1.0).is_none());
+    }
+
+    /// Every K-th counted from 1; no K (or K = 0) holds out nothing.
+    #[test]
+    fn held_out_is_every_kth_from_one() {
+        let held = |every| (0..7).filter(|&i| held_out(i, every)).collect::<Vec<_>>();
+        assert_eq!(held(Some(3)), vec![2, 5]);
+        assert_eq!(held(Some(1)), (0..7).collect::<Vec<_>>());
+        assert!(held(Some(0)).is_empty());
+        assert!(held(None).is_empty());
     }
 
     #[test]
