@@ -698,9 +698,9 @@ mod tests {
             .map(|k| {
                 let v = if k % 2 == 0 { 0.6 } else { -0.6 } * if k % 5 == 0 { 0.3 } else { 1.0 };
                 PoseResidual {
-                    interval: calib::motion::free_motion::Interval {
-                        first_record: 100 * k,
-                        last_record: 100 * k + 50,
+                    rest: calib::motion::rests::Rest {
+                        t0: k as f64,
+                        t1: k as f64 + 0.5,
                     },
                     held_out: k % 4 == 3,
                     before_m_s2: if k == 9 { 13.0 } else { v },
