@@ -66,7 +66,7 @@ pub const MEDIAN_INTERVAL_RANGE_S: (f64, f64) = (1e-5, 1.0);
 pub const MAX_GYRO_RAD_S: f64 = 100.0;
 
 /// Largest plausible specific force after conversion (m/s^2, about 200 g).
-pub const MAX_ACCEL_M_S2: f64 = 2000.0;
+pub const MAX_ACCEL_M_S2: f64 = calib::motion::sections::MAX_ACCEL_M_S2;
 
 /// Length of the window in which the specific force at rest is checked (s).
 pub const QUIET_WINDOW_S: f64 = 1.0;

@@ -8,6 +8,7 @@
 //! - [`rests`]: recordings without a program: the rests in place of the program;
 //! - [`detect`]: rests found in the records (static detection), for recordings without a
 //!   program;
+//! - [`sections`]: a session's section list (static faces, rotations) and its known turns;
 //! - [`free_motion`]: the coarse start of a hand-turned multi-position recording (no turntable).
 
 pub mod align;
@@ -16,3 +17,4 @@ pub mod detect;
 pub mod free_motion;
 pub mod program_start;
 pub mod rests;
+pub mod sections;
