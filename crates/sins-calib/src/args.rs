@@ -90,18 +90,19 @@ pub struct CalibrateArgs {
     /// (NEES) of all parameters.
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
-    /// Test the fit from its innovations (NIS per program segment, whiteness, lines at the
-    /// program's frequencies; docs/estimation.md, "Diagnostics"), print a summary and write
-    /// PNG plots into DIR (created if missing); with --json the result gets a "diagnostics"
-    /// block. A failing verdict (family-wise level 1 %) ends with exit status 3.
+    /// Write the PNG plots of the tests of the fit's innovations into DIR (created if
+    /// missing). The tests themselves (NIS per program segment, whiteness, lines at the
+    /// program's frequencies; docs/estimation.md, "Diagnostics") run on every calibration:
+    /// their summary is printed, the JSON has their "diagnostics" block, and with a configured
+    /// noise a failing verdict (family-wise level 1 %) ends with exit status 3.
     #[arg(long, value_name = "DIR")]
     pub diagnostics: Option<PathBuf>,
     /// Write the report a laboratory files into DIR (created, or replaced whole: no plot of an
     /// earlier report stays): report.md with the inputs' SHA-256, the configuration, version,
     /// date and command line, the verdict and its failing tests, the parameters with 1 sigma,
     /// and PNG plots of the correlations, the residuals and the NIS per segment
-    /// (docs/report.md). Runs the diagnostics of --diagnostics: their verdict counts toward
-    /// the exit status.
+    /// (docs/report.md). The verdict is the one the printout, the JSON and the exit status
+    /// say.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
     /// How rests are found in a recording without a program (and with --free-motion).

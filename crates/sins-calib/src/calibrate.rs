@@ -48,8 +48,7 @@ pub fn run(args: &crate::args::CalibrateArgs) -> Result<u8, Error> {
 }
 
 /// The filter on the session's data: along the program (and the angles), or through the
-/// rests of a recording without one; then the tests of its innovations where an output
-/// shows them.
+/// rests of a recording without one; then the tests of its innovations.
 fn fit(s: &mut Session<Calibrate>) -> Result<Fit, Error> {
     let records = match &s.records {
         Records::Streamed(imu) => imu.len_hint().unwrap_or(0),
@@ -93,13 +92,13 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Fit, Error> {
     let config = hand_turned
         .as_ref()
         .map_or_else(|| s.config.clone(), |r| r.config.clone());
-    let diagnostics = (s.task.diagnostics.is_some() || s.report.is_some()).then(|| {
-        diagnostics::diagnose(
-            &est.innovations,
-            &est.segments,
-            &DiagnosticSettings::default(),
-        )
-    });
+    // Run whatever the outputs: the verdict rests on them (with a configured noise they
+    // decide, with a measured one they inform).
+    let diagnostics = diagnostics::diagnose(
+        &est.innovations,
+        &est.segments,
+        &DiagnosticSettings::default(),
+    );
     Ok(Fit {
         est,
         hand_turned,
@@ -112,8 +111,8 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Fit, Error> {
 /// the one report `r`; returns what was written, for the printout.
 fn write_outputs(s: &Session<Calibrate>, fit: &Fit, r: &RunReport) -> Result<Written, Error> {
     let mut written = Written::default();
-    if let (Some(dir), Some(d)) = (&s.task.diagnostics, &fit.diagnostics) {
-        let files = write_diagnostic_plots(dir, d, &fit.est.innovations, None)?;
+    if let Some(dir) = &s.task.diagnostics {
+        let files = write_diagnostic_plots(dir, &fit.diagnostics, &fit.est.innovations, None)?;
         written.diagnostics = Some((dir.clone(), files.len()));
     }
     if let Some(path) = &s.json {
@@ -128,7 +127,7 @@ fn write_outputs(s: &Session<Calibrate>, fit: &Fit, r: &RunReport) -> Result<Wri
         })?;
         written.plot = Some(path.clone());
     }
-    if let (Some(dir), Some(lab), Some(d)) = (&s.report, &r.lab, &fit.diagnostics) {
+    if let (Some(dir), Some(lab)) = (&s.report, &r.lab) {
         let report = crate::lab_report::Report {
             title: "Calibration report",
             id: &lab.id,
@@ -142,7 +141,7 @@ fn write_outputs(s: &Session<Calibrate>, fit: &Fit, r: &RunReport) -> Result<Wri
             segments: &lab.segments,
             fit: crate::lab_report::FitView {
                 est: &fit.est,
-                diagnostics: d,
+                diagnostics: &fit.diagnostics,
             },
             base: None,
             extension: None,

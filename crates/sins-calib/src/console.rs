@@ -42,12 +42,10 @@ pub fn render(r: &RunReport, written: &Written) -> String {
         s.push('\n');
         s += &truth(t);
     }
-    if let Some(d) = &r.diagnostics {
-        let _ = writeln!(s, "\nDiagnostics (docs/estimation.md, \"Diagnostics\")");
-        s.push_str(&d.summary());
-        if let Some((dir, files)) = &written.diagnostics {
-            let _ = writeln!(s, "  plots: {files} files in {}", dir.display());
-        }
+    let _ = writeln!(s, "\nDiagnostics (docs/estimation.md, \"Diagnostics\")");
+    s.push_str(&r.diagnostics.summary());
+    if let Some((dir, files)) = &written.diagnostics {
+        let _ = writeln!(s, "  plots: {files} files in {}", dir.display());
     }
     s += &verdict(&r.verdict);
     if let Some(path) = &written.json {

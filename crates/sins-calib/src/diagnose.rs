@@ -44,6 +44,8 @@ struct LoopJson<'a> {
     /// The records' temperatures and the thermal terms' reference.
     #[serde(skip_serializing_if = "Option::is_none")]
     temperature: Option<calib::io::ResultTemperature>,
+    /// The verdict of the final model, as the exit status says it.
+    verdict: crate::result_json::VerdictJson<'a>,
 }
 
 #[derive(Serialize)]
@@ -89,8 +91,9 @@ fn candidate_json(c: &CandidateEvidence) -> CandidateJson<'_> {
     }
 }
 
-/// The loop's result as JSON.
-fn to_json(r: &LoopResult) -> Result<String, Error> {
+/// The diagnosis as JSON.
+fn to_json(d: &Diagnosis) -> Result<String, Error> {
+    let r = &d.result;
     let mut parameters = r.last.estimate.to_result_file().parameters;
     if let Some(d) = r.last.extension.gyro_drift {
         for (i, a) in ["x", "y", "z"].iter().enumerate() {
@@ -119,6 +122,7 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
             .map(|(term, why)| NotTestedJson { term, why })
             .collect(),
         temperature: r.last.estimate.temperature.clone(),
+        verdict: crate::result_json::verdict(&d.verdict),
     };
     Ok(calib::io::schema::to_json(
         calib::io::schema::DIAGNOSIS,
@@ -475,7 +479,7 @@ pub fn run(args: &crate::args::DiagnoseArgs) -> Result<u8, Error> {
     let d = Diagnosis::build(&session, result, held_out)?;
     let mut text = render(&d);
     if let Some(path) = &session.json {
-        crate::output::write_file(path, to_json(&d.result)?.as_bytes())?;
+        crate::output::write_file(path, to_json(&d)?.as_bytes())?;
     }
     if let Some(dir) = &session.report {
         let plots = crate::diagnose_report::write(dir, &d)?;
@@ -563,9 +567,15 @@ fn held_out_verdict(
         Some(noise),
         &mut |_, _| {},
     )?;
+    // The tests of its innovations, as `calibrate --free-motion` runs them: they inform.
+    let d = calib::check::diagnostics::diagnose(
+        &r.estimate.innovations,
+        &r.estimate.segments,
+        &calib::check::diagnostics::DiagnosticSettings::default(),
+    );
     Ok(Some(HeldOut {
         every,
-        verdict: calib::report::lab::RunVerdict::of(&r.estimate, Some(&r), None, false),
+        verdict: calib::report::lab::RunVerdict::of(&r.estimate, Some(&r), Some(&d), false),
     }))
 }
 
@@ -582,22 +592,24 @@ fn render(d: &Diagnosis) -> String {
         );
     }
     text += &summary(&d.result, d.held_out.is_some());
-    if let Some(h) = &d.held_out {
-        text += &held_out_lines(h);
-    }
+    text += &verdict_block(d);
     text
 }
 
-/// The held-out verdict of the final model.
-fn held_out_lines(h: &HeldOut) -> String {
-    let v = &h.verdict;
+/// The verdict of the final model: what it rests on, the findings, and the reasons for exit
+/// status 3.
+fn verdict_block(d: &Diagnosis) -> String {
+    let v = &d.verdict;
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "held-out verdict of the final model (every {}th rest held out; rests on {}):",
-        h.every, v.basis
-    );
-    for line in v.informative.iter() {
+    let _ = match &d.held_out {
+        Some(h) => writeln!(
+            s,
+            "held-out verdict of the final model (every {}th rest held out; rests on {}):",
+            h.every, v.basis
+        ),
+        None => writeln!(s, "verdict of the final model (rests on {}):", v.basis),
+    };
+    for line in &v.findings {
         let _ = writeln!(s, "  finding: {line}");
     }
     if v.fits() {
@@ -605,9 +617,15 @@ fn held_out_lines(h: &HeldOut) -> String {
     } else {
         let _ = writeln!(
             s,
-            "  THE HELD-OUT RESTS CONTRADICT THE MODEL (exit status 3):"
+            "  THE {} CONTRADICT THE MODEL (exit status {}):",
+            if d.held_out.is_some() {
+                "HELD-OUT RESTS"
+            } else {
+                "DATA"
+            },
+            v.exit_status()
         );
-        for line in &v.decisive {
+        for line in &v.reasons {
             let _ = writeln!(s, "    {line}");
         }
     }

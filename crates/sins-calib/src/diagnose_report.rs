@@ -19,7 +19,7 @@ pub fn write(dir: &Path, d: &Diagnosis) -> Result<usize, Error> {
     let report = Report {
         title: "Model diagnosis report",
         id: &lab.id,
-        verdict: &d.report_verdict,
+        verdict: &d.verdict,
         mean_nis: &lab.mean_nis,
         parameters: &lab.parameters,
         unobserved: &lab.unobserved,

@@ -5,7 +5,7 @@
 
 use crate::Error;
 use crate::identification::Identification;
-use crate::run_report::Verdict;
+use crate::run_report::{Case, Verdict};
 use crate::session::{Diagnose, Session};
 use calib::extend::LoopResult;
 use calib::report::lab::{self, MeanNis, ParameterRow, RunVerdict, SegmentRow};
@@ -18,10 +18,8 @@ pub struct Diagnosis {
     pub walk_prior: Option<(String, Vec<f64>)>,
     /// The held-out verdict of the final model (with measured noise).
     pub held_out: Option<HeldOut>,
-    /// The verdict the exit status says.
+    /// The verdict: the one the exit status, the printout, the JSON and the report say.
     pub verdict: Verdict,
-    /// What the laboratory report says of the final model's diagnostics.
-    pub report_verdict: Verdict,
     /// The laboratory report's figures (`--report`).
     pub lab: Option<DiagnosisLab>,
 }
@@ -60,22 +58,7 @@ impl Diagnosis {
         result: LoopResult,
         held_out: Option<HeldOut>,
     ) -> Result<Self, Error> {
-        let fits = held_out
-            .as_ref()
-            .map_or_else(|| result.final_model_fits(), |h| h.verdict.fits());
-        let verdict = Verdict {
-            reasons: if fits {
-                Vec::new()
-            } else {
-                vec!["the final model does not fit these data".to_string()]
-            },
-            findings: Vec::new(),
-            basis: String::new(),
-            tested: true,
-            rule: String::new(),
-            advice: String::new(),
-        };
-        let report_verdict = report_verdict(&result);
+        let verdict = verdict(s, &result, held_out.as_ref());
         let lab = match &s.report {
             Some(_) => Some(lab_figures(s, &result)?),
             None => None,
@@ -90,46 +73,63 @@ impl Diagnosis {
             }),
             held_out,
             verdict,
-            report_verdict,
             lab,
             result,
         })
     }
 }
 
-/// The verdict the laboratory report states: the final model's tests of its innovations.
-fn report_verdict(r: &LoopResult) -> Verdict {
-    let d = &r.last.diagnostics;
-    let reasons = if d.fits {
-        Vec::new()
-    } else {
-        vec![format!(
-            "the {} fails {} of {} tests of its innovations (family-wise level {} %){}",
-            if r.accepted_terms.is_empty() {
-                "paper's model"
-            } else {
-                "extended model"
-            },
-            d.failures.len(),
-            d.tests.len(),
-            100.0 * d.settings.alpha,
-            if r.accepted_terms.is_empty() {
-                ", and no candidate term that this recording separates explains the misfit"
-            } else {
-                ""
-            }
-        )]
+/// The verdict of the final model by the rule of `calibrate` (`crate::run_report::Verdict`):
+/// with the noise measured from the data its held-out rests decide and the tests of its
+/// innovations inform; with a configured noise its mean NIS and those tests decide. A term the
+/// data call for that the held-out check refused is one more reason (configured noise) or
+/// finding (measured noise).
+fn verdict(s: &Session<Diagnose>, r: &LoopResult, held_out: Option<&HeldOut>) -> Verdict {
+    let refused = r.held_out_rejection().map(|h| {
+        format!(
+            "the data call for {} but with it the held-out measurements are predicted worse (log \
+             predictive density {:+.1} over {}, beyond the {} nat allowed): no candidate term \
+             explains the misfit",
+            h.term,
+            h.gain(),
+            h.measurements,
+            calib::extend::HELD_OUT_TOLERANCE_NATS
+        )
+    });
+    let with_turntable = s.turntable.is_some();
+    let (mut v, measured) = match held_out {
+        Some(h) => (h.verdict.clone(), true),
+        None => (
+            RunVerdict::of(
+                &r.last.estimate,
+                None,
+                Some(&r.last.diagnostics),
+                with_turntable,
+            ),
+            false,
+        ),
     };
-    Verdict {
-        reasons,
-        findings: Vec::new(),
-        basis: String::new(),
-        tested: true,
-        rule: "`diagnose` follows the tests of the final model's innovations: it fits when none \
-               of them fails."
-            .to_string(),
-        advice: String::new(),
+    match refused {
+        Some(line) if measured => v.informative.push(line),
+        Some(line) => v.decisive.insert(0, line),
+        None => {}
     }
+    let case = Case {
+        measured,
+        rests: s.rests.is_some(),
+        turntable: with_turntable,
+    };
+    let mut verdict = Verdict::of(v, case);
+    verdict.rule = format!(
+        "The verdict is the final model's ({}). {}",
+        if r.accepted_terms.is_empty() {
+            "the paper's model".to_string()
+        } else {
+            format!("the paper's model with {}", r.accepted_terms.join(", "))
+        },
+        verdict.rule
+    );
+    verdict
 }
 
 /// The laboratory report's figures of the final model.

@@ -123,9 +123,12 @@ enum Command {
     /// the innovations, add the best-supported one the program can separate, measure the gain,
     /// and repeat while it is significant (docs/model-extension.md).
     ///
-    /// Exit status: 0 when the final model fits the data (its diagnostics pass), 3 when it does
-    /// not (with or without accepted terms: the misfit is then one no candidate explains), 1
-    /// for refused input or another error, 2 for a malformed command line.
+    /// Exit status: 0 when the final model fits the data by the rule of `calibrate` (its mean
+    /// NIS and the tests of its innovations; with the noise measured from a hand-turned
+    /// recording, its held-out rests), 3 when it does not or when the held-out check refused a
+    /// term the data call for (with or without accepted terms: the misfit is then one no
+    /// candidate explains), 1 for refused input or another error, 2 for a malformed command
+    /// line.
     Diagnose(args::DiagnoseArgs),
     /// Propose a rotation program that separates the given candidate terms from the paper's
     /// parameters, printed as TOML with its predicted sigmas.
@@ -171,8 +174,9 @@ pub fn print(text: &str) -> Result<(), Error> {
     }
 }
 
-/// Exit status of a calibration whose model does not fit the data (a mean NIS outside its
-/// band): the estimates were computed and reported, but are not to be trusted. 1 is refused
+/// Exit status of a calibration whose model does not fit the data (the verdict's reasons: a
+/// mean NIS outside its band, a failing test of the innovations, held-out rests that
+/// contradict it): the estimates were computed and reported, but are not to be trusted. 1 is refused
 /// input or another error, 2 a malformed command line.
 pub const MODEL_DOES_NOT_FIT: u8 = 3;
 

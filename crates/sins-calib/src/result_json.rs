@@ -3,7 +3,7 @@
 use crate::Error;
 use crate::free_motion::{FreeMotionFigures, NoiseFigures};
 use crate::provenance::InputHash;
-use crate::run_report::{FitFigures, RunReport};
+use crate::run_report::{FitFigures, RunReport, Verdict};
 use calib::check::diagnostics::Diagnostics;
 use calib::config::UnitIdentity;
 use calib::io::{ResultParameter, ResultTemperature};
@@ -38,17 +38,16 @@ struct ResultJson<'a> {
     verdict: VerdictJson<'a>,
     fit: FitJson<'a>,
     /// The tests of the innovations (`calib::check::diagnostics::Diagnostics`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    diagnostics: Option<&'a Diagnostics>,
+    diagnostics: &'a Diagnostics,
     /// With --free-motion: the noise, the known turns and the held-out rests.
     #[serde(skip_serializing_if = "Option::is_none")]
     free_motion: Option<FreeMotionJson>,
 }
 
-/// The verdict in the JSON result: `fits` false (and exit status 3) when the data contradict
-/// the model.
+/// The verdict in the JSON results of `calibrate` and `diagnose`: `fits` false (and exit
+/// status 3) when the data contradict the model.
 #[derive(Serialize)]
-struct VerdictJson<'a> {
+pub struct VerdictJson<'a> {
     fits: bool,
     exit_status: u8,
     /// One line per reason (empty when the model fits).
@@ -118,20 +117,25 @@ pub fn write(path: &Path, r: &RunReport) -> Result<(), Error> {
         correlation: r.result.correlation.as_ref(),
         correction: r.result.correction.as_ref(),
         temperature: r.result.temperature.as_ref(),
-        verdict: VerdictJson {
-            fits: v.fits(),
-            exit_status: v.exit_status(),
-            reasons: &v.reasons,
-            basis: &v.basis,
-            tested: v.tested,
-            findings: &v.findings,
-        },
+        verdict: verdict(v),
         fit: fit(&r.fit),
-        diagnostics: r.diagnostics.as_ref(),
+        diagnostics: &r.diagnostics,
         free_motion: r.free_motion.as_ref().map(free_motion),
     };
     let text = calib::io::schema::to_json(calib::io::schema::CALIBRATION, &json)?;
     crate::output::write_file(path, text.as_bytes())
+}
+
+/// The verdict's block.
+pub fn verdict(v: &Verdict) -> VerdictJson<'_> {
+    VerdictJson {
+        fits: v.fits(),
+        exit_status: v.exit_status(),
+        reasons: &v.reasons,
+        basis: &v.basis,
+        tested: v.tested,
+        findings: &v.findings,
+    }
 }
 
 fn fit(f: &FitFigures) -> FitJson<'_> {

@@ -26,8 +26,8 @@ pub struct Fit {
     /// The configuration as the filter ran it (for a recording of rests, the noise levels as
     /// finally used).
     pub config: calib::config::RunConfig,
-    /// The tests of the fit's innovations, when run.
-    pub diagnostics: Option<Diagnostics>,
+    /// The tests of the fit's innovations.
+    pub diagnostics: Diagnostics,
 }
 
 /// Everything a `calibrate` run reports.
@@ -49,8 +49,8 @@ pub struct RunReport {
     pub fit: FitFigures,
     /// Against a truth (`--truth`).
     pub truth: Option<TruthFigures>,
-    /// The tests of the innovations, when run.
-    pub diagnostics: Option<Diagnostics>,
+    /// The tests of the innovations.
+    pub diagnostics: Diagnostics,
     /// The verdict.
     pub verdict: Verdict,
     /// What only the laboratory report shows (`--report`).
@@ -231,9 +231,9 @@ impl RunReport {
             _ => None,
         };
         let verdict = verdict(s, fit);
-        let lab = match (&s.report, &fit.diagnostics) {
-            (Some(_), Some(d)) => Some(lab_figures(s, fit, d)?),
-            _ => None,
+        let lab = match &s.report {
+            Some(_) => Some(lab_figures(s, fit)?),
+            None => None,
         };
         Ok(Self {
             header: header(s, est),
@@ -350,47 +350,87 @@ fn clock_notes(
     .collect()
 }
 
-/// The verdict of the fit: [`RunVerdict`] of its checks, with the rule the report states and
-/// the advice the printout gives when the data contradict the model.
+/// The verdict of the fit: [`RunVerdict`] of its checks (the innovation diagnostics always
+/// among them), with the rule the report states and the advice the printout gives.
 fn verdict(s: &Session<Calibrate>, fit: &Fit) -> Verdict {
     let v = RunVerdict::of(
         &fit.est,
         fit.hand_turned.as_ref(),
-        fit.diagnostics.as_ref(),
+        Some(&fit.diagnostics),
         s.turntable.is_some(),
     );
     let measured = fit
         .hand_turned
         .as_ref()
         .is_some_and(|r| matches!(r.noise, NoiseSource::Measured { .. }));
-    let advice = if measured {
-        "the held-out rests contradict the calibration\n  {}\nThe estimates above are not to be \
-         trusted: an error the model lacks outweighs the noise (`sins-calib diagnose \
-         --free-motion` names the candidates; --terms adds one)."
-    } else if fit.hand_turned.is_some() {
-        "the innovations scatter unlike the configured noise\n  {}\nThe estimates above are not \
-         to be trusted: check the noise levels in [noise], the motion noise \
-         (filter.motion_attitude_noise_deg), and errors the model lacks."
-    } else {
-        "the innovations scatter unlike the configured noise\n  {}\nThe estimates above are not \
-         to be trusted: check the noise levels in [noise], the program, the clock relation, and \
-         errors the model lacks."
+    let case = Case {
+        measured,
+        rests: fit.hand_turned.is_some(),
+        turntable: s.turntable.is_some(),
     };
-    Verdict {
-        reasons: v.decisive,
-        findings: v.informative,
-        basis: v.basis,
-        tested: v.tested,
-        rule: "The model fits when the mean NIS of every measurement is inside its band and no \
-               test of the innovations fails."
-            .to_string(),
-        advice: advice.to_string(),
+    Verdict::of(v, case)
+}
+
+/// What a run's verdict is about: noise measured from the data (the held-out rests decide) or
+/// configured (the innovations decide); a recording of rests or a program; turntable angles.
+#[derive(Clone, Copy, Debug)]
+pub struct Case {
+    /// The noise was measured from these data.
+    pub measured: bool,
+    /// A recording of rests (no program).
+    pub rests: bool,
+    /// The turntable's angles were used.
+    pub turntable: bool,
+}
+
+impl Verdict {
+    /// The verdict `v` with the rule the report states and the advice the printout gives,
+    /// both naming only what the run has.
+    pub fn of(v: RunVerdict, case: Case) -> Self {
+        let (rule, advice) = if case.measured {
+            (
+                "The noise was measured from these data, so the scatter of the innovations is no \
+                 test: the model fits unless the held-out rests or the known turns contradict \
+                 it; the tests of the innovations inform."
+                    .to_string(),
+                "the held-out rests contradict the calibration\n  {}\nThe estimates above are not \
+                 to be trusted: an error the model lacks outweighs the noise (`sins-calib \
+                 diagnose --free-motion` names the candidates; --terms adds one)."
+                    .to_string(),
+            )
+        } else {
+            let check = if case.rests {
+                "the motion noise (filter.motion_attitude_noise_deg)"
+            } else if case.turntable {
+                "the program, the clock relation"
+            } else {
+                "the program"
+            };
+            (
+                "The model fits when the mean NIS of every measurement is inside its band and no \
+                 test of the innovations fails."
+                    .to_string(),
+                format!(
+                    "the innovations scatter unlike the configured noise\n  {{}}\nThe estimates \
+                     above are not to be trusted: check the noise levels in [noise], {check}, \
+                     and errors the model lacks."
+                ),
+            )
+        };
+        Self {
+            reasons: v.decisive,
+            findings: v.informative,
+            basis: v.basis,
+            tested: v.tested,
+            rule,
+            advice,
+        }
     }
 }
 
 /// What only the laboratory report shows: the identification (the inputs hashed, the
 /// configuration as used), the correlations and the segments' NIS.
-fn lab_figures(s: &Session<Calibrate>, fit: &Fit, d: &Diagnostics) -> Result<LabFigures, Error> {
+fn lab_figures(s: &Session<Calibrate>, fit: &Fit) -> Result<LabFigures, Error> {
     let inputs: Vec<(&'static str, &std::path::Path)> = s
         .report_inputs
         .iter()
@@ -408,6 +448,6 @@ fn lab_figures(s: &Session<Calibrate>, fit: &Fit, d: &Diagnostics) -> Result<Lab
         id,
         correlation,
         strongest,
-        segments: lab::segment_rows(d, &fit.est.segments),
+        segments: lab::segment_rows(&fit.diagnostics, &fit.est.segments),
     })
 }
