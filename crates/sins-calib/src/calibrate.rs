@@ -133,6 +133,7 @@ fn write_outputs(s: &Session<Calibrate>, fit: &Fit, r: &RunReport) -> Result<Wri
             id: &lab.id,
             verdict: &r.verdict,
             mean_nis: &r.fit.mean_nis,
+            hand_turned: r.free_motion.as_ref(),
             parameters: &r.parameters,
             unobserved: &r.fit.unobserved,
             truth: r.truth.as_ref().map(crate::console::truth),

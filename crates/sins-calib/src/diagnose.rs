@@ -3,7 +3,7 @@
 //! (`calib::extend`; method in docs/model-extension.md).
 
 use crate::Error;
-use crate::diagnosis::{Diagnosis, HeldOut};
+use crate::diagnosis::{Diagnosis, HeldOut, TermSize};
 use crate::session::Session;
 use calib::check::stats::p_value_text;
 use calib::estimate::RunData;
@@ -132,7 +132,12 @@ fn to_json(d: &Diagnosis) -> Result<String, Error> {
 
 /// One round of the loop: its candidates with their evidence and separability, what was
 /// accepted with its gain, and the accepted term's size.
-fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String {
+fn round_lines(
+    r: &LoopResult,
+    k: usize,
+    round: &calib::extend::Round,
+    size: Option<&TermSize>,
+) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -222,8 +227,8 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
             let _ = writeln!(s, "  nothing accepted");
         }
     }
-    if let Some(t) = &round.accepted {
-        s += &size_line(t, &round.candidates);
+    if let Some(size) = size {
+        s += &size_line(size);
     }
     s
 }
@@ -261,7 +266,7 @@ fn drift_reach_line(reach: &calib::extend::DriftReach) -> String {
 /// The summary printed: the loop's notes, its rounds and its verdict. With `measured` noise
 /// (a hand-turned recording without a configuration) the innovation diagnostics inform and
 /// the held-out rests decide.
-pub fn summary(r: &LoopResult, measured: bool) -> String {
+pub fn summary(r: &LoopResult, sizes: &[Option<TermSize>], measured: bool) -> String {
     let mut s = String::new();
     if let Some(n) = &r.noise_rescaled {
         let _ = writeln!(
@@ -279,7 +284,7 @@ pub fn summary(r: &LoopResult, measured: bool) -> String {
         let _ = writeln!(s, "not tested: {} ({why})", ids.join(", "));
     }
     for (k, round) in r.rounds.iter().enumerate() {
-        s += &round_lines(r, k, round);
+        s += &round_lines(r, k, round, sizes.get(k).and_then(Option::as_ref));
     }
     let exit = if measured {
         "(against the measured noise: the held-out rests decide, below)"
@@ -421,35 +426,21 @@ fn separation_notes(r: &LoopResult) -> String {
     s
 }
 
-/// An accepted term's largest estimate in the report's units, against typical magnitudes for
-/// units of each grade.
-fn size_line(term: &str, candidates: &[CandidateEvidence]) -> String {
-    let (Some(c), Some(e)) = (
-        Candidate::from_id(term),
-        candidates.iter().find(|e| e.term == term),
-    ) else {
-        return String::new();
-    };
-    let Some(largest) = e
-        .estimate
-        .iter()
-        .max_by(|a, b| a.value.abs().total_cmp(&b.value.abs()))
-    else {
-        return String::new();
-    };
-    let unit = match c {
-        // The drift's estimate is an intensity, in its own unit.
-        Candidate::GyroBiasDrift => sins_model::terms::Unit::RadPerSecondPerSqrtSecond,
-        _ => c.unit(),
-    };
-    format!(
-        "  size: largest {} = {:.3e} {} (+- {:.1e}); typical: {}\n",
-        largest.name,
-        largest.value * unit.report_factor(),
-        unit.report_name(),
-        largest.sigma * unit.report_factor(),
-        c.typical()
-    )
+/// An accepted term's size: its largest estimate among the parameters the recording
+/// observes, against typical magnitudes for units of each grade.
+pub fn size_line(size: &TermSize) -> String {
+    match &size.largest {
+        Some(l) => format!(
+            "  size: largest {} = {:.3e} {} (+- {:.1e}); typical: {}\n",
+            l.name, l.value, l.unit, l.sigma, size.typical
+        ),
+        None => format!(
+            "  size: this recording observes none of its parameters (posterior sigma above {:.0} \
+             % of the prior); typical: {}\n",
+            100.0 * calib::estimate::UNOBSERVED_SIGMA_RATIO,
+            size.typical
+        ),
+    }
 }
 
 /// The failing tests one per line, the first ten and how many more.
@@ -573,9 +564,14 @@ fn held_out_verdict(
         &r.estimate.segments,
         &calib::check::diagnostics::DiagnosticSettings::default(),
     );
+    let figures = found
+        .free_motion
+        .as_ref()
+        .map(|f| crate::free_motion::figures(&r, &f.summary, Some(every)));
     Ok(Some(HeldOut {
         every,
         verdict: calib::report::lab::RunVerdict::of(&r.estimate, Some(&r), Some(&d), false),
+        figures,
     }))
 }
 
@@ -591,7 +587,7 @@ fn render(d: &Diagnosis) -> String {
             shown.join(", ")
         );
     }
-    text += &summary(&d.result, d.held_out.is_some());
+    text += &summary(&d.result, &d.sizes, d.held_out.is_some());
     text += &verdict_block(d);
     text
 }
@@ -678,40 +674,5 @@ fn duration_text(s: f64) -> String {
         format!("{} min {:02} s", s / 60, s % 60)
     } else {
         format!("{} h {:02} min", s / 3600, (s % 3600) / 60)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use calib::extend::ParameterValue;
-
-    #[test]
-    fn an_accepted_terms_size_is_set_against_typical_values() {
-        let e = CandidateEvidence {
-            term: "accel_quadratic".into(),
-            statistic: 40.0,
-            dof: 3,
-            p_value: 1e-8,
-            ln_p_value: 1e-8f64.ln(),
-            separable: true,
-            separation: None,
-            estimate: [
-                ("accel.k2.x", 1.9e-5),
-                ("accel.k2.y", -2.2e-5),
-                ("accel.k2.z", 2.0e-5),
-            ]
-            .iter()
-            .map(|(n, v)| ParameterValue {
-                name: n.to_string(),
-                value: *v,
-                sigma: 1e-6,
-            })
-            .collect(),
-        };
-        let line = size_line("accel_quadratic", &[e]);
-        assert!(line.contains("largest accel.k2.y"), "{line}");
-        assert!(line.contains("typical: pendulous quartz"), "{line}");
-        assert!(size_line("gyro_g_sensitivity", &[]).is_empty());
     }
 }

@@ -6,7 +6,6 @@ use crate::diagnosis::Diagnosis;
 use crate::lab_report::{FitView, Report};
 use crate::table;
 use calib::check::stats::p_value_text;
-use calib::extend::LoopResult;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -21,6 +20,7 @@ pub fn write(dir: &Path, d: &Diagnosis) -> Result<usize, Error> {
         id: &lab.id,
         verdict: &d.verdict,
         mean_nis: &lab.mean_nis,
+        hand_turned: d.held_out.as_ref().and_then(|h| h.figures.as_ref()),
         parameters: &lab.parameters,
         unobserved: &lab.unobserved,
         truth: None,
@@ -35,13 +35,14 @@ pub fn write(dir: &Path, d: &Diagnosis) -> Result<usize, Error> {
             est: &r.base.estimate,
             diagnostics: &r.base.diagnostics,
         }),
-        extension: Some(extension_md(r)),
+        extension: Some(extension_md(d)),
     };
     crate::lab_report::write(dir, &report)
 }
 
 /// Section 7: every round's candidates with their evidence, and the gain of each accepted term.
-fn extension_md(r: &LoopResult) -> String {
+fn extension_md(d: &Diagnosis) -> String {
+    let r = &d.result;
     let mut s = String::from(
         "## 7. Model extension\n\nEach round tests every candidate term against the \
          innovations (score test; docs/model-extension.md) and accepts the best-supported one \
@@ -88,6 +89,16 @@ fn extension_md(r: &LoopResult) -> String {
             );
         }
         s.push('\n');
+        if let (Some(term), Some(size)) = (&round.accepted, d.sizes.get(k).and_then(Option::as_ref))
+        {
+            let _ = writeln!(
+                s,
+                "Size of {term}: {}\n",
+                crate::diagnose::size_line(size)
+                    .trim()
+                    .trim_start_matches("size: ")
+            );
+        }
     }
     if !r.gain.is_empty() {
         let _ = writeln!(

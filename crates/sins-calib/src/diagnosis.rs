@@ -7,8 +7,9 @@ use crate::Error;
 use crate::identification::Identification;
 use crate::run_report::{Case, Verdict};
 use crate::session::{Diagnose, Session};
-use calib::extend::LoopResult;
+use calib::extend::{CandidateEvidence, LoopResult};
 use calib::report::lab::{self, MeanNis, ParameterRow, RunVerdict, SegmentRow};
+use sins_model::candidates::Candidate;
 
 /// Everything a `diagnose` run reports.
 pub struct Diagnosis {
@@ -20,6 +21,8 @@ pub struct Diagnosis {
     pub held_out: Option<HeldOut>,
     /// The verdict: the one the exit status, the printout, the JSON and the report say.
     pub verdict: Verdict,
+    /// The size of each round's accepted term.
+    pub sizes: Vec<Option<TermSize>>,
     /// The laboratory report's figures (`--report`).
     pub lab: Option<DiagnosisLab>,
 }
@@ -30,6 +33,83 @@ pub struct HeldOut {
     pub every: usize,
     /// The verdict of the final model's fit with them held out.
     pub verdict: RunVerdict,
+    /// That fit's noise, turns and held-out figures.
+    pub figures: Option<crate::free_motion::FreeMotionFigures>,
+}
+
+/// The size of a term a round accepted, against typical values for units of each grade.
+pub struct TermSize {
+    /// Typical magnitudes (`Candidate::typical`).
+    pub typical: &'static str,
+    /// Its largest estimate among the parameters the data observe (`None`: they observe none).
+    pub largest: Option<Largest>,
+}
+
+/// A term's largest observed estimate, in its report unit.
+pub struct Largest {
+    /// The parameter.
+    pub name: String,
+    /// Its estimate and posterior sigma (report unit).
+    pub value: f64,
+    /// See `value`.
+    pub sigma: f64,
+    /// The report unit.
+    pub unit: &'static str,
+}
+
+/// The size of the accepted `term` from its round's `candidates`: the largest estimate among
+/// its parameters whose posterior sigma is at most [`calib::estimate::UNOBSERVED_SIGMA_RATIO`]
+/// of the prior sigma `prior` gives (a parameter without a prior there, such as the random
+/// walk's intensity, counts as observed); `None` for an unknown term.
+pub fn term_size(
+    term: &str,
+    candidates: &[CandidateEvidence],
+    prior: &dyn Fn(&str) -> Option<f64>,
+) -> Option<TermSize> {
+    let c = Candidate::from_id(term)?;
+    let e = candidates.iter().find(|e| e.term == term)?;
+    let unit = match c {
+        // The drift's estimate is an intensity, in its own unit.
+        Candidate::GyroBiasDrift => sins_model::terms::Unit::RadPerSecondPerSqrtSecond,
+        _ => c.unit(),
+    };
+    let observed = |p: &&calib::extend::ParameterValue| {
+        prior(&p.name).is_none_or(|s| p.sigma <= calib::estimate::UNOBSERVED_SIGMA_RATIO * s)
+    };
+    let largest = e
+        .estimate
+        .iter()
+        .filter(observed)
+        .max_by(|a, b| a.value.abs().total_cmp(&b.value.abs()))
+        .map(|p| Largest {
+            name: p.name.clone(),
+            value: p.value * unit.report_factor(),
+            sigma: p.sigma * unit.report_factor(),
+            unit: unit.report_name(),
+        });
+    Some(TermSize {
+        typical: c.typical(),
+        largest,
+    })
+}
+
+/// The size of each round's accepted term (`None` for a round that accepted none), its
+/// parameters' priors from the final model.
+fn sizes(r: &LoopResult) -> Vec<Option<TermSize>> {
+    let est = &r.last.estimate;
+    let prior = |name: &str| {
+        est.names
+            .iter()
+            .position(|n| n == name)
+            .map(|i| est.prior_sigma[i])
+    };
+    r.rounds
+        .iter()
+        .map(|round| {
+            let term = round.accepted.as_deref()?;
+            term_size(term, &round.candidates, &prior)
+        })
+        .collect()
 }
 
 /// The laboratory report's figures of the final model.
@@ -73,6 +153,7 @@ impl Diagnosis {
             }),
             held_out,
             verdict,
+            sizes: sizes(&result),
             lab,
             result,
         })
@@ -159,4 +240,60 @@ fn with_turntable(est: &calib::estimate::Estimate) -> bool {
     est.names
         .iter()
         .any(|n| n == sins_model::names::TURNTABLE_TAU)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use calib::extend::ParameterValue;
+
+    fn evidence(values: &[(&str, f64, f64)]) -> CandidateEvidence {
+        CandidateEvidence {
+            term: "accel_quadratic".into(),
+            statistic: 40.0,
+            dof: 3,
+            p_value: 1e-8,
+            ln_p_value: 1e-8f64.ln(),
+            separable: true,
+            separation: None,
+            estimate: values
+                .iter()
+                .map(|(n, v, s)| ParameterValue {
+                    name: n.to_string(),
+                    value: *v,
+                    sigma: *s,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn an_accepted_terms_size_is_its_largest_observed_estimate() {
+        let e = evidence(&[
+            ("accel.k2.x", 1.9e-5, 1e-6),
+            ("accel.k2.y", -2.2e-5, 1e-6),
+            ("accel.k2.z", 2.0e-5, 1e-6),
+        ]);
+        let prior = |_: &str| Some(1e-4);
+        let size = term_size("accel_quadratic", &[e], &prior).unwrap();
+        let line = crate::diagnose::size_line(&size);
+        assert!(line.contains("largest accel.k2.y"), "{line}");
+        assert!(line.contains("typical: pendulous quartz"), "{line}");
+        assert!(term_size("gyro_g_sensitivity", &[], &prior).is_none());
+        // The largest estimate of a parameter the data leave at its prior is not quoted.
+        let e = evidence(&[
+            ("accel.k2.x", 1.9e-5, 1e-6),
+            ("accel.k2.y", -9.0e-5, 0.95e-4),
+        ]);
+        let size = term_size("accel_quadratic", &[e], &prior).unwrap();
+        assert_eq!(
+            size.largest.as_ref().map(|l| l.name.as_str()),
+            Some("accel.k2.x")
+        );
+        let e = evidence(&[("accel.k2.y", -9.0e-5, 0.95e-4)]);
+        let size = term_size("accel_quadratic", &[e], &prior).unwrap();
+        assert!(size.largest.is_none());
+        let line = crate::diagnose::size_line(&size);
+        assert!(line.contains("observes none of its parameters"), "{line}");
+    }
 }

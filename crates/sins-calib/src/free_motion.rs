@@ -273,6 +273,8 @@ pub struct FreeMotionFigures {
     pub terms: Vec<&'static str>,
     /// The known turns before and after calibration.
     pub turns: Vec<TurnFigures>,
+    /// Their measurements' mean NIS ([`known_turns`]).
+    pub known_turns: Option<(usize, f64, f64)>,
     /// `|f| - g` RMS over the fitted rests (m/s^2) before and after, and their number.
     pub fitted_static_rms_m_s2: (f64, f64),
     /// See `fitted_static_rms_m_s2`.
@@ -381,6 +383,7 @@ pub fn figures(
         holdout,
         terms: setup.terms.iter().map(|c| c.id()).collect(),
         turns: turn_figures(&r.evaluation),
+        known_turns: known_turns(&r.estimate.stats),
         fitted_static_rms_m_s2: (rms(|p| p.before_m_s2), rms(|p| p.after_m_s2)),
         fitted_rests: fitted.len(),
         validation: r.evaluation.validation.map(|v| ValidationFigures {
@@ -403,6 +406,16 @@ pub fn figures(
             fitted_motions: v.fitted_motions,
         }),
     }
+}
+
+/// The known turns measured: updates, mean NIS, and the half-width of its band about 1
+/// (three standard deviations of a mean of chi-square(1) values, `3 sqrt(2 / n)`); `None`
+/// without turns.
+pub fn known_turns(stats: &calib::estimate::FitStatistics) -> Option<(usize, f64, f64)> {
+    (stats.turn_updates > 0).then(|| {
+        let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
+        (stats.turn_updates, stats.turn_mean_nis, half)
+    })
 }
 
 /// The noise's source in the units printed.

@@ -105,7 +105,7 @@ pub fn identify(
         // Made from the recording (`--free-motion` without --config): shown as used.
         None => (
             "<made from the recording (--free-motion)>".to_string(),
-            config.to_toml()?,
+            fields_used(&config.to_toml()?),
         ),
         Some("paper") => (
             "<embedded paper config>".to_string(),
@@ -138,6 +138,51 @@ pub fn identify(
         unit: Default::default(),
         assumptions: Vec::new(),
     })
+}
+
+/// The fields of a configuration made from a hand-turned recording that its run uses: without
+/// a program, turntable angles or a simulation, the `program = "from-angles"` line, `[clock]`,
+/// `[truth]` and the turntable's priors, noise and rates are left out (the report shows the
+/// configuration as the run used it; docs/report.md).
+fn fields_used(toml: &str) -> String {
+    const UNUSED: [(&str, &str); 6] = [
+        ("noise", "angle_arcsec"),
+        ("priors", "install_misalignment_deg"),
+        ("priors", "tau_s"),
+        ("priors", "base_misalignment_arcsec"),
+        ("filter", "turntable_rate_hz"),
+        ("filter", "estimate_base_misalignment"),
+    ];
+    let unused_section = |s: &str| s == "clock" || s == "truth" || s.starts_with("truth.");
+    let mut section = String::new();
+    let mut out = String::new();
+    for line in toml.lines() {
+        let t = line.trim();
+        if let Some(name) = t.strip_prefix('[').and_then(|x| x.strip_suffix(']')) {
+            section = name.trim().to_string();
+        }
+        let key = t.split('=').next().unwrap_or("").trim();
+        let drop = unused_section(&section)
+            || (section.is_empty() && key == "program")
+            || UNUSED.iter().any(|(s, k)| *s == section && *k == key);
+        if !drop {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    // No blank line where a dropped section or the program line was.
+    let mut tidy = String::new();
+    for line in out.lines() {
+        if line.trim().is_empty() && (tidy.is_empty() || tidy.ends_with("\n\n")) {
+            continue;
+        }
+        tidy.push_str(line);
+        tidy.push('\n');
+    }
+    while tidy.ends_with("\n\n") {
+        tidy.pop();
+    }
+    tidy
 }
 
 /// The program file a configuration names (none for the embedded program, an inline one, or
@@ -210,6 +255,38 @@ fn utc_now() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_configuration_made_from_a_recording_shows_the_fields_used() {
+        let mut c = RunConfig::paper();
+        c.program = calib::config::PROGRAM_FROM_ANGLES.to_string();
+        let text = fields_used(&c.to_toml().unwrap());
+        for gone in [
+            "program",
+            "[clock]",
+            "[truth",
+            "angle_arcsec",
+            "tau_s",
+            "turntable_rate",
+        ] {
+            assert!(!text.contains(gone), "{gone} in\n{text}");
+        }
+        for kept in [
+            "[site]",
+            "[priors]",
+            "gyro_bias_deg_h",
+            "[noise]",
+            "accel_m_s2",
+            "[filter]",
+        ] {
+            assert!(text.contains(kept), "{kept} not in\n{text}");
+        }
+        assert!(
+            text.starts_with("[site]") && !text.contains("\n\n\n"),
+            "{text}"
+        );
+        assert!(text.ends_with('\n') && !text.ends_with("\n\n"), "{text}");
+    }
 
     #[test]
     fn dates_are_formatted_from_the_epoch() {

@@ -9,6 +9,7 @@
 //! earlier run survives.
 
 use crate::Error;
+use crate::free_motion::{FreeMotionFigures, NoiseFigures};
 use crate::identification::{Identification, NAMES};
 use crate::output::DirOutput;
 use crate::run_report::Verdict;
@@ -16,6 +17,7 @@ use crate::table;
 use calib::check::diagnostics::{Diagnostics, kind_serde};
 use calib::check::stats::p_value_text;
 use calib::estimate::Estimate;
+use calib::estimate::hand_turned::VerdictTest;
 use calib::model::MeasurementKind;
 use calib::report::lab::{self, MeanNis, ParameterRow, SegmentRow};
 use std::fmt::Write as _;
@@ -43,6 +45,8 @@ pub struct Report<'a> {
     pub verdict: &'a Verdict,
     /// The mean NIS of each measurement against its band.
     pub mean_nis: &'a [MeanNis],
+    /// A hand-turned recording: its noise, held-out rests and known turns.
+    pub hand_turned: Option<&'a FreeMotionFigures>,
     /// The parameters in their report units.
     pub parameters: &'a [ParameterRow],
     /// Parameters the data leave at their prior, with their posterior over prior sigma.
@@ -133,33 +137,192 @@ fn identification_md(id: &Identification) -> String {
 fn verdict_md(report: &Report<'_>) -> String {
     let v = report.verdict;
     let mut s = String::from("## 2. Verdict\n\n");
-    if v.fits() {
-        let _ = writeln!(
-            s,
-            "**The model fits these data** (exit status {}). {}\n",
-            v.exit_status(),
-            v.rule
-        );
+    let headline = if !v.fits() {
+        "**THE MODEL DOES NOT FIT THESE DATA**"
+    } else if !v.tested {
+        "**The model was not tested**"
+    } else if !v.tests.is_empty() {
+        "**Nothing contradicts the model**"
     } else {
-        let _ = writeln!(
-            s,
-            "**THE MODEL DOES NOT FIT THESE DATA** (exit status {}): the estimates below are \
-             not to be trusted. {}\n",
-            v.exit_status(),
-            v.rule
-        );
+        "**The model fits these data**"
+    };
+    let _ = writeln!(
+        s,
+        "{headline} (exit status {}){} {}\n",
+        v.exit_status(),
+        if v.fits() {
+            "."
+        } else {
+            ": the estimates below are not to be trusted."
+        },
+        v.rule
+    );
+    let _ = writeln!(s, "The verdict rests on {}.\n", v.basis);
+    if !v.fits() {
         for r in &v.reasons {
             let _ = writeln!(s, "- {r}");
         }
         s.push('\n');
     }
+    if !v.findings.is_empty() {
+        let _ = writeln!(s, "Findings (they inform, they do not decide):\n");
+        for f in &v.findings {
+            let _ = writeln!(s, "- {f}");
+        }
+        s.push('\n');
+    }
+    if let Some(f) = report.hand_turned {
+        s += &noise_md(f);
+        s += &held_out_md(f, &v.tests);
+        s += &turns_md(f);
+    }
+    s += &mean_nis_md(report.mean_nis);
+    s += &failing_tests_md(report.fit.diagnostics);
+    s
+}
+
+/// Where the noise came from: the level the innovations are judged against (a hand-turned
+/// recording).
+fn noise_md(f: &FreeMotionFigures) -> String {
+    let mut s = String::from("Noise: ");
+    match f.noise {
+        NoiseFigures::Configured => {
+            let _ = write!(
+                s,
+                "configured, gyro {} deg/h and specific force {} m/s^2 (1-s means)",
+                table::significant(f.noise_gyro_deg_h, 3),
+                table::significant(f.noise_accel_m_s2, 3)
+            );
+        }
+        NoiseFigures::Measured(m) => {
+            let _ = write!(
+                s,
+                "measured in the rests (1-s means, {} degrees of freedom), gyro {} deg/h and \
+                 specific force {} m/s^2; the specific force's level scaled by {} to {} m/s^2, \
+                 the scatter of the fit's innovations, whose variance is {} times the rests' own \
+                 noise (p = {:.2e}: {}); the motion noise measured from {} motions in {} fit{}",
+                m.dof,
+                table::significant(m.gyro_deg_h, 3),
+                table::significant(m.accel_m_s2, 3),
+                table::significant(m.accel_factor, 3),
+                table::significant(f.noise_accel_m_s2, 3),
+                table::significant(m.scatter_ratio, 3),
+                m.scatter_p_value,
+                if m.scatter_significant {
+                    "significantly more than the rests' noise, a mismatch the held-out rests \
+                     weigh"
+                } else {
+                    "consistent with it"
+                },
+                m.motion_windows,
+                m.fits,
+                if m.fits == 1 { "" } else { "s" }
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "; {} deg of attitude noise per motion.\n",
+        table::significant(f.motion_attitude_noise_deg, 3)
+    );
+    s
+}
+
+/// The held-out tests with their figures, and the held-out rests before and after
+/// calibration.
+fn held_out_md(f: &FreeMotionFigures, tests: &[VerdictTest]) -> String {
+    let mut s = String::new();
+    if !tests.is_empty() {
+        let _ = writeln!(
+            s,
+            "| test | statistic | p | decides | result |\n|---|---:|---:|---|---|"
+        );
+        for t in tests {
+            let _ = writeln!(
+                s,
+                "| {} | {:.3} | {} | {} | {} |",
+                t.name,
+                t.statistic,
+                p_value_text(t.p_value),
+                if t.decides { "yes" } else { "no (informs)" },
+                if t.fails { "**fails**" } else { "passes" }
+            );
+        }
+        s.push('\n');
+    }
+    let Some(h) = &f.validation else {
+        let _ = writeln!(
+            s,
+            "No rest was held out (`--holdout K` predicts every K-th rest from the others).\n"
+        );
+        return s;
+    };
+    let _ = writeln!(
+        s,
+        "Held-out rests: {} (every {}-th), {} pairs of consecutive ones.\n\n| figure | before \
+         calibration | after |\n|---|---:|---:|\n| static \\|f\\| - g RMS [m/s^2] | {:.5} | \
+         {:.5} |\n| rotation (gravity direction) RMS [deg] | {:.3} | {:.3} |\n",
+        h.intervals,
+        f.holdout.unwrap_or(0),
+        h.rotation_pairs,
+        h.static_rms_m_s2.0,
+        h.static_rms_m_s2.1,
+        h.rotation_rms_deg.0,
+        h.rotation_rms_deg.1,
+    );
+    let _ = writeln!(
+        s,
+        "After calibration, against the fitted rests: static \\|f\\| - g RMS {:.5} m/s^2 over \
+         {} fitted rests; gravity direction over single motions {:.3} deg into or out of \
+         held-out rests ({}) and {:.3} deg between fitted ones ({}){}.\n",
+        h.fitted_static_rms_m_s2,
+        h.fitted_intervals,
+        h.held_out_motion_rms_deg,
+        h.held_out_motions,
+        h.fitted_motion_rms_deg,
+        h.fitted_motions,
+        match h.earth_rate_floor_deg {
+            None => "; the Earth's rotation taken out".to_string(),
+            Some(floor) => format!(
+                "; the Earth's rotation not taken out (the gyros do not resolve the heading): it \
+                 adds up to {floor:.3} deg RMS"
+            ),
+        }
+    );
+    s
+}
+
+/// The known turns of the section list, expected against the raw and calibrated gyros.
+fn turns_md(f: &FreeMotionFigures) -> String {
+    let Some((updates, mean, half)) = f.known_turns else {
+        return String::new();
+    };
+    let mut s = format!(
+        "Known turns: mean NIS {mean:.3} over {updates} turns (expected 1 +- {}).\n\n| turn | expected [deg] | raw gyros [deg] | calibrated [deg] \
+         |\n|---|---:|---:|---:|\n",
+        table::significant(half, 2)
+    );
+    for t in &f.turns {
+        let _ = writeln!(
+            s,
+            "| {} | {:.1} | {:.2} | {:.2} |",
+            t.name, t.expected_deg, t.before_deg, t.after_deg
+        );
+    }
+    s.push('\n');
+    s
+}
+
+/// The mean NIS of each measurement against its band.
+fn mean_nis_md(mean_nis: &[MeanNis]) -> String {
+    let mut s = String::new();
     let _ = writeln!(
         s,
         "Mean NIS per measurement (3 expected: three components per update, for the turntable \
          angles a little less, docs/estimation.md; band: three standard deviations of the mean, \
          3 sqrt(6/n)):\n\n| measurement | updates | mean NIS | band | inside |\n|---|---:|---:|---|---|"
     );
-    for m in report.mean_nis {
+    for m in mean_nis {
         let _ = writeln!(
             s,
             "| {} | {} | {:.3} | {} +- {} | {} |",
@@ -175,7 +338,6 @@ fn verdict_md(report: &Report<'_>) -> String {
             if m.consistent() { "yes" } else { "**no**" }
         );
     }
-    s += &failing_tests_md(report.fit.diagnostics);
     s
 }
 

@@ -183,6 +183,9 @@ pub struct Verdict {
     pub rule: String,
     /// What to check when the data contradict the model (the printout's advice).
     pub advice: String,
+    /// The held-out tests of a hand-turned calibration with measured noise, with their figures
+    /// (empty with a configured noise).
+    pub tests: Vec<calib::estimate::hand_turned::VerdictTest>,
 }
 
 impl Verdict {
@@ -314,10 +317,7 @@ fn fit_figures(est: &Estimate, with_turntable: bool) -> FitFigures {
             missing: s.turntable_samples_missing,
             record_rate_hz: s.turntable_record_rate_hz,
         }),
-        known_turns: (s.turn_updates > 0).then(|| {
-            let half = 3.0 * (2.0 / s.turn_updates as f64).sqrt();
-            (s.turn_updates, s.turn_mean_nis, half)
-        }),
+        known_turns: crate::free_motion::known_turns(s),
         unobserved: est.unobserved(),
         second_order: (s.second_order_accel_sigma, s.consider_directions),
     }
@@ -424,6 +424,7 @@ impl Verdict {
             tested: v.tested,
             rule,
             advice,
+            tests: v.tests,
         }
     }
 }
