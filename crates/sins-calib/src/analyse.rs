@@ -114,14 +114,14 @@ fn walk_reach(
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, origin) = load_config(&args.config)?;
     if let Some(path) = &args.json {
-        let program = crate::lab_report::program_file(&config);
+        let program = crate::identification::program_file(&config);
         let mut inputs = vec![std::path::Path::new(&args.config)];
         inputs.extend(program.as_deref());
         output::Outputs::new(&inputs).file(path, "--json")?;
     }
     let program = config.program()?;
     let with_turntable = !args.imu_only;
-    let terms = crate::free_motion::terms_asked(&args.terms, None)?;
+    let terms = crate::terms::terms_asked(&args.terms, None)?;
     if config.temperature.is_none()
         && let Some(c) = terms.iter().find(|c| c.is_thermal())
     {
@@ -136,13 +136,50 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let ext = calib::model::extension::ModelExtension::with_grade(&terms, config.unit_grade());
     let post = covariance_analysis_ext(&config, with_turntable, &ext)?;
 
+    let program = (program.name.as_str(), program.duration());
+    let mut s = header(&config, &origin, program, &post, with_turntable);
+    let (table, parameters) = parameter_table(&post);
+    s += &table;
+    let separations = term_separations(&config, program.1, &post, &terms, &mut s);
+    let reach = if args.walk_reach {
+        walk_reach(&config, with_turntable)?.map(|(json, text)| {
+            s += &text;
+            json
+        })
+    } else {
+        None
+    };
+    if let Some(path) = &args.json {
+        let json = AnalysisJson {
+            with_turntable,
+            parameters,
+            walk_reach: reach,
+            terms: separations,
+        };
+        let text = calib::io::schema::to_json(calib::io::schema::ANALYSIS, &json)?;
+        output::write_file(path, text.as_bytes())?;
+        if !output::is_stdout(path) {
+            let _ = writeln!(s, "\nwrote {}", path.display());
+        }
+    }
+    crate::report(&s, args.json.as_deref())
+}
+
+/// The printout's head: the configuration, its program, the model, the walks of `[noise]`.
+fn header(
+    config: &calib::config::RunConfig,
+    origin: &str,
+    (name, duration): (&str, f64),
+    post: &calib::estimate::covariance::Posterior,
+    with_turntable: bool,
+) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
         "sins-calib analyse: covariance analysis of {origin}, program \"{}\" ({} s), {} states \
          ({})",
-        program.name,
-        table::compact(program.duration()),
+        name,
+        table::compact(duration),
         post.names.len(),
         if with_turntable {
             "IMU and turntable angles"
@@ -162,6 +199,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
         );
     }
     s.push('\n');
+    s
+}
+
+/// Every parameter's prior and posterior sigma, as the printed table and for the JSON.
+fn parameter_table(
+    post: &calib::estimate::covariance::Posterior,
+) -> (String, Vec<AnalysisParameter>) {
     let mut t = Table::new(&[
         ("parameter", Align::Left),
         ("prior sigma", Align::Right),
@@ -192,36 +236,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
             });
         }
     }
-    s += &t.render();
-    let separations = term_separations(&config, &post, &terms, &mut s);
-    let reach = if args.walk_reach {
-        walk_reach(&config, with_turntable)?.map(|(json, text)| {
-            s += &text;
-            json
-        })
-    } else {
-        None
-    };
-    if let Some(path) = &args.json {
-        let json = AnalysisJson {
-            with_turntable,
-            parameters,
-            walk_reach: reach,
-            terms: separations,
-        };
-        let text = calib::io::schema::to_json(calib::io::schema::ANALYSIS, &json)?;
-        output::write_file(path, text.as_bytes())?;
-        if !output::is_stdout(path) {
-            let _ = writeln!(s, "\nwrote {}", path.display());
-        }
-    }
-    crate::report(&s, args.json.as_deref())
+    (t.render(), parameters)
 }
 
 /// Each asked term's separability from the paper's parameters in the posterior, written into
 /// `s` (with the temperature the thermal terms see), for the JSON.
 fn term_separations(
     config: &calib::config::RunConfig,
+    duration: f64,
     post: &calib::estimate::covariance::Posterior,
     terms: &[sins_model::candidates::Candidate],
     s: &mut String,
@@ -240,7 +262,6 @@ fn term_separations(
     s.push('\n');
     if terms.iter().any(|c| c.is_thermal()) {
         let dt = 1.0 / config.filter.imu_rate_hz;
-        let duration = config.program().map_or(0.0, |p| p.duration());
         let n = (duration / dt) as usize;
         if let Some((profile, reference)) = config.temperature_profile(config.filter.imu_rate_hz, n)
         {

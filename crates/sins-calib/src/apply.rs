@@ -260,6 +260,41 @@ fn check_units(prefix: &[(ImuRecord, usize)], kind: ImuKind, file: &str) -> Resu
 
 /// Run `apply`.
 pub fn run(args: &Args) -> Result<(), Error> {
+    check_paths(args)?;
+    let cal_file = args.calibration.display().to_string();
+    let (correction, inputs, unit_note) = load_correction(args, &cal_file)?;
+    let mut reader = ImuReader::open(&args.imu)?;
+    let kind = reader.kind();
+    if correction.thermal.is_some() && !reader.has_temp() {
+        return Err(format!(
+            "{}: no `temp` column: the calibration {cal_file} has temperature coefficients, so \
+             each record is corrected at its own temperature (deg C)",
+            args.imu.display()
+        )
+        .into());
+    }
+    let n = write_corrected(&mut reader, &correction, &args.out)?;
+    if let Some(note) = unit_note {
+        eprintln!("{note}");
+    }
+    let form = match kind {
+        ImuKind::Rates => "rates",
+        ImuKind::Increments => "increments",
+    };
+    print(&format!(
+        "sins-calib apply\n  calibration  {cal_file}: {}{}\n  wrote        {}: {n} records ({form}), corrected\n",
+        terms(&correction),
+        match inputs {
+            ExtensionInputs::True => "",
+            ExtensionInputs::Measured =>
+                " (g-sensitivity and asymmetry on the measured values, as fitted)",
+        },
+        args.out.display()
+    ))
+}
+
+/// Refuse an output that is an input, before any work.
+fn check_paths(args: &Args) -> Result<(), Error> {
     if same_file(&args.imu, &args.out) {
         return Err(format!(
             "{}: --out is the --imu file: expected another file for the corrected records (the \
@@ -275,8 +310,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
         )
         .into());
     }
-    crate::output::Outputs::new(&[&args.imu, &args.calibration]).file(&args.out, "--out")?;
-    let cal_file = args.calibration.display().to_string();
+    crate::output::Outputs::new(&[&args.imu, &args.calibration]).file(&args.out, "--out")
+}
+
+/// The calibration's correction, refused when its data contradicted its model (unless
+/// `--accept-misfit`), when it is ill-conditioned or of another unit; with the note on the
+/// unit for standard error.
+fn load_correction(
+    args: &Args,
+    cal_file: &str,
+) -> Result<(Correction, ExtensionInputs, Option<String>), Error> {
     let result = read_result_json(&args.calibration)?;
     if let Some(v) = result.verdict.as_ref().filter(|v| !v.fits) {
         if !args.accept_misfit {
@@ -297,23 +340,27 @@ pub fn run(args: &Args) -> Result<(), Error> {
              --accept-misfit asks"
         );
     }
-    check_compensation(&result, &cal_file)?;
-    let unit_note = check_unit(args, &cal_file, result.unit.as_ref())?;
-    let correction = Correction::of_result(&result).map_err(|e| {
-        format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
-    })?;
-    let mut reader = ImuReader::open(&args.imu)?;
-    let kind = reader.kind();
-    if correction.thermal.is_some() && !reader.has_temp() {
-        return Err(format!(
-            "{}: no `temp` column: the calibration {cal_file} has temperature coefficients, so \
-             each record is corrected at its own temperature (deg C)",
-            args.imu.display()
-        )
-        .into());
-    }
+    check_compensation(&result, cal_file)?;
+    let unit_note = check_unit(args, cal_file, result.unit.as_ref())?;
+    let inputs = result
+        .correction
+        .as_ref()
+        .map_or(ExtensionInputs::True, |b| b.extension_inputs);
+    let reference = result.temperature.as_ref().map(|t| t.reference_c);
+    let correction = Correction::from_parameters_at(&result.parameters, inputs, reference)
+        .map_err(|e| {
+            format!("{cal_file}: {e} (a result file of `calibrate --json` is expected)")
+        })?;
+    Ok((correction, inputs, unit_note))
+}
 
-    let out = &args.out;
+/// Correct every record of `reader` into `out`: written to a temporary file beside it, then
+/// renamed; returns the number of records.
+fn write_corrected(
+    reader: &mut ImuReader,
+    correction: &Correction,
+    out: &Path,
+) -> Result<usize, Error> {
     let dir = match out.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -332,7 +379,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             .open(&tmp)
             .map_err(|e| format!("{}: cannot write: {e}", tmp.display()))?;
         let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
-        let n = correct_stream(&mut reader, &correction, &mut w, &tmp.display().to_string())?;
+        let n = correct_stream(reader, correction, &mut w, &tmp.display().to_string())?;
         let f = w
             .into_inner()
             .map_err(|e| format!("{}: cannot write: {}", tmp.display(), e.error()))?;
@@ -343,23 +390,5 @@ pub fn run(args: &Args) -> Result<(), Error> {
     })();
     let n = written?;
     guard.keep();
-    if let Some(note) = unit_note {
-        eprintln!("{note}");
-    }
-    let mut s = String::new();
-    let form = match kind {
-        ImuKind::Rates => "rates",
-        ImuKind::Increments => "increments",
-    };
-    s += &format!(
-        "sins-calib apply\n  calibration  {cal_file}: {}{}\n  wrote        {}: {n} records ({form}), corrected\n",
-        terms(&correction),
-        match correction.extension_inputs {
-            ExtensionInputs::True => "",
-            ExtensionInputs::Measured =>
-                " (g-sensitivity and asymmetry on the measured values, as fitted)",
-        },
-        out.display()
-    );
-    print(&s)
+    Ok(n)
 }

@@ -1,7 +1,7 @@
 //! `sins-calib design`: a program that separates the given candidate terms from the paper's
 //! parameters, printed as TOML with its predicted sigmas (`calib::extend::design`).
 
-use crate::diagnose::parse_terms;
+use crate::terms::parse_terms;
 use crate::{Error, load_config, output, print};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -42,7 +42,7 @@ fn check_distinct_terms(ids: &[String]) -> Result<(), Error> {
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, _) = load_config(&args.config)?;
     if let Some(path) = &args.out {
-        let program = crate::lab_report::program_file(&config);
+        let program = crate::identification::program_file(&config);
         let mut inputs = vec![std::path::Path::new(&args.config)];
         inputs.extend(program.as_deref());
         output::Outputs::new(&inputs).file(path, "--out")?;

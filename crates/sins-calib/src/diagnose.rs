@@ -2,125 +2,18 @@
 //! innovations, add the best-supported separable one, measure what it gains, repeat
 //! (`calib::extend`; method in docs/model-extension.md).
 
-use crate::{Error, load_config};
+use crate::Error;
+use crate::diagnosis::{Diagnosis, HeldOut, TermSize};
+use crate::session::Session;
 use calib::check::stats::p_value_text;
 use calib::estimate::RunData;
-use calib::extend::{
-    CandidateEvidence, LoopResult, LoopSettings, TermGain, run_loop, run_loop_at_rests,
-};
+use calib::extend::{CandidateEvidence, LoopResult, TermGain, run_loop, run_loop_at_rests};
+use calib::io::ResultParameter;
 use calib::io::angle_records::AngleFile;
-use calib::io::{ResultParameter, read_imu_csv};
 use serde::Serialize;
 use sins_model::candidates::Candidate;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::PathBuf;
-
-/// Arguments of `diagnose`.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    /// IMU records (as for `calibrate`).
-    #[arg(long, value_name = "FILE")]
-    pub imu: PathBuf,
-    /// Turntable angle records (as for `calibrate`); without them the IMU-only model is used.
-    #[arg(long, value_name = "FILE")]
-    pub turntable: Option<PathBuf>,
-    /// Run configuration (a TOML file, or `paper` / `paper-reconciled`). Required unless
-    /// --free-motion; with it optional (its `[site]` and `[priors]`).
-    #[arg(
-        long,
-        value_name = "FILE|NAME",
-        required_unless_present = "free_motion"
-    )]
-    pub config: Option<String>,
-    /// A hand-turned multi-position recording (no program, no turntable): the loop runs on the
-    /// filter of a recording of rests as for a configuration without a program; without
-    /// --config, with the configuration `calibrate --free-motion` makes from the recording
-    /// (consumer-grade priors, the white noise measured in the rests).
-    #[arg(long, conflicts_with_all = ["turntable", "program_start"])]
-    pub free_motion: bool,
-    /// With --free-motion: the section list written by `import` (its known turns are
-    /// measurements of every fit).
-    #[arg(long, value_name = "FILE", requires = "free_motion")]
-    pub sections: Option<PathBuf>,
-    /// With --free-motion: the held-out check of an accepted term holds out every K-th rest
-    /// (default 4).
-    #[arg(long, value_name = "K", requires = "free_motion")]
-    pub holdout: Option<usize>,
-    /// With --free-motion and no --config: latitude of the site (deg).
-    #[arg(
-        long,
-        value_name = "DEG",
-        requires = "free_motion",
-        conflicts_with = "config",
-        allow_negative_numbers = true
-    )]
-    pub latitude: Option<f64>,
-    /// With --free-motion and no --config: height of the site above the ellipsoid (m) for
-    /// normal gravity (absent: 0, said as an assumption; gravity falls 3.1e-6 m/s^2 a metre, a
-    /// scale error of 0.3 ppm a metre in the accelerometers).
-    #[arg(
-        long,
-        value_name = "M",
-        requires = "free_motion",
-        conflicts_with = "config",
-        allow_negative_numbers = true
-    )]
-    pub height: Option<f64>,
-    /// Write the loop's result as JSON: accepted_terms, candidates (last round), gain,
-    /// parameters (docs/formats.md).
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
-    /// Write the report a laboratory files into DIR (created, or replaced whole: no plot of an
-    /// earlier report stays): as `calibrate --report` (docs/report.md) for the final model,
-    /// with the paper's model beside it and the model-extension table.
-    #[arg(long, value_name = "DIR")]
-    pub report: Option<PathBuf>,
-    /// Family-wise level of each round's decision.
-    #[arg(long, default_value_t = 0.01, value_name = "P")]
-    pub level: f64,
-    /// The noise identified at rest (the JSON of `sins-calib noise --json`): the gyro bias
-    /// random walk candidate is tried at its identified walk, the largest axis's value and the
-    /// ends of its 68 % interval, instead of the default grid of 0.003 to 0.3 deg/h/sqrt(h)
-    /// (docs/model-extension.md, "The evidence for a term")
-    #[arg(long, value_name = "FILE")]
-    pub noise: Option<PathBuf>,
-    /// Candidate terms to consider (ids; default all): gyro_g_sensitivity,
-    /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_bias_drift,
-    /// gyro_accel_time_offset.
-    #[arg(long, value_name = "ID", num_args = 1..)]
-    pub terms: Vec<String>,
-    /// IMU time (s) at which the rotation program starts (as for `calibrate`).
-    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
-    pub program_start: Option<f64>,
-    /// How rests are found in a recording without a program (a configuration without
-    /// `program` and no --turntable: the loop then runs on the filter of `calibrate` for such
-    /// recordings, each candidate's separability from the fit's own posterior).
-    #[command(flatten)]
-    pub detector: crate::detector_args::DetectorArgs,
-}
-
-/// Parse candidate ids, naming the valid ones on a bad id and refusing one given twice (it
-/// would be tested twice and halve every Bonferroni threshold).
-pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
-    for (i, id) in ids.iter().enumerate() {
-        if ids[..i].contains(id) {
-            return Err(format!(
-                "--terms {}: `{id}` is given twice: expected each candidate term once",
-                ids.join(" ")
-            )
-            .into());
-        }
-    }
-    ids.iter()
-        .map(|id| {
-            Candidate::from_id(id).ok_or_else(|| {
-                let valid: Vec<&str> = Candidate::ALL.iter().map(|c| c.id()).collect();
-                format!("unknown term {id:?}: expected one of {}", valid.join(", ")).into()
-            })
-        })
-        .collect()
-}
 
 #[derive(Serialize)]
 struct CandidateJson<'a> {
@@ -151,6 +44,8 @@ struct LoopJson<'a> {
     /// The records' temperatures and the thermal terms' reference.
     #[serde(skip_serializing_if = "Option::is_none")]
     temperature: Option<calib::io::ResultTemperature>,
+    /// The verdict of the final model, as the exit status says it.
+    verdict: crate::result_json::VerdictJson<'a>,
 }
 
 #[derive(Serialize)]
@@ -196,8 +91,9 @@ fn candidate_json(c: &CandidateEvidence) -> CandidateJson<'_> {
     }
 }
 
-/// The loop's result as JSON.
-fn to_json(r: &LoopResult) -> Result<String, Error> {
+/// The diagnosis as JSON.
+fn to_json(d: &Diagnosis) -> Result<String, Error> {
+    let r = &d.result;
     let mut parameters = r.last.estimate.to_result_file().parameters;
     if let Some(d) = r.last.extension.gyro_drift {
         for (i, a) in ["x", "y", "z"].iter().enumerate() {
@@ -226,6 +122,7 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
             .map(|(term, why)| NotTestedJson { term, why })
             .collect(),
         temperature: r.last.estimate.temperature.clone(),
+        verdict: crate::result_json::verdict(&d.verdict),
     };
     Ok(calib::io::schema::to_json(
         calib::io::schema::DIAGNOSIS,
@@ -235,7 +132,12 @@ fn to_json(r: &LoopResult) -> Result<String, Error> {
 
 /// One round of the loop: its candidates with their evidence and separability, what was
 /// accepted with its gain, and the accepted term's size.
-fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String {
+fn round_lines(
+    r: &LoopResult,
+    k: usize,
+    round: &calib::extend::Round,
+    size: Option<&TermSize>,
+) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -325,8 +227,8 @@ fn round_lines(r: &LoopResult, k: usize, round: &calib::extend::Round) -> String
             let _ = writeln!(s, "  nothing accepted");
         }
     }
-    if let Some(t) = &round.accepted {
-        s += &size_line(t, &round.candidates);
+    if let Some(size) = size {
+        s += &size_line(size);
     }
     s
 }
@@ -361,8 +263,10 @@ fn drift_reach_line(reach: &calib::extend::DriftReach) -> String {
     }
 }
 
-/// The summary printed (and heading the Markdown report).
-pub fn summary(r: &LoopResult) -> String {
+/// The summary printed: the loop's notes, its rounds and its verdict. With `measured` noise
+/// (a hand-turned recording without a configuration) the innovation diagnostics inform and
+/// the held-out rests decide.
+pub fn summary(r: &LoopResult, sizes: &[Option<TermSize>], measured: bool) -> String {
     let mut s = String::new();
     if let Some(n) = &r.noise_rescaled {
         let _ = writeln!(
@@ -380,9 +284,30 @@ pub fn summary(r: &LoopResult) -> String {
         let _ = writeln!(s, "not tested: {} ({why})", ids.join(", "));
     }
     for (k, round) in r.rounds.iter().enumerate() {
-        s += &round_lines(r, k, round);
+        s += &round_lines(r, k, round, sizes.get(k).and_then(Option::as_ref));
     }
-    let calls = r.inseparable_calls();
+    let exit = if measured {
+        "(against the measured noise: the held-out rests decide, below)"
+    } else {
+        "(exit status 3)"
+    };
+    s += &verdict_lines(r, exit);
+    if let Some(reach) = &r.drift_reach {
+        s += &drift_reach_line(reach);
+    }
+    s += &separation_notes(r);
+    s
+}
+
+/// The loop's verdict: what it accepted, and whether the model fits; `exit` says what a misfit
+/// does to the exit status.
+fn verdict_lines(r: &LoopResult, exit: &str) -> String {
+    let mut s = String::new();
+    let accepted = if r.accepted_terms.is_empty() {
+        "none".to_string()
+    } else {
+        r.accepted_terms.join(", ")
+    };
     if let Some(h) = r.held_out_rejection() {
         let p = r
             .rounds
@@ -393,25 +318,22 @@ pub fn summary(r: &LoopResult) -> String {
             s,
             "verdict: THE DATA CALL FOR {} (p = {}), BUT WITH IT THE HELD-OUT MEASUREMENTS ARE \
              PREDICTED WORSE (log predictive density {:+.1} over {}, beyond the {} nat \
-             allowed): IT IS NOT ACCEPTED. THE \
-             MODEL DOES NOT FIT THESE DATA AND NO CANDIDATE TERM EXPLAINS THE MISFIT (exit status \
-             3); terms accepted before: {}.",
+             allowed): IT IS NOT ACCEPTED. THE MODEL DOES NOT FIT THESE DATA AND NO CANDIDATE \
+             TERM EXPLAINS THE MISFIT {exit}; terms accepted before: {accepted}.",
             h.term,
             p_value_text(p),
             h.gain(),
             h.measurements,
             calib::extend::HELD_OUT_TOLERANCE_NATS,
-            if r.accepted_terms.is_empty() {
-                "none".to_string()
-            } else {
-                r.accepted_terms.join(", ")
-            }
         );
-    } else if r.accepted_terms.is_empty() && r.noise_rescaled.is_some() && calls.is_empty() {
+    } else if r.accepted_terms.is_empty()
+        && r.noise_rescaled.is_some()
+        && r.inseparable_calls().is_empty()
+    {
         let _ = writeln!(
             s,
-            "verdict: THE CONFIGURED WHITE NOISE DOES NOT MATCH THESE DATA (exit status 3); with \
-             it scaled to them (note above) no term is called for."
+            "verdict: THE CONFIGURED WHITE NOISE DOES NOT MATCH THESE DATA {exit}; with it \
+             scaled to them (note above) no term is called for."
         );
     } else if r.base_fits() {
         let _ = writeln!(
@@ -422,31 +344,26 @@ pub fn summary(r: &LoopResult) -> String {
         let _ = writeln!(
             s,
             "verdict: THE MODEL DOES NOT FIT THESE DATA, AND NO CANDIDATE TERM THAT THIS \
-             RECORDING SEPARATES EXPLAINS THE MISFIT (exit status 3). Failing tests:"
+             RECORDING SEPARATES EXPLAINS THE MISFIT {exit}. Failing tests:"
         );
         s += &failure_lines(&r.last.diagnostics.failures);
     } else {
-        let _ = writeln!(
-            s,
-            "verdict: terms accepted: {}",
-            if r.accepted_terms.is_empty() {
-                "none".to_string()
-            } else {
-                r.accepted_terms.join(", ")
-            }
-        );
+        let _ = writeln!(s, "verdict: terms accepted: {accepted}");
         if !r.last.diagnostics.fits {
             let _ = writeln!(
                 s,
-                "  the extended model still does not fit these data (exit status 3). Failing \
-                 tests:"
+                "  the extended model still does not fit these data {exit}. Failing tests:"
             );
             s += &failure_lines(&r.last.diagnostics.failures);
         }
     }
-    if let Some(reach) = &r.drift_reach {
-        s += &drift_reach_line(reach);
-    }
+    s
+}
+
+/// The notes on the candidates this recording cannot separate, and on those the data call for
+/// that it cannot.
+fn separation_notes(r: &LoopResult) -> String {
+    let mut s = String::new();
     let inseparable: Vec<String> = r.rounds.last().map_or(Vec::new(), |l| {
         l.candidates
             .iter()
@@ -496,7 +413,7 @@ pub fn summary(r: &LoopResult) -> String {
             thermal.join("; ")
         );
     }
-    for c in calls {
+    for c in r.inseparable_calls() {
         let _ = writeln!(
             s,
             "note: the data call for {} (p = {}) but this recording cannot separate it; run \
@@ -509,35 +426,21 @@ pub fn summary(r: &LoopResult) -> String {
     s
 }
 
-/// An accepted term's largest estimate in the report's units, against typical magnitudes for
-/// units of each grade.
-fn size_line(term: &str, candidates: &[CandidateEvidence]) -> String {
-    let (Some(c), Some(e)) = (
-        Candidate::from_id(term),
-        candidates.iter().find(|e| e.term == term),
-    ) else {
-        return String::new();
-    };
-    let Some(largest) = e
-        .estimate
-        .iter()
-        .max_by(|a, b| a.value.abs().total_cmp(&b.value.abs()))
-    else {
-        return String::new();
-    };
-    let unit = match c {
-        // The drift's estimate is an intensity, in its own unit.
-        Candidate::GyroBiasDrift => sins_model::terms::Unit::RadPerSecondPerSqrtSecond,
-        _ => c.unit(),
-    };
-    format!(
-        "  size: largest {} = {:.3e} {} (+- {:.1e}); typical: {}\n",
-        largest.name,
-        largest.value * unit.report_factor(),
-        unit.report_name(),
-        largest.sigma * unit.report_factor(),
-        c.typical()
-    )
+/// An accepted term's size: its largest estimate among the parameters the recording
+/// observes, against typical magnitudes for units of each grade.
+pub fn size_line(size: &TermSize) -> String {
+    match &size.largest {
+        Some(l) => format!(
+            "  size: largest {} = {:.3e} {} (+- {:.1e}); typical: {}\n",
+            l.name, l.value, l.unit, l.sigma, size.typical
+        ),
+        None => format!(
+            "  size: this recording observes none of its parameters (posterior sigma above {:.0} \
+             % of the prior); typical: {}\n",
+            100.0 * calib::estimate::UNOBSERVED_SIGMA_RATIO,
+            size.typical
+        ),
+    }
 }
 
 /// The failing tests one per line, the first ten and how many more.
@@ -557,177 +460,124 @@ fn failure_lines(failures: &[String]) -> String {
     s
 }
 
-/// The data files `diagnose` read, with their roles, for a report's identification.
-fn report_inputs(args: &Args) -> Vec<(&'static str, &std::path::Path)> {
-    let mut v: Vec<(&'static str, &std::path::Path)> = vec![("IMU records", args.imu.as_path())];
-    v.extend(args.turntable.as_deref().map(|p| ("turntable angles", p)));
-    v
-}
-
-/// Run `diagnose`; returns whether the final model fits the data (its diagnostics pass).
-/// The checks of `diagnose`'s arguments made before any work, in either mode (outputs,
-/// level, terms).
-pub fn check_args(args: &Args) -> Result<(), Error> {
-    let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
-    inputs.extend(args.turntable.as_deref());
-    inputs.extend(args.sections.as_deref());
-    inputs.extend(args.noise.as_deref());
-    if let Some(c) = args.config.as_deref() {
-        inputs.push(std::path::Path::new(c));
-    }
-    let mut outputs = crate::output::Outputs::new(&inputs);
-    if let Some(p) = &args.json {
-        outputs.file(p, "--json")?;
-    }
-    if let Some(p) = &args.report {
-        outputs.dir(p, "--report", &crate::lab_report::NAMES)?;
-    }
-    // The family-wise level of a decision: a probability, and one that means something.
-    if !(args.level.is_finite() && args.level > 0.0 && args.level <= 0.5) {
-        return Err(format!(
-            "--level {}: expected a family-wise level above 0 and at most 0.5 (0.01 by default)",
-            args.level
-        )
-        .into());
-    }
-    if args.holdout.is_some_and(|k| k < 2) {
-        return Err("--holdout: expected K of at least 2 (every K-th rest held out)".into());
-    }
-    Ok(())
-}
-
 /// Run `diagnose` on a programmed run or a recording of rests (hand-turned with
-/// --free-motion; after [`check_args`]); `Ok(false)`: the model does not fit.
-pub fn run(args: &Args) -> Result<bool, Error> {
-    let (mut config, origin) = match args.config.as_deref() {
-        Some(name) => load_config(name)?,
-        None if args.free_motion => {
-            let mut c = calib::config::RunConfig::paper();
-            c.program = calib::config::PROGRAM_FROM_ANGLES.to_string();
-            (c, "no configuration".to_string())
-        }
-        None => load_config("paper")?,
-    };
-    if let Some(t) = args.program_start {
-        // The configuration's range for filter.program_start_s.
-        let max = calib::config::PROGRAM_START_MAX_S;
-        if !(t.is_finite() && t.abs() <= max) {
-            return Err(format!(
-                "--program-start {t}: expected the IMU time (s) at which the program starts, \
-                 in -{max:e} .. {max:e} s"
-            )
-            .into());
-        }
-        config.filter.program_start_s = Some(t);
+/// --free-motion); returns its exit status (3: the model does not fit these data).
+pub fn run(args: &crate::args::DiagnoseArgs) -> Result<u8, Error> {
+    let session = crate::session::diagnose(args)?;
+    note_setup(&session);
+    let result = fit_loop(&session)?;
+    let held_out = held_out_verdict(&session, &result)?;
+    let d = Diagnosis::build(&session, result, held_out)?;
+    let mut text = render(&d);
+    if let Some(path) = &session.json {
+        crate::output::write_file(path, to_json(&d)?.as_bytes())?;
     }
-    let mut settings = LoopSettings {
-        level: args.level,
-        ..LoopSettings::default()
+    if let Some(dir) = &session.report {
+        let plots = crate::diagnose_report::write(dir, &d)?;
+        let _ = writeln!(text, "wrote the report {} ({plots} plots)", dir.display());
+    }
+    crate::report(&text, session.json.as_deref())?;
+    Ok(d.verdict.exit_status())
+}
+
+/// The setup's notes on standard error: the rests the detector may have missed, and where a
+/// hand-turned recording's configuration came from.
+fn note_setup(s: &Session<crate::session::Diagnose>) {
+    let Some(found) = &s.rests else {
+        return;
     };
-    if let Some(k) = args.holdout {
-        settings.hold_out_every = Some(k);
+    for line in found.missed.iter().flatten() {
+        eprintln!("diagnose: {line}");
     }
-    if !args.terms.is_empty() {
-        settings.candidates = parse_terms(&args.terms)?;
-    }
-    // The identified walk as the candidate's prior: tried where the data at rest put it.
-    let walk_prior = match &args.noise {
-        Some(path) => {
-            let walk = crate::noise::read_identified_walk(path)?;
-            let grid = walk.grid();
-            if grid.is_empty() {
-                return Err(format!(
-                    "{}: the identified gyro bias walk is 0 with no upper end: nothing to try \
-                     the walk candidate at (leave --noise out for the default grid)",
-                    path.display()
-                )
-                .into());
-            }
-            settings.drift_grid = Some(grid.clone());
-            Some((path.display().to_string(), grid))
+    if let Some(f) = &found.free_motion {
+        eprintln!("diagnose: {}", f.summary.origin);
+        if let Some(g) = &f.summary.grade {
+            eprintln!("diagnose: {}", g.describe());
         }
-        None => None,
+    }
+}
+
+/// The model-extension loop on the session's data, with progress lines on standard error.
+fn fit_loop(s: &Session<crate::session::Diagnose>) -> Result<LoopResult, Error> {
+    let Some(imu) = s.records.held() else {
+        unreachable!("diagnose holds its records")
     };
-    let imu = read_imu_csv(&args.imu)?;
-    let imu_file = args.imu.display().to_string();
-    let tt = args.turntable.as_deref().map(AngleFile::open).transpose()?;
     let data = RunData {
-        imu: &imu,
-        imu_file: &imu_file,
-        turntable: tt.as_ref().map(AngleFile::records),
+        imu,
+        imu_file: &s.imu_file,
+        turntable: s.turntable.as_ref().map(AngleFile::records),
     };
     let mut timer = StepTimer::new();
     let mut progress = |what: &str| eprintln!("diagnose: {}", timer.line(what));
-    if args.free_motion && !config.program_from_angles() {
-        return Err(format!(
-            "diagnose --free-motion: {origin} has a rotation program; --free-motion is for a \
-             hand-turned recording without one (leave --free-motion out to diagnose along the \
-             program, or give a configuration without `program`)"
-        )
-        .into());
-    }
-    let rests_mode = tt.is_none() && config.program_from_angles();
-    if !rests_mode && args.detector.any() {
-        return Err(
-            "diagnose: the --rest-* options set how rests are found in a recording \
-                    without a program; this configuration has a program (or --turntable gives \
-                    one), which says where the unit rests"
-                .into(),
-        );
-    }
-    let mut measured_input = None;
-    let mut rests_input: Option<(
-        Vec<calib::motion::rests::Rest>,
-        Vec<calib::motion::rests::Turn>,
-    )> = None;
-    let result = if rests_mode {
-        let detector = args
-            .detector
-            .settings()
-            .map_err(|e| format!("diagnose: {e}"))?;
-        let (rests, seg) =
-            crate::detector_args::rests_and_segmentation(&imu, &imu_file, &detector)?;
-        for line in seg
-            .missed_report(crate::detector_args::option_name)
-            .iter()
-            .flatten()
-        {
-            eprintln!("diagnose: {line}");
+    let settings = &s.task.settings;
+    Ok(match &s.rests {
+        Some(found) => {
+            let turns: Vec<calib::motion::rests::Turn> = found
+                .free_motion
+                .iter()
+                .flat_map(|f| f.turns.iter().cloned())
+                .collect();
+            run_loop_at_rests(
+                &s.config,
+                &data,
+                &found.rests,
+                &turns,
+                settings,
+                &mut progress,
+            )?
         }
-        let (turns, known) = if args.free_motion {
-            let given = args.config.is_some().then_some((&config, origin.as_str()));
-            let setup = crate::free_motion::setup(
-                given,
-                (args.latitude, args.height),
-                args.sections.as_deref(),
-                &[],
-                &imu,
-                &imu_file,
-                &rests,
-            )?;
-            config = setup.config;
-            settings.measured_noise = setup.measured;
-            eprintln!("diagnose: {}", setup.origin);
-            if let Some(g) = &setup.grade {
-                eprintln!("diagnose: {}", g.describe());
-            }
-            measured_input = setup.measured;
-            (setup.turns.clone(), setup.turns)
-        } else {
-            (Vec::new(), Vec::new())
-        };
-        let r = run_loop_at_rests(&config, &data, &rests, &turns, &settings, &mut progress)?;
-        rests_input = Some((rests, known));
-        r
-    } else {
-        run_loop(&config, &data, &settings, &mut progress)?
+        None => run_loop(&s.config, &data, settings, &mut progress)?,
+    })
+}
+
+/// With noise measured from the recording the diagnostics test the innovations against a
+/// level the tool set itself: they inform, and the held-out rests decide (as for `calibrate
+/// --free-motion`): the final model fitted with every K-th rest held out.
+fn held_out_verdict(
+    s: &Session<crate::session::Diagnose>,
+    result: &LoopResult,
+) -> Result<Option<HeldOut>, Error> {
+    let (Some(noise), Some(found), Some(imu)) =
+        (s.task.settings.measured_noise, &s.rests, s.records.held())
+    else {
+        return Ok(None);
     };
+    let known: &[calib::motion::rests::Turn] = found.free_motion.as_ref().map_or(&[], |f| &f.turns);
+    let every = s.holdout.unwrap_or(calib::extend::HOLD_OUT_EVERY);
+    let layout = calib::model::layout::layout_with(&s.config, false, &result.last.extension);
+    let r = calib::estimate::hand_turned::calibrate(
+        &s.config,
+        &layout,
+        imu,
+        &s.imu_file,
+        &found.rests,
+        known,
+        Some(every),
+        Some(noise),
+        &mut |_, _| {},
+    )?;
+    // The tests of its innovations, as `calibrate --free-motion` runs them: they inform.
+    let d = calib::check::diagnostics::diagnose(
+        &r.estimate.innovations,
+        &r.estimate.segments,
+        &calib::check::diagnostics::DiagnosticSettings::default(),
+    );
+    let figures = found
+        .free_motion
+        .as_ref()
+        .map(|f| crate::free_motion::figures(&r, &f.summary, Some(every)));
+    Ok(Some(HeldOut {
+        every,
+        verdict: calib::report::lab::RunVerdict::of(&r.estimate, Some(&r), Some(&d), false),
+        figures,
+    }))
+}
+
+/// The printout of a diagnosis.
+fn render(d: &Diagnosis) -> String {
     let mut text = String::new();
-    if let Some((file, grid)) = &walk_prior {
-        let shown: Vec<String> = grid
-            .iter()
-            .map(|q| format!("{:.4}", q * 60.0 / sins_model::units::DEG_PER_HOUR))
-            .collect();
+    if let Some((file, grid)) = &d.walk_prior {
+        let shown: Vec<String> = grid.iter().map(|q| format!("{q:.4}")).collect();
         let _ = writeln!(
             text,
             "note: the gyro bias random walk candidate is tried at {} deg/h/sqrt(h), the walk \
@@ -735,72 +585,45 @@ pub fn run(args: &Args) -> Result<bool, Error> {
             shown.join(", ")
         );
     }
-    let mut summary_text = summary(&result);
-    // With noise measured from the recording the diagnostics test the innovations against a
-    // level the tool set itself: they inform, and the held-out rests decide (as for
-    // `calibrate --free-motion`).
-    let held_out_verdict = match (&measured_input, rests_input.as_ref()) {
-        (Some(noise), Some((rests, turns))) => {
-            summary_text = summary_text.replace(
-                "(exit status 3)",
-                "(against the measured noise: the held-out rests decide, below)",
-            );
-            let every = args.holdout.unwrap_or(calib::extend::HOLD_OUT_EVERY);
-            let layout = calib::model::layout::layout_with(&config, false, &result.last.extension);
-            let r = calib::estimate::hand_turned::calibrate(
-                &config,
-                &layout,
-                &imu,
-                &imu_file,
-                rests,
-                turns,
-                Some(every),
-                Some(*noise),
-                &mut |_, _| {},
-            )?;
-            let v = calib::report::lab::RunVerdict::of(&r.estimate, Some(&r), None, false);
-            let _ = writeln!(
-                summary_text,
-                "held-out verdict of the final model (every {every}th rest held out; rests on \
-                 {}):",
-                v.basis
-            );
-            for line in v.informative.iter() {
-                let _ = writeln!(summary_text, "  finding: {line}");
-            }
-            if v.fits() {
-                let _ = writeln!(
-                    summary_text,
-                    "  nothing contradicts the model (exit status 0)"
-                );
-            } else {
-                let _ = writeln!(
-                    summary_text,
-                    "  THE HELD-OUT RESTS CONTRADICT THE MODEL (exit status 3):"
-                );
-                for line in &v.decisive {
-                    let _ = writeln!(summary_text, "    {line}");
-                }
-            }
-            Some(v.fits())
-        }
-        _ => None,
+    text += &summary(&d.result, &d.sizes, d.held_out.is_some());
+    text += &verdict_block(d);
+    text
+}
+
+/// The verdict of the final model: what it rests on, the findings, and the reasons for exit
+/// status 3.
+fn verdict_block(d: &Diagnosis) -> String {
+    let v = &d.verdict;
+    let mut s = String::new();
+    let _ = match &d.held_out {
+        Some(h) => writeln!(
+            s,
+            "held-out verdict of the final model (every {}th rest held out; rests on {}):",
+            h.every, v.basis
+        ),
+        None => writeln!(s, "verdict of the final model (rests on {}):", v.basis),
     };
-    text += &summary_text;
-    if let Some(path) = &args.json {
-        crate::output::write_file(path, to_json(&result)?.as_bytes())?;
+    for line in &v.findings {
+        let _ = writeln!(s, "  finding: {line}");
     }
-    if let Some(dir) = &args.report {
-        let shown = match (args.config.as_deref(), args.free_motion) {
-            (None, false) => Some("paper"),
-            (c, _) => c,
-        };
-        let id = crate::lab_report::identify(&report_inputs(args), shown, &config)?;
-        let plots = crate::diagnose_report::write(dir, id, &result)?;
-        let _ = writeln!(text, "wrote the report {} ({plots} plots)", dir.display());
+    if v.fits() {
+        let _ = writeln!(s, "  nothing contradicts the model (exit status 0)");
+    } else {
+        let _ = writeln!(
+            s,
+            "  THE {} CONTRADICT THE MODEL (exit status {}):",
+            if d.held_out.is_some() {
+                "HELD-OUT RESTS"
+            } else {
+                "DATA"
+            },
+            v.exit_status()
+        );
+        for line in &v.reasons {
+            let _ = writeln!(s, "    {line}");
+        }
     }
-    crate::report(&text, args.json.as_deref())?;
-    Ok(held_out_verdict.unwrap_or_else(|| result.final_model_fits()))
+    s
 }
 
 /// The time figures of `diagnose`'s progress lines: the time elapsed, and for the step that
@@ -849,40 +672,5 @@ fn duration_text(s: f64) -> String {
         format!("{} min {:02} s", s / 60, s % 60)
     } else {
         format!("{} h {:02} min", s / 3600, (s % 3600) / 60)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use calib::extend::ParameterValue;
-
-    #[test]
-    fn an_accepted_terms_size_is_set_against_typical_values() {
-        let e = CandidateEvidence {
-            term: "accel_quadratic".into(),
-            statistic: 40.0,
-            dof: 3,
-            p_value: 1e-8,
-            ln_p_value: 1e-8f64.ln(),
-            separable: true,
-            separation: None,
-            estimate: [
-                ("accel.k2.x", 1.9e-5),
-                ("accel.k2.y", -2.2e-5),
-                ("accel.k2.z", 2.0e-5),
-            ]
-            .iter()
-            .map(|(n, v)| ParameterValue {
-                name: n.to_string(),
-                value: *v,
-                sigma: 1e-6,
-            })
-            .collect(),
-        };
-        let line = size_line("accel_quadratic", &[e]);
-        assert!(line.contains("largest accel.k2.y"), "{line}");
-        assert!(line.contains("typical: pendulous quartz"), "{line}");
-        assert!(size_line("gyro_g_sensitivity", &[]).is_empty());
     }
 }

@@ -2,63 +2,47 @@
 //! paper's model beside it, and the model-extension table of every round.
 
 use crate::Error;
-use crate::lab_report::{FitView, Identification, Report, Verdict, with_turntable};
+use crate::diagnosis::Diagnosis;
+use crate::lab_report::{FitView, Report};
 use crate::table;
 use calib::check::stats::p_value_text;
-use calib::extend::LoopResult;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Write the report of the loop `r` into `dir`; returns the number of plots.
-pub fn write(dir: &Path, id: Identification, r: &LoopResult) -> Result<usize, Error> {
-    let d = &r.last.diagnostics;
-    let reasons = if d.fits {
-        Vec::new()
-    } else {
-        vec![format!(
-            "the {} fails {} of {} tests of its innovations (family-wise level {} %){}",
-            if r.accepted_terms.is_empty() {
-                "paper's model"
-            } else {
-                "extended model"
-            },
-            d.failures.len(),
-            d.tests.len(),
-            100.0 * d.settings.alpha,
-            if r.accepted_terms.is_empty() {
-                ", and no candidate term that this recording separates explains the misfit"
-            } else {
-                ""
-            }
-        )]
+/// Write the report of the diagnosis `d` into `dir`; returns the number of plots.
+pub fn write(dir: &Path, d: &Diagnosis) -> Result<usize, Error> {
+    let r = &d.result;
+    let Some(lab) = &d.lab else {
+        return Err("diagnose: the report's figures were not made".into());
     };
     let report = Report {
         title: "Model diagnosis report",
-        id,
-        verdict: Verdict {
-            fits: d.fits,
-            exit_status: if d.fits { 0 } else { crate::MODEL_DOES_NOT_FIT },
-            reasons,
-            rule: "`diagnose` follows the tests of the final model's innovations: it fits when \
-                   none of them fails.",
-        },
+        id: &lab.id,
+        verdict: &d.verdict,
+        mean_nis: &lab.mean_nis,
+        hand_turned: d.held_out.as_ref().and_then(|h| h.figures.as_ref()),
+        parameters: &lab.parameters,
+        unobserved: &lab.unobserved,
+        truth: None,
+        correlation: &lab.correlation,
+        strongest: &lab.strongest,
+        segments: &lab.segments,
         fit: FitView {
             est: &r.last.estimate,
-            diagnostics: d,
+            diagnostics: &r.last.diagnostics,
         },
         base: (!r.accepted_terms.is_empty()).then_some(FitView {
             est: &r.base.estimate,
             diagnostics: &r.base.diagnostics,
         }),
-        with_turntable: with_turntable(&r.last.estimate),
-        truth: None,
-        extension: Some(extension_md(r)),
+        extension: Some(extension_md(d)),
     };
     crate::lab_report::write(dir, &report)
 }
 
 /// Section 7: every round's candidates with their evidence, and the gain of each accepted term.
-fn extension_md(r: &LoopResult) -> String {
+fn extension_md(d: &Diagnosis) -> String {
+    let r = &d.result;
     let mut s = String::from(
         "## 7. Model extension\n\nEach round tests every candidate term against the \
          innovations (score test; docs/model-extension.md) and accepts the best-supported one \
@@ -105,6 +89,16 @@ fn extension_md(r: &LoopResult) -> String {
             );
         }
         s.push('\n');
+        if let (Some(term), Some(size)) = (&round.accepted, d.sizes.get(k).and_then(Option::as_ref))
+        {
+            let _ = writeln!(
+                s,
+                "Size of {term}: {}\n",
+                crate::diagnose::size_line(size)
+                    .trim()
+                    .trim_start_matches("size: ")
+            );
+        }
     }
     if !r.gain.is_empty() {
         let _ = writeln!(

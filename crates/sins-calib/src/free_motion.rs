@@ -13,11 +13,10 @@ use calib::io::ImuData;
 use calib::model::extension::ModelExtension;
 use calib::model::layout::StateLayout;
 use calib::motion::free_motion::{EarthRateTreatment, Evaluation};
-use calib::motion::rests::{Rest, Turn};
-use serde::Serialize;
+use calib::motion::rests::Rest;
+use calib::motion::rests::Turn;
 use sins_model::candidates::Candidate;
 use sins_model::units::DEG_PER_HOUR;
-use std::fmt::Write as _;
 
 /// The longest mean record interval of a hand-turned recording without a configuration (s):
 /// a 90-degree hand turn takes about a second.
@@ -55,101 +54,18 @@ pub struct Setup {
 /// ([`calib::estimate::hand_turned::choose_grade`]); the model is the paper's with `terms`.
 pub fn setup(
     given: Option<(&RunConfig, &str)>,
-    (latitude, height): (Option<f64>, Option<f64>),
+    site: (Option<f64>, Option<f64>),
     sections: Option<&std::path::Path>,
     terms: &[Candidate],
     data: &ImuData,
     file: &str,
     rests: &[Rest],
 ) -> Result<Setup, Error> {
-    let mut grade = None;
-    let mut assumptions = Vec::new();
-    let (config, origin, measured) = match given {
-        Some((config, origin)) => {
-            let config = config.clone();
-            if !config.program_from_angles() {
-                return Err(format!(
-                    "{origin}: --free-motion calibrates a recording without a program; this \
-                     configuration has one (leave --free-motion out, or remove `program`)"
-                )
-                .into());
-            }
-            (
-                config,
-                format!("{origin}: [site], [priors] and [noise]"),
-                None,
-            )
-        }
-        None => {
-            let lat = latitude.unwrap_or(DEFAULT_LATITUDE_DEG);
-            if !(-90.0..=90.0).contains(&lat) {
-                return Err(format!("--latitude {lat}: expected -90 .. 90 deg").into());
-            }
-            let noise = calib::estimate::hand_turned::white_noise_at_rest(data, rests).ok_or_else(
-                || {
-                    format!(
-                        "{file}: no rest holds two whole seconds: the white noise cannot be \
-                     measured in the rests (give a configuration with [noise], --config)"
-                    )
-                },
-            )?;
-            let choice = calib::estimate::hand_turned::choose_grade(data, rests, &noise);
-            grade = Some(choice);
-            let h = height.unwrap_or(0.0);
-            // From the Dead Sea shore to above any laboratory on a mountain, as [site].
-            if !(-500.0..=10_000.0).contains(&h) {
-                return Err(format!("--height {h}: expected -500 .. 10000 m").into());
-            }
-            let config =
-                calib::estimate::hand_turned::default_config(data, lat, h, &noise, choice.grade)
-                    .ok_or_else(|| format!("{file}: fewer than two records"))?;
-            if latitude.is_none() {
-                assumptions.push(format!(
-                    "latitude {lat} deg assumed: no [site] given (--latitude or a \
-                     configuration's [site] sets it); normal gravity {} m/s^2 and the Earth \
-                     rate's components follow from it",
-                    table::significant(config.site().specific_force_at_rest_enu().norm(), 7)
-                ));
-            }
-            if height.is_none() {
-                assumptions.push(
-                    "height 0 m assumed: no [site] given (--height or a configuration's [site] \
-                     sets it); gravity falls 3.1e-6 m/s^2 a metre above it, which the \
-                     accelerometers' scale factors take up (0.3 ppm a metre)"
-                        .to_string(),
-                );
-            }
-            let interval = 1.0 / config.filter.imu_rate_hz;
-            if interval > MAX_RECORD_INTERVAL_S {
-                return Err(calib::estimate::EstimateError::Rests {
-                    file: file.to_string(),
-                    source: calib::motion::rests::RestError::SlowRecords {
-                        interval_s: interval,
-                    },
-                }
-                .into());
-            }
-            (
-                config,
-                format!(
-                    "no configuration: latitude {lat} deg{}, height {h} m{}, {}-grade priors, \
-                     white noise and motion noise measured in the rests",
-                    if latitude.is_none() {
-                        " (assumed: give --latitude)"
-                    } else {
-                        ""
-                    },
-                    if height.is_none() {
-                        " (assumed: give --height)"
-                    } else {
-                        ""
-                    },
-                    choice.grade.name()
-                ),
-                Some(noise),
-            )
-        }
+    let made = match given {
+        Some((config, origin)) => given_config(config, origin)?,
+        None => config_from_recording(site, data, file, rests)?,
     };
+    let config = made.config;
     let ext = ModelExtension::with_grade(terms, config.unit_grade());
     let layout = calib::model::layout::layout_with(&config, false, &ext);
     let times: Vec<f64> = data.records.iter().map(|r| r.t).collect();
@@ -159,71 +75,131 @@ pub fn setup(
     };
     Ok(Setup {
         config,
-        origin,
-        measured,
+        origin: made.origin,
+        measured: made.measured,
         layout,
         terms: terms.to_vec(),
-        grade,
+        grade: made.grade,
         turns,
+        assumptions: made.assumptions,
+    })
+}
+
+/// The configuration of a `--free-motion` run before the model and the turns: where it came
+/// from, and what was measured, chosen and assumed to make it.
+struct Made {
+    config: RunConfig,
+    origin: String,
+    measured: Option<WhiteNoiseAtRest>,
+    grade: Option<GradeChoice>,
+    assumptions: Vec<String>,
+}
+
+/// A given configuration: refused with a program; its own noise.
+fn given_config(config: &RunConfig, origin: &str) -> Result<Made, Error> {
+    let config = config.clone();
+    if !config.program_from_angles() {
+        return Err(format!(
+            "{origin}: --free-motion calibrates a recording without a program; this \
+             configuration has one (leave --free-motion out, or remove `program`)"
+        )
+        .into());
+    }
+    Ok(Made {
+        config,
+        origin: format!("{origin}: [site], [priors] and [noise]"),
+        measured: None,
+        grade: None,
+        assumptions: Vec::new(),
+    })
+}
+
+/// The recording's defaults at the site's `latitude` and `height` (each assumed when not
+/// given, and said so), with the noise measured in the rests and the grade from the data.
+fn config_from_recording(
+    (latitude, height): (Option<f64>, Option<f64>),
+    data: &ImuData,
+    file: &str,
+    rests: &[Rest],
+) -> Result<Made, Error> {
+    let lat = latitude.unwrap_or(DEFAULT_LATITUDE_DEG);
+    if !(-90.0..=90.0).contains(&lat) {
+        return Err(format!("--latitude {lat}: expected -90 .. 90 deg").into());
+    }
+    let noise =
+        calib::estimate::hand_turned::white_noise_at_rest(data, rests).ok_or_else(|| {
+            format!(
+                "{file}: no rest holds two whole seconds: the white noise cannot be \
+                     measured in the rests (give a configuration with [noise], --config)"
+            )
+        })?;
+    let choice = calib::estimate::hand_turned::choose_grade(data, rests, &noise);
+    let h = height.unwrap_or(0.0);
+    // From the Dead Sea shore to above any laboratory on a mountain, as [site].
+    if !(-500.0..=10_000.0).contains(&h) {
+        return Err(format!("--height {h}: expected -500 .. 10000 m").into());
+    }
+    let config = calib::estimate::hand_turned::default_config(data, lat, h, &noise, choice.grade)
+        .ok_or_else(|| format!("{file}: fewer than two records"))?;
+    let assumptions = site_assumptions(&config, lat, latitude.is_none(), height.is_none());
+    let interval = 1.0 / config.filter.imu_rate_hz;
+    if interval > MAX_RECORD_INTERVAL_S {
+        return Err(calib::estimate::EstimateError::Rests {
+            file: file.to_string(),
+            source: calib::motion::rests::RestError::SlowRecords {
+                interval_s: interval,
+            },
+        }
+        .into());
+    }
+    let assumed = |missing: bool, option: &str| {
+        if missing {
+            format!(" (assumed: give --{option})")
+        } else {
+            String::new()
+        }
+    };
+    Ok(Made {
+        origin: format!(
+            "no configuration: latitude {lat} deg{}, height {h} m{}, {}-grade priors, white \
+             noise and motion noise measured in the rests",
+            assumed(latitude.is_none(), "latitude"),
+            assumed(height.is_none(), "height"),
+            choice.grade.name()
+        ),
+        config,
+        measured: Some(noise),
+        grade: Some(choice),
         assumptions,
     })
 }
 
-/// The terms of `--terms` and `--terms-from` (a `diagnose --json` result's `accepted_terms`),
-/// each once, in the order given.
-pub fn terms_asked(
-    ids: &[String],
-    from: Option<&std::path::Path>,
-) -> Result<Vec<Candidate>, Error> {
-    let mut all: Vec<String> = ids.to_vec();
-    if let Some(path) = from {
-        let text = read_bounded(path, "--terms-from", TERMS_FROM_MAX_BYTES)?;
-        let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-            format!(
-                "{}: not a diagnose result (JSON): {e}; expected the file `sins-calib diagnose \
-                 --json` writes",
-                path.display()
-            )
-        })?;
-        calib::io::schema::check(
-            &path.display().to_string(),
-            v.get("schema"),
-            &[calib::io::schema::DIAGNOSIS],
-            "the file `sins-calib diagnose --json` writes",
-        )?;
-        let accepted = v
-            .get("accepted_terms")
-            .and_then(|a| a.as_array())
-            .ok_or_else(|| {
-                format!(
-                    "{}: no `accepted_terms` list: expected the file `sins-calib diagnose --json` \
-                     writes",
-                    path.display()
-                )
-            })?;
-        for t in accepted {
-            let id = t.as_str().ok_or_else(|| {
-                format!(
-                    "{}: `accepted_terms` holds {t}: expected term ids (strings)",
-                    path.display()
-                )
-            })?;
-            if !all.iter().any(|a| a == id) {
-                all.push(id.to_string());
-            }
-        }
+/// What a configuration made from the recording assumed of its site: the latitude and the
+/// height, each when not given.
+fn site_assumptions(
+    config: &RunConfig,
+    lat: f64,
+    latitude_assumed: bool,
+    height_assumed: bool,
+) -> Vec<String> {
+    let mut assumptions = Vec::new();
+    if latitude_assumed {
+        assumptions.push(format!(
+            "latitude {lat} deg assumed: no [site] given (--latitude or a configuration's \
+             [site] sets it); normal gravity {} m/s^2 and the Earth rate's components follow \
+             from it",
+            table::significant(config.site().specific_force_at_rest_enu().norm(), 7)
+        ));
     }
-    crate::diagnose::parse_terms(&all)
-}
-
-/// The largest `--terms-from` file read (a diagnose result is a few tens of kilobytes).
-const TERMS_FROM_MAX_BYTES: u64 = 16 << 20;
-
-/// The text of a small file, refused past `max` bytes (the shared bounded reader: a device
-/// such as /dev/zero is refused at the bound too).
-fn read_bounded(path: &std::path::Path, option: &str, max: u64) -> Result<String, Error> {
-    sins_model::text::read_text_bounded(path, max, "diagnose result")
-        .map_err(|e| format!("{option} {}: cannot read: {e}", path.display()).into())
+    if height_assumed {
+        assumptions.push(
+            "height 0 m assumed: no [site] given (--height or a configuration's [site] sets \
+             it); gravity falls 3.1e-6 m/s^2 a metre above it, which the accelerometers' scale \
+             factors take up (0.3 ppm a metre)"
+                .to_string(),
+        );
+    }
+    assumptions
 }
 
 /// The section list at `path`, checked against the records of `data` before any work
@@ -243,166 +219,6 @@ pub(crate) fn read_sections(
         .check_records(&times)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(sections)
-}
-
-/// The free-motion block of the JSON result (docs/formats.md).
-#[derive(Serialize)]
-pub struct FreeMotionJson {
-    /// Where the noise came from: `"configured"` or `"measured in the rests"`.
-    noise_source: &'static str,
-    /// The levels the filter used (sigma of a 1-s mean).
-    noise_gyro_deg_h: f64,
-    noise_accel_m_s2: f64,
-    motion_attitude_noise_deg: f64,
-    /// Measured noise: the rests' scatter and the factor on its specific-force level.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    measured: Option<MeasuredJson>,
-    gravity_m_s2: f64,
-    static_intervals: usize,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    held_out_every: Option<usize>,
-    /// The grade chosen from the data (without a configuration).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    grade: Option<GradeJson>,
-    terms: Vec<&'static str>,
-    turns: Vec<TurnJson>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    validation: Option<ValidationJson>,
-}
-
-#[derive(Serialize)]
-struct MeasuredJson {
-    gyro_deg_h: f64,
-    accel_m_s2: f64,
-    dof: usize,
-    accel_factor: f64,
-    /// The innovations' variance over the rests' own noise, and its p-value.
-    scatter_ratio: f64,
-    scatter_p_value: f64,
-    motion_attitude_noise_deg: f64,
-    motion_windows: usize,
-    fits: usize,
-}
-
-#[derive(Serialize)]
-struct GradeJson {
-    grade: &'static str,
-    by_noise: &'static str,
-    by_rest_rate: &'static str,
-    rest_rate_excess_deg_h: f64,
-}
-
-#[derive(Serialize)]
-struct TurnJson {
-    name: String,
-    expected_deg: f64,
-    before_deg: f64,
-    after_deg: f64,
-}
-
-#[derive(Serialize)]
-struct BeforeAfter {
-    before: f64,
-    after: f64,
-}
-
-#[derive(Serialize)]
-struct ValidationJson {
-    static_rms_m_s2: BeforeAfter,
-    rotation_rms_deg: BeforeAfter,
-    intervals: usize,
-    rotation_pairs: usize,
-    /// Whether the rotation figure takes the Earth's rotation out, and the floor it leaves
-    /// where it cannot (deg).
-    earth_rate_compensated: bool,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    earth_rate_floor_deg: Option<f64>,
-    fitted_static_rms_m_s2: f64,
-    fitted_intervals: usize,
-    held_out_motion_rms_deg: f64,
-    held_out_motions: usize,
-    fitted_motion_rms_deg: f64,
-    fitted_motions: usize,
-}
-
-/// The JSON block of a result.
-pub fn json(r: &HandTurnedResult, setup: &SetupSummary, holdout: Option<usize>) -> FreeMotionJson {
-    let measured = match r.noise {
-        NoiseSource::Configured => None,
-        NoiseSource::Measured {
-            at_rest,
-            accel_factor,
-            excess,
-            motion_noise_deg,
-            motion_windows,
-            fits,
-            ..
-        } => Some(MeasuredJson {
-            gyro_deg_h: at_rest.gyro_rad_s / DEG_PER_HOUR,
-            accel_m_s2: at_rest.accel_m_s2,
-            dof: at_rest.dof,
-            accel_factor,
-            scatter_ratio: excess.ratio,
-            scatter_p_value: excess.p_value,
-            motion_attitude_noise_deg: motion_noise_deg,
-            motion_windows,
-            fits,
-        }),
-    };
-    FreeMotionJson {
-        noise_source: match r.noise {
-            NoiseSource::Configured => "configured",
-            NoiseSource::Measured { .. } => "measured in the rests",
-        },
-        noise_gyro_deg_h: r.config.noise.gyro_deg_h,
-        noise_accel_m_s2: r.config.noise.accel_m_s2,
-        motion_attitude_noise_deg: r.config.filter.motion_attitude_noise_deg,
-        measured,
-        gravity_m_s2: r.config.site().specific_force_at_rest_enu().norm(),
-        static_intervals: r.estimate.rests.len(),
-        held_out_every: holdout,
-        grade: setup.grade.map(|g| GradeJson {
-            grade: g.grade.name(),
-            by_noise: g.by_noise.name(),
-            by_rest_rate: g.by_rest_rate.name(),
-            rest_rate_excess_deg_h: g.rest_rate_excess_deg_h,
-        }),
-        terms: setup.terms.iter().map(|c| c.id()).collect(),
-        turns: r
-            .evaluation
-            .turns
-            .iter()
-            .map(|t| TurnJson {
-                name: t.name.clone(),
-                expected_deg: t.expected_rad.to_degrees(),
-                before_deg: t.before_rad.to_degrees(),
-                after_deg: t.after_rad.to_degrees(),
-            })
-            .collect(),
-        validation: r.evaluation.validation.map(|v| ValidationJson {
-            static_rms_m_s2: BeforeAfter {
-                before: v.static_rms_before_m_s2,
-                after: v.static_rms_after_m_s2,
-            },
-            rotation_rms_deg: BeforeAfter {
-                before: v.rotation_rms_before_rad.to_degrees(),
-                after: v.rotation_rms_after_rad.to_degrees(),
-            },
-            intervals: v.intervals,
-            rotation_pairs: v.rotation_pairs,
-            earth_rate_compensated: v.earth_rate == EarthRateTreatment::Compensated,
-            earth_rate_floor_deg: match v.earth_rate {
-                EarthRateTreatment::Compensated => None,
-                EarthRateTreatment::NotResolved { floor_rad } => Some(floor_rad.to_degrees()),
-            },
-            fitted_static_rms_m_s2: v.fitted_static_rms_m_s2,
-            fitted_intervals: v.fitted_intervals,
-            held_out_motion_rms_deg: v.held_out_motion_rms_rad.to_degrees(),
-            held_out_motions: v.held_out_motions,
-            fitted_motion_rms_deg: v.fitted_motion_rms_rad.to_degrees(),
-            fitted_motions: v.fitted_motions,
-        }),
-    }
 }
 
 /// What the report and the JSON say of a run's setup beyond its result: where the
@@ -430,151 +246,215 @@ impl Setup {
     }
 }
 
-/// The head lines of the report that only a hand-turned recording has: the noise and the
-/// model.
-pub fn header(setup: &SetupSummary, r: &HandTurnedResult, holdout: Option<usize>) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "  settings        {}", setup.origin);
-    if let Some(g) = &setup.grade {
-        let _ = writeln!(s, "  grade           {}", g.describe());
-    }
+/// What the printout, the JSON and the report say of a hand-turned run beyond the parameters,
+/// computed once from its result ([`figures`]).
+#[derive(Clone, Debug)]
+pub struct FreeMotionFigures {
+    /// Where the configuration came from.
+    pub origin: String,
+    /// The grade chosen from the data (without a configuration).
+    pub grade: Option<GradeChoice>,
+    /// The grade whose priors the model has.
+    pub grade_name: &'static str,
+    /// Where the noise came from, with what was measured.
+    pub noise: NoiseFigures,
+    /// The levels the filter used (sigma of a 1-s mean): gyro (deg/h), specific force (m/s^2).
+    pub noise_gyro_deg_h: f64,
+    /// See `noise_gyro_deg_h`.
+    pub noise_accel_m_s2: f64,
+    /// The attitude noise of a motion (deg).
+    pub motion_attitude_noise_deg: f64,
+    /// Normal gravity at the site (m/s^2).
+    pub gravity_m_s2: f64,
+    /// The rests as static intervals.
+    pub static_intervals: usize,
+    /// Every K-th rest held out.
+    pub holdout: Option<usize>,
+    /// The terms beyond the paper's model (ids).
+    pub terms: Vec<&'static str>,
+    /// The known turns before and after calibration.
+    pub turns: Vec<TurnFigures>,
+    /// Their measurements' mean NIS ([`known_turns`]).
+    pub known_turns: Option<(usize, f64, f64)>,
+    /// `|f| - g` RMS over the fitted rests (m/s^2) before and after, and their number.
+    pub fitted_static_rms_m_s2: (f64, f64),
+    /// See `fitted_static_rms_m_s2`.
+    pub fitted_rests: usize,
+    /// The held-out rests' figures (with a hold-out).
+    pub validation: Option<ValidationFigures>,
+}
+
+/// Where the noise levels came from.
+#[derive(Clone, Copy, Debug)]
+pub enum NoiseFigures {
+    /// The configuration's.
+    Configured,
+    /// Measured in the rests.
+    Measured(MeasuredFigures),
+}
+
+/// The noise measured in the rests and brought to the fit's innovations.
+#[derive(Clone, Copy, Debug)]
+pub struct MeasuredFigures {
+    /// The rests' scatter (1-s means): gyro (deg/h), specific force (m/s^2).
+    pub gyro_deg_h: f64,
+    /// See `gyro_deg_h`.
+    pub accel_m_s2: f64,
+    /// Degrees of freedom of the rests' scatter.
+    pub dof: usize,
+    /// The factor on the specific force's level.
+    pub accel_factor: f64,
+    /// The innovations' variance over the rests' own noise, its p-value, and whether it is
+    /// significant.
+    pub scatter_ratio: f64,
+    /// See `scatter_ratio`.
+    pub scatter_p_value: f64,
+    /// See `scatter_ratio`.
+    pub scatter_significant: bool,
+    /// The motion noise measured (deg), from how many windows, in how many fits.
+    pub motion_noise_deg: f64,
+    /// See `motion_noise_deg`.
+    pub motion_windows: usize,
+    /// See `motion_noise_deg`.
+    pub fits: usize,
+}
+
+/// A known turn (deg).
+#[derive(Clone, Debug)]
+pub struct TurnFigures {
+    /// Its name in the section list.
+    pub name: String,
+    /// Expected, from the raw gyros, and after calibration.
+    pub expected_deg: f64,
+    /// See `expected_deg`.
+    pub before_deg: f64,
+    /// See `expected_deg`.
+    pub after_deg: f64,
+}
+
+/// The held-out rests' figures ([`calib::motion::free_motion::Validation`]) in the units
+/// printed.
+#[derive(Clone, Copy, Debug)]
+pub struct ValidationFigures {
+    /// Held-out rests and pairs of consecutive ones.
+    pub intervals: usize,
+    /// See `intervals`.
+    pub rotation_pairs: usize,
+    /// Held-out `|f| - g` RMS before and after (m/s^2).
+    pub static_rms_m_s2: (f64, f64),
+    /// Gravity-direction RMS between held-out pairs before and after (deg).
+    pub rotation_rms_deg: (f64, f64),
+    /// `None`: the Earth's rotation taken out; else the floor it leaves (deg).
+    pub earth_rate_floor_deg: Option<f64>,
+    /// The fitted rests' `|f| - g` RMS (m/s^2) and their number.
+    pub fitted_static_rms_m_s2: f64,
+    /// See `fitted_static_rms_m_s2`.
+    pub fitted_intervals: usize,
+    /// Gravity direction over single motions into or out of held-out rests (deg), and count.
+    pub held_out_motion_rms_deg: f64,
+    /// See `held_out_motion_rms_deg`.
+    pub held_out_motions: usize,
+    /// The same between fitted rests (deg), and count.
+    pub fitted_motion_rms_deg: f64,
+    /// See `fitted_motion_rms_deg`.
+    pub fitted_motions: usize,
+}
+
+/// The figures of a hand-turned run's result `r` with its `setup` and hold-out.
+pub fn figures(
+    r: &HandTurnedResult,
+    setup: &SetupSummary,
+    holdout: Option<usize>,
+) -> FreeMotionFigures {
     let c = &r.config;
-    match r.noise {
-        NoiseSource::Configured => {
-            let _ = writeln!(
-                s,
-                "  noise           configured: gyro {} deg/h, specific force {} m/s^2 (1-s means)",
-                table::significant(c.noise.gyro_deg_h, 3),
-                table::significant(c.noise.accel_m_s2, 3)
-            );
-        }
+    let fitted: Vec<_> = r.evaluation.poses.iter().filter(|p| !p.held_out).collect();
+    let rms = |f: fn(&calib::motion::free_motion::PoseResidual) -> f64| {
+        (fitted.iter().map(|p| f(p).powi(2)).sum::<f64>() / fitted.len().max(1) as f64).sqrt()
+    };
+    FreeMotionFigures {
+        origin: setup.origin.clone(),
+        grade: setup.grade,
+        grade_name: c.unit_grade().name(),
+        noise: noise_figures(&r.noise),
+        noise_gyro_deg_h: c.noise.gyro_deg_h,
+        noise_accel_m_s2: c.noise.accel_m_s2,
+        motion_attitude_noise_deg: c.filter.motion_attitude_noise_deg,
+        gravity_m_s2: c.site().specific_force_at_rest_enu().norm(),
+        static_intervals: r.estimate.rests.len(),
+        holdout,
+        terms: setup.terms.iter().map(|c| c.id()).collect(),
+        turns: turn_figures(&r.evaluation),
+        known_turns: known_turns(&r.estimate.stats),
+        fitted_static_rms_m_s2: (rms(|p| p.before_m_s2), rms(|p| p.after_m_s2)),
+        fitted_rests: fitted.len(),
+        validation: r.evaluation.validation.map(|v| ValidationFigures {
+            intervals: v.intervals,
+            rotation_pairs: v.rotation_pairs,
+            static_rms_m_s2: (v.static_rms_before_m_s2, v.static_rms_after_m_s2),
+            rotation_rms_deg: (
+                v.rotation_rms_before_rad.to_degrees(),
+                v.rotation_rms_after_rad.to_degrees(),
+            ),
+            earth_rate_floor_deg: match v.earth_rate {
+                EarthRateTreatment::Compensated => None,
+                EarthRateTreatment::NotResolved { floor_rad } => Some(floor_rad.to_degrees()),
+            },
+            fitted_static_rms_m_s2: v.fitted_static_rms_m_s2,
+            fitted_intervals: v.fitted_intervals,
+            held_out_motion_rms_deg: v.held_out_motion_rms_rad.to_degrees(),
+            held_out_motions: v.held_out_motions,
+            fitted_motion_rms_deg: v.fitted_motion_rms_rad.to_degrees(),
+            fitted_motions: v.fitted_motions,
+        }),
+    }
+}
+
+/// The known turns measured: updates, mean NIS, and the half-width of its band about 1
+/// (three standard deviations of a mean of chi-square(1) values, `3 sqrt(2 / n)`); `None`
+/// without turns.
+pub fn known_turns(stats: &calib::estimate::FitStatistics) -> Option<(usize, f64, f64)> {
+    (stats.turn_updates > 0).then(|| {
+        let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
+        (stats.turn_updates, stats.turn_mean_nis, half)
+    })
+}
+
+/// The noise's source in the units printed.
+fn noise_figures(noise: &NoiseSource) -> NoiseFigures {
+    match *noise {
+        NoiseSource::Configured => NoiseFigures::Configured,
         NoiseSource::Measured {
             at_rest,
             accel_factor,
             excess,
+            motion_noise_deg,
             motion_windows,
             fits,
             ..
-        } => {
-            let _ = writeln!(
-                s,
-                "  noise           measured in the rests (1-s means, {} degrees of freedom): gyro \
-                 {} deg/h, specific force {} m/s^2",
-                at_rest.dof,
-                table::significant(at_rest.gyro_rad_s / DEG_PER_HOUR, 3),
-                table::significant(at_rest.accel_m_s2, 3)
-            );
-            let _ = writeln!(
-                s,
-                "                  specific force scaled by {} to {} m/s^2, the scatter of the \
-                 fit's innovations ({} the rests' own noise: variance ratio {}, p = {:.2e})",
-                table::significant(accel_factor, 3),
-                table::significant(c.noise.accel_m_s2, 3),
-                if excess.significant() {
-                    "significantly more than"
-                } else {
-                    "consistent with"
-                },
-                table::significant(excess.ratio, 3),
-                excess.p_value
-            );
-            let _ = writeln!(
-                s,
-                "                  motion noise measured from the first window after each of {} \
-                 motions; {fits} fit{} to bring both to the innovations",
-                motion_windows,
-                if fits == 1 { "" } else { "s" }
-            );
-        }
+        } => NoiseFigures::Measured(MeasuredFigures {
+            gyro_deg_h: at_rest.gyro_rad_s / DEG_PER_HOUR,
+            accel_m_s2: at_rest.accel_m_s2,
+            dof: at_rest.dof,
+            accel_factor,
+            scatter_ratio: excess.ratio,
+            scatter_p_value: excess.p_value,
+            scatter_significant: excess.significant(),
+            motion_noise_deg,
+            motion_windows,
+            fits,
+        }),
     }
-    let _ = writeln!(
-        s,
-        "  motions         {} deg of attitude noise per motion (what the gyros' model misses \
-         in a hand turn; filter.motion_attitude_noise_deg)",
-        table::significant(c.filter.motion_attitude_noise_deg, 3)
-    );
-    let _ = writeln!(
-        s,
-        "  gravity         {} m/s^2",
-        table::significant(c.site().specific_force_at_rest_enu().norm(), 7)
-    );
-    let _ = writeln!(
-        s,
-        "  terms           {} (at {}-grade priors)",
-        if setup.terms.is_empty() {
-            "the paper's model only (--terms or --terms-from adds others)".to_string()
-        } else {
-            format!(
-                "the paper's model and {}",
-                setup
-                    .terms
-                    .iter()
-                    .map(|c| c.id())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        },
-        c.unit_grade().name()
-    );
-    if let Some(k) = holdout {
-        let _ = writeln!(
-            s,
-            "  held out        every {k}-th rest: its measurements are predicted, not used"
-        );
-    }
-    s
 }
 
-/// The turns and the held-out validation, for the report.
-pub fn evaluation_report(e: &Evaluation) -> String {
-    let mut s = String::new();
-    for t in &e.turns {
-        let _ = writeln!(
-            s,
-            "  turn {}: expected {:.1} deg, raw gyro {:.2} deg, calibrated {:.2} deg",
-            t.name,
-            t.expected_rad.to_degrees(),
-            t.before_rad.to_degrees(),
-            t.after_rad.to_degrees()
-        );
-    }
-    let fitted: Vec<_> = e.poses.iter().filter(|p| !p.held_out).collect();
-    let rms = |f: fn(&calib::motion::free_motion::PoseResidual) -> f64| {
-        (fitted.iter().map(|p| f(p).powi(2)).sum::<f64>() / fitted.len().max(1) as f64).sqrt()
-    };
-    let _ = writeln!(
-        s,
-        "  static |f| - g RMS over the {} fitted rests: before {:.5} m/s^2, after {:.5} m/s^2",
-        fitted.len(),
-        rms(|p| p.before_m_s2),
-        rms(|p| p.after_m_s2)
-    );
-    if let Some(v) = &e.validation {
-        let _ = writeln!(
-            s,
-            "\nHeld-out validation ({} rests, {} pairs of consecutive ones)\n  static |f| - g \
-             RMS        before {:.5} m/s^2, after {:.5} m/s^2\n  rotation (gravity direction) \
-             RMS  before {:.3} deg, after {:.3} deg{}\n  over single motions     into or out of \
-             held-out rests {:.3} deg ({}), between fitted rests {:.3} deg ({})",
-            v.intervals,
-            v.rotation_pairs,
-            v.static_rms_before_m_s2,
-            v.static_rms_after_m_s2,
-            v.rotation_rms_before_rad.to_degrees(),
-            v.rotation_rms_after_rad.to_degrees(),
-            match v.earth_rate {
-                EarthRateTreatment::Compensated => " (the Earth's rotation taken out)".to_string(),
-                EarthRateTreatment::NotResolved { floor_rad } => format!(
-                    " (the Earth's rotation not taken out: the gyros do not resolve the \
-                     heading; it adds up to {:.3} deg RMS over these pairs)",
-                    floor_rad.to_degrees()
-                ),
-            },
-            v.held_out_motion_rms_rad.to_degrees(),
-            v.held_out_motions,
-            v.fitted_motion_rms_rad.to_degrees(),
-            v.fitted_motions
-        );
-    }
-    s
+/// The known turns in degrees.
+fn turn_figures(e: &Evaluation) -> Vec<TurnFigures> {
+    e.turns
+        .iter()
+        .map(|t| TurnFigures {
+            name: t.name.clone(),
+            expected_deg: t.expected_rad.to_degrees(),
+            before_deg: t.before_rad.to_degrees(),
+            after_deg: t.after_rad.to_degrees(),
+        })
+        .collect()
 }

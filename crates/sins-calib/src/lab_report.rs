@@ -9,247 +9,60 @@
 //! earlier run survives.
 
 use crate::Error;
+use crate::free_motion::{FreeMotionFigures, NoiseFigures};
+use crate::identification::{Identification, NAMES};
 use crate::output::DirOutput;
+use crate::run_report::Verdict;
 use crate::table;
 use calib::check::diagnostics::{Diagnostics, kind_serde};
 use calib::check::stats::p_value_text;
-use calib::config::RunConfig;
 use calib::estimate::Estimate;
-use calib::io::ResultFile;
+use calib::estimate::hand_turned::VerdictTest;
 use calib::model::MeasurementKind;
-use calib::report::lab;
+use calib::report::lab::{self, MeanNis, ParameterRow, SegmentRow};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
-
-/// Every file a report directory may hold (the names an earlier report may have left).
-pub const NAMES: [&str; 13] = [
-    "report.md",
-    "temperature.png",
-    "correlation.png",
-    "residuals_accel.png",
-    "residuals_turntable.png",
-    "nis_segments_accel.png",
-    "nis_segments_turntable.png",
-    "spectrum_accel.png",
-    "spectrum_turntable.png",
-    "autocorrelation_accel.png",
-    "autocorrelation_turntable.png",
-    "innovations_accel.png",
-    "innovations_turntable.png",
-];
+use std::path::Path;
 
 /// Failing tests listed in the verdict's table; the rest are counted (all are in the JSON).
 const FAILING_TESTS_SHOWN: usize = 40;
 
-/// A file the run read, identified by its content.
-struct InputFile {
-    role: String,
-    path: PathBuf,
-    sha256: String,
-    bytes: u64,
-}
-
-/// What identifies a run: inputs, configuration, tool, date and command line.
-pub struct Identification {
-    inputs: Vec<InputFile>,
-    config_shown: String,
-    config_sha256: String,
-    config_text: String,
-    command_line: String,
-    date_utc: String,
-    /// The unit the data are of (empty: unknown).
-    unit: calib::config::UnitIdentity,
-    /// What the run assumed for want of an input.
-    assumptions: Vec<String>,
-}
-
-impl Identification {
-    /// Add the run's unit, assumptions and the inputs its provenance hashed (the import's
-    /// profile and raw files) that are not listed yet.
-    pub fn with_provenance(
-        mut self,
-        p: &crate::provenance::RunProvenance,
-        assumptions: &[String],
-    ) -> Self {
-        self.unit = p.unit.clone();
-        self.assumptions = assumptions.to_vec();
-        for f in &p.inputs {
-            if !self.inputs.iter().any(|i| i.sha256 == f.sha256) {
-                self.inputs.push(InputFile {
-                    role: f.role.clone(),
-                    path: PathBuf::from(&f.path),
-                    sha256: f.sha256.clone(),
-                    bytes: f.bytes,
-                });
-            }
-        }
-        self
-    }
-}
-
-/// Identify a run of `sins-calib`: hash the `inputs` (role, path) and the configuration given
-/// as `config_arg` (a file or an embedded name), with the program file it names.
-pub fn identify(
-    inputs: &[(&'static str, &Path)],
-    config_arg: Option<&str>,
-    config: &RunConfig,
-) -> Result<Identification, Error> {
-    let mut files = Vec::new();
-    let mut add = |role: &'static str, path: &Path| -> Result<(), Error> {
-        let (sha256, bytes) = crate::sha256::of_file(path)?;
-        files.push(InputFile {
-            role: role.to_string(),
-            path: path.to_path_buf(),
-            sha256,
-            bytes,
-        });
-        Ok(())
-    };
-    for (role, path) in inputs {
-        add(role, path)?;
-    }
-    let (config_shown, config_text) = match config_arg {
-        // Made from the recording (`--free-motion` without --config): shown as used.
-        None => (
-            "<made from the recording (--free-motion)>".to_string(),
-            config.to_toml()?,
-        ),
-        Some("paper") => (
-            "<embedded paper config>".to_string(),
-            calib::config::PAPER_CONFIG_TOML.to_string(),
-        ),
-        Some("paper-reconciled") => (
-            "<embedded paper-reconciled config>".to_string(),
-            calib::paper::PAPER_RECONCILED_TOML.to_string(),
-        ),
-        Some(path) => {
-            let text = sins_model::text::read_text_bounded(
-                std::path::Path::new(path),
-                sins_model::text::CONFIGURATION_MAX_BYTES,
-                "configuration",
-            )
-            .map_err(|e| format!("{path}: cannot read the configuration again: {e}"))?;
-            (path.to_string(), text)
-        }
-    };
-    if let Some(program) = program_file(config) {
-        add("rotation program", &program)?;
-    }
-    Ok(Identification {
-        inputs: files,
-        config_sha256: crate::sha256::of_bytes(config_text.as_bytes()),
-        config_shown,
-        config_text,
-        command_line: command_line(),
-        date_utc: utc_now(),
-        unit: Default::default(),
-        assumptions: Vec::new(),
-    })
-}
-
-/// The program file a configuration names (none for the embedded program, an inline one, or
-/// one read from the angles).
-pub(crate) fn program_file(config: &RunConfig) -> Option<PathBuf> {
-    if config.inline_program.is_some() || config.program == "paper" || config.program_from_angles()
-    {
-        return None;
-    }
-    Some(match &config.base_dir {
-        Some(d) => d.join(&config.program),
-        None => PathBuf::from(&config.program),
-    })
-}
-
-/// The command line as a shell would take it back (arguments quoted where needed).
-fn command_line() -> String {
-    std::env::args()
-        .enumerate()
-        .map(|(i, a)| {
-            let a = if i == 0 { "sins-calib".to_string() } else { a };
-            let plain = !a.is_empty()
-                && a.chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
-            if plain {
-                a
-            } else {
-                format!("'{}'", a.replace('\'', r"'\''"))
-            }
-        })
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// Days since 1970-01-01 as (year, month, day) in the proleptic Gregorian calendar
-/// (H. Hinnant's `civil_from_days`).
-fn civil_from_days(days: i64) -> (i64, u32, u32) {
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = (doy - (153 * mp + 2) / 5 + 1) as u32;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    (year, month, day)
-}
-
-/// Seconds since the Unix epoch as `YYYY-MM-DD HH:MM:SS UTC`.
-fn utc_text(seconds: i64) -> String {
-    let (days, secs) = (seconds.div_euclid(86_400), seconds.rem_euclid(86_400));
-    let (y, m, d) = civil_from_days(days);
-    format!(
-        "{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC",
-        secs / 3600,
-        secs / 60 % 60,
-        secs % 60
-    )
-}
-
-/// The system clock's date and time (UTC).
-fn utc_now() -> String {
-    match std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH) {
-        Ok(d) => utc_text(d.as_secs() as i64),
-        Err(_) => "unknown (the system clock is before 1970)".into(),
-    }
-}
-
-/// One fit as the report shows it.
+/// One fit as the report draws it.
 pub struct FitView<'a> {
-    /// The estimate (parameters, covariance, innovations, segments, statistics).
+    /// The estimate (innovations, segments, temperatures).
     pub est: &'a Estimate,
     /// Its diagnostics.
     pub diagnostics: &'a Diagnostics,
 }
 
-/// The verdict of the command, as its exit status says it.
-pub struct Verdict {
-    /// Whether the model fits the data.
-    pub fits: bool,
-    /// The command's exit status.
-    pub exit_status: u8,
-    /// Why it does not fit, one line each (empty when it fits).
-    pub reasons: Vec<String>,
-    /// How the command decides (one sentence).
-    pub rule: &'static str,
-}
-
-/// Everything a report shows.
+/// Everything a report shows, each figure computed by the command before (the laboratory
+/// report renders; `crate::run_report`, `crate::diagnosis`).
 pub struct Report<'a> {
     /// Heading, e.g. "Calibration report".
     pub title: &'static str,
     /// Inputs, configuration, tool, date, command line.
-    pub id: Identification,
+    pub id: &'a Identification,
     /// The verdict.
-    pub verdict: Verdict,
-    /// The reported fit (for `diagnose` the final model).
+    pub verdict: &'a Verdict,
+    /// The mean NIS of each measurement against its band.
+    pub mean_nis: &'a [MeanNis],
+    /// A hand-turned recording: its noise, held-out rests and known turns.
+    pub hand_turned: Option<&'a FreeMotionFigures>,
+    /// The parameters in their report units.
+    pub parameters: &'a [ParameterRow],
+    /// Parameters the data leave at their prior, with their posterior over prior sigma.
+    pub unobserved: &'a [(String, f64)],
+    /// Against a truth: the printout's lines on it (NEES, largest error).
+    pub truth: Option<String>,
+    /// The posterior correlation (names, matrix) and its strongest pairs.
+    pub correlation: &'a (Vec<String>, Vec<Vec<f64>>),
+    /// See `correlation`.
+    pub strongest: &'a [(String, String, f64)],
+    /// The NIS of every segment of every measurement.
+    pub segments: &'a [SegmentRow],
+    /// The reported fit (for `diagnose` the final model), for the plots.
     pub fit: FitView<'a>,
-    /// `diagnose` with accepted terms: the paper's model, shown beside the final one.
+    /// `diagnose` with accepted terms: the paper's model, drawn beside the final one.
     pub base: Option<FitView<'a>>,
-    /// Whether the turntable angles were used.
-    pub with_turntable: bool,
-    /// A truth and the report's lines on it (NEES, largest error).
-    pub truth: Option<(&'a ResultFile, String)>,
     /// `diagnose`: the model-extension section (Markdown).
     pub extension: Option<String>,
 }
@@ -260,11 +73,11 @@ pub fn write(dir: &Path, report: &Report<'_>) -> Result<usize, Error> {
     let out = DirOutput::begin(dir, &NAMES)?;
     let tmp = out.tmp_dir();
     let mut md = format!("# {}\n\n", report.title);
-    md += &identification_md(&report.id);
+    md += &identification_md(report.id);
     md += &verdict_md(report);
     md += &parameters_md(report);
     let mut plots = 0;
-    md += &correlation_md(tmp, report.fit.est, &mut plots)?;
+    md += &correlation_md(tmp, report, &mut plots)?;
     md += &residuals_md(tmp, report, &mut plots)?;
     md += &segments_md(tmp, report, &mut plots)?;
     if let Some(ext) = &report.extension {
@@ -275,50 +88,6 @@ pub fn write(dir: &Path, report: &Report<'_>) -> Result<usize, Error> {
     std::fs::write(&path, md).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     out.commit()?;
     Ok(plots)
-}
-
-/// Whether a fit used the turntable angles (its layout has their delay).
-pub fn with_turntable(est: &Estimate) -> bool {
-    est.names
-        .iter()
-        .any(|n| n == sins_model::names::TURNTABLE_TAU)
-}
-
-/// Write the report of `calibrate` into `dir`: the fit `est` with its diagnostics `d`, the
-/// reasons it does not fit (`bad`, empty when it fits) and a truth with its lines. Returns the
-/// number of plots.
-pub fn write_calibration(
-    dir: &Path,
-    id: Identification,
-    est: &Estimate,
-    d: &Diagnostics,
-    bad: &[String],
-    truth: Option<(&ResultFile, String)>,
-) -> Result<usize, Error> {
-    let report = Report {
-        title: "Calibration report",
-        id,
-        verdict: Verdict {
-            fits: bad.is_empty(),
-            exit_status: if bad.is_empty() {
-                0
-            } else {
-                crate::MODEL_DOES_NOT_FIT
-            },
-            reasons: bad.to_vec(),
-            rule: "The model fits when the mean NIS of every measurement is inside its band and \
-                   no test of the innovations fails.",
-        },
-        fit: FitView {
-            est,
-            diagnostics: d,
-        },
-        base: None,
-        with_turntable: with_turntable(est),
-        truth,
-        extension: None,
-    };
-    write(dir, &report)
 }
 
 fn identification_md(id: &Identification) -> String {
@@ -366,33 +135,194 @@ fn identification_md(id: &Identification) -> String {
 }
 
 fn verdict_md(report: &Report<'_>) -> String {
-    let v = &report.verdict;
+    let v = report.verdict;
     let mut s = String::from("## 2. Verdict\n\n");
-    if v.fits {
-        let _ = writeln!(
-            s,
-            "**The model fits these data** (exit status {}). {}\n",
-            v.exit_status, v.rule
-        );
+    let headline = if !v.fits() {
+        "**THE MODEL DOES NOT FIT THESE DATA**"
+    } else if !v.tested {
+        "**The model was not tested**"
+    } else if !v.tests.is_empty() {
+        "**Nothing contradicts the model**"
     } else {
-        let _ = writeln!(
-            s,
-            "**THE MODEL DOES NOT FIT THESE DATA** (exit status {}): the estimates below are \
-             not to be trusted. {}\n",
-            v.exit_status, v.rule
-        );
+        "**The model fits these data**"
+    };
+    let _ = writeln!(
+        s,
+        "{headline} (exit status {}){} {}\n",
+        v.exit_status(),
+        if v.fits() {
+            "."
+        } else {
+            ": the estimates below are not to be trusted."
+        },
+        v.rule
+    );
+    let _ = writeln!(s, "The verdict rests on {}.\n", v.basis);
+    if !v.fits() {
         for r in &v.reasons {
             let _ = writeln!(s, "- {r}");
         }
         s.push('\n');
     }
+    if !v.findings.is_empty() {
+        let _ = writeln!(s, "Findings (they inform, they do not decide):\n");
+        for f in &v.findings {
+            let _ = writeln!(s, "- {f}");
+        }
+        s.push('\n');
+    }
+    if let Some(f) = report.hand_turned {
+        s += &noise_md(f);
+        s += &held_out_md(f, &v.tests);
+        s += &turns_md(f);
+    }
+    s += &mean_nis_md(report.mean_nis);
+    s += &failing_tests_md(report.fit.diagnostics);
+    s
+}
+
+/// Where the noise came from: the level the innovations are judged against (a hand-turned
+/// recording).
+fn noise_md(f: &FreeMotionFigures) -> String {
+    let mut s = String::from("Noise: ");
+    match f.noise {
+        NoiseFigures::Configured => {
+            let _ = write!(
+                s,
+                "configured, gyro {} deg/h and specific force {} m/s^2 (1-s means)",
+                table::significant(f.noise_gyro_deg_h, 3),
+                table::significant(f.noise_accel_m_s2, 3)
+            );
+        }
+        NoiseFigures::Measured(m) => {
+            let _ = write!(
+                s,
+                "measured in the rests (1-s means, {} degrees of freedom), gyro {} deg/h and \
+                 specific force {} m/s^2; the specific force's level scaled by {} to {} m/s^2, \
+                 the scatter of the fit's innovations, whose variance is {} times the rests' own \
+                 noise (p = {:.2e}: {}); the motion noise measured from {} motions in {} fit{}",
+                m.dof,
+                table::significant(m.gyro_deg_h, 3),
+                table::significant(m.accel_m_s2, 3),
+                table::significant(m.accel_factor, 3),
+                table::significant(f.noise_accel_m_s2, 3),
+                table::significant(m.scatter_ratio, 3),
+                m.scatter_p_value,
+                if m.scatter_significant {
+                    "significantly more than the rests' noise, a mismatch the held-out rests \
+                     weigh"
+                } else {
+                    "consistent with it"
+                },
+                m.motion_windows,
+                m.fits,
+                if m.fits == 1 { "" } else { "s" }
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "; {} deg of attitude noise per motion.\n",
+        table::significant(f.motion_attitude_noise_deg, 3)
+    );
+    s
+}
+
+/// The held-out tests with their figures, and the held-out rests before and after
+/// calibration.
+fn held_out_md(f: &FreeMotionFigures, tests: &[VerdictTest]) -> String {
+    let mut s = String::new();
+    if !tests.is_empty() {
+        let _ = writeln!(
+            s,
+            "| test | statistic | p | decides | result |\n|---|---:|---:|---|---|"
+        );
+        for t in tests {
+            let _ = writeln!(
+                s,
+                "| {} | {:.3} | {} | {} | {} |",
+                t.name,
+                t.statistic,
+                p_value_text(t.p_value),
+                if t.decides { "yes" } else { "no (informs)" },
+                if t.fails { "**fails**" } else { "passes" }
+            );
+        }
+        s.push('\n');
+    }
+    let Some(h) = &f.validation else {
+        let _ = writeln!(
+            s,
+            "No rest was held out (`--holdout K` predicts every K-th rest from the others).\n"
+        );
+        return s;
+    };
+    let _ = writeln!(
+        s,
+        "Held-out rests: {} (every {}-th), {} pairs of consecutive ones.\n\n| figure | before \
+         calibration | after |\n|---|---:|---:|\n| static \\|f\\| - g RMS [m/s^2] | {:.5} | \
+         {:.5} |\n| rotation (gravity direction) RMS [deg] | {:.3} | {:.3} |\n",
+        h.intervals,
+        f.holdout.unwrap_or(0),
+        h.rotation_pairs,
+        h.static_rms_m_s2.0,
+        h.static_rms_m_s2.1,
+        h.rotation_rms_deg.0,
+        h.rotation_rms_deg.1,
+    );
+    let _ = writeln!(
+        s,
+        "After calibration, against the fitted rests: static \\|f\\| - g RMS {:.5} m/s^2 over \
+         {} fitted rests; gravity direction over single motions {:.3} deg into or out of \
+         held-out rests ({}) and {:.3} deg between fitted ones ({}){}.\n",
+        h.fitted_static_rms_m_s2,
+        h.fitted_intervals,
+        h.held_out_motion_rms_deg,
+        h.held_out_motions,
+        h.fitted_motion_rms_deg,
+        h.fitted_motions,
+        match h.earth_rate_floor_deg {
+            None => "; the Earth's rotation taken out".to_string(),
+            Some(floor) => format!(
+                "; the Earth's rotation not taken out (the gyros do not resolve the heading): it \
+                 adds up to {floor:.3} deg RMS"
+            ),
+        }
+    );
+    s
+}
+
+/// The known turns of the section list, expected against the raw and calibrated gyros.
+fn turns_md(f: &FreeMotionFigures) -> String {
+    let Some((updates, mean, half)) = f.known_turns else {
+        return String::new();
+    };
+    let mut s = format!(
+        "Known turns: mean NIS {mean:.3} over {updates} turns (expected 1 +- {}).\n\n| turn | expected [deg] | raw gyros [deg] | calibrated [deg] \
+         |\n|---|---:|---:|---:|\n",
+        table::significant(half, 2)
+    );
+    for t in &f.turns {
+        let _ = writeln!(
+            s,
+            "| {} | {:.1} | {:.2} | {:.2} |",
+            t.name, t.expected_deg, t.before_deg, t.after_deg
+        );
+    }
+    s.push('\n');
+    s
+}
+
+/// The mean NIS of each measurement against its band.
+fn mean_nis_md(mean_nis: &[MeanNis]) -> String {
+    let mut s = String::new();
     let _ = writeln!(
         s,
         "Mean NIS per measurement (3 expected: three components per update, for the turntable \
          angles a little less, docs/estimation.md; band: three standard deviations of the mean, \
          3 sqrt(6/n)):\n\n| measurement | updates | mean NIS | band | inside |\n|---|---:|---:|---|---|"
     );
-    for m in lab::mean_nis_figures(&report.fit.est.stats, report.with_turntable) {
+    for m in mean_nis {
         let _ = writeln!(
             s,
             "| {} | {} | {:.3} | {} +- {} | {} |",
@@ -408,7 +338,6 @@ fn verdict_md(report: &Report<'_>) -> String {
             if m.consistent() { "yes" } else { "**no**" }
         );
     }
-    s += &failing_tests_md(report.fit.diagnostics);
     s
 }
 
@@ -453,9 +382,8 @@ fn failing_tests_md(d: &Diagnostics) -> String {
 }
 
 fn parameters_md(report: &Report<'_>) -> String {
-    let est = report.fit.est;
-    let truth = report.truth.as_ref().map(|(t, _)| *t);
-    let rows = lab::parameter_rows(est, truth);
+    let rows = report.parameters;
+    let truth = report.truth.as_ref();
     let mut s = String::from(
         "## 3. Parameters\n\nIn the paper's units (scale factors in ppm), with the posterior \
          1-sigma",
@@ -466,8 +394,7 @@ fn parameters_md(report: &Report<'_>) -> String {
     } else {
         ".\n\n| parameter | value | 1 sigma | unit |\n|---|---:|---:|---|\n"
     };
-    let names: Vec<String> = est.names.clone();
-    let first = calib::model::layout::StateLayout::INSTRUMENT;
+    let names: Vec<String> = rows.iter().map(|r| r.name.clone()).collect();
     for (title, members) in table::grouped(&names) {
         let _ = writeln!(
             s,
@@ -475,7 +402,7 @@ fn parameters_md(report: &Report<'_>) -> String {
             if truth.is_some() { " | |" } else { "" }
         );
         for i in members {
-            let r = &rows[i - first];
+            let r = &rows[i];
             let _ = write!(
                 s,
                 "| {} | {} | {} | {} |",
@@ -496,36 +423,31 @@ fn parameters_md(report: &Report<'_>) -> String {
             s.push('\n');
         }
     }
-    let unobserved = est.unobserved();
-    if !unobserved.is_empty() {
-        let list: Vec<String> = unobserved
-            .iter()
-            .map(|(n, r)| format!("{n} ({:.0} %)", 100.0 * r))
-            .collect();
+    if !report.unobserved.is_empty() {
         let _ = writeln!(
             s,
             "\nNot observed by this run (posterior sigma above {:.0} % of the prior: estimate = \
              prior): {}.",
             100.0 * calib::estimate::UNOBSERVED_SIGMA_RATIO,
-            list.join(", ")
+            crate::console::unobserved_list(report.unobserved)
         );
     }
-    if let Some((_, text)) = &report.truth {
+    if let Some(text) = &report.truth {
         let _ = writeln!(s, "\n```text\n{text}```");
     }
     s.push('\n');
     s
 }
 
-fn correlation_md(dir: &Path, est: &Estimate, plots: &mut usize) -> Result<String, Error> {
-    let (names, r) = lab::correlation(est);
-    crate::report_plots::correlation_png(&dir.join("correlation.png"), &names, &r)?;
+fn correlation_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<String, Error> {
+    let (names, r) = report.correlation;
+    crate::report_plots::correlation_png(&dir.join("correlation.png"), names, r)?;
     *plots += 1;
     let mut s = String::from(
         "## 4. Correlation of the estimates\n\n![posterior correlation matrix](correlation.png)\n\n\
          The strongest correlations:\n\n| parameter | parameter | correlation |\n|---|---|---:|\n",
     );
-    for (a, b, c) in lab::strongest_correlations(&names, &r, 8) {
+    for (a, b, c) in report.strongest {
         let _ = writeln!(s, "| {a} | {b} | {c:+.4} |");
     }
     s.push('\n');
@@ -549,7 +471,7 @@ fn residuals_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<St
          innovation covariance S). Segments are shaded alternately and numbered as in section \
          6; a segment whose NIS test fails is shaded red.\n\n",
     );
-    let rows = lab::segment_rows(d, &est.segments);
+    let rows = report.segments;
     for kind in kinds_of(d) {
         let failing: Vec<usize> = rows
             .iter()
@@ -632,7 +554,6 @@ fn residuals_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<St
 }
 
 fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<String, Error> {
-    let (est, d) = (report.fit.est, report.fit.diagnostics);
     let mut s = String::from(
         "## 6. NIS per segment\n\nThe NIS summed over each segment, over its degrees of freedom \
          (1 expected), against its band at the per-test level of the verdict",
@@ -648,7 +569,7 @@ fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<Str
     for f in &files {
         let _ = writeln!(s, "![NIS per segment]({f})\n");
     }
-    let rows = lab::segment_rows(d, &est.segments);
+    let d = report.fit.diagnostics;
     for kind in kinds_of(d) {
         let _ = writeln!(
             s,
@@ -656,7 +577,7 @@ fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<Str
              |\n|---:|---|---|---:|---:|---|---:|---|",
             calib::check::diagnostics::kind_label(kind)
         );
-        for r in rows.iter().filter(|r| r.kind == kind) {
+        for r in report.segments.iter().filter(|r| r.kind == kind) {
             let span = r.span_s.map_or("-".into(), |(a, b)| {
                 format!("{} .. {}", seconds(a), seconds(b))
             });
@@ -716,19 +637,4 @@ fn further_plots_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Resul
         let _ = writeln!(s, "![{}]({f})\n", f.trim_end_matches(".png"));
     }
     Ok(s)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn dates_are_formatted_from_the_epoch() {
-        assert_eq!(utc_text(0), "1970-01-01 00:00:00 UTC");
-        // 2000-02-29 (a leap day of a century leap year) 12:34:56.
-        assert_eq!(utc_text(951_827_696), "2000-02-29 12:34:56 UTC");
-        assert_eq!(utc_text(1_709_251_199), "2024-02-29 23:59:59 UTC");
-        assert_eq!(utc_text(4_107_542_400), "2100-03-01 00:00:00 UTC");
-        assert_eq!(utc_text(-1), "1969-12-31 23:59:59 UTC");
-    }
 }

@@ -20,13 +20,17 @@
 
 mod analyse;
 mod apply;
+mod args;
 mod calibrate;
+mod console;
 mod design;
 mod detector_args;
 mod diagnose;
 mod diagnose_report;
+mod diagnosis;
 mod diagnostic_plots;
 mod free_motion;
+mod identification;
 mod import;
 mod lab_report;
 mod noise;
@@ -38,11 +42,15 @@ mod plot;
 mod provenance;
 mod recording_checks;
 mod report_plots;
+mod result_json;
+mod run_report;
 mod segment;
+mod session;
 mod sha256;
 mod signals;
 mod simulate;
 mod table;
+mod terms;
 
 use calib::config::RunConfig;
 use clap::{Parser, Subcommand};
@@ -85,7 +93,7 @@ enum Command {
     /// the platform and the delay of the turntable data (and the base misalignment when the
     /// configuration's filter.estimate_base_misalignment is true). With --free-motion a
     /// hand-turned multi-position recording is calibrated without program or turntable.
-    Calibrate(calibrate::Args),
+    Calibrate(args::CalibrateArgs),
     /// Covariance analysis: the prior and posterior sigma of every parameter, without data.
     ///
     /// Runs the configuration's filter along the ideal motion of its rotation program and
@@ -118,10 +126,13 @@ enum Command {
     /// the innovations, add the best-supported one the program can separate, measure the gain,
     /// and repeat while it is significant (docs/model-extension.md).
     ///
-    /// Exit status: 0 when the final model fits the data (its diagnostics pass), 3 when it does
-    /// not (with or without accepted terms: the misfit is then one no candidate explains), 1
-    /// for refused input or another error, 2 for a malformed command line.
-    Diagnose(diagnose::Args),
+    /// Exit status: 0 when the final model fits the data by the rule of `calibrate` (its mean
+    /// NIS and the tests of its innovations; with the noise measured from a hand-turned
+    /// recording, its held-out rests), 3 when it does not or when the held-out check refused a
+    /// term the data call for (with or without accepted terms: the misfit is then one no
+    /// candidate explains), 1 for refused input or another error, 2 for a malformed command
+    /// line.
+    Diagnose(args::DiagnoseArgs),
     /// Propose a rotation program that separates the given candidate terms from the paper's
     /// parameters, printed as TOML with its predicted sigmas.
     Design(design::Args),
@@ -166,8 +177,9 @@ pub fn print(text: &str) -> Result<(), Error> {
     }
 }
 
-/// Exit status of a calibration whose model does not fit the data (a mean NIS outside its
-/// band): the estimates were computed and reported, but are not to be trusted. 1 is refused
+/// Exit status of a calibration whose model does not fit the data (the verdict's reasons: a
+/// mean NIS outside its band, a failing test of the innovations, held-out rests that
+/// contradict it): the estimates were computed and reported, but are not to be trusted. 1 is refused
 /// input or another error, 2 a malformed command line.
 pub const MODEL_DOES_NOT_FIT: u8 = 3;
 
@@ -176,23 +188,12 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate::run(&args).map(|()| ExitCode::SUCCESS),
-        Command::Calibrate(args) => calibrate::run(&args).map(|outcome| match outcome {
-            calibrate::Outcome::Fits => ExitCode::SUCCESS,
-            calibrate::Outcome::DoesNotFit => ExitCode::from(MODEL_DOES_NOT_FIT),
-        }),
+        Command::Calibrate(args) => calibrate::run(&args).map(ExitCode::from),
         Command::Analyse(args) => analyse::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Import(args) => import::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Segment(args) => segment::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Noise(args) => noise::run(&args).map(|()| ExitCode::SUCCESS),
-        Command::Diagnose(args) => diagnose::check_args(&args)
-            .and_then(|()| diagnose::run(&args))
-            .map(|fits| {
-                if fits {
-                    ExitCode::SUCCESS
-                } else {
-                    ExitCode::from(MODEL_DOES_NOT_FIT)
-                }
-            }),
+        Command::Diagnose(args) => diagnose::run(&args).map(ExitCode::from),
         Command::Design(args) => design::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Apply(args) => apply::run(&args).map(|()| ExitCode::SUCCESS),
     };

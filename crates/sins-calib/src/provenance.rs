@@ -170,6 +170,7 @@ pub fn import_beside(imu: &Path) -> Result<Option<(InputHash, ImportFound)>, Err
 }
 
 /// What a run records of its origin: the unit, the inputs' hashes, and notes on them.
+#[derive(Clone, Debug, Default)]
 pub struct RunProvenance {
     /// The unit the data are of (empty: unknown).
     pub unit: UnitIdentity,

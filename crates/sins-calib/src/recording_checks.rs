@@ -45,7 +45,6 @@ pub(crate) fn check_plausible_streamed(
         .into());
     }
     const G: f64 = ::import::profile::STANDARD_GRAVITY;
-    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let (mut t0, mut t1) = (f64::NAN, f64::NAN);
     let mut k = 0usize;
     let mut bad: Option<String> = None;
@@ -57,24 +56,7 @@ pub(crate) fn check_plausible_streamed(
         }
         t1 = t;
         if bad.is_none() {
-            for (what, v, max, unit) in [
-                ("angular rate", norm(&w), ::import::MAX_GYRO_RAD_S, "rad/s"),
-                (
-                    "specific force",
-                    norm(&f),
-                    ::import::MAX_ACCEL_M_S2,
-                    "m/s^2",
-                ),
-            ] {
-                if v.is_nan() || v >= max {
-                    bad = Some(format!(
-                        "{file}: line {}: the {what} has magnitude {v:e} {unit}: expected below \
-                         {max} {unit} (check the units the file was written with)",
-                        k + 2
-                    ));
-                    break;
-                }
-            }
+            bad = magnitude_error(file, k + 2, &w, &f);
         }
         if norm(&w) < G_AT_REST.0 * G {
             w_below += 1;
@@ -100,6 +82,37 @@ pub(crate) fn check_plausible_streamed(
     if w_below > n / 2 {
         return Ok(());
     }
+    check_columns_streamed(source, file)
+}
+
+/// The Euclidean norm of a triad.
+fn norm(v: &[f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// The message on a record (at `line`) whose rate or specific force is beyond what an IMU
+/// gives, or `None`.
+fn magnitude_error(file: &str, line: usize, w: &[f64; 3], f: &[f64; 3]) -> Option<String> {
+    [
+        ("angular rate", norm(w), ::import::MAX_GYRO_RAD_S, "rad/s"),
+        ("specific force", norm(f), ::import::MAX_ACCEL_M_S2, "m/s^2"),
+    ]
+    .into_iter()
+    .find(|(_, v, max, _)| v.is_nan() || v >= max)
+    .map(|(what, v, max, unit)| {
+        format!(
+            "{file}: line {line}: the {what} has magnitude {v:e} {unit}: expected below {max} \
+             {unit} (check the units the file was written with)"
+        )
+    })
+}
+
+/// Refuse swapped gyro and accelerometer columns, from the medians of the magnitudes.
+fn check_columns_streamed(
+    source: &mut ::calib::motion::detect::RateSource,
+    file: &str,
+) -> Result<(), Error> {
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
     let medians = ::calib::motion::detect::select::select_streamed(
         2,
         |_, len| len / 2,
@@ -198,46 +211,14 @@ pub(crate) fn check_at_rest(
     window: usize,
     window_s: f64,
 ) -> Result<(), Error> {
-    const G: f64 = ::import::profile::STANDARD_GRAVITY;
     let (_, w, f) = ::calib::motion::detect::rates_of(data);
-    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let mut norms: Vec<f64> = f.iter().map(norm).collect();
-    let median_f = median(&mut norms);
-    let ratio = median_f / G;
-    if !(G_AT_REST.0..=G_AT_REST.1).contains(&ratio) {
-        return Err(format!(
-            "{file}: the median specific force of the recording (--all-at-rest) is {} m/s^2 ({} \
-             g): expected g = {G} m/s^2 at rest, within {} .. {} g; the accelerometer values are \
-             not in m/s^2, or the gyro and accelerometer columns are swapped",
-            table::significant(median_f, 4),
-            table::significant(ratio, 4),
-            G_AT_REST.0,
-            G_AT_REST.1
-        )
-        .into());
-    }
+    check_median_force_at_rest(median(&mut norms), file)?;
     let window = window.max(2);
     let windows = f.len() / window;
     if windows < 2 {
         return Ok(());
     }
-    let mean_of = |v: &[[f64; 3]]| {
-        let mut m = [0.0; 3];
-        for x in v {
-            for a in 0..3 {
-                m[a] += x[a] / v.len() as f64;
-            }
-        }
-        m
-    };
-    let spread_of = |v: &[[f64; 3]]| {
-        let m = mean_of(v);
-        let ss: f64 = v
-            .iter()
-            .map(|x| (0..3).map(|a| (x[a] - m[a]).powi(2)).sum::<f64>())
-            .sum();
-        (ss / (v.len() - 1) as f64).sqrt()
-    };
     let mut f_all = [Vec::new(), Vec::new(), Vec::new()];
     for x in &f {
         for a in 0..3 {
@@ -262,20 +243,7 @@ pub(crate) fn check_at_rest(
             norm(&[m[0] - f_median[0], m[1] - f_median[1], m[2] - f_median[2]]) > MAX_TILT_M_S2
         })
         .count();
-    let moving = spinning.max(tilted);
-    if moving as f64 > MAX_MOVING_FRACTION * windows as f64 {
-        return Err(format!(
-            "{file}: --all-at-rest, but the recording moves: of its {windows} windows of {} s, \
-             {spinning} have a gyro spread above {MOTION_SPREAD_FACTOR} times the median \
-             window's ({} rad/s) and {tilted} a mean specific force more than {MAX_TILT_M_S2} \
-             m/s^2 from the recording's median: expected at most a tenth of them; leave out \
-             --all-at-rest to use the detector's static intervals",
-            table::significant(window_s, 3),
-            table::significant(typical, 3),
-        )
-        .into());
-    }
-    Ok(())
+    check_moving(file, (windows, spinning, tilted), window_s, typical)
 }
 
 /// `check_at_rest` (the held form, in tests) of records read again from their source: the
@@ -287,8 +255,6 @@ pub(crate) fn check_at_rest_streamed(
     window: usize,
     window_s: f64,
 ) -> Result<(), Error> {
-    const G: f64 = ::import::profile::STANDARD_GRAVITY;
-    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let medians = ::calib::motion::detect::select::select_streamed(
         4,
         |_, len| len / 2,
@@ -301,43 +267,13 @@ pub(crate) fn check_at_rest_streamed(
             })
         },
     )?;
-    let median_f = medians[0];
-    let ratio = median_f / G;
-    if !(G_AT_REST.0..=G_AT_REST.1).contains(&ratio) {
-        return Err(format!(
-            "{file}: the median specific force of the recording (--all-at-rest) is {} m/s^2 ({} \
-             g): expected g = {G} m/s^2 at rest, within {} .. {} g; the accelerometer values are \
-             not in m/s^2, or the gyro and accelerometer columns are swapped",
-            table::significant(median_f, 4),
-            table::significant(ratio, 4),
-            G_AT_REST.0,
-            G_AT_REST.1
-        )
-        .into());
-    }
+    check_median_force_at_rest(medians[0], file)?;
     let window = window.max(2);
     let windows = source.records / window;
     if windows < 2 {
         return Ok(());
     }
     let f_median = [medians[1], medians[2], medians[3]];
-    let mean_of = |v: &[[f64; 3]]| {
-        let mut m = [0.0; 3];
-        for x in v {
-            for a in 0..3 {
-                m[a] += x[a] / v.len() as f64;
-            }
-        }
-        m
-    };
-    let spread_of = |v: &[[f64; 3]]| {
-        let m = mean_of(v);
-        let ss: f64 = v
-            .iter()
-            .map(|x| (0..3).map(|a| (x[a] - m[a]).powi(2)).sum::<f64>())
-            .sum();
-        (ss / (v.len() - 1) as f64).sqrt()
-    };
     // Every full window of records, as `chunks_exact` gives them: (gyro spread, whether its
     // mean specific force is tilted from the median).
     let mut windows_of = |visit: &mut dyn FnMut(f64, bool)| {
@@ -369,6 +305,37 @@ pub(crate) fn check_at_rest_streamed(
             tilted += 1;
         }
     })?;
+    check_moving(file, (windows, spinning, tilted), window_s, typical)
+}
+
+/// A recording said to be at rest has a median specific force of g (`median_f`, m/s^2).
+fn check_median_force_at_rest(median_f: f64, file: &str) -> Result<(), Error> {
+    const G: f64 = ::import::profile::STANDARD_GRAVITY;
+    let ratio = median_f / G;
+    if !(G_AT_REST.0..=G_AT_REST.1).contains(&ratio) {
+        return Err(format!(
+            "{file}: the median specific force of the recording (--all-at-rest) is {} m/s^2 ({} \
+             g): expected g = {G} m/s^2 at rest, within {} .. {} g; the accelerometer values are \
+             not in m/s^2, or the gyro and accelerometer columns are swapped",
+            table::significant(median_f, 4),
+            table::significant(ratio, 4),
+            G_AT_REST.0,
+            G_AT_REST.1
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Refuse a recording said to be at rest that moves in more than [`MAX_MOVING_FRACTION`] of
+/// its `windows` (`spinning` of them with a gyro spread above [`MOTION_SPREAD_FACTOR`] times
+/// the `typical` one, `tilted` with their mean specific force off the median).
+fn check_moving(
+    file: &str,
+    (windows, spinning, tilted): (usize, usize, usize),
+    window_s: f64,
+    typical: f64,
+) -> Result<(), Error> {
     let moving = spinning.max(tilted);
     if moving as f64 > MAX_MOVING_FRACTION * windows as f64 {
         return Err(format!(
@@ -383,6 +350,27 @@ pub(crate) fn check_at_rest_streamed(
         .into());
     }
     Ok(())
+}
+
+/// The mean of triads.
+fn mean_of(v: &[[f64; 3]]) -> [f64; 3] {
+    let mut m = [0.0; 3];
+    for x in v {
+        for a in 0..3 {
+            m[a] += x[a] / v.len() as f64;
+        }
+    }
+    m
+}
+
+/// The spread of triads: the root of the summed axis variances.
+fn spread_of(v: &[[f64; 3]]) -> f64 {
+    let m = mean_of(v);
+    let ss: f64 = v
+        .iter()
+        .map(|x| (0..3).map(|a| (x[a] - m[a]).powi(2)).sum::<f64>())
+        .sum();
+    (ss / (v.len() - 1) as f64).sqrt()
 }
 
 /// A window's gyro spread this many times the median window's is motion: white noise's

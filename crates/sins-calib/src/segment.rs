@@ -135,8 +135,19 @@ fn chosen(seg: &Segmentation) -> String {
     line
 }
 
-/// Run `segment`.
-pub fn run(args: &Args) -> Result<(), Error> {
+/// `segment`'s command line resolved: the detector's settings checked and the output path.
+struct Request {
+    /// The detector's settings.
+    settings: DetectorSettings,
+    /// The IMU file.
+    imu: PathBuf,
+    /// `--json`, checked.
+    json: Option<PathBuf>,
+}
+
+/// Resolve the command line: the settings checked (messages name the option), the output
+/// checked before any work.
+fn resolve(args: &Args) -> Result<Request, Error> {
     let d = DetectorSettings::default();
     let settings = DetectorSettings {
         window_s: args.window.unwrap_or(d.window_s),
@@ -159,15 +170,26 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(path) = &args.json {
         output::Outputs::new(&[&args.imu]).file(path, "--json")?;
     }
+    Ok(Request {
+        settings,
+        imu: args.imu.clone(),
+        json: args.json.clone(),
+    })
+}
+
+/// Run `segment`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let req = resolve(args)?;
+    let settings = &req.settings;
     // The records are read again for every step rather than held (docs/performance.md,
     // "Memory of every command on a long run").
-    let mut imu = calib::estimate::FileImu::open(&args.imu)?;
+    let mut imu = calib::estimate::FileImu::open(&req.imu)?;
     let has_temp = imu.has_temp();
-    let file = args.imu.display().to_string();
+    let file = req.imu.display().to_string();
     let mut source = RateSource::new(&mut imu)?;
     recording_checks::check_plausible_streamed(&mut source, &file, settings.window_s)?;
-    crate::detector_args::check_span_streamed(&settings, &mut source, &file, &option_name)?;
-    let seg = segment_streamed(&mut source, &settings).map_err(|e| format!("{file}: {e}"))?;
+    crate::detector_args::check_span_streamed(settings, &mut source, &file, &option_name)?;
+    let seg = segment_streamed(&mut source, settings).map_err(|e| format!("{file}: {e}"))?;
     recording_checks::check_static_force(&seg, &file)?;
     // The records' temperature, where they have one: each static interval's mean (a thermal
     // drift between rests shows in their biases, docs/temperature.md).
@@ -176,9 +198,28 @@ pub fn run(args: &Args) -> Result<(), Error> {
     } else {
         None
     };
+    let mut s = summary(&seg, &file);
+    s += &intervals_table(&seg, interval_temp_c.as_deref());
+    s += &missed_and_gaps(&seg, &file);
+    if let Some(path) = &req.json {
+        let json = SegmentJson {
+            imu: file.clone(),
+            segmentation: &seg,
+            interval_temp_c,
+        };
+        let text = calib::io::schema::to_json(calib::io::schema::SEGMENTATION, &json)?;
+        output::write_file(path, text.as_bytes())?;
+        if !output::is_stdout(path) {
+            let _ = writeln!(s, "\nwrote {}", path.display());
+        }
+    }
+    crate::report(&s, req.json.as_deref())
+}
+
+/// The printout's head: the records, the detector's settings as used, the intervals in all.
+fn summary(seg: &Segmentation, file: &str) -> String {
     let c = table::compact;
     let sig = table::significant;
-
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -200,7 +241,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         c(used.max_rate_rad_s),
         short(used.min_duration_s)
     );
-    let _ = writeln!(s, "{}", chosen(&seg));
+    let _ = writeln!(s, "{}", chosen(seg));
     let raised: Vec<String> = [
         ("std f", seg.threshold_std_f_m_s2, used.max_std_f_m_s2),
         ("std w", seg.threshold_std_w_rad_s, used.max_std_w_rad_s),
@@ -242,43 +283,53 @@ pub fn run(args: &Args) -> Result<(), Error> {
             k => format!("{k} gaps"),
         }
     );
-    if n > 0 {
-        s.push('\n');
-        let mut columns = vec![
-            ("#", Align::Right),
-            ("start [s]", Align::Right),
-            ("end [s]", Align::Right),
-            ("duration [s]", Align::Right),
-            ("records", Align::Right),
-            ("mean fx", Align::Right),
-            ("mean fy", Align::Right),
-            ("mean fz [m/s^2]", Align::Right),
-            ("|f| [m/s^2]", Align::Right),
-        ];
-        if interval_temp_c.is_some() {
-            columns.push(("temp [deg C]", Align::Right));
-        }
-        let mut t = Table::new(&columns);
-        for (i, x) in seg.static_intervals.iter().enumerate() {
-            let f = x.mean_f_m_s2;
-            let mut row = vec![
-                (i + 1).to_string(),
-                format!("{:.3}", x.start_s),
-                format!("{:.3}", x.end_s),
-                format!("{:.2}", x.duration_s),
-                x.records.to_string(),
-                format!("{:.4}", f[0]),
-                format!("{:.4}", f[1]),
-                format!("{:.4}", f[2]),
-                format!("{:.4}", x.norm_f_m_s2),
-            ];
-            if let Some(temps) = &interval_temp_c {
-                row.push(format!("{:.2}", temps[i]));
-            }
-            t.row(row);
-        }
-        s += &t.render();
+    s
+}
+
+/// The static intervals as a table (with their mean temperatures where the records have one).
+fn intervals_table(seg: &Segmentation, interval_temp_c: Option<&[f64]>) -> String {
+    if seg.static_intervals.is_empty() {
+        return String::new();
     }
+    let mut columns = vec![
+        ("#", Align::Right),
+        ("start [s]", Align::Right),
+        ("end [s]", Align::Right),
+        ("duration [s]", Align::Right),
+        ("records", Align::Right),
+        ("mean fx", Align::Right),
+        ("mean fy", Align::Right),
+        ("mean fz [m/s^2]", Align::Right),
+        ("|f| [m/s^2]", Align::Right),
+    ];
+    if interval_temp_c.is_some() {
+        columns.push(("temp [deg C]", Align::Right));
+    }
+    let mut t = Table::new(&columns);
+    for (i, x) in seg.static_intervals.iter().enumerate() {
+        let f = x.mean_f_m_s2;
+        let mut row = vec![
+            (i + 1).to_string(),
+            format!("{:.3}", x.start_s),
+            format!("{:.3}", x.end_s),
+            format!("{:.2}", x.duration_s),
+            x.records.to_string(),
+            format!("{:.4}", f[0]),
+            format!("{:.4}", f[1]),
+            format!("{:.4}", f[2]),
+            format!("{:.4}", x.norm_f_m_s2),
+        ];
+        if let Some(temps) = interval_temp_c {
+            row.push(format!("{:.2}", temps[i]));
+        }
+        t.row(row);
+    }
+    format!("\n{}", t.render())
+}
+
+/// The rests the detector may have missed, and the gaps of the records.
+fn missed_and_gaps(seg: &Segmentation, file: &str) -> String {
+    let mut s = String::new();
     if let Some(lines) = seg.missed_report(option_name) {
         s.push('\n');
         for line in lines {
@@ -289,25 +340,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let _ = writeln!(
             s,
             "  gap: {} s between t = {} s and t = {} s (before line {} of {file})",
-            c(g.length_s),
-            c(g.t_before_s),
-            c(g.t_after_s),
+            table::compact(g.length_s),
+            table::compact(g.t_before_s),
+            table::compact(g.t_after_s),
             g.record + 2
         );
     }
-    if let Some(path) = &args.json {
-        let json = SegmentJson {
-            imu: file.clone(),
-            segmentation: &seg,
-            interval_temp_c,
-        };
-        let text = calib::io::schema::to_json(calib::io::schema::SEGMENTATION, &json)?;
-        output::write_file(path, text.as_bytes())?;
-        if !output::is_stdout(path) {
-            let _ = writeln!(s, "\nwrote {}", path.display());
-        }
-    }
-    crate::report(&s, args.json.as_deref())
+    s
 }
 
 /// Each static interval's mean temperature (deg C), from one more reading of the records;

@@ -186,7 +186,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let program = config.program()?;
     check_size(&config, program.duration(), &origin)?;
     let config_file = std::path::Path::new(&args.config);
-    let program_file = crate::lab_report::program_file(&config);
+    let program_file = crate::identification::program_file(&config);
     let mut inputs = vec![config_file];
     inputs.extend(program_file.as_deref());
     output::Outputs::new(&inputs).dir(&args.out, "--out", &OUTPUTS)?;

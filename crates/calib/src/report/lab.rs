@@ -217,6 +217,9 @@ pub struct RunVerdict {
     pub basis: String,
     /// Whether anything tested the model at all.
     pub tested: bool,
+    /// The tests of a hand-turned calibration with measured noise, with their figures
+    /// ([`crate::estimate::hand_turned::verdict`]; empty with a configured noise).
+    pub tests: Vec<crate::estimate::hand_turned::VerdictTest>,
 }
 
 /// The span of the records' temperature (K) from which a model without thermal terms is
@@ -284,6 +287,7 @@ impl RunVerdict {
                     }
                 ),
                 tested: true,
+                tests: Vec::new(),
             };
         };
         let tests = crate::estimate::hand_turned::verdict(r);
@@ -334,6 +338,7 @@ impl RunVerdict {
             informative,
             basis: basis.to_string(),
             tested: held_out || turns,
+            tests,
         }
     }
 

@@ -1,0 +1,600 @@
+//! The command line of `calibrate` and `diagnose` resolved once, before any work, into a
+//! [`Session`]: the output paths checked; the configuration (given, embedded, or for a
+//! hand-turned recording without one the defaults made from the recording, with the
+//! assumptions they state); the IMU and turntable files opened; the program (declared or from
+//! the angles) with its start, or the rests of a recording without one; the unit and the input
+//! files with their SHA-256; and what the command adds (the model and the truth of
+//! `calibrate`, the loop's settings of `diagnose`). The commands run over the session: nothing
+//! after it reads the command line.
+
+use crate::free_motion::{self, SetupSummary};
+use crate::provenance::RunProvenance;
+use crate::{Error, load_config};
+use calib::config::RunConfig;
+use calib::estimate::FileImu;
+use calib::estimate::hand_turned::WhiteNoiseAtRest;
+use calib::extend::LoopSettings;
+use calib::io::angle_records::AngleFile;
+use calib::io::{ImuData, ResultFile, read_imu_csv, read_result_json};
+use calib::model::extension::ModelExtension;
+use calib::model::layout::{StateLayout, layout_with};
+use calib::motion::rests::Rest;
+use calib::motion::rests::Turn;
+use sins_model::candidates::Candidate;
+use std::path::{Path, PathBuf};
+
+/// A command's resolved command line: what every command over recorded data has, and what
+/// the command adds (`T`: [`Calibrate`], [`Diagnose`]).
+pub struct Session<T> {
+    /// The configuration the filter starts from (for a hand-turned recording without one,
+    /// made from the recording: [`free_motion::setup`]).
+    pub config: RunConfig,
+    /// How the configuration was given.
+    pub source: ConfigSource,
+    /// Its name in messages: the path, `<embedded paper config>`, or `no configuration`.
+    pub origin: String,
+    /// The IMU file as named in messages.
+    pub imu_file: String,
+    /// The IMU records: streamed at every pass, or held (a recording of rests, `diagnose`).
+    pub records: Records,
+    /// The turntable's angle records (streamed at every pass, kept in memory when short).
+    pub turntable: Option<AngleFile>,
+    /// The program's name and duration (s); `None` for a recording of rests.
+    pub program: Option<(String, f64)>,
+    /// A recording of rests: the rests found (and with `--free-motion` its setup).
+    pub rests: Option<RestsFound>,
+    /// The unit, the inputs' SHA-256 (with `--free-motion`) and notes on them.
+    pub provenance: RunProvenance,
+    /// The files a report identifies the run by (role, path).
+    pub report_inputs: Vec<(&'static str, PathBuf)>,
+    /// `--json`, checked.
+    pub json: Option<PathBuf>,
+    /// `--report DIR`, checked.
+    pub report: Option<PathBuf>,
+    /// `--holdout K`: every K-th rest held out.
+    pub holdout: Option<usize>,
+    /// What the command adds.
+    pub task: T,
+}
+
+/// How the configuration was given.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ConfigSource {
+    /// `--config NAME|PATH`, as given.
+    Given(String),
+    /// None given where the embedded paper configuration is the default.
+    Paper,
+    /// `--free-motion` without `--config`: made from the recording.
+    FromRecording,
+}
+
+impl ConfigSource {
+    /// The name or path the report's identification shows (`None`: made from the recording).
+    pub fn shown(&self) -> Option<&str> {
+        match self {
+            Self::Given(name) => Some(name),
+            Self::Paper => Some("paper"),
+            Self::FromRecording => None,
+        }
+    }
+
+    /// The configuration file given (none for an embedded configuration).
+    fn file(&self) -> Option<&Path> {
+        match self {
+            Self::Given(name) => Some(Path::new(name)).filter(|p| p.is_file()),
+            _ => None,
+        }
+    }
+}
+
+/// The IMU records of a session.
+pub enum Records {
+    /// Read from the file at every pass.
+    Streamed(Box<FileImu>),
+    /// Read into memory (a recording of rests, whose detector needs them; `diagnose`).
+    Held(ImuData),
+}
+
+impl Records {
+    /// The records when they are in memory.
+    pub fn held(&self) -> Option<&ImuData> {
+        match self {
+            Self::Held(data) => Some(data),
+            Self::Streamed(_) => None,
+        }
+    }
+}
+
+/// The rests of a recording without a program.
+pub struct RestsFound {
+    /// The rests on the IMU clock.
+    pub rests: Vec<Rest>,
+    /// The detector's report of rests it may have missed.
+    pub missed: Option<Vec<String>>,
+    /// With `--free-motion`: how the run was set up.
+    pub free_motion: Option<FreeMotion>,
+}
+
+/// What `--free-motion` set up beyond the configuration.
+pub struct FreeMotion {
+    /// Where the configuration came from, the grade, the terms, the assumptions.
+    pub summary: SetupSummary,
+    /// The rests' white noise, when the configuration's levels are it.
+    pub measured: Option<WhiteNoiseAtRest>,
+    /// The section list's known turns.
+    pub turns: Vec<Turn>,
+}
+
+/// What `calibrate` adds to its session.
+pub struct Calibrate {
+    /// The model: the paper's with the terms, at the configuration's grade.
+    pub layout: StateLayout,
+    /// `--truth`: its path and its values (units checked against the model).
+    pub truth: Option<(PathBuf, ResultFile)>,
+    /// `--plot`, checked.
+    pub plot: Option<PathBuf>,
+    /// `--diagnostics DIR`, checked and created.
+    pub diagnostics: Option<PathBuf>,
+}
+
+/// What `diagnose` adds to its session.
+pub struct Diagnose {
+    /// The loop's settings (level, candidates, hold-out, drift grid, measured noise).
+    pub settings: LoopSettings,
+    /// `--noise`: the file and the walks the drift candidate is tried at (rad/s/sqrt(s)).
+    pub walk_prior: Option<(String, Vec<f64>)>,
+}
+
+impl<T> Session<T> {
+    /// The hand-turned setup, with `--free-motion`.
+    pub fn free_motion(&self) -> Option<&FreeMotion> {
+        self.rests.as_ref().and_then(|r| r.free_motion.as_ref())
+    }
+}
+
+/// Resolve the command line of `calibrate`.
+pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>, Error> {
+    if args.free_motion && (args.turntable.is_some() || args.program_start.is_some()) {
+        return Err(
+            "calibrate --free-motion: --turntable and --program-start belong to a \
+                    turntable calibration (a hand-turned recording has neither)"
+                .into(),
+        );
+    }
+    let (plot, diagnostics) = calibrate_outputs(args)?;
+    let (mut config, origin, source) = configuration(args.config.as_deref(), args.free_motion)
+        .ok_or(
+        "calibrate: --config is required (or --free-motion for a hand-turned \
+                    recording without a rotation program)",
+    )??;
+    program_start(&mut config, args.program_start)?;
+    // Read the truth first: a wrong path should not cost a whole run.
+    let truth = args.truth.as_deref().map(read_result_json).transpose()?;
+    // The IMU file is streamed (read once per pass, kept in memory only when short).
+    let imu = FileImu::open(&args.imu)?;
+    let imu_file = calib::estimate::ImuSource::file(&imu).to_string();
+    let turntable = args.turntable.as_deref().map(AngleFile::open).transpose()?;
+    let program = program_of(&config, turntable.as_ref())?;
+    if let (true, Some((name, _))) = (args.free_motion, &program) {
+        return Err(format!(
+            "calibrate --free-motion: {origin} has a rotation program ({name}); --free-motion \
+             calibrates a hand-turned recording without one (leave --free-motion out to \
+             calibrate along the program, or give a configuration without `program`)"
+        )
+        .into());
+    }
+    refuse_detector_with_program("calibrate", program.is_some(), &args.detector)?;
+    let config_unit = args
+        .config
+        .as_deref()
+        .map(|_| (origin.as_str(), &config.unit));
+    let mut provenance =
+        crate::provenance::gather(&args.imu, config_unit, &args.unit, args.free_motion)?;
+    let terms = crate::terms::terms_asked(&args.terms, args.terms_from.as_deref())?;
+    let mut session = Session {
+        config,
+        source,
+        origin,
+        imu_file,
+        records: Records::Streamed(Box::new(imu)),
+        turntable,
+        program,
+        rests: None,
+        provenance: crate::provenance::RunProvenance::default(),
+        report_inputs: calibrate_report_inputs(args),
+        json: args.json.clone(),
+        report: args.report.clone(),
+        holdout: args.holdout,
+        task: (),
+    };
+    let mut layout = None;
+    if session.program.is_none() {
+        // No program: the rests the data show stand in for it. The records are read into
+        // memory for the detector (recordings of rests are short).
+        session.records = Records::Held(read_imu_csv(&args.imu)?);
+        find_rests(&mut session, &args.detector, "calibrate")?;
+        if args.free_motion {
+            let site = (args.latitude, args.height);
+            let sections = args.sections.as_deref();
+            layout = Some(set_up_free_motion(&mut session, site, sections, &terms)?);
+        }
+    }
+    let layout = layout.unwrap_or_else(|| {
+        let extension = ModelExtension::with_grade(&terms, session.config.unit_grade());
+        layout_with(&session.config, session.turntable.is_some(), &extension)
+    });
+    let truth = args.truth.clone().zip(truth);
+    check_truth_units(truth.as_ref(), &layout)?;
+    if args.free_motion {
+        // Hashed now that their readers have read (and bounded) them.
+        provenance.hash_files(&calibrate_hashed_inputs(args, &session.source))?;
+    }
+    session.provenance = provenance;
+    Ok(session.with(Calibrate {
+        layout,
+        truth,
+        plot,
+        diagnostics,
+    }))
+}
+
+impl Session<()> {
+    /// The session with what its command adds.
+    fn with<T>(self, task: T) -> Session<T> {
+        Session {
+            config: self.config,
+            source: self.source,
+            origin: self.origin,
+            imu_file: self.imu_file,
+            records: self.records,
+            turntable: self.turntable,
+            program: self.program,
+            rests: self.rests,
+            provenance: self.provenance,
+            report_inputs: self.report_inputs,
+            json: self.json,
+            report: self.report,
+            holdout: self.holdout,
+            task,
+        }
+    }
+}
+
+/// Check `calibrate`'s outputs before any work (none may be an input); returns `--plot` and
+/// `--diagnostics` (the directory made if missing).
+fn calibrate_outputs(
+    args: &crate::args::CalibrateArgs,
+) -> Result<(Option<PathBuf>, Option<PathBuf>), Error> {
+    let mut inputs: Vec<&Path> = vec![args.imu.as_path()];
+    inputs.extend(args.turntable.as_deref());
+    inputs.extend(args.truth.as_deref());
+    inputs.extend(args.sections.as_deref());
+    inputs.extend(args.terms_from.as_deref());
+    inputs.extend(args.config.as_deref().map(Path::new));
+    let mut outputs = crate::output::Outputs::new(&inputs);
+    if let Some(path) = &args.json {
+        outputs.file(path, "--json")?;
+    }
+    if let Some(path) = &args.plot {
+        outputs.png(path, "--plot")?;
+    }
+    if let Some(dir) = &args.report {
+        outputs.dir(dir, "--report", &crate::identification::NAMES)?;
+    }
+    if let Some(dir) = &args.diagnostics {
+        outputs.any_dir(dir, "--diagnostics")?;
+        prepare_diagnostics_dir(dir)?;
+    }
+    Ok((args.plot.clone(), args.diagnostics.clone()))
+}
+
+/// The data files `calibrate` reads, with their roles, for a report's identification.
+fn calibrate_report_inputs(args: &crate::args::CalibrateArgs) -> Vec<(&'static str, PathBuf)> {
+    let mut v = vec![("IMU records", args.imu.clone())];
+    v.extend(args.turntable.clone().map(|p| ("turntable angles", p)));
+    v.extend(args.truth.clone().map(|p| ("truth", p)));
+    v.extend(args.sections.clone().map(|p| ("section list", p)));
+    v.extend(
+        args.terms_from
+            .clone()
+            .map(|p| ("diagnose result (--terms-from)", p)),
+    );
+    v
+}
+
+/// The files beyond the IMU records whose SHA-256 a `--free-motion` result names.
+fn calibrate_hashed_inputs<'a>(
+    args: &'a crate::args::CalibrateArgs,
+    source: &'a ConfigSource,
+) -> Vec<(&'static str, &'a Path)> {
+    let mut files: Vec<(&str, &Path)> = Vec::new();
+    files.extend(args.sections.as_deref().map(|p| ("section list", p)));
+    files.extend(
+        args.terms_from
+            .as_deref()
+            .map(|p| ("diagnose result (--terms-from)", p)),
+    );
+    files.extend(source.file().map(|p| ("run configuration", p)));
+    files.extend(args.truth.as_deref().map(|p| ("truth", p)));
+    files
+}
+
+/// Resolve the command line of `diagnose`.
+pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, Error> {
+    diagnose_outputs(args)?;
+    let (mut config, origin, source) = configuration(args.config.as_deref(), args.free_motion)
+        .unwrap_or_else(|| {
+            load_config("paper").map(|(c, origin)| (c, origin, ConfigSource::Paper))
+        })?;
+    program_start(&mut config, args.program_start)?;
+    let mut settings = LoopSettings {
+        level: args.level,
+        ..LoopSettings::default()
+    };
+    if let Some(k) = args.holdout {
+        settings.hold_out_every = Some(k);
+    }
+    if !args.terms.is_empty() {
+        settings.candidates = crate::terms::parse_terms(&args.terms)?;
+    }
+    let walk_prior = args.noise.as_deref().map(walk_prior).transpose()?;
+    if let Some((_, grid)) = &walk_prior {
+        settings.drift_grid = Some(grid.clone());
+    }
+    let imu = read_imu_csv(&args.imu)?;
+    let imu_file = args.imu.display().to_string();
+    let turntable = args.turntable.as_deref().map(AngleFile::open).transpose()?;
+    if args.free_motion && !config.program_from_angles() {
+        return Err(format!(
+            "diagnose --free-motion: {origin} has a rotation program; --free-motion is for a \
+             hand-turned recording without one (leave --free-motion out to diagnose along the \
+             program, or give a configuration without `program`)"
+        )
+        .into());
+    }
+    let rests_mode = turntable.is_none() && config.program_from_angles();
+    refuse_detector_with_program("diagnose", !rests_mode, &args.detector)?;
+    let mut report_inputs = vec![("IMU records", args.imu.clone())];
+    report_inputs.extend(args.turntable.clone().map(|p| ("turntable angles", p)));
+    let mut session = Session {
+        config,
+        source,
+        origin,
+        imu_file,
+        records: Records::Held(imu),
+        turntable,
+        program: None,
+        rests: None,
+        provenance: crate::provenance::RunProvenance::default(),
+        report_inputs,
+        json: args.json.clone(),
+        report: args.report.clone(),
+        holdout: args.holdout,
+        task: (),
+    };
+    if rests_mode {
+        find_rests(&mut session, &args.detector, "diagnose")?;
+        if args.free_motion {
+            let sections = args.sections.as_deref();
+            set_up_free_motion(&mut session, (args.latitude, args.height), sections, &[])?;
+            settings.measured_noise = session.free_motion().and_then(|f| f.measured);
+        }
+    }
+    Ok(session.with(Diagnose {
+        settings,
+        walk_prior,
+    }))
+}
+
+/// Check `diagnose`'s outputs and options before any work (outputs, level, hold-out).
+fn diagnose_outputs(args: &crate::args::DiagnoseArgs) -> Result<(), Error> {
+    let mut inputs: Vec<&Path> = vec![args.imu.as_path()];
+    inputs.extend(args.turntable.as_deref());
+    inputs.extend(args.sections.as_deref());
+    inputs.extend(args.noise.as_deref());
+    inputs.extend(args.config.as_deref().map(Path::new));
+    let mut outputs = crate::output::Outputs::new(&inputs);
+    if let Some(p) = &args.json {
+        outputs.file(p, "--json")?;
+    }
+    if let Some(p) = &args.report {
+        outputs.dir(p, "--report", &crate::identification::NAMES)?;
+    }
+    // The family-wise level of a decision: a probability, and one that means something.
+    if !(args.level.is_finite() && args.level > 0.0 && args.level <= 0.5) {
+        return Err(format!(
+            "--level {}: expected a family-wise level above 0 and at most 0.5 (0.01 by default)",
+            args.level
+        )
+        .into());
+    }
+    if args.holdout.is_some_and(|k| k < 2) {
+        return Err("--holdout: expected K of at least 2 (every K-th rest held out)".into());
+    }
+    Ok(())
+}
+
+/// The walk identified at rest (`--noise`) as the drift candidate's grid: tried where the
+/// data at rest put it.
+fn walk_prior(path: &Path) -> Result<(String, Vec<f64>), Error> {
+    let walk = crate::noise::read_identified_walk(path)?;
+    let grid = walk.grid();
+    if grid.is_empty() {
+        return Err(format!(
+            "{}: the identified gyro bias walk is 0 with no upper end: nothing to try the walk \
+             candidate at (leave --noise out for the default grid)",
+            path.display()
+        )
+        .into());
+    }
+    Ok((path.display().to_string(), grid))
+}
+
+/// The configuration given (`--config`), or with `--free-motion` and none the paper's with
+/// its program from the angles, to be made from the recording once its rests are found
+/// ([`free_motion::setup`]); `None` when neither.
+fn configuration(
+    given: Option<&str>,
+    free_motion: bool,
+) -> Option<Result<(RunConfig, String, ConfigSource), Error>> {
+    match given {
+        Some(name) => Some(
+            load_config(name)
+                .map(|(config, origin)| (config, origin, ConfigSource::Given(name.to_string()))),
+        ),
+        None if free_motion => {
+            let mut c = RunConfig::paper();
+            c.program = calib::config::PROGRAM_FROM_ANGLES.to_string();
+            Some(Ok((
+                c,
+                "no configuration".to_string(),
+                ConfigSource::FromRecording,
+            )))
+        }
+        None => None,
+    }
+}
+
+/// `--program-start`: the IMU time at which the program starts, in the configuration's range
+/// for `filter.program_start_s`.
+fn program_start(config: &mut RunConfig, start: Option<f64>) -> Result<(), Error> {
+    if let Some(t) = start {
+        let max = calib::config::PROGRAM_START_MAX_S;
+        if !(t.is_finite() && t.abs() <= max) {
+            return Err(format!(
+                "--program-start {t}: expected the IMU time (s) at which the program starts, in \
+                 -{max:e} .. {max:e} s"
+            )
+            .into());
+        }
+        config.filter.program_start_s = Some(t);
+    }
+    Ok(())
+}
+
+/// The program's name and duration: the configuration's, or (`"from-angles"`) the one the
+/// turntable's angles give (the estimation reads it again, taking its first piece back to the
+/// first IMU record); `None` for a recording of rests (neither a program nor angles).
+fn program_of(
+    config: &RunConfig,
+    turntable: Option<&AngleFile>,
+) -> Result<Option<(String, f64)>, Error> {
+    let program = match calib::motion::angles_program::resolve_program(
+        config,
+        turntable.map(AngleFile::records),
+        None,
+    )? {
+        Some(c) => Some(c.program()?),
+        None if turntable.is_none() && config.program_from_angles() => None,
+        None => Some(config.program()?),
+    };
+    Ok(program.map(|p| (p.name.clone(), p.duration())))
+}
+
+/// Refuse the `--rest-*` options where a program says where the unit rests.
+fn refuse_detector_with_program(
+    command: &str,
+    has_program: bool,
+    detector: &crate::detector_args::DetectorArgs,
+) -> Result<(), Error> {
+    if has_program && detector.any() {
+        return Err(format!(
+            "{command}: the --rest-* options set how rests are found in a recording without a \
+             program; this configuration has a program (or --turntable gives one), which says \
+             where the unit rests"
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// The rests of the session's records (held) by the detector's settings.
+fn find_rests<T>(
+    session: &mut Session<T>,
+    detector: &crate::detector_args::DetectorArgs,
+    command: &str,
+) -> Result<(), Error> {
+    let settings = detector.settings().map_err(|e| format!("{command}: {e}"))?;
+    let Some(data) = session.records.held() else {
+        unreachable!("the records of a recording of rests are held")
+    };
+    let (rests, seg) =
+        crate::detector_args::rests_and_segmentation(data, &session.imu_file, &settings)?;
+    session.rests = Some(RestsFound {
+        rests,
+        missed: seg.missed_report(crate::detector_args::option_name),
+        free_motion: None,
+    });
+    Ok(())
+}
+
+/// Set up a `--free-motion` run on the rests found ([`free_motion::setup`]): the
+/// configuration becomes the one it gives; returns the model with `terms`.
+fn set_up_free_motion<T>(
+    session: &mut Session<T>,
+    site: (Option<f64>, Option<f64>),
+    sections: Option<&Path>,
+    terms: &[Candidate],
+) -> Result<StateLayout, Error> {
+    let (Some(data), Some(found)) = (session.records.held(), session.rests.as_mut()) else {
+        unreachable!("the rests are found in held records first")
+    };
+    let given = match session.source {
+        ConfigSource::FromRecording => None,
+        _ => Some((&session.config, session.origin.as_str())),
+    };
+    let setup = free_motion::setup(
+        given,
+        site,
+        sections,
+        terms,
+        data,
+        &session.imu_file,
+        &found.rests,
+    )?;
+    found.free_motion = Some(FreeMotion {
+        summary: setup.summary(),
+        measured: setup.measured,
+        turns: setup.turns,
+    });
+    session.config = setup.config;
+    Ok(setup.layout)
+}
+
+/// Refuse a truth file whose units are not the model's.
+fn check_truth_units(
+    truth: Option<&(PathBuf, ResultFile)>,
+    layout: &StateLayout,
+) -> Result<(), Error> {
+    if let Some((path, truth)) = truth {
+        truth.check_units(
+            &path.display().to_string(),
+            layout
+                .entries()
+                .iter()
+                .map(|e| (e.name.as_str(), e.unit.si_name())),
+        )?;
+    }
+    Ok(())
+}
+
+/// Make the diagnostics directory (one level) if it is not there; refuse a file.
+fn prepare_diagnostics_dir(dir: &Path) -> Result<(), Error> {
+    if dir.is_dir() {
+        return Ok(());
+    }
+    if dir.exists() {
+        return Err(format!(
+            "{}: --diagnostics needs a directory, this is a file",
+            dir.display()
+        )
+        .into());
+    }
+    std::fs::create_dir(dir).map_err(|e| {
+        format!(
+            "{}: cannot create the diagnostics directory: {e}",
+            dir.display()
+        )
+        .into()
+    })
+}
