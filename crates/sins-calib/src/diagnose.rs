@@ -228,7 +228,7 @@ fn round_lines(
         }
     }
     if let Some(size) = size {
-        s += &size_line(size);
+        s += &crate::diagnosis::size_line(size);
     }
     s
 }
@@ -424,23 +424,6 @@ fn separation_notes(r: &LoopResult) -> String {
         );
     }
     s
-}
-
-/// An accepted term's size: its largest estimate among the parameters the recording
-/// observes, against typical magnitudes for units of each grade.
-pub fn size_line(size: &TermSize) -> String {
-    match &size.largest {
-        Some(l) => format!(
-            "  size: largest {} = {:.3e} {} (+- {:.1e}); typical: {}\n",
-            l.name, l.value, l.unit, l.sigma, size.typical
-        ),
-        None => format!(
-            "  size: this recording observes none of its parameters (posterior sigma above {:.0} \
-             % of the prior); typical: {}\n",
-            100.0 * calib::estimate::UNOBSERVED_SIGMA_RATIO,
-            size.typical
-        ),
-    }
 }
 
 /// The failing tests one per line, the first ten and how many more.

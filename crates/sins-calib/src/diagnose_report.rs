@@ -94,7 +94,7 @@ fn extension_md(d: &Diagnosis) -> String {
             let _ = writeln!(
                 s,
                 "Size of {term}: {}\n",
-                crate::diagnose::size_line(size)
+                crate::diagnosis::size_line(size)
                     .trim()
                     .trim_start_matches("size: ")
             );

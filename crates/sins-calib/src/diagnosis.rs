@@ -242,6 +242,23 @@ fn with_turntable(est: &calib::estimate::Estimate) -> bool {
         .any(|n| n == sins_model::names::TURNTABLE_TAU)
 }
 
+/// An accepted term's size: its largest estimate among the parameters the recording
+/// observes, against typical magnitudes for units of each grade.
+pub fn size_line(size: &TermSize) -> String {
+    match &size.largest {
+        Some(l) => format!(
+            "  size: largest {} = {:.3e} {} (+- {:.1e}); typical: {}\n",
+            l.name, l.value, l.unit, l.sigma, size.typical
+        ),
+        None => format!(
+            "  size: this recording observes none of its parameters (posterior sigma above {:.0} \
+             % of the prior); typical: {}\n",
+            100.0 * calib::estimate::UNOBSERVED_SIGMA_RATIO,
+            size.typical
+        ),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -276,7 +293,7 @@ mod tests {
         ]);
         let prior = |_: &str| Some(1e-4);
         let size = term_size("accel_quadratic", &[e], &prior).unwrap();
-        let line = crate::diagnose::size_line(&size);
+        let line = size_line(&size);
         assert!(line.contains("largest accel.k2.y"), "{line}");
         assert!(line.contains("typical: pendulous quartz"), "{line}");
         assert!(term_size("gyro_g_sensitivity", &[], &prior).is_none());
@@ -293,7 +310,7 @@ mod tests {
         let e = evidence(&[("accel.k2.y", -9.0e-5, 0.95e-4)]);
         let size = term_size("accel_quadratic", &[e], &prior).unwrap();
         assert!(size.largest.is_none());
-        let line = crate::diagnose::size_line(&size);
+        let line = size_line(&size);
         assert!(line.contains("observes none of its parameters"), "{line}");
     }
 }
