@@ -360,7 +360,7 @@ pub fn run_case_with_truth(case: &HiddenCase) -> (LoopResult, calib::io::ResultF
 /// that accepted it.
 pub fn term_errors(case: &HiddenCase, result: &LoopResult) -> Vec<(String, f64, f64, f64)> {
     let mut out = Vec::new();
-    let last = &result.last.estimate;
+    let last = &result.last.calibration.estimate;
     for round in &result.rounds {
         let Some(acc) = &round.accepted else { continue };
         let Some(ev) = round.candidates.iter().find(|c| &c.term == acc) else {

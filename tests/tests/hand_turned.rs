@@ -16,13 +16,14 @@
 
 use calib::config::RunConfig;
 use calib::estimate::RunData;
-use calib::estimate::hand_turned::{self, HandTurnedResult, WhiteNoiseAtRest};
+use calib::estimate::calibration::Calibration;
+use calib::estimate::hand_turned::{self, WhiteNoiseAtRest};
+use calib::estimate::verdict::RunVerdict;
 use calib::extend::{LoopSettings, run_loop_at_rests};
 use calib::io::ImuData;
 use calib::model::extension::HiddenEffects;
 use calib::model::layout::layout_for;
 use calib::motion::rests::Rest;
-use calib::report::lab::RunVerdict;
 use sins_model::candidates::UnitGrade;
 
 /// The 19-position run of `rests.rs` at 25 Hz.
@@ -52,7 +53,7 @@ fn calibrate(
     rests: &[Rest],
     holdout: Option<usize>,
     measured: Option<WhiteNoiseAtRest>,
-) -> HandTurnedResult {
+) -> Calibration {
     hand_turned::calibrate(
         config,
         &layout_for(config, false),
@@ -153,7 +154,7 @@ fn consumer_verdict(seed: u64, hidden: &HiddenEffects) -> RunVerdict {
     let rests = crate::rests::rests(&truth);
     let (own, noise) = from_data(&truth, &imu, &rests);
     let r = calibrate(&own, &imu, &rests, Some(4), Some(noise));
-    let v = RunVerdict::of(&r.estimate, Some(&r), None, false);
+    let v = RunVerdict::of(&r.estimate, &r.noise, r.evaluation.as_ref(), None, false);
     println!("seed {seed}: {v:?}");
     v
 }
@@ -190,7 +191,7 @@ fn navigation_verdict(seed: u64, hidden: &HiddenEffects) -> RunVerdict {
     let rests = crate::rests::rests(&truth);
     let (own, noise) = from_data(&truth, &imu, &rests);
     let r = calibrate(&own, &imu, &rests, Some(4), Some(noise));
-    let v = RunVerdict::of(&r.estimate, Some(&r), None, false);
+    let v = RunVerdict::of(&r.estimate, &r.noise, r.evaluation.as_ref(), None, false);
     println!("seed {seed}: {v:?}");
     v
 }

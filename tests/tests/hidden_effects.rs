@@ -58,10 +58,10 @@ fn check(case: &HiddenCase) -> Vec<String> {
         .rounds
         .last()
         .is_some_and(|l| l.candidates.iter().any(|c| c.p_value < l.threshold));
-    if !r.last.diagnostics.fits || last_calls {
+    if !r.last.calibration.diagnostics.fits || last_calls {
         fail.push(format!(
             "{}: the extended model's diagnostics fail: {:?}",
-            case.name, r.last.diagnostics.failures
+            case.name, r.last.calibration.diagnostics.failures
         ));
     }
     fail
@@ -96,7 +96,7 @@ fn nothing_is_accepted_without_a_hidden_effect_fast() {
         assert!(
             r.base_fits(),
             "seed {seed}: {:?}",
-            r.base.diagnostics.failures
+            r.base.calibration.diagnostics.failures
         );
     }
 }
@@ -212,8 +212,8 @@ fn check_thermal(case: &HiddenCase) -> Vec<String> {
             ));
         }
     }
-    let (before, before_name) = worst_paper_parameter(&r.base.estimate, &truth);
-    let (after, after_name) = worst_paper_parameter(&r.last.estimate, &truth);
+    let (before, before_name) = worst_paper_parameter(&r.base.calibration.estimate, &truth);
+    let (after, after_name) = worst_paper_parameter(&r.last.calibration.estimate, &truth);
     println!(
         "  paper's parameters: worst {before:+.2} sigma ({before_name}) without the term, \
          {after:+.2} sigma ({after_name}) with it"

@@ -339,9 +339,8 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
         calibrated(Some(0.0)),
         calibrated(Some(1.0)),
     );
-    let turn = |r: &calib::estimate::hand_turned::HandTurnedResult| {
-        turn_of(&r.estimate, &r.estimate.values)
-    };
+    let turn =
+        |r: &calib::estimate::calibration::Calibration| turn_of(&r.estimate, &r.estimate.values);
     let (a_none, a_exact, a_off) = (turn(&none), turn(&exact), turn(&off));
     // The calibration's sigma of the turn without it: the gradient by central differences.
     let est = &none.estimate;

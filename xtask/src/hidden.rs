@@ -54,7 +54,7 @@ pub fn hidden_effects(control_seeds: u64, only: Option<&str>) -> ExitCode {
                 h.gain()
             );
         }
-        let ok = first_ok && worst <= 3.0 && !r.base_fits() && r.last.diagnostics.fits;
+        let ok = first_ok && worst <= 3.0 && !r.base_fits() && r.last.calibration.diagnostics.fits;
         failed += usize::from(!ok);
         println!(
             "| {} | {} | {} | {} (worst {:.2} sigma) | {} |{}",
@@ -127,8 +127,8 @@ fn thermal_rows(control_seeds: u64, only: Option<&str>) -> usize {
             .iter()
             .map(|(n, e, s, t)| format!("{n} {e:.3e} +- {s:.1e} (truth {t:.3e})"))
             .collect();
-        let (before, before_name) = worst_paper(&r.base.estimate, &truth);
-        let (after, after_name) = worst_paper(&r.last.estimate, &truth);
+        let (before, before_name) = worst_paper(&r.base.calibration.estimate, &truth);
+        let (after, after_name) = worst_paper(&r.last.calibration.estimate, &truth);
         // The paper's 21 parameters each within 3.5 sigma (1 % for 21, fixed in the tests).
         let ok = first_ok && worst <= 3.0 && after.abs() <= 3.5;
         failed += usize::from(!ok);

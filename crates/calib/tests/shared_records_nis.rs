@@ -15,9 +15,9 @@
 //! value), 0.23 bands from the expected value.
 
 use calib::config::{AttitudePrior, RunConfig};
+use calib::estimate::verdict::{mean_nis_figures, mean_nis_half_band, misfit_reasons};
 use calib::estimate::{Estimate, RunData, estimate};
 use calib::io::{ImuData, TurntableData};
-use calib::report::lab::{mean_nis_figures, mean_nis_half_band, misfit_reasons};
 use calib::simulate::simulate_run;
 
 /// The paper's program as `simulated_run_config` of the workspace tests has it: 100-Hz IMU,

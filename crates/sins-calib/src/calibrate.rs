@@ -3,10 +3,10 @@
 use crate::Error;
 use crate::console::Written;
 use crate::diagnostic_plots::write_diagnostic_plots;
-use crate::run_report::{Fit, RunReport};
+use crate::run_report::RunReport;
 use crate::session::{Calibrate, Records, Session};
-use calib::check::diagnostics::{self, DiagnosticSettings};
-use calib::estimate::{ImuSource as _, estimate_from};
+use calib::estimate::ImuSource as _;
+use calib::estimate::calibration::{Calibration, calibrate_program};
 use calib::io::angle_records::AngleFile;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal as _;
@@ -48,8 +48,9 @@ pub fn run(args: &crate::args::CalibrateArgs) -> Result<u8, Error> {
 }
 
 /// The filter on the session's data: along the program (and the angles), or through the
-/// rests of a recording without one; then the tests of its innovations.
-fn fit(s: &mut Session<Calibrate>) -> Result<Fit, Error> {
+/// rests of a recording without one; the calibration comes with the tests of its innovations
+/// and its verdict (run whatever the outputs: the verdict rests on them).
+fn fit(s: &mut Session<Calibrate>) -> Result<Calibration, Error> {
     let records = match &s.records {
         Records::Streamed(imu) => imu.len_hint().unwrap_or(0),
         Records::Held(data) => data.records.len(),
@@ -59,21 +60,20 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Fit, Error> {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     };
-    let (est, hand_turned) = match (&mut s.records, &s.rests) {
+    let calibration = match (&mut s.records, &s.rests) {
         (Records::Streamed(imu), _) => {
             let turntable = s.turntable.as_ref().map(AngleFile::records);
-            let est = estimate_from(
+            calibrate_program(
                 &s.config,
                 &s.task.layout,
                 &mut **imu,
                 turntable,
                 &mut progress,
-            )?;
-            (est, None)
+            )?
         }
         (Records::Held(data), Some(found)) => {
             let free_motion = found.free_motion.as_ref();
-            let r = calib::estimate::hand_turned::calibrate(
+            calib::estimate::hand_turned::calibrate(
                 &s.config,
                 &s.task.layout,
                 data,
@@ -83,36 +83,24 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Fit, Error> {
                 s.holdout,
                 free_motion.and_then(|f| f.measured),
                 &mut progress,
-            )?;
-            (r.estimate.clone(), Some(r))
+            )?
         }
         (Records::Held(_), None) => unreachable!("held records are those of a recording of rests"),
     };
     bar.finish_and_clear();
-    let config = hand_turned
-        .as_ref()
-        .map_or_else(|| s.config.clone(), |r| r.config.clone());
-    // Run whatever the outputs: the verdict rests on them (with a configured noise they
-    // decide, with a measured one they inform).
-    let diagnostics = diagnostics::diagnose(
-        &est.innovations,
-        &est.segments,
-        &DiagnosticSettings::default(),
-    );
-    Ok(Fit {
-        est,
-        hand_turned,
-        config,
-        diagnostics,
-    })
+    Ok(calibration)
 }
 
 /// Write the outputs asked for (diagnostic plots, JSON, plot, report), each a rendering of
 /// the one report `r`; returns what was written, for the printout.
-fn write_outputs(s: &Session<Calibrate>, fit: &Fit, r: &RunReport) -> Result<Written, Error> {
+fn write_outputs(
+    s: &Session<Calibrate>,
+    fit: &Calibration,
+    r: &RunReport,
+) -> Result<Written, Error> {
     let mut written = Written::default();
     if let Some(dir) = &s.task.diagnostics {
-        let files = write_diagnostic_plots(dir, &fit.diagnostics, &fit.est.innovations, None)?;
+        let files = write_diagnostic_plots(dir, &fit.diagnostics, &fit.estimate.innovations, None)?;
         written.diagnostics = Some((dir.clone(), files.len()));
     }
     if let Some(path) = &s.json {
@@ -121,9 +109,9 @@ fn write_outputs(s: &Session<Calibrate>, fit: &Fit, r: &RunReport) -> Result<Wri
             written.json = Some(path.clone());
         }
     }
-    if let (Some(path), Some(h)) = (&s.task.plot, &fit.hand_turned) {
+    if let (Some(path), Some(e)) = (&s.task.plot, &fit.evaluation) {
         crate::output::write_with(path, |tmp| {
-            crate::plot::static_residuals_png(tmp, &s.imu_file, &h.evaluation.poses)
+            crate::plot::static_residuals_png(tmp, &s.imu_file, &e.poses)
         })?;
         written.plot = Some(path.clone());
     }
@@ -141,7 +129,7 @@ fn write_outputs(s: &Session<Calibrate>, fit: &Fit, r: &RunReport) -> Result<Wri
             strongest: &lab.strongest,
             segments: &lab.segments,
             fit: crate::lab_report::FitView {
-                est: &fit.est,
+                est: &fit.estimate,
                 diagnostics: &fit.diagnostics,
             },
             base: None,

@@ -5,8 +5,9 @@ use crate::run_report::{
     Configuration, FitFigures, Header, RunReport, Start, TruthFigures, Verdict,
 };
 use crate::table::{self, Align, Table};
+use calib::estimate::verdict::MeanNis;
 use calib::io::ImuKind;
-use calib::report::lab::{MeanNis, ParameterRow};
+use calib::report::lab::ParameterRow;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -564,7 +565,7 @@ mod tests {
             updates: n,
             mean,
             expected,
-            half_band: calib::report::lab::mean_nis_half_band(n),
+            half_band: calib::estimate::verdict::mean_nis_half_band(n),
         })
     }
 

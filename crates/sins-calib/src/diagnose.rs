@@ -94,7 +94,7 @@ fn candidate_json(c: &CandidateEvidence) -> CandidateJson<'_> {
 /// The diagnosis as JSON.
 fn to_json(d: &Diagnosis) -> Result<String, Error> {
     let r = &d.result;
-    let mut parameters = r.last.estimate.to_result_file().parameters;
+    let mut parameters = r.last.calibration.estimate.to_result_file().parameters;
     if let Some(d) = r.last.extension.gyro_drift {
         for (i, a) in ["x", "y", "z"].iter().enumerate() {
             parameters.push(ResultParameter {
@@ -121,7 +121,7 @@ fn to_json(d: &Diagnosis) -> Result<String, Error> {
             .iter()
             .map(|(term, why)| NotTestedJson { term, why })
             .collect(),
-        temperature: r.last.estimate.temperature.clone(),
+        temperature: r.last.calibration.estimate.temperature.clone(),
         verdict: crate::result_json::verdict(&d.verdict),
     };
     Ok(calib::io::schema::to_json(
@@ -340,21 +340,21 @@ fn verdict_lines(r: &LoopResult, exit: &str) -> String {
             s,
             "verdict: the paper's model fits these data; no term is called for."
         );
-    } else if r.accepted_terms.is_empty() && !r.last.diagnostics.fits {
+    } else if r.accepted_terms.is_empty() && !r.last.calibration.diagnostics.fits {
         let _ = writeln!(
             s,
             "verdict: THE MODEL DOES NOT FIT THESE DATA, AND NO CANDIDATE TERM THAT THIS \
              RECORDING SEPARATES EXPLAINS THE MISFIT {exit}. Failing tests:"
         );
-        s += &failure_lines(&r.last.diagnostics.failures);
+        s += &failure_lines(&r.last.calibration.diagnostics.failures);
     } else {
         let _ = writeln!(s, "verdict: terms accepted: {accepted}");
-        if !r.last.diagnostics.fits {
+        if !r.last.calibration.diagnostics.fits {
             let _ = writeln!(
                 s,
                 "  the extended model still does not fit these data {exit}. Failing tests:"
             );
-            s += &failure_lines(&r.last.diagnostics.failures);
+            s += &failure_lines(&r.last.calibration.diagnostics.failures);
         }
     }
     s
@@ -528,6 +528,8 @@ fn held_out_verdict(
     let known: &[calib::motion::rests::Turn] = found.free_motion.as_ref().map_or(&[], |f| &f.turns);
     let every = s.holdout.unwrap_or(calib::extend::HOLD_OUT_EVERY);
     let layout = calib::model::layout::layout_with(&s.config, false, &result.last.extension);
+    // Its verdict with the tests of its innovations, as `calibrate --free-motion` runs them:
+    // they inform.
     let r = calib::estimate::hand_turned::calibrate(
         &s.config,
         &layout,
@@ -539,19 +541,13 @@ fn held_out_verdict(
         Some(noise),
         &mut |_, _| {},
     )?;
-    // The tests of its innovations, as `calibrate --free-motion` runs them: they inform.
-    let d = calib::check::diagnostics::diagnose(
-        &r.estimate.innovations,
-        &r.estimate.segments,
-        &calib::check::diagnostics::DiagnosticSettings::default(),
-    );
     let figures = found
         .free_motion
         .as_ref()
-        .map(|f| crate::free_motion::figures(&r, &f.summary, Some(every)));
+        .and_then(|f| crate::free_motion::figures(&r, &f.summary, Some(every)));
     Ok(Some(HeldOut {
         every,
-        verdict: calib::report::lab::RunVerdict::of(&r.estimate, Some(&r), Some(&d), false),
+        verdict: r.verdict,
         figures,
     }))
 }

@@ -28,12 +28,12 @@ pub fn write(dir: &Path, d: &Diagnosis) -> Result<usize, Error> {
         strongest: &lab.strongest,
         segments: &lab.segments,
         fit: FitView {
-            est: &r.last.estimate,
-            diagnostics: &r.last.diagnostics,
+            est: &r.last.calibration.estimate,
+            diagnostics: &r.last.calibration.diagnostics,
         },
         base: (!r.accepted_terms.is_empty()).then_some(FitView {
-            est: &r.base.estimate,
-            diagnostics: &r.base.diagnostics,
+            est: &r.base.calibration.estimate,
+            diagnostics: &r.base.calibration.diagnostics,
         }),
         extension: Some(extension_md(d)),
     };

@@ -7,8 +7,9 @@ use crate::Error;
 use crate::identification::Identification;
 use crate::run_report::{Case, Verdict};
 use crate::session::{Diagnose, Session};
+use calib::estimate::verdict::{MeanNis, RunVerdict};
 use calib::extend::{CandidateEvidence, LoopResult};
-use calib::report::lab::{self, MeanNis, ParameterRow, RunVerdict, SegmentRow};
+use calib::report::lab::{self, ParameterRow, SegmentRow};
 use sins_model::candidates::Candidate;
 
 /// Everything a `diagnose` run reports.
@@ -96,7 +97,7 @@ pub fn term_size(
 /// The size of each round's accepted term (`None` for a round that accepted none), its
 /// parameters' priors from the final model.
 fn sizes(r: &LoopResult) -> Vec<Option<TermSize>> {
-    let est = &r.last.estimate;
+    let est = &r.last.calibration.estimate;
     let prior = |name: &str| {
         est.names
             .iter()
@@ -177,18 +178,9 @@ fn verdict(s: &Session<Diagnose>, r: &LoopResult, held_out: Option<&HeldOut>) ->
             calib::extend::HELD_OUT_TOLERANCE_NATS
         )
     });
-    let with_turntable = s.turntable.is_some();
     let (mut v, measured) = match held_out {
         Some(h) => (h.verdict.clone(), true),
-        None => (
-            RunVerdict::of(
-                &r.last.estimate,
-                None,
-                Some(&r.last.diagnostics),
-                with_turntable,
-            ),
-            false,
-        ),
+        None => (r.last.calibration.verdict.clone(), false),
     };
     match refused {
         Some(line) if measured => v.informative.push(line),
@@ -198,7 +190,7 @@ fn verdict(s: &Session<Diagnose>, r: &LoopResult, held_out: Option<&HeldOut>) ->
     let case = Case {
         measured,
         rests: s.rests.is_some(),
-        turntable: with_turntable,
+        turntable: s.turntable.is_some(),
     };
     let mut verdict = Verdict::of(v, case);
     verdict.rule = format!(
@@ -221,25 +213,18 @@ fn lab_figures(s: &Session<Diagnose>, r: &LoopResult) -> Result<DiagnosisLab, Er
         .map(|(role, p)| (*role, p.as_path()))
         .collect();
     let id = crate::identification::identify(&inputs, s.source.shown(), &s.config)?;
-    let est = &r.last.estimate;
+    let est = &r.last.calibration.estimate;
     let correlation = lab::correlation(est);
     let strongest = lab::strongest_correlations(&correlation.0, &correlation.1, 8);
     Ok(DiagnosisLab {
         id,
         parameters: lab::parameter_rows(est, None),
-        mean_nis: lab::mean_nis_figures(&est.stats, with_turntable(est)),
+        mean_nis: calib::estimate::verdict::mean_nis_figures(&est.stats, est.with_turntable()),
         unobserved: est.unobserved(),
         correlation,
         strongest,
-        segments: lab::segment_rows(&r.last.diagnostics, &est.segments),
+        segments: lab::segment_rows(&r.last.calibration.diagnostics, &est.segments),
     })
-}
-
-/// Whether a fit used the turntable angles (its layout has their delay).
-fn with_turntable(est: &calib::estimate::Estimate) -> bool {
-    est.names
-        .iter()
-        .any(|n| n == sins_model::names::TURNTABLE_TAU)
 }
 
 /// An accepted term's size: its largest estimate among the parameters the recording

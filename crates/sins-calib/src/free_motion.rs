@@ -8,7 +8,8 @@ use crate::Error;
 use crate::table;
 use ::import::sections::SectionsFile;
 use calib::config::RunConfig;
-use calib::estimate::hand_turned::{GradeChoice, HandTurnedResult, NoiseSource, WhiteNoiseAtRest};
+use calib::estimate::calibration::Calibration;
+use calib::estimate::hand_turned::{GradeChoice, NoiseSource, WhiteNoiseAtRest};
 use calib::io::ImuData;
 use calib::model::extension::ModelExtension;
 use calib::model::layout::StateLayout;
@@ -360,18 +361,20 @@ pub struct ValidationFigures {
     pub fitted_motions: usize,
 }
 
-/// The figures of a hand-turned run's result `r` with its `setup` and hold-out.
+/// The figures of a hand-turned run's result `r` with its `setup` and hold-out (`None`: the
+/// result has no evaluation of its rests).
 pub fn figures(
-    r: &HandTurnedResult,
+    r: &Calibration,
     setup: &SetupSummary,
     holdout: Option<usize>,
-) -> FreeMotionFigures {
+) -> Option<FreeMotionFigures> {
+    let evaluation = r.evaluation.as_ref()?;
     let c = &r.config;
-    let fitted: Vec<_> = r.evaluation.poses.iter().filter(|p| !p.held_out).collect();
+    let fitted: Vec<_> = evaluation.poses.iter().filter(|p| !p.held_out).collect();
     let rms = |f: fn(&calib::motion::free_motion::PoseResidual) -> f64| {
         (fitted.iter().map(|p| f(p).powi(2)).sum::<f64>() / fitted.len().max(1) as f64).sqrt()
     };
-    FreeMotionFigures {
+    Some(FreeMotionFigures {
         origin: setup.origin.clone(),
         grade: setup.grade,
         grade_name: c.unit_grade().name(),
@@ -383,11 +386,11 @@ pub fn figures(
         static_intervals: r.estimate.rests.len(),
         holdout,
         terms: setup.terms.iter().map(|c| c.id()).collect(),
-        turns: turn_figures(&r.evaluation),
+        turns: turn_figures(evaluation),
         known_turns: known_turns(&r.estimate.stats),
         fitted_static_rms_m_s2: (rms(|p| p.before_m_s2), rms(|p| p.after_m_s2)),
         fitted_rests: fitted.len(),
-        validation: r.evaluation.validation.map(|v| ValidationFigures {
+        validation: evaluation.validation.map(|v| ValidationFigures {
             intervals: v.intervals,
             rotation_pairs: v.rotation_pairs,
             static_rms_m_s2: (v.static_rms_before_m_s2, v.static_rms_after_m_s2),
@@ -406,7 +409,7 @@ pub fn figures(
             fitted_motion_rms_deg: v.fitted_motion_rms_rad.to_degrees(),
             fitted_motions: v.fitted_motions,
         }),
-    }
+    })
 }
 
 /// The known turns measured: updates, mean NIS, and the half-width of its band about 1

@@ -17,9 +17,10 @@ use crate::table;
 use calib::check::diagnostics::{Diagnostics, kind_serde};
 use calib::check::stats::p_value_text;
 use calib::estimate::Estimate;
-use calib::estimate::hand_turned::VerdictTest;
+use calib::estimate::verdict::MeanNis;
+use calib::estimate::verdict::VerdictTest;
 use calib::model::MeasurementKind;
-use calib::report::lab::{self, MeanNis, ParameterRow, SegmentRow};
+use calib::report::lab::{self, ParameterRow, SegmentRow};
 use std::fmt::Write as _;
 use std::path::Path;
 

@@ -12,23 +12,11 @@ use crate::provenance::RunProvenance;
 use crate::session::{Calibrate, ConfigSource, Session};
 use calib::check::diagnostics::Diagnostics;
 use calib::estimate::Estimate;
-use calib::estimate::hand_turned::{HandTurnedResult, NoiseSource};
+use calib::estimate::calibration::Calibration;
+use calib::estimate::verdict::{MeanNis, RunVerdict};
 use calib::io::{ImuKind, ResultFile, ResultTemperature};
-use calib::report::lab::{self, MeanNis, ParameterRow, RunVerdict, SegmentRow, TruthComparison};
+use calib::report::lab::{self, ParameterRow, SegmentRow, TruthComparison};
 use std::path::PathBuf;
-
-/// What the filter made of a session's data.
-pub struct Fit {
-    /// The estimate.
-    pub est: Estimate,
-    /// A recording of rests: the result with its rests, noise and evaluation.
-    pub hand_turned: Option<HandTurnedResult>,
-    /// The configuration as the filter ran it (for a recording of rests, the noise levels as
-    /// finally used).
-    pub config: calib::config::RunConfig,
-    /// The tests of the fit's innovations.
-    pub diagnostics: Diagnostics,
-}
 
 /// Everything a `calibrate` run reports.
 pub struct RunReport {
@@ -185,7 +173,7 @@ pub struct Verdict {
     pub advice: String,
     /// The held-out tests of a hand-turned calibration with measured noise, with their figures
     /// (empty with a configured noise).
-    pub tests: Vec<calib::estimate::hand_turned::VerdictTest>,
+    pub tests: Vec<calib::estimate::verdict::VerdictTest>,
 }
 
 impl Verdict {
@@ -221,16 +209,16 @@ const STRONGEST_CORRELATIONS: usize = 8;
 
 impl RunReport {
     /// The report of `fit` on the session `s`.
-    pub fn build(s: &Session<Calibrate>, fit: &Fit) -> Result<Self, Error> {
-        let est = &fit.est;
+    pub fn build(s: &Session<Calibrate>, fit: &Calibration) -> Result<Self, Error> {
+        let est = &fit.estimate;
         let with_turntable = s.turntable.is_some();
         let truth = s.task.truth.as_ref().map(|(path, t)| TruthFigures {
             path: path.clone(),
             comparison: lab::truth_comparison(est, t),
             clock_notes: clock_notes(t, &fit.config.clock),
         });
-        let free_motion = match (s.free_motion(), &fit.hand_turned) {
-            (Some(f), Some(r)) => Some(crate::free_motion::figures(r, &f.summary, s.holdout)),
+        let free_motion = match (s.free_motion(), &fit.evaluation) {
+            (Some(f), Some(_)) => crate::free_motion::figures(fit, &f.summary, s.holdout),
             _ => None,
         };
         let verdict = verdict(s, fit);
@@ -310,7 +298,7 @@ fn fit_figures(est: &Estimate, with_turntable: bool) -> FitFigures {
         states: est.names.len(),
         imu_records: s.imu_steps,
         final_time_s: est.final_time,
-        mean_nis: lab::mean_nis_figures(s, with_turntable),
+        mean_nis: calib::estimate::verdict::mean_nis_figures(s, with_turntable),
         turntable: with_turntable.then_some(TurntableSamples {
             used: s.turntable_samples,
             near_rate_changes: s.turntable_samples_near_rate_changes,
@@ -350,25 +338,16 @@ fn clock_notes(
     .collect()
 }
 
-/// The verdict of the fit: [`RunVerdict`] of its checks (the innovation diagnostics always
-/// among them), with the rule the report states and the advice the printout gives.
-fn verdict(s: &Session<Calibrate>, fit: &Fit) -> Verdict {
-    let v = RunVerdict::of(
-        &fit.est,
-        fit.hand_turned.as_ref(),
-        Some(&fit.diagnostics),
-        s.turntable.is_some(),
-    );
-    let measured = fit
-        .hand_turned
-        .as_ref()
-        .is_some_and(|r| matches!(r.noise, NoiseSource::Measured { .. }));
+/// The verdict of the fit (the calibration's, [`RunVerdict`]: the innovation diagnostics
+/// always among its checks), with the rule the report states and the advice the printout
+/// gives.
+fn verdict(s: &Session<Calibrate>, fit: &Calibration) -> Verdict {
     let case = Case {
-        measured,
-        rests: fit.hand_turned.is_some(),
+        measured: fit.noise_measured(),
+        rests: fit.evaluation.is_some(),
         turntable: s.turntable.is_some(),
     };
-    Verdict::of(v, case)
+    Verdict::of(fit.verdict.clone(), case)
 }
 
 /// What a run's verdict is about: noise measured from the data (the held-out rests decide) or
@@ -431,7 +410,7 @@ impl Verdict {
 
 /// What only the laboratory report shows: the identification (the inputs hashed, the
 /// configuration as used), the correlations and the segments' NIS.
-fn lab_figures(s: &Session<Calibrate>, fit: &Fit) -> Result<LabFigures, Error> {
+fn lab_figures(s: &Session<Calibrate>, fit: &Calibration) -> Result<LabFigures, Error> {
     let inputs: Vec<(&'static str, &std::path::Path)> = s
         .report_inputs
         .iter()
@@ -442,13 +421,13 @@ fn lab_figures(s: &Session<Calibrate>, fit: &Fit) -> Result<LabFigures, Error> {
         .map_or(Vec::new(), |f| f.summary.assumptions.clone());
     let id = crate::identification::identify(&inputs, s.source.shown(), &fit.config)?
         .with_provenance(&s.provenance, &assumptions);
-    let correlation = lab::correlation(&fit.est);
+    let correlation = lab::correlation(&fit.estimate);
     let strongest =
         lab::strongest_correlations(&correlation.0, &correlation.1, STRONGEST_CORRELATIONS);
     Ok(LabFigures {
         id,
         correlation,
         strongest,
-        segments: lab::segment_rows(&fit.diagnostics, &fit.est.segments),
+        segments: lab::segment_rows(&fit.diagnostics, &fit.estimate.segments),
     })
 }

@@ -20,7 +20,7 @@
 //!   the first window after each motion ([`noise_ml`]).
 //! - **The model**: the paper's, plus the terms the caller names (a `diagnose` result's, or the
 //!   user's): none is added without evidence.
-//! - **The verdict** ([`verdict`]): with noise the tool set itself, the innovations' scatter is
+//! - **The verdict** ([`crate::estimate::verdict::hand_turned_tests`]): with noise the tool set itself, the innovations' scatter is
 //!   no test of the model; the held-out rests are. Exit status 3 only where they contradict it.
 
 use crate::check::diagnostics::Innovation;
@@ -28,7 +28,7 @@ use crate::config::RunConfig;
 use crate::estimate::noise::{MeasuredLevels, variance_ratio};
 use crate::io::{ImuData, ImuKind};
 use crate::model::MeasurementKind;
-use crate::motion::free_motion::{EarthRotation, Evaluation};
+use crate::motion::free_motion::EarthRotation;
 use crate::motion::rests::Rest;
 use nalgebra::{Matrix3, Vector3};
 use sins_model::candidates::UnitGrade;
@@ -497,20 +497,6 @@ impl InnovationScatter {
     }
 }
 
-/// A calibration of a recording of rests with its held-out figures.
-#[derive(Clone, Debug)]
-pub struct HandTurnedResult {
-    /// The filter's result.
-    pub estimate: crate::estimate::Estimate,
-    /// The configuration it ran with (the noise levels as finally used).
-    pub config: RunConfig,
-    /// Where its noise levels came from.
-    pub noise: NoiseSource,
-    /// What the calibration does to the rests, the known turns and (with a hold-out) the
-    /// held-out rests ([`crate::motion::free_motion::evaluate`]).
-    pub evaluation: Evaluation,
-}
-
 /// What a recording of rests is calibrated from: the data, its rests and known turns.
 #[derive(Clone, Copy)]
 pub struct RestsInput<'a> {
@@ -526,7 +512,7 @@ pub struct RestsInput<'a> {
 
 /// A fit of a recording of rests with its noise measured: the filter's estimate and where its
 /// noise came from ([`fit_measuring_noise`]).
-pub struct MeasuredFit {
+pub(crate) struct MeasuredFit {
     /// The estimate of the last fit.
     pub estimate: crate::estimate::Estimate,
     /// The configuration it ran with.
@@ -547,7 +533,7 @@ pub struct MeasuredFit {
 /// `start`: the levels the first fit is made with (`None`: the configuration's,
 /// [`MeasuredLevels::configured`]); a fit of a model close to one already measured starts from
 /// its levels ([`NoiseSource::measured_levels`]).
-pub fn fit_measuring_noise(
+pub(crate) fn fit_measuring_noise(
     config: &RunConfig,
     layout: &crate::model::layout::StateLayout,
     input: RestsInput,
@@ -697,7 +683,7 @@ fn next_motion(motion: f64, estimated: f64, previous: Option<(f64, f64)>) -> f64
 /// [`crate::estimate::calibrate_rests`], the model `layout`, the known `turns` as measurements,
 /// every `holdout`-th rest held out (`filter.hold_out_every`), the noise measured where
 /// `measured` ([`fit_measuring_noise`]), and report what the result does to the rests, the
-/// turns and the held-out rests ([`HandTurnedResult`]).
+/// turns and the held-out rests, with its verdict ([`crate::estimate::calibration::Calibration`]).
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     config: &RunConfig,
@@ -709,7 +695,7 @@ pub fn calibrate(
     holdout: Option<usize>,
     measured: Option<WhiteNoiseAtRest>,
     progress: &mut dyn FnMut(usize, usize),
-) -> Result<HandTurnedResult, crate::estimate::EstimateError> {
+) -> Result<crate::estimate::calibration::Calibration, crate::estimate::EstimateError> {
     let refuse = |source| crate::estimate::EstimateError::Rests {
         file: file.to_string(),
         source,
@@ -747,188 +733,13 @@ pub fn calibrate(
             crate::motion::free_motion::evaluate(data, rests, turns, holdout, g, &earth, &c)
         })
         .map_err(|e| refuse(crate::motion::rests::RestError::Evaluation(e.to_string())))?;
-    Ok(HandTurnedResult {
+    Ok(crate::estimate::calibration::Calibration::new(
         estimate,
         config,
         noise,
-        evaluation,
-    })
-}
-
-/// One test behind a hand-turned calibration's verdict.
-#[derive(Clone, Debug, PartialEq)]
-pub struct VerdictTest {
-    /// What it compares.
-    pub name: &'static str,
-    /// Its statistic (a variance ratio, or a mean NIS).
-    pub statistic: f64,
-    /// Its p-value.
-    pub p_value: f64,
-    /// Whether it decides the exit status (the held-out rests, known turns, a configured
-    /// noise) or only informs (the innovations' scatter against a noise the tool measured).
-    pub decides: bool,
-    /// Whether it fails at its level.
-    pub fails: bool,
-    /// One line for reports.
-    pub line: String,
-}
-
-/// The verdict of a hand-turned calibration whose noise was measured (with a configured noise
-/// the mean-NIS bands decide, [`crate::report::lab::misfit_reasons`]).
-///
-/// With noise the tool set itself the innovations' mean NIS is 3 by construction: no test. The
-/// scatter's excess over the rests' own noise ([`ScatterExcess`]) says the model may lack
-/// something, and the held-out rests say whether it does:
-/// - their windows, predicted by a calibration that has not seen them, scatter grossly more
-///   than the rests' own noise ([`GROSS_VARIANCE_RATIO`]): an error the model lacks outweighs
-///   the noise;
-/// - the held-out `|f| - g` against the fitted rests', and the gravity direction carried over
-///   the single motions into and out of held-out rests against those between fitted rests (a
-///   predictive F-test each, the fitted figure's degrees of freedom less the parameters of its
-///   sensor, the held-out one divided by `1 + p / n` for what the parameters' uncertainty adds;
-///   Bonferroni over the two at [`EXCESS_LEVEL`]): a calibration that fits its own rests better
-///   than it predicts others.
-///
-/// Exit status 3 only where a held-out test fails. Without a hold-out nothing tests the model,
-/// and the verdict says so.
-pub fn verdict(r: &HandTurnedResult) -> Vec<VerdictTest> {
-    let mut out = scatter_tests(&r.noise);
-    let Some(v) = r.evaluation.validation else {
-        return out;
-    };
-    let count = |prefix: &str| {
-        r.estimate
-            .names
-            .iter()
-            .filter(|n| n.starts_with(prefix))
-            .count()
-    };
-    out.extend(predictive_test(
-        "static |f| - g",
-        (v.static_rms_after_m_s2, v.intervals),
-        (v.fitted_static_rms_m_s2, v.fitted_intervals),
-        count("accel."),
-        ("m/s^2", 1.0),
-    ));
-    // Each motion's gravity-direction error has two components.
-    out.extend(predictive_test(
-        "rotation over a motion",
-        (v.held_out_motion_rms_rad, 2 * v.held_out_motions),
-        (v.fitted_motion_rms_rad, 2 * v.fitted_motions),
-        count("gyro."),
-        ("deg", 1f64.to_radians()),
-    ));
-    out
-}
-
-/// The tests of the innovations' scatter against the rests' own noise, when the noise was
-/// measured: all the windows' (informs), the held-out windows' (decides: gross, above
-/// [`GROSS_VARIANCE_RATIO`]).
-fn scatter_tests(noise: &NoiseSource) -> Vec<VerdictTest> {
-    let mut out = Vec::new();
-    let NoiseSource::Measured {
-        excess,
-        held_out_excess,
-        ..
-    } = *noise
-    else {
-        return out;
-    };
-    out.push(VerdictTest {
-        name: "scatter",
-        statistic: excess.ratio,
-        p_value: excess.p_value,
-        decides: false,
-        fails: excess.significant(),
-        line: format!(
-            "the innovations scatter {:.2} times the variance of the rests' own noise \
-             (p = {:.2e}){}",
-            excess.ratio,
-            excess.p_value,
-            if excess.gross() {
-                ": the model lacks an error larger than the noise"
-            } else if excess.significant() {
-                ": the rests differ by more than their noise (settling, drift, or a small \
-                 unmodelled error)"
-            } else {
-                ""
-            }
-        ),
-    });
-    if let Some(h) = held_out_excess {
-        let p = ScatterExcess::of(h.ratio / GROSS_VARIANCE_RATIO, h.windows, h.dof).p_value;
-        out.push(VerdictTest {
-            name: "held-out scatter",
-            statistic: h.ratio,
-            p_value: p,
-            decides: true,
-            fails: h.gross(),
-            line: format!(
-                "held-out rests: their windows scatter {:.2} times the variance of the \
-                 rests' own noise over {} windows (above {GROSS_VARIANCE_RATIO}: p = \
-                 {p:.2e}){}",
-                h.ratio,
-                h.windows,
-                if h.gross() {
-                    ": the calibration's error on poses it has not seen outweighs the noise"
-                } else {
-                    ""
-                }
-            ),
-        });
-    }
-    out
-}
-
-/// The predictive F-test of a held-out figure against the fitted one: `held` and `fitted`
-/// are each an RMS and its number of values, `parameters` those of the sensor the figure
-/// tests (the fitted figure's degrees of freedom are its values less them; the held-out
-/// variance is divided by `1 + p / n` for what the parameters' uncertainty adds), `unit` the
-/// unit of the report line and its size in SI. At half [`EXCESS_LEVEL`] (Bonferroni over the
-/// two figures). `None` without held-out values or without degrees of freedom.
-fn predictive_test(
-    name: &'static str,
-    held: (f64, usize),
-    fitted: (f64, usize),
-    parameters: usize,
-    unit: (&str, f64),
-) -> Option<VerdictTest> {
-    let level = EXCESS_LEVEL / 2.0;
-    let (n_h, n_f) = (held.1, fitted.1);
-    if n_h == 0 || n_f <= parameters {
-        return None;
-    }
-    let dof_f = n_f - parameters;
-    let var_f = fitted.0.powi(2) * n_f as f64 / dof_f as f64;
-    let var_h = held.0.powi(2) / (1.0 + parameters as f64 / n_f as f64);
-    let ratio = var_h / var_f.max(f64::MIN_POSITIVE);
-    let p = f_upper_tail(ratio, n_h as f64, dof_f as f64);
-    let fails = p < level;
-    Some(VerdictTest {
-        name,
-        statistic: ratio,
-        p_value: p,
-        decides: true,
-        fails,
-        line: format!(
-            "held-out {name}: RMS {:.4} {} against {:.4} on the fitted ones, variance \
-             ratio {ratio:.2} (F with {n_h} and {dof_f} dof, p = {p:.2e}){}",
-            held.0 / unit.1,
-            unit.0,
-            fitted.0 / unit.1,
-            if fails {
-                ": the calibration does not predict the poses it has not seen"
-            } else {
-                ""
-            }
-        ),
-    })
-}
-
-/// `P(F > x)` for an F distribution with `d1` and `d2` degrees of freedom.
-fn f_upper_tail(x: f64, d1: f64, d2: f64) -> f64 {
-    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
-    FisherSnedecor::new(d1, d2).map_or(f64::NAN, |f| f.sf(x))
+        Some(evaluation),
+        &crate::check::diagnostics::DiagnosticSettings::default(),
+    ))
 }
 
 #[cfg(test)]

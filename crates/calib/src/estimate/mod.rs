@@ -43,12 +43,14 @@ use sins_model::terms::Unit;
 use turntable::gimbal::c_platform_to_base;
 
 mod angles;
+pub mod calibration;
 mod consider;
 pub mod covariance;
 pub mod data_checks;
 pub mod hand_turned;
 pub mod noise;
 mod pass;
+pub mod verdict;
 
 pub use crate::io::source::{FileImu, ImuSource, MemoryImu};
 use angles::AngleInterpolator;
@@ -233,6 +235,13 @@ impl Estimate {
                 (ratio > UNOBSERVED_SIGMA_RATIO).then(|| (n.clone(), ratio))
             })
             .collect()
+    }
+
+    /// Whether the turntable's angles were fitted (the layout has their delay).
+    pub fn with_turntable(&self) -> bool {
+        self.names
+            .iter()
+            .any(|n| n == sins_model::names::TURNTABLE_TAU)
     }
 
     /// Estimate of a state by name (SI).

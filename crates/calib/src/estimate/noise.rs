@@ -169,7 +169,7 @@ pub struct WhiteNoiseAtRest {
 /// (one-sided, the upper [`EXCESS_LEVEL`] tail; the log-normal approximation
 /// `ln F ~ N(0, 2/d1 + 2/d2)`). An excess says the rests differ by more than their noise: the
 /// model lacks an error, or the unit settles or warms after each turn. Not a verdict alone:
-/// the held-out rests decide ([`crate::estimate::hand_turned::verdict`]).
+/// the held-out rests decide ([`crate::estimate::verdict::hand_turned_tests`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScatterExcess {
     /// The variance ratio.
@@ -182,7 +182,7 @@ pub struct ScatterExcess {
     pub dof: usize,
 }
 
-/// The level of the one-sided tests of [`ScatterExcess`] and [`crate::estimate::hand_turned::verdict`].
+/// The level of the one-sided tests of [`ScatterExcess`] and [`crate::estimate::verdict::hand_turned_tests`].
 pub const EXCESS_LEVEL: f64 = 0.01;
 
 impl ScatterExcess {

@@ -29,10 +29,11 @@ pub mod design;
 pub mod drift_visibility;
 pub mod evidence;
 
-use crate::check::diagnostics::{DiagnosticSettings, Diagnostics, Innovation, diagnose};
+use crate::check::diagnostics::{DiagnosticSettings, Innovation};
 use crate::config::RunConfig;
+use crate::estimate::calibration::Calibration;
 use crate::estimate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
-use crate::estimate::noise::MeasuredLevels;
+use crate::estimate::noise::{MeasuredLevels, NoiseSource};
 use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext_kept};
 use crate::extend::drift_visibility::{
     DriftAnalysis, DriftVisibility, drift_threshold, smallest_visible_drift,
@@ -141,10 +142,9 @@ pub const PROGRAM_COVERAGE_SLACK_S: f64 = 1.0;
 pub struct Fit {
     /// The model fitted (the extension of the paper's model).
     pub extension: ModelExtension,
-    /// The estimate.
-    pub estimate: Estimate,
-    /// Diagnostics of its innovations.
-    pub diagnostics: Diagnostics,
+    /// The calibration: its estimate, noise, the tests of its innovations (with the loop's
+    /// diagnostic settings) and its verdict.
+    pub calibration: Calibration,
     /// Log-likelihood of the innovations.
     pub log_likelihood: f64,
     /// Scalar innovations.
@@ -359,7 +359,7 @@ impl LoopResult {
     /// Whether the base model fits: no candidate called for and the diagnostics pass.
     pub fn base_fits(&self) -> bool {
         self.accepted_terms.is_empty()
-            && self.base.diagnostics.fits
+            && self.base.calibration.diagnostics.fits
             && !self.any_inseparable_call()
             && self.held_out_rejection().is_none()
     }
@@ -367,7 +367,7 @@ impl LoopResult {
     /// Whether the final model fits: its diagnostics pass and no term the data call for was
     /// refused by the held-out check (then the misfit is there and no candidate explains it).
     pub fn final_model_fits(&self) -> bool {
-        self.last.diagnostics.fits && self.held_out_rejection().is_none()
+        self.last.calibration.diagnostics.fits && self.held_out_rejection().is_none()
     }
 
     /// The last round's held-out check when it refused the candidate the statistics picked.
@@ -470,7 +470,7 @@ impl Context<'_> {
         ));
         let mut density = |ext: &ModelExtension| -> Result<(f64, usize), LoopError> {
             let fit = self.fit_with(&config, ext)?;
-            Ok(held_out_log_density(&fit.estimate.innovations))
+            Ok(held_out_log_density(&fit.calibration.estimate.innovations))
         };
         let (without, measurements) = density(current)?;
         let (with, _) = density(with)?;
@@ -485,8 +485,11 @@ impl Context<'_> {
     }
 
     fn fit_with(&mut self, config: &RunConfig, ext: &ModelExtension) -> Result<Fit, LoopError> {
-        let estimate = match self.rests {
-            None => estimate_ext_kept(config, *self.data, ext, &mut self.program)?,
+        let (estimate, config, noise) = match self.rests {
+            None => {
+                let est = estimate_ext_kept(config, *self.data, ext, &mut self.program)?;
+                (est, config.clone(), NoiseSource::Configured)
+            }
             Some(rests) => {
                 let fit = crate::estimate::hand_turned::fit_measuring_noise(
                     config,
@@ -504,19 +507,15 @@ impl Context<'_> {
                 if let Some(levels) = fit.noise.measured_levels() {
                     self.measured_start.get_or_insert(levels);
                 }
-                fit.estimate
+                (fit.estimate, fit.config, fit.noise)
             }
         };
-        let diagnostics = diagnose(
-            &estimate.innovations,
-            &estimate.segments,
-            &self.settings.diagnostics,
-        );
         let (log_likelihood, observations) = log_likelihood(&estimate.innovations);
+        let calibration =
+            Calibration::new(estimate, config, noise, None, &self.settings.diagnostics);
         Ok(Fit {
             extension: ext.clone(),
-            estimate,
-            diagnostics,
+            calibration,
             log_likelihood,
             observations,
         })
@@ -550,7 +549,7 @@ impl Context<'_> {
         let ext = with_term(&current.extension, c, self.config.unit_grade());
         let fit = self.fit(&ext)?;
         let names = c.param_names();
-        let est = &fit.estimate;
+        let est = &fit.calibration.estimate;
         let idx: Vec<usize> = names
             .iter()
             .map(|n| {
@@ -582,7 +581,7 @@ impl Context<'_> {
                 log_det_data: f64::NAN,
             },
         };
-        let base: Vec<String> = parameter_names(&current.estimate);
+        let base: Vec<String> = parameter_names(&current.calibration.estimate);
         let mut sep = separability(&post.names, &post.prior_sigma, &post.cov, &names, &base);
         if self.rests.is_some() {
             // A recording of rests sees some entries of a term only through the Earth rate
@@ -759,7 +758,10 @@ fn parameter_names(est: &Estimate) -> Vec<String> {
 }
 
 fn gain(before: &Fit, after: &Fit, parameters: usize) -> TermGain {
-    let (b, a) = (&before.estimate.stats, &after.estimate.stats);
+    let (b, a) = (
+        &before.calibration.estimate.stats,
+        &after.calibration.estimate.stats,
+    );
     TermGain {
         information: InformationGain::new(
             before.log_likelihood,
@@ -769,7 +771,10 @@ fn gain(before: &Fit, after: &Fit, parameters: usize) -> TermGain {
         ),
         accel_mean_nis: (b.accel_mean_nis, a.accel_mean_nis),
         turntable_mean_nis: (b.turntable_mean_nis, a.turntable_mean_nis),
-        diagnostics_fit: (before.diagnostics.fits, after.diagnostics.fits),
+        diagnostics_fit: (
+            before.calibration.diagnostics.fits,
+            after.calibration.diagnostics.fits,
+        ),
     }
 }
 
@@ -863,9 +868,9 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
     let base = cx.fit(&ModelExtension::default())?;
     if cx.rests.is_none() {
         let program = cx.program.as_ref().expect("a fit of a program keeps it");
-        check_coverage(cx.config, program, cx.data, &base.estimate)?;
+        check_coverage(cx.config, program, cx.data, &base.calibration.estimate)?;
     }
-    let est = &base.estimate;
+    let est = &base.calibration.estimate;
     if let (Some(t), None) = (&est.temperature, cx.rests) {
         // The 1-s means on the program's clock (a recording of rests has none: its
         // separability comes from the fit's own posterior).
@@ -886,12 +891,12 @@ fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
 /// ([`NoiseRescale::to_innovations`]): the root of its mean NIS over the mean expected when the
 /// model fits (3, for the turntable angles a little less:
 /// `FitStatistics::turntable_expected_nis`) where that mean is outside its band
-/// ([`crate::report::lab::mean_nis_figures`]; `None`: both inside, or no updates).
+/// ([`crate::estimate::verdict::mean_nis_figures`]; `None`: both inside, or no updates).
 fn noise_rescale(
     stats: &crate::estimate::FitStatistics,
     with_turntable: bool,
 ) -> Option<NoiseRescale> {
-    let figures = crate::report::lab::mean_nis_figures(stats, with_turntable);
+    let figures = crate::estimate::verdict::mean_nis_figures(stats, with_turntable);
     let outside = |kind: crate::model::MeasurementKind| {
         figures
             .iter()
@@ -915,7 +920,7 @@ fn noise_rescale(
 /// extended model (a real effect's share of the misfit is not taken for noise twice).
 fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
     let settings = cx.settings;
-    let thermal_off = thermal_untestable(&base.estimate);
+    let thermal_off = thermal_untestable(&base.calibration.estimate);
     let mut st = LoopState {
         current: base.clone(),
         accepted: Vec::new(),
@@ -997,7 +1002,10 @@ impl Context<'_> {
         self.scaled = None;
         let rescale = match self.settings.measured_noise {
             Some(_) => None,
-            None => noise_rescale(&st.current.estimate.stats, self.data.turntable.is_some()),
+            None => noise_rescale(
+                &st.current.calibration.estimate.stats,
+                self.data.turntable.is_some(),
+            ),
         };
         let Some(r) = rescale else {
             return Ok(st.current.clone());
@@ -1057,7 +1065,8 @@ impl Context<'_> {
         (e, fit): (CandidateEvidence, Fit),
         reference: &Fit,
     ) -> Result<(), LoopError> {
-        let added = fit.estimate.names.len() - reference.estimate.names.len();
+        let added =
+            fit.calibration.estimate.names.len() - reference.calibration.estimate.names.len();
         let added = if e.term == Candidate::GyroBiasDrift.id() {
             3
         } else {

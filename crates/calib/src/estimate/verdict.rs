@@ -1,0 +1,459 @@
+//! The verdict of a calibration ([`RunVerdict`]): what decides its exit status, what only
+//! informs, and what it rests on. With a configured noise the mean NIS of each measurement
+//! against its band ([`mean_nis_figures`]) and the tests of the innovations decide
+//! ([`misfit_reasons`]); with noise a recording of rests measured from its own data the held-out
+//! rests and the known turns decide ([`hand_turned_tests`]). Part of the one
+//! result of a calibration ([`crate::estimate::calibration::Calibration`]).
+
+use crate::check::diagnostics::{Diagnostics, kind_label};
+use crate::estimate::FitStatistics;
+use crate::estimate::noise::{EXCESS_LEVEL, GROSS_VARIANCE_RATIO, NoiseSource, ScatterExcess};
+use crate::model::MeasurementKind;
+use crate::motion::free_motion::Evaluation;
+
+/// Half-width of the band of a mean of `n` chi-square(3) values: three standard deviations,
+/// `3 sqrt(6 / n)` (a false alarm about once in 370 fits per measurement).
+pub fn mean_nis_half_band(n: usize) -> f64 {
+    3.0 * (6.0 / n.max(1) as f64).sqrt()
+}
+
+/// The mean NIS of one measurement kind against its band: the verdict's first criterion.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeanNis {
+    /// Which measurement.
+    pub kind: MeasurementKind,
+    /// Its name in reports (`specific force`, `turntable angles`).
+    pub label: &'static str,
+    /// Updates averaged.
+    pub updates: usize,
+    /// The mean NIS.
+    pub mean: f64,
+    /// What it averages when the model fits: 3 (three components per update) less the share
+    /// of the innovation covariance that is covariance with the update before
+    /// ([`FitStatistics::turntable_expected_nis`]; 3 for the specific force).
+    pub expected: f64,
+    /// Half-width of the band about `expected` ([`mean_nis_half_band`]).
+    pub half_band: f64,
+}
+
+impl MeanNis {
+    /// Whether the mean is inside its band (no updates: nothing to contradict the model).
+    pub fn consistent(&self) -> bool {
+        self.updates == 0 || (self.mean - self.expected).abs() <= self.half_band
+    }
+}
+
+/// The mean NIS of each measurement the fit used (the turntable angles only with them).
+pub fn mean_nis_figures(stats: &FitStatistics, with_turntable: bool) -> Vec<MeanNis> {
+    let mut out = vec![MeanNis {
+        kind: MeasurementKind::Accel,
+        label: kind_label(MeasurementKind::Accel),
+        updates: stats.accel_updates,
+        mean: stats.accel_mean_nis,
+        expected: 3.0,
+        half_band: mean_nis_half_band(stats.accel_updates),
+    }];
+    if with_turntable {
+        out.push(MeanNis {
+            kind: MeasurementKind::Turntable,
+            label: kind_label(MeasurementKind::Turntable),
+            updates: stats.turntable_updates,
+            mean: stats.turntable_mean_nis,
+            expected: stats.turntable_expected_nis,
+            half_band: mean_nis_half_band(stats.turntable_updates),
+        });
+    }
+    out
+}
+
+/// Why the model does not fit the data (empty: it fits), one line per reason: each mean NIS
+/// outside its band ([`mean_nis_figures`]), and failing diagnostics when they were run. The
+/// verdict of `calibrate` and of its report.
+pub fn misfit_reasons(
+    stats: &FitStatistics,
+    diagnostics: Option<&Diagnostics>,
+    with_turntable: bool,
+) -> Vec<String> {
+    let mut out: Vec<String> = mean_nis_figures(stats, with_turntable)
+        .iter()
+        .filter(|m| !m.consistent())
+        .map(|m| {
+            format!(
+                "{}: mean NIS {:.3} over {} updates, expected {:.3} +- {:.3}",
+                m.label, m.mean, m.updates, m.expected, m.half_band
+            )
+        })
+        .collect();
+    out.extend(turn_reason(stats));
+    if let Some(d) = diagnostics.filter(|d| !d.fits) {
+        out.push(format!(
+            "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
+            d.failures.len(),
+            d.tests.len(),
+            100.0 * d.settings.alpha
+        ));
+    }
+    out
+}
+
+/// Known turns: chi-square(1) each, the mean within three of its standard deviations
+/// (sqrt(2 / n)) of 1; the reason when it is not.
+fn turn_reason(stats: &FitStatistics) -> Option<String> {
+    if stats.turn_updates == 0 {
+        return None;
+    }
+    let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
+    ((stats.turn_mean_nis - 1.0).abs() > half).then(|| {
+        format!(
+            "known turns: mean NIS {:.3} over {} turns, expected 1 +- {:.3}",
+            stats.turn_mean_nis, stats.turn_updates, half
+        )
+    })
+}
+
+/// The verdict of a calibration: what decides its exit status, what only informs, and what it
+/// rests on. With a configured noise the innovations against it decide
+/// ([`misfit_reasons`]). With noise a hand-turned calibration measured from the data itself the
+/// innovations' scatter is no test (the noise was brought to it): the held-out rests and the
+/// known turns decide ([`hand_turned_tests`]), and the innovation diagnostics inform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunVerdict {
+    /// Reasons for exit status 3 (empty: the model fits, or nothing contradicts it).
+    pub decisive: Vec<String>,
+    /// Findings that do not decide, each with its figures.
+    pub informative: Vec<String>,
+    /// What the verdict rests on, one line.
+    pub basis: String,
+    /// Whether anything tested the model at all.
+    pub tested: bool,
+    /// The tests of a hand-turned calibration with measured noise, with their figures
+    /// ([`hand_turned_tests`]; empty with a configured noise).
+    pub tests: Vec<VerdictTest>,
+}
+
+/// The span of the records' temperature (K) from which a model without thermal terms is
+/// pointed out: a navigation-grade gyro's 0.005 deg/h/K moves its bias by its own posterior
+/// sigma on the paper's program over about 1 K.
+pub const THERMAL_FINDING_SPAN_K: f64 = 1.0;
+
+/// A finding where the temperature moved over the run and the model has no thermal term: the
+/// innovations can look consistent while the biases are those of no temperature in particular
+/// (a warm-up of 15 K put the paper's program's gyro bias 6.5 sigma from its value at the mean
+/// temperature with every check consistent).
+pub fn thermal_finding(est: &crate::estimate::Estimate) -> Option<String> {
+    let t = est.temperature.as_ref()?;
+    let span = t.max_c.zip(t.min_c).map(|(a, b)| a - b)?;
+    let has = |triad: &str| {
+        est.names
+            .iter()
+            .any(|n| n.starts_with(triad) && (n.contains(".tbias.") || n.contains(".tscale.")))
+    };
+    let missing: Vec<&str> = [("gyro.", "gyros"), ("accel.", "accelerometers")]
+        .into_iter()
+        .filter(|(p, _)| !has(p))
+        .map(|(_, name)| name)
+        .collect();
+    (span >= THERMAL_FINDING_SPAN_K && !missing.is_empty()).then(|| {
+        format!(
+            "the temperature moved {span:.1} K over the run and the model has no temperature \
+             coefficient for the {}: their biases and scale factors are a mean over it; \
+             `diagnose` tests the thermal terms (gyro_temp_bias, accel_temp_bias, ...), \
+             `calibrate --terms` adds them",
+            missing.join(" or the ")
+        )
+    })
+}
+
+impl RunVerdict {
+    /// The verdict of `est`, fitted with the noise from `noise`: with a configured noise its
+    /// mean NIS and its `diagnostics` decide; with a noise measured from a recording of rests
+    /// the tests of its `evaluation` (the held-out rests, when any were held out) and its known
+    /// turns decide, and the diagnostics inform.
+    pub fn of(
+        est: &crate::estimate::Estimate,
+        noise: &NoiseSource,
+        evaluation: Option<&Evaluation>,
+        diagnostics: Option<&Diagnostics>,
+        with_turntable: bool,
+    ) -> Self {
+        if matches!(noise, NoiseSource::Configured) {
+            return Self {
+                decisive: misfit_reasons(&est.stats, diagnostics, with_turntable),
+                informative: thermal_finding(est).into_iter().collect(),
+                basis: format!(
+                    "the innovations against the configured noise (mean NIS{}{})",
+                    if est.stats.turn_updates > 0 {
+                        ", known turns"
+                    } else {
+                        ""
+                    },
+                    if diagnostics.is_some() {
+                        ", diagnostics"
+                    } else {
+                        ""
+                    }
+                ),
+                tested: true,
+                tests: Vec::new(),
+            };
+        }
+        let tests = hand_turned_tests(est, noise, evaluation);
+        let mut decisive: Vec<String> = tests
+            .iter()
+            .filter(|t| t.decides && t.fails)
+            .map(|t| t.line.clone())
+            .collect();
+        decisive.extend(turn_reason(&est.stats));
+        let mut informative: Vec<String> = tests
+            .iter()
+            .filter(|t| !t.decides || !t.fails)
+            .map(|t| t.line.clone())
+            .collect();
+        informative.extend(thermal_finding(est));
+        if let Some(d) = diagnostics.filter(|d| !d.fits) {
+            informative.push(format!(
+                "diagnostics: {} of {} tests fail at the family-wise level {} % (against the \
+                 measured noise, which they take as white)",
+                d.failures.len(),
+                d.tests.len(),
+                100.0 * d.settings.alpha
+            ));
+        }
+        let held_out = evaluation.is_some_and(|e| e.validation.is_some());
+        let turns = est.stats.turn_updates > 0;
+        let basis = match (held_out, turns) {
+            (true, true) => {
+                "the held-out rests and the known turns (the noise was measured from \
+                             these data: their scatter is no test)"
+            }
+            (true, false) => {
+                "the held-out rests (the noise was measured from these data: their \
+                              scatter is no test)"
+            }
+            (false, true) => {
+                "the known turns only: the noise was measured from these data and \
+                              no rest is held out (--holdout K tests the model on rests it has \
+                              not seen)"
+            }
+            (false, false) => {
+                "nothing: the noise was measured from these data and no rest is \
+                               held out (--holdout K tests the model on rests it has not seen)"
+            }
+        };
+        Self {
+            decisive,
+            informative,
+            basis: basis.to_string(),
+            tested: held_out || turns,
+            tests,
+        }
+    }
+
+    /// Whether nothing contradicts the model.
+    pub fn fits(&self) -> bool {
+        self.decisive.is_empty()
+    }
+}
+
+/// One test behind a hand-turned calibration's verdict.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VerdictTest {
+    /// What it compares.
+    pub name: &'static str,
+    /// Its statistic (a variance ratio, or a mean NIS).
+    pub statistic: f64,
+    /// Its p-value.
+    pub p_value: f64,
+    /// Whether it decides the exit status (the held-out rests, known turns, a configured
+    /// noise) or only informs (the innovations' scatter against a noise the tool measured).
+    pub decides: bool,
+    /// Whether it fails at its level.
+    pub fails: bool,
+    /// One line for reports.
+    pub line: String,
+}
+
+/// The verdict of a hand-turned calibration whose noise was measured (with a configured noise
+/// the mean-NIS bands decide, [`crate::estimate::verdict::misfit_reasons`]).
+///
+/// With noise the tool set itself the innovations' mean NIS is 3 by construction: no test. The
+/// scatter's excess over the rests' own noise ([`ScatterExcess`]) says the model may lack
+/// something, and the held-out rests say whether it does:
+/// - their windows, predicted by a calibration that has not seen them, scatter grossly more
+///   than the rests' own noise ([`GROSS_VARIANCE_RATIO`]): an error the model lacks outweighs
+///   the noise;
+/// - the held-out `|f| - g` against the fitted rests', and the gravity direction carried over
+///   the single motions into and out of held-out rests against those between fitted rests (a
+///   predictive F-test each, the fitted figure's degrees of freedom less the parameters of its
+///   sensor, the held-out one divided by `1 + p / n` for what the parameters' uncertainty adds;
+///   Bonferroni over the two at [`EXCESS_LEVEL`]): a calibration that fits its own rests better
+///   than it predicts others.
+///
+/// Exit status 3 only where a held-out test fails. Without a hold-out nothing tests the model,
+/// and the verdict says so.
+pub fn hand_turned_tests(
+    est: &crate::estimate::Estimate,
+    noise: &NoiseSource,
+    evaluation: Option<&Evaluation>,
+) -> Vec<VerdictTest> {
+    let mut out = scatter_tests(noise);
+    let Some(v) = evaluation.and_then(|e| e.validation) else {
+        return out;
+    };
+    let count = |prefix: &str| est.names.iter().filter(|n| n.starts_with(prefix)).count();
+    out.extend(predictive_test(
+        "static |f| - g",
+        (v.static_rms_after_m_s2, v.intervals),
+        (v.fitted_static_rms_m_s2, v.fitted_intervals),
+        count("accel."),
+        ("m/s^2", 1.0),
+    ));
+    // Each motion's gravity-direction error has two components.
+    out.extend(predictive_test(
+        "rotation over a motion",
+        (v.held_out_motion_rms_rad, 2 * v.held_out_motions),
+        (v.fitted_motion_rms_rad, 2 * v.fitted_motions),
+        count("gyro."),
+        ("deg", 1f64.to_radians()),
+    ));
+    out
+}
+
+/// The tests of the innovations' scatter against the rests' own noise, when the noise was
+/// measured: all the windows' (informs), the held-out windows' (decides: gross, above
+/// [`GROSS_VARIANCE_RATIO`]).
+fn scatter_tests(noise: &NoiseSource) -> Vec<VerdictTest> {
+    let mut out = Vec::new();
+    let NoiseSource::Measured {
+        excess,
+        held_out_excess,
+        ..
+    } = *noise
+    else {
+        return out;
+    };
+    out.push(VerdictTest {
+        name: "scatter",
+        statistic: excess.ratio,
+        p_value: excess.p_value,
+        decides: false,
+        fails: excess.significant(),
+        line: format!(
+            "the innovations scatter {:.2} times the variance of the rests' own noise \
+             (p = {:.2e}){}",
+            excess.ratio,
+            excess.p_value,
+            if excess.gross() {
+                ": the model lacks an error larger than the noise"
+            } else if excess.significant() {
+                ": the rests differ by more than their noise (settling, drift, or a small \
+                 unmodelled error)"
+            } else {
+                ""
+            }
+        ),
+    });
+    if let Some(h) = held_out_excess {
+        let p = ScatterExcess::of(h.ratio / GROSS_VARIANCE_RATIO, h.windows, h.dof).p_value;
+        out.push(VerdictTest {
+            name: "held-out scatter",
+            statistic: h.ratio,
+            p_value: p,
+            decides: true,
+            fails: h.gross(),
+            line: format!(
+                "held-out rests: their windows scatter {:.2} times the variance of the \
+                 rests' own noise over {} windows (above {GROSS_VARIANCE_RATIO}: p = \
+                 {p:.2e}){}",
+                h.ratio,
+                h.windows,
+                if h.gross() {
+                    ": the calibration's error on poses it has not seen outweighs the noise"
+                } else {
+                    ""
+                }
+            ),
+        });
+    }
+    out
+}
+
+/// The predictive F-test of a held-out figure against the fitted one: `held` and `fitted`
+/// are each an RMS and its number of values, `parameters` those of the sensor the figure
+/// tests (the fitted figure's degrees of freedom are its values less them; the held-out
+/// variance is divided by `1 + p / n` for what the parameters' uncertainty adds), `unit` the
+/// unit of the report line and its size in SI. At half [`EXCESS_LEVEL`] (Bonferroni over the
+/// two figures). `None` without held-out values or without degrees of freedom.
+fn predictive_test(
+    name: &'static str,
+    held: (f64, usize),
+    fitted: (f64, usize),
+    parameters: usize,
+    unit: (&str, f64),
+) -> Option<VerdictTest> {
+    let level = EXCESS_LEVEL / 2.0;
+    let (n_h, n_f) = (held.1, fitted.1);
+    if n_h == 0 || n_f <= parameters {
+        return None;
+    }
+    let dof_f = n_f - parameters;
+    let var_f = fitted.0.powi(2) * n_f as f64 / dof_f as f64;
+    let var_h = held.0.powi(2) / (1.0 + parameters as f64 / n_f as f64);
+    let ratio = var_h / var_f.max(f64::MIN_POSITIVE);
+    let p = f_upper_tail(ratio, n_h as f64, dof_f as f64);
+    let fails = p < level;
+    Some(VerdictTest {
+        name,
+        statistic: ratio,
+        p_value: p,
+        decides: true,
+        fails,
+        line: format!(
+            "held-out {name}: RMS {:.4} {} against {:.4} on the fitted ones, variance \
+             ratio {ratio:.2} (F with {n_h} and {dof_f} dof, p = {p:.2e}){}",
+            held.0 / unit.1,
+            unit.0,
+            fitted.0 / unit.1,
+            if fails {
+                ": the calibration does not predict the poses it has not seen"
+            } else {
+                ""
+            }
+        ),
+    })
+}
+
+/// `P(F > x)` for an F distribution with `d1` and `d2` degrees of freedom.
+fn f_upper_tail(x: f64, d1: f64, d2: f64) -> f64 {
+    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+    FisherSnedecor::new(d1, d2).map_or(f64::NAN, |f| f.sf(x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_nis_band_is_three_standard_deviations() {
+        // The mean of n chi-square(3) values has variance 6 / n.
+        assert!((mean_nis_half_band(2727) - 3.0 * (6.0f64 / 2727.0).sqrt()).abs() < 1e-15);
+        let m = |mean| MeanNis {
+            kind: MeasurementKind::Accel,
+            label: "specific force",
+            updates: 2727,
+            mean,
+            expected: 3.0,
+            half_band: mean_nis_half_band(2727),
+        };
+        assert!(m(3.1).consistent());
+        assert!(!m(3.2).consistent());
+        assert!(!m(2.8).consistent());
+        // The band is about the expected mean, not about 3.
+        let shifted = |mean| MeanNis {
+            expected: 2.9,
+            ..m(mean)
+        };
+        assert!(shifted(2.78).consistent());
+        assert!(!shifted(3.05).consistent());
+    }
+}
