@@ -213,17 +213,15 @@ fn lab_figures(s: &Session<Diagnose>, r: &LoopResult) -> Result<DiagnosisLab, Er
         .map(|(role, p)| (*role, p.as_path()))
         .collect();
     let id = crate::identification::identify(&inputs, s.source.shown(), &s.config)?;
-    let est = &r.last.calibration.estimate;
-    let correlation = lab::correlation(est);
-    let strongest = lab::strongest_correlations(&correlation.0, &correlation.1, 8);
+    let f = lab::Figures::of(&r.last.calibration, None);
     Ok(DiagnosisLab {
         id,
-        parameters: lab::parameter_rows(est, None),
-        mean_nis: calib::estimate::verdict::mean_nis_figures(&est.stats, est.with_turntable()),
-        unobserved: est.unobserved(),
-        correlation,
-        strongest,
-        segments: lab::segment_rows(&r.last.calibration.diagnostics, &est.segments),
+        parameters: f.parameters,
+        mean_nis: f.mean_nis,
+        unobserved: f.unobserved,
+        correlation: f.correlation,
+        strongest: f.strongest,
+        segments: f.segments,
     })
 }
 

@@ -16,7 +16,7 @@ use calib::model::layout::StateLayout;
 use calib::motion::free_motion::{EarthRateTreatment, Evaluation};
 use calib::motion::rests::Rest;
 use calib::motion::rests::Turn;
-use sins_model::candidates::Candidate;
+use sins_model::candidates::{Candidate, UnitGrade};
 use sins_model::units::DEG_PER_HOUR;
 
 /// The longest mean record interval of a hand-turned recording without a configuration (s):
@@ -42,6 +42,9 @@ pub struct Setup {
     pub terms: Vec<Candidate>,
     /// The grade chosen from the data (without a configuration).
     pub grade: Option<GradeChoice>,
+    /// The grade of the configuration's priors (resolved once: it sets the terms' priors and
+    /// is reported).
+    pub unit_grade: UnitGrade,
     /// Known turns of the section list.
     pub turns: Vec<Turn>,
     /// What the configuration assumed for want of an input (the site's latitude and height,
@@ -67,7 +70,8 @@ pub fn setup(
         None => config_from_recording(site, data, file, rests)?,
     };
     let config = made.config;
-    let ext = ModelExtension::with_grade(terms, config.unit_grade());
+    let unit_grade = config.unit_grade();
+    let ext = ModelExtension::with_grade(terms, unit_grade);
     let layout = calib::model::layout::layout_with(&config, false, &ext);
     let times: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     let turns = match sections {
@@ -81,6 +85,7 @@ pub fn setup(
         layout,
         terms: terms.to_vec(),
         grade: made.grade,
+        unit_grade,
         turns,
         assumptions: made.assumptions,
     })
@@ -229,6 +234,8 @@ pub struct SetupSummary {
     pub origin: String,
     /// The grade chosen from the data.
     pub grade: Option<GradeChoice>,
+    /// The grade of the configuration's priors.
+    pub unit_grade: UnitGrade,
     /// The terms beyond the paper's model.
     pub terms: Vec<Candidate>,
     /// What the configuration assumed ([`Setup::assumptions`]).
@@ -241,6 +248,7 @@ impl Setup {
         SetupSummary {
             origin: self.origin.clone(),
             grade: self.grade,
+            unit_grade: self.unit_grade,
             terms: self.terms.clone(),
             assumptions: self.assumptions.clone(),
         }
@@ -377,12 +385,12 @@ pub fn figures(
     Some(FreeMotionFigures {
         origin: setup.origin.clone(),
         grade: setup.grade,
-        grade_name: c.unit_grade().name(),
+        grade_name: setup.unit_grade.name(),
         noise: noise_figures(&r.noise),
         noise_gyro_deg_h: c.noise.gyro_deg_h,
         noise_accel_m_s2: c.noise.accel_m_s2,
         motion_attitude_noise_deg: c.filter.motion_attitude_noise_deg,
-        gravity_m_s2: c.site().specific_force_at_rest_enu().norm(),
+        gravity_m_s2: r.estimate.gravity_m_s2,
         static_intervals: r.estimate.rests.len(),
         holdout,
         terms: setup.terms.iter().map(|c| c.id()).collect(),

@@ -204,26 +204,31 @@ pub struct LabFigures {
     pub segments: Vec<SegmentRow>,
 }
 
-/// Correlations listed in the report.
-const STRONGEST_CORRELATIONS: usize = 8;
-
 impl RunReport {
     /// The report of `fit` on the session `s`.
     pub fn build(s: &Session<Calibrate>, fit: &Calibration) -> Result<Self, Error> {
         let est = &fit.estimate;
-        let with_turntable = s.turntable.is_some();
+        let lab::Figures {
+            parameters,
+            truth: comparison,
+            result,
+            mean_nis,
+            unobserved,
+            correlation,
+            strongest,
+            segments,
+        } = lab::Figures::of(fit, s.task.truth.as_ref().map(|(_, t)| t));
         let truth = s.task.truth.as_ref().map(|(path, t)| TruthFigures {
             path: path.clone(),
-            comparison: lab::truth_comparison(est, t),
+            comparison,
             clock_notes: clock_notes(t, &fit.config.clock),
         });
         let free_motion = match (s.free_motion(), &fit.evaluation) {
             (Some(f), Some(_)) => crate::free_motion::figures(fit, &f.summary, s.holdout),
             _ => None,
         };
-        let verdict = verdict(s, fit);
         let lab = match &s.report {
-            Some(_) => Some(lab_figures(s, fit)?),
+            Some(_) => Some(lab_figures(s, fit, correlation, strongest, segments)?),
             None => None,
         };
         Ok(Self {
@@ -233,12 +238,12 @@ impl RunReport {
             assumptions: s
                 .free_motion()
                 .map_or(Vec::new(), |f| f.summary.assumptions.clone()),
-            parameters: lab::parameter_rows(est, s.task.truth.as_ref().map(|(_, t)| t)),
-            result: est.to_result_file(),
-            fit: fit_figures(est, with_turntable),
+            parameters,
+            result,
+            fit: fit_figures(est, mean_nis, unobserved),
             truth,
             diagnostics: fit.diagnostics.clone(),
-            verdict,
+            verdict: verdict(s, fit),
             lab,
         })
     }
@@ -292,13 +297,18 @@ fn header(s: &Session<Calibrate>, est: &Estimate) -> Header {
 }
 
 /// The fit's checks and counts.
-fn fit_figures(est: &Estimate, with_turntable: bool) -> FitFigures {
+fn fit_figures(
+    est: &Estimate,
+    mean_nis: Vec<MeanNis>,
+    unobserved: Vec<(String, f64)>,
+) -> FitFigures {
     let s = &est.stats;
+    let with_turntable = est.with_turntable();
     FitFigures {
         states: est.names.len(),
         imu_records: s.imu_steps,
         final_time_s: est.final_time,
-        mean_nis: calib::estimate::verdict::mean_nis_figures(s, with_turntable),
+        mean_nis,
         turntable: with_turntable.then_some(TurntableSamples {
             used: s.turntable_samples,
             near_rate_changes: s.turntable_samples_near_rate_changes,
@@ -306,7 +316,7 @@ fn fit_figures(est: &Estimate, with_turntable: bool) -> FitFigures {
             record_rate_hz: s.turntable_record_rate_hz,
         }),
         known_turns: crate::free_motion::known_turns(s),
-        unobserved: est.unobserved(),
+        unobserved,
         second_order: (s.second_order_accel_sigma, s.consider_directions),
     }
 }
@@ -410,7 +420,13 @@ impl Verdict {
 
 /// What only the laboratory report shows: the identification (the inputs hashed, the
 /// configuration as used), the correlations and the segments' NIS.
-fn lab_figures(s: &Session<Calibrate>, fit: &Calibration) -> Result<LabFigures, Error> {
+fn lab_figures(
+    s: &Session<Calibrate>,
+    fit: &Calibration,
+    correlation: (Vec<String>, Vec<Vec<f64>>),
+    strongest: Vec<(String, String, f64)>,
+    segments: Vec<SegmentRow>,
+) -> Result<LabFigures, Error> {
     let inputs: Vec<(&'static str, &std::path::Path)> = s
         .report_inputs
         .iter()
@@ -421,13 +437,10 @@ fn lab_figures(s: &Session<Calibrate>, fit: &Calibration) -> Result<LabFigures, 
         .map_or(Vec::new(), |f| f.summary.assumptions.clone());
     let id = crate::identification::identify(&inputs, s.source.shown(), &fit.config)?
         .with_provenance(&s.provenance, &assumptions);
-    let correlation = lab::correlation(&fit.estimate);
-    let strongest =
-        lab::strongest_correlations(&correlation.0, &correlation.1, STRONGEST_CORRELATIONS);
     Ok(LabFigures {
         id,
         correlation,
         strongest,
-        segments: lab::segment_rows(&fit.diagnostics, &fit.estimate.segments),
+        segments,
     })
 }

@@ -542,7 +542,6 @@ pub(crate) fn fit_measuring_noise(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<MeasuredFit, crate::estimate::EstimateError> {
     let base_accel = config.noise.accel_m_s2;
-    let g = config.site().specific_force_at_rest_enu().norm();
     let mut levels = start
         .filter(|_| measured.is_some())
         .unwrap_or_else(|| MeasuredLevels::configured(config));
@@ -574,7 +573,7 @@ pub(crate) fn fit_measuring_noise(
             (levels.accel_factor, levels.motion_rad),
             base_accel * base_accel * config.filter.accel_rate_hz,
             NOISE_FLOOR_ACCEL_M_S2 / base_accel,
-            g,
+            est.gravity_m_s2,
         );
         let next = ml.map_or(levels, |m| MeasuredLevels {
             accel_factor: m.accel_factor,
@@ -721,7 +720,7 @@ pub fn calibrate(
         config,
         noise,
     } = fit_measuring_noise(&config, layout, input, measured, None, progress)?;
-    let g = config.site().specific_force_at_rest_enu().norm();
+    let g = estimate.gravity_m_s2;
     let bias_sigma = ["x", "y", "z"]
         .iter()
         .filter_map(|a| estimate.sigma(&format!("gyro.bias.{a}")))

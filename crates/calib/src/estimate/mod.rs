@@ -189,6 +189,8 @@ pub struct Estimate {
     pub final_time: f64,
     /// Computed attitude at `final_time` (the attitude states are its error).
     pub final_c_body_to_enu: Matrix3<f64>,
+    /// The specific force at rest at the site (m/s^2), as the fit took it.
+    pub gravity_m_s2: f64,
     /// Fit statistics.
     pub stats: FitStatistics,
     /// First and last time stamp of the IMU records (s).
@@ -280,6 +282,31 @@ impl Estimate {
             crate::model::correction::ExtensionInputs::True,
             self.temperature.clone(),
         )
+    }
+}
+
+/// What an estimate asks the configuration for at every step, resolved once at its start: the
+/// site (its gravity and Earth rate), the priors in SI and the noise densities. The fits of one
+/// calibration may differ in their noise levels and held-out segments, never in these.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Plan {
+    /// The site.
+    site: sins_model::earth::Site,
+    /// The specific force at rest there (m/s^2).
+    gravity_m_s2: f64,
+    /// The paper's priors in SI.
+    priors: sins_model::terms::PaperPriors,
+}
+
+impl Plan {
+    /// The plan of an estimate with `config`.
+    pub(crate) fn of(config: &RunConfig) -> Self {
+        let site = config.site();
+        Self {
+            site,
+            gravity_m_s2: site.specific_force_at_rest_enu().norm(),
+            priors: config.priors_si(),
+        }
     }
 }
 
@@ -591,19 +618,20 @@ pub(crate) fn estimate_from_kept(
         Some(p) => p.clone(),
         None => program.insert(config.program()?).clone(),
     };
+    let plan = Plan::of(config);
     let turns = program.pieces().iter().any(|p| p.rate != [0.0; 3]);
     check_gyros_alive(&scan.bins, turns, imu.file())?;
-    let g = config.site().specific_force_at_rest_enu().norm();
-    check_specific_force(&scan.bins, g, imu.file())?;
-    locate_program(config, &mut scan, &program, imu.file())?;
+    check_specific_force(&scan.bins, plan.gravity_m_s2, imu.file())?;
+    locate_program(config, &plan, &mut scan, &program, imu.file())?;
     let tt_setup = match (layout.install.is_some(), turntable) {
         (true, Some(tt)) => Some(TurntableSetup::new(config, tt, &scan, &program)?),
         _ => None,
     };
     let motion = Motion::Program(program);
-    let first = first_linearisation_point(config, layout, &scan, &motion);
+    let first = first_linearisation_point(config, &plan, layout, &scan, &motion);
     let inp = PassInputs {
         config,
+        plan: &plan,
         layout,
         turntable: tt_setup.as_ref(),
         scan: &scan,
@@ -644,6 +672,31 @@ pub fn estimate_at_rests(
     coarse: Option<&[f64]>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
+    let recording = Recording { rests, turns };
+    let plan = Plan::of(config);
+    rests_estimate(config, &plan, layout, imu, recording, coarse, progress)
+}
+
+/// The rests and known turns of a recording without a program.
+#[derive(Clone, Copy)]
+struct Recording<'a> {
+    /// The rests, on the IMU clock, in time order.
+    rests: &'a [Rest],
+    /// Known turns between them.
+    turns: &'a [crate::motion::rests::Turn],
+}
+
+/// [`estimate_at_rests`] with its plan resolved.
+fn rests_estimate(
+    config: &RunConfig,
+    plan: &Plan,
+    layout: &StateLayout,
+    imu: &mut dyn ImuSource,
+    recording: Recording,
+    coarse: Option<&[f64]>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Estimate, EstimateError> {
+    let rests = recording.rests;
     if layout.install.is_some() {
         return Err(EstimateError::Rests {
             file: imu.file().to_string(),
@@ -651,10 +704,10 @@ pub fn estimate_at_rests(
         });
     }
     let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Jittered, progress)?;
-    check_recording_of_rests(config, &scan, rests, imu.file())?;
+    check_recording_of_rests(config, plan, &scan, rests, imu.file())?;
     scan.program_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
     scan.program_start_found = false;
-    let (motion, first_point) = motion_at_rests(config, layout, &scan, rests, turns, coarse)
+    let (motion, first_point) = motion_at_rests(config, plan, layout, &scan, recording, coarse)
         .map_err(|source| EstimateError::Rests {
             file: imu.file().to_string(),
             source,
@@ -662,6 +715,7 @@ pub fn estimate_at_rests(
     let feedback = first_feedback_at_rests(config, &motion, first_point.is_some());
     let inp = PassInputs {
         config,
+        plan,
         layout,
         turntable: None,
         scan: &scan,
@@ -675,6 +729,7 @@ pub fn estimate_at_rests(
 /// priors allow, and the rests lie within the records.
 fn check_recording_of_rests(
     config: &RunConfig,
+    plan: &Plan,
     scan: &Scan,
     rests: &[Rest],
     file: &str,
@@ -696,9 +751,9 @@ fn check_recording_of_rests(
         .into());
     }
     check_gyros_alive(&scan.bins, true, file)?;
-    let g = config.site().specific_force_at_rest_enu().norm();
+    let g = plan.gravity_m_s2;
     // Three sigma of what the priors allow the magnitude to be off by.
-    let p = config.priors_si();
+    let p = plan.priors;
     let tol = 3.0 * (p.accel_scale + p.accel_bias / g);
     check_specific_force_within(&scan.bins, g, tol, file)?;
     crate::motion::rests::check_rests(rests, scan.span.0 - dt, dt).map_err(|source| {
@@ -716,12 +771,13 @@ fn check_recording_of_rests(
 /// attitude levelled with it.
 fn motion_at_rests(
     config: &RunConfig,
+    plan: &Plan,
     layout: &StateLayout,
     scan: &Scan,
-    rests: &[Rest],
-    turns: &[crate::motion::rests::Turn],
+    recording: Recording,
     coarse: Option<&[f64]>,
 ) -> Result<(Motion, Option<Nominal>), RestError> {
+    let Recording { rests, turns } = recording;
     let usable = crate::motion::rests::usable(rests);
     let first = usable.first().copied().ok_or(RestError::None)?;
     let pri = layout.prior_sigma();
@@ -739,7 +795,7 @@ fn motion_at_rests(
     let align = crate::motion::rests::align_in_rest(
         &scan.bins,
         &first,
-        &config.site(),
+        &plan.site,
         &layout.model,
         &p0,
         &pri[instrument.clone()],
@@ -814,6 +870,7 @@ pub fn calibrate_rests(
     turns: &[crate::motion::rests::Turn],
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
+    let plan = Plan::of(config);
     let coarse = if needs_coarse_start(config) {
         // A held-out rest is not seen by the coarse start either: its values are the prior
         // mean of the passes.
@@ -823,17 +880,18 @@ pub fn calibrate_rests(
             .filter(|(i, _)| !crate::motion::rests::held_out(*i, config.filter.hold_out_every))
             .map(|(_, r)| *r)
             .collect();
-        Some(coarse_start(config, layout, data, file, &fitted, turns)?)
+        Some(coarse_start(&plan, layout, data, file, &fitted, turns)?)
     } else {
         None
     };
     let mut imu = MemoryImu::new(data, file);
-    estimate_at_rests(
+    let recording = Recording { rests, turns };
+    rests_estimate(
         config,
+        &plan,
         layout,
         &mut imu,
-        rests,
-        turns,
+        recording,
         coarse.as_deref(),
         progress,
     )
@@ -856,7 +914,7 @@ pub fn needs_coarse_start(config: &RunConfig) -> bool {
 /// The coarse start of [`calibrate_rests`]: the batch fit's values of the paper's parameters
 /// (by name; the extension terms at zero).
 fn coarse_start(
-    config: &RunConfig,
+    plan: &Plan,
     layout: &StateLayout,
     data: &ImuData,
     file: &str,
@@ -876,8 +934,8 @@ fn coarse_start(
     // hundredths of their sigmas, and the start took twice as long: 0.47 against 0.24 s of
     // CPU on a 324-s, 200-Hz recording).
     let settings = CoarseSettings {
-        gravity_m_s2: config.site().specific_force_at_rest_enu().norm(),
-        priors: config.priors_si(),
+        gravity_m_s2: plan.gravity_m_s2,
+        priors: plan.priors,
     };
     let fit = coarse_fit(data, rests, turns, &settings).map_err(|e| EstimateError::Rests {
         file: file.to_string(),
@@ -961,7 +1019,8 @@ fn iterate_passes(
         Motion::Rests { .. } => (MAX_PASSES_RESTS, CONVERGED_SIGMA_RESTS),
     };
     let total = (1 + max_passes) * n;
-    let tilt_walks = gyro_noise_walks_the_tilt(config, n as f64 / config.filter.imu_rate_hz);
+    let tilt_walks =
+        gyro_noise_walks_the_tilt(config, inp.plan, n as f64 / config.filter.imu_rate_hz);
     let mut nominal = first;
     let mut shift = f64::INFINITY;
     let mut pass = 0;
@@ -1084,8 +1143,8 @@ fn coarse_records(data: &ImuData) -> ImuData {
 /// Not on every recording: on one whose configured accelerometer noise is ten times too low
 /// (crates/sins-calib/tests/rests.rs) the fed-back tilt ran away (mean NIS 6.4e6 against 281
 /// without).
-fn gyro_noise_walks_the_tilt(config: &RunConfig, run_s: f64) -> bool {
-    let g = config.site().specific_force_at_rest_enu().norm();
+fn gyro_noise_walks_the_tilt(config: &RunConfig, plan: &Plan, run_s: f64) -> bool {
+    let g = plan.gravity_m_s2;
     let second_order = 0.5 * g * config.gyro_psd() * run_s;
     let one_measurement = (config.accel_psd() * config.filter.accel_rate_hz).sqrt();
     second_order > 0.1 * one_measurement
@@ -1095,11 +1154,12 @@ fn gyro_noise_walks_the_tilt(config: &RunConfig, run_s: f64) -> bool {
 /// no start to find: it is taken to start with the data.
 fn locate_program(
     config: &RunConfig,
+    plan: &Plan,
     scan: &mut Scan,
     program: &turntable::program::Program,
     file: &str,
 ) -> Result<(), EstimateError> {
-    let site = config.site();
+    let site = plan.site;
     let dt = 1.0 / config.filter.imu_rate_hz;
     let refuse = |source| EstimateError::ProgramStart {
         file: file.to_string(),
@@ -1326,6 +1386,7 @@ struct Nominal {
 /// off). Without them the start prior itself comes from the program ([`start_prior`]).
 fn first_linearisation_point(
     config: &RunConfig,
+    plan: &Plan,
     layout: &StateLayout,
     scan: &Scan,
     motion: &Motion,
@@ -1333,7 +1394,7 @@ fn first_linearisation_point(
     let (Some(k), Motion::Program(program)) = (layout.install, motion) else {
         return None;
     };
-    let pri = config.priors_si();
+    let pri = plan.priors;
     let errors = DirectionErrors {
         gyro_bias: pri.gyro_bias,
         gyro_matrix: pri.gyro_scale.hypot(pri.gyro_misalignment),
@@ -1342,7 +1403,7 @@ fn first_linearisation_point(
         mounting: config.install_sigma(),
     };
     let start = scan.program_start;
-    let m = fit_mounting(&scan.bins, program, &config.site(), start, &errors)?;
+    let m = fit_mounting(&scan.bins, program, &plan.site, start, &errors)?;
     let dt = 1.0 / config.filter.imu_rate_hz;
     let (k0, _) = program.state(scan.span.0 - dt - start);
     let mut totals = vec![0.0; layout.dim()];
@@ -1428,6 +1489,7 @@ type PassOutcome = (Estimate, Matrix3<f64>, Option<DMatrix<f64>>);
 #[derive(Clone, Copy)]
 struct PassInputs<'r, 't> {
     config: &'r RunConfig,
+    plan: &'r Plan,
     layout: &'r StateLayout,
     turntable: Option<&'r TurntableSetup<'t>>,
     scan: &'r Scan,
@@ -1469,7 +1531,7 @@ fn run_pass(
 fn pass_engine(inp: &PassInputs, filter: kalman::KalmanFilter, track_offset: bool) -> Engine {
     let config = inp.config;
     let dt = 1.0 / config.filter.imu_rate_hz;
-    let u_enu = config.site().earth_rate_enu();
+    let u_enu = inp.plan.site.earth_rate_enu();
     let noise = MeasurementNoise {
         accel_psd: config.accel_psd(),
         angle_var_per_record: inp.turntable.map(|tt| tt.angle_var),
@@ -1490,7 +1552,7 @@ fn pass_engine(inp: &PassInputs, filter: kalman::KalmanFilter, track_offset: boo
 fn pass_settings(inp: &PassInputs, kind: ImuKind, feedback: Feedback) -> PassSettings {
     let config = inp.config;
     let dt = 1.0 / config.filter.imu_rate_hz;
-    let site = config.site();
+    let site = inp.plan.site;
     PassSettings {
         kind,
         dt,
@@ -1543,7 +1605,7 @@ fn set_up_pass<'r>(
 /// after it. A recording of rests starts at rest.
 fn motion_before(inp: &PassInputs, c0: &Matrix3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let dt = 1.0 / inp.config.filter.imu_rate_hz;
-    let site = inp.config.site();
+    let site = inp.plan.site;
     let platform = match inp.motion {
         Motion::Program(program) => {
             let t_before = inp.scan.span.0 - 1.5 * dt - inp.scan.program_start;
@@ -1633,6 +1695,7 @@ fn pass_estimate(
         cov,
         final_time,
         final_c_body_to_enu: c,
+        gravity_m_s2: inp.plan.gravity_m_s2,
         stats,
         imu_span: scan.span,
         imu_kind,

@@ -221,6 +221,52 @@ pub fn strongest_correlations(
         .collect()
 }
 
+/// Correlations listed in a report ([`Figures::strongest`]).
+pub const STRONGEST_CORRELATIONS: usize = 8;
+
+/// A calibration's figures in their report units, computed once here for every output that
+/// shows them (the printout, the JSON result, the laboratory report).
+#[derive(Clone, Debug)]
+pub struct Figures {
+    /// The parameters in their report units, with a truth's values.
+    pub parameters: Vec<ParameterRow>,
+    /// Against a truth, when one was given and names an estimated parameter.
+    pub truth: Option<TruthComparison>,
+    /// The parameters in SI with their correlation, the correction and the temperature: the
+    /// result file.
+    pub result: ResultFile,
+    /// The mean NIS of each measurement against its band.
+    pub mean_nis: Vec<crate::estimate::verdict::MeanNis>,
+    /// Parameters the data leave at their prior, with their posterior over prior sigma.
+    pub unobserved: Vec<(String, f64)>,
+    /// The parameters' posterior correlation (names, matrix).
+    pub correlation: (Vec<String>, Vec<Vec<f64>>),
+    /// Its [`STRONGEST_CORRELATIONS`] strongest pairs.
+    pub strongest: Vec<(String, String, f64)>,
+    /// The NIS of every segment of every measurement.
+    pub segments: Vec<SegmentRow>,
+}
+
+impl Figures {
+    /// The figures of the calibration `c`, against `truth` where one is given.
+    pub fn of(c: &crate::estimate::calibration::Calibration, truth: Option<&ResultFile>) -> Self {
+        let est = &c.estimate;
+        let correlation = correlation(est);
+        let strongest =
+            strongest_correlations(&correlation.0, &correlation.1, STRONGEST_CORRELATIONS);
+        Self {
+            parameters: parameter_rows(est, truth),
+            truth: truth.and_then(|t| truth_comparison(est, t)),
+            result: c.result_file(),
+            mean_nis: crate::estimate::verdict::mean_nis_figures(&est.stats, est.with_turntable()),
+            unobserved: est.unobserved(),
+            correlation,
+            strongest,
+            segments: segment_rows(&c.diagnostics, &est.segments),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
