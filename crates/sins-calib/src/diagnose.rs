@@ -541,10 +541,10 @@ fn held_out_verdict(
         Some(noise),
         &mut |_, _| {},
     )?;
-    let figures = found
-        .free_motion
-        .as_ref()
-        .and_then(|f| crate::free_motion::figures(&r, &f.summary, Some(every)));
+    let figures = found.free_motion.as_ref().and_then(|f| {
+        let turns = calib::estimate::verdict::known_turn_figures(&r.estimate.stats);
+        crate::free_motion::figures(&r, &f.summary, Some(every), turns)
+    });
     Ok(Some(HeldOut {
         every,
         verdict: r.verdict,

@@ -283,7 +283,7 @@ pub struct FreeMotionFigures {
     pub terms: Vec<&'static str>,
     /// The known turns before and after calibration.
     pub turns: Vec<TurnFigures>,
-    /// Their measurements' mean NIS ([`known_turns`]).
+    /// Their measurements' mean NIS ([`calib::estimate::verdict::known_turn_figures`]).
     pub known_turns: Option<(usize, f64, f64)>,
     /// `|f| - g` RMS over the fitted rests (m/s^2) before and after, and their number.
     pub fitted_static_rms_m_s2: (f64, f64),
@@ -369,12 +369,13 @@ pub struct ValidationFigures {
     pub fitted_motions: usize,
 }
 
-/// The figures of a hand-turned run's result `r` with its `setup` and hold-out (`None`: the
-/// result has no evaluation of its rests).
+/// The figures of a hand-turned run's result `r` with its `setup`, hold-out and known turns'
+/// figures (`None`: the result has no evaluation of its rests).
 pub fn figures(
     r: &Calibration,
     setup: &SetupSummary,
     holdout: Option<usize>,
+    known_turns: Option<(usize, f64, f64)>,
 ) -> Option<FreeMotionFigures> {
     let evaluation = r.evaluation.as_ref()?;
     let c = &r.config;
@@ -395,7 +396,7 @@ pub fn figures(
         holdout,
         terms: setup.terms.iter().map(|c| c.id()).collect(),
         turns: turn_figures(evaluation),
-        known_turns: known_turns(&r.estimate.stats),
+        known_turns,
         fitted_static_rms_m_s2: (rms(|p| p.before_m_s2), rms(|p| p.after_m_s2)),
         fitted_rests: fitted.len(),
         validation: evaluation.validation.map(|v| ValidationFigures {
@@ -417,16 +418,6 @@ pub fn figures(
             fitted_motion_rms_deg: v.fitted_motion_rms_rad.to_degrees(),
             fitted_motions: v.fitted_motions,
         }),
-    })
-}
-
-/// The known turns measured: updates, mean NIS, and the half-width of its band about 1
-/// (three standard deviations of a mean of chi-square(1) values, `3 sqrt(2 / n)`); `None`
-/// without turns.
-pub fn known_turns(stats: &calib::estimate::FitStatistics) -> Option<(usize, f64, f64)> {
-    (stats.turn_updates > 0).then(|| {
-        let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
-        (stats.turn_updates, stats.turn_mean_nis, half)
     })
 }
 

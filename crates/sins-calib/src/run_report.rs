@@ -213,6 +213,7 @@ impl RunReport {
             truth: comparison,
             result,
             mean_nis,
+            known_turns,
             unobserved,
             correlation,
             strongest,
@@ -223,16 +224,21 @@ impl RunReport {
             comparison,
             clock_notes: clock_notes(t, &fit.config.clock),
         });
-        let free_motion = match (s.free_motion(), &fit.evaluation) {
-            (Some(f), Some(_)) => crate::free_motion::figures(fit, &f.summary, s.holdout),
-            _ => None,
-        };
+        let header = header(s, est);
+        let fit_figures = fit_figures(est, mean_nis, known_turns, unobserved);
+        let verdict = verdict(s, fit);
         let lab = match &s.report {
             Some(_) => Some(lab_figures(s, fit, correlation, strongest, segments)?),
             None => None,
         };
+        let free_motion = match (s.free_motion(), &fit.evaluation) {
+            (Some(f), Some(_)) => {
+                crate::free_motion::figures(fit, &f.summary, s.holdout, known_turns)
+            }
+            _ => None,
+        };
         Ok(Self {
-            header: header(s, est),
+            header,
             free_motion,
             provenance: s.provenance.clone(),
             assumptions: s
@@ -240,10 +246,10 @@ impl RunReport {
                 .map_or(Vec::new(), |f| f.summary.assumptions.clone()),
             parameters,
             result,
-            fit: fit_figures(est, mean_nis, unobserved),
+            fit: fit_figures,
             truth,
             diagnostics: fit.diagnostics.clone(),
-            verdict: verdict(s, fit),
+            verdict,
             lab,
         })
     }
@@ -300,6 +306,7 @@ fn header(s: &Session<Calibrate>, est: &Estimate) -> Header {
 fn fit_figures(
     est: &Estimate,
     mean_nis: Vec<MeanNis>,
+    known_turns: Option<(usize, f64, f64)>,
     unobserved: Vec<(String, f64)>,
 ) -> FitFigures {
     let s = &est.stats;
@@ -315,7 +322,7 @@ fn fit_figures(
             missing: s.turntable_samples_missing,
             record_rate_hz: s.turntable_record_rate_hz,
         }),
-        known_turns: crate::free_motion::known_turns(s),
+        known_turns,
         unobserved,
         second_order: (s.second_order_accel_sigma, s.consider_directions),
     }

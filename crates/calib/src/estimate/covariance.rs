@@ -166,6 +166,7 @@ pub fn covariance_analysis_with(
             // The bins made on demand: a ten-day program has 8.6 million (550 MB held).
             aligned_prior_by(
                 config,
+                &site,
                 layout,
                 ideal_bin_count(&kin, 0.1),
                 &|i| ideal_bin(&kin, 0.1, i),

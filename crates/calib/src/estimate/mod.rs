@@ -1336,6 +1336,7 @@ impl<'a> TurntableSetup<'a> {
 /// ([`crate::motion::align`]), with the error tied to the gyro parameters.
 fn start_prior(
     config: &RunConfig,
+    plan: &Plan,
     layout: &StateLayout,
     scan: &Scan,
     motion: &Motion,
@@ -1365,8 +1366,16 @@ fn start_prior(
         return nominal();
     }
     let start = scan.program_start;
-    aligned_prior(config, layout, &scan.bins, program, start, scan.span.0 - dt)
-        .unwrap_or_else(nominal)
+    aligned_prior(
+        config,
+        &plan.site,
+        layout,
+        &scan.bins,
+        program,
+        start,
+        scan.span.0 - dt,
+    )
+    .unwrap_or_else(nominal)
 }
 
 /// The point a pass linearises about: the estimates of the pass before.
@@ -1420,6 +1429,7 @@ fn first_linearisation_point(
 /// estimate of the pass before), which it returns with the filter.
 fn start_filter(
     config: &RunConfig,
+    plan: &Plan,
     layout: &StateLayout,
     scan: &Scan,
     motion: &Motion,
@@ -1429,7 +1439,7 @@ fn start_filter(
     let install_hat = layout.install.map_or(Vector3::zeros(), |k| {
         Vector3::new(totals[k], totals[k + 1], totals[k + 2])
     });
-    let (c_program, p0) = start_prior(config, layout, scan, motion, &install_hat);
+    let (c_program, p0) = start_prior(config, plan, layout, scan, motion, &install_hat);
     let mut filter = prior_filter(&p0).map_err(|source| EstimateError::Filter {
         t: scan.span.0,
         line: 0,
@@ -1514,7 +1524,7 @@ fn run_pass(
     };
     let totals = nominal.map_or_else(|| vec![0.0; inp.layout.dim()], |n| n.totals.clone());
     let (filter, c0) = start_filter(
-        inp.config, inp.layout, inp.scan, inp.motion, nominal, &totals,
+        inp.config, inp.plan, inp.layout, inp.scan, inp.motion, nominal, &totals,
     )?;
     let engine = pass_engine(inp, filter, track_offset);
     let settings = pass_settings(inp, imu.kind(), feedback);
@@ -1579,6 +1589,10 @@ fn set_up_pass<'r>(
     totals: &[f64],
     angles: Option<AngleReader<'r>>,
 ) -> Pass<'r> {
+    // What the pass needs of the run, then the pass.
+    let held_out = (inp.config.filter.hold_out_every)
+        .map(|every| held_out_windows(inp.motion, inp.scan.program_start, every));
+    let before = (inp.layout.model.uses_rate_derivatives()).then(|| motion_before(inp, &c0));
     let nav = Strapdown::new(c0, &settings.u_enu, settings.dt);
     let lin = Linearisation::from_totals(inp.layout, totals);
     let mut pass = Pass::new(inp.layout, settings, engine, nav, lin, angles);
@@ -1589,11 +1603,10 @@ fn set_up_pass<'r>(
         pass.rest_gate = Some(crate::motion::rests::RestGate::new(usable.clone()));
         pass.turns = turns.clone();
     }
-    if let Some(every) = inp.config.filter.hold_out_every {
-        pass.held_out = held_out_windows(inp.motion, inp.scan.program_start, every);
+    if let Some(held_out) = held_out {
+        pass.held_out = held_out;
     }
-    if inp.layout.model.uses_rate_derivatives() {
-        let (omega_body, f_body) = motion_before(inp, &c0);
+    if let Some((omega_body, f_body)) = before {
         pass.set_motion_before(omega_body, f_body);
     }
     pass

@@ -99,15 +99,22 @@ pub fn misfit_reasons(
 /// Known turns: chi-square(1) each, the mean within three of its standard deviations
 /// (sqrt(2 / n)) of 1; the reason when it is not.
 fn turn_reason(stats: &FitStatistics) -> Option<String> {
-    if stats.turn_updates == 0 {
-        return None;
-    }
-    let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
+    let (_, _, half) = known_turn_figures(stats)?;
     ((stats.turn_mean_nis - 1.0).abs() > half).then(|| {
         format!(
             "known turns: mean NIS {:.3} over {} turns, expected 1 +- {:.3}",
             stats.turn_mean_nis, stats.turn_updates, half
         )
+    })
+}
+
+/// The known turns measured: updates, mean NIS, and the half-width of its band about 1
+/// (three standard deviations of a mean of chi-square(1) values, `3 sqrt(2 / n)`); `None`
+/// without turns.
+pub fn known_turn_figures(stats: &FitStatistics) -> Option<(usize, f64, f64)> {
+    (stats.turn_updates > 0).then(|| {
+        let half = 3.0 * (2.0 / stats.turn_updates as f64).sqrt();
+        (stats.turn_updates, stats.turn_mean_nis, half)
     })
 }
 

@@ -372,6 +372,7 @@ fn wahba(b: &Matrix3<f64>) -> Option<Matrix3<f64>> {
 /// it). `None` when the program does not turn about two axes.
 pub fn aligned_prior(
     config: &crate::config::RunConfig,
+    site: &Site,
     layout: &crate::model::layout::StateLayout,
     bins: &[RateBin],
     program: &Program,
@@ -380,6 +381,7 @@ pub fn aligned_prior(
 ) -> Option<(Matrix3<f64>, DMatrix<f64>)> {
     aligned_prior_by(
         config,
+        site,
         layout,
         bins.len(),
         &|i| bins[i],
@@ -392,6 +394,7 @@ pub fn aligned_prior(
 /// [`aligned_prior`] with the bins made on demand ([`align_to_program_by`]).
 pub fn aligned_prior_by(
     config: &crate::config::RunConfig,
+    site: &Site,
     layout: &crate::model::layout::StateLayout,
     n_bins: usize,
     bin: &dyn Fn(usize) -> RateBin,
@@ -403,7 +406,7 @@ pub fn aligned_prior_by(
         n_bins,
         bin,
         program,
-        &config.site(),
+        site,
         program_start,
         t_start,
         &layout.model,

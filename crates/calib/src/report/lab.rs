@@ -237,6 +237,9 @@ pub struct Figures {
     pub result: ResultFile,
     /// The mean NIS of each measurement against its band.
     pub mean_nis: Vec<crate::estimate::verdict::MeanNis>,
+    /// The known turns measured: updates, mean NIS, half-width of its band about 1
+    /// ([`crate::estimate::verdict::known_turn_figures`]).
+    pub known_turns: Option<(usize, f64, f64)>,
     /// Parameters the data leave at their prior, with their posterior over prior sigma.
     pub unobserved: Vec<(String, f64)>,
     /// The parameters' posterior correlation (names, matrix).
@@ -259,6 +262,7 @@ impl Figures {
             truth: truth.and_then(|t| truth_comparison(est, t)),
             result: c.result_file(),
             mean_nis: crate::estimate::verdict::mean_nis_figures(&est.stats, est.with_turntable()),
+            known_turns: crate::estimate::verdict::known_turn_figures(&est.stats),
             unobserved: est.unobserved(),
             correlation,
             strongest,
