@@ -58,14 +58,21 @@ fn panel(
     factor: f64,
     axis: &::noise::AxisNoise,
     ml: &::noise::likelihood::MlFit,
+    band: &::noise::consistency::AxisCheck,
     config: Option<[(Term, f64); 2]>,
 ) -> Result<(), String> {
     let p = &axis.curve.points;
+    // A failed Allan fit is no result: said in the title, its sum drawn for orientation only.
+    let title = if axis.fit.passes() {
+        title.to_string()
+    } else {
+        format!("{title} (Allan fit fails its check: sum for orientation only)")
+    };
     let (t0, t1) = (p[0].tau_s / 1.5, p[p.len() - 1].tau_s * 1.5);
     let curves = Curves::new(axis, ml, config, factor, log_grid(t0, t1, 120));
     let (lo, hi) = curves.range;
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 18))
+        .caption(&title, ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(36)
         .y_label_area_size(70)
@@ -84,7 +91,19 @@ fn panel(
         .map_err(|e| perr(&e))?;
     curves.draw(&mut chart, &axis.fit)?;
     draw_measured(&mut chart, p, factor, (lo, hi))?;
-    draw_misfits(&mut chart, axis, factor, (lo, hi))
+    draw_misfits(&mut chart, axis, factor, (lo, hi))?;
+    // The points where the likelihood model leaves its band (::noise::consistency): a square
+    // in the model's colour round the measured point.
+    chart
+        .draw_series(band.outside().map(|x| {
+            let y = x.measured * factor;
+            Rectangle::new(
+                [(x.tau_s / 1.18, y / 1.35), (x.tau_s * 1.18, y * 1.35)],
+                ML.stroke_width(2),
+            )
+        }))
+        .map_err(|e| perr(&e))?;
+    Ok(())
 }
 
 type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
@@ -170,9 +189,15 @@ impl Curves {
                 ))
                 .map_err(|e| perr(&e))?;
         }
-        chart
-            .draw_series(LineSeries::new(self.sum, SUM.stroke_width(2)))
-            .map_err(|e| perr(&e))?;
+        if fit.passes() {
+            chart
+                .draw_series(LineSeries::new(self.sum, SUM.stroke_width(2)))
+                .map_err(|e| perr(&e))?;
+        } else {
+            chart
+                .draw_series(DashedLineSeries::new(self.sum, 3, 5, SUM.stroke_width(1)))
+                .map_err(|e| perr(&e))?;
+        }
         chart
             .draw_series(LineSeries::new(self.ml, ML.stroke_width(3)))
             .map_err(|e| perr(&e))?;
@@ -331,6 +356,17 @@ fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
         },
         "max. likelihood",
     )?;
+    entry(
+        area,
+        &|a, x| {
+            a.draw(&Rectangle::new(
+                [(x + 4, y - 8), (x + 20, y + 8)],
+                ML.stroke_width(2),
+            ))
+            .map_err(|e| perr(&e))
+        },
+        "max. likelihood outside band",
+    )?;
     if with_config {
         entry(
             area,
@@ -373,6 +409,7 @@ pub fn allan_png(
     path: &Path,
     name: &str,
     sensors: &[SensorNoise],
+    band: &::noise::consistency::FamilyCheck,
     config: Option<&NoiseConfig>,
 ) -> Result<(), Error> {
     ensure_fonts()?;
@@ -400,6 +437,7 @@ pub fn allan_png(
                 factor,
                 ax,
                 &sn.ml[a],
+                &band.axes[row * 3 + a],
                 cfg,
             )
             .map_err(|e| err(&e))?;
