@@ -28,9 +28,8 @@
 //!
 //! ## The cause
 //!
-//! For an axis with points outside, the rests are split into those long enough for the
-//! shortest averaging time outside (`2m` records or more: the only ones its estimate rests on)
-//! and the others, and the white-and-walk likelihood ([`crate::likelihood::fit_white_walk`]) is
+//! For an axis with points outside, the rests are split into those long enough for the point
+//! furthest outside (`2m` records or more: the only ones its estimate rests on) and the others, and the white-and-walk likelihood ([`crate::likelihood::fit_white_walk`]) is
 //! fitted to each on the blocks of the full fit ([`Split`]). [`name_cause`] then says which of
 //! three it is: the two walks differ by [`WALKS_DIFFER_SIGMAS`] or more (the difference over the
 //! half-widths toward each other, in quadrature): one walk for all rests cannot be both; else
@@ -236,8 +235,8 @@ fn model_spread(ml: &MlFit, tau_s: f64) -> (f64, f64) {
 /// Allan deviation, for one axis ([`SplitFits`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Split {
-    /// The shortest length (records) of a long rest: `2m` of the shortest averaging time
-    /// outside the band.
+    /// The shortest length (records) of a long rest: `2m` of the point furthest outside the
+    /// band.
     pub long_records: usize,
     /// Rests in each part.
     pub long_rests: usize,

@@ -40,8 +40,10 @@ pub(crate) fn splits<E>(
         .iter()
         .zip(&mls)
         .map(|(c, ml)| {
-            // The long rests: those the shortest averaging time outside rests on (2m records).
-            let m = c.outside().map(|p| p.m).min()?;
+            // The long rests: those the point furthest outside rests on (2m records or more).
+            // Not the shortest point outside: there the shorter rests may take part too, and
+            // the split would not separate what that point sees from what it does not.
+            let m = c.worst()?.m;
             let block = (ml.block_s / median).round().max(1.0) as usize;
             Some(SplitFits::new(median, block, 2 * m))
         })
@@ -177,10 +179,12 @@ fn cause_text(sensor: &Sensor, c: &AxisCheck, split: &Split, median: f64) -> Str
     let unit = walk_unit(sensor);
     let walks = match (&split.long_walk, &split.other_walk) {
         (Some(l), Some(o)) => format!(
-            "the walk of the {} rest{} of {long_s} s or more (the only ones those points rest \
-             on) is {}, that of the {} shorter rest{} {} {unit}",
+            "the walk of the {} rest{} of {long_s} s or more (the only ones the point furthest \
+             outside, {} s, rests on) is {}, that of the {} shorter rest{} {} {unit}",
             split.long_rests,
             plural(split.long_rests),
+            c.worst()
+                .map_or("-".into(), |p| table::significant(p.tau_s, 3)),
             walk_text(sensor, l),
             split.other_rests,
             plural(split.other_rests),
