@@ -296,16 +296,26 @@ fn draw_misfits(
 /// configured, and the terms.
 fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
     let font = ("sans-serif", 15).into_font().color(&BLACK);
-    let mut x = 20;
-    let y = 25;
-    let mut entry = |area: &Area<'_>,
+    // Two rows: the entries run on into the second where the first is full (one row cut the
+    // last terms off at the image's edge).
+    let rows = area.split_evenly((2, 1));
+    let width = area.dim_in_pixel().0 as i32;
+    let (mut x, mut row) = (20, 0usize);
+    let y = 22;
+    let mut entry = |_: &Area<'_>,
                      draw: &dyn Fn(&Area<'_>, i32) -> Result<(), String>,
                      text: &str|
      -> Result<(), String> {
+        let step = 44 + 8 * text.len() as i32;
+        if x + step > width && row + 1 < rows.len() {
+            row += 1;
+            x = 20;
+        }
+        let area = &rows[row];
         draw(area, x)?;
         area.draw(&Text::new(text.to_string(), (x + 34, y - 8), font.clone()))
             .map_err(|e| perr(&e))?;
-        x += 44 + 8 * text.len() as i32;
+        x += step;
         Ok(())
     };
     entry(
@@ -414,10 +424,11 @@ pub fn allan_png(
 ) -> Result<(), Error> {
     ensure_fonts()?;
     let err = |e: &dyn std::fmt::Display| format!("{}: plotting: {e}", path.display());
-    let root = BitMapBackend::new(path, (1500, 960)).into_drawing_area();
+    let root = BitMapBackend::new(path, (1500, 1000)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let (top, rest) = root.split_vertically(40);
     let (body, bottom) = rest.split_vertically(870);
+    // `bottom`: 90 px, two legend rows.
     top.draw(&Text::new(
         format!(
             "{name}: overlapping Allan deviation at rest, fitted noise terms, maximum-likelihood model"
