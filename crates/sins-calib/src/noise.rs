@@ -527,6 +527,19 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
     if !notes.is_empty() {
         notes = format!("  where the sum leaves the band:\n{notes}");
     }
+    notes += &failed_fit_notes(sn);
+    format!(
+        "\n{}, Allan fit (terms +- 1 sigma; `- (<x)`: not in the fit, x the level the data could \
+         hide at 1 sigma; `xR`: fitted over measured deviation where the sum is furthest outside \
+         the measured 95 % band)\n{}{notes}",
+        s.name,
+        t.render()
+    )
+}
+
+/// A line per axis whose Allan fit fails its own check: why, and that its levels are no result.
+fn failed_fit_notes(sn: &SensorNoise) -> String {
+    let mut notes = String::new();
     for (a, ax) in sn.axes.iter().enumerate() {
         let f = &ax.fit;
         if f.passes() {
@@ -556,13 +569,7 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
             AXES[a]
         );
     }
-    format!(
-        "\n{}, Allan fit (terms +- 1 sigma; `- (<x)`: not in the fit, x the level the data could \
-         hide at 1 sigma; `xR`: fitted over measured deviation where the sum is furthest outside \
-         the measured 95 % band)\n{}{notes}",
-        s.name,
-        t.render()
-    )
+    notes
 }
 
 /// A maximum-likelihood level as `value [lower, upper]`, all to the precision of the smaller

@@ -292,6 +292,17 @@ fn draw_misfits(
     Ok(())
 }
 
+/// A legend's dashed-line mark in colour `c`, starting at `(x, y)`.
+fn dashed_mark(a: &Area<'_>, (x, y): (i32, i32), c: RGBColor) -> Result<(), String> {
+    a.draw(&PathElement::new([(x, y), (x + 10, y)], c.stroke_width(2)))
+        .map_err(|e| perr(&e))?;
+    a.draw(&PathElement::new(
+        [(x + 16, y), (x + 26, y)],
+        c.stroke_width(2),
+    ))
+    .map_err(|e| perr(&e))
+}
+
 /// The legend strip: measured with interval, the Allan fit's sum, the maximum-likelihood model,
 /// configured, and the terms.
 fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
@@ -380,36 +391,13 @@ fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
     if with_config {
         entry(
             area,
-            &|a, x| {
-                a.draw(&PathElement::new(
-                    [(x, y), (x + 10, y)],
-                    CONFIG.stroke_width(2),
-                ))
-                .map_err(|e| perr(&e))?;
-                a.draw(&PathElement::new(
-                    [(x + 16, y), (x + 26, y)],
-                    CONFIG.stroke_width(2),
-                ))
-                .map_err(|e| perr(&e))
-            },
+            &|a, x| dashed_mark(a, (x, y), CONFIG),
             "configured [noise]",
         )?;
     }
     for (c, label) in TERM_COLOURS.iter().zip(TERM_LABELS) {
         let c = *c;
-        entry(
-            area,
-            &move |a, x| {
-                a.draw(&PathElement::new([(x, y), (x + 10, y)], c.stroke_width(2)))
-                    .map_err(|e| perr(&e))?;
-                a.draw(&PathElement::new(
-                    [(x + 16, y), (x + 26, y)],
-                    c.stroke_width(2),
-                ))
-                .map_err(|e| perr(&e))
-            },
-            label,
-        )?;
+        entry(area, &move |a, x| dashed_mark(a, (x, y), c), label)?;
     }
     Ok(())
 }
