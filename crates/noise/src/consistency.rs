@@ -298,7 +298,10 @@ impl SplitFits {
             return;
         }
         self.long.push(blocks);
-        let Ok(curve) = allan::overlapping_allan(data, self.tau0_s, &[0..data.len()]) else {
+        // One interval, the whole rest.
+        let whole = 0..data.len();
+        let Ok(curve) = allan::overlapping_allan(data, self.tau0_s, std::slice::from_ref(&whole))
+        else {
             return;
         };
         for (j, p) in curve.points.iter().enumerate() {

@@ -57,8 +57,11 @@ fn panel(
     unit: &str,
     factor: f64,
     axis: &::noise::AxisNoise,
-    ml: &::noise::likelihood::MlFit,
-    band: &::noise::consistency::AxisCheck,
+    // The likelihood model and its check against the measured deviation.
+    (ml, band): (
+        &::noise::likelihood::MlFit,
+        &::noise::consistency::AxisCheck,
+    ),
     config: Option<[(Term, f64); 2]>,
 ) -> Result<(), String> {
     let p = &axis.curve.points;
@@ -435,8 +438,7 @@ pub fn allan_png(
                 unit,
                 factor,
                 ax,
-                &sn.ml[a],
-                &band.axes[row * 3 + a],
+                (&sn.ml[a], &band.axes[row * 3 + a]),
                 cfg,
             )
             .map_err(|e| err(&e))?;
