@@ -174,7 +174,8 @@ pub fn check_axis(curve: &allan::AllanCurve, ml: &MlFit, point_level: f64) -> Ax
                 noise_type,
                 lower,
                 upper,
-                outside: !(lower..=upper).contains(&m_adev),
+                // A model that is not a number (none the fit gives) is no finding.
+                outside: m_adev.is_finite() && !(lower..=upper).contains(&m_adev),
             }
         })
         .collect();
@@ -453,6 +454,89 @@ mod tests {
         assert!((s - 4.7 / 1.6f64.hypot(1.1)).abs() < 1e-9, "{s}");
         let s = walks_sigmas(&level(1.0, 0.9, 1.1), &level(1.0, 0.9, 1.1));
         assert_eq!(s, 0.0);
+    }
+
+    /// An axis check whose only point outside is at `tau_s` with `ratio`.
+    fn outside_at(tau_s: f64, ratio: f64) -> AxisCheck {
+        AxisCheck {
+            from_tau_s: 0.2,
+            points: vec![PointCheck {
+                tau_s,
+                m: (tau_s / 0.01).round() as usize,
+                measured: 1.0,
+                model: ratio,
+                ratio,
+                edf: 3.0,
+                noise_type: NoiseType::RandomWalk,
+                lower: 0.5,
+                upper: 2.0,
+                outside: true,
+            }],
+        }
+    }
+
+    fn split(long: Level, other: Level, long_curve: Vec<(f64, f64)>) -> Split {
+        Split {
+            long_records: 2048,
+            long_rests: 1,
+            other_rests: 37,
+            long_walk: Some(long),
+            other_walk: Some(other),
+            long_curve,
+        }
+    }
+
+    #[test]
+    fn the_cause_is_the_walks_then_the_shape_then_not_named() {
+        let check = outside_at(10.24, 5.5);
+        let curve = vec![(2.56, 1.3), (5.12, 1.5), (10.24, 0.45)];
+        // Walks 4 sigma apart: named first, whatever the curve.
+        let c = name_cause(
+            &check,
+            &split(level(1.0, 0.5, 1.5), level(3.0, 2.5, 3.5), curve.clone()),
+        );
+        assert!(
+            matches!(c, Some(Cause::WalksDiffer { sigmas }) if sigmas > 2.0),
+            "{c:?}"
+        );
+        // Walks that agree, a curve falling 3.3 times over an octave (white: 1.41).
+        let c = name_cause(
+            &check,
+            &split(level(1.1, 0.9, 1.5), level(1.4, 1.2, 1.8), curve),
+        );
+        match c {
+            Some(Cause::Shape {
+                from_tau_s,
+                factor,
+                limit,
+                falls: true,
+                ..
+            }) => {
+                assert_eq!(from_tau_s, 5.12);
+                assert!((factor - 1.5 / 0.45).abs() < 1e-12 && (limit - 2f64.sqrt()).abs() < 1e-9);
+            }
+            _ => panic!("{c:?}"),
+        }
+        // A curve falling slower than white noise: not named.
+        let white = vec![(2.56, 1.9), (5.12, 1.4), (10.24, 1.0)];
+        let c = name_cause(
+            &check,
+            &split(level(1.1, 0.9, 1.5), level(1.4, 1.2, 1.8), white),
+        );
+        assert!(
+            matches!(c, Some(Cause::NotNamed { sigmas: Some(_) })),
+            "{c:?}"
+        );
+        // A check that passes has no cause.
+        let mut pass = check.clone();
+        pass.points[0].outside = false;
+        assert_eq!(
+            name_cause(
+                &pass,
+                &split(level(1.0, 0.5, 1.5), level(3.0, 2.5, 3.5), vec![])
+            ),
+            None
+        );
     }
 
     #[test]
