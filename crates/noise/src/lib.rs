@@ -19,7 +19,11 @@
 //! - [`likelihood`]: the white level, walk and (when the data show one) a Gauss-Markov bias by
 //!   the exact Gaussian likelihood of the data (a Kalman filter on block means), with 68 %
 //!   intervals from the profile likelihood: the levels whose intervals hold up on a seed set,
-//!   where the Allan fit's walk sigmas do not.
+//!   where the Allan fit's walk sigmas do not;
+//! - [`consistency`]: the likelihood model against the measured Allan deviation at every
+//!   averaging time (a family-wise level over the points and axes), and where it leaves the
+//!   band, why (the long rests' walk against the others', or a curve the two terms cannot
+//!   follow).
 //!
 //! Everything is SI: the increments are rad (gyro) or m/s (accelerometer), the rates rad/s or
 //! m/s^2. The white-noise level [`fit::Term::White`] is the standard deviation of a 1-s average
@@ -51,6 +55,7 @@
 #![warn(missing_docs)]
 
 pub mod allan;
+pub mod consistency;
 pub mod edf;
 pub mod fit;
 pub mod likelihood;

@@ -1104,6 +1104,25 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
     }
 }
 
+/// The white-and-walk model alone (no Gauss-Markov search) fitted to `blocks`: the white level
+/// and walk with their profile intervals. For comparing the walks of subsets of the rests
+/// ([`crate::consistency`]): there one model's walk is set against another's, and the costly
+/// Gauss-Markov search would only change what is compared.
+pub fn fit_white_walk(blocks: &Blocks) -> Result<(Level, Level), NoiseError> {
+    if blocks.innovations() < 3 {
+        return Err(NoiseError::TooShort {
+            longest: blocks.intervals.iter().map(Vec::len).max().unwrap_or(0),
+        });
+    }
+    let (n, k, best) = fit_base(blocks);
+    if !(n.is_finite() && n > 0.0) {
+        return Err(NoiseError::NoNoise {
+            tau_s: blocks.block_s,
+        });
+    }
+    Ok(base_levels(blocks, n, k, best))
+}
+
 /// The maximum-likelihood fit of one axis: `increments` one per record (SI), record interval
 /// `tau0_s`, static `intervals` (record index ranges, in order, not overlapping), blocked into
 /// at most [`MAX_BLOCKS`] blocks.

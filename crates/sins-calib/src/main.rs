@@ -34,6 +34,7 @@ mod identification;
 mod import;
 mod lab_report;
 mod noise;
+mod noise_consistency;
 mod noise_json;
 mod noise_model;
 mod noise_plot;

@@ -158,7 +158,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let rest = find_rest(args, &mut source, &file)?;
     let fits = fit_levels(&mut source, &rest, has_temp, &file)?;
     let mut out = summary(args, &file, &rest, &fits.sensors);
-    out += &tables(&fits);
+    out += &tables(&fits, rest.median);
     let (base, base_origin) = match &config {
         Some((cfg, origin)) => (cfg.clone(), origin.clone()),
         None => (RunConfig::paper(), String::new()),
@@ -179,6 +179,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 tmp,
                 &file,
                 &fits.sensors,
+                &fits.band,
                 config.as_ref().map(|(c, _)| &c.noise),
             )
         })?;
@@ -197,6 +198,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         if let (Some(t), Some(root)) = (&fits.thermal, json.as_object_mut()) {
             root.insert("temperature".into(), thermal_json(t));
         }
+        band_json(&mut json, &fits, rest.median);
         let text = calib::io::schema::to_json(calib::io::schema::NOISE, &json)?;
         crate::output::write_file(path, text.as_bytes())?;
         if !crate::output::is_stdout(path) {
@@ -303,6 +305,10 @@ struct Fitted {
     as_measured: Option<Vec<SensorNoise>>,
     /// The fits reported.
     sensors: Vec<SensorNoise>,
+    /// The likelihood model against the measured Allan deviation, and per axis (gyro x .. accel
+    /// z) the split of the rests where it leaves the band.
+    band: ::noise::consistency::FamilyCheck,
+    splits: Vec<Option<::noise::consistency::Split>>,
 }
 
 /// Both fits of the six axes from two more readings ([`::noise::stream`]): the levels reported
@@ -334,22 +340,24 @@ fn fit_levels(
     } else {
         None
     };
-    let sensors = fit_sensors(
-        source,
-        intervals,
-        n,
-        median,
-        thermal
-            .as_ref()
-            .filter(|_| as_measured.is_some())
-            .map(|t| (removed, t.interval_means.as_slice())),
-        file,
-    )?;
+    let thermal_part = thermal
+        .as_ref()
+        .filter(|_| as_measured.is_some())
+        .map(|t| (removed, t.interval_means.as_slice()));
+    let sensors = fit_sensors(source, intervals, n, median, thermal_part, file)?;
+    // The likelihood model against the Allan curve at every averaging time; where it leaves
+    // the band, the rests split by length from the same increments (one more reading).
+    let band = crate::noise_consistency::check(&sensors);
+    let splits = crate::noise_consistency::splits(&band, &sensors, intervals, median, |visit| {
+        read_increments(source, intervals, median, thermal_part, visit)
+    })?;
     Ok(Fitted {
         thermal,
         removed,
         as_measured,
         sensors,
+        band,
+        splits,
     })
 }
 
@@ -403,11 +411,12 @@ fn summary(args: &Args, file: &str, rest: &AtRest, sensors: &[SensorNoise]) -> S
 }
 
 /// The tables of both fits, the thermal regression, and what removing it did.
-fn tables(fits: &Fitted) -> String {
+fn tables(fits: &Fitted, median: f64) -> String {
     let mut out = String::new();
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {
         out += &ml_table(s, sn);
     }
+    out += &crate::noise_consistency::report(&fits.band, &fits.splits, median);
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {
         out += &sensor_table(s, sn);
     }
@@ -420,9 +429,18 @@ fn tables(fits: &Fitted) -> String {
     out
 }
 
-/// A level with its sigma; a term the fit left out as `-` with the level it could hide.
+/// A level with its sigma; a term the fit left out as `-` with the level it could hide. A fit
+/// that fails its own check gives no result: its terms as `no result (x)`, the figure for
+/// orientation only, and no level hidden (a bound from a model the data reject bounds nothing).
 fn level(fit: &NoiseFit, j: usize, factor: f64) -> String {
     let e = &fit.terms[j];
+    if !fit.passes() {
+        return if e.included {
+            format!("no result ({})", table::significant(e.value * factor, 2))
+        } else {
+            "-".into()
+        };
+    }
     if e.included {
         format!(
             "{} +- {}",
@@ -509,6 +527,7 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
     if !notes.is_empty() {
         notes = format!("  where the sum leaves the band:\n{notes}");
     }
+    notes += &failed_fit_notes(sn);
     format!(
         "\n{}, Allan fit (terms +- 1 sigma; `- (<x)`: not in the fit, x the level the data could \
          hide at 1 sigma; `xR`: fitted over measured deviation where the sum is furthest outside \
@@ -516,6 +535,41 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
         s.name,
         t.render()
     )
+}
+
+/// A line per axis whose Allan fit fails its own check: why, and that its levels are no result.
+fn failed_fit_notes(sn: &SensorNoise) -> String {
+    let mut notes = String::new();
+    for (a, ax) in sn.axes.iter().enumerate() {
+        let f = &ax.fit;
+        if f.passes() {
+            continue;
+        }
+        let bend = f
+            .misfits
+            .iter()
+            .any(|m| m.fitted && m.kind == ::noise::fit::MisfitKind::Bend);
+        let why = match (f.p_value < ::noise::fit::CHECK_P, bend) {
+            (true, true) => format!(
+                "chi-square p {} below {} and a bend in the fitted range",
+                calib::check::stats::p_value_text(f.p_value),
+                ::noise::fit::CHECK_P
+            ),
+            (true, false) => format!(
+                "chi-square p {} below {}",
+                calib::check::stats::p_value_text(f.p_value),
+                ::noise::fit::CHECK_P
+            ),
+            _ => "a bend in the fitted range".to_string(),
+        };
+        let _ = writeln!(
+            notes,
+            "  {}: the Allan fit fails its own check ({why}): its levels are no result; the \
+             figures in `no result (x)` are for orientation only",
+            AXES[a]
+        );
+    }
+    notes
 }
 
 /// A maximum-likelihood level as `value [lower, upper]`, all to the precision of the smaller
@@ -1120,41 +1174,8 @@ fn fit_sensors(
     thermal: Option<([f64; 6], &[f64])>,
     file: &str,
 ) -> Result<Vec<SensorNoise>, Error> {
-    // Increments of every record: as they are, or rate times the median interval. The records
-    // are taken as evenly spaced at the median interval (the Allan variance needs a fixed tau0;
-    // gaps end the intervals): a rate times its record's jittered interval would add the jitter
-    // times the rate, which for an accelerometer axis along g (a 0.3-ms jitter, 3 mm/s per
-    // record) is far above its noise, while jittered time stamps of a sensor sampled on its
-    // own clock say nothing of its samples.
-    let kind = source.kind();
-    let increment = move |v: f64| match kind {
-        ImuKind::Increments => v,
-        ImuKind::Rates => v * median,
-    };
     let fits = ::noise::stream::fit_axes_streamed(6, n, median, intervals, |visit| {
-        let (mut k, mut at) = (0usize, 0usize);
-        source.records_of(&mut |r, _| {
-            while at < intervals.len() && intervals[at].end <= k {
-                at += 1;
-            }
-            let mut v = [
-                increment(r.gyro[0]),
-                increment(r.gyro[1]),
-                increment(r.gyro[2]),
-                increment(r.accel[0]),
-                increment(r.accel[1]),
-                increment(r.accel[2]),
-            ];
-            if let (Some((c, means)), Some(temp)) = (thermal, r.temp)
-                && let Some(mean) = means.get(at)
-            {
-                for (x, b) in v.iter_mut().zip(c) {
-                    *x -= b * (temp - mean) * median;
-                }
-            }
-            visit(k, &v);
-            k += 1;
-        })
+        read_increments(source, intervals, median, thermal, visit)
     })?;
     let mut fits = fits.into_iter();
     let mut sensors = Vec::new();
@@ -1174,4 +1195,67 @@ fn fit_sensors(
         sensors.push(SensorNoise { axes, ml: mls });
     }
     Ok(sensors)
+}
+
+/// Visit the increments of every record as `(record index, six values)`: as they are, or rate
+/// times the median interval, with the thermal part removed where `thermal` gives a coefficient.
+///
+/// The records are taken as evenly spaced at the median interval (the Allan variance needs a
+/// fixed tau0; gaps end the intervals): a rate times its record's jittered interval would add
+/// the jitter times the rate, which for an accelerometer axis along g (a 0.3-ms jitter, 3 mm/s
+/// per record) is far above its noise, while jittered time stamps of a sensor sampled on its
+/// own clock say nothing of its samples.
+fn read_increments(
+    source: &mut RateSource<'_>,
+    intervals: &[Range<usize>],
+    median: f64,
+    thermal: Option<([f64; 6], &[f64])>,
+    visit: &mut dyn FnMut(usize, &[f64]),
+) -> Result<(), String> {
+    let kind = source.kind();
+    let increment = move |v: f64| match kind {
+        ImuKind::Increments => v,
+        ImuKind::Rates => v * median,
+    };
+    let (mut k, mut at) = (0usize, 0usize);
+    source.records_of(&mut |r, _| {
+        while at < intervals.len() && intervals[at].end <= k {
+            at += 1;
+        }
+        let mut v = [
+            increment(r.gyro[0]),
+            increment(r.gyro[1]),
+            increment(r.gyro[2]),
+            increment(r.accel[0]),
+            increment(r.accel[1]),
+            increment(r.accel[2]),
+        ];
+        if let (Some((c, means)), Some(temp)) = (thermal, r.temp)
+            && let Some(mean) = means.get(at)
+        {
+            for (x, b) in v.iter_mut().zip(c) {
+                *x -= b * (temp - mean) * median;
+            }
+        }
+        visit(k, &v);
+        k += 1;
+    })
+}
+
+/// The check of the likelihood model against the Allan curve in the JSON: the family's level
+/// at the top (`ml_band`) and each sensor's axes (`gyro.ml_band`, `accel.ml_band`).
+fn band_json(json: &mut Value, fits: &Fitted, median: f64) {
+    let Some(root) = json.as_object_mut() else {
+        return;
+    };
+    root.insert(
+        "ml_band".into(),
+        crate::noise_consistency::family_json(&fits.band),
+    );
+    for (first, s) in [(0, &GYRO), (3, &ACCEL)] {
+        let v = crate::noise_consistency::sensor_json(s, &fits.band, &fits.splits, first, median);
+        if let Some(o) = root.get_mut(s.key).and_then(Value::as_object_mut) {
+            o.insert("ml_band".into(), v);
+        }
+    }
 }

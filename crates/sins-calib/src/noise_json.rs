@@ -131,16 +131,15 @@ fn term_levels(m: &mut Map<String, Value>, s: &Sensor, sn: &SensorNoise, j: usiz
         m.insert(format!("{}_upper", s.keys[j]), json!(get(|l| l.upper)));
         return;
     }
-    let vals: Vec<f64> = sn
-        .axes
-        .iter()
-        .map(|a| a.fit.terms[j].value * s.factors[j])
-        .collect();
-    let sig: Vec<f64> = sn
-        .axes
-        .iter()
-        .map(|a| a.fit.terms[j].sigma * s.factors[j])
-        .collect();
+    // An Allan fit that fails its own check gives no result: null (its figures are under
+    // `fit[axis].orientation_only`).
+    let of = |get: fn(&::noise::fit::TermEstimate) -> f64| -> Vec<Option<f64>> {
+        sn.axes
+            .iter()
+            .map(|a| a.fit.passes().then(|| get(&a.fit.terms[j]) * s.factors[j]))
+            .collect()
+    };
+    let (vals, sig) = (of(|e| e.value), of(|e| e.sigma));
     m.insert(s.keys[j].into(), json!(vals));
     m.insert(format!("{}_sigma", s.keys[j]), json!(sig));
 }
@@ -199,16 +198,33 @@ fn allan_statistics(s: &Sensor, fit: &::noise::fit::NoiseFit) -> Value {
     o.insert("passes".into(), json!(fit.passes()));
     o.insert("tau_min_s".into(), json!(fit.tau_min_s));
     o.insert("misfits".into(), json!(fit.misfits));
-    o.insert(s.keys[1].into(), json!(w.value * s.factors[1]));
-    o.insert(
+    let mut levels = Map::new();
+    levels.insert(s.keys[1].into(), json!(w.value * s.factors[1]));
+    levels.insert(
         format!("{}_sigma", s.keys[1]),
         json!(w.sigma * s.factors[1]),
     );
-    o.insert(s.keys[3].into(), json!(k.value * s.factors[3]));
-    o.insert(
+    levels.insert(s.keys[3].into(), json!(k.value * s.factors[3]));
+    levels.insert(
         format!("{}_sigma", s.keys[3]),
         json!(k.sigma * s.factors[3]),
     );
+    // A fit that fails its own check gives no result: its levels null, the figures kept under
+    // `orientation_only` (the terms the fit took, at its optimum).
+    if fit.passes() {
+        o.extend(levels);
+    } else {
+        for key in levels.keys() {
+            o.insert(key.clone(), Value::Null);
+        }
+        let mut fig = Map::new();
+        for (j, (e, key)) in fit.terms.iter().zip(s.keys).enumerate() {
+            if e.included {
+                fig.insert(key.into(), json!(e.value * s.factors[j]));
+            }
+        }
+        o.insert("orientation_only".into(), Value::Object(fig));
+    }
     Value::Object(o)
 }
 

@@ -57,15 +57,25 @@ fn panel(
     unit: &str,
     factor: f64,
     axis: &::noise::AxisNoise,
-    ml: &::noise::likelihood::MlFit,
+    // The likelihood model and its check against the measured deviation.
+    (ml, band): (
+        &::noise::likelihood::MlFit,
+        &::noise::consistency::AxisCheck,
+    ),
     config: Option<[(Term, f64); 2]>,
 ) -> Result<(), String> {
     let p = &axis.curve.points;
+    // A failed Allan fit is no result: said in the title, its sum drawn for orientation only.
+    let title = if axis.fit.passes() {
+        title.to_string()
+    } else {
+        format!("{title} (Allan fit fails its check: sum for orientation only)")
+    };
     let (t0, t1) = (p[0].tau_s / 1.5, p[p.len() - 1].tau_s * 1.5);
     let curves = Curves::new(axis, ml, config, factor, log_grid(t0, t1, 120));
     let (lo, hi) = curves.range;
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 18))
+        .caption(&title, ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(36)
         .y_label_area_size(70)
@@ -84,7 +94,19 @@ fn panel(
         .map_err(|e| perr(&e))?;
     curves.draw(&mut chart, &axis.fit)?;
     draw_measured(&mut chart, p, factor, (lo, hi))?;
-    draw_misfits(&mut chart, axis, factor, (lo, hi))
+    draw_misfits(&mut chart, axis, factor, (lo, hi))?;
+    // The points where the likelihood model leaves its band (::noise::consistency): a square
+    // in the model's colour round the measured point.
+    chart
+        .draw_series(band.outside().map(|x| {
+            let y = x.measured * factor;
+            Rectangle::new(
+                [(x.tau_s / 1.18, y / 1.35), (x.tau_s * 1.18, y * 1.35)],
+                ML.stroke_width(2),
+            )
+        }))
+        .map_err(|e| perr(&e))?;
+    Ok(())
 }
 
 type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
@@ -170,9 +192,15 @@ impl Curves {
                 ))
                 .map_err(|e| perr(&e))?;
         }
-        chart
-            .draw_series(LineSeries::new(self.sum, SUM.stroke_width(2)))
-            .map_err(|e| perr(&e))?;
+        if fit.passes() {
+            chart
+                .draw_series(LineSeries::new(self.sum, SUM.stroke_width(2)))
+                .map_err(|e| perr(&e))?;
+        } else {
+            chart
+                .draw_series(DashedLineSeries::new(self.sum, 3, 5, SUM.stroke_width(1)))
+                .map_err(|e| perr(&e))?;
+        }
         chart
             .draw_series(LineSeries::new(self.ml, ML.stroke_width(3)))
             .map_err(|e| perr(&e))?;
@@ -267,20 +295,41 @@ fn draw_misfits(
     Ok(())
 }
 
+/// A legend's dashed-line mark in colour `c`, starting at `(x, y)`.
+fn dashed_mark(a: &Area<'_>, (x, y): (i32, i32), c: RGBColor) -> Result<(), String> {
+    a.draw(&PathElement::new([(x, y), (x + 10, y)], c.stroke_width(2)))
+        .map_err(|e| perr(&e))?;
+    a.draw(&PathElement::new(
+        [(x + 16, y), (x + 26, y)],
+        c.stroke_width(2),
+    ))
+    .map_err(|e| perr(&e))
+}
+
 /// The legend strip: measured with interval, the Allan fit's sum, the maximum-likelihood model,
 /// configured, and the terms.
 fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
     let font = ("sans-serif", 15).into_font().color(&BLACK);
-    let mut x = 20;
-    let y = 25;
-    let mut entry = |area: &Area<'_>,
+    // Two rows: the entries run on into the second where the first is full (one row cut the
+    // last terms off at the image's edge).
+    let rows = area.split_evenly((2, 1));
+    let width = area.dim_in_pixel().0 as i32;
+    let (mut x, mut row) = (20, 0usize);
+    let y = 22;
+    let mut entry = |_: &Area<'_>,
                      draw: &dyn Fn(&Area<'_>, i32) -> Result<(), String>,
                      text: &str|
      -> Result<(), String> {
+        let step = 44 + 8 * text.len() as i32;
+        if x + step > width && row + 1 < rows.len() {
+            row += 1;
+            x = 20;
+        }
+        let area = &rows[row];
         draw(area, x)?;
         area.draw(&Text::new(text.to_string(), (x + 34, y - 8), font.clone()))
             .map_err(|e| perr(&e))?;
-        x += 44 + 8 * text.len() as i32;
+        x += step;
         Ok(())
     };
     entry(
@@ -331,39 +380,27 @@ fn legend(area: &Area<'_>, with_config: bool) -> Result<(), String> {
         },
         "max. likelihood",
     )?;
+    entry(
+        area,
+        &|a, x| {
+            a.draw(&Rectangle::new(
+                [(x + 4, y - 8), (x + 20, y + 8)],
+                ML.stroke_width(2),
+            ))
+            .map_err(|e| perr(&e))
+        },
+        "max. likelihood outside band",
+    )?;
     if with_config {
         entry(
             area,
-            &|a, x| {
-                a.draw(&PathElement::new(
-                    [(x, y), (x + 10, y)],
-                    CONFIG.stroke_width(2),
-                ))
-                .map_err(|e| perr(&e))?;
-                a.draw(&PathElement::new(
-                    [(x + 16, y), (x + 26, y)],
-                    CONFIG.stroke_width(2),
-                ))
-                .map_err(|e| perr(&e))
-            },
+            &|a, x| dashed_mark(a, (x, y), CONFIG),
             "configured [noise]",
         )?;
     }
     for (c, label) in TERM_COLOURS.iter().zip(TERM_LABELS) {
         let c = *c;
-        entry(
-            area,
-            &move |a, x| {
-                a.draw(&PathElement::new([(x, y), (x + 10, y)], c.stroke_width(2)))
-                    .map_err(|e| perr(&e))?;
-                a.draw(&PathElement::new(
-                    [(x + 16, y), (x + 26, y)],
-                    c.stroke_width(2),
-                ))
-                .map_err(|e| perr(&e))
-            },
-            label,
-        )?;
+        entry(area, &move |a, x| dashed_mark(a, (x, y), c), label)?;
     }
     Ok(())
 }
@@ -373,14 +410,16 @@ pub fn allan_png(
     path: &Path,
     name: &str,
     sensors: &[SensorNoise],
+    band: &::noise::consistency::FamilyCheck,
     config: Option<&NoiseConfig>,
 ) -> Result<(), Error> {
     ensure_fonts()?;
     let err = |e: &dyn std::fmt::Display| format!("{}: plotting: {e}", path.display());
-    let root = BitMapBackend::new(path, (1500, 960)).into_drawing_area();
+    let root = BitMapBackend::new(path, (1500, 1000)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let (top, rest) = root.split_vertically(40);
     let (body, bottom) = rest.split_vertically(870);
+    // `bottom`: 90 px, two legend rows.
     top.draw(&Text::new(
         format!(
             "{name}: overlapping Allan deviation at rest, fitted noise terms, maximum-likelihood model"
@@ -399,7 +438,7 @@ pub fn allan_png(
                 unit,
                 factor,
                 ax,
-                &sn.ml[a],
+                (&sn.ml[a], &band.axes[row * 3 + a]),
                 cfg,
             )
             .map_err(|e| err(&e))?;
