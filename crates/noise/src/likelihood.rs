@@ -781,6 +781,23 @@ impl MlFit {
     }
 }
 
+/// [`fit_base`] of blocks that hold at least three innovations, refused where it finds no
+/// white noise.
+fn checked_base(blocks: &Blocks) -> Result<(f64, f64, f64), NoiseError> {
+    if blocks.innovations() < 3 {
+        return Err(NoiseError::TooShort {
+            longest: blocks.intervals.iter().map(Vec::len).max().unwrap_or(0),
+        });
+    }
+    let (n, k, best) = fit_base(blocks);
+    if !(n.is_finite() && n > 0.0) {
+        return Err(NoiseError::NoNoise {
+            tau_s: blocks.block_s,
+        });
+    }
+    Ok((n, k, best))
+}
+
 /// The white-and-walk maximum: the ratio `K / N` on a grid, then Brent. `(N, K, -2 ln L)`.
 fn fit_base(blocks: &Blocks) -> (f64, f64, f64) {
     let conc = |rho: f64| {
@@ -1044,17 +1061,7 @@ fn gauss_markov_levels(blocks: &Blocks, m: &Model, best: f64) -> (Level, Level, 
 /// The maximum-likelihood fit of the blocks (module docs): white and walk, the Gauss-Markov
 /// bias when the likelihood-ratio test selects it, profile intervals.
 pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
-    if blocks.innovations() < 3 {
-        return Err(NoiseError::TooShort {
-            longest: blocks.intervals.iter().map(Vec::len).max().unwrap_or(0),
-        });
-    }
-    let (n, k, best) = fit_base(blocks);
-    if !(n.is_finite() && n > 0.0) {
-        return Err(NoiseError::NoNoise {
-            tau_s: blocks.block_s,
-        });
-    }
+    let (n, k, best) = checked_base(blocks)?;
     let (gm, gm_best) = fit_gauss_markov(blocks, n, k);
     let lr = (best - gm_best).max(0.0);
     let p = 1.0 - ChiSquared::new(2.0).expect("2 dof").cdf(lr);
@@ -1109,17 +1116,7 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
 /// ([`crate::consistency`]): there one model's walk is set against another's, and the costly
 /// Gauss-Markov search would only change what is compared.
 pub fn fit_white_walk(blocks: &Blocks) -> Result<(Level, Level), NoiseError> {
-    if blocks.innovations() < 3 {
-        return Err(NoiseError::TooShort {
-            longest: blocks.intervals.iter().map(Vec::len).max().unwrap_or(0),
-        });
-    }
-    let (n, k, best) = fit_base(blocks);
-    if !(n.is_finite() && n > 0.0) {
-        return Err(NoiseError::NoNoise {
-            tau_s: blocks.block_s,
-        });
-    }
+    let (n, k, best) = checked_base(blocks)?;
     Ok(base_levels(blocks, n, k, best))
 }
 

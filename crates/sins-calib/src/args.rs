@@ -55,26 +55,9 @@ pub struct CalibrateArgs {
     /// With --free-motion: write a PNG of |f| - g per static interval, before and after.
     #[arg(long, value_name = "FILE", requires = "free_motion")]
     pub plot: Option<PathBuf>,
-    /// With --free-motion and no --config: latitude of the site (deg) for normal gravity.
-    #[arg(
-        long,
-        value_name = "DEG",
-        requires = "free_motion",
-        conflicts_with = "config",
-        allow_negative_numbers = true
-    )]
-    pub latitude: Option<f64>,
-    /// With --free-motion and no --config: height of the site above the ellipsoid (m) for
-    /// normal gravity (absent: 0, said as an assumption; gravity falls 3.1e-6 m/s^2 a metre, a
-    /// scale error of 0.3 ppm a metre in the accelerometers).
-    #[arg(
-        long,
-        value_name = "M",
-        requires = "free_motion",
-        conflicts_with = "config",
-        allow_negative_numbers = true
-    )]
-    pub height: Option<f64>,
+    /// The site of a recording without a configuration.
+    #[command(flatten)]
+    pub site: SiteArgs,
     /// Write the result to this JSON file: every parameter's name, value, sigma and unit in SI
     /// units, and the fit statistics (docs/formats.md).
     #[arg(long, value_name = "FILE")]
@@ -144,26 +127,9 @@ pub struct DiagnoseArgs {
     /// (default 4).
     #[arg(long, value_name = "K", requires = "free_motion")]
     pub holdout: Option<usize>,
-    /// With --free-motion and no --config: latitude of the site (deg).
-    #[arg(
-        long,
-        value_name = "DEG",
-        requires = "free_motion",
-        conflicts_with = "config",
-        allow_negative_numbers = true
-    )]
-    pub latitude: Option<f64>,
-    /// With --free-motion and no --config: height of the site above the ellipsoid (m) for
-    /// normal gravity (absent: 0, said as an assumption; gravity falls 3.1e-6 m/s^2 a metre, a
-    /// scale error of 0.3 ppm a metre in the accelerometers).
-    #[arg(
-        long,
-        value_name = "M",
-        requires = "free_motion",
-        conflicts_with = "config",
-        allow_negative_numbers = true
-    )]
-    pub height: Option<f64>,
+    /// The site of a recording without a configuration.
+    #[command(flatten)]
+    pub site: SiteArgs,
     /// Write the loop's result as JSON: accepted_terms, candidates (last round), gain,
     /// parameters (docs/formats.md).
     #[arg(long, value_name = "FILE")]
@@ -195,4 +161,31 @@ pub struct DiagnoseArgs {
     /// recordings, each candidate's separability from the fit's own posterior).
     #[command(flatten)]
     pub detector: crate::detector_args::DetectorArgs,
+}
+
+/// The site of a hand-turned recording without a configuration (`calibrate` and `diagnose`
+/// with `--free-motion`): its normal gravity comes from them, and each one not given is an
+/// assumption the run states.
+#[derive(Debug, clap::Args)]
+pub struct SiteArgs {
+    /// With --free-motion and no --config: latitude of the site (deg) for normal gravity.
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "free_motion",
+        conflicts_with = "config",
+        allow_negative_numbers = true
+    )]
+    pub latitude: Option<f64>,
+    /// With --free-motion and no --config: height of the site above the ellipsoid (m) for
+    /// normal gravity (absent: 0, said as an assumption; gravity falls 3.1e-6 m/s^2 a metre, a
+    /// scale error of 0.3 ppm a metre in the accelerometers).
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "free_motion",
+        conflicts_with = "config",
+        allow_negative_numbers = true
+    )]
+    pub height: Option<f64>,
 }

@@ -214,7 +214,7 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
         session.records = Records::Held(read_imu_csv(&args.imu)?);
         find_rests(&mut session, &args.detector, "calibrate")?;
         if args.free_motion {
-            let site = (args.latitude, args.height);
+            let site = (args.site.latitude, args.site.height);
             let sections = args.sections.as_deref();
             layout = Some(set_up_free_motion(&mut session, site, sections, &terms)?);
         }
@@ -376,7 +376,12 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         find_rests(&mut session, &args.detector, "diagnose")?;
         if args.free_motion {
             let sections = args.sections.as_deref();
-            set_up_free_motion(&mut session, (args.latitude, args.height), sections, &[])?;
+            set_up_free_motion(
+                &mut session,
+                (args.site.latitude, args.site.height),
+                sections,
+                &[],
+            )?;
             settings.measured_noise = session.free_motion().and_then(|f| f.measured);
         }
     }

@@ -13,7 +13,7 @@ pub use crate::model::layout::{
     initial_covariance, layout_for, layout_with, non_instrument_priors,
 };
 use crate::model::{AngleSample, LinearModel};
-use crate::motion::align::{aligned_prior_by, ideal_bin, ideal_bin_count};
+use crate::motion::align::{BinsByIndex, aligned_prior_by, ideal_bin, ideal_bin_count};
 use nalgebra::{DMatrix, Vector3};
 use sins_model::terms::{SensorInput, Unit};
 use turntable::gimbal::gimbal_jacobian;
@@ -168,8 +168,10 @@ pub fn covariance_analysis_with(
                 config,
                 &site,
                 layout,
-                ideal_bin_count(&kin, 0.1),
-                &|i| ideal_bin(&kin, 0.1, i),
+                BinsByIndex {
+                    count: ideal_bin_count(&kin, 0.1),
+                    at: &|i| ideal_bin(&kin, 0.1, i),
+                },
                 &kin.program,
                 0.0,
                 0.0,

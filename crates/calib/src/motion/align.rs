@@ -383,12 +383,23 @@ pub fn aligned_prior(
         config,
         site,
         layout,
-        bins.len(),
-        &|i| bins[i],
+        BinsByIndex {
+            count: bins.len(),
+            at: &|i| bins[i],
+        },
         program,
         program_start,
         t_start,
     )
+}
+
+/// Rate bins made on demand: how many there are, and the one at an index.
+#[derive(Clone, Copy)]
+pub struct BinsByIndex<'a> {
+    /// Number of bins.
+    pub count: usize,
+    /// The bin at an index below `count`.
+    pub at: &'a dyn Fn(usize) -> RateBin,
 }
 
 /// [`aligned_prior`] with the bins made on demand ([`align_to_program_by`]).
@@ -396,15 +407,14 @@ pub fn aligned_prior_by(
     config: &crate::config::RunConfig,
     site: &Site,
     layout: &crate::model::layout::StateLayout,
-    n_bins: usize,
-    bin: &dyn Fn(usize) -> RateBin,
+    bins: BinsByIndex,
     program: &Program,
     program_start: f64,
     t_start: f64,
 ) -> Option<(Matrix3<f64>, DMatrix<f64>)> {
     let al = align_to_program_by(
-        n_bins,
-        bin,
+        bins.count,
+        bins.at,
         program,
         site,
         program_start,
