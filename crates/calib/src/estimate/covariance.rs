@@ -142,6 +142,37 @@ pub fn check_steps(config: &RunConfig, duration_s: f64) -> Result<(), AnalysisEr
     })
 }
 
+/// The prior covariance at the program's start: with the turntable angles (or an independent
+/// attitude prior) the configured one at the ideal start attitude; without them the start
+/// attitude aligned to the program's rotations, as the estimation does
+/// ([`crate::motion::align`]), on the ideal motion.
+fn start_covariance(
+    config: &RunConfig,
+    layout: &StateLayout,
+    kin: &Kinematics,
+) -> nalgebra::DMatrix<f64> {
+    let c0 = kin.sample(0.0).c_body_to_enu;
+    let use_tt = layout.install.is_some();
+    let aligned = (!use_tt && config.filter.attitude_prior == AttitudePrior::Installation)
+        .then(|| {
+            // The bins made on demand: a ten-day program has 8.6 million (550 MB held).
+            aligned_prior_by(
+                config,
+                &kin.site,
+                layout,
+                BinsByIndex {
+                    count: ideal_bin_count(kin, 0.1),
+                    at: &|i| ideal_bin(kin, 0.1, i),
+                },
+                &kin.program,
+                0.0,
+                0.0,
+            )
+        })
+        .flatten();
+    aligned.map_or_else(|| initial_covariance(config, layout, &c0), |(_, p)| p)
+}
+
 /// Run the covariance analysis for any layout and (nominal) mounting.
 pub fn covariance_analysis_with(
     config: &RunConfig,
@@ -157,28 +188,8 @@ pub fn covariance_analysis_with(
     let dt = 1.0 / f.imu_rate_hz;
     let n_steps = (kin.program.duration() * f.imu_rate_hz).floor() as usize;
     let model = LinearModel::new(layout, dt, &kin.earth_rate_enu(), config.gyro_psd());
-    let c0 = kin.sample(0.0).c_body_to_enu;
     let use_tt = layout.install.is_some();
-    // Without the turntable angles the estimation aligns the start attitude to the program's
-    // rotations (crate::motion::align); the analysis does the same on the ideal motion.
-    let aligned = (!use_tt && config.filter.attitude_prior == AttitudePrior::Installation)
-        .then(|| {
-            // The bins made on demand: a ten-day program has 8.6 million (550 MB held).
-            aligned_prior_by(
-                config,
-                &site,
-                layout,
-                BinsByIndex {
-                    count: ideal_bin_count(&kin, 0.1),
-                    at: &|i| ideal_bin(&kin, 0.1, i),
-                },
-                &kin.program,
-                0.0,
-                0.0,
-            )
-        })
-        .flatten();
-    let p0 = aligned.map_or_else(|| initial_covariance(config, layout, &c0), |(_, p)| p);
+    let p0 = start_covariance(config, layout, &kin);
     let filter = prior_filter(&p0).map_err(|source| AnalysisError::Filter { t: 0.0, source })?;
     // Angle records are taken to come at the IMU rate, one per step, so that a window of N steps
     // averages N records: the variance of one record is the PSD times the record rate.
