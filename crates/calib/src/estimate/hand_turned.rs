@@ -292,7 +292,7 @@ pub struct NoiseMl {
 /// from 1e-8 to [`MAX_MOTION_NOISE_RAD`], refined by golden section), coordinate by
 /// coordinate. Later windows depend on both only through the
 /// states after the earlier ones: the estimate is one step of an iteration that
-/// [`fit_measuring_noise`] repeats to a fixed point. `None` without windows.
+/// `fit_measuring_noise` repeats to a fixed point. `None` without windows.
 pub fn noise_ml(
     innovations: &[Innovation],
     rests: usize,
@@ -511,7 +511,7 @@ pub struct RestsInput<'a> {
 }
 
 /// A fit of a recording of rests with its noise measured: the filter's estimate and where its
-/// noise came from ([`fit_measuring_noise`]).
+/// noise came from (`fit_measuring_noise`).
 pub(crate) struct MeasuredFit {
     /// The estimate of the last fit.
     pub estimate: crate::estimate::Estimate,
@@ -681,7 +681,7 @@ fn next_motion(motion: f64, estimated: f64, previous: Option<(f64, f64)>) -> f64
 /// Calibrate a recording of rests (no program, no turntable) with the filter of
 /// [`crate::estimate::calibrate_rests`], the model `layout`, the known `turns` as measurements,
 /// every `holdout`-th rest held out (`filter.hold_out_every`), the noise measured where
-/// `measured` ([`fit_measuring_noise`]), and report what the result does to the rests, the
+/// `measured` (`fit_measuring_noise`), and report what the result does to the rests, the
 /// turns and the held-out rests, with its verdict ([`crate::estimate::calibration::Calibration`]).
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(

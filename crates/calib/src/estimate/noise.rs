@@ -7,7 +7,7 @@
 //! - **measured from the rests** of a hand-turned recording: the configuration then holds the
 //!   rests' scatter ([`crate::estimate::hand_turned::default_config`]), and each fit runs at
 //!   [`MeasuredLevels`] (the specific-force level times a factor, the attitude noise of a
-//!   motion), which [`crate::estimate::hand_turned::fit_measuring_noise`] brings to the fit's
+//!   motion), which `estimate::hand_turned::fit_measuring_noise` brings to the fit's
 //!   own innovations ([`NoiseSource::Measured`]);
 //! - **rescaled**: the configured levels times the [`level_factor`] of each measurement whose
 //!   mean NIS is outside its band ([`NoiseRescale`]: a round of the model-extension loop whose

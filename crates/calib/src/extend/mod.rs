@@ -70,7 +70,7 @@ pub struct LoopSettings {
     /// A recording of rests whose white noise was measured in its rests (a hand-turned
     /// recording without a configuration): every fit brings the specific-force level to its
     /// own innovations and measures its own motion noise
-    /// ([`crate::estimate::hand_turned::fit_measuring_noise`]), so that a term is compared with the
+    /// (`estimate::hand_turned::fit_measuring_noise`), so that a term is compared with the
     /// model without it each at the noise the data give it (a missing term's misfit read as
     /// motion noise would otherwise hide the term's own information). `None`: the configured
     /// noise.
