@@ -66,11 +66,6 @@ impl Calibration {
         }
     }
 
-    /// Whether nothing contradicts the model.
-    pub fn fits(&self) -> bool {
-        self.verdict.fits()
-    }
-
     /// Whether the noise was measured from these data (the held-out rests decide).
     pub fn noise_measured(&self) -> bool {
         matches!(self.noise, NoiseSource::Measured { .. })

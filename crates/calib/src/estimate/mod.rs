@@ -286,8 +286,8 @@ impl Estimate {
 }
 
 /// What an estimate asks the configuration for at every step, resolved once at its start: the
-/// site (its gravity and Earth rate), the priors in SI and the noise densities. The fits of one
-/// calibration may differ in their noise levels and held-out segments, never in these.
+/// site (its gravity and Earth rate) and the priors in SI. The fits of one calibration may
+/// differ in their noise levels and held-out segments, never in these.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Plan {
     /// The site.
@@ -1590,9 +1590,16 @@ fn set_up_pass<'r>(
     angles: Option<AngleReader<'r>>,
 ) -> Pass<'r> {
     // What the pass needs of the run, then the pass.
-    let held_out = (inp.config.filter.hold_out_every)
+    let held_out = inp
+        .config
+        .filter
+        .hold_out_every
         .map(|every| held_out_windows(inp.motion, inp.scan.program_start, every));
-    let before = (inp.layout.model.uses_rate_derivatives()).then(|| motion_before(inp, &c0));
+    let before = inp
+        .layout
+        .model
+        .uses_rate_derivatives()
+        .then(|| motion_before(inp, &c0));
     let nav = Strapdown::new(c0, &settings.u_enu, settings.dt);
     let lin = Linearisation::from_totals(inp.layout, totals);
     let mut pass = Pass::new(inp.layout, settings, engine, nav, lin, angles);

@@ -254,13 +254,17 @@ impl Figures {
     /// The figures of the calibration `c`, against `truth` where one is given.
     pub fn of(c: &crate::estimate::calibration::Calibration, truth: Option<&ResultFile>) -> Self {
         let est = &c.estimate;
-        let correlation = correlation(est);
+        // The result file holds the parameters' correlation ([`correlation`]'s): taken from
+        // it rather than computed twice.
+        let result = c.result_file();
+        let names: Vec<String> = result.parameters.iter().map(|p| p.name.clone()).collect();
+        let correlation = (names, result.correlation.clone().unwrap_or_default());
         let strongest =
             strongest_correlations(&correlation.0, &correlation.1, STRONGEST_CORRELATIONS);
         Self {
             parameters: parameter_rows(est, truth),
             truth: truth.and_then(|t| truth_comparison(est, t)),
-            result: c.result_file(),
+            result,
             mean_nis: crate::estimate::verdict::mean_nis_figures(&est.stats, est.with_turntable()),
             known_turns: crate::estimate::verdict::known_turn_figures(&est.stats),
             unobserved: est.unobserved(),
