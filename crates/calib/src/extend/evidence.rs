@@ -17,88 +17,11 @@
 //!   which base parameters it is confounded with.
 //! - [`InformationGain`]: what an accepted term gains (log-likelihood, AIC, BIC).
 
-use nalgebra::{DMatrix, DVector, SymmetricEigen};
+pub use crate::check::score::{
+    MIN_INFORMATION_SHARE, ScoreTest, chi_square_sf, ln_chi_square_sf, score_test,
+};
+use nalgebra::DMatrix;
 use serde::Serialize;
-use statrs::distribution::{ChiSquared, ContinuousCDF};
-
-/// Share of the prior's information below which the data are taken to say nothing about a
-/// direction of the parameter space (see [`score_test`]).
-pub const MIN_INFORMATION_SHARE: f64 = 0.01;
-
-/// Result of a score test.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ScoreTest {
-    /// The statistic `s^T I^+ s`.
-    pub statistic: f64,
-    /// Degrees of freedom (the rank of the data's information).
-    pub dof: usize,
-    /// Probability of a statistic at least this large when the term is absent.
-    pub p_value: f64,
-    /// Its natural logarithm (finite where the p-value underflows).
-    pub ln_p_value: f64,
-}
-
-/// Upper tail of the chi-square distribution with `dof` degrees of freedom (1 for `dof = 0`).
-pub fn chi_square_sf(x: f64, dof: usize) -> f64 {
-    if dof == 0 {
-        return 1.0;
-    }
-    let d = ChiSquared::new(dof as f64).expect("positive degrees of freedom");
-    if !x.is_finite() {
-        return if x > 0.0 { 0.0 } else { 1.0 };
-    }
-    d.sf(x.max(0.0)).clamp(0.0, 1.0)
-}
-
-/// Natural logarithm of [`chi_square_sf`], finite far into the tail where the p-value itself
-/// underflows (statistics of thousands): there the leading term of the incomplete gamma
-/// function's asymptotic series, `ln Q(a, y) = (a - 1) ln y - y - ln Gamma(a)` with `a = dof/2`,
-/// `y = x/2`. The loop ranks candidates by it: p-values of 0 would tie.
-pub fn ln_chi_square_sf(x: f64, dof: usize) -> f64 {
-    let p = chi_square_sf(x, dof);
-    if p > 1e-300 || dof == 0 || !x.is_finite() {
-        return p.ln();
-    }
-    let (a, y) = (0.5 * dof as f64, 0.5 * x);
-    (a - 1.0) * y.ln() - y - statrs::function::gamma::ln_gamma(a)
-}
-
-/// The score test of a term whose parameters have prior sigmas `prior_sigma`, posterior mean
-/// `theta_hat` and posterior covariance `post_cov` (SI) in the fit of the extended model.
-///
-/// Computed in prior-normalised coordinates (`u = theta / sigma0`), where the prior is the
-/// identity and the parameters' scales (1e-9 to 1e-2) do not matter.
-pub fn score_test(theta_hat: &[f64], post_cov: &DMatrix<f64>, prior_sigma: &[f64]) -> ScoreTest {
-    let k = theta_hat.len();
-    let pn = DMatrix::from_fn(k, k, |i, j| {
-        post_cov[(i, j)] / (prior_sigma[i] * prior_sigma[j])
-    });
-    let u = DVector::from_iterator(k, theta_hat.iter().zip(prior_sigma).map(|(t, s)| t / s));
-    // Posterior information in normalised units: Pn^-1 = I_n + identity.
-    let eig = SymmetricEigen::new(pn);
-    let mut statistic = 0.0;
-    let mut dof = 0;
-    for (i, &lambda) in eig.eigenvalues.iter().enumerate() {
-        // Along an eigenvector v of Pn: posterior variance lambda, data information
-        // 1/lambda - 1, score s = (v . u) / lambda, statistic s^2 / info.
-        if !(lambda > 0.0 && lambda.is_finite()) {
-            continue;
-        }
-        let info = 1.0 / lambda - 1.0;
-        if info < MIN_INFORMATION_SHARE {
-            continue;
-        }
-        let s = eig.eigenvectors.column(i).dot(&u) / lambda;
-        statistic += s * s / info;
-        dof += 1;
-    }
-    ScoreTest {
-        statistic,
-        dof,
-        p_value: chi_square_sf(statistic, dof),
-        ln_p_value: ln_chi_square_sf(statistic, dof),
-    }
-}
 
 /// Upper tail of the chi-bar-square distribution of a likelihood-ratio statistic for `k`
 /// non-negative parameters on the boundary of their space, taken as orthogonal: the mixture
@@ -294,6 +217,7 @@ impl InformationGain {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DVector;
     use rand::{SeedableRng, rngs::StdRng};
     use rand_distr::{Distribution, StandardNormal};
 

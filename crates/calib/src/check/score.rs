@@ -1,0 +1,375 @@
+//! Score (Lagrange-multiplier) tests of candidate terms, from the posterior of a fit of the
+//! model extended by them.
+//!
+//! - [`score_test`]: whether the data call for a term, from the fit of the model extended by it.
+//!   With a Gaussian prior `N(0, P0)` on the term's parameters `theta` (independent of the other
+//!   states) the posterior of `theta` is `P = (P0^-1 + I)^-1`, where `I` is the information the
+//!   data hold on `theta` once every other state is marginalised (`I = P^-1 - P0^-1`), and its
+//!   mean is `theta_hat = P s` with `s` the efficient score at `theta = 0`. When the term is
+//!   absent, `s ~ N(0, I)` exactly in the linear-Gaussian model, so `T = s^T I^+ s` is
+//!   chi-square with `rank(I)` degrees of freedom. Directions in which the data hold less than
+//!   [`MIN_INFORMATION_SHARE`] of the prior's information are left out of the rank: there the
+//!   statistic would rest on the prior alone.
+//! - [`term_scores`]: the score test of every candidate term from one pass of the model extended
+//!   by all of them at once ([`ExtendedPosterior`]), without a fit per term. In the posterior of
+//!   all candidates `C` (the base parameters marginalised) the information is `J = P_CC^-1`, the
+//!   efficient score at `C = 0` is `s_C = J m_C` and the data's information `E = J - I` (prior
+//!   units). Leaving the other candidates out of the model is conditioning on them being zero,
+//!   which in information form keeps the term's own block: its statistic is
+//!   `s_c^T E_cc^+ s_c`, exactly that of a fit of the base model extended by the term alone
+//!   (linear-Gaussian model). The same conditioning gives what carrying the term would move the
+//!   base parameters by ([`TermScore::largest_shift`]).
+
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use serde::Serialize;
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+/// Share of the prior's information below which the data are taken to say nothing about a
+/// direction of the parameter space (see [`score_test`]).
+pub const MIN_INFORMATION_SHARE: f64 = 0.01;
+
+/// Result of a score test.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ScoreTest {
+    /// The statistic `s^T I^+ s`.
+    pub statistic: f64,
+    /// Degrees of freedom (the rank of the data's information).
+    pub dof: usize,
+    /// Probability of a statistic at least this large when the term is absent.
+    pub p_value: f64,
+    /// Its natural logarithm (finite where the p-value underflows).
+    pub ln_p_value: f64,
+}
+
+/// Upper tail of the chi-square distribution with `dof` degrees of freedom (1 for `dof = 0`).
+pub fn chi_square_sf(x: f64, dof: usize) -> f64 {
+    if dof == 0 {
+        return 1.0;
+    }
+    let d = ChiSquared::new(dof as f64).expect("positive degrees of freedom");
+    if !x.is_finite() {
+        return if x > 0.0 { 0.0 } else { 1.0 };
+    }
+    d.sf(x.max(0.0)).clamp(0.0, 1.0)
+}
+
+/// Natural logarithm of [`chi_square_sf`], finite far into the tail where the p-value itself
+/// underflows (statistics of thousands): there the leading term of the incomplete gamma
+/// function's asymptotic series, `ln Q(a, y) = (a - 1) ln y - y - ln Gamma(a)` with `a = dof/2`,
+/// `y = x/2`. The loop ranks candidates by it: p-values of 0 would tie.
+pub fn ln_chi_square_sf(x: f64, dof: usize) -> f64 {
+    let p = chi_square_sf(x, dof);
+    if p > 1e-300 || dof == 0 || !x.is_finite() {
+        return p.ln();
+    }
+    let (a, y) = (0.5 * dof as f64, 0.5 * x);
+    (a - 1.0) * y.ln() - y - statrs::function::gamma::ln_gamma(a)
+}
+
+/// The score test of a term whose parameters have prior sigmas `prior_sigma`, posterior mean
+/// `theta_hat` and posterior covariance `post_cov` (SI) in the fit of the extended model.
+///
+/// Computed in prior-normalised coordinates (`u = theta / sigma0`), where the prior is the
+/// identity and the parameters' scales (1e-9 to 1e-2) do not matter.
+pub fn score_test(theta_hat: &[f64], post_cov: &DMatrix<f64>, prior_sigma: &[f64]) -> ScoreTest {
+    let k = theta_hat.len();
+    let pn = DMatrix::from_fn(k, k, |i, j| {
+        post_cov[(i, j)] / (prior_sigma[i] * prior_sigma[j])
+    });
+    let u = DVector::from_iterator(k, theta_hat.iter().zip(prior_sigma).map(|(t, s)| t / s));
+    // Posterior information in normalised units: Pn^-1 = I_n + identity.
+    let eig = SymmetricEigen::new(pn);
+    let mut statistic = 0.0;
+    let mut dof = 0;
+    for (i, &lambda) in eig.eigenvalues.iter().enumerate() {
+        // Along an eigenvector v of Pn: posterior variance lambda, data information
+        // 1/lambda - 1, score s = (v . u) / lambda, statistic s^2 / info.
+        if !(lambda > 0.0 && lambda.is_finite()) {
+            continue;
+        }
+        let info = 1.0 / lambda - 1.0;
+        if info < MIN_INFORMATION_SHARE {
+            continue;
+        }
+        let s = eig.eigenvectors.column(i).dot(&u) / lambda;
+        statistic += s * s / info;
+        dof += 1;
+    }
+    ScoreTest {
+        statistic,
+        dof,
+        p_value: chi_square_sf(statistic, dof),
+        ln_p_value: ln_chi_square_sf(statistic, dof),
+    }
+}
+
+/// The statistic `s^T E^+ s` of a score `s` against the data's information `E` (prior units),
+/// over the directions in which the data hold at least [`MIN_INFORMATION_SHARE`] of the
+/// prior's information.
+fn statistic_of(score: &DVector<f64>, information: &DMatrix<f64>) -> ScoreTest {
+    let eig = SymmetricEigen::new((information + information.transpose()) * 0.5);
+    let mut statistic = 0.0;
+    let mut dof = 0;
+    for (i, &e) in eig.eigenvalues.iter().enumerate() {
+        if !(e.is_finite() && e >= MIN_INFORMATION_SHARE) {
+            continue;
+        }
+        let s = eig.eigenvectors.column(i).dot(score);
+        statistic += s * s / e;
+        dof += 1;
+    }
+    ScoreTest {
+        statistic,
+        dof,
+        p_value: chi_square_sf(statistic, dof),
+        ln_p_value: ln_chi_square_sf(statistic, dof),
+    }
+}
+
+/// The posterior of one pass of the model extended by every candidate term (SI): the
+/// parameters (the attitude errors left out), their prior sigmas, means and covariance, and
+/// which of them are each candidate's. Candidates' prior means are zero.
+#[derive(Clone, Debug, Default)]
+pub struct ExtendedPosterior {
+    /// Parameter names.
+    pub names: Vec<String>,
+    /// Prior sigmas (SI).
+    pub prior_sigma: Vec<f64>,
+    /// Posterior means (SI).
+    pub values: Vec<f64>,
+    /// Posterior covariance (SI).
+    pub cov: DMatrix<f64>,
+    /// Each candidate term: its id and the indices of its parameters.
+    pub terms: Vec<(String, Vec<usize>)>,
+}
+
+/// A parameter of a candidate term as a fit with the term alone would estimate it (SI).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TermParameter {
+    /// Name.
+    pub name: String,
+    /// Estimate.
+    pub value: f64,
+    /// Posterior sigma.
+    pub sigma: f64,
+}
+
+/// The base parameter a candidate term would move most if carried.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BaseShift {
+    /// Its name.
+    pub name: String,
+    /// How far it would move, in its posterior sigmas with the term carried (signed).
+    pub sigmas: f64,
+}
+
+/// The score test of one candidate term against the model without it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TermScore {
+    /// Term id.
+    pub term: String,
+    /// The test ([`ScoreTest`]; `dof` 0: the data say nothing of the term).
+    pub test: ScoreTest,
+    /// Its parameters as the model extended by it alone estimates them.
+    pub parameters: Vec<TermParameter>,
+    /// The base parameter that carrying the term would move most (`None` without base
+    /// parameters).
+    pub largest_shift: Option<BaseShift>,
+}
+
+/// Symmetric inverse through the eigen-decomposition (`None` if not positive definite).
+fn spd_inverse(m: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let sym = (m + m.transpose()) * 0.5;
+    let chol = sym.cholesky()?;
+    Some(chol.inverse())
+}
+
+fn select(m: &DMatrix<f64>, rows: &[usize], cols: &[usize]) -> DMatrix<f64> {
+    DMatrix::from_fn(rows.len(), cols.len(), |i, j| m[(rows[i], cols[j])])
+}
+
+fn select_vec(v: &DVector<f64>, rows: &[usize]) -> DVector<f64> {
+    DVector::from_fn(rows.len(), |i, _| v[rows[i]])
+}
+
+/// The score test of every candidate term of `p` ([`ExtendedPosterior`]), each against the
+/// base model without any candidate (the module's documentation). Empty where the candidates'
+/// posterior covariance is not positive definite.
+pub fn term_scores(p: &ExtendedPosterior) -> Vec<TermScore> {
+    let n = p.names.len();
+    let u = DVector::from_fn(n, |i, _| p.values[i] / p.prior_sigma[i]);
+    let pn = DMatrix::from_fn(n, n, |i, j| {
+        p.cov[(i, j)] / (p.prior_sigma[i] * p.prior_sigma[j])
+    });
+    let cand: Vec<usize> = p.terms.iter().flat_map(|(_, ix)| ix.clone()).collect();
+    let base: Vec<usize> = (0..n).filter(|i| !cand.contains(i)).collect();
+    let Some(j) = spd_inverse(&select(&pn, &cand, &cand)) else {
+        return Vec::new();
+    };
+    let s_c = &j * select_vec(&u, &cand);
+    let e = &j - DMatrix::identity(cand.len(), cand.len());
+    // The base parameters with every candidate at zero: the base model's posterior.
+    let base_mean = select_vec(&u, &base) - select(&pn, &base, &cand) * &s_c;
+    let mut out = Vec::new();
+    let mut at = 0;
+    for (term, ix) in &p.terms {
+        let pos: Vec<usize> = (at..at + ix.len()).collect();
+        at += ix.len();
+        let s_k = select_vec(&s_c, &pos);
+        let test = statistic_of(&s_k, &select(&e, &pos, &pos));
+        let parameters = spd_inverse(&select(&j, &pos, &pos))
+            .map(|pk| {
+                let theta = &pk * &s_k;
+                ix.iter()
+                    .enumerate()
+                    .map(|(q, &i)| TermParameter {
+                        name: p.names[i].clone(),
+                        value: theta[q] * p.prior_sigma[i],
+                        sigma: pk[(q, q)].max(0.0).sqrt() * p.prior_sigma[i],
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        let others: Vec<usize> = cand.iter().copied().filter(|i| !ix.contains(i)).collect();
+        let largest_shift = base_shift(&pn, &u, &base, ix, &others, &base_mean)
+            .and_then(|shifts| {
+                shifts
+                    .iter()
+                    .enumerate()
+                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                    .map(|(q, &z)| BaseShift {
+                        name: p.names[base[q]].clone(),
+                        sigmas: z,
+                    })
+            });
+        out.push(TermScore {
+            term: term.clone(),
+            test,
+            parameters,
+            largest_shift,
+        });
+    }
+    out
+}
+
+/// How far carrying the term `term` (the other candidates `others` at zero) moves each base
+/// parameter from `base_mean` (its mean with every candidate at zero), in its sigmas with the
+/// term carried (prior units in, ratios out).
+fn base_shift(
+    pn: &DMatrix<f64>,
+    u: &DVector<f64>,
+    base: &[usize],
+    term: &[usize],
+    others: &[usize],
+    base_mean: &DVector<f64>,
+) -> Option<Vec<f64>> {
+    let x: Vec<usize> = base.iter().chain(term).copied().collect();
+    let (mut mean, mut cov) = (select_vec(u, &x), select(pn, &x, &x));
+    if !others.is_empty() {
+        let gain = select(pn, &x, others) * spd_inverse(&select(pn, others, others))?;
+        mean -= &gain * select_vec(u, others);
+        cov -= &gain * select(pn, others, &x);
+    }
+    Some(
+        (0..base.len())
+            .map(|q| (mean[q] - base_mean[q]) / cov[(q, q)].max(f64::MIN_POSITIVE).sqrt())
+            .collect(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{SeedableRng, rngs::StdRng};
+    use rand_distr::{Distribution, StandardNormal};
+
+    /// The posterior of `y = H x + v` (`v ~ N(0, 1)`) with prior `x ~ N(0, diag(s0^2))`.
+    fn posterior(h: &DMatrix<f64>, s0: &[f64], y: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+        let mut info = h.transpose() * h;
+        for (k, s) in s0.iter().enumerate() {
+            info[(k, k)] += 1.0 / (s * s);
+        }
+        let cov = info.try_inverse().unwrap();
+        let mean = &cov * h.transpose() * y;
+        (mean, cov)
+    }
+
+    fn columns(h: &DMatrix<f64>, cols: &[usize]) -> DMatrix<f64> {
+        DMatrix::from_fn(h.nrows(), cols.len(), |i, j| h[(i, cols[j])])
+    }
+
+    /// One pass with every candidate gives, for each, the statistic, estimate and base shift of
+    /// a fit of the base model with that candidate alone, to rounding.
+    #[test]
+    fn joint_pass_gives_each_terms_own_fit() {
+        let mut rng = StdRng::seed_from_u64(20_261_205);
+        let m = 80;
+        // Columns 0-2 base, 3-4 term a, 5 term c; c correlated with base 0 and with a.
+        let h = DMatrix::from_fn(m, 6, |i, j| {
+            let t = i as f64;
+            match j {
+                0 => (t * 0.31).sin(),
+                1 => (t * 0.17).cos(),
+                2 => 1.0,
+                3 => (t * 0.05).sin() + 0.3 * (t * 0.31).sin(),
+                4 => (t * 0.9).cos(),
+                _ => 0.6 * (t * 0.31).sin() + 0.2 * (t * 0.9).cos() + 0.4 * (t * 0.4).cos(),
+            }
+        });
+        let s0 = [1.0, 2.0, 0.5, 0.3, 0.2, 0.1];
+        let x = DVector::from_vec(vec![0.5, -1.0, 0.2, 1.5, 0.0, 0.0]);
+        let v = DVector::from_fn(m, |_, _| StandardNormal.sample(&mut rng));
+        let y = &h * &x + v;
+        let (mean, cov) = posterior(&h, &s0, &y);
+        let names: Vec<String> = ["b0", "b1", "b2", "a0", "a1", "c0"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let joint = ExtendedPosterior {
+            names,
+            prior_sigma: s0.to_vec(),
+            values: mean.iter().copied().collect(),
+            cov,
+            terms: vec![("a".into(), vec![3, 4]), ("c".into(), vec![5])],
+        };
+        let scores = term_scores(&joint);
+        assert_eq!(scores.len(), 2);
+        let base_cols = [0, 1, 2];
+        let (bm, _) = posterior(&columns(&h, &base_cols), &s0[..3], &y);
+        for (k, cols) in [(0, vec![3, 4]), (1, vec![5])] {
+            let all: Vec<usize> = base_cols.iter().chain(&cols).copied().collect();
+            let sub_s0: Vec<f64> = all.iter().map(|&i| s0[i]).collect();
+            let (mk, ck) = posterior(&columns(&h, &all), &sub_s0, &y);
+            let nt = cols.len();
+            let theta: Vec<f64> = (0..nt).map(|q| mk[3 + q]).collect();
+            let pc = ck.view((3, 3), (nt, nt)).into_owned();
+            let alone = score_test(&theta, &pc, &sub_s0[3..]);
+            let t = &scores[k];
+            assert!(
+                (t.test.statistic - alone.statistic).abs() < 1e-8 * (1.0 + alone.statistic),
+                "{k}: {} against {}",
+                t.test.statistic,
+                alone.statistic
+            );
+            assert_eq!(t.test.dof, alone.dof);
+            for q in 0..nt {
+                assert!((t.parameters[q].value - theta[q]).abs() < 1e-9);
+                assert!((t.parameters[q].sigma - pc[(q, q)].sqrt()).abs() < 1e-9);
+            }
+            let shifts: Vec<f64> = (0..3)
+                .map(|q| (mk[q] - bm[q]) / ck[(q, q)].sqrt())
+                .collect();
+            let (q, z) = shifts
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                .unwrap();
+            let shift = t.largest_shift.as_ref().unwrap();
+            assert_eq!(shift.name, ["b0", "b1", "b2"][q]);
+            assert!((shift.sigmas - z).abs() < 1e-8, "{} against {z}", shift.sigmas);
+        }
+        // The term that is there (a) is called for; the one that is not (c) is not.
+        assert!(scores[0].test.p_value < 1e-6, "{:?}", scores[0].test);
+        assert!(scores[1].test.p_value > 1e-3, "{:?}", scores[1].test);
+    }
+}
