@@ -373,6 +373,11 @@ pub struct FilterConfig {
     /// setting: the model-extension loop sets it for its held-out check ([`crate::extend`]).
     #[serde(skip)]
     pub hold_out_every: Option<usize>,
+    /// After the fit, one more pass with every candidate term the recording can test appended
+    /// to the model, for the score tests of the verdict
+    /// ([`crate::estimate::score_pass`]). Not a file setting: `calibrate` sets it.
+    #[serde(skip)]
+    pub score_terms: bool,
 }
 
 /// How the turntable clock relates to the IMU clock, as the laboratory's synchronisation knows

@@ -87,10 +87,13 @@ pub fn calibrate_program(
     turntable: Option<AngleRecords>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Calibration, EstimateError> {
-    let estimate = estimate_from(config, layout, imu, turntable, progress)?;
+    let mut config = config.clone();
+    config.filter.score_terms = true;
+    let estimate = estimate_from(&config, layout, imu, turntable, progress)?;
+    config.filter.score_terms = false;
     Ok(Calibration::new(
         estimate,
-        config.clone(),
+        config,
         NoiseSource::Configured,
         None,
         &DiagnosticSettings::default(),

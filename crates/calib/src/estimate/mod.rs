@@ -50,6 +50,7 @@ pub mod data_checks;
 pub mod hand_turned;
 pub mod noise;
 mod pass;
+pub mod score_pass;
 pub mod verdict;
 
 pub use crate::io::source::{FileImu, ImuSource, MemoryImu};
@@ -217,6 +218,10 @@ pub struct Estimate {
     /// The records' temperature in 1-s means on the IMU clock (`[t_s, temp_c]`), when they
     /// have one: the profile the covariance analyses of the model-extension loop take.
     pub temperature_series: Vec<[f64; 2]>,
+    /// The posterior of one more pass with every candidate term the recording can test
+    /// appended ([`score_pass`]), when the configuration asks for it
+    /// (`filter.score_terms`): the score tests of the verdict.
+    pub extended: Option<crate::check::score::ExtendedPosterior>,
 }
 
 impl Estimate {
@@ -1006,6 +1011,7 @@ fn iterate_passes(
     // heading, which such a unit cannot gyrocompass, does not enter the specific force at rest.
     // Every pass carries a constant copy of the start attitude error, so that the next pass can
     // start from the estimate of the start attitude (a fixed-point smoother).
+    let own = *inp;
     let smoother = layout.with_start_attitude();
     let s = smoother.start_attitude.expect("set by with_start_attitude");
     let inp = PassInputs {
@@ -1073,6 +1079,15 @@ fn iterate_passes(
     }
     progress(total, total);
     estimate.truncate(layout.dim());
+    if config.filter.score_terms {
+        let later = if matches!(motion, Motion::Rests { .. }) && tilt_walks {
+            Feedback::Tilt
+        } else {
+            Feedback::None
+        };
+        let point = nominal.as_ref().expect("set by every pass");
+        estimate.extended = score_pass::extended_pass(&own, imu, point, later, &estimate)?;
+    }
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
@@ -1731,6 +1746,7 @@ fn pass_estimate(
             .as_ref()
             .map(|t| t.series.clone())
             .unwrap_or_default(),
+        extended: None,
     };
     (estimate, offset_sensitivity)
 }

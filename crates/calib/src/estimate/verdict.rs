@@ -6,6 +6,8 @@
 //! result of a calibration ([`crate::estimate::calibration::Calibration`]).
 
 use crate::check::diagnostics::{Diagnostics, kind_label};
+use crate::check::score::{TermScore, term_scores};
+use crate::check::stats::p_value_text;
 use crate::estimate::FitStatistics;
 use crate::estimate::noise::{EXCESS_LEVEL, GROSS_VARIANCE_RATIO, NoiseSource, ScatterExcess};
 use crate::model::MeasurementKind;
@@ -136,6 +138,89 @@ pub struct RunVerdict {
     /// The tests of a hand-turned calibration with measured noise, with their figures
     /// ([`hand_turned_tests`]; empty with a configured noise).
     pub tests: Vec<VerdictTest>,
+    /// The score test of every candidate term the recording could test, from the fit's
+    /// extended pass ([`crate::check::score::term_scores`]; empty when it was not run).
+    pub scores: Vec<TermScore>,
+}
+
+/// Family-wise level of the score tests of the candidate terms (Bonferroni over the terms
+/// tested): a term is called for where its p-value is below this divided by their number.
+pub const SCORE_LEVEL: f64 = 0.01;
+
+/// How far (in its sigmas with the term carried) carrying a term the data call for must move
+/// some parameter for the call to decide the exit status. A real unit has more small effects
+/// than any model, and hundreds of thousands of measurements call for some of them at tiny
+/// p-values while they change nothing of the result; a term whose absence leaves a parameter
+/// a sigma or more from where it belongs makes the result's sigmas wrong. Under the null the
+/// shift is itself below one sigma (its variance is the difference of two posterior
+/// variances), so this bound only removes calls, never adds false ones.
+pub const MATERIAL_SHIFT_SIGMA: f64 = 1.0;
+
+/// The score tests' verdict lines: the decisive ones (a term called for at [`SCORE_LEVEL`]
+/// whose carrying moves a parameter by at least [`MATERIAL_SHIFT_SIGMA`]), and the
+/// informative ones (a term called for that moves nothing; or, when none is called for, the
+/// smallest p-value).
+pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
+    let tested: Vec<&TermScore> = scores.iter().filter(|t| t.test.dof > 0).collect();
+    let (mut decisive, mut informative) = (Vec::new(), Vec::new());
+    if tested.is_empty() {
+        return (decisive, informative);
+    }
+    let threshold = SCORE_LEVEL / tested.len() as f64;
+    let shift_text = |t: &TermScore| {
+        t.largest_shift.as_ref().map_or_else(String::new, |b| {
+            format!("{} by {:+.1} of its sigmas", b.name, b.sigmas)
+        })
+    };
+    // Strongest first: where several terms are called for, the first is the likeliest cause
+    // (a term correlated with it is called for by its effect too; `diagnose` tells them apart).
+    let mut ranked = tested.clone();
+    ranked.sort_by(|a, b| a.test.ln_p_value.total_cmp(&b.test.ln_p_value));
+    for t in &ranked {
+        if t.test.p_value >= threshold {
+            continue;
+        }
+        let shift = t.largest_shift.as_ref().map_or(0.0, |b| b.sigmas.abs());
+        let call = format!(
+            "the data call for {}: score statistic {:.1} for {} parameters, p = {} (below {} = \
+             {} % over {} terms)",
+            t.term,
+            t.test.statistic,
+            t.test.dof,
+            p_value_text(t.test.p_value),
+            p_value_text(threshold),
+            100.0 * SCORE_LEVEL,
+            tested.len()
+        );
+        if shift >= MATERIAL_SHIFT_SIGMA {
+            decisive.push(format!(
+                "{call}; carrying it moves {}: `diagnose` fits it, `calibrate --terms {}` \
+                 carries it",
+                shift_text(t),
+                t.term
+            ));
+        } else {
+            informative.push(format!(
+                "{call}, but carrying it moves no parameter by {MATERIAL_SHIFT_SIGMA} sigma or \
+                 more (largest: {}): it does not decide",
+                shift_text(t)
+            ));
+        }
+    }
+    if decisive.is_empty() && informative.is_empty() {
+        let best = tested
+            .iter()
+            .min_by(|a, b| a.test.ln_p_value.total_cmp(&b.test.ln_p_value))
+            .expect("not empty");
+        informative.push(format!(
+            "score tests of {} candidate terms: none called for at {} % (smallest p = {} for {})",
+            tested.len(),
+            100.0 * SCORE_LEVEL,
+            p_value_text(best.test.p_value),
+            best.term
+        ));
+    }
+    (decisive, informative)
 }
 
 /// The span of the records' temperature (K) from which a model without thermal terms is
@@ -183,12 +268,23 @@ impl RunVerdict {
         diagnostics: Option<&Diagnostics>,
         with_turntable: bool,
     ) -> Self {
+        let scores = est.extended.as_ref().map(term_scores).unwrap_or_default();
+        let (called, score_notes) = score_lines(&scores);
+        let scored = if scores.iter().any(|t| t.test.dof > 0) {
+            ", score tests of the candidate terms"
+        } else {
+            ""
+        };
         if matches!(noise, NoiseSource::Configured) {
+            let mut decisive = misfit_reasons(&est.stats, diagnostics, with_turntable);
+            decisive.extend(called);
+            let mut informative = score_notes;
+            informative.extend(thermal_finding(est));
             return Self {
-                decisive: misfit_reasons(&est.stats, diagnostics, with_turntable),
-                informative: thermal_finding(est).into_iter().collect(),
+                decisive,
+                informative,
                 basis: format!(
-                    "the innovations against the configured noise (mean NIS{}{})",
+                    "the innovations against the configured noise (mean NIS{}{}{scored})",
                     if est.stats.turn_updates > 0 {
                         ", known turns"
                     } else {
@@ -202,6 +298,7 @@ impl RunVerdict {
                 ),
                 tested: true,
                 tests: Vec::new(),
+                scores,
             };
         }
         let tests = hand_turned_tests(est, noise, evaluation);
@@ -211,11 +308,13 @@ impl RunVerdict {
             .map(|t| t.line.clone())
             .collect();
         decisive.extend(turn_reason(&est.stats));
+        decisive.extend(called);
         let mut informative: Vec<String> = tests
             .iter()
             .filter(|t| !t.decides || !t.fails)
             .map(|t| t.line.clone())
             .collect();
+        informative.extend(score_notes);
         informative.extend(thermal_finding(est));
         if let Some(d) = diagnostics.filter(|d| !d.fits) {
             informative.push(format!(
@@ -250,9 +349,10 @@ impl RunVerdict {
         Self {
             decisive,
             informative,
-            basis: basis.to_string(),
-            tested: held_out || turns,
+            basis: format!("{basis}{scored}"),
+            tested: held_out || turns || !scored.is_empty(),
             tests,
+            scores,
         }
     }
 

@@ -318,10 +318,7 @@ pub struct LoopResult {
     pub not_tested: Vec<(String, String)>,
 }
 
-/// The smallest span of the records' temperatures (K) over which the thermal candidates are
-/// tested: below it their effect cannot be told from the constant biases and scale factors,
-/// and each would cost the loop a fit per round for nothing.
-pub const MIN_THERMAL_SPAN_K: f64 = 0.1;
+pub use crate::estimate::score_pass::MIN_THERMAL_SPAN_K;
 
 /// Why the thermal candidates are not tested on a fit's records, or `None` when they are.
 pub fn thermal_untestable(est: &Estimate) -> Option<String> {

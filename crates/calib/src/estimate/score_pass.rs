@@ -1,0 +1,123 @@
+//! The extended information pass behind the score tests of a calibration's verdict: once the
+//! fit has converged, one more pass over the data with every candidate term the recording can
+//! test appended to the model (their prior means zero), linearised about the fit's estimates.
+//! Its posterior gives the score test of every candidate at once
+//! ([`crate::check::score::term_scores`]): no refit per candidate.
+
+use super::{Estimate, EstimateError, Feedback, Nominal, PassInputs, run_pass};
+use crate::check::score::ExtendedPosterior;
+use crate::config::RunConfig;
+use crate::model::layout::{StateLayout, non_instrument_priors};
+use sins_model::candidates::Candidate;
+use sins_model::terms::ErrorModel;
+
+/// The smallest span of the records' temperatures (K) over which the thermal candidates are
+/// tested: below it their effect cannot be told from the constant biases and scale factors.
+pub const MIN_THERMAL_SPAN_K: f64 = 0.1;
+
+/// The candidate terms a fit of `layout` tests, with their prior sigmas (the unit's grade's):
+/// every candidate that is a state (not the gyro bias random walk, a noise process), not
+/// already in the model, and, for the thermal ones, only when the records' temperature spans
+/// [`MIN_THERMAL_SPAN_K`].
+pub fn testable_candidates(
+    config: &RunConfig,
+    layout: &StateLayout,
+    temperature_span_k: Option<f64>,
+) -> Vec<(Candidate, f64)> {
+    let grade = config.unit_grade();
+    Candidate::ALL
+        .into_iter()
+        .filter(|c| *c != Candidate::GyroBiasDrift)
+        .filter(|c| !c.is_thermal() || temperature_span_k.is_some_and(|s| s >= MIN_THERMAL_SPAN_K))
+        .filter(|c| c.param_names().iter().all(|n| layout.index(n).is_none()))
+        .map(|c| (c, c.prior_sigma(grade)))
+        .collect()
+}
+
+/// `layout` with the terms `extra` appended to its instrument model (its own terms kept, with
+/// their priors).
+fn extended_layout(
+    config: &RunConfig,
+    layout: &StateLayout,
+    extra: &[(Candidate, f64)],
+) -> Option<StateLayout> {
+    let mut model = ErrorModel::paper(&config.priors_si());
+    let paper_terms = model.terms().len();
+    for term in layout.model.terms().iter().skip(paper_terms) {
+        let names: Vec<String> = term.params().iter().map(|p| p.name.clone()).collect();
+        let c = Candidate::ALL
+            .into_iter()
+            .find(|c| c.param_names() == names)?;
+        model.push(c.term(term.params().first()?.prior_sigma)?);
+    }
+    for &(c, sigma) in extra {
+        model.push(c.term(sigma)?);
+    }
+    let mut ext = StateLayout::new(
+        model,
+        &non_instrument_priors(config),
+        layout.install.is_some(),
+        layout.base.is_some(),
+    );
+    ext.gyro_drift = layout.gyro_drift;
+    ext.accel_drift = layout.accel_drift;
+    Some(ext)
+}
+
+/// The extended pass of a fit whose inputs are `inp` (the fit's own layout, without the start
+/// attitude's copy) and whose last estimates are `nominal`; `feedback` as the fit's later
+/// passes. `None` when the recording tests no candidate.
+pub(super) fn extended_pass(
+    inp: &PassInputs,
+    imu: &mut dyn crate::estimate::ImuSource,
+    nominal: &Nominal,
+    feedback: Feedback,
+    estimate: &Estimate,
+) -> Result<Option<ExtendedPosterior>, EstimateError> {
+    let span = estimate
+        .temperature
+        .as_ref()
+        .and_then(|t| t.max_c.zip(t.min_c).map(|(a, b)| a - b));
+    let extra = testable_candidates(inp.config, inp.layout, span);
+    if extra.is_empty() {
+        return Ok(None);
+    }
+    let Some(ext) = extended_layout(inp.config, inp.layout, &extra) else {
+        return Ok(None);
+    };
+    let totals: Vec<f64> = ext
+        .entries()
+        .iter()
+        .map(|e| inp.layout.index(&e.name).map_or(0.0, |i| nominal.totals[i]))
+        .collect();
+    let ext_nominal = Nominal {
+        totals,
+        c_start: nominal.c_start,
+    };
+    let smoother = ext.with_start_attitude();
+    let ext_inp = PassInputs {
+        layout: &smoother,
+        ..*inp
+    };
+    let (est, _, _) = run_pass(&ext_inp, imu, Some(&ext_nominal), feedback, true, &mut |_| {})?;
+    let range = StateLayout::INSTRUMENT..ext.dim();
+    let names: Vec<String> = est.names[range.clone()].to_vec();
+    let terms = extra
+        .iter()
+        .map(|(c, _)| {
+            let ix = c
+                .param_names()
+                .iter()
+                .filter_map(|n| names.iter().position(|m| m == n))
+                .collect();
+            (c.id().to_string(), ix)
+        })
+        .collect();
+    Ok(Some(ExtendedPosterior {
+        names,
+        prior_sigma: est.prior_sigma[range.clone()].to_vec(),
+        values: est.values[range.clone()].to_vec(),
+        cov: est.cov.view((range.start, range.start), (range.len(), range.len())).into_owned(),
+        terms,
+    }))
+}
