@@ -3,6 +3,7 @@
 #![forbid(unsafe_code)]
 
 pub mod hidden;
+pub mod operating;
 
 use calib::config::{AttitudePrior, RunConfig};
 use calib::estimate::Estimate;

@@ -15,6 +15,7 @@ use std::process::ExitCode;
 mod audit;
 mod docs_check;
 mod hidden;
+mod operating;
 mod plot;
 mod structure;
 
@@ -73,6 +74,22 @@ enum Command {
         #[arg(long)]
         case: Option<String>,
     },
+    /// The verdict's operating characteristic: false-alarm rate on clean simulated runs and
+    /// detection rate of every candidate term at sizes that move a base parameter by 1, 3 and
+    /// 10 sigma, per class of run, with binomial intervals (docs/verdict.md). Exits non-zero
+    /// when a target is missed (false alarms above 5 %, detection at 10 sigma below 95 %, an
+    /// exit 0 with a base parameter 10 sigma off).
+    OperatingCharacteristic {
+        /// Clean runs per class (seeds 1001, 1002, ...).
+        #[arg(long, default_value_t = 100)]
+        clean: usize,
+        /// Runs per effect and size (seeds 2001, 2002, ...).
+        #[arg(long, default_value_t = 20)]
+        effect_runs: usize,
+        /// Only the classes whose name contains this (e.g. "rests").
+        #[arg(long)]
+        class: Option<String>,
+    },
     /// Run every `sh` block (and untagged block that is a command) of README.md and the .md
     /// files under docs/ as written (sins-calib: the release binary; from a temporary copy of
     /// the repository; /tmp/ redirected) and compare the `text` and untagged blocks after each
@@ -127,6 +144,11 @@ fn main() -> ExitCode {
             control_seeds,
             case,
         } => hidden::hidden_effects(control_seeds, case.as_deref()),
+        Command::OperatingCharacteristic {
+            clean,
+            effect_runs,
+            class,
+        } => operating::operating_characteristic(clean, effect_runs, class.as_deref()),
         Command::DocsCheck { files, keep, jobs } => docs_check::docs_check(&files, keep, jobs),
         Command::Audit {
             case,

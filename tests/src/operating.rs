@@ -1,0 +1,336 @@
+//! The verdict's operating characteristic: how often a calibration's exit status is 3 on clean
+//! simulated runs (false alarms) and how often it names a hidden term's effect (detection), per
+//! class of run, effect and size. Used by `cargo xtask operating-characteristic` (the table in
+//! `docs/verdict.md`) and, on a small fixed subset, by `tests/tests/operating.rs` in CI.
+//!
+//! A run is simulated with [`calib::simulate::simulate_run_hidden`] and calibrated as
+//! `calibrate` does it ([`calib::estimate::calibration::calibrate_program`] along a program,
+//! [`calib::estimate::hand_turned::calibrate`] on the rests of a recording without one), with
+//! the configured noise; its verdict is [`calib::estimate::verdict::RunVerdict`].
+//!
+//! Effect sizes are stated as the base-parameter error they cause: a reference magnitude (every
+//! parameter of the term at its grade's prior sigma, signs alternating) is simulated without
+//! noise and calibrated with the paper's model; its worst |error| / sigma over the base
+//! parameters, `z_ref`, is what that magnitude moves a base parameter by, and the effect is
+//! scaled by `k / z_ref` for a size of `k` sigma (the model is linear in the effect at these
+//! sizes).
+
+use crate::hidden::{case_config, warm_up};
+use crate::parallel_map;
+use calib::config::RunConfig;
+use calib::estimate::calibration::{Calibration, calibrate_program};
+use calib::estimate::{MemoryImu, hand_turned};
+use calib::io::{ImuData, TurntableData};
+use calib::model::extension::HiddenEffects;
+use calib::model::layout::layout_for;
+use calib::motion::rests::Rest;
+use sins_model::candidates::Candidate;
+use turntable::program::{ProgramSpec, Segment};
+
+/// A class of run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Class {
+    /// The paper's program with the turntable angles (28 states), navigation grade.
+    ProgramNavigation,
+    /// The paper's program, IMU only (24 states), navigation grade.
+    ProgramImuOnly,
+    /// The paper's program with the turntable angles in a warm-up (20 -> 35 deg C): the
+    /// thermal candidates are tested too.
+    ProgramWarmUp,
+    /// 19 rests joined by 90-degree turns, no program or angles given to the filter,
+    /// navigation grade.
+    RestsNavigation,
+    /// The same 19 rests, consumer grade (MEMS priors and noise).
+    RestsConsumer,
+}
+
+impl Class {
+    /// Every class, in table order.
+    pub const ALL: [Class; 5] = [
+        Class::ProgramNavigation,
+        Class::ProgramImuOnly,
+        Class::ProgramWarmUp,
+        Class::RestsNavigation,
+        Class::RestsConsumer,
+    ];
+
+    /// Its name in the table.
+    pub fn name(self) -> &'static str {
+        match self {
+            Class::ProgramNavigation => "paper's program, 28 states, navigation",
+            Class::ProgramImuOnly => "paper's program, 24 states, navigation",
+            Class::ProgramWarmUp => "paper's program, 28 states, warm-up 20 -> 35 degC",
+            Class::RestsNavigation => "19 rests, 24 states, navigation",
+            Class::RestsConsumer => "19 rests, 24 states, consumer",
+        }
+    }
+
+    /// The candidate terms hidden in this class's effect rows.
+    pub fn effects(self) -> Vec<Candidate> {
+        use Candidate::*;
+        match self {
+            Class::ProgramNavigation | Class::ProgramImuOnly => vec![
+                GyroGSensitivity,
+                GyroScaleAsymmetry,
+                AccelQuadratic,
+                AccelSizeEffect,
+                GyroAccelTimeOffset,
+            ],
+            Class::ProgramWarmUp => vec![GyroTempBias, AccelTempBias, GyroTempScale],
+            Class::RestsNavigation | Class::RestsConsumer => {
+                vec![GyroGSensitivity, GyroScaleAsymmetry, AccelQuadratic]
+            }
+        }
+    }
+
+    fn rests(self) -> bool {
+        matches!(self, Class::RestsNavigation | Class::RestsConsumer)
+    }
+
+    fn turntable(self) -> bool {
+        matches!(self, Class::ProgramNavigation | Class::ProgramWarmUp)
+    }
+
+    /// The run configuration of seed `seed`: the paper's priors and noise at 25 Hz
+    /// ([`case_config`]), the class's program, grade and temperature.
+    pub fn config(self, seed: u64) -> RunConfig {
+        let mut c = case_config(&crate::hidden::negative_control(seed));
+        if self == Class::ProgramWarmUp {
+            c.temperature = Some(warm_up());
+        }
+        if self.rests() {
+            c.inline_program = Some(nineteen_positions());
+        }
+        if self == Class::RestsConsumer {
+            c.priors.gyro_bias_deg_h = 3600.0;
+            c.priors.gyro_scale = 0.02;
+            c.priors.gyro_misalignment_arcmin = 60.0;
+            c.priors.accel_bias_m_s2 = 0.3;
+            c.priors.accel_scale = 0.02;
+            c.priors.accel_misalignment_arcmin = 60.0;
+            c.noise.gyro_deg_h = 120.0;
+            c.noise.accel_m_s2 = 0.0012;
+        }
+        c
+    }
+}
+
+/// The 19-position program: a 20-s rest, then 18 turns of 90 degrees (9 s at 10 deg/s) about
+/// the gimbals in turn, each followed by a 20-s rest (`tests/tests/rests.rs`'s).
+pub fn nineteen_positions() -> ProgramSpec {
+    let turns: [(u8, f64); 18] = [
+        (3, 10.0),
+        (3, 10.0),
+        (3, 10.0),
+        (3, 10.0),
+        (2, 10.0),
+        (2, 10.0),
+        (2, 10.0),
+        (2, 10.0),
+        (1, 10.0),
+        (3, -10.0),
+        (3, -10.0),
+        (2, -10.0),
+        (2, -10.0),
+        (1, 10.0),
+        (3, 10.0),
+        (2, 10.0),
+        (3, -10.0),
+        (2, -10.0),
+    ];
+    let mut segments = vec![Segment::Dwell { duration_s: 20.0 }];
+    for (gimbal, rate_deg_s) in turns {
+        segments.push(Segment::Rotate {
+            gimbal,
+            rate_deg_s,
+            duration_s: 9.0,
+        });
+        segments.push(Segment::Dwell { duration_s: 20.0 });
+    }
+    ProgramSpec {
+        name: "19 positions".into(),
+        start_deg: [0.0; 3],
+        segments,
+    }
+}
+
+/// What one calibration's verdict said.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// Exit status 3.
+    pub exit3: bool,
+    /// The candidate terms named in its decisive lines.
+    pub named: Vec<String>,
+    /// Its decisive lines.
+    pub reasons: Vec<String>,
+    /// Its informative lines.
+    pub notes: Vec<String>,
+    /// The worst |error| / sigma over the base parameters against the truth.
+    pub worst_base_sigma: f64,
+}
+
+/// Simulate `class` with seed `seed` and the hidden values `values` (SI, by name), noise on or
+/// off, and calibrate it as `calibrate` does.
+pub fn run(class: Class, seed: u64, values: &[(String, f64)], noise: bool) -> Outcome {
+    let mut config = class.config(seed);
+    config.truth.noise = noise;
+    let hidden = HiddenEffects {
+        values: values.to_vec(),
+        gyro_drift: None,
+    };
+    let sim = calib::simulate::simulate_run_hidden(&config, "operating", &hidden)
+        .expect("simulation");
+    let imu = ImuData::from_samples(&sim.imu);
+    let cal = calibrate(class, &config, &imu, &sim.turntable);
+    let named = Candidate::ALL
+        .iter()
+        .map(|c| c.id().to_string())
+        .filter(|id| cal.verdict.decisive.iter().any(|l| l.contains(id.as_str())))
+        .collect();
+    let est = &cal.estimate;
+    let worst = est
+        .names
+        .iter()
+        .enumerate()
+        .skip(calib::model::layout::StateLayout::INSTRUMENT)
+        .filter_map(|(i, n)| {
+            let t = sim.truth.get(n)?;
+            Some(((est.values[i] - t) / est.cov[(i, i)].sqrt()).abs())
+        })
+        .fold(0.0, f64::max);
+    Outcome {
+        exit3: !cal.verdict.fits(),
+        named,
+        reasons: cal.verdict.decisive.clone(),
+        notes: cal.verdict.informative.clone(),
+        worst_base_sigma: worst,
+    }
+}
+
+fn calibrate(
+    class: Class,
+    config: &RunConfig,
+    imu: &ImuData,
+    turntable: &[turntable::simulate::TurntableSample],
+) -> Calibration {
+    let layout = layout_for(config, class.turntable());
+    if class.rests() {
+        let program = config.program().expect("program");
+        let rests: Vec<Rest> = program
+            .pieces()
+            .iter()
+            .filter(|p| p.rate == [0.0; 3])
+            .map(|p| Rest { t0: p.t0, t1: p.t1 })
+            .collect();
+        let mut config = config.clone();
+        config.inline_program = None;
+        return hand_turned::calibrate(
+            &config,
+            &layout,
+            imu,
+            "imu.csv",
+            &rests,
+            &[],
+            None,
+            None,
+            &mut |_, _| {},
+        )
+        .expect("calibration");
+    }
+    let tt = TurntableData::from_samples(turntable);
+    let angles = class.turntable().then(|| (&tt, "turntable.csv").into());
+    let mut source = MemoryImu::new(imu, "imu.csv");
+    calibrate_program(config, &layout, &mut source, angles, &mut |_, _| {}).expect("calibration")
+}
+
+/// The reference magnitude of `term` on `class`: every parameter at its grade's prior sigma,
+/// signs alternating.
+pub fn reference_values(class: Class, term: Candidate) -> Vec<(String, f64)> {
+    let sigma = term.prior_sigma(class.config(1).unit_grade());
+    term.param_names()
+        .into_iter()
+        .enumerate()
+        .map(|(i, n)| (n, if i % 2 == 0 { sigma } else { -sigma }))
+        .collect()
+}
+
+/// The hidden values of `term` on `class` that move a base parameter by `k` sigma, and the
+/// noise-free reference run's `z_ref` ([`reference_values`]; module documentation).
+pub fn sized_values(class: Class, term: Candidate, k: f64) -> (Vec<(String, f64)>, f64) {
+    let reference = reference_values(class, term);
+    let z_ref = run(class, 1, &reference, false).worst_base_sigma;
+    let scale = k / z_ref.max(f64::MIN_POSITIVE);
+    (
+        reference.into_iter().map(|(n, v)| (n, v * scale)).collect(),
+        z_ref,
+    )
+}
+
+/// Counts of one row of the table.
+#[derive(Clone, Debug, Default)]
+pub struct Row {
+    /// Runs.
+    pub runs: usize,
+    /// Exit status 3.
+    pub exit3: usize,
+    /// Exit 3 naming the hidden term (detection rows) or naming any term (clean rows).
+    pub named: usize,
+    /// Runs that ended in exit 0 with a base parameter 10 sigma or more from its truth.
+    pub silent_10_sigma: usize,
+    /// The seeds that exited 3 (clean rows) or did not name the term (detection rows).
+    pub odd_seeds: Vec<u64>,
+}
+
+/// `runs` seeded runs (seeds `first..first + runs`) of `class` with the hidden `values`
+/// (`term`: the term they belong to, `None` for clean runs), counted.
+pub fn count(
+    class: Class,
+    term: Option<Candidate>,
+    values: &[(String, f64)],
+    first: u64,
+    runs: usize,
+) -> Row {
+    let seeds: Vec<u64> = (first..first + runs as u64).collect();
+    let outcomes = parallel_map(&seeds, |&s| (s, run(class, s, values, true)));
+    let mut row = Row {
+        runs,
+        ..Row::default()
+    };
+    for (seed, o) in outcomes {
+        row.exit3 += usize::from(o.exit3);
+        let named = match term {
+            Some(t) => o.exit3 && o.named.iter().any(|n| n == t.id()),
+            None => o.exit3 && !o.named.is_empty(),
+        };
+        row.named += usize::from(named);
+        row.silent_10_sigma += usize::from(!o.exit3 && o.worst_base_sigma >= 10.0);
+        let odd = match term {
+            Some(_) => !named,
+            None => o.exit3,
+        };
+        if odd {
+            row.odd_seeds.push(seed);
+        }
+    }
+    row
+}
+
+/// The Clopper-Pearson 95 % interval of `k` successes in `n` runs.
+pub fn binomial_interval(k: usize, n: usize) -> (f64, f64) {
+    use statrs::distribution::{Beta, ContinuousCDF};
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let (k, nf) = (k as f64, n as f64);
+    let lo = if k == 0.0 {
+        0.0
+    } else {
+        Beta::new(k, nf - k + 1.0).expect("beta").inverse_cdf(0.025)
+    };
+    let hi = if k == nf {
+        1.0
+    } else {
+        Beta::new(k + 1.0, nf - k).expect("beta").inverse_cdf(0.975)
+    };
+    (lo, hi)
+}
