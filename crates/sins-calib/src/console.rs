@@ -368,12 +368,13 @@ fn nis_line(m: &MeanNis) -> String {
     } else if m.mean > m.expected {
         format!(
             "{head}: larger than expected ({band_text}); the data scatter more than the \
-             configured noise and priors allow (noise levels too low, or errors the model lacks)"
+             noise levels and priors the fit used allow (noise levels too low, or errors the \
+             model lacks)"
         )
     } else {
         format!(
-            "{head}: smaller than expected ({band_text}); the configured noise levels are larger \
-             than the data's"
+            "{head}: smaller than expected ({band_text}); the noise levels the fit used are \
+             larger than the data's (the sigmas are conservative)"
         )
     }
 }

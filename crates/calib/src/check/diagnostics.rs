@@ -733,7 +733,7 @@ impl Diagnostics {
         if self.fits {
             let _ = writeln!(
                 s,
-                "  verdict: the innovations fit the model ({} tests, family-wise level {} %, each at {})",
+                "  tests: none fails ({} tests, family-wise level {} %, each at {}; the verdict below weighs them)",
                 self.tests.len(),
                 100.0 * self.settings.alpha,
                 p_value_text(self.per_test_level)
@@ -741,7 +741,7 @@ impl Diagnostics {
         } else {
             let _ = writeln!(
                 s,
-                "  verdict: THE INNOVATIONS DO NOT FIT THE MODEL: {} of {} tests fail (family-wise level {} %, each at {})",
+                "  tests: {} of {} fail (family-wise level {} %, each at {}; the verdict below weighs them)",
                 self.failures.len(),
                 self.tests.len(),
                 100.0 * self.settings.alpha,

@@ -68,17 +68,51 @@ pub fn mean_nis_figures(stats: &FitStatistics, with_turntable: bool) -> Vec<Mean
     out
 }
 
+/// Whether the configured noise is larger than the data's: every measurement's mean NIS is
+/// below its band. The sigmas are then conservative, which contradicts nothing a laboratory
+/// relies on: a finding with its factor, not a reason for exit status 3.
+pub fn noise_overstated(stats: &FitStatistics, with_turntable: bool) -> bool {
+    let figures = mean_nis_figures(stats, with_turntable);
+    figures
+        .iter()
+        .all(|m| m.updates > 0 && m.mean < m.expected - m.half_band)
+}
+
+/// The finding of an over-stated noise: each measurement's mean NIS and the factor by which
+/// its configured noise exceeds what the innovations show (`sqrt(expected / mean)`).
+fn overstated_finding(stats: &FitStatistics, with_turntable: bool) -> String {
+    let parts: Vec<String> = mean_nis_figures(stats, with_turntable)
+        .iter()
+        .map(|m| {
+            format!(
+                "{} mean NIS {:.3} against {:.3} (about {:.1} times the data's noise)",
+                m.label,
+                m.mean,
+                m.expected,
+                (m.expected / m.mean.max(f64::MIN_POSITIVE)).sqrt()
+            )
+        })
+        .collect();
+    format!(
+        "the configured noise is larger than the data's: {}; the sigmas are conservative, and \
+         the innovation tests, made against that noise, inform only",
+        parts.join(", ")
+    )
+}
+
 /// Why the model does not fit the data (empty: it fits), one line per reason: each mean NIS
-/// outside its band ([`mean_nis_figures`]), and failing diagnostics when they were run. The
-/// verdict of `calibrate` and of its report.
+/// above its band ([`mean_nis_figures`]; below it the noise is over-stated,
+/// [`noise_overstated`]), and failing diagnostics when they were run, unless the noise is
+/// over-stated. The verdict of `calibrate` and of its report.
 pub fn misfit_reasons(
     stats: &FitStatistics,
     diagnostics: Option<&Diagnostics>,
     with_turntable: bool,
 ) -> Vec<String> {
+    let overstated = noise_overstated(stats, with_turntable);
     let mut out: Vec<String> = mean_nis_figures(stats, with_turntable)
         .iter()
-        .filter(|m| !m.consistent())
+        .filter(|m| m.mean > m.expected + m.half_band)
         .map(|m| {
             format!(
                 "{}: mean NIS {:.3} over {} updates, expected {:.3} +- {:.3}",
@@ -87,7 +121,7 @@ pub fn misfit_reasons(
         })
         .collect();
     out.extend(turn_reason(stats));
-    if let Some(d) = diagnostics.filter(|d| !d.fits) {
+    if let Some(d) = diagnostics.filter(|d| !d.fits && !overstated) {
         out.push(format!(
             "diagnostics: {} of {} tests fail at the family-wise level {} % (see above)",
             d.failures.len(),
@@ -279,6 +313,9 @@ impl RunVerdict {
             let mut decisive = misfit_reasons(&est.stats, diagnostics, with_turntable);
             decisive.extend(called);
             let mut informative = score_notes;
+            if noise_overstated(&est.stats, with_turntable) {
+                informative.push(overstated_finding(&est.stats, with_turntable));
+            }
             informative.extend(thermal_finding(est));
             return Self {
                 decisive,
