@@ -386,12 +386,14 @@ impl Verdict {
         let (rule, advice) = if case.measured {
             (
                 "The noise was measured from these data, so the scatter of the innovations is no \
-                 test: the model fits unless the held-out rests or the known turns contradict \
-                 it; the tests of the innovations inform."
+                 test: the model fits unless the held-out rests, the known turns or a candidate \
+                 term the data call for (moving a parameter by 3 sigma or more) contradict it; \
+                 the tests of the innovations inform."
                     .to_string(),
-                "the held-out rests contradict the calibration\n  {}\nThe estimates above are not \
-                 to be trusted: an error the model lacks outweighs the noise (`sins-calib \
-                 diagnose --free-motion` names the candidates; --terms adds one)."
+                "the held-out rests, the known turns or the score tests contradict the \
+                 calibration\n  {}\nThe estimates above are not to be trusted: an error the \
+                 model lacks outweighs the noise (`sins-calib diagnose --free-motion` names the \
+                 candidates; --terms adds one)."
                     .to_string(),
             )
         } else {
@@ -403,13 +405,16 @@ impl Verdict {
                 "the program"
             };
             (
-                "The model fits when the mean NIS of every measurement is inside its band and no \
-                 test of the innovations fails."
+                "The model fits when no mean NIS is above its band, no test of the innovations \
+                 fails (they inform only where every mean NIS is below its band: the noise is \
+                 then over-stated and the sigmas conservative), and no candidate term the score \
+                 tests call for at 1 % would move a parameter by 3 sigma or more."
                     .to_string(),
                 format!(
-                    "the innovations scatter unlike the configured noise\n  {{}}\nThe estimates \
-                     above are not to be trusted: check the noise levels in [noise], {check}, \
-                     and errors the model lacks."
+                    "the innovations or the score tests contradict the model\n  {{}}\nThe \
+                     estimates above are not to be trusted: check the noise levels in [noise], \
+                     {check}, and errors the model lacks (a term named above: `diagnose` fits \
+                     it)."
                 ),
             )
         };

@@ -175,6 +175,12 @@ pub struct TermScore {
     /// The base parameter that carrying the term would move most (`None` without base
     /// parameters).
     pub largest_shift: Option<BaseShift>,
+    /// The blind spot: the largest error (in its sigmas without the term) that the term could
+    /// put into a base parameter while its own score test stays below the per-term level's
+    /// critical value (non-centrality) and its size within its prior sigma (a plausible unit).
+    /// Large where the program hardly separates the term from the base parameters: the term
+    /// then biases them without the data calling for it.
+    pub blind_shift: Option<BaseShift>,
 }
 
 /// Symmetric inverse through the eigen-decomposition (`None` if not positive definite).
@@ -193,9 +199,11 @@ fn select_vec(v: &DVector<f64>, rows: &[usize]) -> DVector<f64> {
 }
 
 /// The score test of every candidate term of `p` ([`ExtendedPosterior`]), each against the
-/// base model without any candidate (the module's documentation). Empty where the candidates'
-/// posterior covariance is not positive definite.
-pub fn term_scores(p: &ExtendedPosterior) -> Vec<TermScore> {
+/// base model without any candidate (the module's documentation); `level` is the family-wise
+/// level of the tests (Bonferroni over the terms the data hold information on), which sets the
+/// non-centrality of [`TermScore::blind_shift`]. Empty where the candidates' posterior
+/// covariance is not positive definite.
+pub fn term_scores(p: &ExtendedPosterior, level: f64) -> Vec<TermScore> {
     let n = p.names.len();
     let u = DVector::from_fn(n, |i, _| p.values[i] / p.prior_sigma[i]);
     let pn = DMatrix::from_fn(n, n, |i, j| {
@@ -210,14 +218,24 @@ pub fn term_scores(p: &ExtendedPosterior) -> Vec<TermScore> {
     let e = &j - DMatrix::identity(cand.len(), cand.len());
     // The base parameters with every candidate at zero: the base model's posterior.
     let base_mean = select_vec(&u, &base) - select(&pn, &base, &cand) * &s_c;
+    let positions: Vec<Vec<usize>> = p
+        .terms
+        .iter()
+        .scan(0, |at, (_, ix)| {
+            let pos: Vec<usize> = (*at..*at + ix.len()).collect();
+            *at += ix.len();
+            Some(pos)
+        })
+        .collect();
+    let tests: Vec<ScoreTest> = positions
+        .iter()
+        .map(|pos| statistic_of(&select_vec(&s_c, pos), &select(&e, pos, pos)))
+        .collect();
+    let per_term = level / tests.iter().filter(|t| t.dof > 0).count().max(1) as f64;
     let mut out = Vec::new();
-    let mut at = 0;
-    for (term, ix) in &p.terms {
-        let pos: Vec<usize> = (at..at + ix.len()).collect();
-        at += ix.len();
-        let s_k = select_vec(&s_c, &pos);
-        let test = statistic_of(&s_k, &select(&e, &pos, &pos));
-        let parameters = spd_inverse(&select(&j, &pos, &pos))
+    for (((term, ix), pos), test) in p.terms.iter().zip(&positions).zip(tests) {
+        let s_k = select_vec(&s_c, pos);
+        let parameters = spd_inverse(&select(&j, pos, pos))
             .map(|pk| {
                 let theta = &pk * &s_k;
                 ix.iter()
@@ -231,38 +249,84 @@ pub fn term_scores(p: &ExtendedPosterior) -> Vec<TermScore> {
             })
             .unwrap_or_default();
         let others: Vec<usize> = cand.iter().copied().filter(|i| !ix.contains(i)).collect();
-        let largest_shift = base_shift(&pn, &u, &base, ix, &others, &base_mean)
-            .and_then(|shifts| {
-                shifts
-                    .iter()
-                    .enumerate()
-                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-                    .map(|(q, &z)| BaseShift {
-                        name: p.names[base[q]].clone(),
-                        sigmas: z,
-                    })
-            });
+        let largest = |shifts: Vec<f64>| {
+            shifts
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                .map(|(q, &z)| BaseShift {
+                    name: p.names[base[q]].clone(),
+                    sigmas: z,
+                })
+        };
+        let conditioned = conditional(&pn, &u, &base, ix, &others);
+        let largest_shift = conditioned
+            .as_ref()
+            .map(|(mean, cov)| shifts_of(mean, cov, &base_mean))
+            .and_then(largest);
+        let critical = critical_value(per_term, test.dof.max(1));
+        let blind_shift = conditioned
+            .as_ref()
+            .and_then(|(_, cov)| blind_shifts(cov, base.len(), &select(&e, pos, pos), critical))
+            .and_then(largest);
         out.push(TermScore {
             term: term.clone(),
             test,
             parameters,
             largest_shift,
+            blind_shift,
         });
     }
     out
 }
 
-/// How far carrying the term `term` (the other candidates `others` at zero) moves each base
-/// parameter from `base_mean` (its mean with every candidate at zero), in its sigmas with the
-/// term carried (prior units in, ratios out).
-fn base_shift(
+/// The chi-square critical value with `dof` degrees of freedom at the upper-tail level `level`.
+fn critical_value(level: f64, dof: usize) -> f64 {
+    ChiSquared::new(dof as f64)
+        .map(|d| d.inverse_cdf((1.0 - level).clamp(0.0, 1.0 - 1e-16)))
+        .unwrap_or(f64::INFINITY)
+}
+
+/// The largest error, in each base parameter's sigmas of the base model's fit, that a term
+/// could cause with its score test's non-centrality at most `critical` and its size within its
+/// prior: `max |r_i . theta| / sigma0_i` over `theta^T (E / critical + I) theta <= 1` (prior
+/// units; the two ellipsoids' intersection replaced by the one ellipsoid of their summed
+/// forms, which lies inside it), `r_i` the regression of base parameter `i` on the term in
+/// the posterior `cov` (base first, `nb` of them, then the term), `sigma0_i` its sigma with the
+/// term left out. What a base-model fit misses unseen.
+fn blind_shifts(
+    cov: &DMatrix<f64>,
+    nb: usize,
+    information: &DMatrix<f64>,
+    critical: f64,
+) -> Option<Vec<f64>> {
+    let nt = cov.nrows() - nb;
+    let s_bt = cov.view((0, nb), (nb, nt)).into_owned();
+    let s_tt = cov.view((nb, nb), (nt, nt)).into_owned();
+    let regression = &s_bt * spd_inverse(&s_tt)?;
+    let without = cov.view((0, 0), (nb, nb)) - &regression * s_bt.transpose();
+    let form = information / critical.max(f64::MIN_POSITIVE) + DMatrix::identity(nt, nt);
+    let reach = spd_inverse(&form)?;
+    Some(
+        (0..nb)
+            .map(|i| {
+                let r = regression.row(i).transpose();
+                let z = (r.transpose() * &reach * &r)[(0, 0)].max(0.0).sqrt();
+                z / without[(i, i)].max(f64::MIN_POSITIVE).sqrt()
+            })
+            .collect(),
+    )
+}
+
+/// The posterior of the base parameters and the term `term` with the other candidates
+/// `others` at zero (prior units): mean and covariance, base first.
+fn conditional(
     pn: &DMatrix<f64>,
     u: &DVector<f64>,
     base: &[usize],
     term: &[usize],
     others: &[usize],
-    base_mean: &DVector<f64>,
-) -> Option<Vec<f64>> {
+) -> Option<(DVector<f64>, DMatrix<f64>)> {
     let x: Vec<usize> = base.iter().chain(term).copied().collect();
     let (mut mean, mut cov) = (select_vec(u, &x), select(pn, &x, &x));
     if !others.is_empty() {
@@ -270,11 +334,15 @@ fn base_shift(
         mean -= &gain * select_vec(u, others);
         cov -= &gain * select(pn, others, &x);
     }
-    Some(
-        (0..base.len())
-            .map(|q| (mean[q] - base_mean[q]) / cov[(q, q)].max(f64::MIN_POSITIVE).sqrt())
-            .collect(),
-    )
+    Some((mean, cov))
+}
+
+/// How far carrying the term moves each base parameter from `base_mean` (its mean with every
+/// candidate at zero), in its sigmas with the term carried, from the [`conditional`] posterior.
+fn shifts_of(mean: &DVector<f64>, cov: &DMatrix<f64>, base_mean: &DVector<f64>) -> Vec<f64> {
+    (0..base_mean.len())
+        .map(|q| (mean[q] - base_mean[q]) / cov[(q, q)].max(f64::MIN_POSITIVE).sqrt())
+        .collect()
 }
 
 #[cfg(test)]
@@ -332,7 +400,7 @@ mod tests {
             cov,
             terms: vec![("a".into(), vec![3, 4]), ("c".into(), vec![5])],
         };
-        let scores = term_scores(&joint);
+        let scores = term_scores(&joint, 0.01);
         assert_eq!(scores.len(), 2);
         let base_cols = [0, 1, 2];
         let (bm, _) = posterior(&columns(&h, &base_cols), &s0[..3], &y);
