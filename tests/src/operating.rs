@@ -178,8 +178,8 @@ pub fn run(class: Class, seed: u64, values: &[(String, f64)], noise: bool) -> Ou
         values: values.to_vec(),
         gyro_drift: None,
     };
-    let sim = calib::simulate::simulate_run_hidden(&config, "operating", &hidden)
-        .expect("simulation");
+    let sim =
+        calib::simulate::simulate_run_hidden(&config, "operating", &hidden).expect("simulation");
     let imu = ImuData::from_samples(&sim.imu);
     let cal = calibrate(class, &config, &imu, &sim.turntable);
     let named = Candidate::ALL

@@ -8,6 +8,7 @@ mod calibration_monte_carlo;
 mod hand_turned;
 mod hidden_effects;
 mod noiseless;
+mod operating;
 mod program_from_angles;
 mod program_start;
 mod rests;

@@ -38,9 +38,17 @@ pub fn operating_characteristic(clean: usize, effect_runs: usize, only: Option<&
     {
         let row = count(class, None, &[], 1001, clean);
         print_row(class.name(), "none (clean)", "-", &row);
-        eprintln!("{}: clean runs exiting 3: seeds {:?}", class.name(), row.odd_seeds);
+        eprintln!(
+            "{}: clean runs exiting 3: seeds {:?}",
+            class.name(),
+            row.odd_seeds
+        );
         if (row.exit3 as f64) > MAX_FALSE_ALARM * row.runs as f64 {
-            missed.push(format!("{}: false alarms {}", class.name(), rate(row.exit3, row.runs)));
+            missed.push(format!(
+                "{}: false alarms {}",
+                class.name(),
+                rate(row.exit3, row.runs)
+            ));
         }
         for term in class.effects() {
             for k in SIZES {

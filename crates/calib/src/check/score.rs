@@ -434,7 +434,11 @@ mod tests {
                 .unwrap();
             let shift = t.largest_shift.as_ref().unwrap();
             assert_eq!(shift.name, ["b0", "b1", "b2"][q]);
-            assert!((shift.sigmas - z).abs() < 1e-8, "{} against {z}", shift.sigmas);
+            assert!(
+                (shift.sigmas - z).abs() < 1e-8,
+                "{} against {z}",
+                shift.sigmas
+            );
         }
         // The term that is there (a) is called for; the one that is not (c) is not.
         assert!(scores[0].test.p_value < 1e-6, "{:?}", scores[0].test);

@@ -99,7 +99,14 @@ pub(super) fn extended_pass(
         layout: &smoother,
         ..*inp
     };
-    let (est, _, _) = run_pass(&ext_inp, imu, Some(&ext_nominal), feedback, true, &mut |_| {})?;
+    let (est, _, _) = run_pass(
+        &ext_inp,
+        imu,
+        Some(&ext_nominal),
+        feedback,
+        true,
+        &mut |_| {},
+    )?;
     let range = StateLayout::INSTRUMENT..ext.dim();
     let names: Vec<String> = est.names[range.clone()].to_vec();
     let terms = extra
@@ -117,7 +124,10 @@ pub(super) fn extended_pass(
         names,
         prior_sigma: est.prior_sigma[range.clone()].to_vec(),
         values: est.values[range.clone()].to_vec(),
-        cov: est.cov.view((range.start, range.start), (range.len(), range.len())).into_owned(),
+        cov: est
+            .cov
+            .view((range.start, range.start), (range.len(), range.len()))
+            .into_owned(),
         terms,
     }))
 }

@@ -251,7 +251,10 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
         }
     }
     for t in &ranked {
-        let Some(b) = t.blind_shift.as_ref().filter(|b| b.sigmas.abs() >= BLIND_SHIFT_SIGMA)
+        let Some(b) = t
+            .blind_shift
+            .as_ref()
+            .filter(|b| b.sigmas.abs() >= BLIND_SHIFT_SIGMA)
         else {
             continue;
         };

@@ -1,0 +1,48 @@
+//! The verdict's operating characteristic on a small fixed subset (the full table:
+//! `cargo xtask operating-characteristic`, docs/verdict.md). Seeds and bounds were fixed
+//! before these runs.
+
+use sins_model::candidates::Candidate;
+use workspace_tests::operating::{Class, count, run, sized_values};
+
+/// Ten clean programmed runs (seeds 1001-1010): the verdict's false-alarm rate is at most 5 %
+/// by its construction (1 % score tests, 1 % innovation tests, 3-sigma mean-NIS bands), so
+/// three or more exits 3 in ten would happen with probability below 1.2 % at 5 %.
+#[test]
+fn clean_programmed_runs_rarely_exit_3() {
+    let row = count(Class::ProgramNavigation, None, &[], 1001, 10);
+    assert!(row.exit3 <= 2, "{row:?}");
+}
+
+/// A g-sensitivity that moves a base parameter by 10 sigma is named on each of three seeds.
+#[test]
+fn a_10_sigma_g_sensitivity_is_named() {
+    let term = Candidate::GyroGSensitivity;
+    let (values, _) = sized_values(Class::ProgramNavigation, term, 10.0);
+    let row = count(Class::ProgramNavigation, Some(term), &values, 2001, 3);
+    assert_eq!(row.named, 3, "{row:?}");
+}
+
+/// An accelerometer quadratic term that moves a base parameter by 10 sigma, on a recording of
+/// 19 rests without a program, is named on each of three seeds.
+#[test]
+fn a_10_sigma_quadratic_term_at_rests_is_named() {
+    let term = Candidate::AccelQuadratic;
+    let (values, _) = sized_values(Class::RestsNavigation, term, 10.0);
+    let row = count(Class::RestsNavigation, Some(term), &values, 2001, 3);
+    assert_eq!(row.named, 3, "{row:?}");
+}
+
+/// Noise-free records with the configured noise: the mean NIS is far below its band, the
+/// sigmas conservative; that contradicts nothing (exit 0), and the verdict says so.
+#[test]
+fn an_overstated_noise_is_a_finding_not_exit_3() {
+    let o = run(Class::ProgramNavigation, 1001, &[], false);
+    assert!(!o.exit3, "{o:?}");
+    assert!(
+        o.notes
+            .iter()
+            .any(|n| n.starts_with("the configured noise is larger than the data's")),
+        "{o:?}"
+    );
+}
