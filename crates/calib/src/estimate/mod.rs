@@ -222,6 +222,9 @@ pub struct Estimate {
     /// appended ([`score_pass`]), when the configuration asks for it
     /// (`filter.score_terms`): the score tests of the verdict.
     pub extended: Option<crate::check::score::ExtendedPosterior>,
+    /// Why that pass failed, when it did (the fit itself stands; the verdict says the score
+    /// tests were not made).
+    pub extended_error: Option<String>,
 }
 
 impl Estimate {
@@ -1086,7 +1089,12 @@ fn iterate_passes(
             Feedback::None
         };
         let point = nominal.as_ref().expect("set by every pass");
-        estimate.extended = score_pass::extended_pass(&own, imu, point, later, &estimate)?;
+        // The extended pass carries terms the data may not support (a unit far from the
+        // base model's linear reach): its failure leaves the fit as it is.
+        match score_pass::extended_pass(&own, imu, point, later, &estimate) {
+            Ok(p) => estimate.extended = p,
+            Err(e) => estimate.extended_error = Some(e.to_string()),
+        }
     }
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
@@ -1747,6 +1755,7 @@ fn pass_estimate(
             .map(|t| t.series.clone())
             .unwrap_or_default(),
         extended: None,
+        extended_error: None,
     };
     (estimate, offset_sensitivity)
 }

@@ -339,7 +339,13 @@ impl RunVerdict {
             .as_ref()
             .map(|p| term_scores(p, SCORE_LEVEL))
             .unwrap_or_default();
-        let (called, score_notes) = score_lines(&scores);
+        let (called, mut score_notes) = score_lines(&scores);
+        if let Some(e) = &est.extended_error {
+            score_notes.push(format!(
+                "the score tests of the candidate terms could not be made (their extended pass \
+                 failed: {e}); `diagnose` tests them one at a time"
+            ));
+        }
         let scored = if scores.iter().any(|t| t.test.dof > 0) {
             ", score tests of the candidate terms"
         } else {
