@@ -1014,8 +1014,7 @@ fn iterate_passes(
     // heading, which such a unit cannot gyrocompass, does not enter the specific force at rest.
     // Every pass carries a constant copy of the start attitude error, so that the next pass can
     // start from the estimate of the start attitude (a fixed-point smoother).
-    let own = *inp;
-    let smoother = layout.with_start_attitude();
+    let (own, smoother) = (*inp, layout.with_start_attitude());
     let s = smoother.start_attitude.expect("set by with_start_attitude");
     let inp = PassInputs {
         layout: &smoother,
@@ -1083,18 +1082,14 @@ fn iterate_passes(
     progress(total, total);
     estimate.truncate(layout.dim());
     if config.filter.score_terms {
-        let later = if matches!(motion, Motion::Rests { .. }) && tilt_walks {
-            Feedback::Tilt
-        } else {
-            Feedback::None
-        };
-        let point = nominal.as_ref().expect("set by every pass");
-        // The extended pass carries terms the data may not support (a unit far from the
-        // base model's linear reach): its failure leaves the fit as it is.
-        match score_pass::extended_pass(&own, imu, point, later, &estimate) {
-            Ok(p) => estimate.extended = p,
-            Err(e) => estimate.extended_error = Some(e.to_string()),
-        }
+        let tilt = matches!(motion, Motion::Rests { .. }) && tilt_walks;
+        score_pass::attach(
+            &own,
+            imu,
+            nominal.as_ref().expect("set"),
+            tilt,
+            &mut estimate,
+        );
     }
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;

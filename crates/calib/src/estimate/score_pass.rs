@@ -131,3 +131,22 @@ pub(super) fn extended_pass(
         terms,
     }))
 }
+
+/// Run the extended pass of a fit ([`extended_pass`]; feeding the tilt back where the fit's
+/// later passes did, `tilt`) and keep its posterior in `estimate`.
+/// The pass carries terms the data may not support (a unit far from the base model's linear
+/// reach): its failure leaves the fit as it is, with the reason in
+/// [`Estimate::extended_error`].
+pub(super) fn attach(
+    inp: &PassInputs,
+    imu: &mut dyn crate::estimate::ImuSource,
+    nominal: &Nominal,
+    tilt: bool,
+    estimate: &mut Estimate,
+) {
+    let feedback = if tilt { Feedback::Tilt } else { Feedback::None };
+    match extended_pass(inp, imu, nominal, feedback, estimate) {
+        Ok(p) => estimate.extended = p,
+        Err(e) => estimate.extended_error = Some(e.to_string()),
+    }
+}

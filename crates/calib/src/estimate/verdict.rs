@@ -322,6 +322,32 @@ pub fn thermal_finding(est: &crate::estimate::Estimate) -> Option<String> {
     })
 }
 
+/// The score tests of `est` ([`term_scores`] of its extended pass), their decisive and
+/// informative lines ([`score_lines`], and why they were not made where the pass failed), and
+/// the basis's words for them (empty when nothing was tested).
+fn score_verdict(
+    est: &crate::estimate::Estimate,
+) -> (Vec<TermScore>, Vec<String>, Vec<String>, &'static str) {
+    let scores = est
+        .extended
+        .as_ref()
+        .map(|p| term_scores(p, SCORE_LEVEL))
+        .unwrap_or_default();
+    let (called, mut notes) = score_lines(&scores);
+    if let Some(e) = &est.extended_error {
+        notes.push(format!(
+            "the score tests of the candidate terms could not be made (their extended pass \
+             failed: {e}); `diagnose` tests them one at a time"
+        ));
+    }
+    let scored = if scores.iter().any(|t| t.test.dof > 0) {
+        ", score tests of the candidate terms"
+    } else {
+        ""
+    };
+    (scores, called, notes, scored)
+}
+
 impl RunVerdict {
     /// The verdict of `est`, fitted with the noise from `noise`: with a configured noise its
     /// mean NIS and its `diagnostics` decide; with a noise measured from a recording of rests
@@ -334,23 +360,7 @@ impl RunVerdict {
         diagnostics: Option<&Diagnostics>,
         with_turntable: bool,
     ) -> Self {
-        let scores = est
-            .extended
-            .as_ref()
-            .map(|p| term_scores(p, SCORE_LEVEL))
-            .unwrap_or_default();
-        let (called, mut score_notes) = score_lines(&scores);
-        if let Some(e) = &est.extended_error {
-            score_notes.push(format!(
-                "the score tests of the candidate terms could not be made (their extended pass \
-                 failed: {e}); `diagnose` tests them one at a time"
-            ));
-        }
-        let scored = if scores.iter().any(|t| t.test.dof > 0) {
-            ", score tests of the candidate terms"
-        } else {
-            ""
-        };
+        let (scores, called, score_notes, scored) = score_verdict(est);
         if matches!(noise, NoiseSource::Configured) {
             let mut decisive = misfit_reasons(&est.stats, diagnostics, with_turntable);
             decisive.extend(called);
