@@ -37,6 +37,8 @@ struct CaseList {
 enum Expect {
     Refuse,
     Succeed,
+    /// Exit 1 after the work (the report could not be printed) with the outputs kept.
+    Keep,
 }
 
 /// One case: a command line (split on spaces; `{fx}` the fixtures' directory, `{case}` the
@@ -55,9 +57,15 @@ struct CaseSpec {
     /// Files created in the case's directory before the run, by name.
     #[serde(default)]
     files: BTreeMap<String, FileSpec>,
-    /// `"closed"`: the command runs with its standard output closed (`>&-`).
+    /// `"closed"`: the command runs with its standard output closed (`>&-`); `"full"`: on
+    /// /dev/full (every write fails with ENOSPC).
     #[serde(default)]
     stdout: Option<String>,
+    /// `"full"`: the command runs with its standard error on /dev/full; `"gone"`: on a pipe
+    /// whose reader has closed it (every write fails with EPIPE). Its words cannot be read
+    /// then: the exit status alone decides.
+    #[serde(default)]
+    stderr: Option<String>,
     /// Outputs a success must leave (files or directories), checked to parse.
     #[serde(default)]
     outputs: Vec<String>,
@@ -660,6 +668,55 @@ fn permissions_enforced(dir: &Path) -> bool {
     }
 }
 
+/// The case's words missing from its standard error (none when it could not be read).
+fn missing_words<'a>(case: &'a CaseSpec, stderr: &str, unread: bool) -> Vec<&'a String> {
+    if unread {
+        return Vec::new();
+    }
+    let lower = stderr.to_lowercase();
+    case.words
+        .iter()
+        .filter(|w| !w.split('|').any(|alt| lower.contains(&alt.to_lowercase())))
+        .collect()
+}
+
+/// /dev/full opened for writing: every write to it fails with ENOSPC.
+fn dev_full() -> Result<Stdio, String> {
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .map(Stdio::from)
+        .map_err(|e| format!("/dev/full: {e}"))
+}
+
+/// The command of a case, its standard output and error as the case says.
+fn command(bin: &Path, args: &[String], case: &CaseSpec) -> Result<Command, String> {
+    let mut cmd = match case.stdout.as_deref() {
+        Some("closed") => {
+            let mut c = Command::new("/bin/sh");
+            c.args(["-c", "exec \"$@\" >&-", "sh"]).arg(bin).args(args);
+            c
+        }
+        Some("full") => {
+            let mut c = Command::new(bin);
+            c.args(args).stdout(dev_full()?);
+            c
+        }
+        None => {
+            let mut c = Command::new(bin);
+            c.args(args).stdout(Stdio::piped());
+            c
+        }
+        Some(other) => return Err(format!("stdout = {other:?}: expected closed or full")),
+    };
+    match case.stderr.as_deref() {
+        None | Some("gone") => cmd.stderr(Stdio::piped()),
+        Some("full") => cmd.stderr(dev_full()?),
+        Some(other) => return Err(format!("stderr = {other:?}: expected full or gone")),
+    };
+    Ok(cmd)
+}
+
 fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcome, String> {
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     for (name, f) in &case.files {
@@ -679,21 +736,16 @@ fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcom
         .map(|a| substitute(a, fx, dir))
         .collect();
     let before = snapshot(dir);
-    let closed = case.stdout.as_deref() == Some("closed");
-    let mut cmd = if closed {
-        let mut c = Command::new("/bin/sh");
-        c.args(["-c", "exec \"$@\" >&-", "sh"]).arg(bin).args(&args);
-        c
-    } else {
-        let mut c = Command::new(bin);
-        c.args(&args).stdout(Stdio::piped());
-        c
-    };
-    cmd.current_dir(dir)
-        .stdin(Stdio::null())
-        .stderr(Stdio::piped());
+    let stdout_unread = case.stdout.is_some();
+    let stderr_unread = case.stderr.is_some();
+    let mut cmd = command(bin, &args, case)?;
+    cmd.current_dir(dir).stdin(Stdio::null());
     let t0 = Instant::now();
     let mut child = cmd.spawn().map_err(|e| format!("{}: {e}", bin.display()))?;
+    if case.stderr.as_deref() == Some("gone") {
+        // The reader goes before the command writes: its writes fail with EPIPE.
+        drop(child.stderr.take());
+    }
     let read = |r: Option<Box<dyn std::io::Read + Send>>| {
         std::thread::spawn(move || {
             let mut s = Vec::new();
@@ -774,18 +826,30 @@ fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcom
                     format!("exit {code}, changed: {}", changed.join(", ")),
                 );
             }
-            if !closed && !stdout.trim().is_empty() {
+            if !stdout_unread && !stdout.trim().is_empty() {
                 return outcome(
                     "late refusal",
                     format!("exit {code} after printing {} bytes", stdout.len()),
                 );
             }
-            let lower = stderr.to_lowercase();
-            let missing: Vec<&String> = case
-                .words
-                .iter()
-                .filter(|w| !w.split('|').any(|alt| lower.contains(&alt.to_lowercase())))
-                .collect();
+            let missing = missing_words(case, &stderr, stderr_unread);
+            if !missing.is_empty() {
+                return outcome("unclear error", format!("exit {code}, lacks {missing:?}:"));
+            }
+            outcome("ok", format!("exit {code}"))
+        }
+        Expect::Keep => {
+            match code {
+                1 => {}
+                0 | 3 => return outcome("silent success", format!("exit {code}")),
+                _ => return outcome("refused good input", format!("exit {code}")),
+            }
+            for o in &case.outputs {
+                if let Some(why) = check_output(Path::new(&substitute(o, fx, dir))) {
+                    return outcome("damaged output", why);
+                }
+            }
+            let missing = missing_words(case, &stderr, stderr_unread);
             if !missing.is_empty() {
                 return outcome("unclear error", format!("exit {code}, lacks {missing:?}:"));
             }

@@ -18,6 +18,26 @@
 // No unsafe code: the interrupting signals come through `signal-hook` (`signals`).
 #![forbid(unsafe_code)]
 
+// Messages to the standard error and output, written without panicking. The standard macros
+// panic when the write fails ("failed printing to stderr": `2>/dev/full`, a reader that has
+// gone), which turned every refusal into exit status 101 and stopped a finished run before its
+// files were written. These shadows, defined before the `mod` lines, are the ones every module
+// below uses. A message that cannot be written is dropped: the exit status still says what
+// happened, and the files of a finished run are still written. The report itself goes through
+// [`print`], where a failed write is an error (the exit status must say the report is lost).
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+macro_rules! eprint {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod analyse;
 mod apply;
 mod args;
@@ -72,6 +92,9 @@ pub type Error = Box<dyn std::error::Error>;
 /// or option); 2 a malformed command line; 3 (calibrate, diagnose) the model does not fit the
 /// data: the results were computed and written, but are not to be trusted; 128 + the signal's
 /// number when interrupted (SIGINT 130, SIGTERM 143), with no temporary output left behind.
+/// A standard error that cannot be written (full, or its reader gone) changes no status; a
+/// report that cannot be written to the standard output ends with status 1 after the run's
+/// output files are written (they are kept).
 #[derive(Debug, Parser)]
 #[command(name = "sins-calib", version)]
 struct Cli {
@@ -167,13 +190,17 @@ pub fn report(text: &str, json: Option<&std::path::Path>) -> Result<(), Error> {
     }
 }
 
-/// Write a report to stdout; a closed pipe (e.g. `| head`) is not an error.
+/// Write a report to stdout; a closed pipe (e.g. `| head`) is not an error. Every command
+/// prints its report after its files are written, so a failure here (a full disk behind
+/// `> file`, `>/dev/full`) ends with status 1 and the files kept, which the message says.
 pub fn print(text: &str) -> Result<(), Error> {
     let mut out = std::io::stdout().lock();
     match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            Err(format!("cannot write to standard output: {e}").into())
-        }
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(format!(
+            "cannot write the report to standard output: {e}: the report is lost (any output \
+             file this run wrote is complete and kept)"
+        )
+        .into()),
         _ => Ok(()),
     }
 }
