@@ -180,6 +180,14 @@ fn other_profile_mistakes_are_refused() {
             "axis `+w`",
         ),
         (
+            // Two axes swapped: a reflection, under which every turn is read backwards.
+            REST_PROFILE.replace(
+                "unit = \"deg/s\"",
+                "unit = \"deg/s\"\naxes = [\"+y\", \"+x\", \"+z\"]",
+            ),
+            "not a rotation",
+        ),
+        (
             REST_PROFILE.replace("skip_lines = 1", "skip_lines = 1\ndelimiter = \"1\""),
             "delimiter `1`",
         ),
@@ -277,7 +285,7 @@ unit = "counts"
 offset = [1000.0, 1000.0, 1000.0]
 sensitivity = [1000.0, 500.0, 250.0]
 sensitivity_unit = "g"
-axes = ["+z", "-x", "+y"]
+axes = ["+z", "-x", "-y"]
 "##;
     // Source gyro (counts): x = 110 -> 1 deg/s, y = 240 -> 2 deg/s, z = 420 -> 3 deg/s.
     // Source accel: x = 1000 -> 0 g, y = 1000 -> 0 g, z = 1250 -> 1 g.
@@ -294,7 +302,7 @@ axes = ["+z", "-x", "+y"]
     for (got, want) in r.gyro.iter().zip(expect) {
         assert!((got - want).abs() < 1e-15, "{:?}", r.gyro);
     }
-    // Output accel = (+z, -x, +y) of the source: 1 g along x.
+    // Output accel = (+z, -x, -y) of the source (a rotation): 1 g along x.
     assert_eq!(r.accel, [9.80665, -0.0, 0.0]);
 }
 

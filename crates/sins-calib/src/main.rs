@@ -228,10 +228,48 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", readable(&e.to_string()));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The longest line of an error message shown (characters).
+const MESSAGE_LINE_MAX: usize = 1000;
+/// The most lines of an error message shown.
+const MESSAGE_LINES_MAX: usize = 40;
+
+/// An error message capped at a readable length: a parser's excerpt of a hostile input (a
+/// configuration nested 100 000 deep, a 300 000-entry array on one line) echoed that input
+/// whole, hundreds of kilobytes. Each line keeps its start (the file, line and field come
+/// first) and end (the cause the parser names last); the lines keep the first and last ones.
+fn readable(message: &str) -> String {
+    let cap_line = |l: &str| -> String {
+        let n = l.chars().count();
+        if n <= MESSAGE_LINE_MAX {
+            return l.to_string();
+        }
+        let head: String = l.chars().take(MESSAGE_LINE_MAX - 200).collect();
+        let tail: String = l.chars().skip(n - 150).collect();
+        format!(
+            "{head} ... ({} characters left out) ... {tail}",
+            n - (MESSAGE_LINE_MAX - 200) - 150
+        )
+    };
+    let lines: Vec<&str> = message.lines().collect();
+    let shown: Vec<String> = if lines.len() <= MESSAGE_LINES_MAX {
+        lines.iter().map(|l| cap_line(l)).collect()
+    } else {
+        let (head, tail) = (MESSAGE_LINES_MAX - 10, 10);
+        let mut v: Vec<String> = lines[..head].iter().map(|l| cap_line(l)).collect();
+        v.push(format!(
+            "... ({} lines left out) ...",
+            lines.len() - head - tail
+        ));
+        v.extend(lines[lines.len() - tail..].iter().map(|l| cap_line(l)));
+        v
+    };
+    shown.join("\n")
 }
 
 #[cfg(test)]
@@ -242,5 +280,20 @@ mod tests {
     #[test]
     fn cli_definition_is_consistent() {
         Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn messages_are_capped_keeping_their_ends() {
+        let long = format!("p.toml: line 2: {} expected 3", "[".repeat(300_000));
+        let shown = readable(&long);
+        assert!(shown.len() < 2 * MESSAGE_LINE_MAX, "{}", shown.len());
+        assert!(shown.starts_with("p.toml: line 2: "), "{shown}");
+        assert!(shown.ends_with("expected 3"), "{shown}");
+        let many: String = (0..100_000).map(|k| format!("line {k}\n")).collect();
+        let shown = readable(&many);
+        assert_eq!(shown.lines().count(), MESSAGE_LINES_MAX + 1);
+        assert!(shown.contains("line 99999"), "{shown}");
+        // A short message is unchanged.
+        assert_eq!(readable("a: b\nc"), "a: b\nc");
     }
 }
