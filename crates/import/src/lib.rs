@@ -699,7 +699,7 @@ fn check_timing(
 const STUCK_RELATIVE: f64 = 1e-9;
 
 /// Whether each of the six data columns (gyro x, y, z, accelerometer x, y, z) ever changes: a
-/// column holding one value over a whole recording is a stuck sensor (or a constant written in
+/// triad holding one value over a whole recording is a stuck sensor (or constants written in
 /// its place), whose records would be imported as one long rest without a word.
 #[derive(Default)]
 pub struct Stuck {
@@ -735,8 +735,8 @@ impl Stuck {
         }
     }
 
-    /// Refuse a recording (lines `first_line` .. `last_line` of `file`) with a column that
-    /// never changes.
+    /// Refuse a recording (lines `first_line` .. `last_line` of `file`) with a sensor triad
+    /// (gyro or accelerometer) none of whose columns ever changes.
     pub fn check(
         &self,
         file: &str,
@@ -749,8 +749,17 @@ impl Stuck {
         let (Some(first), true) = (self.first, self.records >= Self::MIN_RECORDS) else {
             return Ok(());
         };
-        let stuck: Vec<String> = (0..6)
-            .filter(|&k| !self.varies[k])
+        // A whole triad frozen: a sensor (or the recording) stuck. One constant axis alone is
+        // left to the other checks (synthetic and hand-made files hold zero columns), and so is
+        // a triad of zeros, which they name better (accelerometers that read zero, gyros that
+        // read nothing while the program turns).
+        let frozen = |range: std::ops::Range<usize>| {
+            range.clone().all(|k| !self.varies[k]) && range.clone().any(|k| first[k] != 0.0)
+        };
+        let stuck: Vec<String> = [0..3, 3..6]
+            .into_iter()
+            .filter(|r| frozen(r.clone()))
+            .flatten()
             .map(|k| format!("{} = {}", NAMES[k], first[k]))
             .collect();
         if stuck.is_empty() {
@@ -759,14 +768,10 @@ impl Stuck {
         Err(ImportError::File {
             file: file.to_string(),
             message: format!(
-                "lines {first_line} .. {last_line}: {} the same in all {} records ({}): expected \
-                 values that change (a sensor's noise moves every axis); a constant column is a \
-                 stuck sensor or a value written in its place, and would be read as one long rest",
-                if stuck.len() == 1 {
-                    "a column is"
-                } else {
-                    "columns are"
-                },
+                "lines {first_line} .. {last_line}: the columns are the same in all {} records \
+                 ({}): expected values that change (a sensor's noise moves every axis); a \
+                 constant triad is a stuck sensor or values written in its place, and would be \
+                 read as one long rest",
                 self.records,
                 stuck.join(", ")
             ),

@@ -573,8 +573,15 @@ unit = "deg"
 columns = [4, 5, 6]
 unit = "m/s"
 "#;
-    // At rest, z up: dv = g dt = 9.81 / 200 per record.
-    let text: String = (0..1000).map(|_| "0.001,0,0,0,0,0.04905\n").collect();
+    // At rest, z up: dv = g dt = 9.81 / 200 per record, each axis moving by 1e-9 (as a
+    // sensor's noise moves it: a column that never changes is refused as a stuck sensor), the
+    // z axis symmetrically about its value so that its median is 0.04905.
+    let text: String = (0..1000)
+        .map(|i| {
+            let e = [-1e-9, 0.0, 1e-9][i % 3];
+            format!("{},{e},{e},{e},{e},{}\n", 0.001 + e, 0.04905 + e)
+        })
+        .collect();
     let imported = import(&dir, toml, &[("inc.csv", text)]).unwrap();
     assert_eq!(imported.imu.kind, calib::io::ImuKind::Increments);
     assert!((imported.report.static_force.median_norm_m_s2 - 9.81).abs() < 1e-9);
@@ -587,6 +594,34 @@ unit = "m/s"
     let seg = calib::motion::detect::segment(&imported.imu, &Default::default()).unwrap();
     assert_eq!(seg.static_intervals.len(), 1);
     assert!((seg.static_intervals[0].norm_f_m_s2 - 9.81).abs() < 1e-9);
+}
+
+#[test]
+fn a_stuck_sensor_is_refused_naming_its_columns() {
+    let dir = scratch("stuck");
+    // 1000 records (5 s at 200 Hz) whose gyros never change, the accelerometers moving.
+    let text: String = (0..1000)
+        .map(|i| {
+            let e = [-1e-9, 0.0, 1e-9][i % 3];
+            format!("0.001,0.0,0.0,{e},{e},{}\n", 0.04905 + e)
+        })
+        .collect();
+    let toml = r#"
+form = "increments"
+[input]
+file = "inc.csv"
+[time]
+rate_hz = 200.0
+[gyro]
+columns = [1, 2, 3]
+unit = "deg"
+[accel]
+columns = [4, 5, 6]
+unit = "m/s"
+"#;
+    let e = message(import(&dir, toml, &[("inc.csv", text)]).unwrap_err());
+    assert!(e.contains("inc.csv") && e.contains("stuck"), "{e}");
+    assert!(e.contains("gyro y = 0") && !e.contains("accel x"), "{e}");
 }
 
 /// `rest_csv` with a temperature column of `temp(i)`.

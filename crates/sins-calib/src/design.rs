@@ -49,6 +49,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     check_distinct_terms(&args.terms)?;
     let terms = parse_terms(&args.terms)?;
+    if terms.contains(&sins_model::candidates::Candidate::GyroBiasDrift) {
+        // The design leaves it out (it has no parameters to separate): named, it would be
+        // dropped without a word.
+        return Err(
+            "design --terms gyro_bias_drift: a random walk of the gyro biases has no parameters \
+             for a program to separate (it is process noise, not a state): expected candidate \
+             terms with parameters; `analyse --walk-reach` says which walk a program shows"
+                .into(),
+        );
+    }
     crate::terms::check_thermal(
         &terms,
         config.temperature.is_some(),
