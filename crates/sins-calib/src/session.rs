@@ -555,7 +555,9 @@ fn imu_span(path: &Path) -> Option<(f64, f64)> {
     let mut tail = Vec::new();
     f.take(4096).read_to_end(&mut tail).ok()?;
     let tail = String::from_utf8_lossy(&tail);
-    let last_line = tail.lines().rev().find(|l| !l.trim().is_empty())?;
+    // The last line whole: a line break before it within the tail (a line longer than the
+    // tail would be read from its middle).
+    let (_, last_line) = tail.trim_end().rsplit_once('\n')?;
     let last: f64 = last_line.split(',').next()?.trim().parse().ok()?;
     (last.is_finite() && last > first).then_some((first, last))
 }
