@@ -39,6 +39,7 @@ pub mod sections;
 mod streamed;
 mod text;
 
+pub use calib::estimate::data_checks::Stuck;
 pub use error::ImportError;
 pub use streamed::{ImportedFiles, import_into};
 
@@ -531,7 +532,12 @@ pub fn import_recording(
     check_magnitudes(profile, &imu, timing.median_interval_s, [gs, as_])?;
     let mut stuck = Stuck::default();
     imu.records.iter().for_each(|r| stuck.push(r));
-    stuck.check(&gs.table.file, gs.table.lines[0], gs.table.lines[n - 1])?;
+    stuck
+        .check(gs.table.lines[0], gs.table.lines[n - 1])
+        .map_err(|message| ImportError::File {
+            file: gs.table.file.clone(),
+            message,
+        })?;
     let static_force = check_static_force(profile, &imu, &gaps, as_)?;
     let saturation = saturation_reports(profile, [(&sat_g, gs), (&sat_a, as_)]);
     let turntable = turntable_of(profile, gs, gl);
@@ -693,90 +699,6 @@ fn check_timing(
         check_gaps(profile, &timing, &gap_reports, |k| gs.table.lines[k])?;
     }
     Ok((timing, gaps, gap_reports))
-}
-
-/// Values of a column closer than this (relative) to its first are the same value.
-const STUCK_RELATIVE: f64 = 1e-9;
-
-/// Whether each of the six data columns (gyro x, y, z, accelerometer x, y, z) ever changes: a
-/// triad holding one value over a whole recording is a stuck sensor (or constants written in
-/// its place), whose records would be imported as one long rest without a word.
-#[derive(Default)]
-pub struct Stuck {
-    first: Option<[f64; 6]>,
-    varies: [bool; 6],
-    records: usize,
-}
-
-impl Stuck {
-    /// Recordings of at least this many records are checked: a few hundred identical records
-    /// can be a hand-made example or a short excerpt quantised flat; a stuck sensor shows over
-    /// seconds (10 s at 100 Hz).
-    const MIN_RECORDS: usize = 1000;
-
-    /// One record.
-    pub fn push(&mut self, r: &calib::io::ImuRecord) {
-        self.push_values(&r.gyro, &r.accel);
-    }
-
-    /// One record's gyro and accelerometer values.
-    pub fn push_values(&mut self, gyro: &[f64; 3], accel: &[f64; 3]) {
-        let v = [gyro[0], gyro[1], gyro[2], accel[0], accel[1], accel[2]];
-        self.records += 1;
-        match &self.first {
-            None => self.first = Some(v),
-            Some(f) => {
-                // Relative to the first value: rates computed from stuck increments over
-                // intervals whose stamps carry rounding still differ in the 15th digit.
-                for k in 0..6 {
-                    self.varies[k] |= (v[k] - f[k]).abs() > STUCK_RELATIVE * f[k].abs();
-                }
-            }
-        }
-    }
-
-    /// Refuse a recording (lines `first_line` .. `last_line` of `file`) with a sensor triad
-    /// (gyro or accelerometer) none of whose columns ever changes.
-    pub fn check(
-        &self,
-        file: &str,
-        first_line: usize,
-        last_line: usize,
-    ) -> Result<(), ImportError> {
-        const NAMES: [&str; 6] = [
-            "gyro x", "gyro y", "gyro z", "accel x", "accel y", "accel z",
-        ];
-        let (Some(first), true) = (self.first, self.records >= Self::MIN_RECORDS) else {
-            return Ok(());
-        };
-        // A whole triad frozen: a sensor (or the recording) stuck. One constant axis alone is
-        // left to the other checks (synthetic and hand-made files hold zero columns), and so is
-        // a triad of zeros, which they name better (accelerometers that read zero, gyros that
-        // read nothing while the program turns).
-        let frozen = |range: std::ops::Range<usize>| {
-            range.clone().all(|k| !self.varies[k]) && range.clone().any(|k| first[k] != 0.0)
-        };
-        let stuck: Vec<String> = [0..3, 3..6]
-            .into_iter()
-            .filter(|r| frozen(r.clone()))
-            .flatten()
-            .map(|k| format!("{} = {}", NAMES[k], first[k]))
-            .collect();
-        if stuck.is_empty() {
-            return Ok(());
-        }
-        Err(ImportError::File {
-            file: file.to_string(),
-            message: format!(
-                "lines {first_line} .. {last_line}: the columns are the same in all {} records \
-                 ({}): expected values that change (a sensor's noise moves every axis); a \
-                 constant triad is a stuck sensor or values written in its place, and would be \
-                 read as one long rest",
-                self.records,
-                stuck.join(", ")
-            ),
-        })
-    }
 }
 
 /// A recording of one row, refused.

@@ -496,7 +496,11 @@ pub fn import_into(
         ));
     }
     read.stuck
-        .check(&g.file, g.lines.line(0), g.lines.line(imu.records - 1))?;
+        .check(g.lines.line(0), g.lines.line(imu.records - 1))
+        .map_err(|message| ImportError::File {
+            file: g.file.clone(),
+            message,
+        })?;
     let static_force = quietest_force(profile, &imu, read.quiet, a)?;
     let line_g = |k: usize| g.lines.line(k);
     let line_a = |k: usize| a.lines.line(k);

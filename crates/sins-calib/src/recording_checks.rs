@@ -77,7 +77,7 @@ pub(crate) fn check_plausible_streamed(
         return Err(message.into());
     }
     // A stuck sensor: a column that never changes (the records' lines from 2 on).
-    stuck.check(file, 2, n + 1)?;
+    stuck.check(2, n + 1).map_err(|m| format!("{file}: {m}"))?;
     // Gyro and accelerometer columns swapped: the "angular rate" has the magnitude of gravity
     // in m/s^2 for most of the recording (560 deg/s, which no calibration turns at for long)
     // while the "specific force" is far below g. Medians, so the turns of a program or a hand
