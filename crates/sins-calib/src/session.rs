@@ -539,6 +539,10 @@ const TURNTABLE_COVERAGE_MIN: f64 = 0.9;
 /// count what is uncovered.
 fn imu_span(path: &Path) -> Option<(f64, f64)> {
     use std::io::{Read as _, Seek as _, SeekFrom};
+    // A regular file only: a second reader of a pipe would take the records from the first.
+    if !std::fs::metadata(path).ok()?.is_file() {
+        return None;
+    }
     let mut reader = calib::io::ImuReader::open(path).ok()?;
     let first = reader.next_record().ok()??.t;
     let second = reader.next_record().ok()??.t;
@@ -547,9 +551,6 @@ fn imu_span(path: &Path) -> Option<(f64, f64)> {
     }
     let mut f = std::fs::File::open(path).ok()?;
     let meta = f.metadata().ok()?;
-    if !meta.is_file() {
-        return None;
-    }
     f.seek(SeekFrom::Start(meta.len().saturating_sub(4096)))
         .ok()?;
     let mut tail = Vec::new();
