@@ -36,7 +36,11 @@ pub fn run(args: &crate::args::CalibrateArgs) -> Result<u8, Error> {
     let mut session = crate::session::calibrate(args)?;
     let fit = fit(&mut session)?;
     let report = RunReport::build(&session, &fit)?;
-    check_physical(&report.result.parameters, &session.imu_file)?;
+    let estimated = report.result.parameters.iter();
+    check_physical(
+        estimated.map(|p| (p.name.as_str(), p.value)),
+        &session.imu_file,
+    )?;
     let written = write_outputs(&session, &fit, &report)?;
     crate::report(
         &crate::console::render(&report, &written),
@@ -52,12 +56,12 @@ pub fn run(args: &crate::args::CalibrateArgs) -> Result<u8, Error> {
 /// (`calib::config::plausible`), before anything is written: a scale factor of 100 % is a
 /// diverged fit (two axes swapped, a left-handed axis map, records in other units), which
 /// `apply` would refuse only later; the exit status must say so now.
-pub fn check_physical(
-    parameters: &[calib::io::ResultParameter],
+pub fn check_physical<'a>(
+    parameters: impl IntoIterator<Item = (&'a str, f64)>,
     imu_file: &str,
 ) -> Result<(), Error> {
-    for p in parameters {
-        if let Err(message) = calib::config::plausible::check(&p.name, p.value) {
+    for (name, value) in parameters {
+        if let Err(message) = calib::config::plausible::check(name, value) {
             return Err(format!(
                 "the fit of {imu_file} diverged: {message}; nothing is written. Check the \
                  records' axes (two swapped, or a left-handed axis map in the import profile), \
@@ -67,6 +71,13 @@ pub fn check_physical(
         }
     }
     Ok(())
+}
+
+/// [`check_physical`] of an estimate's states (the attitude errors have no bound): `diagnose`'s
+/// final model, refused before its result is written.
+pub fn check_estimate(estimate: &calib::estimate::Estimate, imu_file: &str) -> Result<(), Error> {
+    let states = estimate.names.iter().map(String::as_str);
+    check_physical(states.zip(estimate.values.iter().copied()), imu_file)
 }
 
 /// The filter on the session's data: along the program (and the angles), or through the
