@@ -37,6 +37,8 @@ struct CaseList {
 enum Expect {
     Refuse,
     Succeed,
+    /// Exit 1 after the work (the report could not be printed) with the outputs kept.
+    Keep,
 }
 
 /// One case: a command line (split on spaces; `{fx}` the fixtures' directory, `{case}` the
@@ -55,15 +57,28 @@ struct CaseSpec {
     /// Files created in the case's directory before the run, by name.
     #[serde(default)]
     files: BTreeMap<String, FileSpec>,
-    /// `"closed"`: the command runs with its standard output closed (`>&-`).
+    /// `"closed"`: the command runs with its standard output closed (`>&-`); `"full"`: on
+    /// /dev/full (every write fails with ENOSPC).
     #[serde(default)]
     stdout: Option<String>,
+    /// `"full"`: the command runs with its standard error on /dev/full; `"gone"`: on a pipe
+    /// whose reader has closed it (every write fails with EPIPE). Its words cannot be read
+    /// then: the exit status alone decides.
+    #[serde(default)]
+    stderr: Option<String>,
     /// Outputs a success must leave (files or directories), checked to parse.
     #[serde(default)]
     outputs: Vec<String>,
+    /// Files a success must leave absent (the stale temporaries of an earlier, killed run).
+    #[serde(default)]
+    absent: Vec<String>,
     /// Exit status 0 required for a success (else 3, "the model does not fit", passes too).
     #[serde(default)]
     exit0: bool,
+    /// The longest standard error accepted from a refusal (bytes): a message past it is an
+    /// unclear error (a hostile input echoed whole).
+    #[serde(default)]
+    max_stderr: Option<usize>,
     /// Time limit (s), default 30.
     #[serde(default)]
     timeout_s: Option<f64>,
@@ -87,6 +102,9 @@ struct FileSpec {
     /// Result JSON: parameter values set by name (JSON number syntax).
     #[serde(default)]
     param: BTreeMap<String, String>,
+    /// Result JSON: parameters removed by name (a hand-edited result).
+    #[serde(default)]
+    drop_param: Vec<String>,
     /// JSON: values set by JSON pointer (JSON syntax).
     #[serde(default)]
     json: BTreeMap<String, String>,
@@ -95,9 +113,15 @@ struct FileSpec {
     replace: Vec<(String, String)>,
     /// CSV edits: `ms` (time column times 1000), `g` (the accelerometer columns divided by g),
     /// `swap` (gyro and accelerometer columns swapped), `head:N` (the header and N records),
-    /// `temp:V` (a temp column of V).
+    /// `temp:V` (a temp column of V), `shift:LINE:S` (S seconds added to the times from file
+    /// line LINE on), `swapcols:A:B` (columns A and B, 0-based, swapped), `constant` (every
+    /// record's values those of the first: a stuck sensor).
     #[serde(default)]
     transform: Vec<String>,
+    /// Text appended after the rest: each string repeated its number of times (a
+    /// configuration nested 100 000 deep, an array of 300 000 entries).
+    #[serde(default)]
+    pieces: Vec<(String, usize)>,
     /// A sparse file of this many bytes (zeros).
     sparse_bytes: Option<u64>,
     /// A named pipe.
@@ -268,6 +292,7 @@ fn expand(cases: Vec<CaseSpec>) -> Vec<CaseSpec> {
                 })
                 .collect();
             d.outputs = c.outputs.iter().map(|o| sub(o)).collect();
+            d.absent = c.absent.iter().map(|o| sub(o)).collect();
             out.push(d);
         }
     }
@@ -334,13 +359,28 @@ kind = "dwell"
 duration_s = 5.0
 "#;
 
+/// A steady turn about the vertical (heading gimbal) at 20 deg/s for 60 s: a recording whose
+/// gyro spread and specific force are those of a rest.
+const TURNING_PROGRAM: &str = r#"name = "audit: a steady turn about the vertical"
+start_deg = [0.0, 0.0, 0.0]
+
+[[segment]]
+kind = "rotate"
+gimbal = 1
+rate_deg_s = 20.0
+duration_s = 60.0
+"#;
+
 /// The inputs the cases derive theirs from, in `fx`:
 /// - `run.toml`, `short.program.toml`: `examples/run.toml` on the short program;
 /// - `sim/`: its simulated run (imu.csv, turntable.csv, truth.json);
 /// - `cal.json`: its calibration; `diag.json`: its `diagnose --json`;
 /// - `static.toml`, `static.program.toml`, `static/`: a 60-s rest, simulated; `noise.json`:
 ///   its `noise --json`;
+/// - `turning.toml`, `turning.program.toml`, `turning/`: a 60-s steady turn about the vertical
+///   at 20 deg/s, simulated;
 /// - `ferraris.toml`, `ferraris/`: the Ferraris session imported (imu.csv, sections.json);
+///   `ferraris.csv`: its source records;
 ///   `segments.json`: `segment --json` of it.
 fn fixtures(bin: &Path, root: &Path, fx: &Path) -> Result<(), String> {
     let io = |e: std::io::Error| e.to_string();
@@ -368,7 +408,19 @@ fn fixtures(bin: &Path, root: &Path, fx: &Path) -> Result<(), String> {
         .map_err(io)?
         .replace("../data/", &format!("{}/data/", root.display()));
     std::fs::write(fx.join("ferraris.toml"), profile).map_err(io)?;
+    std::fs::copy(
+        root.join("data/real/ferraris_session/example_ferraris_session.csv"),
+        fx.join("ferraris.csv"),
+    )
+    .map_err(io)?;
+    std::fs::write(fx.join("turning.program.toml"), TURNING_PROGRAM).map_err(io)?;
+    std::fs::write(
+        fx.join("turning.toml"),
+        run.replace("short.program.toml", "turning.program.toml"),
+    )
+    .map_err(io)?;
     for args in [
+        "simulate --config turning.toml --out turning",
         "simulate --config run.toml --out sim",
         "simulate --config static.toml --out static",
         "calibrate --imu sim/imu.csv --turntable sim/turntable.csv --config run.toml --json cal.json",
@@ -404,9 +456,10 @@ fn toml_path(p: &str) -> Vec<String> {
     parts
 }
 
-fn edit_toml(text: &str, f: &FileSpec) -> Result<String, String> {
+fn edit_toml(text: &str, f: &FileSpec, fx: &Path, dir: &Path) -> Result<String, String> {
     let mut doc: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
     for (path, value) in &f.set {
+        let value = substitute(value, fx, dir);
         let v: toml::Table =
             toml::from_str(&format!("v = {value}")).map_err(|e| format!("{value}: {e}"))?;
         let v = v["v"].clone();
@@ -446,6 +499,10 @@ fn edit_json(text: &str, f: &FileSpec) -> Result<String, String> {
             .and_then(|ps| ps.iter_mut().find(|p| p["name"] == name.as_str()))
             .ok_or_else(|| format!("no parameter {name}"))?;
         p["value"] = v;
+    }
+    // `get_mut`: indexing would insert a null `parameters` into another kind of file.
+    if let Some(ps) = doc.get_mut("parameters").and_then(|p| p.as_array_mut()) {
+        ps.retain(|p| !f.drop_param.iter().any(|n| p["name"] == n.as_str()));
     }
     for (pointer, value) in &f.json {
         let v: serde_json::Value = serde_json::from_str(value).map_err(|e| e.to_string())?;
@@ -492,6 +549,40 @@ fn edit_csv(text: &str, transform: &str) -> Result<String, String> {
                 }
             }
         }
+        "shift" => {
+            // `shift:LINE:SECONDS`: SECONDS added to the time of the records from file line
+            // LINE (1-based, the header line 1) on: a gap or a jump in the time stamps.
+            let (line, by) = arg
+                .split_once(':')
+                .ok_or_else(|| format!("{transform}: expected shift:LINE:SECONDS"))?;
+            let line: usize = line.parse().map_err(|e| format!("{transform}: {e}"))?;
+            let by = num(by)?;
+            for l in lines.iter_mut().skip(line.max(2) - 1) {
+                l[0] = format!("{}", num(&l[0])? + by);
+            }
+        }
+        "swapcols" => {
+            // `swapcols:A:B`: the values of columns A and B (0-based) swapped, the header kept.
+            let (a, b) = arg
+                .split_once(':')
+                .ok_or_else(|| format!("{transform}: expected swapcols:A:B"))?;
+            let a: usize = a.parse().map_err(|e| format!("{transform}: {e}"))?;
+            let b: usize = b.parse().map_err(|e| format!("{transform}: {e}"))?;
+            for l in &mut lines[1..] {
+                if l.len() > a.max(b) {
+                    l.swap(a, b);
+                }
+            }
+        }
+        "constant" => {
+            // Every record a copy of the first: a stuck sensor.
+            let first = lines.get(1).cloned().unwrap_or_default();
+            for l in lines.iter_mut().skip(2) {
+                let t = std::mem::take(&mut l[0]);
+                *l = first.clone();
+                l[0] = t;
+            }
+        }
         _ => return Err(format!("unknown transform {transform}")),
     }
     let mut out = String::new();
@@ -525,13 +616,16 @@ fn make_file(path: &Path, f: &FileSpec, fx: &Path, dir: &Path) -> Result<(), Str
             (None, None) => String::new(),
         };
         if !f.set.is_empty() || !f.remove.is_empty() {
-            text = edit_toml(&text, f)?;
+            text = edit_toml(&text, f, fx, dir)?;
         }
-        if !f.param.is_empty() || !f.json.is_empty() {
+        if !f.param.is_empty() || !f.json.is_empty() || !f.drop_param.is_empty() {
             text = edit_json(&text, f)?;
         }
         for t in &f.transform {
             text = edit_csv(&text, t)?;
+        }
+        for (piece, times) in &f.pieces {
+            text += &piece.repeat(*times);
         }
         for (a, b) in &f.replace {
             let (a, b) = (substitute(a, fx, dir), substitute(b, fx, dir));
@@ -660,6 +754,55 @@ fn permissions_enforced(dir: &Path) -> bool {
     }
 }
 
+/// The case's words missing from its standard error (none when it could not be read).
+fn missing_words<'a>(case: &'a CaseSpec, stderr: &str, unread: bool) -> Vec<&'a String> {
+    if unread {
+        return Vec::new();
+    }
+    let lower = stderr.to_lowercase();
+    case.words
+        .iter()
+        .filter(|w| !w.split('|').any(|alt| lower.contains(&alt.to_lowercase())))
+        .collect()
+}
+
+/// /dev/full opened for writing: every write to it fails with ENOSPC.
+fn dev_full() -> Result<Stdio, String> {
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .map(Stdio::from)
+        .map_err(|e| format!("/dev/full: {e}"))
+}
+
+/// The command of a case, its standard output and error as the case says.
+fn command(bin: &Path, args: &[String], case: &CaseSpec) -> Result<Command, String> {
+    let mut cmd = match case.stdout.as_deref() {
+        Some("closed") => {
+            let mut c = Command::new("/bin/sh");
+            c.args(["-c", "exec \"$@\" >&-", "sh"]).arg(bin).args(args);
+            c
+        }
+        Some("full") => {
+            let mut c = Command::new(bin);
+            c.args(args).stdout(dev_full()?);
+            c
+        }
+        None => {
+            let mut c = Command::new(bin);
+            c.args(args).stdout(Stdio::piped());
+            c
+        }
+        Some(other) => return Err(format!("stdout = {other:?}: expected closed or full")),
+    };
+    match case.stderr.as_deref() {
+        None | Some("gone") => cmd.stderr(Stdio::piped()),
+        Some("full") => cmd.stderr(dev_full()?),
+        Some(other) => return Err(format!("stderr = {other:?}: expected full or gone")),
+    };
+    Ok(cmd)
+}
+
 fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcome, String> {
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     for (name, f) in &case.files {
@@ -679,21 +822,16 @@ fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcom
         .map(|a| substitute(a, fx, dir))
         .collect();
     let before = snapshot(dir);
-    let closed = case.stdout.as_deref() == Some("closed");
-    let mut cmd = if closed {
-        let mut c = Command::new("/bin/sh");
-        c.args(["-c", "exec \"$@\" >&-", "sh"]).arg(bin).args(&args);
-        c
-    } else {
-        let mut c = Command::new(bin);
-        c.args(&args).stdout(Stdio::piped());
-        c
-    };
-    cmd.current_dir(dir)
-        .stdin(Stdio::null())
-        .stderr(Stdio::piped());
+    let stdout_unread = case.stdout.is_some();
+    let stderr_unread = case.stderr.is_some();
+    let mut cmd = command(bin, &args, case)?;
+    cmd.current_dir(dir).stdin(Stdio::null());
     let t0 = Instant::now();
     let mut child = cmd.spawn().map_err(|e| format!("{}: {e}", bin.display()))?;
+    if case.stderr.as_deref() == Some("gone") {
+        // The reader goes before the command writes: its writes fail with EPIPE.
+        drop(child.stderr.take());
+    }
     let read = |r: Option<Box<dyn std::io::Read + Send>>| {
         std::thread::spawn(move || {
             let mut s = Vec::new();
@@ -774,18 +912,39 @@ fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcom
                     format!("exit {code}, changed: {}", changed.join(", ")),
                 );
             }
-            if !closed && !stdout.trim().is_empty() {
+            if !stdout_unread && !stdout.trim().is_empty() {
                 return outcome(
                     "late refusal",
                     format!("exit {code} after printing {} bytes", stdout.len()),
                 );
             }
-            let lower = stderr.to_lowercase();
-            let missing: Vec<&String> = case
-                .words
-                .iter()
-                .filter(|w| !w.split('|').any(|alt| lower.contains(&alt.to_lowercase())))
-                .collect();
+            let missing = missing_words(case, &stderr, stderr_unread);
+            if !missing.is_empty() {
+                return outcome("unclear error", format!("exit {code}, lacks {missing:?}:"));
+            }
+            if let Some(max) = case.max_stderr.filter(|m| stderr.len() > *m) {
+                return outcome(
+                    "unclear error",
+                    format!(
+                        "exit {code}, a message of {} bytes (at most {max}):",
+                        stderr.len()
+                    ),
+                );
+            }
+            outcome("ok", format!("exit {code}"))
+        }
+        Expect::Keep => {
+            match code {
+                1 => {}
+                0 | 3 => return outcome("silent success", format!("exit {code}")),
+                _ => return outcome("refused good input", format!("exit {code}")),
+            }
+            for o in &case.outputs {
+                if let Some(why) = check_output(Path::new(&substitute(o, fx, dir))) {
+                    return outcome("damaged output", why);
+                }
+            }
+            let missing = missing_words(case, &stderr, stderr_unread);
             if !missing.is_empty() {
                 return outcome("unclear error", format!("exit {code}, lacks {missing:?}:"));
             }
@@ -798,6 +957,12 @@ fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcom
             for o in &case.outputs {
                 if let Some(why) = check_output(Path::new(&substitute(o, fx, dir))) {
                     return outcome("damaged output", why);
+                }
+            }
+            for a in &case.absent {
+                let a = substitute(a, fx, dir);
+                if std::fs::symlink_metadata(&a).is_ok() {
+                    return outcome("damaged output", format!("{a}: left behind"));
                 }
             }
             outcome("ok", format!("exit {code}"))

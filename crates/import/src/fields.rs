@@ -420,6 +420,48 @@ impl Sensor {
             .is_some_and(|[lo, hi]| raw.iter().any(|&v| v <= lo || v >= hi))
     }
 
+    /// Each source axis once, and the map a rotation.
+    fn check_axes(&self) -> Result<(), String> {
+        let mut seen = [false; 3];
+        for a in &self.axes {
+            if seen[a.source] {
+                return Err(format!(
+                    "axes = [{}]: source axis {} is used twice; expected each of x, y, z once \
+                     (with an optional sign)",
+                    self.axes.map(|a| format!("\"{a}\"")).join(", "),
+                    ["x", "y", "z"][a.source]
+                ));
+            }
+            seen[a.source] = true;
+        }
+        // The determinant of the map (a signed permutation): -1 is a reflection. A left-handed
+        // frame turns every rotation the wrong way, so a calibration of the imported records
+        // diverges (scale factors of 100 %) instead of being refused here.
+        let det = {
+            let m: [[f64; 3]; 3] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    if self.axes[i].source == j {
+                        self.axes[i].sign
+                    } else {
+                        0.0
+                    }
+                })
+            });
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        };
+        if det < 0.0 {
+            return Err(format!(
+                "axes = [{}]: a reflection (determinant -1), not a rotation: expected a map \
+                 that keeps the frame right-handed (swapping two axes, or flipping one sign, \
+                 needs one more sign flip), else every turn is read the wrong way round",
+                self.axes.map(|a| format!("\"{a}\"")).join(", ")
+            ));
+        }
+        Ok(())
+    }
+
     pub(crate) fn check(
         &self,
         kind: SensorKind,
@@ -485,17 +527,8 @@ impl Sensor {
                 ));
             }
         }
-        let mut seen = [false; 3];
-        for a in &self.axes {
-            if seen[a.source] {
-                return err(format!(
-                    "axes = [{}]: source axis {} is used twice; expected each of x, y, z once \
-                     (with an optional sign)",
-                    self.axes.map(|a| format!("\"{a}\"")).join(", "),
-                    ["x", "y", "z"][a.source]
-                ));
-            }
-            seen[a.source] = true;
+        if let Err(m) = self.check_axes() {
+            return err(m);
         }
         if let Some([lo, hi]) = self.range
             && !(lo.is_finite() && hi.is_finite() && lo < hi)

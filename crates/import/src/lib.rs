@@ -39,6 +39,7 @@ pub mod sections;
 mod streamed;
 mod text;
 
+pub use calib::estimate::data_checks::Stuck;
 pub use error::ImportError;
 pub use streamed::{ImportedFiles, import_into};
 
@@ -529,6 +530,14 @@ pub fn import_recording(
     let t = &gs.t;
     let (timing, gaps, gap_reports) = check_timing(profile, options, gs)?;
     check_magnitudes(profile, &imu, timing.median_interval_s, [gs, as_])?;
+    let mut stuck = Stuck::default();
+    imu.records.iter().for_each(|r| stuck.push(r));
+    stuck
+        .check(gs.table.lines[0], gs.table.lines[n - 1])
+        .map_err(|message| ImportError::File {
+            file: gs.table.file.clone(),
+            message,
+        })?;
     let static_force = check_static_force(profile, &imu, &gaps, as_)?;
     let saturation = saturation_reports(profile, [(&sat_g, gs), (&sat_a, as_)]);
     let turntable = turntable_of(profile, gs, gl);

@@ -495,6 +495,12 @@ pub fn import_into(
             src.lines.line(k),
         ));
     }
+    read.stuck
+        .check(g.lines.line(0), g.lines.line(imu.records - 1))
+        .map_err(|message| ImportError::File {
+            file: g.file.clone(),
+            message,
+        })?;
     let static_force = quietest_force(profile, &imu, read.quiet, a)?;
     let line_g = |k: usize| g.lines.line(k);
     let line_a = |k: usize| a.lines.line(k);
@@ -569,6 +575,7 @@ struct TimingReading {
     gaps: Vec<GapAt>,
     beyond: Option<(usize, usize, usize, f64)>,
     quiet: Quietest,
+    stuck: crate::Stuck,
 }
 
 /// One reading of the written records: the intervals, the gaps, the magnitudes and the
@@ -581,7 +588,9 @@ fn read_timing(profile: &Profile, imu: &WrittenImu) -> Result<TimingReading, Imp
     let mut quiet = Quietest::new(imu.records, median);
     let mut previous: Option<f64> = None;
     let mut k = 0;
+    let mut stuck = crate::Stuck::default();
     read_imu(&imu.path, |r| {
+        stuck.push(r);
         if let Some(p) = previous {
             let d = r.t - p;
             lo = lo.min(d);
@@ -613,6 +622,7 @@ fn read_timing(profile: &Profile, imu: &WrittenImu) -> Result<TimingReading, Imp
         gaps,
         beyond,
         quiet,
+        stuck,
     })
 }
 

@@ -180,6 +180,14 @@ fn other_profile_mistakes_are_refused() {
             "axis `+w`",
         ),
         (
+            // Two axes swapped: a reflection, under which every turn is read backwards.
+            REST_PROFILE.replace(
+                "unit = \"deg/s\"",
+                "unit = \"deg/s\"\naxes = [\"+y\", \"+x\", \"+z\"]",
+            ),
+            "not a rotation",
+        ),
+        (
             REST_PROFILE.replace("skip_lines = 1", "skip_lines = 1\ndelimiter = \"1\""),
             "delimiter `1`",
         ),
@@ -277,7 +285,7 @@ unit = "counts"
 offset = [1000.0, 1000.0, 1000.0]
 sensitivity = [1000.0, 500.0, 250.0]
 sensitivity_unit = "g"
-axes = ["+z", "-x", "+y"]
+axes = ["+z", "-x", "-y"]
 "##;
     // Source gyro (counts): x = 110 -> 1 deg/s, y = 240 -> 2 deg/s, z = 420 -> 3 deg/s.
     // Source accel: x = 1000 -> 0 g, y = 1000 -> 0 g, z = 1250 -> 1 g.
@@ -294,7 +302,7 @@ axes = ["+z", "-x", "+y"]
     for (got, want) in r.gyro.iter().zip(expect) {
         assert!((got - want).abs() < 1e-15, "{:?}", r.gyro);
     }
-    // Output accel = (+z, -x, +y) of the source: 1 g along x.
+    // Output accel = (+z, -x, -y) of the source (a rotation): 1 g along x.
     assert_eq!(r.accel, [9.80665, -0.0, 0.0]);
 }
 
@@ -565,8 +573,15 @@ unit = "deg"
 columns = [4, 5, 6]
 unit = "m/s"
 "#;
-    // At rest, z up: dv = g dt = 9.81 / 200 per record.
-    let text: String = (0..1000).map(|_| "0.001,0,0,0,0,0.04905\n").collect();
+    // At rest, z up: dv = g dt = 9.81 / 200 per record, each axis moving by 1e-9 (as a
+    // sensor's noise moves it: a column that never changes is refused as a stuck sensor), the
+    // z axis symmetrically about its value so that its median is 0.04905.
+    let text: String = (0..1000)
+        .map(|i| {
+            let e = [-1e-9, 0.0, 1e-9][i % 3];
+            format!("{},{e},{e},{e},{e},{}\n", 0.001 + e, 0.04905 + e)
+        })
+        .collect();
     let imported = import(&dir, toml, &[("inc.csv", text)]).unwrap();
     assert_eq!(imported.imu.kind, calib::io::ImuKind::Increments);
     assert!((imported.report.static_force.median_norm_m_s2 - 9.81).abs() < 1e-9);
@@ -579,6 +594,34 @@ unit = "m/s"
     let seg = calib::motion::detect::segment(&imported.imu, &Default::default()).unwrap();
     assert_eq!(seg.static_intervals.len(), 1);
     assert!((seg.static_intervals[0].norm_f_m_s2 - 9.81).abs() < 1e-9);
+}
+
+#[test]
+fn a_stuck_sensor_is_refused_naming_its_columns() {
+    let dir = scratch("stuck");
+    // 1000 records (5 s at 200 Hz) whose gyros never change, the accelerometers moving.
+    let text: String = (0..1000)
+        .map(|i| {
+            let e = [-1e-9, 0.0, 1e-9][i % 3];
+            format!("0.001,0.0,0.0,{e},{e},{}\n", 0.04905 + e)
+        })
+        .collect();
+    let toml = r#"
+form = "increments"
+[input]
+file = "inc.csv"
+[time]
+rate_hz = 200.0
+[gyro]
+columns = [1, 2, 3]
+unit = "deg"
+[accel]
+columns = [4, 5, 6]
+unit = "m/s"
+"#;
+    let e = message(import(&dir, toml, &[("inc.csv", text)]).unwrap_err());
+    assert!(e.contains("inc.csv") && e.contains("stuck"), "{e}");
+    assert!(e.contains("gyro y = 0") && !e.contains("accel x"), "{e}");
 }
 
 /// `rest_csv` with a temperature column of `temp(i)`.

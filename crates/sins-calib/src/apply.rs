@@ -179,6 +179,8 @@ fn correct_stream(
         prefix.push((r, reader.line()));
     }
     check_units(&prefix, kind, &file)?;
+    let times: Vec<f64> = prefix.iter().map(|(r, _)| r.t).collect();
+    let median = calib::io::timing::median_interval(&times);
     let mut prefix = prefix.into_iter();
     loop {
         let next = match prefix.next() {
@@ -186,6 +188,9 @@ fn correct_stream(
             None => reader.next_record()?.map(|r| (r, reader.line())),
         };
         let Some((r, at)) = next else { break };
+        if let Some((before, line_before)) = window.last() {
+            check_interval(before.t, *line_before, r.t, at, median, &file)?;
+        }
         window.push((r, at));
         if window.len() > 4 {
             window.remove(0);
@@ -206,6 +211,40 @@ fn correct_stream(
     let k = window.len() - 1;
     flush(&window, k, &mut count)?;
     Ok(count)
+}
+
+/// An interval longer than this many median intervals is a gap (the default of the import's
+/// `checks.gap_factor`).
+const GAP_FACTOR: f64 = 1.5;
+
+/// Refuse a gap (an interval longer than [`GAP_FACTOR`] median intervals) between the records
+/// of lines `line_before` and `line`: the record after it would be corrected over the gap's
+/// length (an increment's bias and scale over 10 s instead of 0.01 s), and the derivatives of
+/// the size effect and time offset taken across it, with no word. Gaps are never bridged.
+fn check_interval(
+    t_before: f64,
+    line_before: usize,
+    t: f64,
+    line: usize,
+    median: f64,
+    file: &str,
+) -> Result<(), Error> {
+    let d = t - t_before;
+    if median.is_finite() && median > 0.0 && d > GAP_FACTOR * median {
+        return Err(format!(
+            "{file}: line {line}: a gap of {} s ({:.1} median intervals of {} s) between t = {} s \
+             (line {line_before}) and t = {} s: expected intervals of at most {GAP_FACTOR} median \
+             intervals (the record after a gap would be corrected over the gap's length); gaps \
+             are never bridged: split the recording at the gap and correct each part",
+            crate::table::compact(d),
+            d / median,
+            crate::table::compact(median),
+            crate::table::compact(t_before),
+            crate::table::compact(t),
+        )
+        .into());
+    }
+    Ok(())
 }
 
 /// Refuse a calibration whose compensation matrices `I - Theta` (gyros) and `I + Gamma`

@@ -73,8 +73,8 @@ pub struct CalibrateArgs {
     /// (NEES) of all parameters.
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
-    /// Write the PNG plots of the tests of the fit's innovations into DIR (created if
-    /// missing). The tests themselves (NIS per program segment, whiteness, lines at the
+    /// Write the PNG plots of the tests of the fit's innovations into DIR (created, or its
+    /// plots replaced whole, as --report: a failed run leaves none). The tests themselves (NIS per program segment, whiteness, lines at the
     /// program's frequencies; docs/estimation.md, "Diagnostics") run on every calibration:
     /// their summary is printed, the JSON has their "diagnostics" block, and with a configured
     /// noise a failing verdict (family-wise level 1 %) ends with exit status 3.

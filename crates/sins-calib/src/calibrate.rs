@@ -2,7 +2,7 @@
 
 use crate::Error;
 use crate::console::Written;
-use crate::diagnostic_plots::write_diagnostic_plots;
+use crate::diagnostic_plots::write_diagnostics_dir;
 use crate::run_report::RunReport;
 use crate::session::{Calibrate, Records, Session};
 use calib::estimate::ImuSource as _;
@@ -36,6 +36,11 @@ pub fn run(args: &crate::args::CalibrateArgs) -> Result<u8, Error> {
     let mut session = crate::session::calibrate(args)?;
     let fit = fit(&mut session)?;
     let report = RunReport::build(&session, &fit)?;
+    let estimated = report.result.parameters.iter();
+    check_physical(
+        estimated.map(|p| (p.name.as_str(), p.value)),
+        &session.imu_file,
+    )?;
     let written = write_outputs(&session, &fit, &report)?;
     crate::report(
         &crate::console::render(&report, &written),
@@ -45,6 +50,34 @@ pub fn run(args: &crate::args::CalibrateArgs) -> Result<u8, Error> {
         eprintln!("{}", crate::console::misfit_message(&report.verdict));
     }
     Ok(report.verdict.exit_status())
+}
+
+/// Refuse an estimate beyond the physical bounds `apply` holds a result to
+/// (`calib::config::plausible`), before anything is written: a scale factor of 100 % is a
+/// diverged fit (two axes swapped, a left-handed axis map, records in other units), which
+/// `apply` would refuse only later; the exit status must say so now.
+pub fn check_physical<'a>(
+    parameters: impl IntoIterator<Item = (&'a str, f64)>,
+    imu_file: &str,
+) -> Result<(), Error> {
+    for (name, value) in parameters {
+        if let Err(message) = calib::config::plausible::check(name, value) {
+            return Err(format!(
+                "the fit of {imu_file} diverged: {message}; nothing is written. Check the \
+                 records' axes (two swapped, or a left-handed axis map in the import profile), \
+                 their units and the configuration's priors"
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// [`check_physical`] of an estimate's states (the attitude errors have no bound): `diagnose`'s
+/// final model, refused before its result is written.
+pub fn check_estimate(estimate: &calib::estimate::Estimate, imu_file: &str) -> Result<(), Error> {
+    let states = estimate.names.iter().map(String::as_str);
+    check_physical(states.zip(estimate.values.iter().copied()), imu_file)
 }
 
 /// The filter on the session's data: along the program (and the angles), or through the
@@ -100,8 +133,8 @@ fn write_outputs(
 ) -> Result<Written, Error> {
     let mut written = Written::default();
     if let Some(dir) = &s.task.diagnostics {
-        let files = write_diagnostic_plots(dir, &fit.diagnostics, &fit.estimate.innovations, None)?;
-        written.diagnostics = Some((dir.clone(), files.len()));
+        let plots = write_diagnostics_dir(dir, &fit.diagnostics, &fit.estimate.innovations)?;
+        written.diagnostics = Some((dir.clone(), plots));
     }
     if let Some(path) = &s.json {
         crate::result_json::write(path, r)?;

@@ -40,7 +40,7 @@ fn check_distinct_terms(ids: &[String]) -> Result<(), Error> {
 
 /// Run `design`.
 pub fn run(args: &Args) -> Result<(), Error> {
-    let (config, _) = load_config(&args.config)?;
+    let (config, origin) = load_config(&args.config)?;
     if let Some(path) = &args.out {
         let program = crate::identification::program_file(&config);
         let mut inputs = vec![std::path::Path::new(&args.config)];
@@ -49,6 +49,23 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     check_distinct_terms(&args.terms)?;
     let terms = parse_terms(&args.terms)?;
+    if terms.contains(&sins_model::candidates::Candidate::GyroBiasDrift) {
+        // The design leaves it out (it has no parameters to separate): named, it would be
+        // dropped without a word.
+        return Err(
+            "design --terms gyro_bias_drift: a random walk of the gyro biases has no parameters \
+             for a program to separate (it is process noise, not a state): expected candidate \
+             terms with parameters; `analyse --walk-reach` says which walk a program shows"
+                .into(),
+        );
+    }
+    crate::terms::check_thermal(
+        &terms,
+        config.temperature.is_some(),
+        "design",
+        &format!("{origin} has no [temperature] section"),
+        "the temperature profile the unit will see in a [temperature] section",
+    )?;
     let (recorded, proposals, chosen) =
         calib::extend::design::design(&config, args.with_turntable, &terms)?;
     let mut s = String::new();
@@ -86,9 +103,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
     };
     s += &toml;
-    print(&s)?;
+    // The file first: a report that cannot be printed must not lose it.
     if let Some(path) = &args.out {
         output::write_file(path, toml.as_bytes())?;
     }
-    Ok(())
+    print(&s)
 }

@@ -449,6 +449,7 @@ pub fn run(args: &crate::args::DiagnoseArgs) -> Result<u8, Error> {
     let session = crate::session::diagnose(args)?;
     note_setup(&session);
     let result = fit_loop(&session)?;
+    crate::calibrate::check_estimate(&result.last.calibration.estimate, &session.imu_file)?;
     let held_out = held_out_verdict(&session, &result)?;
     let d = Diagnosis::build(&session, result, held_out)?;
     let mut text = render(&d);

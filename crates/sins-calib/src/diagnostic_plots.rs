@@ -41,6 +41,39 @@ fn perr(e: &dyn std::fmt::Display) -> String {
 /// The plots of [`write_plots`], by file-name stem.
 pub const PLOTS: [&str; 4] = ["innovations", "spectrum", "autocorrelation", "nis_segments"];
 
+/// Every file [`write_diagnostic_plots`] may write (`<stem>_<kind>.png`): `--diagnostics` is
+/// written as `--report` is, into a temporary directory swapped in whole
+/// ([`crate::output::DirOutput`]), so a refused or interrupted run leaves no plot behind.
+pub const NAMES: [&str; 8] = [
+    "innovations_accel.png",
+    "spectrum_accel.png",
+    "autocorrelation_accel.png",
+    "nis_segments_accel.png",
+    "innovations_turntable.png",
+    "spectrum_turntable.png",
+    "autocorrelation_turntable.png",
+    "nis_segments_turntable.png",
+];
+
+/// Write the diagnostic plots of a fit into the directory `dir` whole (see [`NAMES`]);
+/// returns the number of plots.
+pub fn write_diagnostics_dir(
+    dir: &Path,
+    diagnostics: &Diagnostics,
+    innovations: &[Innovation],
+) -> Result<usize, Error> {
+    let out = crate::output::DirOutput::begin(dir, &NAMES)?;
+    let files = write_diagnostic_plots(out.tmp_dir(), diagnostics, innovations, None)?;
+    if let Some(f) = files
+        .iter()
+        .find(|f| !NAMES.iter().any(|n| f.file_name().is_some_and(|x| x == *n)))
+    {
+        return Err(format!("{}: not one of the diagnostic plots' names", f.display()).into());
+    }
+    out.commit()?;
+    Ok(files.len())
+}
+
 /// Write the diagnostic plots of a fit (and of a second one, `after`) into `dir`: per kind
 /// `innovations_<kind>.png`, `spectrum_<kind>.png`, `autocorrelation_<kind>.png`,
 /// `nis_segments_<kind>.png`. Returns the files written.

@@ -150,6 +150,7 @@ fn config_from_recording(
     let assumptions = site_assumptions(&config, lat, latitude.is_none(), height.is_none());
     let interval = 1.0 / config.filter.imu_rate_hz;
     if interval > MAX_RECORD_INTERVAL_S {
+        check_jump(data, file)?;
         return Err(calib::estimate::EstimateError::Rests {
             file: file.to_string(),
             source: calib::motion::rests::RestError::SlowRecords {
@@ -208,6 +209,40 @@ fn site_assumptions(
     assumptions
 }
 
+/// Refuse a jump in the time stamps (an interval of more than [`JUMP_MEDIAN_INTERVALS`]
+/// median intervals, e.g. 1e6 s), naming its line: it makes the records' mean interval that
+/// of no recording, and the message would otherwise blame the record rate.
+fn check_jump(data: &ImuData, file: &str) -> Result<(), Error> {
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    let median = calib::io::timing::median_interval(&t);
+    let Some((k, d)) = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+    else {
+        return Ok(());
+    };
+    if median > 0.0 && d > JUMP_MEDIAN_INTERVALS * median {
+        return Err(format!(
+            "{file}: line {}: the time stamps jump by {} s (t = {} s at line {}, {} s here) \
+             against a median interval of {} s: expected records at a steady rate; split the \
+             recording at the jump",
+            k + 3,
+            table::compact(d),
+            table::compact(t[k]),
+            k + 2,
+            table::compact(t[k + 1]),
+            table::compact(median)
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// An interval longer than this many median intervals is a jump in the time stamps.
+const JUMP_MEDIAN_INTERVALS: f64 = 1000.0;
+
 /// The section list at `path`, checked against the records of `data` before any work
 /// ([`SectionsFile::check_records`]).
 pub(crate) fn read_sections(
@@ -224,7 +259,53 @@ pub(crate) fn read_sections(
     sections
         .check_records(&times)
         .map_err(|e| format!("{}: {e}", path.display()))?;
+    check_faces(&sections, data).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(sections)
+}
+
+/// The largest angle (deg) between a static face's `up` and the specific force its records
+/// measure: a hand-placed face is within a few degrees; a reversed or wrong one is 90 or 180.
+const MAX_FACE_TILT_DEG: f64 = 30.0;
+
+/// Check every static face of the list against the records: its `up` given (the specific force
+/// at rest is g times it, which the calibration measures it by) and within
+/// [`MAX_FACE_TILT_DEG`] of the direction of the specific force over its records. A face with
+/// its `up` missing or reversed was used as it was written. (The records are those
+/// [`SectionsFile::check_records`] found inside the file.)
+fn check_faces(sections: &SectionsFile, data: &calib::io::ImuData) -> Result<(), String> {
+    use calib::motion::sections::SectionKind;
+    for s in sections
+        .sections
+        .iter()
+        .filter(|s| s.kind == SectionKind::Static)
+    {
+        let Some(up) = s.up else {
+            return Err(format!(
+                "section `{}` is a static face without `up`: expected the body axis that \
+                 points up there (a unit vector in the axes of the IMU file)",
+                s.name
+            ));
+        };
+        // The sum of the records' specific force (or velocity increments): its direction is
+        // that of the mean specific force either way.
+        let mut sum = nalgebra::Vector3::zeros();
+        for r in &data.records[s.first_record..=s.last_record] {
+            sum += nalgebra::Vector3::from(r.accel);
+        }
+        let up = nalgebra::Vector3::from(up);
+        let angle = up.angle(&sum).to_degrees();
+        if angle.is_nan() || angle > MAX_FACE_TILT_DEG {
+            let dir = sum.normalize();
+            return Err(format!(
+                "section `{}`: up = [{:.3}, {:.3}, {:.3}], but the specific force its records \
+                 measure points along [{:.3}, {:.3}, {:.3}], {angle:.0} deg from it: expected \
+                 the body axis that points up within {MAX_FACE_TILT_DEG} deg (a reversed or \
+                 wrong `up`, or a section list of another recording)",
+                s.name, up[0], up[1], up[2], dir[0], dir[1], dir[2]
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// What the report and the JSON say of a run's setup beyond its result: where the

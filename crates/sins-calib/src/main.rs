@@ -18,6 +18,26 @@
 // No unsafe code: the interrupting signals come through `signal-hook` (`signals`).
 #![forbid(unsafe_code)]
 
+// Messages to the standard error and output, written without panicking. The standard macros
+// panic when the write fails ("failed printing to stderr": `2>/dev/full`, a reader that has
+// gone), which turned every refusal into exit status 101 and stopped a finished run before its
+// files were written. These shadows, defined before the `mod` lines, are the ones every module
+// below uses. A message that cannot be written is dropped: the exit status still says what
+// happened, and the files of a finished run are still written. The report itself goes through
+// [`print`], where a failed write is an error (the exit status must say the report is lost).
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+macro_rules! eprint {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod analyse;
 mod apply;
 mod args;
@@ -72,6 +92,9 @@ pub type Error = Box<dyn std::error::Error>;
 /// or option); 2 a malformed command line; 3 (calibrate, diagnose) the model does not fit the
 /// data: the results were computed and written, but are not to be trusted; 128 + the signal's
 /// number when interrupted (SIGINT 130, SIGTERM 143), with no temporary output left behind.
+/// A standard error that cannot be written (full, or its reader gone) changes no status; a
+/// report that cannot be written to the standard output ends with status 1 after the run's
+/// output files are written (they are kept).
 #[derive(Debug, Parser)]
 #[command(name = "sins-calib", version)]
 struct Cli {
@@ -167,13 +190,17 @@ pub fn report(text: &str, json: Option<&std::path::Path>) -> Result<(), Error> {
     }
 }
 
-/// Write a report to stdout; a closed pipe (e.g. `| head`) is not an error.
+/// Write a report to stdout; a closed pipe (e.g. `| head`) is not an error. Every command
+/// prints its report after its files are written, so a failure here (a full disk behind
+/// `> file`, `>/dev/full`) ends with status 1 and the files kept, which the message says.
 pub fn print(text: &str) -> Result<(), Error> {
     let mut out = std::io::stdout().lock();
     match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            Err(format!("cannot write to standard output: {e}").into())
-        }
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(format!(
+            "cannot write the report to standard output: {e}: the report is lost (any output \
+             file this run wrote is complete and kept)"
+        )
+        .into()),
         _ => Ok(()),
     }
 }
@@ -201,10 +228,48 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", readable(&e.to_string()));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The longest line of an error message shown (characters).
+const MESSAGE_LINE_MAX: usize = 1000;
+/// The most lines of an error message shown.
+const MESSAGE_LINES_MAX: usize = 40;
+
+/// An error message capped at a readable length: a parser's excerpt of a hostile input (a
+/// configuration nested 100 000 deep, a 300 000-entry array on one line) echoed that input
+/// whole, hundreds of kilobytes. Each line keeps its start (the file, line and field come
+/// first) and end (the cause the parser names last); the lines keep the first and last ones.
+fn readable(message: &str) -> String {
+    let cap_line = |l: &str| -> String {
+        let n = l.chars().count();
+        if n <= MESSAGE_LINE_MAX {
+            return l.to_string();
+        }
+        let head: String = l.chars().take(MESSAGE_LINE_MAX - 200).collect();
+        let tail: String = l.chars().skip(n - 150).collect();
+        format!(
+            "{head} ... ({} characters left out) ... {tail}",
+            n - (MESSAGE_LINE_MAX - 200) - 150
+        )
+    };
+    let lines: Vec<&str> = message.lines().collect();
+    let shown: Vec<String> = if lines.len() <= MESSAGE_LINES_MAX {
+        lines.iter().map(|l| cap_line(l)).collect()
+    } else {
+        let (head, tail) = (MESSAGE_LINES_MAX - 10, 10);
+        let mut v: Vec<String> = lines[..head].iter().map(|l| cap_line(l)).collect();
+        v.push(format!(
+            "... ({} lines left out) ...",
+            lines.len() - head - tail
+        ));
+        v.extend(lines[lines.len() - tail..].iter().map(|l| cap_line(l)));
+        v
+    };
+    shown.join("\n")
 }
 
 #[cfg(test)]
@@ -215,5 +280,20 @@ mod tests {
     #[test]
     fn cli_definition_is_consistent() {
         Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn messages_are_capped_keeping_their_ends() {
+        let long = format!("p.toml: line 2: {} expected 3", "[".repeat(300_000));
+        let shown = readable(&long);
+        assert!(shown.len() < 2 * MESSAGE_LINE_MAX, "{}", shown.len());
+        assert!(shown.starts_with("p.toml: line 2: "), "{shown}");
+        assert!(shown.ends_with("expected 3"), "{shown}");
+        let many: String = (0..100_000).map(|k| format!("line {k}\n")).collect();
+        let shown = readable(&many);
+        assert_eq!(shown.lines().count(), MESSAGE_LINES_MAX + 1);
+        assert!(shown.contains("line 99999"), "{shown}");
+        // A short message is unchanged.
+        assert_eq!(readable("a: b\nc"), "a: b\nc");
     }
 }

@@ -293,22 +293,6 @@ impl<'a> Outputs<'a> {
         self.claim(option, path, vec![resolved(path)])
     }
 
-    /// A directory whose outputs are not known before the work (`calibrate --diagnostics`): not
-    /// a file or device, writable where it is or is to be created, and no other output.
-    pub fn any_dir(&mut self, dir: &Path, option: &str) -> Result<(), Error> {
-        if dir.exists() && !dir.is_dir() {
-            return Err(format!(
-                "{option} {}: {option} needs a directory (existing or to be created), this is \
-                 a file",
-                dir.display()
-            )
-            .into());
-        }
-        check_dir(dir, option, &[], &self.inputs)?;
-        check_not_special(dir, option)?;
-        self.claim(option, dir, vec![resolved(dir)])
-    }
-
     /// A directory of outputs `names` ([`check_dir`]).
     pub fn dir(&mut self, dir: &Path, option: &str, names: &[&str]) -> Result<(), Error> {
         check_dir(dir, option, names, &self.inputs)?;
@@ -326,8 +310,54 @@ fn temporary_beside(path: &Path, n: usize) -> PathBuf {
     parent_of(path).join(format!(".{name}.tmp-{}-{n}", std::process::id()))
 }
 
-/// A temporary name beside `path` that no file has yet.
+/// Whether a temporary of this program, of process `pid`, may be stale: the process is gone.
+/// Only where `/proc` tells (Linux); elsewhere nothing is taken as stale.
+fn process_gone(pid: u32) -> bool {
+    Path::new("/proc/self").exists() && !Path::new(&format!("/proc/{pid}")).exists()
+}
+
+/// The process id in a temporary's name after `prefix` (`PID-N`, then an extension or
+/// nothing), if the name is one of ours.
+fn temporary_pid(name: &str, prefix: &str) -> Option<u32> {
+    let rest = name.strip_prefix(prefix)?;
+    let (pid, rest) = rest.split_once('-')?;
+    let n = rest.split('.').next()?;
+    (!n.is_empty() && n.bytes().all(|b| b.is_ascii_digit())).then_some(())?;
+    pid.parse().ok()
+}
+
+/// Remove the temporaries an earlier run into the same place left (killed with SIGKILL, or by
+/// a power cut, before its own clean-up could run: a 7.6-h run left hundreds of megabytes):
+/// beside `path`, `.NAME.tmp-PID-N[.ext]` files and directories and `.sins-calib-probe-PID-N`
+/// probes of processes that no longer exist. Those of a run still going are left alone.
+pub fn remove_stale(path: &Path) {
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return;
+    };
+    let dir = parent_of(path);
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return;
+    };
+    let ours = format!(".{name}.tmp-");
+    for e in entries.flatten() {
+        let entry = e.file_name().to_string_lossy().into_owned();
+        let pid =
+            temporary_pid(&entry, &ours).or_else(|| temporary_pid(&entry, ".sins-calib-probe-"));
+        if pid.is_some_and(|p| p != std::process::id() && process_gone(p)) {
+            let p = e.path();
+            let _ = if e.file_type().is_ok_and(|t| t.is_dir()) {
+                std::fs::remove_dir_all(&p)
+            } else {
+                std::fs::remove_file(&p)
+            };
+        }
+    }
+}
+
+/// A temporary name beside `path` that no file has yet (the stale ones of killed runs removed
+/// first, [`remove_stale`]).
 pub fn fresh_temporary(path: &Path) -> Result<PathBuf, Error> {
+    remove_stale(path);
     (0..100)
         .map(|n| temporary_beside(path, n))
         .find(|p| std::fs::symlink_metadata(p).is_err())
@@ -351,10 +381,7 @@ pub fn write_file(path: &Path, text: &[u8]) -> Result<(), Error> {
             .and_then(|()| out.flush())
             .map_err(|e| format!("cannot write to standard output (`-`): {e}").into());
     }
-    let tmp = (0..100)
-        .map(|n| temporary_beside(path, n))
-        .find(|p| !p.exists())
-        .ok_or_else(|| format!("{}: cannot find a temporary name beside it", path.display()))?;
+    let tmp = fresh_temporary(path)?;
     // Removed on a failure (the guard's drop) and on an interruption (the signal thread).
     let guard = crate::signals::Pending::new(&tmp);
     std::fs::write(&tmp, text)
@@ -377,6 +404,7 @@ pub fn write_with(
         .extension()
         .map(|e| format!(".{}", e.to_string_lossy()))
         .unwrap_or_default();
+    remove_stale(path);
     let tmp = (0..100)
         .map(|n| {
             let mut t = temporary_beside(path, n).into_os_string();
@@ -409,6 +437,7 @@ impl DirOutput {
         let parent = parent_of(dir);
         std::fs::create_dir_all(&parent)
             .map_err(|e| format!("{}: cannot create the directory: {e}", parent.display()))?;
+        remove_stale(dir);
         let tmp = (0..100)
             .map(|n| temporary_beside(dir, n))
             .find(|p| !p.exists())
@@ -529,6 +558,36 @@ mod tests {
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
         d
+    }
+
+    #[test]
+    fn temporaries_of_killed_runs_are_removed_by_the_next_run() {
+        let d = scratch("stale");
+        let out = d.join("c.csv");
+        // A process id no process has (above Linux's largest, 2^22).
+        let dead = 4_999_999;
+        let stale = d.join(format!(".c.csv.tmp-{dead}-0"));
+        let stale_png = d.join(format!(".p.png.tmp-{dead}-3.png"));
+        let stale_dir = d.join(format!(".out.tmp-{dead}-100"));
+        let live = d.join(format!(".c.csv.tmp-{}-7", std::process::id()));
+        let other = d.join(".c.csv.tmp-notes");
+        for f in [&stale, &stale_png, &live, &other] {
+            std::fs::write(f, "x").unwrap();
+        }
+        std::fs::create_dir(&stale_dir).unwrap();
+        write_file(&out, b"new").unwrap();
+        write_with(&d.join("p.png"), |tmp| Ok(std::fs::write(tmp, "png")?)).unwrap();
+        DirOutput::begin(&d.join("out"), &["a.txt"])
+            .unwrap()
+            .commit()
+            .unwrap();
+        if Path::new("/proc/self").exists() {
+            for f in [&stale, &stale_png, &stale_dir] {
+                assert!(!f.exists(), "{} left", f.display());
+            }
+        }
+        // A running process's temporary and a name that is not ours stay.
+        assert!(live.exists() && other.exists());
     }
 
     #[test]

@@ -50,7 +50,9 @@ pub(crate) fn check_plausible_streamed(
     let mut bad: Option<String> = None;
     // Rates below the band of g: more than half of them put the median below it.
     let mut w_below = 0usize;
+    let mut stuck = ::import::Stuck::default();
     source.read(&mut |t, w, f| {
+        stuck.push_values(&w, &f);
         if k == 0 {
             t0 = t;
         }
@@ -74,6 +76,8 @@ pub(crate) fn check_plausible_streamed(
     if let Some(message) = bad {
         return Err(message.into());
     }
+    // A stuck sensor: a column that never changes (the records' lines from 2 on).
+    stuck.check(2, n + 1).map_err(|m| format!("{file}: {m}"))?;
     // Gyro and accelerometer columns swapped: the "angular rate" has the magnitude of gravity
     // in m/s^2 for most of the recording (560 deg/s, which no calibration turns at for long)
     // while the "specific force" is far below g. Medians, so the turns of a program or a hand
@@ -256,18 +260,20 @@ pub(crate) fn check_at_rest_streamed(
     window_s: f64,
 ) -> Result<(), Error> {
     let medians = ::calib::motion::detect::select::select_streamed(
-        4,
+        5,
         |_, len| len / 2,
         |visit| {
-            source.read(&mut |_, _, f| {
+            source.read(&mut |_, w, f| {
                 visit(0, norm(&f));
                 for (a, x) in f.into_iter().enumerate() {
                     visit(1 + a, x);
                 }
+                visit(4, norm(&w));
             })
         },
     )?;
     check_median_force_at_rest(medians[0], file)?;
+    check_median_rate_at_rest(medians[4], file)?;
     let window = window.max(2);
     let windows = source.records / window;
     if windows < 2 {
@@ -321,6 +327,28 @@ fn check_median_force_at_rest(median_f: f64, file: &str) -> Result<(), Error> {
             table::significant(ratio, 4),
             G_AT_REST.0,
             G_AT_REST.1
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// A recording said to be at rest turns at no more than the rest detector's largest mean
+/// rate (`DetectorSettings::max_rate_rad_s`), measured on the median of the records' rate
+/// magnitudes (`median_rate`, rad/s; a turn about any axis counts): a unit turning steadily (a
+/// turntable at 20 deg/s about the vertical) keeps its gyro spread and its specific force, so
+/// the other checks pass it, and its rate would be read as a bias walk.
+fn check_median_rate_at_rest(median_rate: f64, file: &str) -> Result<(), Error> {
+    let max = ::calib::motion::detect::DetectorSettings::default().max_rate_rad_s;
+    let rate = median_rate;
+    if rate.is_nan() || rate > max {
+        return Err(format!(
+            "{file}: --all-at-rest, but the recording turns: its median rate is {} deg/s \
+             ({} rad/s): expected a unit at rest, below the rest detector's {} deg/s ({max} \
+             rad/s); leave out --all-at-rest to use the static intervals the detector finds",
+            table::significant(rate.to_degrees(), 3),
+            table::significant(rate, 3),
+            table::significant(max.to_degrees(), 3),
         )
         .into());
     }

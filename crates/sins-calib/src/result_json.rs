@@ -23,6 +23,8 @@ struct ResultJson<'a> {
     inputs: Option<&'a [InputHash]>,
     /// What the run assumed for want of an input (e.g. the site's latitude).
     assumptions: &'a [String],
+    /// The candidate terms added to the paper's model (`--terms`, `--terms-from`).
+    terms: &'a [&'static str],
     parameters: &'a [ResultParameter],
     /// The posterior correlation of the parameters (docs/formats.md).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -113,6 +115,7 @@ pub fn write(path: &Path, r: &RunReport) -> Result<(), Error> {
         unit: &p.unit,
         inputs: (!p.inputs.is_empty()).then_some(p.inputs.as_slice()),
         assumptions: &r.assumptions,
+        terms: &r.terms,
         parameters: &r.result.parameters,
         correlation: r.result.correlation.as_ref(),
         correction: r.result.correction.as_ref(),

@@ -28,6 +28,8 @@ pub struct RunReport {
     pub provenance: RunProvenance,
     /// What the run assumed for want of an input.
     pub assumptions: Vec<String>,
+    /// The candidate terms added to the paper's model (ids).
+    pub terms: Vec<&'static str>,
     /// The parameters in their report units, with a truth's values.
     pub parameters: Vec<ParameterRow>,
     /// The parameters in SI with their correlation, the correction and the temperature (the
@@ -244,6 +246,7 @@ impl RunReport {
             assumptions: s
                 .free_motion()
                 .map_or(Vec::new(), |f| f.summary.assumptions.clone()),
+            terms: s.task.terms.iter().map(|c| c.id()).collect(),
             parameters,
             result,
             fit: fit_figures,

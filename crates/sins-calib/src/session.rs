@@ -135,6 +135,10 @@ pub struct Calibrate {
     pub plot: Option<PathBuf>,
     /// `--diagnostics DIR`, checked and created.
     pub diagnostics: Option<PathBuf>,
+    /// The candidate terms added to the paper's model (`--terms`, `--terms-from`), recorded in
+    /// the result: a term such as the bias drift changes the estimates without parameters of
+    /// its own.
+    pub terms: Vec<Candidate>,
 }
 
 /// What `diagnose` adds to its session.
@@ -175,6 +179,12 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
     let imu_file = calib::estimate::ImuSource::file(&imu).to_string();
     let turntable = args.turntable.as_deref().map(AngleFile::open).transpose()?;
     let program = program_of(&config, turntable.as_ref())?;
+    check_turntable_coverage(
+        &config,
+        turntable.as_ref(),
+        program.is_some(),
+        imu_span(&args.imu),
+    )?;
     if let (true, Some((name, _))) = (args.free_motion, &program) {
         return Err(format!(
             "calibrate --free-motion: {origin} has a rotation program ({name}); --free-motion \
@@ -191,6 +201,13 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
     let mut provenance =
         crate::provenance::gather(&args.imu, config_unit, &args.unit, args.free_motion)?;
     let terms = crate::terms::terms_asked(&args.terms, args.terms_from.as_deref())?;
+    crate::terms::check_thermal(
+        &terms,
+        imu.has_temp(),
+        "calibrate",
+        &format!("{imu_file}: no `temp` column"),
+        "records with a `temp` column (deg C)",
+    )?;
     let mut session = Session {
         config,
         source,
@@ -235,6 +252,7 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
         truth,
         plot,
         diagnostics,
+        terms,
     }))
 }
 
@@ -261,7 +279,7 @@ impl Session<()> {
 }
 
 /// Check `calibrate`'s outputs before any work (none may be an input); returns `--plot` and
-/// `--diagnostics` (the directory made if missing).
+/// `--diagnostics` (a directory of outputs, written whole after the work as `--report` is).
 fn calibrate_outputs(
     args: &crate::args::CalibrateArgs,
 ) -> Result<(Option<PathBuf>, Option<PathBuf>), Error> {
@@ -282,8 +300,7 @@ fn calibrate_outputs(
         outputs.dir(dir, "--report", &crate::identification::NAMES)?;
     }
     if let Some(dir) = &args.diagnostics {
-        outputs.any_dir(dir, "--diagnostics")?;
-        prepare_diagnostics_dir(dir)?;
+        outputs.dir(dir, "--diagnostics", &crate::diagnostic_plots::NAMES)?;
     }
     Ok((args.plot.clone(), args.diagnostics.clone()))
 }
@@ -343,6 +360,15 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
     }
     let imu = read_imu_csv(&args.imu)?;
     let imu_file = args.imu.display().to_string();
+    // Without --terms every candidate is considered and the loop leaves the thermal ones out
+    // on records without temperatures, saying so; named, they are refused.
+    crate::terms::check_thermal(
+        &settings.candidates,
+        args.terms.is_empty() || imu.records.iter().all(|r| r.temp.is_some()),
+        "diagnose",
+        &format!("{imu_file}: no `temp` column"),
+        "records with a `temp` column (deg C)",
+    )?;
     let turntable = args.turntable.as_deref().map(AngleFile::open).transpose()?;
     if args.free_motion && !config.program_from_angles() {
         return Err(format!(
@@ -354,6 +380,13 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
     }
     let rests_mode = turntable.is_none() && config.program_from_angles();
     refuse_detector_with_program("diagnose", !rests_mode, &args.detector)?;
+    let span = imu.records.first().zip(imu.records.last());
+    check_turntable_coverage(
+        &config,
+        turntable.as_ref(),
+        !rests_mode,
+        span.map(|(a, b)| (a.t, b.t)),
+    )?;
     let mut report_inputs = vec![("IMU records", args.imu.clone())];
     report_inputs.extend(args.turntable.clone().map(|p| ("turntable angles", p)));
     let mut session = Session {
@@ -496,6 +529,81 @@ fn program_of(
     Ok(program.map(|p| (p.name.clone(), p.duration())))
 }
 
+/// The least share of the IMU records' span the turntable angles must cover.
+const TURNTABLE_COVERAGE_MIN: f64 = 0.9;
+
+/// The first and last time stamps of an `imu.csv`, read cheaply before the work: the first
+/// record, and the last line of the file's tail. `None` where that cannot be done (a pipe, a
+/// last line that is not a record) or where the stamps are not plausibly seconds (the first
+/// interval above 1 s: the checks of the records then name the unit): the fit's own statistics
+/// count what is uncovered.
+fn imu_span(path: &Path) -> Option<(f64, f64)> {
+    use std::io::{Read as _, Seek as _, SeekFrom};
+    // A regular file only: a second reader of a pipe would take the records from the first.
+    if !std::fs::metadata(path).ok()?.is_file() {
+        return None;
+    }
+    let mut reader = calib::io::ImuReader::open(path).ok()?;
+    let first = reader.next_record().ok()??.t;
+    let second = reader.next_record().ok()??.t;
+    if !(second > first && second - first <= 1.0) {
+        return None;
+    }
+    let mut f = std::fs::File::open(path).ok()?;
+    let meta = f.metadata().ok()?;
+    f.seek(SeekFrom::Start(meta.len().saturating_sub(4096)))
+        .ok()?;
+    let mut tail = Vec::new();
+    f.take(4096).read_to_end(&mut tail).ok()?;
+    let tail = String::from_utf8_lossy(&tail);
+    // The last line whole: a line break before it within the tail (a line longer than the
+    // tail would be read from its middle).
+    let (_, last_line) = tail.trim_end().rsplit_once('\n')?;
+    let last: f64 = last_line.split(',').next()?.trim().parse().ok()?;
+    (last.is_finite() && last > first).then_some((first, last))
+}
+
+/// Refuse, before the work, turntable angles that cover less than [`TURNTABLE_COVERAGE_MIN`]
+/// of the IMU records' span `imu` (on the IMU clock, through `[clock]`) along a program: the
+/// rest of the run would go without turntable measurements, the installation misalignment and
+/// delay resting on part of it, with no word but a count in the fit's statistics.
+fn check_turntable_coverage(
+    config: &RunConfig,
+    turntable: Option<&AngleFile>,
+    has_program: bool,
+    imu: Option<(f64, f64)>,
+) -> Result<(), Error> {
+    let (Some(tt), true, Some((i0, i1))) = (turntable, has_program, imu) else {
+        return Ok(());
+    };
+    let records = tt.records();
+    let summary = records.summary();
+    let (a, b) = summary.span;
+    // `[clock]`: t_tt = offset + (1 + rate error) t_imu.
+    let c = &config.clock;
+    let on_imu = |t: f64| (t - c.turntable_offset_s) / (1.0 + c.turntable_rate_error);
+    let covered = (on_imu(b).min(i1) - on_imu(a).max(i0)).max(0.0);
+    let length = i1 - i0;
+    if summary.count >= 2 && length > 0.0 && covered < TURNTABLE_COVERAGE_MIN * length {
+        return Err(format!(
+            "{}: the turntable records span t = {} .. {} s (turntable clock), {} s of the IMU \
+             records' t = {} .. {} s ({:.0} %): expected angles over at least {:.0} % of the \
+             IMU records (the rest would go without turntable measurements); give the whole \
+             recording, or leave --turntable out to calibrate from the IMU alone",
+            records.file(),
+            crate::table::compact(a),
+            crate::table::compact(b),
+            crate::table::compact(covered),
+            crate::table::compact(i0),
+            crate::table::compact(i1),
+            100.0 * covered / length,
+            100.0 * TURNTABLE_COVERAGE_MIN
+        )
+        .into());
+    }
+    Ok(())
+}
+
 /// Refuse the `--rest-*` options where a program says where the unit rests.
 fn refuse_detector_with_program(
     command: &str,
@@ -581,25 +689,4 @@ fn check_truth_units(
         )?;
     }
     Ok(())
-}
-
-/// Make the diagnostics directory (one level) if it is not there; refuse a file.
-fn prepare_diagnostics_dir(dir: &Path) -> Result<(), Error> {
-    if dir.is_dir() {
-        return Ok(());
-    }
-    if dir.exists() {
-        return Err(format!(
-            "{}: --diagnostics needs a directory, this is a file",
-            dir.display()
-        )
-        .into());
-    }
-    std::fs::create_dir(dir).map_err(|e| {
-        format!(
-            "{}: cannot create the diagnostics directory: {e}",
-            dir.display()
-        )
-        .into()
-    })
 }

@@ -21,10 +21,42 @@ pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
         .map(|id| {
             Candidate::from_id(id).ok_or_else(|| {
                 let valid: Vec<&str> = Candidate::ALL.iter().map(|c| c.id()).collect();
-                format!("unknown term {id:?}: expected one of {}", valid.join(", ")).into()
+                format!(
+                    "unknown term {}: expected one of {}",
+                    excerpt(id),
+                    valid.join(", ")
+                )
+                .into()
             })
         })
         .collect()
+}
+
+/// Refuse a thermal term (`--terms gyro_temp_bias`, ...) where there is no temperature for it
+/// to act on: its effect is the temperature's departure from its reference, so without one its
+/// coefficients would stay at their prior, with no reference temperature in the result (and
+/// `apply` refusing it later), or a design would propose a program that separates nothing.
+/// `lacks` says what is missing (`imu.csv: no \`temp\` column`), `expected` what would do.
+pub fn check_thermal(
+    terms: &[Candidate],
+    has_temperature: bool,
+    command: &str,
+    lacks: &str,
+    expected: &str,
+) -> Result<(), Error> {
+    if has_temperature {
+        return Ok(());
+    }
+    let Some(c) = terms.iter().find(|c| c.is_thermal()) else {
+        return Ok(());
+    };
+    Err(format!(
+        "{command}: {lacks}: the thermal term {} acts on the temperature's departure from its \
+         reference, so without temperatures its coefficients stay at their prior: expected \
+         {expected}, or the term left out (docs/temperature.md)",
+        c.id()
+    )
+    .into())
 }
 
 /// The terms of `--terms` and `--terms-from` (a `diagnose --json` result's `accepted_terms`),
@@ -36,6 +68,18 @@ pub fn terms_asked(
     let mut all: Vec<String> = ids.to_vec();
     if let Some(path) = from {
         for id in accepted_terms(path)? {
+            // Named with its file: the id came from there, not from the command line.
+            if Candidate::from_id(&id).is_none() {
+                return Err(format!(
+                    "--terms-from {}: `accepted_terms` holds {}: {}",
+                    path.display(),
+                    excerpt(&id),
+                    parse_terms(std::slice::from_ref(&id))
+                        .err()
+                        .map_or_else(String::new, |e| e.to_string())
+                )
+                .into());
+            }
             if !all.contains(&id) {
                 all.push(id);
             }
@@ -82,6 +126,15 @@ fn accepted_terms(path: &std::path::Path) -> Result<Vec<String>, Error> {
             })
         })
         .collect()
+}
+
+/// A string as shown in a message: at most 60 characters of it.
+fn excerpt(s: &str) -> String {
+    let mut out: String = s.chars().take(60).collect();
+    if out.len() < s.len() {
+        out += "...";
+    }
+    format!("{out:?}")
 }
 
 /// The largest `--terms-from` file read (a diagnose result is a few tens of kilobytes).

@@ -352,5 +352,9 @@ fn calibrate_with_diagnostics_writes_plots_and_json() {
         s(&not_a_dir),
     ]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(text(&out.stderr).contains("needs a directory"));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("--diagnostics") && err.contains("is a file: expected a directory"),
+        "{err}"
+    );
 }

@@ -107,6 +107,7 @@ pub enum Segment {
     /// rate magnitude; gimbals already at their target do not move.
     Move {
         /// Target angles (deg).
+        #[serde(deserialize_with = "exactly")]
         target_deg: [f64; 3],
         /// Rate magnitude (deg/s).
         rate_deg_s: f64,
@@ -123,6 +124,22 @@ impl Segment {
     }
 }
 
+/// A list of exactly `N` numbers. The array's own deserializer takes the first `N` of a
+/// longer list and ignores the rest (a `start_deg` of four, or a million, entries was read as
+/// its first three); a list of another length is refused, naming both lengths.
+pub fn exactly<'de, D, const N: usize>(d: D) -> Result<[f64; N], D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let v = Vec::<f64>::deserialize(d)?;
+    let n = v.len();
+    v.try_into().map_err(|_| {
+        serde::de::Error::custom(format!(
+            "a list of {n} numbers: expected exactly {N} (one per gimbal or axis)"
+        ))
+    })
+}
+
 /// A rotation program as written in TOML.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -130,6 +147,7 @@ pub struct ProgramSpec {
     /// Human-readable name.
     pub name: String,
     /// Gimbal angles at t = 0 (deg).
+    #[serde(deserialize_with = "exactly")]
     pub start_deg: [f64; 3],
     /// Segments in order.
     #[serde(rename = "segment")]

@@ -464,7 +464,11 @@ pub struct TemperatureConfig {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rate_c_per_min: Option<f64>,
     /// Steps: `[t_s, temp_c]`, each temperature held from its time on.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "pairs"
+    )]
     pub steps: Option<Vec<[f64; 2]>>,
     /// The temperature the thermal terms are about (deg C); absent: the mean of the run's
     /// records.
@@ -800,7 +804,21 @@ impl RunConfig {
                 "s",
             )?;
         }
+        let known = truth_value_names();
         for (name, v) in &t.values {
+            if !known.contains(name) {
+                // Refused on reading, by every command: a misspelt name would otherwise be
+                // ignored by all but `simulate`.
+                let shown: String = name.chars().take(80).collect();
+                return Err(invalid(
+                    origin,
+                    format!(
+                        "truth.values names `{shown}`, which is not a parameter: expected one \
+                         of {} (docs/formats.md)",
+                        grouped(&known)
+                    ),
+                ));
+            }
             if let Err(message) = crate::config::plausible::check(name, *v) {
                 return Err(invalid(origin, format!("truth.values.{message}")));
             }
@@ -1006,6 +1024,72 @@ fn invalid(origin: &str, message: String) -> ConfigError {
         origin: origin.to_string(),
         message,
     }
+}
+
+/// `[temperature] steps`: pairs `[t_s, temp_c]`, each of exactly two numbers (the array's own
+/// deserializer would take the first two of a longer one and ignore the rest).
+fn pairs<'de, D>(d: D) -> Result<Option<Vec<[f64; 2]>>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let v = Vec::<Vec<f64>>::deserialize(d)?;
+    v.into_iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let n = p.len();
+            p.try_into().map_err(|_| {
+                serde::de::Error::custom(format!(
+                    "step {}: a list of {n} numbers: expected exactly 2, [t_s, temp_c]",
+                    k + 1
+                ))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(Some)
+}
+
+/// Names listed by family: `gyro.bias.{x,y,z}, turntable.tau, ...` (the families in the order
+/// of their first name).
+fn grouped(names: &[String]) -> String {
+    let mut families: Vec<(&str, Vec<&str>)> = Vec::new();
+    for n in names {
+        let (family, last) = n.rsplit_once('.').unwrap_or(("", n));
+        match families.iter_mut().find(|(f, _)| *f == family) {
+            Some((_, v)) => v.push(last),
+            None => families.push((family, vec![last])),
+        }
+    }
+    families
+        .iter()
+        .map(|(f, v)| match (f.is_empty(), v.as_slice()) {
+            (true, _) => v.join(", "),
+            (false, [one]) => format!("{f}.{one}"),
+            (false, _) => format!("{f}.{{{}}}", v.join(",")),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The names `[truth.values]` may set: the paper's parameters, the installation, delay and
+/// base misalignment, and the candidate terms' parameters (a hidden effect of the simulated
+/// unit; the bias drift is `[noise]`'s, not a value).
+fn truth_value_names() -> Vec<String> {
+    use sins_model::candidates::Candidate;
+    use sins_model::names;
+    let mut v: Vec<String> = sins_model::terms::ErrorModel::paper(&PaperPriors::paper())
+        .params()
+        .into_iter()
+        .map(|p| p.name)
+        .collect();
+    v.extend(names::INSTALL_DELTA.map(String::from));
+    v.push(names::TURNTABLE_TAU.to_string());
+    v.extend(names::BASE_GAMMA.map(String::from));
+    for c in Candidate::ALL {
+        if c != Candidate::GyroBiasDrift {
+            v.extend(c.param_names());
+        }
+    }
+    v
 }
 
 /// `name = v` must be a finite positive number.

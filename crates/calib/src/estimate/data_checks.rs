@@ -12,6 +12,83 @@ pub const MAX_RATE_RAD_S: f64 = 100.0;
 /// Largest specific force accepted (m/s^2): 100 g, beyond any turntable run.
 pub const MAX_SPECIFIC_FORCE_M_S2: f64 = 981.0;
 
+/// Values of a column closer than this (relative) to its first are the same value.
+const STUCK_RELATIVE: f64 = 1e-9;
+
+/// Whether each of the six data columns (gyro x, y, z, accelerometer x, y, z) ever changes: a
+/// triad holding one value over a whole recording is a stuck sensor (or constants written in
+/// its place), whose records would be imported as one long rest without a word.
+#[derive(Default)]
+pub struct Stuck {
+    first: Option<[f64; 6]>,
+    varies: [bool; 6],
+    records: usize,
+}
+
+impl Stuck {
+    /// Recordings of at least this many records are checked: a few hundred identical records
+    /// can be a hand-made example or a short excerpt quantised flat; a stuck sensor shows over
+    /// seconds (10 s at 100 Hz).
+    const MIN_RECORDS: usize = 1000;
+
+    /// One record.
+    pub fn push(&mut self, r: &ImuRecord) {
+        self.push_values(&r.gyro, &r.accel);
+    }
+
+    /// One record's gyro and accelerometer values.
+    pub fn push_values(&mut self, gyro: &[f64; 3], accel: &[f64; 3]) {
+        let v = [gyro[0], gyro[1], gyro[2], accel[0], accel[1], accel[2]];
+        self.records += 1;
+        match &self.first {
+            None => self.first = Some(v),
+            Some(f) => {
+                // Relative to the first value: rates computed from stuck increments over
+                // intervals whose stamps carry rounding still differ in the 15th digit.
+                for k in 0..6 {
+                    self.varies[k] |= (v[k] - f[k]).abs() > STUCK_RELATIVE * f[k].abs();
+                }
+            }
+        }
+    }
+
+    /// Refuse a recording (lines `first_line` .. `last_line`) with a sensor triad (gyro or
+    /// accelerometer) none of whose columns ever changes: `Err` holds the message, which names
+    /// the lines, the columns and their value (the caller adds the file).
+    pub fn check(&self, first_line: usize, last_line: usize) -> Result<(), String> {
+        const NAMES: [&str; 6] = [
+            "gyro x", "gyro y", "gyro z", "accel x", "accel y", "accel z",
+        ];
+        let (Some(first), true) = (self.first, self.records >= Self::MIN_RECORDS) else {
+            return Ok(());
+        };
+        // A whole triad frozen: a sensor (or the recording) stuck. One constant axis alone is
+        // left to the other checks (synthetic and hand-made files hold zero columns), and so is
+        // a triad of zeros, which they name better (accelerometers that read zero, gyros that
+        // read nothing while the program turns).
+        let frozen = |range: std::ops::Range<usize>| {
+            range.clone().all(|k| !self.varies[k]) && range.clone().any(|k| first[k] != 0.0)
+        };
+        let stuck: Vec<String> = [0..3, 3..6]
+            .into_iter()
+            .filter(|r| frozen(r.clone()))
+            .flatten()
+            .map(|k| format!("{} = {}", NAMES[k], first[k]))
+            .collect();
+        if stuck.is_empty() {
+            return Ok(());
+        }
+        Err(format!(
+            "lines {first_line} .. {last_line}: the columns are the same in all {} records \
+                 ({}): expected values that change (a sensor's noise moves every axis); a \
+                 constant triad is a stuck sensor or values written in its place, and would be \
+                 read as one long rest",
+            self.records,
+            stuck.join(", ")
+        ))
+    }
+}
+
 /// Refuse a record whose rate or specific force no sensor on a turntable gives (e.g. `1e308`),
 /// naming its line.
 pub fn check_record(

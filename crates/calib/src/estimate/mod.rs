@@ -22,7 +22,7 @@
 use crate::check::diagnostics::{self, Innovation};
 use crate::config::{AttitudePrior, ClockConfig, ConfigError, RunConfig};
 use crate::estimate::data_checks::{
-    check_gyros_alive, check_record, check_specific_force, check_specific_force_within,
+    Stuck, check_gyros_alive, check_record, check_specific_force, check_specific_force_within,
 };
 use crate::io::angle_records::AngleRecords;
 use crate::io::{ImuData, ImuKind, ImuRecord, IoError, ResultFile, ResultParameter, check_overlap};
@@ -447,8 +447,12 @@ fn scan_imu(
     let mut binner = RateBinner::new(BIN_S);
     let kind = imu.kind();
     let mut temperature: Option<TemperatureScan> = None;
+    // A stuck sensor, checked on the raw values (the lines of the first and last record).
+    let (mut stuck, mut lines) = (Stuck::default(), (0, 0));
     while let Some((rec, line)) = imu.next_record()? {
         check_record(&rec, kind, dt, imu.file(), line)?;
+        stuck.push(&rec);
+        lines = (if n == 0 { line } else { lines.0 }, line);
         if let Some(temp) = rec.temp {
             temperature.get_or_insert_default().push(rec.t, temp);
         }
@@ -512,6 +516,12 @@ fn scan_imu(
         }
         .into());
     }
+    stuck
+        .check(lines.0, lines.1)
+        .map_err(|message| IoError::File {
+            file: imu.file().to_string(),
+            message,
+        })?;
     if let Some(t) = &mut temperature {
         t.close();
     }

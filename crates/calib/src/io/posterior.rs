@@ -56,9 +56,16 @@ pub fn covariance(sigma: &[f64], correlation: &[Vec<f64>]) -> nalgebra::DMatrix<
 /// ones on the diagonal, entries within [-1, 1]. The message names what is wrong.
 pub fn check_correlation(correlation: &[Vec<f64>], n: usize) -> Result<(), String> {
     if correlation.len() != n || correlation.iter().any(|r| r.len() != n) {
+        let rows = correlation.len();
+        let shape = match correlation.iter().find(|r| r.len() != rows) {
+            Some(r) => format!("{rows} rows, one of {} entries", r.len()),
+            None => format!("{rows} x {rows}"),
+        };
         return Err(format!(
-            "`correlation` is not {n} x {n}: expected one row and column per parameter, in the \
-             order of `parameters`"
+            "`correlation` is {shape} for the {n} entries of `parameters`: expected one row and \
+             column per parameter, in the order of `parameters` (a parameter removed from or \
+             added to `parameters` by hand leaves them apart: give the file `calibrate --json` \
+             wrote)"
         ));
     }
     for (i, row) in correlation.iter().enumerate() {

@@ -47,6 +47,35 @@ pub enum ProgramStartError {
         /// The start the rate changes put it at (s).
         found_s: f64,
     },
+    /// The measured rates do not follow the program from a start given by the user.
+    #[error(
+        "the measured rotation rates do not follow the program from the given start \
+         t = {given_s} s on the IMU clock (--program-start or filter.program_start_s): an RMS \
+         misfit of {rms_deg_s:.3} deg/s in the rate magnitude (at most {limit_deg_s:.3} deg/s \
+         expected); check the start given (leave it out to find it from the data)"
+    )]
+    NotAtGiven {
+        /// The start given (s).
+        given_s: f64,
+        /// Its RMS misfit (deg/s).
+        rms_deg_s: f64,
+        /// The misfit accepted (deg/s).
+        limit_deg_s: f64,
+    },
+    /// A start given by the user puts the program outside the records.
+    #[error(
+        "the program from the given start t = {given_s} s on the IMU clock (--program-start or \
+         filter.program_start_s) lies outside the records (t = {first_s} .. {last_s} s): \
+         expected a start within them (leave it out to find it from the data)"
+    )]
+    OutsideData {
+        /// The start given (s).
+        given_s: f64,
+        /// The first and last record's time (s).
+        first_s: f64,
+        /// The last record's time (s).
+        last_s: f64,
+    },
     /// The measured rates do not follow the program at any start.
     #[error(
         "the measured rotation rates do not follow the program at any start time: the best \
@@ -223,9 +252,16 @@ pub fn check_program_start(
     let (sse, n) = misfit(bins, &profile, duration, start);
     let rms = (sse / n.max(1) as f64).sqrt();
     let limit = 0.05 * program_rate_rms(&profile, duration) + 1e-3;
-    if n == 0 || rms > limit {
-        return Err(ProgramStartError::NoMatch {
-            best_s: start,
+    if n == 0 {
+        return Err(ProgramStartError::OutsideData {
+            given_s: start,
+            first_s: bins.first().map_or(f64::NAN, |b| b.t0),
+            last_s: bins.last().map_or(f64::NAN, |b| b.t1),
+        });
+    }
+    if rms > limit {
+        return Err(ProgramStartError::NotAtGiven {
+            given_s: start,
             rms_deg_s: rms.to_degrees(),
             limit_deg_s: limit.to_degrees(),
         });
