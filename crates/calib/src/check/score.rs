@@ -168,8 +168,11 @@ pub struct BaseShift {
 pub struct TermScore {
     /// Term id.
     pub term: String,
-    /// The test ([`ScoreTest`]; `dof` 0: the data say nothing of the term).
+    /// The test ([`ScoreTest`]; `dof` 0: the data say nothing of the term), against the base
+    /// model carrying the terms [`TermScore::given`].
     pub test: ScoreTest,
+    /// The terms called for before this one, carried in its test and its shift.
+    pub given: Vec<String>,
     /// Its parameters as the model extended by it alone estimates them.
     pub parameters: Vec<TermParameter>,
     /// The base parameter that carrying the term would move most (`None` without base
@@ -198,86 +201,199 @@ fn select_vec(v: &DVector<f64>, rows: &[usize]) -> DVector<f64> {
     DVector::from_fn(rows.len(), |i, _| v[rows[i]])
 }
 
-/// The score test of every candidate term of `p` ([`ExtendedPosterior`]), each against the
-/// base model without any candidate (the module's documentation); `level` is the family-wise
-/// level of the tests (Bonferroni over the terms the data hold information on), which sets the
-/// non-centrality of [`TermScore::blind_shift`]. Empty where the candidates' posterior
-/// covariance is not positive definite.
+/// The score test of every candidate term of `p` ([`ExtendedPosterior`]), in forward order:
+/// the terms ranked by their test against the base model alone, then each tested against the
+/// base model carrying the terms called for before it (at the per-term level, `level` divided
+/// by the number of terms the data hold information on; Bonferroni), so that a term called for
+/// only through its correlation with a stronger one is not called again
+/// ([`TermScore::given`]). `level` also sets the non-centrality of [`TermScore::blind_shift`].
+/// Empty where the candidates' posterior covariance is not positive definite.
 pub fn term_scores(p: &ExtendedPosterior, level: f64) -> Vec<TermScore> {
-    let n = p.names.len();
-    let u = DVector::from_fn(n, |i, _| p.values[i] / p.prior_sigma[i]);
-    let pn = DMatrix::from_fn(n, n, |i, j| {
-        p.cov[(i, j)] / (p.prior_sigma[i] * p.prior_sigma[j])
-    });
-    let cand: Vec<usize> = p.terms.iter().flat_map(|(_, ix)| ix.clone()).collect();
-    let base: Vec<usize> = (0..n).filter(|i| !cand.contains(i)).collect();
-    let Some(j) = spd_inverse(&select(&pn, &cand, &cand)) else {
+    let Some(joint) = Joint::of(p) else {
         return Vec::new();
     };
-    let s_c = &j * select_vec(&u, &cand);
-    let e = &j - DMatrix::identity(cand.len(), cand.len());
-    // The base parameters with every candidate at zero: the base model's posterior.
-    let base_mean = select_vec(&u, &base) - select(&pn, &base, &cand) * &s_c;
-    let positions: Vec<Vec<usize>> = p
-        .terms
-        .iter()
-        .scan(0, |at, (_, ix)| {
-            let pos: Vec<usize> = (*at..*at + ix.len()).collect();
-            *at += ix.len();
-            Some(pos)
-        })
-        .collect();
-    let tests: Vec<ScoreTest> = positions
-        .iter()
-        .map(|pos| statistic_of(&select_vec(&s_c, pos), &select(&e, pos, pos)))
-        .collect();
-    let per_term = level / tests.iter().filter(|t| t.dof > 0).count().max(1) as f64;
+    let solo: Vec<ScoreTest> = (0..p.terms.len()).map(|k| joint.test(k, &[])).collect();
+    let per_term = level / solo.iter().filter(|t| t.dof > 0).count().max(1) as f64;
+    let mut order: Vec<usize> = (0..p.terms.len()).collect();
+    order.sort_by(|&a, &b| solo[a].ln_p_value.total_cmp(&solo[b].ln_p_value));
+    let mut carried: Vec<usize> = Vec::new();
     let mut out = Vec::new();
-    for (((term, ix), pos), test) in p.terms.iter().zip(&positions).zip(tests) {
-        let s_k = select_vec(&s_c, pos);
-        let parameters = spd_inverse(&select(&j, pos, pos))
-            .map(|pk| {
-                let theta = &pk * &s_k;
-                ix.iter()
-                    .enumerate()
-                    .map(|(q, &i)| TermParameter {
-                        name: p.names[i].clone(),
-                        value: theta[q] * p.prior_sigma[i],
-                        sigma: pk[(q, q)].max(0.0).sqrt() * p.prior_sigma[i],
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
-        let others: Vec<usize> = cand.iter().copied().filter(|i| !ix.contains(i)).collect();
+    for k in order {
+        let test = joint.test(k, &carried);
         let largest = |shifts: Vec<f64>| {
             shifts
                 .iter()
                 .enumerate()
                 .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
                 .map(|(q, &z)| BaseShift {
-                    name: p.names[base[q]].clone(),
+                    name: p.names[joint.base[q]].clone(),
                     sigmas: z,
                 })
         };
-        let conditioned = conditional(&pn, &u, &base, ix, &others);
-        let largest_shift = conditioned
-            .as_ref()
-            .map(|(mean, cov)| shifts_of(mean, cov, &base_mean))
-            .and_then(largest);
-        let critical = critical_value(per_term, test.dof.max(1));
-        let blind_shift = conditioned
-            .as_ref()
-            .and_then(|(_, cov)| blind_shifts(cov, base.len(), &select(&e, pos, pos), critical))
-            .and_then(largest);
+        let critical = critical_value(per_term, solo[k].dof.max(1));
         out.push(TermScore {
-            term: term.clone(),
+            term: p.terms[k].0.clone(),
+            given: carried.iter().map(|&c| p.terms[c].0.clone()).collect(),
+            parameters: joint.parameters(k, p),
+            largest_shift: joint.shift(k, &carried).and_then(largest),
+            blind_shift: joint.blind(k, critical).and_then(largest),
             test,
-            parameters,
-            largest_shift,
-            blind_shift,
         });
+        if out
+            .last()
+            .is_some_and(|t| t.test.dof > 0 && t.test.p_value < per_term)
+        {
+            carried.push(k);
+        }
     }
     out
+}
+
+/// The candidates' joint posterior in prior units, from which every term's test comes.
+struct Joint {
+    /// Normalised means and covariance of every parameter.
+    u: DVector<f64>,
+    pn: DMatrix<f64>,
+    /// The candidates' parameters, term after term, and the base parameters.
+    cand: Vec<usize>,
+    base: Vec<usize>,
+    /// The candidates' posterior information `J = P_CC^-1`, efficient score `s = J m_C` and
+    /// data information `E = J - I`.
+    j: DMatrix<f64>,
+    s: DVector<f64>,
+    e: DMatrix<f64>,
+    /// Each term's parameters: positions in the candidate block, and indices in `p`.
+    positions: Vec<Vec<usize>>,
+    indices: Vec<Vec<usize>>,
+}
+
+impl Joint {
+    fn of(p: &ExtendedPosterior) -> Option<Self> {
+        let n = p.names.len();
+        let u = DVector::from_fn(n, |i, _| p.values[i] / p.prior_sigma[i]);
+        let pn = DMatrix::from_fn(n, n, |i, j| {
+            p.cov[(i, j)] / (p.prior_sigma[i] * p.prior_sigma[j])
+        });
+        let cand: Vec<usize> = p.terms.iter().flat_map(|(_, ix)| ix.clone()).collect();
+        let base: Vec<usize> = (0..n).filter(|i| !cand.contains(i)).collect();
+        let j = spd_inverse(&select(&pn, &cand, &cand))?;
+        let s = &j * select_vec(&u, &cand);
+        let e = &j - DMatrix::identity(cand.len(), cand.len());
+        let positions = p
+            .terms
+            .iter()
+            .scan(0, |at, (_, ix)| {
+                let pos: Vec<usize> = (*at..*at + ix.len()).collect();
+                *at += ix.len();
+                Some(pos)
+            })
+            .collect();
+        let indices = p.terms.iter().map(|(_, ix)| ix.clone()).collect();
+        Some(Self {
+            u,
+            pn,
+            cand,
+            base,
+            j,
+            s,
+            e,
+            positions,
+            indices,
+        })
+    }
+
+    /// The positions (candidate block) of the terms `terms`.
+    fn block(&self, terms: &[usize]) -> Vec<usize> {
+        terms
+            .iter()
+            .flat_map(|&t| self.positions[t].clone())
+            .collect()
+    }
+
+    /// The indices (in `p`) of the terms `terms`.
+    fn params(&self, terms: &[usize]) -> Vec<usize> {
+        terms
+            .iter()
+            .flat_map(|&t| self.indices[t].clone())
+            .collect()
+    }
+
+    /// The score test of term `k` against the base model carrying the terms `carried` with
+    /// their priors: efficient score `s_k - E_kA J_AA^-1 s_A` and data information
+    /// `E_kk - E_kA J_AA^-1 E_Ak` (`J_AA = I + E_AA`, the carried terms' posterior information).
+    fn test(&self, k: usize, carried: &[usize]) -> ScoreTest {
+        let pos = &self.positions[k];
+        let mut score = select_vec(&self.s, pos);
+        let mut info = select(&self.e, pos, pos);
+        let a = self.block(carried);
+        if let Some(inv) = (!a.is_empty())
+            .then(|| spd_inverse(&select(&self.j, &a, &a)))
+            .flatten()
+        {
+            let gain = select(&self.e, pos, &a) * inv;
+            score -= &gain * select_vec(&self.s, &a);
+            info -= &gain * select(&self.e, &a, pos);
+        }
+        statistic_of(&score, &info)
+    }
+
+    /// Term `k`'s parameters as the base model extended by it alone estimates them (SI).
+    fn parameters(&self, k: usize, p: &ExtendedPosterior) -> Vec<TermParameter> {
+        let pos = &self.positions[k];
+        let Some(pk) = spd_inverse(&select(&self.j, pos, pos)) else {
+            return Vec::new();
+        };
+        let theta = &pk * select_vec(&self.s, pos);
+        self.indices[k]
+            .iter()
+            .enumerate()
+            .map(|(q, &i)| TermParameter {
+                name: p.names[i].clone(),
+                value: theta[q] * p.prior_sigma[i],
+                sigma: pk[(q, q)].max(0.0).sqrt() * p.prior_sigma[i],
+            })
+            .collect()
+    }
+
+    /// How far carrying term `k` moves each base parameter from where the base model carrying
+    /// `carried` has it, in its sigmas with `k` carried too (the other candidates at zero).
+    fn shift(&self, k: usize, carried: &[usize]) -> Option<Vec<f64>> {
+        let kept: Vec<usize> = self
+            .base
+            .iter()
+            .copied()
+            .chain(self.params(carried))
+            .collect();
+        let all: Vec<usize> = carried.iter().copied().chain([k]).collect();
+        let rest: Vec<usize> = (0..self.positions.len())
+            .filter(|t| !all.contains(t))
+            .collect();
+        let with_k = conditional(
+            &self.pn,
+            &self.u,
+            &kept,
+            &self.indices[k],
+            &self.params(&rest),
+        )?;
+        let mut without: Vec<usize> = self.params(&rest);
+        without.extend(&self.indices[k]);
+        let (base_mean, _) = conditional(&self.pn, &self.u, &kept, &[], &without)?;
+        let shifts = shifts_of(&with_k.0, &with_k.1, &base_mean);
+        Some(shifts[..self.base.len()].to_vec())
+    }
+
+    /// Term `k`'s blind spot against the base model alone ([`blind_shifts`]).
+    fn blind(&self, k: usize, critical: f64) -> Option<Vec<f64>> {
+        let others: Vec<usize> = self
+            .cand
+            .iter()
+            .copied()
+            .filter(|i| !self.indices[k].contains(i))
+            .collect();
+        let (_, cov) = conditional(&self.pn, &self.u, &self.base, &self.indices[k], &others)?;
+        let pos = &self.positions[k];
+        blind_shifts(&cov, self.base.len(), &select(&self.e, pos, pos), critical)
+    }
 }
 
 /// The chi-square critical value with `dof` degrees of freedom at the upper-tail level `level`.
@@ -402,16 +518,28 @@ mod tests {
         };
         let scores = term_scores(&joint, 0.01);
         assert_eq!(scores.len(), 2);
-        let base_cols = [0, 1, 2];
-        let (bm, _) = posterior(&columns(&h, &base_cols), &s0[..3], &y);
-        for (k, cols) in [(0, vec![3, 4]), (1, vec![5])] {
+        // a is there and strongest: tested first against the base model alone; c then against
+        // the base model carrying a.
+        assert_eq!(scores[0].term, "a");
+        assert_eq!(scores[1].term, "c");
+        assert_eq!(scores[1].given, vec!["a".to_string()]);
+        for (k, base_cols, cols) in [
+            (0, vec![0, 1, 2], vec![3, 4]),
+            (1, vec![0, 1, 2, 3, 4], vec![5]),
+        ] {
+            let nb = base_cols.len();
+            let (bm, _) = posterior(
+                &columns(&h, &base_cols),
+                &base_cols.iter().map(|&i| s0[i]).collect::<Vec<_>>(),
+                &y,
+            );
             let all: Vec<usize> = base_cols.iter().chain(&cols).copied().collect();
             let sub_s0: Vec<f64> = all.iter().map(|&i| s0[i]).collect();
             let (mk, ck) = posterior(&columns(&h, &all), &sub_s0, &y);
             let nt = cols.len();
-            let theta: Vec<f64> = (0..nt).map(|q| mk[3 + q]).collect();
-            let pc = ck.view((3, 3), (nt, nt)).into_owned();
-            let alone = score_test(&theta, &pc, &sub_s0[3..]);
+            let theta: Vec<f64> = (0..nt).map(|q| mk[nb + q]).collect();
+            let pc = ck.view((nb, nb), (nt, nt)).into_owned();
+            let alone = score_test(&theta, &pc, &sub_s0[nb..]);
             let t = &scores[k];
             assert!(
                 (t.test.statistic - alone.statistic).abs() < 1e-8 * (1.0 + alone.statistic),
@@ -420,9 +548,11 @@ mod tests {
                 alone.statistic
             );
             assert_eq!(t.test.dof, alone.dof);
-            for q in 0..nt {
-                assert!((t.parameters[q].value - theta[q]).abs() < 1e-9);
-                assert!((t.parameters[q].sigma - pc[(q, q)].sqrt()).abs() < 1e-9);
+            if k == 0 {
+                for q in 0..nt {
+                    assert!((t.parameters[q].value - theta[q]).abs() < 1e-9);
+                    assert!((t.parameters[q].sigma - pc[(q, q)].sqrt()).abs() < 1e-9);
+                }
             }
             let shifts: Vec<f64> = (0..3)
                 .map(|q| (mk[q] - bm[q]) / ck[(q, q)].sqrt())

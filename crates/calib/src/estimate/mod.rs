@@ -225,6 +225,10 @@ pub struct Estimate {
     /// Why that pass failed, when it did (the fit itself stands; the verdict says the score
     /// tests were not made).
     pub extended_error: Option<String>,
+    /// Terms the estimate carried on its own, beyond the layout it was given: the thermal bias
+    /// terms of a `calibrate` whose records' temperature moved
+    /// ([`score_pass::CARRY_THERMAL_SPAN_K`]).
+    pub carried_terms: Vec<String>,
 }
 
 impl Estimate {
@@ -641,6 +645,15 @@ pub(crate) fn estimate_from_kept(
     check_gyros_alive(&scan.bins, turns, imu.file())?;
     check_specific_force(&scan.bins, plan.gravity_m_s2, imu.file())?;
     locate_program(config, &plan, &mut scan, &program, imu.file())?;
+    let span = scan.temperature.as_ref().map(|t| t.max - t.min);
+    let thermal = config
+        .filter
+        .score_terms
+        .then(|| score_pass::with_thermal_biases(config, layout, span))
+        .flatten();
+    let (layout, carried) = thermal
+        .as_ref()
+        .map_or((layout, Vec::new()), |(l, c)| (l, c.clone()));
     let tt_setup = match (layout.install.is_some(), turntable) {
         (true, Some(tt)) => Some(TurntableSetup::new(config, tt, &scan, &program)?),
         _ => None,
@@ -655,7 +668,9 @@ pub(crate) fn estimate_from_kept(
         scan: &scan,
         motion: &motion,
     };
-    iterate_passes(&inp, imu, first, first_pass_feedback(config), progress)
+    let mut estimate = iterate_passes(&inp, imu, first, first_pass_feedback(config), progress)?;
+    estimate.carried_terms = carried;
+    Ok(estimate)
 }
 
 /// What the first pass from the prior feeds back: everything (closed loop), except in a fit
@@ -1761,6 +1776,7 @@ fn pass_estimate(
             .unwrap_or_default(),
         extended: None,
         extended_error: None,
+        carried_terms: Vec::new(),
     };
     (estimate, offset_sensitivity)
 }

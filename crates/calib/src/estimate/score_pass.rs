@@ -34,6 +34,46 @@ pub fn testable_candidates(
         .collect()
 }
 
+/// The span of the records' temperature (K) from which `calibrate` carries the thermal bias
+/// terms the model lacks, at the unit's grade's prior: the temperature moved and the base
+/// parameters are otherwise those of no temperature in particular, with sigmas that ignore it
+/// (a 0.005 deg/h/K gyro coefficient, 1-2 sigma per axis on the paper's program, left its gyro
+/// biases 6.6 sigma off over a 14-K warm-up). Carried, the coefficients are estimated, the base
+/// parameters are those at the reference temperature and their sigmas include the
+/// coefficients' uncertainty.
+pub const CARRY_THERMAL_SPAN_K: f64 = 1.0;
+
+/// `layout` with the thermal bias terms of the triads that have no thermal term, when the
+/// records' temperature spans [`CARRY_THERMAL_SPAN_K`] (`span_k`); with the ids carried.
+pub(super) fn with_thermal_biases(
+    config: &RunConfig,
+    layout: &StateLayout,
+    span_k: Option<f64>,
+) -> Option<(StateLayout, Vec<String>)> {
+    if span_k.is_none_or(|s| s < CARRY_THERMAL_SPAN_K) {
+        return None;
+    }
+    let has = |triad: &str| {
+        layout.entries().iter().any(|e| {
+            e.name.starts_with(triad) && (e.name.contains(".tbias.") || e.name.contains(".tscale."))
+        })
+    };
+    let grade = config.unit_grade();
+    let extra: Vec<(Candidate, f64)> = [
+        ("gyro.", Candidate::GyroTempBias),
+        ("accel.", Candidate::AccelTempBias),
+    ]
+    .into_iter()
+    .filter(|(triad, _)| !has(triad))
+    .map(|(_, c)| (c, c.prior_sigma(grade)))
+    .collect();
+    if extra.is_empty() {
+        return None;
+    }
+    let ext = extended_layout(config, layout, &extra)?;
+    Some((ext, extra.iter().map(|(c, _)| c.id().to_string()).collect()))
+}
+
 /// `layout` with the terms `extra` appended to its instrument model (its own terms kept, with
 /// their priors).
 fn extended_layout(

@@ -215,18 +215,22 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
             format!("{} by {:+.1} of its sigmas", b.name, b.sigmas)
         })
     };
-    // Strongest first: where several terms are called for, the first is the likeliest cause
-    // (a term correlated with it is called for by its effect too; `diagnose` tells them apart).
-    let mut ranked = tested.clone();
-    ranked.sort_by(|a, b| a.test.ln_p_value.total_cmp(&b.test.ln_p_value));
-    for t in &ranked {
+    // In forward order ([`term_scores`]): the strongest term first, each later one tested
+    // given those called before it, so that a term correlated with a stronger one is not
+    // called for by that one's effect.
+    for t in &tested {
         if t.test.p_value >= threshold {
             continue;
         }
         let shift = t.largest_shift.as_ref().map_or(0.0, |b| b.sigmas.abs());
+        let given = if t.given.is_empty() {
+            String::new()
+        } else {
+            format!(" given {}", t.given.join(" and "))
+        };
         let call = format!(
-            "the data call for {}: score statistic {:.1} for {} parameters, p = {} (below {} = \
-             {} % over {} terms)",
+            "the data call for {}{given}: score statistic {:.1} for {} parameters, p = {} \
+             (below {} = {} % over {} terms)",
             t.term,
             t.test.statistic,
             t.test.dof,
@@ -250,27 +254,28 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
             ));
         }
     }
-    for t in &ranked {
-        let Some(b) = t
-            .blind_shift
-            .as_ref()
-            .filter(|b| b.sigmas.abs() >= BLIND_SHIFT_SIGMA)
-        else {
-            continue;
-        };
-        if t.test.p_value < threshold {
-            continue;
-        }
+    let blind: Vec<String> = tested
+        .iter()
+        .filter(|t| t.test.p_value >= threshold)
+        .filter_map(|t| {
+            let b = t.blind_shift.as_ref()?;
+            (b.sigmas.abs() >= BLIND_SHIFT_SIGMA).then(|| {
+                format!(
+                    "{} ({} by up to {:.0} sigma)",
+                    t.term,
+                    b.name,
+                    b.sigmas.abs()
+                )
+            })
+        })
+        .collect();
+    if !blind.is_empty() {
         informative.push(format!(
-            "blind spot: {} at up to its grade's plausible size could move {} by up to {:.0} \
-             of its sigmas while its test stays below the level (p = {} now): the sigmas do \
-             not include it; `calibrate --terms {}` carries it, `design` proposes a program that \
-             separates it",
-            t.term,
-            b.name,
-            b.sigmas.abs(),
-            p_value_text(t.test.p_value),
-            t.term
+            "blind spots: at up to its grade's plausible size, each of {} could move the base \
+             parameter named by that much while its test stays below the level; the sigmas do \
+             not include them (`calibrate --terms` carries one, `design` proposes a program \
+             that separates them)",
+            blind.join(", ")
         ));
     }
     if decisive.is_empty() && !informative.iter().any(|l| l.starts_with("the data call")) {
@@ -301,6 +306,15 @@ pub const THERMAL_FINDING_SPAN_K: f64 = 1.0;
 pub fn thermal_finding(est: &crate::estimate::Estimate) -> Option<String> {
     let t = est.temperature.as_ref()?;
     let span = t.max_c.zip(t.min_c).map(|(a, b)| a - b)?;
+    if !est.carried_terms.is_empty() {
+        return Some(format!(
+            "the temperature moved {span:.1} K over the run: the model carries {} at the \
+             grade's prior coefficient, so the biases are those at {:.2} deg C and their sigmas \
+             include the coefficients'",
+            est.carried_terms.join(" and "),
+            t.reference_c
+        ));
+    }
     let has = |triad: &str| {
         est.names
             .iter()
