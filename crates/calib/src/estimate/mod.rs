@@ -1106,16 +1106,7 @@ fn iterate_passes(
     }
     progress(total, total);
     estimate.truncate(layout.dim());
-    if config.filter.score_terms {
-        let tilt = matches!(motion, Motion::Rests { .. }) && tilt_walks;
-        score_pass::attach(
-            &own,
-            imu,
-            nominal.as_ref().expect("set"),
-            tilt,
-            &mut estimate,
-        );
-    }
+    score_pass::attach(&own, imu, nominal.as_ref(), tilt_walks, &mut estimate);
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)

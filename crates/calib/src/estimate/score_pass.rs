@@ -172,19 +172,27 @@ pub(super) fn extended_pass(
     }))
 }
 
-/// Run the extended pass of a fit ([`extended_pass`]; feeding the tilt back where the fit's
-/// later passes did, `tilt`) and keep its posterior in `estimate`.
-/// The pass carries terms the data may not support (a unit far from the base model's linear
-/// reach): its failure leaves the fit as it is, with the reason in
-/// [`Estimate::extended_error`].
+/// When the configuration asks for the score tests (`filter.score_terms`), run the extended
+/// pass of a fit ([`extended_pass`]) about its last estimates `nominal` and keep its posterior
+/// in `estimate`; the tilt is fed back where the fit's later passes fed it back (a recording
+/// of rests whose gyro noise walks the tilt, `tilt_walks`). The pass carries terms the data may
+/// not support (a unit far from the base model's linear reach): its failure leaves the fit as
+/// it is, with the reason in [`Estimate::extended_error`].
 pub(super) fn attach(
     inp: &PassInputs,
     imu: &mut dyn crate::estimate::ImuSource,
-    nominal: &Nominal,
-    tilt: bool,
+    nominal: Option<&Nominal>,
+    tilt_walks: bool,
     estimate: &mut Estimate,
 ) {
-    let feedback = if tilt { Feedback::Tilt } else { Feedback::None };
+    let Some(nominal) = nominal.filter(|_| inp.config.filter.score_terms) else {
+        return;
+    };
+    let feedback = if matches!(inp.motion, super::Motion::Rests { .. }) && tilt_walks {
+        Feedback::Tilt
+    } else {
+        Feedback::None
+    };
     match extended_pass(inp, imu, nominal, feedback, estimate) {
         Ok(p) => estimate.extended = p,
         Err(e) => estimate.extended_error = Some(e.to_string()),
