@@ -210,9 +210,16 @@ fn round_lines(
     match &round.accepted {
         Some(t) => {
             let g = &r.gain[t];
+            let how = if round.carried {
+                "carried (the data call for it, this recording does not separate it from the \
+                 base parameters: its estimate leans on its prior and its uncertainty is in \
+                 their sigmas)"
+            } else {
+                "accepted"
+            };
             let _ = writeln!(
                 s,
-                "  accepted {t}: log-likelihood +{:.1}, AIC {:+.1}, BIC {:+.1}, mean NIS \
+                "  {how} {t}: log-likelihood +{:.1}, AIC {:+.1}, BIC {:+.1}, mean NIS \
                  accel {:.3} -> {:.3}, turntable {:.3} -> {:.3}",
                 g.information.log_likelihood,
                 g.information.delta_aic,
@@ -223,9 +230,14 @@ fn round_lines(
                 g.turntable_mean_nis.1
             );
         }
-        None => {
-            let _ = writeln!(s, "  nothing accepted");
-        }
+        None => match (&round.refused, round.candidates.first()) {
+            (Some(why), Some(c)) => {
+                let _ = writeln!(s, "  {} not accepted: {why}", c.term);
+            }
+            _ => {
+                let _ = writeln!(s, "  nothing accepted");
+            }
+        },
     }
     if let Some(size) = size {
         s += &crate::diagnosis::size_line(size);
@@ -287,9 +299,9 @@ pub fn summary(r: &LoopResult, sizes: &[Option<TermSize>], measured: bool) -> St
         s += &round_lines(r, k, round, sizes.get(k).and_then(Option::as_ref));
     }
     let exit = if measured {
-        "(against the measured noise: the held-out rests decide, below)"
+        "(against the measured noise: this informs, the verdict below decides)"
     } else {
-        "(exit status 3)"
+        "(the verdict below decides)"
     };
     s += &verdict_lines(r, exit);
     if let Some(reach) = &r.drift_reach {
@@ -316,10 +328,10 @@ fn verdict_lines(r: &LoopResult, exit: &str) -> String {
             .map_or(f64::NAN, |c| c.p_value);
         let _ = writeln!(
             s,
-            "verdict: THE DATA CALL FOR {} (p = {}), BUT WITH IT THE HELD-OUT MEASUREMENTS ARE \
-             PREDICTED WORSE (log predictive density {:+.1} over {}, beyond the {} nat \
-             allowed): IT IS NOT ACCEPTED. THE MODEL DOES NOT FIT THESE DATA AND NO CANDIDATE \
-             TERM EXPLAINS THE MISFIT {exit}; terms accepted before: {accepted}.",
+            "loop: the data call for {} (p = {}), but with it the held-out measurements are \
+             predicted worse (log predictive density {:+.1} over {}, beyond the {} nat \
+             allowed): it is not accepted; the model does not fit these data and no candidate \
+             term explains the misfit {exit}; terms accepted before: {accepted}.",
             h.term,
             p_value_text(p),
             h.gain(),
@@ -332,23 +344,23 @@ fn verdict_lines(r: &LoopResult, exit: &str) -> String {
     {
         let _ = writeln!(
             s,
-            "verdict: THE CONFIGURED WHITE NOISE DOES NOT MATCH THESE DATA {exit}; with it \
+            "loop: the configured white noise does not match these data {exit}; with it \
              scaled to them (note above) no term is called for."
         );
     } else if r.base_fits() {
         let _ = writeln!(
             s,
-            "verdict: the paper's model fits these data; no term is called for."
+            "loop: the paper's model fits these data; no term is called for."
         );
     } else if r.accepted_terms.is_empty() && !r.last.calibration.diagnostics.fits {
         let _ = writeln!(
             s,
-            "verdict: THE MODEL DOES NOT FIT THESE DATA, AND NO CANDIDATE TERM THAT THIS \
-             RECORDING SEPARATES EXPLAINS THE MISFIT {exit}. Failing tests:"
+            "loop: the innovation tests fail and no candidate term explains the misfit {exit}. \
+             Failing tests:"
         );
         s += &failure_lines(&r.last.calibration.diagnostics.failures);
     } else {
-        let _ = writeln!(s, "verdict: terms accepted: {accepted}");
+        let _ = writeln!(s, "loop: terms accepted: {accepted}");
         if !r.last.calibration.diagnostics.fits {
             let _ = writeln!(
                 s,

@@ -197,6 +197,14 @@ pub struct Round {
     /// The held-out check of the candidate the statistics picked (`None`: none picked, or the
     /// check is off).
     pub held_out: Option<HeldOutCheck>,
+    /// The term accepted is carried rather than determined: the data call for it but the
+    /// program does not separate it from the base parameters, so its estimate leans on its
+    /// prior. Carried, its uncertainty is in the base parameters' sigmas; left out, it would
+    /// bias them unseen.
+    pub carried: bool,
+    /// Why the candidate the statistics picked was not accepted though called for, when it was
+    /// not (its fit's log-likelihood did not rise).
+    pub refused: Option<String>,
 }
 
 /// Whether a term the statistics call for also predicts data its fit has not seen. Both models
@@ -359,6 +367,7 @@ impl LoopResult {
             && self.base.calibration.diagnostics.fits
             && !self.any_inseparable_call()
             && self.held_out_rejection().is_none()
+            && self.refusal().is_none()
     }
 
     /// Whether the final model fits: its diagnostics pass and no term the data call for was
@@ -375,15 +384,31 @@ impl LoopResult {
             .filter(|h| h.refused())
     }
 
-    /// The significant candidates of the last round that could not be accepted because the
-    /// program does not separate them.
+    /// The significant candidates of the last round that were neither accepted nor carried
+    /// (the loop stopped: its term limit, or a refusal).
     pub fn inseparable_calls(&self) -> Vec<&CandidateEvidence> {
         self.rounds.last().map_or(Vec::new(), |r| {
             r.candidates
                 .iter()
                 .filter(|c| !c.separable && c.ln_p_value < r.threshold.ln())
+                .filter(|c| r.accepted.as_deref() != Some(c.term.as_str()))
                 .collect()
         })
+    }
+
+    /// The terms carried rather than determined ([`Round::carried`]).
+    pub fn carried_terms(&self) -> Vec<&str> {
+        self.rounds
+            .iter()
+            .filter(|r| r.carried)
+            .filter_map(|r| r.accepted.as_deref())
+            .collect()
+    }
+
+    /// The candidate the last round's statistics picked and refused, with why.
+    pub fn refusal(&self) -> Option<(&str, &str)> {
+        let r = self.rounds.last()?;
+        Some((r.candidates.first()?.term.as_str(), r.refused.as_deref()?))
     }
 
     fn any_inseparable_call(&self) -> bool {
@@ -930,12 +955,14 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
         let reference = cx.round_reference(&mut st)?;
         let mut evidence = cx.round_evidence(&reference, thermal_off.as_deref(), &mut st)?;
         let threshold = settings.level / evidence.len().max(1) as f64;
-        // Only the best-supported candidate may be accepted: when it is significant but not
-        // separable, a weaker separable candidate accepted in its place would absorb part of its
-        // effect and be reported as the cause. The loop stops and says so instead.
+        // Only the best-supported candidate may be accepted: a weaker one accepted in its place
+        // would absorb part of its effect and be reported as the cause. When it is significant
+        // but not separable it is carried with its prior (its uncertainty then in the base
+        // parameters' sigmas) rather than dropped: dropped, it biased them unseen (19-61 sigma
+        // on navigation-grade 19-position runs with a g-sensitivity).
         let pick = evidence
             .first()
-            .filter(|(e, _)| e.separable && e.ln_p_value < threshold.ln())
+            .filter(|(e, _)| e.ln_p_value < threshold.ln())
             .map(|_| 0)
             .filter(|_| st.accepted.len() < settings.max_terms);
         let mut round = Round {
@@ -943,12 +970,24 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
             threshold,
             accepted: None,
             held_out: None,
+            carried: pick.is_some_and(|k| !evidence[k].0.separable),
+            refused: None,
         };
         let Some(k) = pick else {
             st.rounds.push(round);
             break;
         };
-        if let Some(every) = settings.hold_out_every {
+        // Acceptance needs evidence: the likelihood must rise with the term.
+        let rise = evidence[k].1.log_likelihood - reference.log_likelihood;
+        if !(rise > 0.0) {
+            round.carried = false;
+            round.refused = Some(format!(
+                "the log-likelihood does not rise with it ({rise:+.1})"
+            ));
+            st.rounds.push(round);
+            break;
+        }
+        if let Some(every) = settings.hold_out_every.filter(|_| !round.carried) {
             let (e, fit) = &evidence[k];
             let check = cx.held_out_check(&e.term, &reference.extension, &fit.extension, every)?;
             let refused = check.refused();
