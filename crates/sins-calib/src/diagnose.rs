@@ -207,6 +207,17 @@ fn round_lines(
             }
         );
     }
+    s += &decision_line(r, round);
+    if let Some(size) = size {
+        s += &crate::diagnosis::size_line(size);
+    }
+    s
+}
+
+/// What a round decided: the term accepted (or carried) with what it gained, or why nothing
+/// was.
+fn decision_line(r: &LoopResult, round: &calib::extend::Round) -> String {
+    let mut s = String::new();
     match &round.accepted {
         Some(t) => {
             let g = &r.gain[t];
@@ -238,9 +249,6 @@ fn round_lines(
                 let _ = writeln!(s, "  nothing accepted");
             }
         },
-    }
-    if let Some(size) = size {
-        s += &crate::diagnosis::size_line(size);
     }
     s
 }
