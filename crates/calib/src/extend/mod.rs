@@ -14,16 +14,18 @@
 //!    from the parameters already in the model ([`crate::extend::evidence::separability`]);
 //! 3. the candidate with the smallest p-value is accepted if that p-value is below the level
 //!    divided by the number of candidates tested in the round (Bonferroni: the family-wise
-//!    chance of accepting a term the data do not call for stays under the level) and it is
-//!    separable; when it is significant but not separable the loop stops there rather than
-//!    accept a weaker candidate that would absorb part of its effect;
+//!    chance of accepting a term the data do not call for stays under the level) and the
+//!    log-likelihood rises with it; when it is significant but not separable it is carried
+//!    with its prior ([`Round::carried`]) rather than dropped or replaced by a weaker candidate
+//!    that would absorb part of its effect;
 //! 4. the gain of the accepted term is measured against the model before it: innovation
 //!    log-likelihood, AIC and BIC, the mean NIS of each measurement kind and the diagnostics'
 //!    verdict.
 //!
-//! A significant candidate that is not separable is reported with the base parameters it is
-//! confounded with and is not accepted: under this program its effect cannot be told from
-//! theirs ([`crate::extend::design`] proposes a program that separates it).
+//! A significant candidate that is not separable is carried and reported with the base
+//! parameters it is confounded with: under this program its effect cannot be told from theirs,
+//! so its estimate leans on its prior ([`crate::extend::design`] proposes a program that
+//! separates it).
 
 pub mod design;
 pub mod drift_visibility;
