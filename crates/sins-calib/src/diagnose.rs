@@ -29,6 +29,8 @@ struct CandidateJson<'a> {
 #[derive(Serialize)]
 struct LoopJson<'a> {
     accepted_terms: &'a [String],
+    /// Terms the data call for that the recording does not separate, carried with their prior.
+    carried_terms: Vec<&'a str>,
     base_model_fits: bool,
     candidates: Vec<CandidateJson<'a>>,
     gain: &'a BTreeMap<String, TermGain>,
@@ -107,6 +109,7 @@ fn to_json(d: &Diagnosis) -> Result<String, Error> {
     }
     let j = LoopJson {
         accepted_terms: &r.accepted_terms,
+        carried_terms: r.carried_terms(),
         base_model_fits: r.base_fits(),
         candidates: r.rounds.last().map_or(Vec::new(), |l| {
             l.candidates.iter().map(candidate_json).collect()

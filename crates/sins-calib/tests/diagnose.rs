@@ -174,7 +174,7 @@ fn a_misconfigured_noise_is_named_and_no_term_is_accepted() {
     assert_eq!(out.status.code(), Some(3), "{stdout}{}", text(&out.stderr));
     assert!(
         stdout.contains("the configured white noise does not match these data")
-            && stdout.contains("THE CONFIGURED WHITE NOISE DOES NOT MATCH THESE DATA"),
+            && stdout.contains("loop: the configured white noise does not match these data"),
         "{stdout}"
     );
     let v: serde_json::Value =

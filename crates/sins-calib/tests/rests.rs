@@ -183,7 +183,7 @@ fn diagnose_exits_3_when_no_candidate_explains_the_misfit() {
     // scaled to the data (it said "no candidate explains the misfit" before the loop's
     // statistics followed the data's scatter).
     assert!(
-        report.contains("THE CONFIGURED WHITE NOISE DOES NOT MATCH THESE DATA")
+        report.contains("loop: the configured white noise does not match these data")
             && report.contains("the specific force's by 9."),
         "{report}"
     );
