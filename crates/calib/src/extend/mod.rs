@@ -982,7 +982,7 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
         };
         // Acceptance needs evidence: the likelihood must rise with the term.
         let rise = evidence[k].1.log_likelihood - reference.log_likelihood;
-        if !(rise > 0.0) {
+        if rise.is_nan() || rise <= 0.0 {
             round.carried = false;
             round.refused = Some(format!(
                 "the log-likelihood does not rise with it ({rise:+.1})"
