@@ -161,6 +161,9 @@ pub struct Outcome {
     pub exit3: bool,
     /// The candidate terms named in its decisive lines.
     pub named: Vec<String>,
+    /// The terms the calibration carried on its own (the thermal bias terms of a run whose
+    /// temperature moved): their effect is in the model.
+    pub carried: Vec<String>,
     /// Its decisive lines.
     pub reasons: Vec<String>,
     /// Its informative lines.
@@ -187,6 +190,7 @@ pub fn run(class: Class, seed: u64, values: &[(String, f64)], noise: bool) -> Ou
         .map(|c| c.id().to_string())
         .filter(|id| cal.verdict.decisive.iter().any(|l| l.contains(id.as_str())))
         .collect();
+    let carried = cal.estimate.carried_terms.clone();
     let est = &cal.estimate;
     let worst = est
         .names
@@ -201,6 +205,7 @@ pub fn run(class: Class, seed: u64, values: &[(String, f64)], noise: bool) -> Ou
     Outcome {
         exit3: !cal.verdict.fits(),
         named,
+        carried,
         reasons: cal.verdict.decisive.clone(),
         notes: cal.verdict.informative.clone(),
         worst_base_sigma: worst,
@@ -273,10 +278,15 @@ pub struct Row {
     pub runs: usize,
     /// Exit status 3.
     pub exit3: usize,
-    /// Exit 3 naming the hidden term (detection rows) or naming any term (clean rows).
+    /// Exit 3 naming the hidden term, or the term carried by the calibration itself
+    /// (detection rows); exit 3 naming any term (clean rows).
     pub named: usize,
-    /// Runs that ended in exit 0 with a base parameter 10 sigma or more from its truth.
+    /// Runs that ended in exit 0 with a base parameter 10 sigma or more from its truth and the
+    /// hidden term named nowhere.
     pub silent_10_sigma: usize,
+    /// Runs that ended in exit 0 with a base parameter 10 sigma or more from its truth, the
+    /// hidden term named in the verdict's blind-spot finding.
+    pub blind_10_sigma: usize,
     /// The seeds that exited 3 (clean rows) or did not name the term (detection rows).
     pub odd_seeds: Vec<u64>,
 }
@@ -299,11 +309,21 @@ pub fn count(
     for (seed, o) in outcomes {
         row.exit3 += usize::from(o.exit3);
         let named = match term {
-            Some(t) => o.exit3 && o.named.iter().any(|n| n == t.id()),
+            Some(t) => {
+                (o.exit3 && o.named.iter().any(|n| n == t.id()))
+                    || o.carried.iter().any(|n| n == t.id())
+            }
             None => o.exit3 && !o.named.is_empty(),
         };
         row.named += usize::from(named);
-        row.silent_10_sigma += usize::from(!o.exit3 && o.worst_base_sigma >= 10.0);
+        let blind = term.is_some_and(|t| {
+            o.notes
+                .iter()
+                .any(|n| n.starts_with("blind spots") && n.contains(t.id()))
+        });
+        let off = !o.exit3 && o.worst_base_sigma >= 10.0;
+        row.silent_10_sigma += usize::from(off && !blind);
+        row.blind_10_sigma += usize::from(off && blind);
         let odd = match term {
             Some(_) => !named,
             None => o.exit3,

@@ -78,7 +78,8 @@ enum Command {
     /// detection rate of every candidate term at sizes that move a base parameter by 1, 3 and
     /// 10 sigma, per class of run, with binomial intervals (docs/verdict.md). Exits non-zero
     /// when a target is missed (false alarms above 5 %, detection at 10 sigma below 95 %, an
-    /// exit 0 with a base parameter 10 sigma off).
+    /// exit 0 with a base parameter 10 sigma off and the term named nowhere, not even as a
+    /// blind spot).
     OperatingCharacteristic {
         /// Clean runs per class (seeds 1001, 1002, ...).
         #[arg(long, default_value_t = 100)]

@@ -28,7 +28,7 @@ fn rate(k: usize, n: usize) -> String {
 /// those whose name contains `only`); print the table; non-zero exit when a target is missed.
 pub fn operating_characteristic(clean: usize, effect_runs: usize, only: Option<&str>) -> ExitCode {
     println!(
-        "| class | effect | size (base shift) | runs | exit 3 | exit 3 naming the term | exit 0 at >= 10 sigma |"
+        "| class | effect | size (base shift) | runs | exit 3 | exit 3 naming the term, or carried | exit 0 at >= 10 sigma: term named nowhere / as a blind spot |"
     );
     println!("|---|---|---|---|---|---|---|");
     let mut missed = Vec::new();
@@ -78,7 +78,8 @@ pub fn operating_characteristic(clean: usize, effect_runs: usize, only: Option<&
                 }
                 if row.silent_10_sigma > 0 {
                     missed.push(format!(
-                        "{} / {} / {k} sigma: {} runs exit 0 with a base parameter 10 sigma off",
+                        "{} / {} / {k} sigma: {} runs exit 0 with a base parameter 10 sigma off and \
+                         the term named nowhere",
                         class.name(),
                         term.id(),
                         row.silent_10_sigma
@@ -98,10 +99,11 @@ pub fn operating_characteristic(clean: usize, effect_runs: usize, only: Option<&
 
 fn print_row(class: &str, effect: &str, size: &str, row: &Row) {
     println!(
-        "| {class} | {effect} | {size} | {} | {} | {} | {} |",
+        "| {class} | {effect} | {size} | {} | {} | {} | {} / {} |",
         row.runs,
         rate(row.exit3, row.runs),
         rate(row.named, row.runs),
-        row.silent_10_sigma
+        row.silent_10_sigma,
+        row.blind_10_sigma
     );
 }
