@@ -46,3 +46,19 @@ fn an_overstated_noise_is_a_finding_not_exit_3() {
         "{o:?}"
     );
 }
+
+/// A gyro bias temperature coefficient of 0.02 deg/h/K in a warm-up (20 -> 35 deg C) on the
+/// paper's program: `calibrate` carries the thermal bias terms (the temperature moved), and
+/// every parameter is within 3.5 sigma of the truth at the result's reference temperature (the
+/// paper's model alone left the gyro biases 24-26 sigma off, exit 0).
+#[test]
+fn a_warm_up_coefficient_is_carried_and_the_result_holds() {
+    let k = 0.02 * sins_model::units::DEG_PER_HOUR;
+    let values: Vec<(String, f64)> = ["x", "y", "z"]
+        .iter()
+        .map(|a| (format!("gyro.tbias.{a}"), k))
+        .collect();
+    let o = run(Class::ProgramWarmUp, 1001, &values, true);
+    assert!(o.carried.iter().any(|t| t == "gyro_temp_bias"), "{o:?}");
+    assert!(o.worst_base_sigma < 3.5, "{o:?}");
+}
