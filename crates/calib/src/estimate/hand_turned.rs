@@ -709,7 +709,6 @@ pub fn calibrate(
         .map_err(|e| refuse(crate::motion::rests::RestError::Poses(e.to_string())))?;
     let mut config = config.clone();
     config.filter.hold_out_every = holdout;
-    config.filter.score_terms = true;
     let input = RestsInput {
         data,
         file,
@@ -721,8 +720,9 @@ pub fn calibrate(
         config,
         noise,
     } = fit_measuring_noise(&config, layout, input, measured, None, progress)?;
-    let mut config = config;
-    config.filter.score_terms = false;
+    // The score tests' extended pass, once, on the fit the noise settled on.
+    let mut estimate = estimate;
+    crate::estimate::score_rests(&config, layout, data, file, &mut estimate)?;
     let g = estimate.gravity_m_s2;
     let bias_sigma = ["x", "y", "z"]
         .iter()

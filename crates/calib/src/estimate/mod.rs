@@ -229,6 +229,23 @@ pub struct Estimate {
     /// terms of a `calibrate` whose records' temperature moved
     /// ([`score_pass::CARRY_THERMAL_SPAN_K`]).
     pub carried_terms: Vec<String>,
+    /// What the fit's last pass was made with (its motion and the point its extended pass is
+    /// linearised about): for the extended pass of a recording of rests, made once after the
+    /// noise fixed point settles rather than in each of its fits ([`score_rests`]).
+    replay: Option<Box<Replay>>,
+}
+
+/// The motion of a fit and its last estimates ([`Estimate`]'s `replay`).
+#[derive(Clone)]
+struct Replay {
+    motion: Motion,
+    nominal: Nominal,
+}
+
+impl std::fmt::Debug for Replay {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Replay { .. }")
+    }
 }
 
 impl Estimate {
@@ -757,6 +774,43 @@ fn rests_estimate(
     iterate_passes(&inp, imu, first_point, feedback, progress)
 }
 
+/// The extended pass of the score tests ([`score_pass`]) for a fit `est` of a recording of
+/// rests in `data` made with `config` and `layout`: linearised about the fit's last estimates,
+/// with its motion, priors and held-out rests. `calibrate` makes it once, after the noise fixed
+/// point settles (each fit of the fixed point would otherwise make its own). Nothing to do for
+/// a fit that kept no replay.
+pub fn score_rests(
+    config: &RunConfig,
+    layout: &StateLayout,
+    data: &ImuData,
+    file: &str,
+    est: &mut Estimate,
+) -> Result<(), EstimateError> {
+    let Some(replay) = est.replay.take() else {
+        return Ok(());
+    };
+    let plan = Plan::of(config);
+    let mut imu = MemoryImu::new(data, file);
+    let rate = config.filter.imu_rate_hz;
+    let mut scan = scan_imu(&mut imu, rate, Spacing::Jittered, &mut |_, _| {})?;
+    scan.program_start = scan.span.0 - 1.0 / rate;
+    scan.program_start_found = false;
+    let mut scored = config.clone();
+    scored.filter.score_terms = true;
+    let inp = PassInputs {
+        config: &scored,
+        plan: &plan,
+        layout,
+        turntable: None,
+        scan: &scan,
+        motion: &replay.motion,
+    };
+    let tilt_walks = gyro_noise_walks_the_tilt(config, &plan, scan.n as f64 / rate);
+    score_pass::attach(&inp, &mut imu, Some(&replay.nominal), tilt_walks, est);
+    est.replay = Some(replay);
+    Ok(())
+}
+
 /// The checks of a recording of rests before any filter: the records' mean rate is the
 /// configured one, the gyros are alive, the specific force's magnitude is within what the
 /// priors allow, and the rests lie within the records.
@@ -992,6 +1046,7 @@ const MEAN_INTERVAL_TOLERANCE: f64 = 0.01;
 
 /// What the unit did during the recording: what the start attitude, the specific-force
 /// measurements and the diagnostics' segments come from.
+#[derive(Clone)]
 enum Motion {
     /// A turntable program (given, or read from the angle records).
     Program(turntable::program::Program),
@@ -1107,6 +1162,12 @@ fn iterate_passes(
     progress(total, total);
     estimate.truncate(layout.dim());
     score_pass::attach(&own, imu, nominal.as_ref(), tilt_walks, &mut estimate);
+    estimate.replay = nominal.map(|nominal| {
+        Box::new(Replay {
+            motion: motion.clone(),
+            nominal,
+        })
+    });
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
@@ -1768,6 +1829,7 @@ fn pass_estimate(
         extended: None,
         extended_error: None,
         carried_terms: Vec::new(),
+        replay: None,
     };
     (estimate, offset_sensitivity)
 }
