@@ -206,10 +206,7 @@ pub const BLIND_SHIFT_SIGMA: f64 = 3.0;
 pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
     let tested: Vec<&TermScore> = scores.iter().filter(|t| t.test.dof > 0).collect();
     let (mut decisive, mut informative) = (Vec::new(), Vec::new());
-    if tested.is_empty() {
-        return (decisive, informative);
-    }
-    let threshold = SCORE_LEVEL / tested.len() as f64;
+    let threshold = SCORE_LEVEL / tested.len().max(1) as f64;
     let shift_text = |t: &TermScore| {
         t.largest_shift.as_ref().map_or_else(String::new, |b| {
             format!("{} by {:+.1} of its sigmas", b.name, b.sigmas)
@@ -254,9 +251,11 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
             ));
         }
     }
-    let blind: Vec<String> = tested
+    // Every term not called for, those the data hold no information on included: they are the
+    // blindest.
+    let blind: Vec<String> = scores
         .iter()
-        .filter(|t| t.test.p_value >= threshold)
+        .filter(|t| t.test.dof == 0 || t.test.p_value >= threshold)
         .filter_map(|t| {
             let b = t.blind_shift.as_ref()?;
             (b.sigmas.abs() >= BLIND_SHIFT_SIGMA).then(|| {
@@ -278,7 +277,10 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
             blind.join(", ")
         ));
     }
-    if decisive.is_empty() && !informative.iter().any(|l| l.starts_with("the data call")) {
+    if !tested.is_empty()
+        && decisive.is_empty()
+        && !informative.iter().any(|l| l.starts_with("the data call"))
+    {
         let best = tested
             .iter()
             .min_by(|a, b| a.test.ln_p_value.total_cmp(&b.test.ln_p_value))
