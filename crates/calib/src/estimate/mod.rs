@@ -242,6 +242,15 @@ struct Replay {
     nominal: Nominal,
 }
 
+impl Replay {
+    fn boxed(motion: &Motion, nominal: Nominal) -> Box<Self> {
+        Box::new(Self {
+            motion: motion.clone(),
+            nominal,
+        })
+    }
+}
+
 impl std::fmt::Debug for Replay {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("Replay { .. }")
@@ -1162,12 +1171,7 @@ fn iterate_passes(
     progress(total, total);
     estimate.truncate(layout.dim());
     score_pass::attach(&own, imu, nominal.as_ref(), tilt_walks, &mut estimate);
-    estimate.replay = nominal.map(|nominal| {
-        Box::new(Replay {
-            motion: motion.clone(),
-            nominal,
-        })
-    });
+    estimate.replay = nominal.map(|n| Replay::boxed(motion, n));
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
