@@ -95,11 +95,18 @@ pub fn score_test(theta_hat: &[f64], post_cov: &DMatrix<f64>, prior_sigma: &[f64
         statistic += s * s / info;
         dof += 1;
     }
-    ScoreTest {
-        statistic,
-        dof,
-        p_value: chi_square_sf(statistic, dof),
-        ln_p_value: ln_chi_square_sf(statistic, dof),
+    ScoreTest::of(statistic, dof)
+}
+
+impl ScoreTest {
+    /// A chi-square statistic with `dof` degrees of freedom and its p-value.
+    fn of(statistic: f64, dof: usize) -> Self {
+        Self {
+            statistic,
+            dof,
+            p_value: chi_square_sf(statistic, dof),
+            ln_p_value: ln_chi_square_sf(statistic, dof),
+        }
     }
 }
 
@@ -118,12 +125,7 @@ fn statistic_of(score: &DVector<f64>, information: &DMatrix<f64>) -> ScoreTest {
         statistic += s * s / e;
         dof += 1;
     }
-    ScoreTest {
-        statistic,
-        dof,
-        p_value: chi_square_sf(statistic, dof),
-        ln_p_value: ln_chi_square_sf(statistic, dof),
-    }
+    ScoreTest::of(statistic, dof)
 }
 
 /// The posterior of one pass of the model extended by every candidate term (SI): the

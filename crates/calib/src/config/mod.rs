@@ -373,9 +373,11 @@ pub struct FilterConfig {
     /// setting: the model-extension loop sets it for its held-out check ([`crate::extend`]).
     #[serde(skip)]
     pub hold_out_every: Option<usize>,
-    /// After the fit, one more pass with every candidate term the recording can test appended
-    /// to the model, for the score tests of the verdict
-    /// ([`crate::estimate::score_pass`]). Not a file setting: `calibrate` sets it.
+    /// What `calibrate` adds to a fit: after it, one more pass with every candidate term the
+    /// recording can test appended to the model, for the score tests of the verdict; along a
+    /// program whose records' temperature moved, the thermal bias terms the model lacks,
+    /// carried at the grade's prior ([`crate::estimate::score_pass`]). Not a file setting:
+    /// `calibrate` sets it; the model-extension loop's fits do not.
     #[serde(skip)]
     pub score_terms: bool,
 }

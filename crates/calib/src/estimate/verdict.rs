@@ -297,9 +297,10 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
 }
 
 /// The span of the records' temperature (K) from which a model without thermal terms is
-/// pointed out: a navigation-grade gyro's 0.005 deg/h/K moves its bias by its own posterior
-/// sigma on the paper's program over about 1 K.
-pub const THERMAL_FINDING_SPAN_K: f64 = 1.0;
+/// pointed out (where `calibrate` has not carried them: the span from which it does): a
+/// navigation-grade gyro's 0.005 deg/h/K moves its bias by its own posterior sigma on the
+/// paper's program over about 1 K.
+pub const THERMAL_FINDING_SPAN_K: f64 = crate::estimate::score_pass::CARRY_THERMAL_SPAN_K;
 
 /// A finding where the temperature moved over the run and the model has no thermal term: the
 /// innovations can look consistent while the biases are those of no temperature in particular
