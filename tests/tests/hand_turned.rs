@@ -37,7 +37,11 @@ fn config(seed: u64) -> RunConfig {
 /// What `calibrate --free-motion` without `--config` makes of a recording: the noise measured
 /// in its rests, the grade chosen from it, the configuration from the data at the site's
 /// latitude and height (`--latitude`, `--height`).
-fn from_data(truth: &RunConfig, imu: &ImuData, rests: &[Rest]) -> (RunConfig, WhiteNoiseAtRest) {
+pub(crate) fn from_data(
+    truth: &RunConfig,
+    imu: &ImuData,
+    rests: &[Rest],
+) -> (RunConfig, WhiteNoiseAtRest) {
     let noise = hand_turned::white_noise_at_rest(imu, rests).unwrap();
     let grade = hand_turned::choose_grade(imu, rests, &noise);
     println!("{}", grade.describe());
@@ -47,7 +51,7 @@ fn from_data(truth: &RunConfig, imu: &ImuData, rests: &[Rest]) -> (RunConfig, Wh
     (c, noise)
 }
 
-fn calibrate(
+pub(crate) fn calibrate(
     config: &RunConfig,
     imu: &ImuData,
     rests: &[Rest],

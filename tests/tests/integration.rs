@@ -15,3 +15,4 @@ mod rests;
 mod rests_loop;
 mod static_runs;
 mod turntable_record_rates;
+mod verdict_cases;

@@ -187,6 +187,13 @@ fn verdict(s: &Session<Diagnose>, r: &LoopResult, held_out: Option<&HeldOut>) ->
         Some(line) => v.decisive.insert(0, line),
         None => {}
     }
+    // The score tests' advice ("`diagnose` fits it") is for `calibrate`; here the loop has
+    // tried every term the final verdict calls for, and says why it left each out.
+    for t in &v.scores.clone() {
+        if let Some(why) = r.why_left_out(&t.term) {
+            v.advise(&t.term, &why);
+        }
+    }
     let case = Case {
         measured,
         rests: s.rests.is_some(),

@@ -32,7 +32,12 @@ fn import_ferraris(dir: &Path, extra: &str) -> PathBuf {
 /// Standard output parsed as JSON with the stamp `name`, after a successful run of `args`.
 fn stdout_json(args: &[&str], name: &str) -> serde_json::Value {
     let o = run(args);
-    assert!(o.status.success(), "{args:?}: {}", text(&o.stderr));
+    // Exit status 3 is a verdict (the model does not fit these data), written with its JSON.
+    assert!(
+        matches!(o.status.code(), Some(0 | 3)),
+        "{args:?}: {}",
+        text(&o.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap_or_else(|e| {
         panic!(
             "{args:?}: standard output is not JSON alone ({e}):\n{}",

@@ -414,6 +414,66 @@ impl LoopResult {
         Some((r.candidates.first()?.term.as_str(), r.refused.as_deref()?))
     }
 
+    /// Why the loop left `term` out of the final model, in words for the verdict's advice
+    /// (`None` when it is in the model or the loop never tested it): refused by the held-out
+    /// check or by its likelihood, not separable, or not called for by the loop's own test (its
+    /// fits measure their noise, the verdict's score test uses the final fit's).
+    pub fn why_left_out(&self, term: &str) -> Option<String> {
+        if self.accepted_terms.iter().any(|t| t == term) || self.carried_terms().contains(&term) {
+            return None;
+        }
+        let r = self.rounds.last()?;
+        let c = r.candidates.iter().find(|c| c.term == term)?;
+        if let Some(h) = r
+            .held_out
+            .as_ref()
+            .filter(|h| h.term == term && h.refused())
+        {
+            return Some(format!(
+                "`diagnose` refused it: with it the held-out measurements are predicted worse \
+                 (log predictive density {:+.1} over {})",
+                h.gain(),
+                h.measurements
+            ));
+        }
+        if let Some(why) = r
+            .refused
+            .as_deref()
+            .filter(|_| r.candidates[0].term == term)
+        {
+            return Some(format!("`diagnose` refused it: {why}"));
+        }
+        if !c.separable {
+            let confounded = c
+                .separation
+                .as_ref()
+                .map(|x| x.confounded())
+                .unwrap_or_default();
+            return Some(if confounded.is_empty() {
+                "`diagnose` cannot determine it from this recording (its posterior stays near \
+                 its prior)"
+                    .to_string()
+            } else {
+                format!(
+                    "`diagnose` cannot separate it on this recording (confounded with {})",
+                    confounded.join(", ")
+                )
+            });
+        }
+        if c.ln_p_value < r.threshold.ln() {
+            return Some(format!(
+                "`diagnose` takes one term a round and stopped at {} before it",
+                r.candidates[0].term
+            ));
+        }
+        Some(format!(
+            "`diagnose`'s own test, with the noise of its own fits, did not call for it (p = \
+             {}, above its {})",
+            crate::check::stats::p_value_text(c.p_value),
+            crate::check::stats::p_value_text(r.threshold)
+        ))
+    }
+
     fn any_inseparable_call(&self) -> bool {
         !self.inseparable_calls().is_empty()
     }
