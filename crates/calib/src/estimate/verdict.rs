@@ -222,94 +222,18 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
     let tested: Vec<&TermScore> = scores.iter().filter(|t| t.test.dof > 0).collect();
     let (mut decisive, mut informative) = (Vec::new(), Vec::new());
     let threshold = SCORE_LEVEL / tested.len().max(1) as f64;
-    let shift_text = |t: &TermScore| {
-        t.largest_shift.as_ref().map_or_else(String::new, |b| {
-            format!("{} by {:+.1} of its sigmas", b.name, b.sigmas)
-        })
-    };
     // In forward order ([`term_scores`]): the strongest term first, each later one tested
     // given those called before it, so that a term correlated with a stronger one is not
     // called for by that one's effect.
-    for t in &tested {
-        if t.test.p_value >= threshold {
-            continue;
-        }
-        let shift = t.largest_shift.as_ref().map_or(0.0, |b| b.sigmas.abs());
-        let given = if t.given.is_empty() {
-            String::new()
+    for t in tested.iter().filter(|t| t.test.p_value < threshold) {
+        let (decides, line) = called_line(t, threshold, tested.len());
+        if decides {
+            decisive.push(line);
         } else {
-            format!(" given {}", t.given.join(" and "))
-        };
-        let call = format!(
-            "the data call for {}{given}: score statistic {:.1} for {} parameters, p = {} \
-             (below {} = {} % over {} terms)",
-            t.term,
-            t.test.statistic,
-            t.test.dof,
-            p_value_text(t.test.p_value),
-            p_value_text(threshold),
-            100.0 * SCORE_LEVEL,
-            tested.len()
-        );
-        // What the data do not show of a term that is there: its part the program does not
-        // separate from the base parameters ([`TermScore::blind_shift`]). A term called for
-        // whose seen part moves little can still have moved them far unseen (the paper's
-        // program without the turntable angles: a g-sensitivity called for at p = 1e-10 whose
-        // data size moved the gyro biases 1.5 sigma, they were 8.5 sigma off).
-        let unseen = t
-            .blind_shift
-            .as_ref()
-            .filter(|b| b.sigmas.abs() >= UNSEEN_SHIFT_SIGMA);
-        if shift >= MATERIAL_SHIFT_SIGMA {
-            decisive.push(format!(
-                "{call}; at the size the data give it, it moves {}: {}",
-                shift_text(t),
-                score_advice(&t.term)
-            ));
-        } else if let Some(b) = unseen {
-            decisive.push(format!(
-                "{call}; at the size the data give it, it moves {}, but what the run cannot \
-                 see of it could move {} by up to {:.0} sigma at its grade's plausible size: {}",
-                shift_text(t),
-                b.name,
-                b.sigmas.abs(),
-                score_advice(&t.term)
-            ));
-        } else {
-            informative.push(format!(
-                "{call}, but at the size the data give it, it moves no parameter by \
-                 {MATERIAL_SHIFT_SIGMA} sigma or more (largest: {}), nor could what the run \
-                 cannot see of it: it does not decide",
-                shift_text(t)
-            ));
+            informative.push(line);
         }
     }
-    // Every term not called for, those the data hold no information on included: they are the
-    // blindest.
-    let blind: Vec<String> = scores
-        .iter()
-        .filter(|t| t.test.dof == 0 || t.test.p_value >= threshold)
-        .filter_map(|t| {
-            let b = t.blind_shift.as_ref()?;
-            (b.sigmas.abs() >= BLIND_SHIFT_SIGMA).then(|| {
-                format!(
-                    "{} ({} by up to {:.0} sigma)",
-                    t.term,
-                    b.name,
-                    b.sigmas.abs()
-                )
-            })
-        })
-        .collect();
-    if !blind.is_empty() {
-        informative.push(format!(
-            "blind spots: at up to its grade's plausible size, each of {} could move the base \
-             parameter named by that much while its test stays below the level; the sigmas do \
-             not include them (`calibrate --terms` carries one, `design` proposes a program \
-             that separates them)",
-            blind.join(", ")
-        ));
-    }
+    informative.extend(blind_spot_line(scores, threshold));
     if !tested.is_empty()
         && decisive.is_empty()
         && !informative.iter().any(|l| l.starts_with("the data call"))
@@ -327,6 +251,97 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
         ));
     }
     (decisive, informative)
+}
+
+/// The line of a term called for (below `threshold`, one of `tested` terms), and whether it
+/// decides ([`score_lines`]).
+fn called_line(t: &TermScore, threshold: f64, tested: usize) -> (bool, String) {
+    let shift = t.largest_shift.as_ref().map_or(0.0, |b| b.sigmas.abs());
+    let shift_text = t.largest_shift.as_ref().map_or_else(String::new, |b| {
+        format!("{} by {:+.1} of its sigmas", b.name, b.sigmas)
+    });
+    let given = if t.given.is_empty() {
+        String::new()
+    } else {
+        format!(" given {}", t.given.join(" and "))
+    };
+    let call = format!(
+        "the data call for {}{given}: score statistic {:.1} for {} parameters, p = {} \
+         (below {} = {} % over {tested} terms)",
+        t.term,
+        t.test.statistic,
+        t.test.dof,
+        p_value_text(t.test.p_value),
+        p_value_text(threshold),
+        100.0 * SCORE_LEVEL,
+    );
+    // What the data do not show of a term that is there: its part the program does not
+    // separate from the base parameters ([`TermScore::blind_shift`]). A term called for
+    // whose seen part moves little can still have moved them far unseen (the paper's
+    // program without the turntable angles: a g-sensitivity called for at p = 1e-10 whose
+    // data size moved the gyro biases 1.5 sigma, they were 8.5 sigma off).
+    let unseen = t
+        .blind_shift
+        .as_ref()
+        .filter(|b| b.sigmas.abs() >= UNSEEN_SHIFT_SIGMA);
+    if shift >= MATERIAL_SHIFT_SIGMA {
+        let advice = score_advice(&t.term);
+        (
+            true,
+            format!("{call}; at the size the data give it, it moves {shift_text}: {advice}"),
+        )
+    } else if let Some(b) = unseen {
+        (
+            true,
+            format!(
+                "{call}; at the size the data give it, it moves {shift_text}, but what the run \
+                 cannot see of it could move {} by up to {:.0} sigma at its grade's plausible \
+                 size: {}",
+                b.name,
+                b.sigmas.abs(),
+                score_advice(&t.term)
+            ),
+        )
+    } else {
+        (
+            false,
+            format!(
+                "{call}, but at the size the data give it, it moves no parameter by \
+                 {MATERIAL_SHIFT_SIGMA} sigma or more (largest: {shift_text}), nor could what \
+                 the run cannot see of it: it does not decide"
+            ),
+        )
+    }
+}
+
+/// The blind-spot finding: every term not called for (below `threshold`), those the data hold
+/// no information on included (they are the blindest), that could move a base parameter by
+/// [`BLIND_SHIFT_SIGMA`] or more unseen.
+fn blind_spot_line(scores: &[TermScore], threshold: f64) -> Option<String> {
+    let blind: Vec<String> = scores
+        .iter()
+        .filter(|t| t.test.dof == 0 || t.test.p_value >= threshold)
+        .filter_map(|t| {
+            let b = t.blind_shift.as_ref()?;
+            (b.sigmas.abs() >= BLIND_SHIFT_SIGMA).then(|| {
+                format!(
+                    "{} ({} by up to {:.0} sigma)",
+                    t.term,
+                    b.name,
+                    b.sigmas.abs()
+                )
+            })
+        })
+        .collect();
+    (!blind.is_empty()).then(|| {
+        format!(
+            "blind spots: at up to its grade's plausible size, each of {} could move the base \
+             parameter named by that much while its test stays below the level; the sigmas do \
+             not include them (`calibrate --terms` carries one, `design` proposes a program \
+             that separates them)",
+            blind.join(", ")
+        )
+    })
 }
 
 /// What a decisive score-test line advises for a term the data call for: a command that fits
