@@ -786,6 +786,34 @@ mod tests {
         }
     }
 
+    /// Every term's error is zero at zero parameters, whatever the input: what lets
+    /// [`ErrorModel::error`] and the affine forms skip an idle term.
+    #[test]
+    fn every_term_is_zero_at_zero_parameters() {
+        let input = SensorInput {
+            omega_body: Vector3::new(0.3, -1.2, 0.7),
+            f_body: Vector3::new(2.0, -3.0, 9.0),
+            omega_dot_body: Vector3::new(1.5, 0.2, -0.8),
+            f_dot_body: Vector3::new(-0.4, 0.9, 0.1),
+            temp_delta: 7.5,
+        };
+        let mut m = ErrorModel::paper(&crate::terms::PaperPriors::paper());
+        for c in Candidate::ALL {
+            if let Some(t) = c.term(1.0) {
+                m.push(t);
+            }
+        }
+        for t in m.terms() {
+            let zero = vec![0.0; t.params().len()];
+            assert_eq!(
+                t.error(&zero, &input),
+                Vector3::zeros(),
+                "{:?}",
+                t.params()[0].name
+            );
+        }
+    }
+
     /// The derivative part of a model is integrated from the changes over an interval: for a
     /// rate that jumps, `integral of dw/dt = w(b) - w(a)`.
     #[test]

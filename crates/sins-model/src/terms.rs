@@ -609,24 +609,49 @@ impl ErrorModel {
     }
 
     /// Total error of one triad (`nu` for [`Sensor::Gyro`], `df` for [`Sensor::Accel`]).
+    /// Terms whose parameters are all zero are skipped: every term's error is zero there
+    /// (tested for every term, `candidates::tests::every_term_is_zero_at_zero_parameters`).
     pub fn error(&self, sensor: Sensor, p: &[f64], input: &SensorInput) -> Vector3<f64> {
         let mut e = Vector3::zeros();
-        for (t, &o) in self.terms.iter().zip(&self.offsets) {
-            if t.sensor() == sensor {
+        for (k, t) in self.terms.iter().enumerate() {
+            if t.sensor() == sensor && !self.idle(k, p) {
+                let o = self.offsets[k];
                 e += t.error(&p[o..o + t.params().len()], input);
             }
         }
         e
     }
 
+    /// Whether term `k`'s parameters are all zero in `p`: it then adds nothing to the error,
+    /// whatever its form (the score tests' extended pass carries every candidate at zero, and
+    /// a non-affine candidate there would otherwise force the general compensation on every
+    /// step).
+    pub fn idle(&self, k: usize, p: &[f64]) -> bool {
+        let o = self.offsets[k];
+        p[o..o + self.terms[k].params().len()]
+            .iter()
+            .all(|&x| x == 0.0)
+    }
+
+    /// Whether a term that is not idle at `p` ([`ErrorModel::idle`]) uses the rate
+    /// derivatives.
+    pub fn uses_rate_derivatives_at(&self, p: &[f64]) -> bool {
+        self.terms
+            .iter()
+            .enumerate()
+            .any(|(k, t)| t.uses_rate_derivatives() && !self.idle(k, p))
+    }
+
     /// One triad's error as an affine function of the input for parameters `p`, when every term
-    /// of that triad is affine in the input ([`ErrorTerm::is_affine`]); `None` otherwise.
+    /// of that triad is affine in the input ([`ErrorTerm::is_affine`]) or idle at `p`
+    /// ([`ErrorModel::idle`]); `None` otherwise.
     pub fn affine(&self, sensor: Sensor, p: &[f64]) -> Option<AffineError> {
         let all_affine = self
             .terms
             .iter()
-            .filter(|t| t.sensor() == sensor)
-            .all(|t| t.is_affine());
+            .enumerate()
+            .filter(|(k, t)| t.sensor() == sensor && !self.idle(*k, p))
+            .all(|(_, t)| t.is_affine());
         all_affine.then(|| self.affine_form(sensor, p, &Vector3::repeat(1.0)))
     }
 
@@ -644,8 +669,9 @@ impl ErrorModel {
         let all = self
             .terms
             .iter()
-            .filter(|t| t.sensor() == sensor)
-            .all(|t| t.is_affine_in_orthant());
+            .enumerate()
+            .filter(|(k, t)| t.sensor() == sensor && !self.idle(*k, p))
+            .all(|(_, t)| t.is_affine_in_orthant());
         all.then(|| self.affine_form(sensor, p, signs))
     }
 
@@ -710,8 +736,9 @@ impl ErrorModel {
             f_dot_body: *d_f,
             ..zero
         };
-        for (t, &o) in self.terms.iter().zip(&self.offsets) {
-            if t.sensor() == sensor && t.uses_rate_derivatives() {
+        for (k, t) in self.terms.iter().enumerate() {
+            if t.sensor() == sensor && t.uses_rate_derivatives() && !self.idle(k, p) {
+                let o = self.offsets[k];
                 let q = &p[o..o + t.params().len()];
                 e += t.error(q, &change) - t.error(q, &zero);
             }

@@ -620,7 +620,7 @@ impl Compensation {
         let affine = model
             .affine(Sensor::Gyro, p)
             .zip(model.affine(Sensor::Accel, p));
-        let derivatives = model.uses_rate_derivatives();
+        let derivatives = model.uses_rate_derivatives_at(p);
         // One fixed-point pass is `x' = raw + o dt + B x` with `x = (dth, dv)`,
         // `B = [G_w G_f; -A_w -A_f]` and `o = (g_0, -a_0)` (the inputs are `x / dt`). From
         // `x_0 = raw`, three passes give `x_3 = (I + B + B^2 + B^3) raw + (I + B + B^2) o dt`:
