@@ -374,12 +374,17 @@ pub struct FilterConfig {
     #[serde(skip)]
     pub hold_out_every: Option<usize>,
     /// What `calibrate` adds to a fit: after it, one more pass with every candidate term the
-    /// recording can test appended to the model, for the score tests of the verdict; along a
-    /// program whose records' temperature moved, the thermal bias terms the model lacks,
-    /// carried at the grade's prior ([`crate::estimate::score_pass`]). Not a file setting:
-    /// `calibrate` sets it; the model-extension loop's fits do not.
+    /// recording can test appended to the model, for the score tests of the verdict
+    /// ([`crate::estimate::score_pass`]). Not a file setting: `calibrate` sets it, and the
+    /// model-extension loop for its final model; the loop's other fits do not.
     #[serde(skip)]
     pub score_terms: bool,
+    /// Along a program whose records' temperature moved, carry the thermal bias terms the
+    /// model lacks at the grade's prior ([`crate::estimate::score_pass::with_thermal_biases`]).
+    /// Not a file setting: `calibrate` sets it; the loop, which tests the thermal terms
+    /// itself, does not.
+    #[serde(skip)]
+    pub carry_thermal: bool,
 }
 
 /// How the turntable clock relates to the IMU clock, as the laboratory's synchronisation knows

@@ -89,8 +89,10 @@ pub fn calibrate_program(
 ) -> Result<Calibration, EstimateError> {
     let mut config = config.clone();
     config.filter.score_terms = true;
+    config.filter.carry_thermal = true;
     let estimate = estimate_from(&config, layout, imu, turntable, progress)?;
     config.filter.score_terms = false;
+    config.filter.carry_thermal = false;
     Ok(Calibration::new(
         estimate,
         config,

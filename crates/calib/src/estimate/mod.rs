@@ -674,7 +674,7 @@ pub(crate) fn estimate_from_kept(
     let span = scan.temperature.as_ref().map(|t| t.max - t.min);
     let thermal = config
         .filter
-        .score_terms
+        .carry_thermal
         .then(|| score_pass::with_thermal_biases(config, layout, span))
         .flatten();
     let (layout, carried) = thermal

@@ -1065,6 +1065,16 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
         cx.accept(&mut st, round, evidence.swap_remove(k), &reference)?;
     }
     let drift_reach = cx.last_drift_reach(&st)?;
+    // The final model's verdict as `calibrate` gives it: with the score tests of the candidate
+    // terms left out (one more fit with the extended pass; the estimate is the same).
+    if cx.rests.is_none() {
+        // The configuration it was fitted with (not the loop's, whose noise may be scaled to
+        // the data for testing).
+        let mut config = st.current.calibration.config.clone();
+        config.filter.score_terms = true;
+        let ext = st.current.extension.clone();
+        st.current = cx.fit_with(&config, &ext)?;
+    }
     Ok(LoopResult {
         accepted_terms: st.accepted,
         rounds: st.rounds,
