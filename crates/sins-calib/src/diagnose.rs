@@ -197,8 +197,8 @@ fn navigation_gain_line(models: &[ModelNavigation], term: &str) -> String {
     };
     let (before, after) = (&models[k - 1].navigation, &models[k].navigation);
     let why = if before.model_fits == Some(false) {
-        "the model without the term does not fit these data: its figure was the model's, not \
-         the unit's"
+        "the model without it does not fit these data, which call for the term: its figure was \
+         the model's, not the unit's"
     } else {
         "with the term in the model its own uncertainty counts"
     };

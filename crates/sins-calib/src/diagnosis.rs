@@ -223,8 +223,9 @@ fn verdict(s: &Session<Diagnose>, r: &LoopResult, held_out: Option<&HeldOut>) ->
     verdict
 }
 
-/// The navigation figure of every model of the loop `r` on `flight`: whether each fits is what
-/// the loop's gain says of its diagnostics, the final model's is the verdict's (`final_fits`).
+/// The navigation figure of every model of the loop `r` on `flight`: a model the loop moved on
+/// from does not fit these data (they call for the next term), the final model's fit is the
+/// verdict's (`final_fits`).
 fn navigation(
     r: &LoopResult,
     flight: &crate::navigation::Flight,
@@ -245,11 +246,7 @@ fn navigation(
             .map(|t| t.reference_c),
     };
     let n = r.models.len();
-    let base_fits = if n == 0 {
-        final_fits
-    } else {
-        r.base.calibration.diagnostics.fits
-    };
+    let base_fits = n == 0 && final_fits;
     let base = calib::estimate::covariance::Posterior::of_estimate(&r.base.calibration.estimate);
     let mut out = vec![ModelNavigation {
         term: None,
@@ -260,11 +257,7 @@ fn navigation(
     let mut terms: Vec<String> = Vec::new();
     for (k, (term, post)) in r.models.iter().enumerate() {
         terms.push(term.clone());
-        let fits = if k + 1 == n {
-            final_fits
-        } else {
-            r.gain.get(term).is_none_or(|g| g.diagnostics_fit.1)
-        };
+        let fits = k + 1 == n && final_fits;
         let ids: Vec<&str> = terms.iter().map(String::as_str).collect();
         let carried = r
             .rounds
