@@ -123,6 +123,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let program = crate::identification::program_file(&config);
         let mut inputs = vec![std::path::Path::new(&args.config)];
         inputs.extend(program.as_deref());
+        inputs.extend(args.flight.flight.as_deref());
         output::Outputs::new(&inputs).file(path, "--json")?;
     }
     let program = config.program()?;
