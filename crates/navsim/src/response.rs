@@ -13,7 +13,7 @@
 //!
 //! with `Phi(t, 0)` the transition of the navigation errors, `S_f` the response to the
 //! instrument errors acting in flight, and `N` the covariance the noise leaves. Over a step
-//! `[Phi, Phi_c; 0, I]` (see [`crate::propagate`]): `S_f' = Phi S_f + Phi_c`,
+//! `[Phi, Phi_c; 0, I]` (see [`mod@crate::propagate`]): `S_f' = Phi S_f + Phi_c`,
 //! `Phi(t1, 0) = Phi Phi(t0, 0)`, `N' = Phi N Phi^T + Q_d`. This is the propagation of
 //! `[P_nn, P_nc]` written per unit instrument error: in exact arithmetic the same covariance
 //! (`P_nc = S P`), but one pass serves every covariance of `c` (a calibration's posterior and
