@@ -564,18 +564,21 @@ fn paper_sweep() {
 }
 
 /// The instrument covariance of a result file: the parameters navigation models (the paper's
-/// 21), their sigmas and, when `correlations` and the file has them, their correlations (else
-/// diagonal). Also the names left out (extension terms navigation does not model; the
-/// turntable's and mounting terms, which do not act on navigation, are not listed).
+/// 21 and those of the candidate terms the result estimated, `navsim::InstrumentModel`), their
+/// sigmas and, when `correlations` and the file has them, their correlations (else diagonal).
+/// Also the names left out (names navigation does not know; the turntable's and mounting
+/// terms, which do not act on navigation, are not listed).
 fn result_covariance(
     result: &calib::io::ResultFile,
     file: &str,
     correlations: bool,
 ) -> Result<(navsim::InstrumentCovariance, Vec<String>), String> {
+    let model =
+        navsim::InstrumentModel::for_names(result.parameters.iter().map(|p| p.name.as_str()));
     let mut idx = Vec::new();
     let mut left_out = Vec::new();
     for (i, p) in result.parameters.iter().enumerate() {
-        if navsim::INSTRUMENT_NAMES.contains(&p.name.as_str()) {
+        if model.names().contains(&p.name) {
             idx.push(i);
         } else if !navsim::instruments::IGNORED_PREFIXES
             .iter()
@@ -651,7 +654,7 @@ fn nav_error(path: &Path) -> Result<(), String> {
     );
     if !left_out.is_empty() {
         println!(
-            "  left out (navigation models the paper's 21 parameters only): {}",
+            "  left out (names navigation does not know): {}",
             left_out.join(", ")
         );
     }

@@ -90,6 +90,11 @@ pub struct SnakeConfig {
     pub first_turn: TurnDirection,
     /// Length of the flight \[s\].
     pub duration_s: f64,
+    /// The unit's temperature in flight (and at the alignment) (deg C); optional. A
+    /// calibration's thermal terms act on its departure from their reference temperature;
+    /// without it they are left out of the navigation figure.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature_c: Option<f64>,
 }
 
 impl Default for SnakeConfig {
@@ -183,6 +188,15 @@ impl SnakeConfig {
         }
         finite("start_longitude_deg", self.start_longitude_deg)?;
         finite("start_heading_deg", self.start_heading_deg)?;
+        if let Some(t) = self.temperature_c {
+            finite("temperature_c", t)?;
+            if !(-100.0..=200.0).contains(&t) {
+                return Err(bad(
+                    "temperature_c",
+                    format!("must be in [-100, 200] deg C, got {t}"),
+                ));
+            }
+        }
         finite("duration_s", self.duration_s)?;
         if !(self.duration_s > 0.0 && self.duration_s <= 48.0 * 3600.0) {
             return Err(bad(

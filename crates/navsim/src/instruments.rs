@@ -10,7 +10,9 @@
 //! `accel.bias.{x,y,z}` (m/s^2), `accel.gamma.{xx,yx,yy,zx,zy,zz}` (-).
 
 use nalgebra::{DMatrix, SMatrix};
+use sins_model::candidates::Candidate;
 use sins_model::terms::{ErrorModel, PaperPriors};
+use std::ops::Range;
 
 use crate::NavError;
 
@@ -253,15 +255,29 @@ impl InstrumentCovariance {
         Ok(())
     }
 
-    /// The 21x21 covariance in [`INSTRUMENT_NAMES`] order (symmetrised). Parameters under
-    /// [`IGNORED_PREFIXES`] are dropped; missing and unknown names are errors unless `policy`
-    /// allows them (a missing parameter then gets zero variance and no correlation).
+    /// The 21x21 covariance in [`INSTRUMENT_NAMES`] order (symmetrised): [`Self::in_model_order`]
+    /// of the paper's model, whose parameters are the only ones known here (a candidate term's
+    /// are unknown).
     pub fn to_navigation_order(&self, policy: NamePolicy) -> Result<InstrumentMatrix, NavError> {
+        let p = self.in_model_order(&InstrumentModel::paper(), policy)?;
+        Ok(InstrumentMatrix::from_fn(|i, j| p[(i, j)]))
+    }
+
+    /// The covariance in the order of `model`'s parameters ([`InstrumentModel::names`]),
+    /// symmetrised. Parameters under [`IGNORED_PREFIXES`] are dropped; missing and unknown
+    /// names are errors unless `policy` allows them (a missing parameter then gets zero variance
+    /// and no correlation).
+    pub fn in_model_order(
+        &self,
+        model: &InstrumentModel,
+        policy: NamePolicy,
+    ) -> Result<DMatrix<f64>, NavError> {
         self.check()?;
-        let mut idx = [None; INSTRUMENT_DIM];
+        let n = model.len();
+        let mut idx = vec![None; n];
         let mut unknown = Vec::new();
         for (i, name) in self.names.iter().enumerate() {
-            if let Some(k) = INSTRUMENT_NAMES.iter().position(|n| n == name) {
+            if let Some(k) = model.names.iter().position(|m| m == name) {
                 idx[k] = Some(i);
             } else if !IGNORED_PREFIXES.iter().any(|p| name.starts_with(p)) {
                 unknown.push(name.clone());
@@ -270,25 +286,143 @@ impl InstrumentCovariance {
         if !unknown.is_empty() && !policy.ignore_unknown {
             return Err(NavError::UnknownParameters(unknown));
         }
-        let missing: Vec<String> = INSTRUMENT_NAMES
+        let missing: Vec<String> = model
+            .names
             .iter()
             .zip(idx.iter())
             .filter(|(_, i)| i.is_none())
-            .map(|(n, _)| n.to_string())
+            .map(|(n, _)| n.clone())
             .collect();
         if !missing.is_empty() && !policy.allow_missing {
             return Err(NavError::MissingParameters(missing));
         }
-        let mut p = InstrumentMatrix::zeros();
-        for a in 0..INSTRUMENT_DIM {
-            for b in 0..INSTRUMENT_DIM {
-                if let (Some(i), Some(j)) = (idx[a], idx[b]) {
-                    p[(a, b)] = 0.5 * (self.cov[(i, j)] + self.cov[(j, i)]);
-                }
-            }
-        }
-        Ok(p)
+        Ok(DMatrix::from_fn(n, n, |a, b| match (idx[a], idx[b]) {
+            (Some(i), Some(j)) => 0.5 * (self.cov[(i, j)] + self.cov[(j, i)]),
+            _ => 0.0,
+        }))
     }
+}
+
+/// The instrument errors navigation propagates for a calibration: the paper's 21 parameters
+/// ([`INSTRUMENT_NAMES`], in that order), then every candidate term of
+/// [`sins_model::candidates`] that the calibration estimated, in [`Candidate::ALL`] order. Each
+/// term acts in flight through its own effect on the sensors (its Jacobian at the flight's body
+/// rate, specific force, their rates of change and the temperature), as in the calibration.
+/// The gyro bias random walk is no term (it has no constant parameters) and is never part.
+#[derive(Debug)]
+pub struct InstrumentModel {
+    model: ErrorModel,
+    names: Vec<String>,
+    terms: Vec<(Candidate, Range<usize>)>,
+}
+
+impl InstrumentModel {
+    /// The paper's model alone.
+    pub fn paper() -> Self {
+        Self::with_terms(&[])
+    }
+
+    /// The paper's model and the candidate terms `terms` (in [`Candidate::ALL`] order,
+    /// whatever the order given; the random walk is skipped).
+    pub fn with_terms(terms: &[Candidate]) -> Self {
+        let mut model = ErrorModel::paper(&PaperPriors::paper());
+        let mut with = Vec::new();
+        for c in Candidate::ALL.into_iter().filter(|c| terms.contains(c)) {
+            let Some(term) = c.term(c.default_prior_sigma()) else {
+                continue;
+            };
+            let start = model.n_params();
+            model.push(term);
+            with.push((c, start..model.n_params()));
+        }
+        let names = model.params().into_iter().map(|p| p.name).collect();
+        Self {
+            model,
+            names,
+            terms: with,
+        }
+    }
+
+    /// The paper's model and every candidate term one of whose parameters `names` holds.
+    pub fn for_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Self {
+        let names: Vec<&str> = names.into_iter().collect();
+        let terms: Vec<Candidate> = Candidate::ALL
+            .into_iter()
+            .filter(|c| c.term(1.0).is_some())
+            .filter(|c| c.param_names().iter().any(|p| names.contains(&p.as_str())))
+            .collect();
+        Self::with_terms(&terms)
+    }
+
+    /// The parameters' names in state order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Number of parameters.
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    /// Whether the model has no parameters (never: the paper's 21 are always there).
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+
+    /// The sensor-error model whose Jacobians navigation takes.
+    pub fn error_model(&self) -> &ErrorModel {
+        &self.model
+    }
+
+    /// The candidate terms beyond the paper's model, with their parameters' state indices.
+    pub fn terms(&self) -> &[(Candidate, Range<usize>)] {
+        &self.terms
+    }
+
+    /// The parameters in groups: gyro bias, gyro matrix, accelerometer bias, accelerometer
+    /// matrix (the paper's four terms), then each candidate term by its id.
+    pub fn groups(&self) -> Vec<ParameterGroup> {
+        let paper = [
+            ("gyro_bias", "gyro bias nu0", GYRO_BIAS..GYRO_THETA),
+            ("gyro_matrix", "gyro matrix Theta", GYRO_THETA..ACCEL_BIAS),
+            (
+                "accel_bias",
+                "accelerometer bias df0",
+                ACCEL_BIAS..ACCEL_GAMMA,
+            ),
+            (
+                "accel_matrix",
+                "accelerometer matrix Gamma",
+                ACCEL_GAMMA..INSTRUMENT_DIM,
+            ),
+        ];
+        let mut groups: Vec<ParameterGroup> = paper
+            .into_iter()
+            .map(|(id, label, r)| ParameterGroup {
+                id: id.to_string(),
+                label: label.to_string(),
+                indices: r.collect(),
+            })
+            .collect();
+        groups.extend(self.terms.iter().map(|(c, r)| ParameterGroup {
+            id: c.id().to_string(),
+            label: c.id().replace('_', " "),
+            indices: r.clone().collect(),
+        }));
+        groups
+    }
+}
+
+/// A group of instrument parameters (state indices of an [`InstrumentModel`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ParameterGroup {
+    /// Identifier: `gyro_bias`, `gyro_matrix`, `accel_bias`, `accel_matrix`, or a candidate
+    /// term's id.
+    pub id: String,
+    /// Label for tables.
+    pub label: String,
+    /// The parameters' indices in the model's state.
+    pub indices: Vec<usize>,
 }
 
 #[cfg(test)]

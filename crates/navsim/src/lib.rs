@@ -14,7 +14,11 @@
 //! - [`instruments`]: the calibration's parameters by name and their covariance
 //!   ([`InstrumentCovariance`]);
 //! - [`model`]: the error model in ENU axes and the alignment map;
-//! - [`mod@propagate`]: covariance propagation, [`RhoSeries`], [`error_budget`].
+//! - [`mod@propagate`]: covariance propagation, [`RhoSeries`], [`error_budget`];
+//! - [`figure`]: the navigation figure of a calibration (rho at a horizon that follows the
+//!   unit's grade, calibrated and uncalibrated, the budget by parameter group);
+//! - [`response`]: the propagation itself, per unit instrument error ([`NavResponse`]), once
+//!   for any number of instrument covariances.
 //!
 //! Frames and units: ENU navigation frame, body = instrument frame x1 right wing, x2 forward,
 //! x3 up; SI inside. See `docs/navsim.md` for the equations and the numbers.
@@ -36,17 +40,26 @@
 #![warn(missing_docs)]
 
 pub mod config;
+pub mod figure;
 pub mod instruments;
 pub mod model;
 pub mod propagate;
+pub mod response;
 pub mod trajectory;
 
 pub use config::{ConfigError, DEFAULT_SNAKE_TOML, SnakeConfig, TurnDirection};
-pub use instruments::{INSTRUMENT_NAMES, InstrumentCovariance, NamePolicy};
+pub use figure::{
+    CalibrationCovariance, FlightSetting, GroupRho, Horizon, Judge, NavigationFigure, TermNote,
+    horizon, navigation_figure,
+};
+pub use instruments::{
+    INSTRUMENT_NAMES, InstrumentCovariance, InstrumentModel, NamePolicy, ParameterGroup,
+};
 pub use propagate::{
     BudgetEntry, BudgetGroup, ErrorBudget, InitialAttitude, NavOptions, NavSnapshot, RhoSeries,
     error_budget, initial_covariance, propagate, rho_series, state_names,
 };
+pub use response::{NavResponse, Part};
 pub use trajectory::{SnakeTrajectory, StaticTrajectory, Trajectory, TrajectoryPoint};
 
 use thiserror::Error;

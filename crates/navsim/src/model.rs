@@ -26,10 +26,10 @@
 //! `nu = nu0 + Theta w_body`, `df = df0 + Gamma f_body` use the true body rate (Earth rate +
 //! transport rate + turn rate) and the true body specific force.
 
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Const, Dyn, Matrix3, OMatrix, SMatrix, Vector3};
 use sins_model::attitude::skew;
 use sins_model::earth::Site;
-use sins_model::terms::{Sensor, SensorInput};
+use sins_model::terms::{ErrorModel, Sensor, SensorInput};
 
 use crate::NavError;
 // The instrument model is the instruments module's (its parameters are navigation's instrument
@@ -66,6 +66,10 @@ pub type NavInstrumentMatrix = SMatrix<f64, NAV_DIM, INSTRUMENT_DIM>;
 /// 3x21 map from instrument parameters to the attitude error after alignment.
 pub type AlignmentMap = SMatrix<f64, 3, INSTRUMENT_DIM>;
 
+/// 7xn matrix mapping the parameters of an [`crate::InstrumentModel`] into navigation-state
+/// rates (or, in the response, navigation errors).
+pub type NavModelMatrix = OMatrix<f64, Const<NAV_DIM>, Dyn>;
+
 /// `C nu` and `C df` as linear maps of the instrument state: rows 0..3 give the gyro error in ENU,
 /// rows 3..6 the accelerometer error in ENU. The sensor errors' Jacobians are those of the
 /// instrument model ([`paper_model`]) at the true body rate and specific force.
@@ -74,23 +78,80 @@ pub fn instrument_errors_enu(
     w_body: &Vector3<f64>,
     f_body: &Vector3<f64>,
 ) -> SMatrix<f64, 6, INSTRUMENT_DIM> {
-    let model = paper_model();
     let input = SensorInput {
         omega_body: *w_body,
         f_body: *f_body,
         ..SensorInput::default()
     };
-    let p = [0.0; INSTRUMENT_DIM];
-    let mut cols = [Vector3::zeros(); INSTRUMENT_DIM];
-    let mut m = SMatrix::<f64, 6, INSTRUMENT_DIM>::zeros();
-    for (row, sensor) in [(0, Sensor::Gyro), (3, Sensor::Accel)] {
-        model.jacobian(sensor, &p, &input, &mut cols);
-        for (k, col) in cols.iter().enumerate() {
-            m.fixed_view_mut::<3, 1>(row, k)
-                .copy_from(&(c_body_to_enu * col));
+    let m = model_errors_enu(paper_model(), c_body_to_enu, &input);
+    SMatrix::<f64, 6, INSTRUMENT_DIM>::from_fn(|i, j| m[(i, j)])
+}
+
+/// [`instrument_errors_enu`] for any instrument model and sensor input (the rates of change
+/// and the temperature included): rows 0..3 `C nu`, rows 3..6 `C df`, one column per
+/// parameter of `model`.
+pub fn model_errors_enu(
+    model: &ErrorModel,
+    c_body_to_enu: &Matrix3<f64>,
+    input: &SensorInput,
+) -> OMatrix<f64, Const<6>, Dyn> {
+    let n = model.n_params();
+    let mut m = OMatrix::<f64, Const<6>, Dyn>::zeros(n);
+    let mut work = JacobianWork::new(n);
+    work.rotated(model, c_body_to_enu, input, |row, k, v| {
+        m.fixed_view_mut::<3, 1>(row, k).copy_from(v)
+    });
+    m
+}
+
+/// Scratch space of the sensor Jacobians (no allocation per call in the propagation).
+pub(crate) struct JacobianWork {
+    p: Vec<f64>,
+    cols: Vec<Vector3<f64>>,
+}
+
+impl JacobianWork {
+    pub(crate) fn new(n: usize) -> Self {
+        Self {
+            p: vec![0.0; n],
+            cols: vec![Vector3::zeros(); n],
         }
     }
-    m
+
+    /// Every column of the gyro (`row` 0) and accelerometer (`row` 3) Jacobians of `model` at
+    /// `input`, rotated into ENU, passed to `put(row, parameter, column)`.
+    pub(crate) fn rotated(
+        &mut self,
+        model: &ErrorModel,
+        c_body_to_enu: &Matrix3<f64>,
+        input: &SensorInput,
+        mut put: impl FnMut(usize, usize, &Vector3<f64>),
+    ) {
+        for (row, sensor) in [(0, Sensor::Gyro), (3, Sensor::Accel)] {
+            model.jacobian(sensor, &self.p, input, &mut self.cols);
+            for (k, col) in self.cols.iter().enumerate() {
+                put(row, k, &(c_body_to_enu * col));
+            }
+        }
+    }
+
+    /// `F_instr` of [`instrument_dynamics`] written into `b` (7 x n).
+    pub(crate) fn instrument_dynamics(
+        &mut self,
+        model: &ErrorModel,
+        c_body_to_enu: &Matrix3<f64>,
+        input: &SensorInput,
+        b: &mut NavModelMatrix,
+    ) {
+        self.rotated(model, c_body_to_enu, input, |row, k, v| {
+            if row == 0 {
+                b.fixed_view_mut::<3, 1>(BETA, k).copy_from(v);
+            } else {
+                b[(DV, k)] = v.x;
+                b[(DV + 1, k)] = v.y;
+            }
+        });
+    }
 }
 
 /// The continuous-time error dynamics at one point of the trajectory.
@@ -103,8 +164,22 @@ pub struct ErrorDynamics {
 }
 
 /// The error dynamics (see the module doc) at trajectory point `p` for an Earth rotating at
-/// `earth_rate` (rad/s).
+/// `earth_rate` (rad/s), with the paper's instrument model.
 pub fn error_dynamics(p: &TrajectoryPoint, earth_rate: f64) -> ErrorDynamics {
+    let input = SensorInput {
+        omega_body: p.body_rate(earth_rate),
+        f_body: p.specific_force_body(earth_rate),
+        ..SensorInput::default()
+    };
+    let b = instrument_dynamics(paper_model(), &p.c_body_to_enu, &input);
+    ErrorDynamics {
+        f_nav: nav_dynamics(p, earth_rate),
+        f_instr: NavInstrumentMatrix::from_fn(|i, j| b[(i, j)]),
+    }
+}
+
+/// `F_nav` (7x7) at trajectory point `p` for an Earth rotating at `earth_rate` (rad/s).
+pub fn nav_dynamics(p: &TrajectoryPoint, earth_rate: f64) -> NavMatrix {
     let (sp, cp) = p.latitude.sin_cos();
     let tp = sp / cp;
     let rm = p.radius_north();
@@ -142,21 +217,21 @@ pub fn error_dynamics(p: &TrajectoryPoint, earth_rate: f64) -> ErrorDynamics {
     a[(n, dve)] += 1.0 / rn;
     a[(u, DLAT)] += om * cp + ve / (rn * cp * cp);
     a[(u, dve)] += tp / rn;
+    a
+}
 
-    let m = instrument_errors_enu(
-        &p.c_body_to_enu,
-        &p.body_rate(earth_rate),
-        &p.specific_force_body(earth_rate),
-    );
-    let mut b = NavInstrumentMatrix::zeros();
-    b.fixed_view_mut::<3, INSTRUMENT_DIM>(BETA, 0)
-        .copy_from(&m.fixed_view::<3, INSTRUMENT_DIM>(0, 0));
-    b.fixed_view_mut::<2, INSTRUMENT_DIM>(DV, 0)
-        .copy_from(&m.fixed_view::<2, INSTRUMENT_DIM>(3, 0));
-    ErrorDynamics {
-        f_nav: a,
-        f_instr: b,
-    }
+/// `F_instr` (7xn) of `model`: the sensor errors at `input` (body axes) rotated into ENU by
+/// `c_body_to_enu`, the gyro errors into the attitude rows and the horizontal accelerometer
+/// errors into the velocity rows.
+pub fn instrument_dynamics(
+    model: &ErrorModel,
+    c_body_to_enu: &Matrix3<f64>,
+    input: &SensorInput,
+) -> NavModelMatrix {
+    let n = model.n_params();
+    let mut b = NavModelMatrix::zeros(n);
+    JacobianWork::new(n).instrument_dynamics(model, c_body_to_enu, input, &mut b);
+    b
 }
 
 /// The attitude error left by a stationary self-alignment, as a linear map `beta0 = A c` of the
@@ -181,6 +256,22 @@ pub fn alignment_map(
     c_body_to_enu: &Matrix3<f64>,
     earth_rate: f64,
 ) -> Result<AlignmentMap, NavError> {
+    let a = model_alignment_map(paper_model(), site, c_body_to_enu, earth_rate, 0.0, true)?;
+    Ok(AlignmentMap::from_fn(|i, j| a[(i, j)]))
+}
+
+/// [`alignment_map`] for any instrument model, the sensors at `temp_delta` (K) from the
+/// reference of its thermal terms. Without `gyrocompass` the heading is given by an external
+/// reference without error (`beta_U = 0`, and no horizontal Earth rate is needed): the
+/// levelling alone.
+pub fn model_alignment_map(
+    model: &ErrorModel,
+    site: &Site,
+    c_body_to_enu: &Matrix3<f64>,
+    earth_rate: f64,
+    temp_delta: f64,
+    gyrocompass: bool,
+) -> Result<OMatrix<f64, Const<3>, Dyn>, NavError> {
     let g = site.normal_gravity();
     let u = Vector3::new(
         0.0,
@@ -188,25 +279,31 @@ pub fn alignment_map(
         earth_rate * site.latitude.sin(),
     );
     let horizontal_rate = u.y;
-    if horizontal_rate.is_nan() || horizontal_rate.abs() <= 1e-9 {
+    if gyrocompass && (horizontal_rate.is_nan() || horizontal_rate.abs() <= 1e-9) {
         return Err(NavError::AlignmentImpossible(format!(
             "the horizontal Earth rate is {horizontal_rate} rad/s: gyrocompassing cannot find the azimuth; \
              give the initial attitude covariance explicitly"
         )));
     }
-    let w_body = c_body_to_enu.transpose() * u;
-    let f_body = c_body_to_enu.transpose() * Vector3::new(0.0, 0.0, g);
-    let m = instrument_errors_enu(c_body_to_enu, &w_body, &f_body);
+    let input = SensorInput {
+        omega_body: c_body_to_enu.transpose() * u,
+        f_body: c_body_to_enu.transpose() * Vector3::new(0.0, 0.0, g),
+        temp_delta,
+        ..SensorInput::default()
+    };
+    let m = model_errors_enu(model, c_body_to_enu, &input);
     let nu_e = m.row(0);
     let df_e = m.row(3);
     let df_n = m.row(4);
-    let mut a = AlignmentMap::zeros();
+    let mut a = OMatrix::<f64, Const<3>, Dyn>::zeros(m.ncols());
     a.set_row(0, &(-df_n / g));
     a.set_row(1, &(df_e / g));
-    a.set_row(
-        2,
-        &(nu_e / horizontal_rate + df_e * (site.latitude.tan() / g)),
-    );
+    if gyrocompass {
+        a.set_row(
+            2,
+            &(nu_e / horizontal_rate + df_e * (site.latitude.tan() / g)),
+        );
+    }
     Ok(a)
 }
 

@@ -1,14 +1,18 @@
 //! Covariance propagation of the navigation errors along a trajectory, the figure of merit rho
 //! and the error budget.
 //!
-//! The full state is `[x_nav (7); c (21)]` with `c` constant, so the transition over a step has
-//! the block form `[Phi, Phi_c; 0, I]` and the instrument block of the covariance never changes;
-//! only the 7x7 navigation block and the 7x21 cross block are propagated:
+//! The full state is `[x_nav (7); c (n)]` with `c` constant (the paper's 21 instrument
+//! parameters and those of the candidate terms a calibration estimated), so the transition over
+//! a step has the block form `[Phi, Phi_c; 0, I]` and the instrument block of the covariance
+//! never changes; the navigation block and the cross block follow
 //!
 //! ```text
 //! P_nc' = Phi P_nc + Phi_c P_cc
 //! P_nn' = Phi P_nn Phi^T + Phi P_nc Phi_c^T + Phi_c P_cn Phi^T + Phi_c P_cc Phi_c^T + Q_d
 //! ```
+//!
+//! which [`crate::response`] propagates per unit instrument error (`P_nc = S P_cc`), once for
+//! any number of instrument covariances.
 //!
 //! `Phi = exp(F_nav h)` and `Phi_c = (sum_k F_nav^(k-1) h^k / k!) F_instr` are Taylor series of
 //! the block exponential, with `F` evaluated at the middle of the step (second order in `h`);
@@ -18,19 +22,17 @@
 //! `Q_d = (Phi Q Phi^T + Q) h / 2` (trapezoidal) with `Q = diag(0, 0, q_a, q_a, q_g, q_g, q_g)`,
 //! `q` the white-noise power spectral densities.
 
-use nalgebra::{DMatrix, Matrix2, Matrix3, SMatrix};
+use nalgebra::{DMatrix, Matrix3};
 use serde::{Deserialize, Serialize};
-use sins_model::earth::{Site, WGS84_A};
+use sins_model::earth::WGS84_A;
 
 use crate::NavError;
 use crate::instruments::{
-    ACCEL_BIAS, ACCEL_GAMMA, DEG_PER_HOUR, GYRO_BIAS, GYRO_THETA, INSTRUMENT_DIM, INSTRUMENT_NAMES,
-    InstrumentCovariance, InstrumentMatrix, NamePolicy,
+    ACCEL_BIAS, ACCEL_GAMMA, DEG_PER_HOUR, GYRO_BIAS, GYRO_THETA, INSTRUMENT_NAMES,
+    InstrumentCovariance, InstrumentModel, NamePolicy,
 };
-use crate::model::{
-    BETA, DLAT, DLON, DV, NAV_DIM, NAV_NAMES, NavInstrumentMatrix, NavMatrix, alignment_map,
-    error_dynamics,
-};
+use crate::model::{DLAT, DLON, NAV_DIM, NAV_NAMES, NavMatrix};
+use crate::response::{NavResponse, Part, initial_maps};
 use crate::trajectory::Trajectory;
 
 /// Gyro white noise of the paper, 0.1 deg/h (sigma of 1 Hz samples), as a noise density
@@ -46,6 +48,11 @@ pub enum InitialAttitude {
     /// From a stationary self-alignment at the start point and heading, as a linear map of the
     /// instrument errors ([`crate::model::alignment_map`]), correlations included.
     Aligned,
+    /// Levelled like [`InitialAttitude::Aligned`] (the tilt follows from the accelerometer
+    /// errors), the heading given by an external reference without error (`beta_U = 0`): a unit
+    /// whose gyros cannot find north (gyrocompassing needs gyro biases well below the
+    /// horizontal Earth rate, 8.5 deg/h at 55.7 deg).
+    Levelled,
     /// This attitude-error covariance (rad^2) (ENU), uncorrelated with the instruments.
     Explicit(Matrix3<f64>),
 }
@@ -71,6 +78,9 @@ pub struct NavOptions {
     pub names: NamePolicy,
     /// Order of the Taylor series of the step transition matrix.
     pub taylor_order: usize,
+    /// The unit's temperature in flight (and at the alignment) less the reference of the
+    /// calibration's thermal terms (K): what those terms act on (0: they do nothing).
+    pub temperature_delta_k: f64,
 }
 
 impl Default for NavOptions {
@@ -84,12 +94,13 @@ impl Default for NavOptions {
             takeoff_velocity_error: false,
             names: NamePolicy::default(),
             taylor_order: 4,
+            temperature_delta_k: 0.0,
         }
     }
 }
 
 impl NavOptions {
-    fn check(&self) -> Result<(), NavError> {
+    pub(crate) fn check(&self) -> Result<(), NavError> {
         let bad =
             |field: &'static str, reason: String| Err(NavError::InvalidOption { field, reason });
         if !(self.dt_s > 0.0 && self.dt_s.is_finite()) {
@@ -109,6 +120,9 @@ impl NavOptions {
                 "accel_noise_density",
                 format!("must be >= 0, got {}", self.accel_noise_density),
             );
+        }
+        if !self.temperature_delta_k.is_finite() {
+            return bad("temperature_delta_k", "must be finite".into());
         }
         if self.taylor_order == 0 || self.taylor_order > 20 {
             return bad(
@@ -195,73 +209,27 @@ impl RhoSeries {
     }
 }
 
-/// Initial covariance pieces: `x_nav0 = M c + N w`, `c ~ P_cc`, `w ~ P_w` (explicit attitude).
-struct Initial {
-    p_nn: NavMatrix,
-    p_nc: NavInstrumentMatrix,
-    p_cc: InstrumentMatrix,
-}
-
-/// `M` (7x21) and `N P_w N^T` (7x7) for the options: alignment map into the attitude rows and,
-/// with the take-off option, `V0 x beta0` into the velocity rows.
-fn initial_maps<T: Trajectory + ?Sized>(
-    traj: &T,
-    opts: &NavOptions,
-) -> Result<(NavInstrumentMatrix, NavMatrix), NavError> {
-    let p0 = traj.point(0.0);
-    // Take-off: dV_E = V_N beta_U, dV_N = -V_E beta_U.
-    let mut n = SMatrix::<f64, NAV_DIM, 3>::zeros();
-    n.fixed_view_mut::<3, 3>(BETA, 0)
-        .copy_from(&Matrix3::identity());
-    if opts.takeoff_velocity_error {
-        n[(DV, 2)] = p0.velocity_enu.y;
-        n[(DV + 1, 2)] = -p0.velocity_enu.x;
-    }
-    match &opts.initial_attitude {
-        InitialAttitude::Aligned => {
-            // Alignment on the ground (h = 0) at the start point, level, at the start heading.
-            let site = Site {
-                latitude: p0.latitude,
-                longitude: p0.longitude,
-                height: 0.0,
-            };
-            let level = crate::trajectory::c_body_to_enu(p0.heading, 0.0);
-            let a = alignment_map(&site, &level, opts.earth_rate_rad_s)?;
-            Ok((n * a, NavMatrix::zeros()))
-        }
-        InitialAttitude::Explicit(p) => Ok((NavInstrumentMatrix::zeros(), n * p * n.transpose())),
-    }
-}
-
-fn initial(m: &NavInstrumentMatrix, p_w: &NavMatrix, p_cc: &InstrumentMatrix) -> Initial {
-    let p_nc = m * p_cc;
-    Initial {
-        p_nn: p_nc * m.transpose() + p_w,
-        p_nc,
-        p_cc: *p_cc,
-    }
-}
-
-/// The full 28x28 initial covariance of `[x_nav; c]` in [`state_names`] order: with alignment,
-/// `[M P M^T, M P; P M^T, P]` where `M` holds the alignment map `A` in the attitude rows.
+/// The full initial covariance of `[x_nav; c]` (7 + n, `c` the parameters of the instrument
+/// model the covariance names, [`InstrumentModel::for_names`]; 28x28 in [`state_names`] order
+/// for the paper's model): with alignment, `[M P M^T, M P; P M^T, P]` where `M` holds the
+/// alignment map `A` in the attitude rows.
 pub fn initial_covariance<T: Trajectory + ?Sized>(
     traj: &T,
     instruments: &InstrumentCovariance,
     opts: &NavOptions,
 ) -> Result<DMatrix<f64>, NavError> {
     opts.check()?;
-    let p_cc = instruments.to_navigation_order(opts.names)?;
-    let (m, p_w) = initial_maps(traj, opts)?;
-    let init = initial(&m, &p_w, &p_cc);
-    let n = NAV_DIM + INSTRUMENT_DIM;
-    let mut p = DMatrix::zeros(n, n);
-    p.view_mut((0, 0), (NAV_DIM, NAV_DIM)).copy_from(&init.p_nn);
-    p.view_mut((0, NAV_DIM), (NAV_DIM, INSTRUMENT_DIM))
-        .copy_from(&init.p_nc);
-    p.view_mut((NAV_DIM, 0), (INSTRUMENT_DIM, NAV_DIM))
-        .copy_from(&init.p_nc.transpose());
-    p.view_mut((NAV_DIM, NAV_DIM), (INSTRUMENT_DIM, INSTRUMENT_DIM))
-        .copy_from(&init.p_cc);
+    let (model, p_cc) = model_and_covariance(instruments, opts)?;
+    let (m, p_w) = initial_maps(traj, &model, opts)?;
+    let k = model.len();
+    let p_nc = &m * &p_cc;
+    let mut p = DMatrix::zeros(NAV_DIM + k, NAV_DIM + k);
+    p.view_mut((0, 0), (NAV_DIM, NAV_DIM))
+        .copy_from(&(&p_nc * m.transpose() + p_w));
+    p.view_mut((0, NAV_DIM), (NAV_DIM, k)).copy_from(&p_nc);
+    p.view_mut((NAV_DIM, 0), (k, NAV_DIM))
+        .copy_from(&p_nc.transpose());
+    p.view_mut((NAV_DIM, NAV_DIM), (k, k)).copy_from(&p_cc);
     Ok(p)
 }
 
@@ -274,103 +242,28 @@ pub fn state_names() -> Vec<&'static str> {
         .collect()
 }
 
-/// The step end times: the regular grid `k dt` (recorded) merged with the trajectory's
-/// breakpoints (not recorded), ending exactly at the duration.
-fn step_times<T: Trajectory + ?Sized>(traj: &T, dt: f64) -> Vec<(f64, bool)> {
-    let duration = traj.duration_s();
-    let n = (duration / dt - 1e-9).ceil().max(1.0) as usize;
-    let mut grid: Vec<(f64, bool)> = (1..=n)
-        .map(|k| (if k == n { duration } else { k as f64 * dt }, true))
-        .collect();
-    // Breakpoints closer than this to a grid time are merged into it.
-    let eps = 1e-9 * dt.max(1.0);
-    for b in traj.breakpoints() {
-        if b > eps && b < duration - eps && grid.iter().all(|&(t, _)| (t - b).abs() > eps) {
-            grid.push((b, false));
-        }
-    }
-    grid.sort_by(|a, b| a.0.total_cmp(&b.0));
-    grid
-}
-
-fn run<T: Trajectory + ?Sized>(
-    traj: &T,
-    init: &Initial,
+/// The instrument model of the parameters `instruments` names (the paper's and the candidate
+/// terms among them) and the covariance in its order.
+fn model_and_covariance(
+    instruments: &InstrumentCovariance,
     opts: &NavOptions,
-    noise: bool,
-) -> Vec<NavSnapshot> {
-    let steps = step_times(traj, opts.dt_s);
-    let mut out = Vec::with_capacity(steps.len() + 1);
-    let (mut p_nn, mut p_nc, p_cc) = (init.p_nn, init.p_nc, init.p_cc);
-    out.push(NavSnapshot {
-        t: 0.0,
-        latitude: traj.point(0.0).latitude,
-        p_nav: p_nn,
-    });
-    let (qa, qg) = if noise {
-        (
-            opts.accel_noise_density.powi(2),
-            opts.gyro_noise_density.powi(2),
-        )
-    } else {
-        (0.0, 0.0)
-    };
-    let mut q = NavMatrix::zeros();
-    q.fixed_view_mut::<2, 2>(DV, DV)
-        .copy_from(&(Matrix2::identity() * qa));
-    q.fixed_view_mut::<3, 3>(BETA, BETA)
-        .copy_from(&(Matrix3::identity() * qg));
-    let mut t0 = 0.0;
-    for (t1, record) in steps {
-        let h = t1 - t0;
-        let d = error_dynamics(&traj.point(0.5 * (t0 + t1)), opts.earth_rate_rad_s);
-        // Taylor series of the block exponential.
-        let x = d.f_nav * h;
-        let mut phi = NavMatrix::identity();
-        let mut term = NavMatrix::identity();
-        let mut s_term = NavMatrix::identity() * h;
-        let mut s = s_term;
-        for j in 1..=opts.taylor_order {
-            term = term * x / j as f64;
-            phi += term;
-            if j < opts.taylor_order {
-                s_term = s_term * x / (j + 1) as f64;
-                s += s_term;
-            }
-        }
-        let phi_c = s * d.f_instr;
-        let k_c = phi_c * p_cc;
-        let cross = phi * p_nc * phi_c.transpose();
-        let mut nn =
-            phi * p_nn * phi.transpose() + cross + cross.transpose() + k_c * phi_c.transpose();
-        if noise {
-            nn += (phi * q * phi.transpose() + q) * (0.5 * h);
-        }
-        p_nn = 0.5 * (nn + nn.transpose());
-        p_nc = phi * p_nc + k_c;
-        t0 = t1;
-        if record {
-            out.push(NavSnapshot {
-                t: t1,
-                latitude: traj.point(t1).latitude,
-                p_nav: p_nn,
-            });
-        }
-    }
-    out
+) -> Result<(InstrumentModel, DMatrix<f64>), NavError> {
+    let model = InstrumentModel::for_names(instruments.names.iter().map(String::as_str));
+    let p = instruments.in_model_order(&model, opts.names)?;
+    Ok((model, p))
 }
 
 /// Propagate the navigation-error covariance along `traj` from the instrument covariance left by
-/// a calibration; returns the navigation covariance at every step (and at `t = 0`).
+/// a calibration; returns the navigation covariance at every step (and at `t = 0`). The
+/// instrument errors are the paper's and those of every candidate term the covariance names
+/// ([`InstrumentModel::for_names`]); the propagation is [`NavResponse`]'s.
 pub fn propagate<T: Trajectory + ?Sized>(
     traj: &T,
     instruments: &InstrumentCovariance,
     opts: &NavOptions,
 ) -> Result<Vec<NavSnapshot>, NavError> {
-    opts.check()?;
-    let p_cc = instruments.to_navigation_order(opts.names)?;
-    let (m, p_w) = initial_maps(traj, opts)?;
-    Ok(run(traj, &initial(&m, &p_w, &p_cc), opts, true))
+    let (model, p) = model_and_covariance(instruments, opts)?;
+    Ok(NavResponse::new(traj, &model, opts)?.snapshots(&p))
 }
 
 /// rho over time along `traj` (see [`propagate`]).
@@ -379,7 +272,8 @@ pub fn rho_series<T: Trajectory + ?Sized>(
     instruments: &InstrumentCovariance,
     opts: &NavOptions,
 ) -> Result<RhoSeries, NavError> {
-    Ok(to_series(&propagate(traj, instruments, opts)?))
+    let (model, p) = model_and_covariance(instruments, opts)?;
+    Ok(NavResponse::new(traj, &model, opts)?.rho_series(&p, Part::All))
 }
 
 /// rho of a list of snapshots.
@@ -512,50 +406,39 @@ pub fn error_budget<T: Trajectory + ?Sized>(
     instruments: &InstrumentCovariance,
     opts: &NavOptions,
 ) -> Result<ErrorBudget, NavError> {
-    opts.check()?;
-    let p_cc = instruments.to_navigation_order(opts.names)?;
-    let (m, p_w) = initial_maps(traj, opts)?;
-    let last = |s: Vec<NavSnapshot>| s.last().map(|x| x.rho_m()).unwrap_or(0.0);
-    let total_m = last(run(traj, &initial(&m, &p_w, &p_cc), opts, true));
-    let mut entries = Vec::new();
-    for group in BudgetGroup::ALL {
-        let rho_m = match group {
-            BudgetGroup::AlignmentOnly => {
-                let init = initial(&m, &p_w, &p_cc);
-                let alone = Initial {
-                    p_nn: init.p_nn,
-                    p_nc: NavInstrumentMatrix::zeros(),
-                    p_cc: InstrumentMatrix::zeros(),
-                };
-                last(run(traj, &alone, opts, false))
-            }
-            BudgetGroup::SensorNoiseOnly => last(run(
-                traj,
-                &initial(&m, &NavMatrix::zeros(), &InstrumentMatrix::zeros()),
-                opts,
-                true,
-            )),
-            _ => {
-                let idx = group.instrument_indices();
-                let mut p = InstrumentMatrix::zeros();
-                for &i in &idx {
-                    for &j in &idx {
-                        p[(i, j)] = p_cc[(i, j)];
-                    }
-                }
-                last(run(
-                    traj,
-                    &initial(&m, &NavMatrix::zeros(), &p),
-                    opts,
-                    false,
-                ))
-            }
-        };
-        entries.push(BudgetEntry { group, rho_m });
-    }
+    let (model, p) = model_and_covariance(instruments, opts)?;
+    let r = NavResponse::new(traj, &model, opts)?;
+    let last = r.points().len() - 1;
+    let entries = BudgetGroup::ALL
+        .into_iter()
+        .map(|group| {
+            let rho_m = match group {
+                BudgetGroup::AlignmentOnly => r.rho_m(last, &p, Part::Alignment),
+                BudgetGroup::SensorNoiseOnly => r.rho_m(last, &p, Part::Noise),
+                _ => r.rho_m(
+                    last,
+                    &block(&p, &group.instrument_indices()),
+                    Part::Instruments,
+                ),
+            };
+            BudgetEntry { group, rho_m }
+        })
+        .collect();
     Ok(ErrorBudget {
         t_s: traj.duration_s(),
-        total_m,
+        total_m: r.rho_m(last, &p, Part::All),
         entries,
     })
+}
+
+/// The covariance `p` with everything outside the rows and columns `idx` zeroed: a group of
+/// parameters alone, with the correlations within it.
+pub fn block(p: &DMatrix<f64>, idx: &[usize]) -> DMatrix<f64> {
+    let mut b = DMatrix::zeros(p.nrows(), p.ncols());
+    for &i in idx {
+        for &j in idx {
+            b[(i, j)] = p[(i, j)];
+        }
+    }
+    b
 }

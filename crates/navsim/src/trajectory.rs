@@ -348,9 +348,8 @@ impl SnakeTrajectory {
         }
     }
 
-    /// (lat, lon) rates (rad/s) at time `t` and position `pos`.
-    fn position_rate(&self, pos: (f64, f64), t: f64) -> (f64, f64) {
-        let psi = self.attitude(t).heading;
+    /// (lat, lon) rates (rad/s) at position `pos` flying at heading `psi`.
+    fn position_rate(&self, pos: (f64, f64), psi: f64) -> (f64, f64) {
         let (ve, vn) = (self.speed * psi.sin(), self.speed * psi.cos());
         let lat = pos.0;
         (
@@ -361,10 +360,12 @@ impl SnakeTrajectory {
 
     fn rk4(&self, p: (f64, f64), t: f64, h: f64) -> (f64, f64) {
         let add = |p: (f64, f64), k: (f64, f64), s: f64| (p.0 + s * k.0, p.1 + s * k.1);
-        let k1 = self.position_rate(p, t);
-        let k2 = self.position_rate(add(p, k1, h / 2.0), t + h / 2.0);
-        let k3 = self.position_rate(add(p, k2, h / 2.0), t + h / 2.0);
-        let k4 = self.position_rate(add(p, k3, h), t + h);
+        // The heading at the step's start, middle (twice) and end.
+        let psi = [t, t + h / 2.0, t + h].map(|x| self.attitude(x).heading);
+        let k1 = self.position_rate(p, psi[0]);
+        let k2 = self.position_rate(add(p, k1, h / 2.0), psi[1]);
+        let k3 = self.position_rate(add(p, k2, h / 2.0), psi[1]);
+        let k4 = self.position_rate(add(p, k3, h), psi[2]);
         (
             p.0 + h / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0),
             p.1 + h / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1),

@@ -34,10 +34,13 @@ pub struct Args {
     /// program separates them from the paper's parameters (the rule `diagnose` applies).
     #[arg(long, value_name = "ID", num_args = 1..)]
     pub terms: Vec<String>,
+    /// The flight of the navigation figure.
+    #[command(flatten)]
+    pub flight: crate::navigation::FlightArgs,
 }
 
 #[derive(Serialize)]
-struct AnalysisJson {
+struct AnalysisJson<'a> {
     with_turntable: bool,
     parameters: Vec<AnalysisParameter>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -45,6 +48,8 @@ struct AnalysisJson {
     /// With --terms: each term's separability from the paper's parameters.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     terms: Vec<TermSeparationJson>,
+    /// What the program buys in navigation (`crate::navigation`).
+    navigation: crate::navigation::NavigationJson<'a>,
 }
 
 #[derive(Serialize)]
@@ -113,10 +118,12 @@ fn walk_reach(
 /// Run `analyse`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, origin) = load_config(&args.config)?;
+    let flight = crate::navigation::Flight::load(&args.flight)?;
     if let Some(path) = &args.json {
         let program = crate::identification::program_file(&config);
         let mut inputs = vec![std::path::Path::new(&args.config)];
         inputs.extend(program.as_deref());
+        inputs.extend(args.flight.flight.as_deref());
         output::Outputs::new(&inputs).file(path, "--json")?;
     }
     let program = config.program()?;
@@ -141,6 +148,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let (table, parameters) = parameter_table(&post);
     s += &table;
     let separations = term_separations(&config, program.1, &post, &terms, &mut s);
+    let ids: Vec<&str> = terms.iter().map(|c| c.id()).collect();
+    let navigation = figure(&config, (&post, program.1), &flight, &ids);
+    let _ = writeln!(s, "\n{}", navigation.line());
     let reach = if args.walk_reach {
         walk_reach(&config, with_turntable)?.map(|(json, text)| {
             s += &text;
@@ -155,6 +165,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             parameters,
             walk_reach: reach,
             terms: separations,
+            navigation: navigation.json(),
         };
         let text = calib::io::schema::to_json(calib::io::schema::ANALYSIS, &json)?;
         output::write_file(path, text.as_bytes())?;
@@ -163,6 +174,29 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
     }
     crate::report(&s, args.json.as_deref())
+}
+
+/// The navigation figure of the analysis's posterior for a program of `duration` s (the
+/// thermal terms about the reference of the configuration's `[temperature]`).
+pub fn figure(
+    config: &calib::config::RunConfig,
+    (post, duration): (&calib::estimate::covariance::Posterior, f64),
+    flight: &crate::navigation::Flight,
+    terms: &[&str],
+) -> crate::navigation::Navigation {
+    let reference = config.temperature.as_ref().and_then(|_| {
+        let rate = config.filter.imu_rate_hz;
+        config
+            .temperature_profile(rate, (duration * rate) as usize)
+            .map(|(_, r)| r)
+    });
+    let cal = navsim::CalibrationCovariance {
+        names: post.names.clone(),
+        posterior: post.cov.clone(),
+        prior_sigma: post.prior_sigma.clone(),
+        reference_temperature_c: reference,
+    };
+    crate::navigation::Navigation::of(cal, config, flight, terms, None)
 }
 
 /// The printout's head: the configuration, its program, the model, the walks of `[noise]`.

@@ -94,6 +94,9 @@ pub struct CalibrateArgs {
     /// The unit calibrated.
     #[command(flatten)]
     pub unit: crate::provenance::UnitArgs,
+    /// The flight of the navigation figure.
+    #[command(flatten)]
+    pub flight: crate::navigation::FlightArgs,
 }
 
 /// Arguments of `diagnose`.
@@ -161,6 +164,9 @@ pub struct DiagnoseArgs {
     /// recordings, each candidate's separability from the fit's own posterior).
     #[command(flatten)]
     pub detector: crate::detector_args::DetectorArgs,
+    /// The flight of the navigation figure of every model the loop moves to.
+    #[command(flatten)]
+    pub flight: crate::navigation::FlightArgs,
 }
 
 /// The site of a hand-turned recording without a configuration (`calibrate` and `diagnose`

@@ -33,9 +33,10 @@ fn progress_bar(records: usize) -> ProgressBar {
 /// `--free-motion`, a hand-turned one): resolve the command line, fit, build the report once,
 /// write and print it; returns the exit status (3: the data contradict the model).
 pub fn run(args: &crate::args::CalibrateArgs) -> Result<u8, Error> {
+    let flight = crate::navigation::Flight::load(&args.flight)?;
     let mut session = crate::session::calibrate(args)?;
     let fit = fit(&mut session)?;
-    let report = RunReport::build(&session, &fit)?;
+    let report = RunReport::build(&session, &fit, &flight)?;
     let estimated = report.result.parameters.iter();
     check_physical(
         estimated.map(|p| (p.name.as_str(), p.value)),
@@ -167,6 +168,7 @@ fn write_outputs(
             },
             base: None,
             extension: None,
+            navigation: Some(&r.navigation),
         };
         let plots = crate::lab_report::write(dir, &report)?;
         written.report = Some((dir.clone(), plots));

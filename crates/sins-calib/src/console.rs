@@ -39,6 +39,7 @@ pub fn render(r: &RunReport, written: &Written) -> String {
     if let Some(f) = &r.free_motion {
         s += &evaluation(f);
     }
+    let _ = writeln!(s, "\n{}", r.navigation.line());
     if let Some(t) = &r.truth {
         s.push('\n');
         s += &truth(t);

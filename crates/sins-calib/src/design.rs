@@ -1,5 +1,7 @@
 //! `sins-calib design`: a program that separates the given candidate terms from the paper's
-//! parameters, printed as TOML with its predicted sigmas (`calib::extend::design`).
+//! parameters, printed as TOML with its predicted sigmas (`calib::extend::design`), each
+//! program with its navigation figure; without `--terms`, programs ranked by the navigation
+//! figure they buy (`crate::navigation`), the best proposed.
 
 use crate::terms::parse_terms;
 use crate::{Error, load_config, output, print};
@@ -12,8 +14,10 @@ pub struct Args {
     /// Run configuration whose program is the recorded (or planned) one.
     #[arg(long, value_name = "FILE|NAME")]
     pub config: String,
-    /// Candidate term ids to separate.
-    #[arg(long, value_name = "ID", num_args = 1.., required = true)]
+    /// Candidate term ids to separate; without them, programs are ranked by the navigation
+    /// figure they buy (the recorded program, it without each part between its moves, and the
+    /// menu's additions) and the best is proposed.
+    #[arg(long, value_name = "ID", num_args = 1..)]
     pub terms: Vec<String>,
     /// Analyse with the turntable angles (28-state model and more); default: the IMU alone.
     #[arg(long)]
@@ -22,6 +26,9 @@ pub struct Args {
     /// runs (not a directory, not the configuration), written whole or not at all.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+    /// The flight of the navigation figure.
+    #[command(flatten)]
+    pub flight: crate::navigation::FlightArgs,
 }
 
 /// Refuse a term given twice in --terms.
@@ -41,11 +48,16 @@ fn check_distinct_terms(ids: &[String]) -> Result<(), Error> {
 /// Run `design`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, origin) = load_config(&args.config)?;
+    let flight = crate::navigation::Flight::load(&args.flight)?;
     if let Some(path) = &args.out {
         let program = crate::identification::program_file(&config);
         let mut inputs = vec![std::path::Path::new(&args.config)];
         inputs.extend(program.as_deref());
+        inputs.extend(args.flight.flight.as_deref());
         output::Outputs::new(&inputs).file(path, "--out")?;
+    }
+    if args.terms.is_empty() {
+        return crate::design_navigation::run(args, &config, &flight);
     }
     check_distinct_terms(&args.terms)?;
     let terms = parse_terms(&args.terms)?;
@@ -68,18 +80,29 @@ pub fn run(args: &Args) -> Result<(), Error> {
     )?;
     let (recorded, proposals, chosen) =
         calib::extend::design::design(&config, args.with_turntable, &terms)?;
+    let judged = crate::design_navigation::judge(
+        &config,
+        &flight,
+        std::iter::once(&recorded).chain(&proposals),
+    );
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "# Separability (posterior sigma / prior sigma, separable at <= 0.5):"
+        "# Separability (posterior sigma / prior sigma, separable at <= 0.5) and navigation \
+         ({}):",
+        judged.heading
     );
-    for p in std::iter::once(&recorded).chain(&proposals) {
+    for (p, rho) in std::iter::once(&recorded)
+        .chain(&proposals)
+        .zip(&judged.rho_m)
+    {
         let _ = writeln!(
             s,
-            "#   {:<72} {:>6.0} s  worst ratio {:.3}{}",
+            "#   {:<72} {:>6.0} s  worst ratio {:.3}  navigation {}{}",
             p.description,
             p.duration_s,
             p.worst_ratio(),
+            crate::design_navigation::rho_text(rho),
             if p.separates() { "  separates" } else { "" }
         );
     }

@@ -3,7 +3,7 @@
 //! (`calib::extend`; method in docs/model-extension.md).
 
 use crate::Error;
-use crate::diagnosis::{Diagnosis, HeldOut, TermSize};
+use crate::diagnosis::{Diagnosis, HeldOut, ModelNavigation, TermSize};
 use crate::session::Session;
 use calib::check::stats::p_value_text;
 use calib::estimate::RunData;
@@ -48,6 +48,28 @@ struct LoopJson<'a> {
     temperature: Option<calib::io::ResultTemperature>,
     /// The verdict of the final model, as the exit status says it.
     verdict: crate::result_json::VerdictJson<'a>,
+    /// What the final model buys in navigation (`crate::navigation`).
+    navigation: crate::navigation::NavigationJson<'a>,
+    /// Every model the loop moved to, the paper's first, each with its navigation figure.
+    models: Vec<ModelJson<'a>>,
+    /// The navigation figure before and after each accepted (or carried) term.
+    navigation_gain: BTreeMap<&'a str, NavigationGainJson>,
+}
+
+#[derive(Serialize)]
+struct ModelJson<'a> {
+    /// The term whose acceptance made the model (absent: the paper's model).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    term: Option<&'a str>,
+    carried: bool,
+    terms: &'a [String],
+    navigation: crate::navigation::NavigationJson<'a>,
+}
+
+#[derive(Serialize)]
+struct NavigationGainJson {
+    before_m: Option<f64>,
+    after_m: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -126,6 +148,29 @@ fn to_json(d: &Diagnosis) -> Result<String, Error> {
             .collect(),
         temperature: r.last.calibration.estimate.temperature.clone(),
         verdict: crate::result_json::verdict(&d.verdict),
+        navigation: final_navigation(d).json(),
+        models: d
+            .navigation
+            .iter()
+            .map(|m| ModelJson {
+                term: m.term.as_deref(),
+                carried: m.carried,
+                terms: &m.terms,
+                navigation: m.navigation.json(),
+            })
+            .collect(),
+        navigation_gain: d
+            .navigation
+            .windows(2)
+            .filter_map(|w| {
+                let term = w[1].term.as_deref()?;
+                let gain = NavigationGainJson {
+                    before_m: w[0].navigation.rho_m(),
+                    after_m: w[1].navigation.rho_m(),
+                };
+                Some((term, gain))
+            })
+            .collect(),
     };
     Ok(calib::io::schema::to_json(
         calib::io::schema::DIAGNOSIS,
@@ -133,13 +178,50 @@ fn to_json(d: &Diagnosis) -> Result<String, Error> {
     )?)
 }
 
+/// The final model's navigation figure (the last model the loop moved to).
+fn final_navigation(d: &Diagnosis) -> &crate::navigation::Navigation {
+    &d.navigation
+        .last()
+        .expect("the paper's model has a navigation figure")
+        .navigation
+}
+
+/// The accepted line's navigation figures: the model's before the term and after it.
+fn navigation_gain_line(models: &[ModelNavigation], term: &str) -> String {
+    let Some(k) = models
+        .iter()
+        .position(|m| m.term.as_deref() == Some(term))
+        .filter(|&k| k > 0)
+    else {
+        return String::new();
+    };
+    let (before, after) = (&models[k - 1].navigation, &models[k].navigation);
+    let why = if before.model_fits == Some(false) {
+        "the model without it does not fit these data, which call for the term: its figure was \
+         the model's, not the unit's"
+    } else {
+        "with the term in the model its own uncertainty counts"
+    };
+    match (&before.figure, &after.figure) {
+        (Ok(b), Ok(a)) => format!(
+            "  navigation: {} -> {} after {} of {} ({why})\n",
+            crate::navigation::distance(b.rho_m),
+            crate::navigation::distance(a.rho_m),
+            crate::navigation::duration(a.horizon.seconds),
+            after.flight_name
+        ),
+        _ => format!("  {}\n", after.line()),
+    }
+}
+
 /// One round of the loop: its candidates with their evidence and separability, what was
-/// accepted with its gain, and the accepted term's size.
+/// accepted with its gain (in likelihood and in navigation), and the accepted term's size.
 fn round_lines(
     r: &LoopResult,
     k: usize,
     round: &calib::extend::Round,
     size: Option<&TermSize>,
+    models: &[ModelNavigation],
 ) -> String {
     let mut s = String::new();
     let _ = writeln!(
@@ -211,6 +293,9 @@ fn round_lines(
         );
     }
     s += &decision_line(r, round);
+    if let Some(t) = &round.accepted {
+        s += &navigation_gain_line(models, t);
+    }
     if let Some(size) = size {
         s += &crate::diagnosis::size_line(size);
     }
@@ -289,7 +374,12 @@ fn drift_reach_line(reach: &calib::extend::DriftReach) -> String {
 /// The summary printed: the loop's notes, its rounds and its verdict. With `measured` noise
 /// (a hand-turned recording without a configuration) the innovation diagnostics inform and
 /// the held-out rests decide.
-pub fn summary(r: &LoopResult, sizes: &[Option<TermSize>], measured: bool) -> String {
+pub fn summary(
+    r: &LoopResult,
+    sizes: &[Option<TermSize>],
+    measured: bool,
+    models: &[ModelNavigation],
+) -> String {
     let mut s = String::new();
     if let Some(n) = &r.noise_rescaled {
         let _ = writeln!(
@@ -307,7 +397,7 @@ pub fn summary(r: &LoopResult, sizes: &[Option<TermSize>], measured: bool) -> St
         let _ = writeln!(s, "not tested: {} ({why})", ids.join(", "));
     }
     for (k, round) in r.rounds.iter().enumerate() {
-        s += &round_lines(r, k, round, sizes.get(k).and_then(Option::as_ref));
+        s += &round_lines(r, k, round, sizes.get(k).and_then(Option::as_ref), models);
     }
     let exit = if measured {
         "(against the measured noise: this informs, the verdict below decides)"
@@ -469,12 +559,13 @@ fn failure_lines(failures: &[String]) -> String {
 /// Run `diagnose` on a programmed run or a recording of rests (hand-turned with
 /// --free-motion); returns its exit status (3: the model does not fit these data).
 pub fn run(args: &crate::args::DiagnoseArgs) -> Result<u8, Error> {
+    let flight = crate::navigation::Flight::load(&args.flight)?;
     let session = crate::session::diagnose(args)?;
     note_setup(&session);
     let result = fit_loop(&session)?;
     crate::calibrate::check_estimate(&result.last.calibration.estimate, &session.imu_file)?;
     let held_out = held_out_verdict(&session, &result)?;
-    let d = Diagnosis::build(&session, result, held_out)?;
+    let d = Diagnosis::build(&session, result, held_out, &flight)?;
     let mut text = render(&d);
     if let Some(path) = &session.json {
         crate::output::write_file(path, to_json(&d)?.as_bytes())?;
@@ -588,7 +679,8 @@ fn render(d: &Diagnosis) -> String {
             shown.join(", ")
         );
     }
-    text += &summary(&d.result, &d.sizes, d.held_out.is_some());
+    text += &summary(&d.result, &d.sizes, d.held_out.is_some(), &d.navigation);
+    let _ = writeln!(text, "final model's {}", final_navigation(d).line());
     text += &verdict_block(d);
     text
 }

@@ -36,6 +36,7 @@ pub fn write(dir: &Path, d: &Diagnosis) -> Result<usize, Error> {
             diagnostics: &r.base.calibration.diagnostics,
         }),
         extension: Some(extension_md(d)),
+        navigation: d.navigation.last().map(|m| &m.navigation),
     };
     crate::lab_report::write(dir, &report)
 }

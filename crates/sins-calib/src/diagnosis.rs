@@ -26,6 +26,21 @@ pub struct Diagnosis {
     pub sizes: Vec<Option<TermSize>>,
     /// The laboratory report's figures (`--report`).
     pub lab: Option<DiagnosisLab>,
+    /// The navigation figure of every model the loop moved to: the paper's model first, then
+    /// the model after each accepted (or carried) term; the last is the final model's.
+    pub navigation: Vec<ModelNavigation>,
+}
+
+/// The navigation figure of one model of the loop.
+pub struct ModelNavigation {
+    /// The term whose acceptance made this model (`None`: the paper's model).
+    pub term: Option<String>,
+    /// Whether the term was carried rather than accepted.
+    pub carried: bool,
+    /// The candidate terms of the model.
+    pub terms: Vec<String>,
+    /// Its figure.
+    pub navigation: crate::navigation::Navigation,
 }
 
 /// The held-out verdict of the final model.
@@ -138,8 +153,10 @@ impl Diagnosis {
         s: &Session<Diagnose>,
         result: LoopResult,
         held_out: Option<HeldOut>,
+        flight: &crate::navigation::Flight,
     ) -> Result<Self, Error> {
         let verdict = verdict(s, &result, held_out.as_ref());
+        let navigation = navigation(&result, flight, verdict.fits());
         let lab = match &s.report {
             Some(_) => Some(lab_figures(s, &result)?),
             None => None,
@@ -156,6 +173,7 @@ impl Diagnosis {
             verdict,
             sizes: sizes(&result),
             lab,
+            navigation,
             result,
         })
     }
@@ -210,6 +228,56 @@ fn verdict(s: &Session<Diagnose>, r: &LoopResult, held_out: Option<&HeldOut>) ->
         verdict.rule
     );
     verdict
+}
+
+/// The navigation figure of every model of the loop `r` on `flight`: a model the loop moved on
+/// from does not fit these data (they call for the next term), the final model's fit is the
+/// verdict's (`final_fits`).
+fn navigation(
+    r: &LoopResult,
+    flight: &crate::navigation::Flight,
+    final_fits: bool,
+) -> Vec<ModelNavigation> {
+    use crate::navigation::Navigation;
+    let config = &r.last.calibration.config;
+    let cal = |p: &calib::estimate::covariance::Posterior| navsim::CalibrationCovariance {
+        names: p.names.clone(),
+        posterior: p.cov.clone(),
+        prior_sigma: p.prior_sigma.clone(),
+        reference_temperature_c: r
+            .last
+            .calibration
+            .estimate
+            .temperature
+            .as_ref()
+            .map(|t| t.reference_c),
+    };
+    let n = r.models.len();
+    let base_fits = n == 0 && final_fits;
+    let base = calib::estimate::covariance::Posterior::of_estimate(&r.base.calibration.estimate);
+    let mut out = vec![ModelNavigation {
+        term: None,
+        carried: false,
+        terms: Vec::new(),
+        navigation: Navigation::of(cal(&base), config, flight, &[], Some(base_fits)),
+    }];
+    let mut terms: Vec<String> = Vec::new();
+    for (k, (term, post)) in r.models.iter().enumerate() {
+        terms.push(term.clone());
+        let fits = k + 1 == n && final_fits;
+        let ids: Vec<&str> = terms.iter().map(String::as_str).collect();
+        let carried = r
+            .rounds
+            .iter()
+            .any(|round| round.accepted.as_deref() == Some(term) && round.carried);
+        out.push(ModelNavigation {
+            term: Some(term.clone()),
+            carried,
+            terms: terms.clone(),
+            navigation: Navigation::of(cal(post), config, flight, &ids, Some(fits)),
+        });
+    }
+    out
 }
 
 /// The laboratory report's figures of the final model.

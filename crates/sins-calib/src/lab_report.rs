@@ -66,6 +66,8 @@ pub struct Report<'a> {
     pub base: Option<FitView<'a>>,
     /// `diagnose`: the model-extension section (Markdown).
     pub extension: Option<String>,
+    /// What the reported model buys in navigation: its section, with the plot of rho(t).
+    pub navigation: Option<&'a crate::navigation::Navigation>,
 }
 
 /// Write the report into `dir` (checked before the work with [`crate::output::check_dir`] and
@@ -83,6 +85,9 @@ pub fn write(dir: &Path, report: &Report<'_>) -> Result<usize, Error> {
     md += &segments_md(tmp, report, &mut plots)?;
     if let Some(ext) = &report.extension {
         md += ext;
+    }
+    if let Some(nav) = report.navigation {
+        md += &nav.report_md(tmp, &mut plots)?;
     }
     md += &further_plots_md(tmp, report, &mut plots)?;
     let path = out.path("report.md");

@@ -41,6 +41,8 @@ struct ResultJson<'a> {
     fit: FitJson<'a>,
     /// The tests of the innovations (`calib::check::diagnostics::Diagnostics`).
     diagnostics: &'a Diagnostics,
+    /// What the calibration buys in navigation (`crate::navigation`).
+    navigation: crate::navigation::NavigationJson<'a>,
     /// With --free-motion: the noise, the known turns and the held-out rests.
     #[serde(skip_serializing_if = "Option::is_none")]
     free_motion: Option<FreeMotionJson>,
@@ -123,6 +125,7 @@ pub fn write(path: &Path, r: &RunReport) -> Result<(), Error> {
         verdict: verdict(v),
         fit: fit(&r.fit),
         diagnostics: &r.diagnostics,
+        navigation: r.navigation.json(),
         free_motion: r.free_motion.as_ref().map(free_motion),
     };
     let text = calib::io::schema::to_json(calib::io::schema::CALIBRATION, &json)?;

@@ -45,6 +45,8 @@ pub struct RunReport {
     pub verdict: Verdict,
     /// What only the laboratory report shows (`--report`).
     pub lab: Option<LabFigures>,
+    /// What the calibration buys in navigation (docs/navsim.md).
+    pub navigation: crate::navigation::Navigation,
 }
 
 /// The head of the printout: configuration, data, model, program start or rests.
@@ -207,8 +209,12 @@ pub struct LabFigures {
 }
 
 impl RunReport {
-    /// The report of `fit` on the session `s`.
-    pub fn build(s: &Session<Calibrate>, fit: &Calibration) -> Result<Self, Error> {
+    /// The report of `fit` on the session `s`, its navigation figure on `flight`.
+    pub fn build(
+        s: &Session<Calibrate>,
+        fit: &Calibration,
+        flight: &crate::navigation::Flight,
+    ) -> Result<Self, Error> {
         let est = &fit.estimate;
         let lab::Figures {
             parameters,
@@ -239,6 +245,14 @@ impl RunReport {
             }
             _ => None,
         };
+        let terms: Vec<&'static str> = s.task.terms.iter().map(|c| c.id()).collect();
+        let navigation = crate::navigation::Navigation::of_estimate(
+            est,
+            &fit.config,
+            flight,
+            &terms,
+            verdict.fits(),
+        );
         Ok(Self {
             header,
             free_motion,
@@ -246,7 +260,7 @@ impl RunReport {
             assumptions: s
                 .free_motion()
                 .map_or(Vec::new(), |f| f.summary.assumptions.clone()),
-            terms: s.task.terms.iter().map(|c| c.id()).collect(),
+            terms,
             parameters,
             result,
             fit: fit_figures,
@@ -254,6 +268,7 @@ impl RunReport {
             diagnostics: fit.diagnostics.clone(),
             verdict,
             lab,
+            navigation,
         })
     }
 }

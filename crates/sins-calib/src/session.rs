@@ -289,6 +289,7 @@ fn calibrate_outputs(
     inputs.extend(args.sections.as_deref());
     inputs.extend(args.terms_from.as_deref());
     inputs.extend(args.config.as_deref().map(Path::new));
+    inputs.extend(args.flight.flight.as_deref());
     let mut outputs = crate::output::Outputs::new(&inputs);
     if let Some(path) = &args.json {
         outputs.file(path, "--json")?;
@@ -431,6 +432,7 @@ fn diagnose_outputs(args: &crate::args::DiagnoseArgs) -> Result<(), Error> {
     inputs.extend(args.sections.as_deref());
     inputs.extend(args.noise.as_deref());
     inputs.extend(args.config.as_deref().map(Path::new));
+    inputs.extend(args.flight.flight.as_deref());
     let mut outputs = crate::output::Outputs::new(&inputs);
     if let Some(p) = &args.json {
         outputs.file(p, "--json")?;

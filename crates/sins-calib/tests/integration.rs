@@ -11,6 +11,7 @@ mod diagnose;
 mod free_motion;
 mod import;
 mod json_outputs;
+mod navigation;
 mod noise;
 mod outputs;
 mod readers;

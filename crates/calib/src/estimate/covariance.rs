@@ -76,6 +76,17 @@ pub struct Posterior {
 }
 
 impl Posterior {
+    /// The posterior of a fit's estimate (no analysis behind it: `log_det_data` is `NaN`).
+    pub fn of_estimate(est: &crate::estimate::Estimate) -> Self {
+        Self {
+            names: est.names.clone(),
+            units: est.units.clone(),
+            prior_sigma: est.prior_sigma.clone(),
+            cov: est.cov.clone(),
+            log_det_data: f64::NAN,
+        }
+    }
+
     /// Posterior sigma of a state by name (SI).
     pub fn sigma(&self, name: &str) -> Option<f64> {
         let i = self.index(name)?;

@@ -75,6 +75,10 @@ pub struct Proposal {
     pub terms: Vec<(String, Separability)>,
     /// Posterior sigma of every parameter of the requested terms (SI).
     pub sigmas: Vec<(String, f64, f64)>,
+    /// The whole posterior of the analysis (what else a caller judges the program by: the
+    /// navigation figure of `sins-calib design`).
+    #[serde(skip)]
+    pub posterior: Posterior,
 }
 
 impl Proposal {
@@ -276,6 +280,7 @@ pub fn evaluate(
         duration_s,
         terms: sep_terms,
         sigmas,
+        posterior: post,
     })
 }
 

@@ -326,6 +326,10 @@ pub struct LoopResult {
     /// Candidates of the settings that were not tested, with why (the thermal terms on records
     /// without a temperature that moves).
     pub not_tested: Vec<(String, String)>,
+    /// The posterior of the model after each round that accepted or carried a term, in order,
+    /// with the term's id: what a caller judges each model by (`diagnose`'s navigation figure
+    /// of every model the loop moved to).
+    pub models: Vec<(String, Posterior)>,
 }
 
 pub use crate::estimate::score_pass::MIN_THERMAL_SPAN_K;
@@ -1013,6 +1017,7 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
         gains: BTreeMap::new(),
         noise_rescaled: None,
         not_tested: Vec::new(),
+        models: Vec::new(),
     };
     loop {
         let reference = cx.round_reference(&mut st)?;
@@ -1084,6 +1089,7 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
         drift_reach,
         noise_rescaled: st.noise_rescaled,
         not_tested: st.not_tested,
+        models: st.models,
     })
 }
 
@@ -1099,6 +1105,8 @@ struct LoopState {
     noise_rescaled: Option<NoiseRescale>,
     /// Candidates not tested, with why.
     not_tested: Vec<(String, String)>,
+    /// The posterior of each model moved to ([`LoopResult::models`]).
+    models: Vec<(String, Posterior)>,
 }
 
 impl Context<'_> {
@@ -1197,6 +1205,8 @@ impl Context<'_> {
         } else {
             fit
         };
+        let posterior = Posterior::of_estimate(&st.current.calibration.estimate);
+        st.models.push((e.term, posterior));
         Ok(())
     }
 
