@@ -38,12 +38,14 @@ fn config(seed: u64) -> RunConfig {
 /// in its rests, the grade chosen from it, the configuration from the data at the site's
 /// latitude and height (`--latitude`, `--height`).
 fn from_data(truth: &RunConfig, imu: &ImuData, rests: &[Rest]) -> (RunConfig, WhiteNoiseAtRest) {
-    let noise = hand_turned::white_noise_at_rest(imu, rests).unwrap();
-    let grade = hand_turned::choose_grade(imu, rests, &noise);
+    let mut source = calib::estimate::MemoryImu::new(imu, "imu.csv");
+    let at_rest = hand_turned::RecordsAtRest::read(&mut source, rests).unwrap();
+    let noise = hand_turned::white_noise_at_rest(&at_rest).unwrap();
+    let grade = hand_turned::choose_grade(&at_rest, &noise);
     println!("{}", grade.describe());
     let site = &truth.site;
-    let c = hand_turned::default_config(imu, site.latitude_deg, site.height_m, &noise, grade.grade)
-        .unwrap();
+    let (lat, height) = (site.latitude_deg, site.height_m);
+    let c = hand_turned::default_config(&at_rest, lat, height, &noise, grade.grade).unwrap();
     (c, noise)
 }
 
@@ -57,8 +59,7 @@ fn calibrate(
     hand_turned::calibrate(
         config,
         &layout_for(config, false),
-        imu,
-        "imu.csv",
+        &mut calib::estimate::MemoryImu::new(imu, "imu.csv"),
         rests,
         &[],
         holdout,

@@ -554,11 +554,11 @@ fn held_out_verdict(
     let layout = calib::model::layout::layout_with(&s.config, false, &result.last.extension);
     // Its verdict with the tests of its innovations, as `calibrate --free-motion` runs them:
     // they inform.
+    let mut imu = calib::estimate::MemoryImu::new(imu, &s.imu_file);
     let r = calib::estimate::hand_turned::calibrate(
         &s.config,
         &layout,
-        imu,
-        &s.imu_file,
+        &mut imu,
         &found.rests,
         known,
         Some(every),

@@ -516,12 +516,12 @@ impl Context<'_> {
                 (est, config.clone(), NoiseSource::Configured)
             }
             Some(rests) => {
+                let mut imu = crate::estimate::MemoryImu::new(self.data.imu, self.data.imu_file);
                 let fit = crate::estimate::hand_turned::fit_measuring_noise(
                     config,
                     &crate::model::layout::layout_with(config, false, ext),
                     crate::estimate::hand_turned::RestsInput {
-                        data: self.data.imu,
-                        file: self.data.imu_file,
+                        imu: &mut imu,
                         rests,
                         turns: self.turns,
                     },
