@@ -15,7 +15,7 @@
 //! 50 deg/h/g (905, a quadratic term, did not spoil the held-out figures: see its test).
 
 use calib::config::RunConfig;
-use calib::estimate::RunData;
+use calib::estimate::MemoryImu;
 use calib::estimate::calibration::Calibration;
 use calib::estimate::hand_turned::{self, WhiteNoiseAtRest};
 use calib::estimate::verdict::RunVerdict;
@@ -120,16 +120,12 @@ fn the_loop_accepts_the_accelerometer_quadratic_term_of_a_navigation_grade_recor
     let rests = crate::rests::rests(&truth);
     let (own, noise) = from_data(&truth, &imu, &rests);
     println!("noise-free recording: measured {noise:?}");
-    let data = RunData {
-        imu: &imu,
-        imu_file: "imu.csv",
-        turntable: None,
-    };
+    let mut data = MemoryImu::new(&imu, "imu.csv");
     let settings = LoopSettings {
         measured_noise: Some(noise),
         ..LoopSettings::default()
     };
-    let result = run_loop_at_rests(&own, &data, &rests, &[], &settings, &mut |_| {}).unwrap();
+    let result = run_loop_at_rests(&own, &mut data, &rests, &[], &settings, &mut |_| {}).unwrap();
     for (k, r) in result.rounds.iter().enumerate() {
         let c: Vec<String> = r
             .candidates
@@ -243,16 +239,12 @@ fn the_loop_with_measured_noise_accepts_nothing_on_clean_consumer_recordings() {
         let imu = ImuData::from_samples(&sim.imu);
         let rests = crate::rests::rests(&truth);
         let (own, noise) = from_data(&truth, &imu, &rests);
-        let data = RunData {
-            imu: &imu,
-            imu_file: "imu.csv",
-            turntable: None,
-        };
+        let mut data = MemoryImu::new(&imu, "imu.csv");
         let settings = LoopSettings {
             measured_noise: Some(noise),
             ..LoopSettings::default()
         };
-        let r = run_loop_at_rests(&own, &data, &rests, &[], &settings, &mut |_| {}).unwrap();
+        let r = run_loop_at_rests(&own, &mut data, &rests, &[], &settings, &mut |_| {}).unwrap();
         let first: Vec<String> = r.rounds[0]
             .candidates
             .iter()

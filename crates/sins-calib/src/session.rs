@@ -36,7 +36,7 @@ pub struct Session<T> {
     pub origin: String,
     /// The IMU file as named in messages.
     pub imu_file: String,
-    /// The IMU records: streamed at every pass (`calibrate`), or held (`diagnose`).
+    /// The IMU records: streamed at every pass, or held (`diagnose` of a programmed run).
     pub records: Records,
     /// The turntable's angle records (streamed at every pass, kept in memory when short).
     pub turntable: Option<AngleFile>,
@@ -90,9 +90,10 @@ impl ConfigSource {
 
 /// The IMU records of a session.
 pub enum Records {
-    /// Read from the file at every pass (`calibrate`, with a program or on rests).
+    /// Read from the file at every pass (`calibrate`; `diagnose` of a recording of rests).
     Streamed(Box<FileImu>),
-    /// Read into memory (`diagnose`, whose model-extension loop takes them held).
+    /// Read into memory (`diagnose` of a programmed run, whose model-extension loop takes
+    /// them held).
     Held(ImuData),
 }
 
@@ -102,6 +103,15 @@ impl Records {
         match self {
             Self::Held(data) => Some(data),
             Self::Streamed(_) => None,
+        }
+    }
+
+    /// Whether every record has a temperature (a file with a `temp` column: its reader takes
+    /// no record without one).
+    fn have_temp(&self) -> bool {
+        match self {
+            Self::Held(data) => data.records.iter().all(|r| r.temp.is_some()),
+            Self::Streamed(imu) => imu.has_temp(),
         }
     }
 }
@@ -357,13 +367,16 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
     if let Some((_, grid)) = &walk_prior {
         settings.drift_grid = Some(grid.clone());
     }
-    let imu = read_imu_csv(&args.imu)?;
+    // A recording of rests (no program, no angles) is read again for every fit; a programmed
+    // run's records are held for the model-extension loop (`calib::extend::run_loop`).
+    let rests_mode = args.turntable.is_none() && config.program_from_angles();
+    let imu = diagnose_records(&args.imu, rests_mode)?;
     let imu_file = args.imu.display().to_string();
     // Without --terms every candidate is considered and the loop leaves the thermal ones out
     // on records without temperatures, saying so; named, they are refused.
     crate::terms::check_thermal(
         &settings.candidates,
-        args.terms.is_empty() || imu.records.iter().all(|r| r.temp.is_some()),
+        args.terms.is_empty() || imu.have_temp(),
         "diagnose",
         &format!("{imu_file}: no `temp` column"),
         "records with a `temp` column (deg C)",
@@ -377,9 +390,11 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         )
         .into());
     }
-    let rests_mode = turntable.is_none() && config.program_from_angles();
     refuse_detector_with_program("diagnose", !rests_mode, &args.detector)?;
-    let span = imu.records.first().zip(imu.records.last());
+    // (A recording of rests has no program to cover: nothing to check, and no span held.)
+    let span = imu
+        .held()
+        .and_then(|d| d.records.first().zip(d.records.last()));
     check_turntable_coverage(
         &config,
         turntable.as_ref(),
@@ -393,7 +408,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         source,
         origin,
         imu_file,
-        records: Records::Held(imu),
+        records: imu,
         turntable,
         program: None,
         rests: None,
@@ -405,33 +420,30 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         task: (),
     };
     if rests_mode {
-        let Records::Held(data) = &session.records else {
-            unreachable!("diagnose holds its records")
-        };
-        let file = &session.imu_file;
-        let mut memory = calib::estimate::MemoryImu::new(data, file);
-        let mut source = RateSource::new(&mut memory)?;
-        let mut found = find_rests(&mut source, file, &args.detector, "diagnose")?;
-        if args.free_motion {
-            let asked = FreeMotionArgs {
-                site: (args.site.latitude, args.site.height),
-                sections: args.sections.as_deref(),
-                terms: &[],
-            };
-            let config = (
-                &mut session.config,
-                &session.source,
-                session.origin.as_str(),
-            );
-            set_up_free_motion(config, &mut found, &mut source, asked)?;
-            settings.measured_noise = found.free_motion.as_ref().and_then(|f| f.measured);
-        }
-        session.rests = Some(found);
+        let asked = args.free_motion.then_some(FreeMotionArgs {
+            site: (args.site.latitude, args.site.height),
+            sections: args.sections.as_deref(),
+            terms: &[],
+        });
+        rests_streamed(&mut session, &args.detector, "diagnose", asked)?;
+        settings.measured_noise = session.free_motion().and_then(|f| f.measured);
     }
     Ok(session.with(Diagnose {
         settings,
         walk_prior,
     }))
+}
+
+/// The IMU records of `diagnose` at `path`: held for a programmed run; for a recording of
+/// rests (`stream`) opened to be read again for every fit, and read through once now, so that
+/// a line no reader takes is refused here, as the held reading refuses it.
+fn diagnose_records(path: &Path, stream: bool) -> Result<Records, Error> {
+    if !stream {
+        return Ok(Records::Held(read_imu_csv(path)?));
+    }
+    let mut imu = FileImu::open(path)?;
+    calib::io::source::read_records(&mut imu, &mut Vec::new(), &mut |_, _| true)?;
+    Ok(Records::Streamed(Box::new(imu)))
 }
 
 /// Check `diagnose`'s outputs and options before any work (outputs, level, hold-out).
