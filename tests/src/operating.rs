@@ -232,8 +232,7 @@ fn calibrate(
         return hand_turned::calibrate(
             &config,
             &layout,
-            imu,
-            "imu.csv",
+            &mut MemoryImu::new(imu, "imu.csv"),
             &rests,
             &[],
             None,

@@ -15,7 +15,7 @@
 //! 50 deg/h/g (905, a quadratic term, did not spoil the held-out figures: see its test).
 
 use calib::config::RunConfig;
-use calib::estimate::RunData;
+use calib::estimate::MemoryImu;
 use calib::estimate::calibration::Calibration;
 use calib::estimate::hand_turned::{self, WhiteNoiseAtRest};
 use calib::estimate::verdict::RunVerdict;
@@ -42,12 +42,14 @@ pub(crate) fn from_data(
     imu: &ImuData,
     rests: &[Rest],
 ) -> (RunConfig, WhiteNoiseAtRest) {
-    let noise = hand_turned::white_noise_at_rest(imu, rests).unwrap();
-    let grade = hand_turned::choose_grade(imu, rests, &noise);
+    let mut source = calib::estimate::MemoryImu::new(imu, "imu.csv");
+    let at_rest = hand_turned::RecordsAtRest::read(&mut source, rests).unwrap();
+    let noise = hand_turned::white_noise_at_rest(&at_rest).unwrap();
+    let grade = hand_turned::choose_grade(&at_rest, &noise);
     println!("{}", grade.describe());
     let site = &truth.site;
-    let c = hand_turned::default_config(imu, site.latitude_deg, site.height_m, &noise, grade.grade)
-        .unwrap();
+    let (lat, height) = (site.latitude_deg, site.height_m);
+    let c = hand_turned::default_config(&at_rest, lat, height, &noise, grade.grade).unwrap();
     (c, noise)
 }
 
@@ -61,8 +63,7 @@ pub(crate) fn calibrate(
     hand_turned::calibrate(
         config,
         &layout_for(config, false),
-        imu,
-        "imu.csv",
+        &mut calib::estimate::MemoryImu::new(imu, "imu.csv"),
         rests,
         &[],
         holdout,
@@ -123,16 +124,12 @@ fn the_loop_accepts_the_accelerometer_quadratic_term_of_a_navigation_grade_recor
     let rests = crate::rests::rests(&truth);
     let (own, noise) = from_data(&truth, &imu, &rests);
     println!("noise-free recording: measured {noise:?}");
-    let data = RunData {
-        imu: &imu,
-        imu_file: "imu.csv",
-        turntable: None,
-    };
+    let mut data = MemoryImu::new(&imu, "imu.csv");
     let settings = LoopSettings {
         measured_noise: Some(noise),
         ..LoopSettings::default()
     };
-    let result = run_loop_at_rests(&own, &data, &rests, &[], &settings, &mut |_| {}).unwrap();
+    let result = run_loop_at_rests(&own, &mut data, &rests, &[], &settings, &mut |_| {}).unwrap();
     for (k, r) in result.rounds.iter().enumerate() {
         let c: Vec<String> = r
             .candidates
@@ -246,16 +243,12 @@ fn the_loop_with_measured_noise_accepts_nothing_on_clean_consumer_recordings() {
         let imu = ImuData::from_samples(&sim.imu);
         let rests = crate::rests::rests(&truth);
         let (own, noise) = from_data(&truth, &imu, &rests);
-        let data = RunData {
-            imu: &imu,
-            imu_file: "imu.csv",
-            turntable: None,
-        };
+        let mut data = MemoryImu::new(&imu, "imu.csv");
         let settings = LoopSettings {
             measured_noise: Some(noise),
             ..LoopSettings::default()
         };
-        let r = run_loop_at_rests(&own, &data, &rests, &[], &settings, &mut |_| {}).unwrap();
+        let r = run_loop_at_rests(&own, &mut data, &rests, &[], &settings, &mut |_| {}).unwrap();
         let first: Vec<String> = r.rounds[0]
             .candidates
             .iter()

@@ -213,8 +213,7 @@ fn run_consumer(seeds: std::ops::RangeInclusive<u64>) {
         let est = calib::estimate::calibrate_rests(
             &config,
             &layout,
-            &imu,
-            "imu.csv",
+            &mut MemoryImu::new(&imu, "imu.csv"),
             &rests(&config),
             &[],
             &mut |_, _| {},
@@ -304,8 +303,10 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
         }
         let correction = calib::model::correction::Correction::of_result(&file).unwrap();
         let none = calib::motion::free_motion::EarthRotation::at(0.0, f64::INFINITY);
+        let t: Vec<f64> = imu.records.iter().map(|r| r.t).collect();
         let e = calib::motion::free_motion::evaluate(
-            &imu,
+            &mut MemoryImu::new(&imu, "imu.csv"),
+            &t,
             &rests,
             &[known(angle)],
             None,
@@ -324,8 +325,7 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
         calib::estimate::hand_turned::calibrate(
             &config,
             &layout,
-            &imu,
-            "imu.csv",
+            &mut MemoryImu::new(&imu, "imu.csv"),
             &rests,
             &turns,
             None,

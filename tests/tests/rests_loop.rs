@@ -35,7 +35,7 @@
 //! says the model does not fit, as first planned; the test asserts that again.
 
 use calib::config::RunConfig;
-use calib::estimate::RunData;
+use calib::estimate::MemoryImu;
 use calib::extend::{LoopSettings, run_loop_at_rests};
 use calib::io::ImuData;
 use calib::model::extension::HiddenEffects;
@@ -60,14 +60,10 @@ fn run(truth: &RunConfig, fit: &RunConfig, hidden: &HiddenEffects) -> (Vec<Strin
     let rests: Vec<Rest> = crate::rests::rests(config);
     let sim = calib::simulate::simulate_run_hidden(truth, "19 positions", hidden).unwrap();
     let imu = ImuData::from_samples(&sim.imu);
-    let data = RunData {
-        imu: &imu,
-        imu_file: "imu.csv",
-        turntable: None,
-    };
+    let mut data = MemoryImu::new(&imu, "imu.csv");
     let result = run_loop_at_rests(
         config,
-        &data,
+        &mut data,
         &rests,
         &[],
         &LoopSettings::default(),

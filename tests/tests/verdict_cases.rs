@@ -195,8 +195,7 @@ fn the_right_model_with_overstated_noise_exits_0() {
     let c = hand_turned::calibrate(
         &config,
         &layout,
-        &imu,
-        "imu.csv",
+        &mut calib::estimate::MemoryImu::new(&imu, "imu.csv"),
         &rests,
         &[],
         Some(4),

@@ -4,7 +4,7 @@
 use crate::{Error, print};
 use calib::config::UnitIdentity;
 use calib::io::{ImuKind, ImuReader, ImuRecord, format_f64, read_result_json};
-use calib::model::correction::{Correction, ExtensionInputs, correct_record};
+use calib::model::correction::{Correction, CorrectionWindow, ExtensionInputs};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `apply`.
@@ -159,13 +159,14 @@ fn correct_stream(
     sink.write_all(header.as_bytes()).map_err(write_err)?;
     // A window of up to four records (two before the one corrected, one after) with their
     // lines: the intervals and the neighbours' rates the correction of a record needs.
-    let mut window: Vec<(ImuRecord, usize)> = Vec::with_capacity(4);
+    let mut window = CorrectionWindow::new();
     let mut text = String::new();
     let mut count = 0;
-    let mut flush = |window: &[(ImuRecord, usize)], k: usize, count: &mut usize| {
-        let records: Vec<ImuRecord> = window.iter().map(|(r, _)| *r).collect();
-        let r = correct_record(correction, kind, &records, k)
-            .map_err(|e| -> Error { format!("{file}: line {}: {e}", window[k].1).into() })?;
+    let mut flush = |window: &CorrectionWindow<usize>, at: usize, count: &mut usize| {
+        let Some(r) = window.correct(correction, kind) else {
+            return Ok(());
+        };
+        let r = r.map_err(|e| -> Error { format!("{file}: line {at}: {e}").into() })?;
         line(&r, &mut text);
         sink.write_all(text.as_bytes()).map_err(write_err)?;
         *count += 1;
@@ -182,23 +183,20 @@ fn correct_stream(
     let times: Vec<f64> = prefix.iter().map(|(r, _)| r.t).collect();
     let median = calib::io::timing::median_interval(&times);
     let mut prefix = prefix.into_iter();
+    let mut previous: Option<(f64, usize)> = None;
     loop {
         let next = match prefix.next() {
             Some(x) => Some(x),
             None => reader.next_record()?.map(|r| (r, reader.line())),
         };
         let Some((r, at)) = next else { break };
-        if let Some((before, line_before)) = window.last() {
-            check_interval(before.t, *line_before, r.t, at, median, &file)?;
+        if let Some((t_before, line_before)) = previous {
+            check_interval(t_before, line_before, r.t, at, median, &file)?;
         }
-        window.push((r, at));
-        if window.len() > 4 {
-            window.remove(0);
-        }
+        previous = Some((r.t, at));
         // The record before the newest now has its successor.
-        if window.len() >= 2 {
-            let k = window.len() - 2;
-            flush(&window, k, &mut count)?;
+        if let Some(ready) = window.push(r, at) {
+            flush(&window, ready, &mut count)?;
         }
     }
     if kind == ImuKind::Increments && window.len() < 2 {
@@ -208,8 +206,9 @@ fn correct_stream(
         )
         .into());
     }
-    let k = window.len() - 1;
-    flush(&window, k, &mut count)?;
+    if let Some(last) = window.close() {
+        flush(&window, last, &mut count)?;
+    }
     Ok(count)
 }
 

@@ -95,7 +95,20 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Calibration, Error> {
         bar.set_position(done as u64);
     };
     let calibration = match (&mut s.records, &s.rests) {
-        (Records::Streamed(imu), _) => {
+        (Records::Streamed(imu), Some(found)) => {
+            let free_motion = found.free_motion.as_ref();
+            calib::estimate::hand_turned::calibrate(
+                &s.config,
+                &s.task.layout,
+                &mut **imu,
+                &found.rests,
+                free_motion.map_or(&[], |f| &f.turns),
+                s.holdout,
+                free_motion.and_then(|f| f.measured),
+                &mut progress,
+            )?
+        }
+        (Records::Streamed(imu), None) => {
             let turntable = s.turntable.as_ref().map(AngleFile::records);
             calibrate_program(
                 &s.config,
@@ -105,21 +118,7 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Calibration, Error> {
                 &mut progress,
             )?
         }
-        (Records::Held(data), Some(found)) => {
-            let free_motion = found.free_motion.as_ref();
-            calib::estimate::hand_turned::calibrate(
-                &s.config,
-                &s.task.layout,
-                data,
-                &s.imu_file,
-                &found.rests,
-                free_motion.map_or(&[], |f| &f.turns),
-                s.holdout,
-                free_motion.and_then(|f| f.measured),
-                &mut progress,
-            )?
-        }
-        (Records::Held(_), None) => unreachable!("held records are those of a recording of rests"),
+        (Records::Held(_), _) => unreachable!("calibrate streams its records"),
     };
     bar.finish_and_clear();
     Ok(calibration)

@@ -170,22 +170,21 @@ pub fn option_name(setting: &str) -> String {
 /// IMU clock (each from the start of its first record's interval to its last record's time
 /// stamp), with the segmentation they come from: its `missed_report(option_name)` says when the
 /// motion suggests more rests than were found, and which `--rest-*` options would take them.
+/// The records are read again from `source` for every step (`segment`'s streamed detector),
+/// not held.
 pub fn rests_and_segmentation(
-    data: &calib::io::ImuData,
+    source: &mut ::calib::motion::detect::RateSource,
     file: &str,
     settings: &DetectorSettings,
-) -> Result<(Vec<Rest>, ::calib::motion::detect::Segmentation), String> {
-    if let (Some(a), Some(b)) = (data.records.first(), data.records.last()) {
-        check_span(settings, b.t - a.t, file, &option_name)?;
-    }
+) -> Result<(Vec<Rest>, ::calib::motion::detect::Segmentation), crate::Error> {
+    check_span_streamed(settings, source, file, &option_name)?;
     // The units `segment` checks (time stamps in seconds, specific force in m/s^2, the gyro
     // and accelerometer columns in their places, two records at least): rests found in
     // misread records would blame the rests ("only 2 directions") instead of the units.
-    crate::recording_checks::check_plausible(data, file, settings.window_s)
-        .map_err(|e| e.to_string())?;
-    let seg =
-        ::calib::motion::detect::segment(data, settings).map_err(|e| format!("{file}: {e}"))?;
-    crate::recording_checks::check_static_force(&seg, file).map_err(|e| e.to_string())?;
+    crate::recording_checks::check_plausible_streamed(source, file, settings.window_s)?;
+    let seg = ::calib::motion::detect::segment_streamed(source, settings)
+        .map_err(|e| format!("{file}: {e}"))?;
+    crate::recording_checks::check_static_force(&seg, file)?;
     let dt = seg.median_interval_s;
     let rests = seg
         .static_intervals

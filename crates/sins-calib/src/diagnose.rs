@@ -4,7 +4,7 @@
 
 use crate::Error;
 use crate::diagnosis::{Diagnosis, HeldOut, ModelNavigation, TermSize};
-use crate::session::Session;
+use crate::session::{Records, Session};
 use calib::check::stats::p_value_text;
 use calib::estimate::RunData;
 use calib::extend::{CandidateEvidence, LoopResult, TermGain, run_loop, run_loop_at_rests};
@@ -560,11 +560,11 @@ fn failure_lines(failures: &[String]) -> String {
 /// --free-motion); returns its exit status (3: the model does not fit these data).
 pub fn run(args: &crate::args::DiagnoseArgs) -> Result<u8, Error> {
     let flight = crate::navigation::Flight::load(&args.flight)?;
-    let session = crate::session::diagnose(args)?;
+    let mut session = crate::session::diagnose(args)?;
     note_setup(&session);
-    let result = fit_loop(&session)?;
+    let result = fit_loop(&mut session)?;
     crate::calibrate::check_estimate(&result.last.calibration.estimate, &session.imu_file)?;
-    let held_out = held_out_verdict(&session, &result)?;
+    let held_out = held_out_verdict(&mut session, &result)?;
     let d = Diagnosis::build(&session, result, held_out, &flight)?;
     let mut text = render(&d);
     if let Some(path) = &session.json {
@@ -595,21 +595,14 @@ fn note_setup(s: &Session<crate::session::Diagnose>) {
     }
 }
 
-/// The model-extension loop on the session's data, with progress lines on standard error.
-fn fit_loop(s: &Session<crate::session::Diagnose>) -> Result<LoopResult, Error> {
-    let Some(imu) = s.records.held() else {
-        unreachable!("diagnose holds its records")
-    };
-    let data = RunData {
-        imu,
-        imu_file: &s.imu_file,
-        turntable: s.turntable.as_ref().map(AngleFile::records),
-    };
+/// The model-extension loop on the session's data, with progress lines on standard error: a
+/// recording of rests read again for every fit, a programmed run's records held.
+fn fit_loop(s: &mut Session<crate::session::Diagnose>) -> Result<LoopResult, Error> {
     let mut timer = StepTimer::new();
     let mut progress = |what: &str| eprintln!("diagnose: {}", timer.line(what));
     let settings = &s.task.settings;
-    Ok(match &s.rests {
-        Some(found) => {
+    Ok(match (&mut s.records, &s.rests) {
+        (Records::Streamed(imu), Some(found)) => {
             let turns: Vec<calib::motion::rests::Turn> = found
                 .free_motion
                 .iter()
@@ -617,14 +610,22 @@ fn fit_loop(s: &Session<crate::session::Diagnose>) -> Result<LoopResult, Error> 
                 .collect();
             run_loop_at_rests(
                 &s.config,
-                &data,
+                &mut **imu,
                 &found.rests,
                 &turns,
                 settings,
                 &mut progress,
             )?
         }
-        None => run_loop(&s.config, &data, settings, &mut progress)?,
+        (Records::Held(imu), None) => {
+            let data = RunData {
+                imu,
+                imu_file: &s.imu_file,
+                turntable: s.turntable.as_ref().map(AngleFile::records),
+            };
+            run_loop(&s.config, &data, settings, &mut progress)?
+        }
+        _ => unreachable!("diagnose streams a recording of rests and holds a programmed run"),
     })
 }
 
@@ -632,11 +633,11 @@ fn fit_loop(s: &Session<crate::session::Diagnose>) -> Result<LoopResult, Error> 
 /// level the tool set itself: they inform, and the held-out rests decide (as for `calibrate
 /// --free-motion`): the final model fitted with every K-th rest held out.
 fn held_out_verdict(
-    s: &Session<crate::session::Diagnose>,
+    s: &mut Session<crate::session::Diagnose>,
     result: &LoopResult,
 ) -> Result<Option<HeldOut>, Error> {
-    let (Some(noise), Some(found), Some(imu)) =
-        (s.task.settings.measured_noise, &s.rests, s.records.held())
+    let (Some(noise), Some(found), Records::Streamed(imu)) =
+        (s.task.settings.measured_noise, &s.rests, &mut s.records)
     else {
         return Ok(None);
     };
@@ -648,8 +649,7 @@ fn held_out_verdict(
     let r = calib::estimate::hand_turned::calibrate(
         &s.config,
         &layout,
-        imu,
-        &s.imu_file,
+        &mut **imu,
         &found.rests,
         known,
         Some(every),

@@ -10,12 +10,13 @@ use ::import::sections::SectionsFile;
 use calib::config::RunConfig;
 use calib::estimate::calibration::Calibration;
 use calib::estimate::hand_turned::{GradeChoice, NoiseSource, WhiteNoiseAtRest};
-use calib::io::ImuData;
 use calib::model::extension::ModelExtension;
 use calib::model::layout::StateLayout;
+use calib::motion::detect::RateSource;
 use calib::motion::free_motion::{EarthRateTreatment, Evaluation};
 use calib::motion::rests::Rest;
 use calib::motion::rests::Turn;
+use calib::motion::stamps::StampCounts;
 use sins_model::candidates::{Candidate, UnitGrade};
 use sins_model::units::DEG_PER_HOUR;
 
@@ -56,26 +57,25 @@ pub struct Setup {
 /// defaults ([`calib::estimate::hand_turned::default_config`]) at the command line's `latitude` and
 /// `height` with the noise measured in the rests and the grade from the data
 /// ([`calib::estimate::hand_turned::choose_grade`]); the model is the paper's with `terms`.
+/// The records are read again from `source` for each figure, not held.
 pub fn setup(
     given: Option<(&RunConfig, &str)>,
     site: (Option<f64>, Option<f64>),
     sections: Option<&std::path::Path>,
     terms: &[Candidate],
-    data: &ImuData,
-    file: &str,
+    source: &mut RateSource,
     rests: &[Rest],
 ) -> Result<Setup, Error> {
     let made = match given {
         Some((config, origin)) => given_config(config, origin)?,
-        None => config_from_recording(site, data, file, rests)?,
+        None => config_from_recording(site, source, rests)?,
     };
     let config = made.config;
     let unit_grade = config.unit_grade();
     let ext = ModelExtension::with_grade(terms, unit_grade);
     let layout = calib::model::layout::layout_with(&config, false, &ext);
-    let times: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     let turns = match sections {
-        Some(p) => read_sections(p, data)?.known_turns(rests, &times),
+        Some(p) => known_turns(&read_sections(p, source)?, source, rests)?,
         None => Vec::new(),
     };
     Ok(Setup {
@@ -124,33 +124,34 @@ fn given_config(config: &RunConfig, origin: &str) -> Result<Made, Error> {
 /// given, and said so), with the noise measured in the rests and the grade from the data.
 fn config_from_recording(
     (latitude, height): (Option<f64>, Option<f64>),
-    data: &ImuData,
-    file: &str,
+    source: &mut RateSource,
     rests: &[Rest],
 ) -> Result<Made, Error> {
+    let file = &source.file().to_string();
     let lat = latitude.unwrap_or(DEFAULT_LATITUDE_DEG);
     if !(-90.0..=90.0).contains(&lat) {
         return Err(format!("--latitude {lat}: expected -90 .. 90 deg").into());
     }
-    let noise =
-        calib::estimate::hand_turned::white_noise_at_rest(data, rests).ok_or_else(|| {
-            format!(
-                "{file}: no rest holds two whole seconds: the white noise cannot be \
+    let at_rest = calib::estimate::hand_turned::RecordsAtRest::read(source.source(), rests)?;
+    let noise = calib::estimate::hand_turned::white_noise_at_rest(&at_rest).ok_or_else(|| {
+        format!(
+            "{file}: no rest holds two whole seconds: the white noise cannot be \
                      measured in the rests (give a configuration with [noise], --config)"
-            )
-        })?;
-    let choice = calib::estimate::hand_turned::choose_grade(data, rests, &noise);
+        )
+    })?;
+    let choice = calib::estimate::hand_turned::choose_grade(&at_rest, &noise);
     let h = height.unwrap_or(0.0);
     // From the Dead Sea shore to above any laboratory on a mountain, as [site].
     if !(-500.0..=10_000.0).contains(&h) {
         return Err(format!("--height {h}: expected -500 .. 10000 m").into());
     }
-    let config = calib::estimate::hand_turned::default_config(data, lat, h, &noise, choice.grade)
-        .ok_or_else(|| format!("{file}: fewer than two records"))?;
+    let config =
+        calib::estimate::hand_turned::default_config(&at_rest, lat, h, &noise, choice.grade)
+            .ok_or_else(|| format!("{file}: fewer than two records"))?;
     let assumptions = site_assumptions(&config, lat, latitude.is_none(), height.is_none());
     let interval = 1.0 / config.filter.imu_rate_hz;
     if interval > MAX_RECORD_INTERVAL_S {
-        check_jump(data, file)?;
+        check_jump(source)?;
         return Err(calib::estimate::EstimateError::Rests {
             file: file.to_string(),
             source: calib::motion::rests::RestError::SlowRecords {
@@ -211,16 +212,25 @@ fn site_assumptions(
 
 /// Refuse a jump in the time stamps (an interval of more than [`JUMP_MEDIAN_INTERVALS`]
 /// median intervals, e.g. 1e6 s), naming its line: it makes the records' mean interval that
-/// of no recording, and the message would otherwise blame the record rate.
-fn check_jump(data: &ImuData, file: &str) -> Result<(), Error> {
-    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
-    let median = calib::io::timing::median_interval(&t);
-    let Some((k, d)) = t
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .enumerate()
-        .max_by(|a, b| a.1.total_cmp(&b.1))
-    else {
+/// of no recording, and the message would otherwise blame the record rate. One reading of the
+/// records for their longest interval (the last of the longest, as `Iterator::max_by` gives).
+fn check_jump(source: &mut RateSource) -> Result<(), Error> {
+    let file = source.file().to_string();
+    let median = source.median;
+    // Index, length and stamps of the longest interval so far.
+    let mut longest: Option<(usize, f64, f64, f64)> = None;
+    let (mut k, mut previous) = (0usize, f64::NAN);
+    source.records_of(&mut |r, _| {
+        if k > 0 {
+            let d = r.t - previous;
+            if longest.is_none_or(|(_, best, _, _)| d.total_cmp(&best).is_ge()) {
+                longest = Some((k - 1, d, previous, r.t));
+            }
+        }
+        previous = r.t;
+        k += 1;
+    })?;
+    let Some((k, d, t0, t1)) = longest else {
         return Ok(());
     };
     if median > 0.0 && d > JUMP_MEDIAN_INTERVALS * median {
@@ -230,9 +240,9 @@ fn check_jump(data: &ImuData, file: &str) -> Result<(), Error> {
              recording at the jump",
             k + 3,
             table::compact(d),
-            table::compact(t[k]),
+            table::compact(t0),
             k + 2,
-            table::compact(t[k + 1]),
+            table::compact(t1),
             table::compact(median)
         )
         .into());
@@ -243,11 +253,12 @@ fn check_jump(data: &ImuData, file: &str) -> Result<(), Error> {
 /// An interval longer than this many median intervals is a jump in the time stamps.
 const JUMP_MEDIAN_INTERVALS: f64 = 1000.0;
 
-/// The section list at `path`, checked against the records of `data` before any work
-/// ([`SectionsFile::check_records`]).
+/// The section list at `path`, checked against the records of `source` before any work
+/// ([`SectionsFile::check_records`], [`check_faces`]): one reading for the stamps of its
+/// sections' first and last records, one for its static faces' specific force.
 pub(crate) fn read_sections(
     path: &std::path::Path,
-    data: &calib::io::ImuData,
+    source: &mut RateSource,
 ) -> Result<SectionsFile, Error> {
     crate::provenance::check_stamp(
         path,
@@ -255,12 +266,33 @@ pub(crate) fn read_sections(
         "the sections.json `sins-calib import` writes",
     )?;
     let sections = SectionsFile::read(path)?;
-    let times: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    let ends = sections
+        .sections
+        .iter()
+        .flat_map(|s| [s.first_record, s.last_record]);
+    let median = source.median;
+    let stamps = StampCounts::read(source.source(), [], ends, median)?;
     sections
-        .check_records(&times)
+        .check_records(&stamps)
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    check_faces(&sections, data).map_err(|e| format!("{}: {e}", path.display()))?;
+    check_faces(&sections, source).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(sections)
+}
+
+/// The known turns of `sections` on the records of `source` between its `rests`
+/// ([`SectionsFile::known_turns`]): one reading to put the rests on the records, one for the
+/// stamps of the turns' records.
+fn known_turns(
+    sections: &SectionsFile,
+    source: &mut RateSource,
+    rests: &[Rest],
+) -> Result<Vec<Turn>, Error> {
+    let times = || rests.iter().flat_map(|r| [r.t0, r.t1]);
+    let median = source.median;
+    let counts = StampCounts::read(source.source(), times(), [], median)?;
+    let records = sections.turn_records(rests, &counts);
+    let stamps = StampCounts::read(source.source(), times(), records, median)?;
+    Ok(sections.known_turns(rests, &stamps))
 }
 
 /// The largest angle (deg) between a static face's `up` and the specific force its records
@@ -271,14 +303,26 @@ const MAX_FACE_TILT_DEG: f64 = 30.0;
 /// at rest is g times it, which the calibration measures it by) and within
 /// [`MAX_FACE_TILT_DEG`] of the direction of the specific force over its records. A face with
 /// its `up` missing or reversed was used as it was written. (The records are those
-/// [`SectionsFile::check_records`] found inside the file.)
-fn check_faces(sections: &SectionsFile, data: &calib::io::ImuData) -> Result<(), String> {
+/// [`SectionsFile::check_records`] found inside the file.) One reading of the faces' records.
+fn check_faces(sections: &SectionsFile, source: &mut RateSource) -> Result<(), String> {
     use calib::motion::sections::SectionKind;
-    for s in sections
+    let faces: Vec<_> = sections
         .sections
         .iter()
         .filter(|s| s.kind == SectionKind::Static)
-    {
+        .collect();
+    // The sum of the records' specific force (or velocity increments): its direction is
+    // that of the mean specific force either way.
+    let ranges: Vec<_> = faces
+        .iter()
+        .map(|s| s.first_record..s.last_record + 1)
+        .collect();
+    let mut sums = vec![nalgebra::Vector3::zeros(); faces.len()];
+    calib::motion::stamps::read_ranges(source.source(), &ranges, f64::NAN, &mut |i, _, r, _| {
+        sums[i] += nalgebra::Vector3::from(r.accel);
+    })
+    .map_err(|e| e.to_string())?;
+    for (s, sum) in faces.iter().zip(&sums) {
         let Some(up) = s.up else {
             return Err(format!(
                 "section `{}` is a static face without `up`: expected the body axis that \
@@ -286,14 +330,8 @@ fn check_faces(sections: &SectionsFile, data: &calib::io::ImuData) -> Result<(),
                 s.name
             ));
         };
-        // The sum of the records' specific force (or velocity increments): its direction is
-        // that of the mean specific force either way.
-        let mut sum = nalgebra::Vector3::zeros();
-        for r in &data.records[s.first_record..=s.last_record] {
-            sum += nalgebra::Vector3::from(r.accel);
-        }
         let up = nalgebra::Vector3::from(up);
-        let angle = up.angle(&sum).to_degrees();
+        let angle = up.angle(sum).to_degrees();
         if angle.is_nan() || angle > MAX_FACE_TILT_DEG {
             let dir = sum.normalize();
             return Err(format!(

@@ -18,6 +18,7 @@ use calib::io::angle_records::AngleFile;
 use calib::io::{ImuData, ResultFile, read_imu_csv, read_result_json};
 use calib::model::extension::ModelExtension;
 use calib::model::layout::{StateLayout, layout_with};
+use calib::motion::detect::RateSource;
 use calib::motion::rests::Rest;
 use calib::motion::rests::Turn;
 use sins_model::candidates::Candidate;
@@ -35,7 +36,7 @@ pub struct Session<T> {
     pub origin: String,
     /// The IMU file as named in messages.
     pub imu_file: String,
-    /// The IMU records: streamed at every pass, or held (a recording of rests, `diagnose`).
+    /// The IMU records: streamed at every pass, or held (`diagnose` of a programmed run).
     pub records: Records,
     /// The turntable's angle records (streamed at every pass, kept in memory when short).
     pub turntable: Option<AngleFile>,
@@ -89,9 +90,10 @@ impl ConfigSource {
 
 /// The IMU records of a session.
 pub enum Records {
-    /// Read from the file at every pass.
+    /// Read from the file at every pass (`calibrate`; `diagnose` of a recording of rests).
     Streamed(Box<FileImu>),
-    /// Read into memory (a recording of rests, whose detector needs them; `diagnose`).
+    /// Read into memory (`diagnose` of a programmed run, whose model-extension loop takes
+    /// them held).
     Held(ImuData),
 }
 
@@ -101,6 +103,15 @@ impl Records {
         match self {
             Self::Held(data) => Some(data),
             Self::Streamed(_) => None,
+        }
+    }
+
+    /// Whether every record has a temperature (a file with a `temp` column: its reader takes
+    /// no record without one).
+    fn have_temp(&self) -> bool {
+        match self {
+            Self::Held(data) => data.records.iter().all(|r| r.temp.is_some()),
+            Self::Streamed(imu) => imu.has_temp(),
         }
     }
 }
@@ -226,15 +237,13 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
     };
     let mut layout = None;
     if session.program.is_none() {
-        // No program: the rests the data show stand in for it. The records are read into
-        // memory for the detector (recordings of rests are short).
-        session.records = Records::Held(read_imu_csv(&args.imu)?);
-        find_rests(&mut session, &args.detector, "calibrate")?;
-        if args.free_motion {
-            let site = (args.site.latitude, args.site.height);
-            let sections = args.sections.as_deref();
-            layout = Some(set_up_free_motion(&mut session, site, sections, &terms)?);
-        }
+        // No program: the rests the data show stand in for it.
+        let asked = args.free_motion.then(|| FreeMotionArgs {
+            site: (args.site.latitude, args.site.height),
+            sections: args.sections.as_deref(),
+            terms: &terms,
+        });
+        layout = rests_streamed(&mut session, &args.detector, "calibrate", asked)?;
     }
     let layout = layout.unwrap_or_else(|| {
         let extension = ModelExtension::with_grade(&terms, session.config.unit_grade());
@@ -359,13 +368,16 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
     if let Some((_, grid)) = &walk_prior {
         settings.drift_grid = Some(grid.clone());
     }
-    let imu = read_imu_csv(&args.imu)?;
+    // A recording of rests (no program, no angles) is read again for every fit; a programmed
+    // run's records are held for the model-extension loop (`calib::extend::run_loop`).
+    let rests_mode = args.turntable.is_none() && config.program_from_angles();
+    let imu = diagnose_records(&args.imu, rests_mode)?;
     let imu_file = args.imu.display().to_string();
     // Without --terms every candidate is considered and the loop leaves the thermal ones out
     // on records without temperatures, saying so; named, they are refused.
     crate::terms::check_thermal(
         &settings.candidates,
-        args.terms.is_empty() || imu.records.iter().all(|r| r.temp.is_some()),
+        args.terms.is_empty() || imu.have_temp(),
         "diagnose",
         &format!("{imu_file}: no `temp` column"),
         "records with a `temp` column (deg C)",
@@ -379,9 +391,11 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         )
         .into());
     }
-    let rests_mode = turntable.is_none() && config.program_from_angles();
     refuse_detector_with_program("diagnose", !rests_mode, &args.detector)?;
-    let span = imu.records.first().zip(imu.records.last());
+    // (A recording of rests has no program to cover: nothing to check, and no span held.)
+    let span = imu
+        .held()
+        .and_then(|d| d.records.first().zip(d.records.last()));
     check_turntable_coverage(
         &config,
         turntable.as_ref(),
@@ -395,7 +409,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         source,
         origin,
         imu_file,
-        records: Records::Held(imu),
+        records: imu,
         turntable,
         program: None,
         rests: None,
@@ -407,22 +421,30 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         task: (),
     };
     if rests_mode {
-        find_rests(&mut session, &args.detector, "diagnose")?;
-        if args.free_motion {
-            let sections = args.sections.as_deref();
-            set_up_free_motion(
-                &mut session,
-                (args.site.latitude, args.site.height),
-                sections,
-                &[],
-            )?;
-            settings.measured_noise = session.free_motion().and_then(|f| f.measured);
-        }
+        let asked = args.free_motion.then_some(FreeMotionArgs {
+            site: (args.site.latitude, args.site.height),
+            sections: args.sections.as_deref(),
+            terms: &[],
+        });
+        rests_streamed(&mut session, &args.detector, "diagnose", asked)?;
+        settings.measured_noise = session.free_motion().and_then(|f| f.measured);
     }
     Ok(session.with(Diagnose {
         settings,
         walk_prior,
     }))
+}
+
+/// The IMU records of `diagnose` at `path`: held for a programmed run; for a recording of
+/// rests (`stream`) opened to be read again for every fit, and read through once now, so that
+/// a line no reader takes is refused here, as the held reading refuses it.
+fn diagnose_records(path: &Path, stream: bool) -> Result<Records, Error> {
+    if !stream {
+        return Ok(Records::Held(read_imu_csv(path)?));
+    }
+    let mut imu = FileImu::open(path)?;
+    calib::io::source::read_records(&mut imu, &mut Vec::new(), &mut |_, _| true)?;
+    Ok(Records::Streamed(Box::new(imu)))
 }
 
 /// Check `diagnose`'s outputs and options before any work (outputs, level, hold-out).
@@ -623,56 +645,90 @@ fn refuse_detector_with_program(
     Ok(())
 }
 
-/// The rests of the session's records (held) by the detector's settings.
-fn find_rests<T>(
-    session: &mut Session<T>,
+/// The rests of the records of `source` (named `file`) by the detector's settings.
+fn find_rests(
+    source: &mut RateSource,
+    file: &str,
     detector: &crate::detector_args::DetectorArgs,
     command: &str,
-) -> Result<(), Error> {
+) -> Result<RestsFound, Error> {
     let settings = detector.settings().map_err(|e| format!("{command}: {e}"))?;
-    let Some(data) = session.records.held() else {
-        unreachable!("the records of a recording of rests are held")
-    };
-    let (rests, seg) =
-        crate::detector_args::rests_and_segmentation(data, &session.imu_file, &settings)?;
-    session.rests = Some(RestsFound {
+    let (rests, seg) = crate::detector_args::rests_and_segmentation(source, file, &settings)?;
+    Ok(RestsFound {
         rests,
         missed: seg.missed_report(crate::detector_args::option_name),
         free_motion: None,
-    });
-    Ok(())
+    })
 }
 
-/// Set up a `--free-motion` run on the rests found ([`free_motion::setup`]): the
-/// configuration becomes the one it gives; returns the model with `terms`.
-fn set_up_free_motion<T>(
+/// The rests of a recording without a program (and with `--free-motion` its setup,
+/// [`set_up_free_motion`], whose model is returned), found and set up on the session's records
+/// read again for every step, as the filter reads them (docs/performance.md, "Memory of every
+/// command on a long run").
+fn rests_streamed<T>(
     session: &mut Session<T>,
+    detector: &crate::detector_args::DetectorArgs,
+    command: &str,
+    free_motion: Option<FreeMotionArgs>,
+) -> Result<Option<StateLayout>, Error> {
+    let Records::Streamed(imu) = &mut session.records else {
+        unreachable!("the records of a recording of rests are streamed")
+    };
+    // A first reading of every record: a line no reader takes is refused before the rests.
+    let mut source = RateSource::new(&mut **imu)?;
+    let file = &session.imu_file;
+    let mut found = find_rests(&mut source, file, detector, command)?;
+    let layout = match free_motion {
+        Some(asked) => {
+            let config = (
+                &mut session.config,
+                &session.source,
+                session.origin.as_str(),
+            );
+            Some(set_up_free_motion(config, &mut found, &mut source, asked)?)
+        }
+        None => None,
+    };
+    session.rests = Some(found);
+    Ok(layout)
+}
+
+/// What the command line of a `--free-motion` run adds to its setup.
+struct FreeMotionArgs<'a> {
+    /// `--latitude`, `--height`.
     site: (Option<f64>, Option<f64>),
-    sections: Option<&Path>,
-    terms: &[Candidate],
+    /// `--sections`.
+    sections: Option<&'a Path>,
+    /// The terms asked for.
+    terms: &'a [Candidate],
+}
+
+/// Set up a `--free-motion` run on the rests `found` in the records of `source`
+/// ([`free_motion::setup`]) with the session's configuration (`config`: the configuration,
+/// how it was given, its name), which becomes the one it gives; returns the model with the
+/// terms asked for.
+fn set_up_free_motion(
+    (config, given_as, origin): (&mut RunConfig, &ConfigSource, &str),
+    found: &mut RestsFound,
+    source: &mut RateSource,
+    args: FreeMotionArgs,
 ) -> Result<StateLayout, Error> {
-    let (Some(data), Some(found)) = (session.records.held(), session.rests.as_mut()) else {
-        unreachable!("the rests are found in held records first")
-    };
-    let given = match session.source {
+    let given = match given_as {
         ConfigSource::FromRecording => None,
-        _ => Some((&session.config, session.origin.as_str())),
+        _ => Some((&*config, origin)),
     };
-    let setup = free_motion::setup(
-        given,
+    let FreeMotionArgs {
         site,
         sections,
         terms,
-        data,
-        &session.imu_file,
-        &found.rests,
-    )?;
+    } = args;
+    let setup = free_motion::setup(given, site, sections, terms, source, &found.rests)?;
     found.free_motion = Some(FreeMotion {
         summary: setup.summary(),
         measured: setup.measured,
         turns: setup.turns,
     });
-    session.config = setup.config;
+    *config = setup.config;
     Ok(setup.layout)
 }
 

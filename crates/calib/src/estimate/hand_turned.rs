@@ -26,10 +26,12 @@
 use crate::check::diagnostics::Innovation;
 use crate::config::RunConfig;
 use crate::estimate::noise::{MeasuredLevels, variance_ratio};
-use crate::io::{ImuData, ImuKind};
+use crate::io::source::{ImuSource, read_records};
+use crate::io::{ImuKind, ImuRecord};
 use crate::model::MeasurementKind;
 use crate::motion::free_motion::EarthRotation;
 use crate::motion::rests::Rest;
+use crate::motion::stamps::{RangeWalk, StampCounts};
 use nalgebra::{Matrix3, Vector3};
 use sins_model::candidates::UnitGrade;
 use sins_model::earth::EARTH_RATE;
@@ -104,8 +106,8 @@ impl GradeChoice {
     }
 }
 
-/// The grade of a unit from its recording ([`GradeChoice`]).
-pub fn choose_grade(data: &ImuData, rests: &[Rest], noise: &WhiteNoiseAtRest) -> GradeChoice {
+/// The grade of a unit from its recording's rests ([`GradeChoice`]).
+pub fn choose_grade(at_rest: &RecordsAtRest, noise: &WhiteNoiseAtRest) -> GradeChoice {
     let noise_deg_h = noise.gyro_rad_s / DEG_PER_HOUR;
     let by_noise = if noise_deg_h <= NAVIGATION_MAX_GYRO_NOISE_DEG_H {
         UnitGrade::Navigation
@@ -114,10 +116,11 @@ pub fn choose_grade(data: &ImuData, rests: &[Rest], noise: &WhiteNoiseAtRest) ->
     } else {
         UnitGrade::Consumer
     };
-    let mut excess: Vec<f64> = rests
+    let mut excess: Vec<f64> = at_rest
+        .rests
         .iter()
         .filter_map(|r| {
-            let (w, span) = mean_rate(data, &r.less_margins())?;
+            let (w, span) = r.mean_rate()?;
             let sigma_mean = noise.gyro_rad_s * (3.0 / span.max(BLOCK_S)).sqrt();
             Some((w.norm() - EARTH_RATE - 3.0 * sigma_mean).max(0.0))
         })
@@ -146,56 +149,108 @@ pub fn choose_grade(data: &ImuData, rests: &[Rest], noise: &WhiteNoiseAtRest) ->
     }
 }
 
-/// The mean rate (rad/s) of the records of `rest` ([`Rest::records`]), and their span.
-fn mean_rate(data: &ImuData, rest: &Rest) -> Option<(Vector3<f64>, f64)> {
-    let records = &data.records;
-    let t: Vec<f64> = records.iter().map(|r| r.t).collect();
-    let (mut sum, mut span) = (Vector3::zeros(), 0.0);
-    for k in rest.records(&t) {
-        let dt = records[k].t - records[k - 1].t;
+/// What a hand-turned recording's configuration takes from its records ([`white_noise_at_rest`],
+/// [`choose_grade`], [`default_config`]), read rather than held: the records' count and first
+/// and last stamps, and each rest's records less
+/// [`REST_MARGIN_S`](crate::motion::rests::REST_MARGIN_S) at both ends ([`Rest::records`]) as the
+/// means of their whole seconds and their mean rate. A few numbers per second of rest: the
+/// same sums as over the records held, in the same order.
+#[derive(Clone, Debug)]
+pub struct RecordsAtRest {
+    /// Number of records.
+    records: usize,
+    /// First and last stamps.
+    span: Option<(f64, f64)>,
+    /// Each rest, in the order given.
+    rests: Vec<RestSums>,
+}
+
+/// One rest's records: their whole seconds' mean rates and specific forces, and the sums of
+/// its mean rate; each record over its own interval (`dt`; one that does not advance is left
+/// out).
+#[derive(Clone, Debug, Default)]
+struct RestSums {
+    blocks: Vec<([f64; 3], [f64; 3])>,
+    /// The open block: rate and specific force times their intervals, and its span.
+    open: ([f64; 3], [f64; 3], f64),
+    /// The rate times each interval (an increment as it is) and the span, for the mean rate.
+    rate: (Vector3<f64>, f64),
+}
+
+impl RestSums {
+    fn add(&mut self, kind: ImuKind, r: &ImuRecord, dt: f64) {
         if dt <= 0.0 {
-            continue;
+            return;
         }
-        let g = Vector3::from(records[k].gyro);
-        sum += match data.kind {
+        let (w, f) = match kind {
+            ImuKind::Rates => (r.gyro, r.accel),
+            ImuKind::Increments => (r.gyro.map(|x| x / dt), r.accel.map(|x| x / dt)),
+        };
+        let (sw, sf, span) = &mut self.open;
+        for i in 0..3 {
+            sw[i] += w[i] * dt;
+            sf[i] += f[i] * dt;
+        }
+        *span += dt;
+        if *span >= BLOCK_S - 1e-9 {
+            let span = *span;
+            self.blocks
+                .push((sw.map(|x| x / span), sf.map(|x| x / span)));
+            self.open = ([0.0; 3], [0.0; 3], 0.0);
+        }
+        let g = Vector3::from(r.gyro);
+        self.rate.0 += match kind {
             ImuKind::Rates => g * dt,
             ImuKind::Increments => g,
         };
-        span += dt;
+        self.rate.1 += dt;
     }
-    (span > 0.0).then(|| (sum / span, span))
+
+    /// The mean rate (rad/s) and the span of the records, `None` without any.
+    fn mean_rate(&self) -> Option<(Vector3<f64>, f64)> {
+        let (sum, span) = self.rate;
+        (span > 0.0).then(|| (sum / span, span))
+    }
+}
+
+impl RecordsAtRest {
+    /// The records of `imu` at its `rests`: two readings, one to put the rests on the records
+    /// ([`StampCounts`]), one for their sums.
+    pub fn read(imu: &mut dyn ImuSource, rests: &[Rest]) -> Result<Self, crate::io::IoError> {
+        let inner: Vec<Rest> = rests.iter().map(Rest::less_margins).collect();
+        let times = inner.iter().flat_map(|r| [r.t0, r.t1]);
+        let counts = StampCounts::read(imu, times, [], f64::NAN)?;
+        let ranges: Vec<std::ops::Range<usize>> =
+            inner.iter().map(|r| r.records(&counts)).collect();
+        let mut sums = vec![RestSums::default(); rests.len()];
+        let mut walk = RangeWalk::new(&ranges);
+        let kind = imu.kind();
+        let (mut k, mut span, mut previous) = (0usize, None, f64::NAN);
+        read_records(imu, &mut Vec::new(), &mut |r, _| {
+            // A rest's records start at the second record: the interval is to the one before.
+            for &i in walk.at(k) {
+                sums[i].add(kind, r, r.t - previous);
+            }
+            span = Some((span.map_or(r.t, |(a, _)| a), r.t));
+            previous = r.t;
+            k += 1;
+            true
+        })?;
+        Ok(Self {
+            records: k,
+            span,
+            rests: sums,
+        })
+    }
 }
 
 /// The scatter of the 1-s means in the rests ([`WhiteNoiseAtRest`]); each rest less
 /// [`REST_MARGIN_S`](crate::motion::rests::REST_MARGIN_S) at both ends, cut into whole
 /// seconds, its own mean removed. `None` when no rest holds two whole seconds.
-pub fn white_noise_at_rest(data: &ImuData, rests: &[Rest]) -> Option<WhiteNoiseAtRest> {
-    let records = &data.records;
-    let t: Vec<f64> = records.iter().map(|r| r.t).collect();
+pub fn white_noise_at_rest(at_rest: &RecordsAtRest) -> Option<WhiteNoiseAtRest> {
     let (mut ss_w, mut ss_f, mut dof) = (0.0, 0.0, 0usize);
-    for rest in rests {
-        let mut blocks: Vec<([f64; 3], [f64; 3])> = Vec::new();
-        let (mut sw, mut sf, mut span) = ([0.0; 3], [0.0; 3], 0.0);
-        for k in rest.less_margins().records(&t) {
-            let dt = t[k] - t[k - 1];
-            if dt <= 0.0 {
-                continue;
-            }
-            let r = &records[k];
-            let (w, f) = match data.kind {
-                ImuKind::Rates => (r.gyro, r.accel),
-                ImuKind::Increments => (r.gyro.map(|x| x / dt), r.accel.map(|x| x / dt)),
-            };
-            for i in 0..3 {
-                sw[i] += w[i] * dt;
-                sf[i] += f[i] * dt;
-            }
-            span += dt;
-            if span >= BLOCK_S - 1e-9 {
-                blocks.push((sw.map(|x| x / span), sf.map(|x| x / span)));
-                (sw, sf, span) = ([0.0; 3], [0.0; 3], 0.0);
-            }
-        }
+    for rest in &at_rest.rests {
+        let blocks = &rest.blocks;
         let n = blocks.len();
         if n < 2 {
             continue;
@@ -222,18 +277,18 @@ pub fn white_noise_at_rest(data: &ImuData, rests: &[Rest]) -> Option<WhiteNoiseA
 /// grade's starting motion noise ([`start_motion_noise_deg`]). `None` for fewer than two
 /// records or a non-positive span.
 pub fn default_config(
-    data: &ImuData,
+    at_rest: &RecordsAtRest,
     latitude_deg: f64,
     height_m: f64,
     noise: &WhiteNoiseAtRest,
     grade: UnitGrade,
 ) -> Option<RunConfig> {
-    let (first, last) = (data.records.first()?, data.records.last()?);
-    let n = data.records.len();
-    if n < 2 || last.t <= first.t {
+    let (first, last) = at_rest.span?;
+    let n = at_rest.records;
+    if n < 2 || last <= first {
         return None;
     }
-    let rate = (n - 1) as f64 / (last.t - first.t);
+    let rate = (n - 1) as f64 / (last - first);
     let mut c = RunConfig::paper();
     c.program = crate::config::PROGRAM_FROM_ANGLES.to_string();
     c.site.latitude_deg = latitude_deg;
@@ -497,13 +552,11 @@ impl InnovationScatter {
     }
 }
 
-/// What a recording of rests is calibrated from: the data, its rests and known turns.
-#[derive(Clone, Copy)]
+/// What a recording of rests is calibrated from: its records (read again for every fit), its
+/// rests and known turns.
 pub struct RestsInput<'a> {
     /// The records.
-    pub data: &'a ImuData,
-    /// Its file, for messages.
-    pub file: &'a str,
+    pub imu: &'a mut dyn ImuSource,
     /// The rests.
     pub rests: &'a [Rest],
     /// Known turns, as filter measurements.
@@ -547,16 +600,20 @@ pub(crate) fn fit_measuring_noise(
         .unwrap_or_else(|| MeasuredLevels::configured(config));
     let mut fits = 0;
     let mut previous_motion: Option<(f64, f64)> = None;
+    // The coarse start depends on the priors, the rests, the turns and the hold-out, which
+    // the fits share (only their noise differs): found once, not at every fit.
+    let (imu, rests, turns) = (input.imu, input.rests, input.turns);
+    let coarse = crate::estimate::coarse_start_at_rests(config, layout, imu, rests, turns)?;
     loop {
         let mut config = config.clone();
         levels.apply(&mut config, base_accel);
-        let est = crate::estimate::calibrate_rests(
+        let est = crate::estimate::estimate_at_rests(
             &config,
             layout,
-            input.data,
-            input.file,
-            input.rests,
-            input.turns,
+            imu,
+            rests,
+            turns,
+            coarse.as_deref(),
             progress,
         )?;
         fits += 1;
@@ -569,7 +626,7 @@ pub(crate) fn fit_measuring_noise(
         };
         let ml = noise_ml(
             &est.innovations,
-            input.rests.len(),
+            rests.len(),
             (levels.accel_factor, levels.motion_rad),
             base_accel * base_accel * config.filter.accel_rate_hz,
             NOISE_FLOOR_ACCEL_M_S2 / base_accel,
@@ -683,20 +740,24 @@ fn next_motion(motion: f64, estimated: f64, previous: Option<(f64, f64)>) -> f64
 /// every `holdout`-th rest held out (`filter.hold_out_every`), the noise measured where
 /// `measured` (`fit_measuring_noise`), and report what the result does to the rests, the
 /// turns and the held-out rests, with its verdict ([`crate::estimate::calibration::Calibration`]).
+///
+/// The records are read from `imu` again for every step, not held: the rests put on the
+/// records once ([`StampCounts`]), then the poses' check, every pass of every fit, the score
+/// tests' pass and the figures each read them through.
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     config: &RunConfig,
     layout: &crate::model::layout::StateLayout,
-    data: &ImuData,
-    file: &str,
+    imu: &mut dyn ImuSource,
     rests: &[Rest],
     turns: &[crate::motion::rests::Turn],
     holdout: Option<usize>,
     measured: Option<WhiteNoiseAtRest>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<crate::estimate::calibration::Calibration, crate::estimate::EstimateError> {
+    let file = imu.file().to_string();
     let refuse = |source| crate::estimate::EstimateError::Rests {
-        file: file.to_string(),
+        file: file.clone(),
         source,
     };
     if let Some(every) = holdout.filter(|&k| k < 2 || k > rests.len()) {
@@ -705,16 +766,12 @@ pub fn calibrate(
             rests: rests.len(),
         }));
     }
-    crate::motion::free_motion::check_poses(data, rests, holdout)
-        .map_err(|e| refuse(crate::motion::rests::RestError::Poses(e.to_string())))?;
+    let stamps = rest_stamps(imu, rests, turns)?;
+    crate::motion::free_motion::check_poses(imu, &stamps, rests, holdout)
+        .map_err(|e| refused(e, crate::motion::rests::RestError::Poses, &refuse))?;
     let mut config = config.clone();
     config.filter.hold_out_every = holdout;
-    let input = RestsInput {
-        data,
-        file,
-        rests,
-        turns,
-    };
+    let input = RestsInput { imu, rests, turns };
     let MeasuredFit {
         estimate,
         config,
@@ -722,7 +779,7 @@ pub fn calibrate(
     } = fit_measuring_noise(&config, layout, input, measured, None, progress)?;
     // The score tests' extended pass, once, on the fit the noise settled on.
     let mut estimate = estimate;
-    crate::estimate::score_rests(&config, layout, data, file, &mut estimate)?;
+    crate::estimate::score_rests(&config, layout, imu, &mut estimate)?;
     let g = estimate.gravity_m_s2;
     let bias_sigma = ["x", "y", "z"]
         .iter()
@@ -730,11 +787,20 @@ pub fn calibrate(
         .fold(0.0, f64::max);
     let earth = EarthRotation::at(config.site.latitude_deg.to_radians(), bias_sigma);
     // The correction `apply` makes of the result file.
-    let evaluation = crate::model::correction::Correction::of_result(&estimate.to_result_file())
-        .and_then(|c| {
-            crate::motion::free_motion::evaluate(data, rests, turns, holdout, g, &earth, &c)
-        })
-        .map_err(|e| refuse(crate::motion::rests::RestError::Evaluation(e.to_string())))?;
+    let evaluation_error = crate::motion::rests::RestError::Evaluation;
+    let correction = crate::model::correction::Correction::of_result(&estimate.to_result_file())
+        .map_err(|e| refuse(evaluation_error(e.to_string())))?;
+    let evaluation = crate::motion::free_motion::evaluate(
+        imu,
+        &stamps,
+        rests,
+        turns,
+        holdout,
+        g,
+        &earth,
+        &correction,
+    )
+    .map_err(|e| refused(e, evaluation_error, &refuse))?;
     Ok(crate::estimate::calibration::Calibration::new(
         estimate,
         config,
@@ -744,10 +810,49 @@ pub fn calibrate(
     ))
 }
 
+/// The rests and turns put on the records of `imu` in one reading ([`StampCounts`]), with the
+/// median interval where a turn holds the first record (whose interval it is).
+fn rest_stamps(
+    imu: &mut dyn ImuSource,
+    rests: &[Rest],
+    turns: &[crate::motion::rests::Turn],
+) -> Result<StampCounts, crate::io::IoError> {
+    let times = rests
+        .iter()
+        .flat_map(|r| [r.t0, r.t1])
+        .chain(turns.iter().flat_map(|t| [t.t0, t.t1]));
+    let stamps = StampCounts::read(imu, times, [], f64::NAN)?;
+    if !turns.iter().any(|t| t.records(&stamps).start == 0) {
+        return Ok(stamps);
+    }
+    let mut chunk = Vec::new();
+    let median = sins_model::timing::median_interval_streamed(|visit| {
+        read_records(imu, &mut chunk, &mut |r, _| {
+            visit(r.t);
+            true
+        })
+    })?;
+    Ok(stamps.with_median(median))
+}
+
+/// A refusal of the poses' check or the figures as the estimate's error: a record that cannot
+/// be read again is the file's (`IoError`), anything else the rests' (`as_rests`, by
+/// `refuse`).
+fn refused(
+    e: crate::motion::free_motion::FreeMotionError,
+    as_rests: fn(String) -> crate::motion::rests::RestError,
+    refuse: &dyn Fn(crate::motion::rests::RestError) -> crate::estimate::EstimateError,
+) -> crate::estimate::EstimateError {
+    match e {
+        crate::motion::free_motion::FreeMotionError::Io(e) => e.into(),
+        e => refuse(as_rests(e.to_string())),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::ImuRecord;
+    use crate::io::ImuData;
 
     /// White noise of known 1-s sigma in two rests, a turn between them: the pooled scatter of
     /// the 1-s means comes back within its sampling error.
@@ -796,12 +901,17 @@ mod tests {
                 t1: 399.99,
             },
         ];
-        let n = white_noise_at_rest(&data, &rests).unwrap();
+        let at_rest = RecordsAtRest::read(
+            &mut crate::estimate::MemoryImu::new(&data, "imu.csv"),
+            &rests,
+        )
+        .unwrap();
+        let n = white_noise_at_rest(&at_rest).unwrap();
         // About 385 degrees of freedom per axis, 1155 over three: 2 % of sampling error.
         assert!(n.dof > 370, "{n:?}");
         assert!((n.gyro_rad_s / sigma_w - 1.0).abs() < 0.08, "{n:?}");
         assert!((n.accel_m_s2 / sigma_f - 1.0).abs() < 0.08, "{n:?}");
-        let c = default_config(&data, 45.0, 0.0, &n, UnitGrade::Consumer).unwrap();
+        let c = default_config(&at_rest, 45.0, 0.0, &n, UnitGrade::Consumer).unwrap();
         assert!((c.filter.imu_rate_hz - rate).abs() < 1e-6);
         assert_eq!(c.accel_interval_steps(), 100);
         assert!(c.program_from_angles());

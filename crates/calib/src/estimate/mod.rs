@@ -56,7 +56,6 @@ pub mod verdict;
 pub use crate::io::source::{FileImu, ImuSource, MemoryImu};
 use angles::AngleInterpolator;
 use pass::{AngleReader, Feedback, Linearisation, Pass, PassResult, PassSettings, Strapdown};
-use sins_model::timing::median_interval_of as median_interval;
 
 /// Errors of an estimation run.
 #[derive(Debug, thiserror::Error)]
@@ -791,17 +790,15 @@ fn rests_estimate(
 pub fn score_rests(
     config: &RunConfig,
     layout: &StateLayout,
-    data: &ImuData,
-    file: &str,
+    imu: &mut dyn ImuSource,
     est: &mut Estimate,
 ) -> Result<(), EstimateError> {
     let Some(replay) = est.replay.take() else {
         return Ok(());
     };
     let plan = Plan::of(config);
-    let mut imu = MemoryImu::new(data, file);
     let rate = config.filter.imu_rate_hz;
-    let mut scan = scan_imu(&mut imu, rate, Spacing::Jittered, &mut |_, _| {})?;
+    let mut scan = scan_imu(imu, rate, Spacing::Jittered, &mut |_, _| {})?;
     scan.program_start = scan.span.0 - 1.0 / rate;
     scan.program_start_found = false;
     let mut scored = config.clone();
@@ -815,7 +812,7 @@ pub fn score_rests(
         motion: &replay.motion,
     };
     let tilt_walks = gyro_noise_walks_the_tilt(config, &plan, scan.n as f64 / rate);
-    score_pass::attach(&inp, &mut imu, Some(&replay.nominal), tilt_walks, est);
+    score_pass::attach(&inp, imu, Some(&replay.nominal), tilt_walks, est);
     est.replay = Some(replay);
     Ok(())
 }
@@ -950,7 +947,7 @@ fn first_feedback_at_rests(config: &RunConfig, motion: &Motion, coarse_start: bo
     }
 }
 
-/// [`estimate_at_rests`] on records in memory, with a coarse start where the priors call for
+/// [`estimate_at_rests`] with a coarse start where the priors call for
 /// one ([`needs_coarse_start`]): the batch fit of [`crate::motion::free_motion`] (the paper's 21
 /// parameters from the rests' mean specific forces and the rotations between them), whose
 /// values the filter's first pass linearises about. Without it the first closed-loop pass
@@ -960,37 +957,45 @@ fn first_feedback_at_rests(config: &RunConfig, motion: &Motion, coarse_start: bo
 pub fn calibrate_rests(
     config: &RunConfig,
     layout: &StateLayout,
-    data: &ImuData,
-    file: &str,
+    imu: &mut dyn ImuSource,
     rests: &[Rest],
     turns: &[crate::motion::rests::Turn],
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
-    let plan = Plan::of(config);
-    let coarse = if needs_coarse_start(config) {
-        // A held-out rest is not seen by the coarse start either: its values are the prior
-        // mean of the passes.
-        let fitted: Vec<Rest> = rests
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| !crate::motion::rests::held_out(*i, config.filter.hold_out_every))
-            .map(|(_, r)| *r)
-            .collect();
-        Some(coarse_start(&plan, layout, data, file, &fitted, turns)?)
-    } else {
-        None
-    };
-    let mut imu = MemoryImu::new(data, file);
-    let recording = Recording { rests, turns };
-    rests_estimate(
+    let coarse = coarse_start_at_rests(config, layout, imu, rests, turns)?;
+    estimate_at_rests(
         config,
-        &plan,
         layout,
-        &mut imu,
-        recording,
+        imu,
+        rests,
+        turns,
         coarse.as_deref(),
         progress,
     )
+}
+
+/// The coarse start of [`calibrate_rests`] where the priors call for one
+/// ([`needs_coarse_start`]), from the rests the fit does not hold out; `None` otherwise.
+pub(crate) fn coarse_start_at_rests(
+    config: &RunConfig,
+    layout: &StateLayout,
+    imu: &mut dyn ImuSource,
+    rests: &[Rest],
+    turns: &[crate::motion::rests::Turn],
+) -> Result<Option<Vec<f64>>, EstimateError> {
+    if !needs_coarse_start(config) {
+        return Ok(None);
+    }
+    // A held-out rest is not seen by the coarse start either: its values are the prior
+    // mean of the passes.
+    let fitted: Vec<Rest> = rests
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !crate::motion::rests::held_out(*i, config.filter.hold_out_every))
+        .map(|(_, r)| *r)
+        .collect();
+    let plan = Plan::of(config);
+    Ok(Some(coarse_start(&plan, layout, imu, &fitted, turns)?))
 }
 
 /// Whether the priors are wide enough that the first pass needs a coarse start: a gyro or
@@ -1012,16 +1017,17 @@ pub fn needs_coarse_start(config: &RunConfig) -> bool {
 fn coarse_start(
     plan: &Plan,
     layout: &StateLayout,
-    data: &ImuData,
-    file: &str,
+    imu: &mut dyn ImuSource,
     rests: &[Rest],
     turns: &[crate::motion::rests::Turn],
 ) -> Result<Vec<f64>, EstimateError> {
     use crate::motion::free_motion::{CoarseSettings, coarse_fit};
+    let file = imu.file().to_string();
     // The rests and turns on the grouped records: a rest's groups are those that lie wholly in
     // it, a turn's those that hold any of it (a group reaches up to COARSE_GROUP_S into the
-    // rest before): `Rest::records`, `Turn::records`.
-    let grouped = coarse_records(data);
+    // rest before): `Rest::records`, `Turn::records`. Held: the batch fit integrates them
+    // about 25 times an iteration (a tenth of the records at 100 Hz: 7 bytes a record).
+    let grouped = coarse_records(imu)?;
     let data = &grouped;
     // The paper's 21 parameters only: the terms beyond them start at zero. A consumer unit's
     // g-sensitivity turns its attitude by degrees in a hand turn, but the first pass feeds
@@ -1034,7 +1040,7 @@ fn coarse_start(
         priors: plan.priors,
     };
     let fit = coarse_fit(data, rests, turns, &settings).map_err(|e| EstimateError::Rests {
-        file: file.to_string(),
+        file,
         source: RestError::CoarseFit(e.to_string()),
     })?;
     let names = layout.entries();
@@ -1195,43 +1201,78 @@ const COARSE_GROUP_S: f64 = 0.1;
 /// filter passes that follow (they see every record). From 50 ms to 0.1 s the coarse start's
 /// share of a `calibrate --free-motion` of that recording went from 18 % to about 9 % of its
 /// CPU, and the Xsens and Ferraris results moved by hundredths of their sigmas.
-fn coarse_records(data: &ImuData) -> ImuData {
-    let dt = median_interval(data.records.iter().map(|r| r.t));
+fn coarse_records(imu: &mut dyn ImuSource) -> Result<ImuData, IoError> {
+    let mut chunk = Vec::new();
+    let dt = sins_model::timing::median_interval_streamed(|visit| {
+        crate::io::source::read_records(imu, &mut chunk, &mut |r, _| {
+            visit(r.t);
+            true
+        })
+    })?;
     let size = if dt.is_finite() && dt > 0.0 {
         ((COARSE_GROUP_S / dt).round() as usize).max(1)
     } else {
         1
     };
+    let increments = matches!(imu.kind(), ImuKind::Increments);
+    let mut records = Vec::with_capacity(imu.len_hint().unwrap_or(0) / size + 1);
     if size == 1 {
-        return data.clone();
+        // The records as they are.
+        crate::io::source::read_records(imu, &mut chunk, &mut |r, _| {
+            records.push(*r);
+            true
+        })?;
+        return Ok(ImuData {
+            kind: imu.kind(),
+            records,
+        });
     }
-    let increments = matches!(data.kind, ImuKind::Increments);
-    let mut records = Vec::with_capacity(data.records.len() / size + 1);
-    let mut t_prev = data.records.first().map_or(0.0, |r| r.t - dt);
-    for group in data.records.chunks(size) {
-        let mut c = Matrix3::identity();
-        let mut dv = Vector3::zeros();
-        let mut t0 = t_prev;
-        for r in group {
-            let h = if increments { 1.0 } else { r.t - t0 };
-            c *= exp_so3(&(Vector3::from(r.gyro) * h));
-            dv += Vector3::from(r.accel) * h;
-            t0 = r.t;
-        }
-        let last = group.last().expect("chunks are not empty");
+    // The open group: its rotation, velocity increment, last stamp and records; the stamp
+    // before it.
+    let mut group = (Matrix3::identity(), Vector3::zeros(), f64::NAN, 0usize);
+    let mut t_prev = f64::NAN;
+    let mut last: Option<ImuRecord> = None;
+    let close = |records: &mut Vec<ImuRecord>,
+                 c: &Matrix3<f64>,
+                 dv: &Vector3<f64>,
+                 last: &ImuRecord,
+                 t_prev: f64| {
         let span = if increments { 1.0 } else { last.t - t_prev };
-        t_prev = last.t;
         records.push(ImuRecord {
             t: last.t,
-            gyro: (log_so3(&c) / span).into(),
+            gyro: (log_so3(c) / span).into(),
             accel: (dv / span).into(),
             temp: last.temp,
         });
+    };
+    crate::io::source::read_records(imu, &mut chunk, &mut |r, _| {
+        if last.is_none() {
+            t_prev = r.t - dt;
+        }
+        let (c, dv, t0, n) = &mut group;
+        if *n == 0 {
+            (*c, *dv, *t0) = (Matrix3::identity(), Vector3::zeros(), t_prev);
+        }
+        let h = if increments { 1.0 } else { r.t - *t0 };
+        *c *= exp_so3(&(Vector3::from(r.gyro) * h));
+        *dv += Vector3::from(r.accel) * h;
+        *t0 = r.t;
+        *n += 1;
+        last = Some(*r);
+        if *n == size {
+            close(&mut records, c, dv, r, t_prev);
+            t_prev = r.t;
+            *n = 0;
+        }
+        true
+    })?;
+    if let (Some(r), true) = (last, group.3 > 0) {
+        close(&mut records, &group.0, &group.1, &r, t_prev);
     }
-    ImuData {
-        kind: data.kind,
+    Ok(ImuData {
+        kind: imu.kind(),
         records,
-    }
+    })
 }
 
 /// Whether the gyro noise walks the tilt of a trajectory integrated over `run_s` far enough
@@ -1871,17 +1912,50 @@ mod tests {
         ImuData { kind, records }
     }
 
+    /// The groups of `size` records of `data` from the records held (the form before they were
+    /// read group by group): the reference of [`coarse_records`].
+    fn held_groups(data: &ImuData, size: usize) -> Vec<ImuRecord> {
+        let dt = sins_model::timing::median_interval_of(data.records.iter().map(|r| r.t));
+        let increments = matches!(data.kind, ImuKind::Increments);
+        let mut records = Vec::new();
+        let mut t_prev = data.records.first().map_or(0.0, |r| r.t - dt);
+        for group in data.records.chunks(size) {
+            let mut c = Matrix3::identity();
+            let mut dv = Vector3::zeros();
+            let mut t0 = t_prev;
+            for r in group {
+                let h = if increments { 1.0 } else { r.t - t0 };
+                c *= exp_so3(&(Vector3::from(r.gyro) * h));
+                dv += Vector3::from(r.accel) * h;
+                t0 = r.t;
+            }
+            let last = group.last().unwrap();
+            let span = if increments { 1.0 } else { last.t - t_prev };
+            t_prev = last.t;
+            records.push(ImuRecord {
+                t: last.t,
+                gyro: (log_so3(&c) / span).into(),
+                accel: (dv / span).into(),
+                temp: last.temp,
+            });
+        }
+        records
+    }
+
     /// The whole rotation and velocity change of the grouped records equal those of the
     /// records (to rounding), for increments and rates alike; the last group is a remainder.
     #[test]
     fn grouped_records_keep_the_rotation_and_the_velocity_change() {
         for kind in [ImuKind::Increments, ImuKind::Rates] {
             let data = tumbling(kind);
-            let grouped = coarse_records(&data);
+            let grouped = coarse_records(&mut MemoryImu::new(&data, "imu.csv")).unwrap();
             // 0.1-s groups of 5-ms records: 20 each.
             assert_eq!(grouped.records.len(), 997usize.div_ceil(20), "{kind:?}");
+            // The records read group by group are those of the records held, to the bit.
+            assert_eq!(grouped.records, held_groups(&data, 20), "{kind:?}");
             // Both start where the first record's interval starts (one median interval back).
-            let start = data.records[0].t - median_interval(data.records.iter().map(|r| r.t));
+            let dt = sins_model::timing::median_interval_of(data.records.iter().map(|r| r.t));
+            let start = data.records[0].t - dt;
             let total = |d: &ImuData| {
                 let (mut c, mut dv) = (Matrix3::<f64>::identity(), Vector3::<f64>::zeros());
                 let mut t0 = start;

@@ -36,7 +36,7 @@ use crate::config::RunConfig;
 use crate::estimate::calibration::Calibration;
 use crate::estimate::covariance::{AnalysisError, Posterior, covariance_analysis_ext};
 use crate::estimate::noise::{MeasuredLevels, NoiseSource};
-use crate::estimate::{Estimate, EstimateError, RunData, estimate_ext_kept};
+use crate::estimate::{Estimate, EstimateError, ImuSource, RunData, estimate_ext_kept};
 use crate::extend::drift_visibility::{
     DriftAnalysis, DriftVisibility, drift_threshold, smallest_visible_drift,
 };
@@ -521,10 +521,8 @@ struct Context<'a> {
     measured_start: Option<MeasuredLevels>,
     /// The program of a programmed run, compiled by the first fit and kept for the others.
     program: Option<Program>,
-    data: &'a RunData<'a>,
-    /// A recording of rests without a program ([`run_loop_at_rests`]).
-    rests: Option<&'a [crate::motion::rests::Rest]>,
-    /// Its known turns, measured in every fit.
+    records: LoopRecords<'a>,
+    /// A recording of rests' known turns, measured in every fit.
     turns: &'a [crate::motion::rests::Turn],
     settings: &'a LoopSettings,
     progress: &'a mut dyn FnMut(&str),
@@ -533,7 +531,32 @@ struct Context<'a> {
     recorded_temperature: Option<(turntable::temperature::TemperatureProfile, f64)>,
 }
 
-impl Context<'_> {
+/// What the loop fits.
+enum LoopRecords<'a> {
+    /// A programmed run's records and angles, held ([`run_loop`]).
+    Program(&'a RunData<'a>),
+    /// A recording of rests without a program ([`run_loop_at_rests`]): its records, read again
+    /// for every fit, and its rests.
+    Rests {
+        imu: &'a mut dyn ImuSource,
+        rests: &'a [crate::motion::rests::Rest],
+    },
+}
+
+impl<'a> Context<'a> {
+    /// The rests of a recording without a program (`None` for a programmed run).
+    fn rests(&self) -> Option<&'a [crate::motion::rests::Rest]> {
+        match self.records {
+            LoopRecords::Rests { rests, .. } => Some(rests),
+            LoopRecords::Program(_) => None,
+        }
+    }
+
+    /// Whether the fits have turntable angles.
+    fn with_turntable(&self) -> bool {
+        matches!(self.records, LoopRecords::Program(d) if d.turntable.is_some())
+    }
+
     /// The configuration the fits use now: the scaled one in a scaled round.
     fn config(&self) -> &RunConfig {
         self.scaled.as_ref().unwrap_or(self.config)
@@ -569,23 +592,22 @@ impl Context<'_> {
             measurements,
             log_density_without: without,
             log_density_with: with,
-            decides: held_out_decides(self.rests.is_some(), term),
+            decides: held_out_decides(self.rests().is_some(), term),
         })
     }
 
     fn fit_with(&mut self, config: &RunConfig, ext: &ModelExtension) -> Result<Fit, LoopError> {
-        let (estimate, config, noise) = match self.rests {
-            None => {
-                let est = estimate_ext_kept(config, *self.data, ext, &mut self.program)?;
+        let (estimate, config, noise) = match &mut self.records {
+            LoopRecords::Program(data) => {
+                let est = estimate_ext_kept(config, **data, ext, &mut self.program)?;
                 (est, config.clone(), NoiseSource::Configured)
             }
-            Some(rests) => {
+            LoopRecords::Rests { imu, rests } => {
                 let fit = crate::estimate::hand_turned::fit_measuring_noise(
                     config,
                     &crate::model::layout::layout_with(config, false, ext),
                     crate::estimate::hand_turned::RestsInput {
-                        data: self.data.imu,
-                        file: self.data.imu_file,
+                        imu: &mut **imu,
                         rests,
                         turns: self.turns,
                     },
@@ -617,13 +639,13 @@ impl Context<'_> {
             config.recorded_temperature = Some(recorded.clone());
             return Ok(covariance_analysis_ext(
                 &config,
-                self.data.turntable.is_some(),
+                self.with_turntable(),
                 ext,
             )?);
         }
         Ok(covariance_analysis_ext(
             self.config(),
-            self.data.turntable.is_some(),
+            self.with_turntable(),
             ext,
         )?)
     }
@@ -660,7 +682,7 @@ impl Context<'_> {
         } = score_test(&theta, &cov, &s0);
         // Without a program there is no motion to analyse along: the fit's own posterior says
         // what the recording separates (a term it cannot observe keeps its prior).
-        let post = match self.rests {
+        let post = match self.rests() {
             None => self.analyse(&ext)?,
             Some(_) => Posterior {
                 names: est.names.clone(),
@@ -672,7 +694,7 @@ impl Context<'_> {
         };
         let base: Vec<String> = parameter_names(&current.calibration.estimate);
         let mut sep = separability(&post.names, &post.prior_sigma, &post.cov, &names, &base);
-        if self.rests.is_some() {
+        if self.rests().is_some() {
             // A recording of rests sees some entries of a term only through the Earth rate
             // (those acting on the vertical gyro of every pose): they keep their prior but are
             // confounded with nothing. The term is separable when some entry is separated and
@@ -888,8 +910,7 @@ pub fn run_loop(
         scaled: None,
         measured_start: None,
         program: None,
-        data,
-        rests: None,
+        records: LoopRecords::Program(data),
         turns: &[],
         settings,
         progress,
@@ -928,9 +949,10 @@ fn check_coverage(
 /// candidate's separability from the fit's own posterior (no program to analyse along). A time
 /// offset or the inner lever arms need specific force measured during rotation, which such a
 /// recording does not have: their posterior stays at the prior and they are not separable.
+/// The records are read again from `imu` for every fit, not held.
 pub fn run_loop_at_rests(
     config: &RunConfig,
-    data: &RunData,
+    imu: &mut dyn ImuSource,
     rests: &[crate::motion::rests::Rest],
     turns: &[crate::motion::rests::Turn],
     settings: &LoopSettings,
@@ -941,8 +963,7 @@ pub fn run_loop_at_rests(
         scaled: None,
         measured_start: None,
         program: None,
-        data,
-        rests: Some(rests),
+        records: LoopRecords::Rests { imu, rests },
         turns,
         settings,
         progress,
@@ -955,12 +976,12 @@ pub fn run_loop_at_rests(
 fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
     (cx.progress)("fitting the paper's model");
     let base = cx.fit(&ModelExtension::default())?;
-    if cx.rests.is_none() {
+    if let LoopRecords::Program(data) = cx.records {
         let program = cx.program.as_ref().expect("a fit of a program keeps it");
-        check_coverage(cx.config, program, cx.data, &base.calibration.estimate)?;
+        check_coverage(cx.config, program, data, &base.calibration.estimate)?;
     }
     let est = &base.calibration.estimate;
-    if let (Some(t), None) = (&est.temperature, cx.rests) {
+    if let (Some(t), None) = (&est.temperature, cx.rests()) {
         // The 1-s means on the program's clock (a recording of rests has none: its
         // separability comes from the fit's own posterior).
         let points = est
@@ -1072,7 +1093,7 @@ fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopError> {
     let drift_reach = cx.last_drift_reach(&st)?;
     // The final model's verdict as `calibrate` gives it: with the score tests of the candidate
     // terms left out (one more fit with the extended pass; the estimate is the same).
-    if cx.rests.is_none() {
+    if cx.rests().is_none() {
         // The configuration it was fitted with (not the loop's, whose noise may be scaled to
         // the data for testing).
         let mut config = st.current.calibration.config.clone();
@@ -1121,7 +1142,7 @@ impl Context<'_> {
             Some(_) => None,
             None => noise_rescale(
                 &st.current.calibration.estimate.stats,
-                self.data.turntable.is_some(),
+                self.with_turntable(),
             ),
         };
         let Some(r) = rescale else {
@@ -1213,7 +1234,7 @@ impl Context<'_> {
     /// What the program can see of a gyro bias random walk ([`drift_reach`]), when the last
     /// round tried the walk and did not accept it (a programmed run; `None` otherwise).
     fn last_drift_reach(&mut self, st: &LoopState) -> Result<Option<DriftReach>, LoopError> {
-        let (None, Some(last)) = (self.rests, st.rounds.last()) else {
+        let (None, Some(last)) = (self.rests(), st.rounds.last()) else {
             return Ok(None);
         };
         let drift = Candidate::GyroBiasDrift.id();
@@ -1224,7 +1245,7 @@ impl Context<'_> {
         (self.progress)("how large a walk this program would show");
         drift_reach(
             self.config(),
-            self.data.turntable.is_some(),
+            self.with_turntable(),
             &st.current.extension,
             self.settings,
             last.threshold,

@@ -41,6 +41,32 @@ fn fill_chunk<S: ImuSource + ?Sized>(
     Ok(())
 }
 
+/// One reading of `source` from its first record, in chunks of `chunk` (one dynamic call per
+/// chunk): `visit` gets every record with its line, in order, and stops the reading by
+/// returning `false` (a later reading starts from the first record again,
+/// [`ImuSource::rewind`]). `chunk` is the caller's buffer, so that readings repeated many
+/// times do not allocate.
+pub fn read_records(
+    source: &mut dyn ImuSource,
+    chunk: &mut Vec<(ImuRecord, usize)>,
+    visit: &mut dyn FnMut(&ImuRecord, usize) -> bool,
+) -> Result<(), IoError> {
+    /// Records per chunk.
+    const CHUNK: usize = 4096;
+    source.rewind()?;
+    loop {
+        source.next_chunk(chunk, CHUNK)?;
+        if chunk.is_empty() {
+            return Ok(());
+        }
+        for (r, line) in chunk.iter() {
+            if !visit(r, *line) {
+                return Ok(());
+            }
+        }
+    }
+}
+
 /// Records already in memory (a parsed file or a simulation).
 #[derive(Clone, Debug)]
 pub struct MemoryImu<'a> {

@@ -879,6 +879,72 @@ pub fn correct_records(
         .collect()
 }
 
+/// Records corrected one by one as they are read, in memory independent of their number: each
+/// record is corrected ([`correct_record`]) on a window of itself, the two records before it
+/// and the one after it (the intervals and the neighbours' rates its correction needs), which
+/// gives the same record as [`correct_records`] on the whole file (`apply` writes its files
+/// so, `tests/apply.rs` compares them). `T` travels with each record (its line, its index).
+#[derive(Clone, Debug, Default)]
+pub struct CorrectionWindow<T> {
+    records: Vec<ImuRecord>,
+    tags: Vec<T>,
+    /// The record whose correction is ready, in the window.
+    ready: Option<usize>,
+}
+
+impl<T: Copy> CorrectionWindow<T> {
+    /// The most records a window holds.
+    const LEN: usize = 4;
+
+    /// No record yet.
+    pub fn new() -> Self {
+        Self {
+            records: Vec::with_capacity(Self::LEN),
+            tags: Vec::with_capacity(Self::LEN),
+            ready: None,
+        }
+    }
+
+    /// The next record; returns the tag of the record before it, whose correction is now
+    /// ready ([`Self::correct`]): it has its successor.
+    pub fn push(&mut self, record: ImuRecord, tag: T) -> Option<T> {
+        self.records.push(record);
+        self.tags.push(tag);
+        if self.records.len() > Self::LEN {
+            self.records.remove(0);
+            self.tags.remove(0);
+        }
+        self.ready = self.records.len().checked_sub(2);
+        self.ready.map(|k| self.tags[k])
+    }
+
+    /// After the last record: its tag, its correction now ready (`None` without records).
+    pub fn close(&mut self) -> Option<T> {
+        self.ready = self.records.len().checked_sub(1);
+        self.ready.map(|k| self.tags[k])
+    }
+
+    /// The record made ready by the last [`Self::push`] or [`Self::close`], corrected.
+    pub fn correct(
+        &self,
+        correction: &Correction,
+        kind: ImuKind,
+    ) -> Option<Result<ImuRecord, CorrectionError>> {
+        self.ready
+            .map(|k| correct_record(correction, kind, &self.records, k))
+    }
+
+    /// How many records the window holds (at most four).
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    /// Whether no record has been pushed.
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+}
+
 /// A calibration's result file: its parameters, their correlation matrix and, when the
 /// parameters make a correction (the paper's model complete, no unknown term), its
 /// [`CorrectionBlock`] with the extension terms evaluated at `inputs`.

@@ -36,9 +36,11 @@
 //! ("Cause of the gyro misfit") has the measurements that shaped the fit (the accelerometers
 //! fitted with the gyros, the bias at every rest).
 
-use crate::io::{ImuData, ImuKind, ResultParameter};
-use crate::model::correction::{Correction, CorrectionError, correct_records};
+use crate::io::source::{ImuSource, read_records};
+use crate::io::{ImuData, ImuKind, ImuRecord, IoError, ResultParameter};
+use crate::model::correction::{Correction, CorrectionError, CorrectionWindow};
 use crate::motion::rests::{Rest, TURN_SIGMA_RAD, Turn, held_out};
+use crate::motion::stamps::{RangeWalk, Stamps, read_ranges};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use sins_model::attitude::exp_so3;
 use sins_model::earth::EARTH_RATE;
@@ -57,16 +59,15 @@ struct Pose {
 /// Fewest records of a rest that counts as a pose (the noise of its mean needs two).
 const MIN_POSE_RECORDS: usize = 2;
 
-/// The rests of `rests` with at least [`MIN_POSE_RECORDS`] records in `data`, in order.
-fn poses_of(data: &ImuData, rests: &[Rest]) -> Vec<Pose> {
-    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+/// The rests of `rests` with at least [`MIN_POSE_RECORDS`] records stamped `t`, in order.
+fn poses_of<S: Stamps + ?Sized>(t: &S, rests: &[Rest]) -> Vec<Pose> {
     rests
         .iter()
         .enumerate()
         .map(|(index, rest)| Pose {
             index,
             rest: *rest,
-            records: rest.records(&t),
+            records: rest.records(t),
         })
         .filter(|p| p.records.len() >= MIN_POSE_RECORDS)
         .collect()
@@ -86,7 +87,19 @@ struct Increments {
     f: Vec<Vector3<f64>>,
 }
 
+/// Record `r`'s angle increment over its own interval `h`, and its specific force: rates times
+/// the interval, increments over it. The one rule of every figure of the rests, held
+/// ([`Increments`]) or read ([`evaluate`]).
+fn increment(kind: ImuKind, r: &ImuRecord, h: f64) -> (Vector3<f64>, Vector3<f64>) {
+    let (g, a) = (Vector3::from(r.gyro), Vector3::from(r.accel));
+    match kind {
+        ImuKind::Rates => (g * h, a),
+        ImuKind::Increments => (g, a / h),
+    }
+}
+
 impl Increments {
+    /// Held: the coarse fit integrates its (grouped) records many times over.
     fn new(data: &ImuData) -> Self {
         let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
         let median = sins_model::timing::median_interval(&t);
@@ -95,11 +108,7 @@ impl Increments {
         let mut f = Vec::with_capacity(t.len());
         for (k, r) in data.records.iter().enumerate() {
             let h = if k == 0 { median } else { t[k] - t[k - 1] };
-            let (g, a) = (Vector3::from(r.gyro), Vector3::from(r.accel));
-            let (inc, force) = match data.kind {
-                ImuKind::Rates => (g * h, a),
-                ImuKind::Increments => (g, a / h),
-            };
+            let (inc, force) = increment(data.kind, r, h);
             dth.push(inc);
             dt.push(h);
             f.push(force);
@@ -145,45 +154,102 @@ struct PoseStat {
     sigma_w: f64,
 }
 
+/// The sums of a rest's means, record by record in order ([`pose_stat`], [`evaluate`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Means {
+    n: usize,
+    sf: Vector3<f64>,
+    sw: Vector3<f64>,
+}
+
+impl Means {
+    fn add(&mut self, dth: &Vector3<f64>, dt: f64, f: &Vector3<f64>) {
+        self.sf += f;
+        self.sw += dth / dt;
+        self.n += 1;
+    }
+
+    /// The mean specific force and rate.
+    fn means(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let n = self.n as f64;
+        (self.sf / n, self.sw / n)
+    }
+}
+
+/// The scatter of a rest's records about its means ([`Means`]), record by record in order.
+#[derive(Clone, Copy, Debug)]
+struct Scatter {
+    n: usize,
+    mf: Vector3<f64>,
+    mw: Vector3<f64>,
+    vf: f64,
+    vw: f64,
+}
+
+impl Scatter {
+    fn about(means: &Means) -> Self {
+        let (mf, mw) = means.means();
+        Self {
+            n: means.n,
+            mf,
+            mw,
+            vf: 0.0,
+            vw: 0.0,
+        }
+    }
+
+    fn add(&mut self, dth: &Vector3<f64>, dt: f64, f: &Vector3<f64>) {
+        self.vf += (f - self.mf).norm_squared();
+        self.vw += (dth / dt - self.mw).norm_squared();
+    }
+
+    fn stat(&self) -> PoseStat {
+        let n = self.n as f64;
+        let denom = (n - 1.0).max(1.0);
+        PoseStat {
+            f: self.mf,
+            sigma_f: (self.vf / denom / n).sqrt(),
+            w: self.mw,
+            sigma_w: (self.vw / denom / n).sqrt(),
+        }
+    }
+}
+
 fn pose_stat(inc: &Increments, records: &Range<usize>) -> PoseStat {
-    let n = records.len() as f64;
-    let (mut sf, mut sw) = (Vector3::zeros(), Vector3::zeros());
-    let rows = records.clone();
-    let force = |k: usize| inc.f[k];
-    for k in rows.clone() {
-        sf += force(k);
-        sw += inc.dth[k] / inc.dt[k];
+    let mut means = Means::default();
+    for k in records.clone() {
+        means.add(&inc.dth[k], inc.dt[k], &inc.f[k]);
     }
-    let (mf, mw) = (sf / n, sw / n);
-    let (mut vf, mut vw) = (0.0, 0.0);
-    for k in rows {
-        vf += (force(k) - mf).norm_squared();
-        vw += (inc.dth[k] / inc.dt[k] - mw).norm_squared();
+    let mut scatter = Scatter::about(&means);
+    for k in records.clone() {
+        scatter.add(&inc.dth[k], inc.dt[k], &inc.f[k]);
     }
-    let denom = (n - 1.0).max(1.0);
-    PoseStat {
-        f: mf,
-        sigma_f: (vf / denom / n).sqrt(),
-        w: mw,
-        sigma_w: (vw / denom / n).sqrt(),
-    }
+    scatter.stat()
 }
 
 /// Refuse rests that cannot separate the accelerometer parameters, whatever the estimator:
 /// fewer than three fitted rests (every `holdout`-th held out, [`held_out`]), or fitted rests
 /// whose specific force points in fewer than three directions [`MIN_POSE_SEPARATION_DEG`]
 /// apart.
+/// One reading of `imu` (records stamped `t`) for the fitted rests' mean specific forces.
 pub fn check_poses(
-    data: &ImuData,
+    imu: &mut dyn ImuSource,
+    t: &dyn Stamps,
     rests: &[Rest],
     holdout: Option<usize>,
 ) -> Result<(), FreeMotionError> {
-    let inc = Increments::new(data);
-    let fitted: Vec<Vector3<f64>> = poses_of(data, rests)
+    let ranges: Vec<Range<usize>> = poses_of(t, rests)
         .iter()
         .filter(|p| !held_out(p.index, holdout))
-        .map(|p| pose_stat(&inc, &p.records).f)
+        .map(|p| p.records.clone())
         .collect();
+    let mut means = vec![Means::default(); ranges.len()];
+    let kind = imu.kind();
+    read_ranges(imu, &ranges, t.median_interval(), &mut |i, _, r, h| {
+        let (dth, f) = increment(kind, r, h);
+        means[i].add(&dth, h, &f);
+    })?;
+    let fitted: Vec<Vector3<f64>> = means.iter().map(|m| m.means().0).collect();
     if fitted.len() < 3 {
         return Err(FreeMotionError::TooFewIntervals(fitted.len()));
     }
@@ -263,6 +329,12 @@ pub enum FreeMotionError {
     /// Gravity not a positive number.
     #[error("gravity {0} m/s^2: expected a positive number")]
     BadGravity(f64),
+    /// The records could not be read again.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// The correction could not be applied to a record (the figures of a calibration).
+    #[error(transparent)]
+    Correction(#[from] CorrectionError),
 }
 
 /// Summary of a least-squares fit.
@@ -307,13 +379,13 @@ fn check_inputs<'a>(
     if !(settings.gravity_m_s2.is_finite() && settings.gravity_m_s2 > 0.0) {
         return Err(FreeMotionError::BadGravity(settings.gravity_m_s2));
     }
-    let poses = poses_of(data, rests);
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    let poses = poses_of(&t, rests);
     for (i, pair) in poses.windows(2).enumerate() {
         if pair[1].records.start < pair[0].records.end {
             return Err(FreeMotionError::BadInterval(i + 2));
         }
     }
-    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     let mut known = Vec::with_capacity(turns.len());
     for turn in turns {
         let records = turn.records(&t);
@@ -667,59 +739,51 @@ pub struct Evaluation {
 }
 
 /// [`Evaluation`] of a calibration: its `correction` (the one `apply` applies,
-/// [`Correction::of_result`]) applied to every record ([`correct_records`]), and the figures of
+/// [`Correction::of_result`]) applied to every record ([`CorrectionWindow`]), and the figures of
 /// the rests and turns on the raw and on the corrected records set side by side. Every
 /// `holdout`-th rest is held out ([`held_out`]); rests with fewer than two records are left out
 /// (and keep their place in the count). `Err` where the correction cannot be applied to a
-/// record (non-linear terms that do not settle, thermal terms without a temperature).
+/// record (non-linear terms that do not settle, thermal terms without a temperature), or the
+/// records cannot be read again.
+///
+/// The records are read from `imu` (stamped `t`), not held: one reading for the rests' means,
+/// the turns and the rotations carried between the rests, and with a hold-out one more for the
+/// scatter of the corrected rests about their means. The sums are those of the records held,
+/// term by term in the same order, so the figures are the same to the last bit.
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate(
-    data: &ImuData,
+    imu: &mut dyn ImuSource,
+    t: &dyn Stamps,
     rests: &[Rest],
     turns: &[Turn],
     holdout: Option<usize>,
     gravity_m_s2: f64,
     earth: &EarthRotation,
     correction: &Correction,
-) -> Result<Evaluation, CorrectionError> {
-    let corrected = ImuData {
-        kind: data.kind,
-        records: correct_records(correction, data.kind, &data.records).map_err(|(_, e)| e)?,
-    };
-    let poses = poses_of(data, rests);
-    let (raw, cal) = (Increments::new(data), Increments::new(&corrected));
-    let stats = |inc: &Increments| -> Vec<PoseStat> {
-        poses.iter().map(|p| pose_stat(inc, &p.records)).collect()
-    };
-    let figures = Figures {
-        raw_stats: stats(&raw),
-        cal_stats: stats(&cal),
-        raw: &raw,
-        cal: &cal,
-        poses: &poses,
-        earth,
-    };
+) -> Result<Evaluation, FreeMotionError> {
+    let poses = poses_of(t, rests);
+    let held: Vec<bool> = poses.iter().map(|p| held_out(p.index, holdout)).collect();
+    let plan = FigureRanges::of(&poses, turns, t, &held, holdout.is_some());
+    let read = plan.read(imu, t.median_interval(), correction)?;
     let residuals: Vec<PoseResidual> = (0..poses.len())
         .map(|i| PoseResidual {
             rest: poses[i].rest,
-            held_out: held_out(poses[i].index, holdout),
-            before_m_s2: figures.raw_stats[i].f.norm() - gravity_m_s2,
-            after_m_s2: figures.cal_stats[i].f.norm() - gravity_m_s2,
+            held_out: held[i],
+            before_m_s2: read.raw_f[i].norm() - gravity_m_s2,
+            after_m_s2: read.cal[i].f.norm() - gravity_m_s2,
         })
         .collect();
-    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
     let turns = turns
         .iter()
-        .map(|turn| {
-            let (a, records) = (turn.axis.normalize(), turn.records(&t));
-            TurnCheck {
-                name: turn.name.clone(),
-                expected_rad: turn.angle_rad,
-                before_rad: raw.turn(records.clone(), &a, None),
-                after_rad: cal.turn(records, &a, None),
-            }
+        .zip(&read.turns)
+        .map(|(turn, &(before_rad, after_rad))| TurnCheck {
+            name: turn.name.clone(),
+            expected_rad: turn.angle_rad,
+            before_rad,
+            after_rad,
         })
         .collect();
-    let validation = holdout.map(|_| figures.validate(&residuals));
+    let validation = holdout.map(|_| Figures { read: &read, earth }.validate(&residuals));
     Ok(Evaluation {
         poses: residuals,
         turns,
@@ -727,13 +791,205 @@ pub fn evaluate(
     })
 }
 
-/// The raw and the corrected records of a recording, with their rests' means.
+/// The ranges of records the figures read, in one list: the poses, the known turns, the
+/// carries between consecutive held-out poses (raw and corrected), and with a hold-out the
+/// carries between consecutive poses (corrected).
+struct FigureRanges {
+    ranges: Vec<Range<usize>>,
+    poses: usize,
+    /// The known turns' axes (unit vectors).
+    turn_axes: Vec<Vector3<f64>>,
+    held_pairs: usize,
+    /// With a hold-out: the carries and the corrected poses' scatter are read too.
+    validate: bool,
+}
+
+/// What a reading of the raw and the corrected records gives the figures.
+struct ReadFigures {
+    /// Mean specific force of every pose, raw.
+    raw_f: Vec<Vector3<f64>>,
+    /// The same corrected, with its rate and (with a hold-out) their noise.
+    cal: Vec<PoseStat>,
+    /// Every pose's corrected rate summed over its records' intervals, and their span: its
+    /// mean rate over its own intervals (the Earth rate's direction in the rotation checks).
+    cal_rate: Vec<(Vector3<f64>, f64)>,
+    /// Every known turn integrated about its axis, raw and corrected (rad).
+    turns: Vec<(f64, f64)>,
+    /// The rotation carried from one held-out pose to the next, raw and corrected, and its
+    /// span (s).
+    held_pairs: Vec<(Matrix3<f64>, Matrix3<f64>, f64)>,
+    /// The corrected rotation carried from each pose to the next, and its span (s).
+    consecutive: Vec<(Matrix3<f64>, f64)>,
+}
+
+impl FigureRanges {
+    fn of(poses: &[Pose], turns: &[Turn], t: &dyn Stamps, held: &[bool], validate: bool) -> Self {
+        let carry = |i: usize, j: usize| {
+            let r = carry_records(&poses[i], &poses[j]);
+            *r.start()..*r.end() + 1
+        };
+        let mut ranges: Vec<Range<usize>> = poses.iter().map(|p| p.records.clone()).collect();
+        ranges.extend(turns.iter().map(|turn| turn.records(t)));
+        let held: Vec<usize> = (0..poses.len()).filter(|&i| held[i]).collect();
+        let mut held_pairs = 0;
+        if validate {
+            for pair in held.windows(2) {
+                ranges.push(carry(pair[0], pair[1]));
+                held_pairs += 1;
+            }
+            ranges.extend((1..poses.len()).map(|i| carry(i - 1, i)));
+        }
+        Self {
+            ranges,
+            poses: poses.len(),
+            turn_axes: turns.iter().map(|turn| turn.axis.normalize()).collect(),
+            held_pairs,
+            validate,
+        }
+    }
+
+    /// The readings: the means, turns and carries in one, the corrected poses' scatter in a
+    /// second (with a hold-out: the rotation checks take the corrected rates' noise).
+    fn read(
+        &self,
+        imu: &mut dyn ImuSource,
+        first_interval: f64,
+        correction: &Correction,
+    ) -> Result<ReadFigures, FreeMotionError> {
+        let (p, n_turns) = (self.poses, self.turn_axes.len());
+        let consecutive = self.ranges.len() - p - n_turns - self.held_pairs;
+        let axes = &self.turn_axes;
+        let mut raw = vec![Means::default(); p];
+        let mut cal = vec![Means::default(); p];
+        let mut cal_rate = vec![(Vector3::zeros(), 0.0); p];
+        // As `Iterator::sum` of the held figures: from its own start.
+        let zero: f64 = std::iter::empty::<f64>().sum();
+        let mut turns = vec![(zero, zero); n_turns];
+        let mut held_pairs =
+            vec![(Matrix3::identity(), Matrix3::identity(), zero); self.held_pairs];
+        let mut next = vec![(Matrix3::identity(), zero); consecutive];
+        let kind = imu.kind();
+        // Every record corrected, as `apply` would: a record no figure takes may still be one
+        // the correction cannot be applied to, which refuses the result.
+        let every = Reading::EveryRecord;
+        read_corrected(
+            imu,
+            &self.ranges,
+            (first_interval, every),
+            correction,
+            &mut |i, r, c, h| {
+                let (dth, f) = increment(kind, r, h);
+                let (cal_dth, cal_f) = increment(kind, c, h);
+                if i < p {
+                    raw[i].add(&dth, h, &f);
+                    cal[i].add(&cal_dth, h, &cal_f);
+                    cal_rate[i].0 += cal_dth;
+                    cal_rate[i].1 += h;
+                } else if i < p + n_turns {
+                    let a = &axes[i - p];
+                    turns[i - p].0 += a.dot(&dth);
+                    turns[i - p].1 += a.dot(&cal_dth);
+                } else if i < p + n_turns + self.held_pairs {
+                    let pair = &mut held_pairs[i - p - n_turns];
+                    pair.0 *= exp_so3(&dth);
+                    pair.1 *= exp_so3(&cal_dth);
+                    pair.2 += h;
+                } else {
+                    let step = &mut next[i - p - n_turns - self.held_pairs];
+                    step.0 *= exp_so3(&cal_dth);
+                    step.1 += h;
+                }
+            },
+        )?;
+        let mut scatter: Vec<Scatter> = cal.iter().map(Scatter::about).collect();
+        if self.validate {
+            let poses = (first_interval, Reading::Ranges);
+            read_corrected(
+                imu,
+                &self.ranges[..p],
+                poses,
+                correction,
+                &mut |i, _, c, h| {
+                    let (cal_dth, cal_f) = increment(kind, c, h);
+                    scatter[i].add(&cal_dth, h, &cal_f);
+                },
+            )?;
+        }
+        Ok(ReadFigures {
+            raw_f: raw.iter().map(|m| m.means().0).collect(),
+            cal: scatter.iter().map(Scatter::stat).collect(),
+            cal_rate,
+            turns,
+            held_pairs,
+            consecutive: next,
+        })
+    }
+}
+
+/// Which records a reading of [`read_corrected`] corrects.
+#[derive(Clone, Copy, PartialEq)]
+enum Reading {
+    /// Every record, to the end.
+    EveryRecord,
+    /// Those a range holds; the reading stops after the last.
+    Ranges,
+}
+
+/// One reading of `imu` through `ranges` with the records corrected by `correction`
+/// ([`CorrectionWindow`]): `visit(i, raw, corrected, h)` for each range `i` that holds a
+/// record, in record order, `h` the record's interval (`first_interval` for the first record).
+/// `Err` at the first record whose correction fails.
+fn read_corrected(
+    imu: &mut dyn ImuSource,
+    ranges: &[Range<usize>],
+    (first_interval, which): (f64, Reading),
+    correction: &Correction,
+    visit: &mut dyn FnMut(usize, &ImuRecord, &ImuRecord, f64),
+) -> Result<(), FreeMotionError> {
+    type Ready = (usize, f64, ImuRecord);
+    let kind = imu.kind();
+    let mut walk = RangeWalk::new(ranges);
+    let mut window: CorrectionWindow<Ready> = CorrectionWindow::new();
+    let mut failed: Option<CorrectionError> = None;
+    // The record the window made ready: corrected where asked, its figures where a range
+    // holds it; whether to read on.
+    let mut take = |window: &CorrectionWindow<Ready>, (k, h, raw): Ready| {
+        let holders = walk.at(k);
+        if which == Reading::EveryRecord || !holders.is_empty() {
+            match window.correct(correction, kind) {
+                Some(Ok(c)) => holders.iter().for_each(|&i| visit(i, &raw, &c, h)),
+                Some(Err(e)) => {
+                    failed = Some(e);
+                    return false;
+                }
+                None => {}
+            }
+        }
+        which == Reading::EveryRecord || !walk.done()
+    };
+    let (mut k, mut previous, mut going) = (0usize, f64::NAN, true);
+    read_records(imu, &mut Vec::new(), &mut |r, _| {
+        let h = if k == 0 {
+            first_interval
+        } else {
+            r.t - previous
+        };
+        if let Some(ready) = window.push(*r, (k, h, *r)) {
+            going = take(&window, ready);
+        }
+        previous = r.t;
+        k += 1;
+        going
+    })?;
+    if going && let Some(last) = window.close() {
+        take(&window, last);
+    }
+    failed.map_or(Ok(()), |e| Err(e.into()))
+}
+
+/// The figures of the records read ([`ReadFigures`]) for the held-out checks.
 struct Figures<'a> {
-    raw: &'a Increments,
-    cal: &'a Increments,
-    raw_stats: Vec<PoseStat>,
-    cal_stats: Vec<PoseStat>,
-    poses: &'a [Pose],
+    read: &'a ReadFigures,
     earth: &'a EarthRotation,
 }
 
@@ -754,17 +1010,17 @@ impl Figures<'_> {
             .collect();
         let (mut rb, mut ra) = (Vec::new(), Vec::new());
         let (mut resolved, mut floor) = (true, Vec::new());
-        for pair in held.windows(2) {
+        for (pair, carried) in held.windows(2).zip(&self.read.held_pairs) {
             let (i, j) = (pair[0], pair[1]);
-            rb.push(self.raw_carry_error(i, j));
-            let (angle, compensated, span_s) = self.carry_error(i, j);
+            rb.push(self.raw_carry_error(i, j, &carried.0));
+            let (angle, compensated, span_s) = self.carry_error(i, j, &carried.1, carried.2);
             ra.push(angle);
             resolved &= compensated;
             floor.push(self.earth.horizontal_rad_s * span_s);
         }
         let (mut moved_held, mut moved_fitted) = (Vec::new(), Vec::new());
-        for i in 1..residuals.len() {
-            let (angle, compensated, _) = self.carry_error(i - 1, i);
+        for (i, carried) in (1..residuals.len()).zip(&self.read.consecutive) {
+            let (angle, compensated, _) = self.carry_error(i - 1, i, &carried.0, carried.1);
             resolved &= compensated;
             if residuals[i - 1].held_out || residuals[i].held_out {
                 moved_held.push(angle);
@@ -795,37 +1051,28 @@ impl Figures<'_> {
         }
     }
 
-    /// The angle between the raw gravity direction of rest `i`, carried by the raw gyros to
-    /// rest `j`, and the raw one measured there (rad).
-    fn raw_carry_error(&self, i: usize, j: usize) -> f64 {
-        let c = self
-            .raw
-            .rotation(carry_records(&self.poses[i], &self.poses[j]), None);
+    /// The angle between the raw gravity direction of rest `i`, carried by the raw gyros
+    /// (`c`, the rotation from `i` to `j`) to rest `j`, and the raw one measured there (rad).
+    fn raw_carry_error(&self, i: usize, j: usize, c: &Matrix3<f64>) -> f64 {
         let (ui, uj) = (
-            self.raw_stats[i].f.normalize(),
-            self.raw_stats[j].f.normalize(),
+            self.read.raw_f[i].normalize(),
+            self.read.raw_f[j].normalize(),
         );
         angle_between(&(c.transpose() * ui), &uj)
     }
 
     /// The angle between the calibrated gravity direction of rest `i`, carried by the
-    /// calibrated gyros to rest `j` (with the Earth's rotation over the span where the heading
-    /// is resolved in rest `i`), and the one measured in rest `j`; whether the Earth's rotation
-    /// was taken out; the span (s).
-    fn carry_error(&self, i: usize, j: usize) -> (f64, bool, f64) {
-        let (a, b) = (&self.poses[i], &self.poses[j]);
-        let c = self.cal.rotation(carry_records(a, b), None);
-        let span_s: f64 = carry_records(a, b).map(|k| self.cal.dt[k]).sum();
-        let (ci, cj) = (self.cal_stats[i].f, self.cal_stats[j].f);
+    /// calibrated gyros (`c`, over `span_s`) to rest `j` (with the Earth's rotation over the
+    /// span where the heading is resolved in rest `i`), and the one measured in rest `j`;
+    /// whether the Earth's rotation was taken out; the span (s).
+    fn carry_error(&self, i: usize, j: usize, c: &Matrix3<f64>, span_s: f64) -> (f64, bool, f64) {
+        let cal = &self.read.cal;
+        let (ci, cj) = (cal[i].f, cal[j].f);
         let up = ci.normalize();
         // The calibrated mean rate of rest i.
-        let (mut sum, mut dt) = (Vector3::zeros(), 0.0);
-        for k in a.records.clone() {
-            sum += self.cal.dth[k];
-            dt += self.cal.dt[k];
-        }
+        let (sum, dt) = self.read.cal_rate[i];
         let w = sum / dt.max(f64::MIN_POSITIVE);
-        let earth = self.earth.in_body(&w, self.cal_stats[i].sigma_w, &up);
+        let earth = self.earth.in_body(&w, cal[i].sigma_w, &up);
         // An Earth-fixed direction turns in inertial space (the gyros' reference) by the Earth
         // rate times the span.
         let carried = match earth {
@@ -879,6 +1126,16 @@ mod tests {
     }
 
     const G: f64 = 9.81;
+
+    /// The records of `data` as a source read again for every figure.
+    fn imu(data: &ImuData) -> crate::estimate::MemoryImu<'_> {
+        crate::estimate::MemoryImu::new(data, "imu.csv")
+    }
+
+    /// The stamps of `data`, held.
+    fn stamps(data: &ImuData) -> Vec<f64> {
+        data.records.iter().map(|r| r.t).collect()
+    }
 
     /// True parameters: `[nu0 (3), Theta (9), df0 (3), Gamma (6)]`.
     fn truth() -> Vec<f64> {
@@ -1029,7 +1286,17 @@ mod tests {
         let values: Vec<f64> = r.parameters.iter().map(|p| p.value).collect();
         let correction = Correction::paper(&values).unwrap();
         let none = EarthRotation::at(0.0, f64::INFINITY);
-        let e = evaluate(&data, &rests, turns, Some(5), G, &none, &correction).unwrap();
+        let e = evaluate(
+            &mut imu(&data),
+            &stamps(&data),
+            &rests,
+            turns,
+            Some(5),
+            G,
+            &none,
+            &correction,
+        )
+        .unwrap();
         let v = e.validation.unwrap();
         // The held-out |f| noise alone is 0.01 m/s^2 / sqrt(500 records) per axis.
         assert!(
@@ -1145,7 +1412,7 @@ mod tests {
         let same = vec![poses[0]; 4];
         let (data, rests, _) = simulate(&same, 0.0, Matrix3::zeros(), 1.0, &mut rng);
         assert!(matches!(
-            check_poses(&data, &rests, None),
+            check_poses(&mut imu(&data), &stamps(&data), &rests, None),
             Err(FreeMotionError::TooFewDirections { directions: 1, .. })
         ));
     }
@@ -1192,12 +1459,32 @@ mod tests {
             .collect();
         let raw = Correction::paper(&[0.0; 21]).unwrap();
         let known = EarthRotation::at(lat, 1e-8);
-        let e = evaluate(&data, &rests, &[], Some(2), G, &known, &raw).unwrap();
+        let e = evaluate(
+            &mut imu(&data),
+            &stamps(&data),
+            &rests,
+            &[],
+            Some(2),
+            G,
+            &known,
+            &raw,
+        )
+        .unwrap();
         let v = e.validation.unwrap();
         assert_eq!(v.earth_rate, EarthRateTreatment::Compensated);
         assert!(v.rotation_rms_after_rad.to_degrees() < 1e-4, "{v:?}");
         let unknown = EarthRotation::at(lat, 1e-3);
-        let e = evaluate(&data, &rests, &[], Some(2), G, &unknown, &raw).unwrap();
+        let e = evaluate(
+            &mut imu(&data),
+            &stamps(&data),
+            &rests,
+            &[],
+            Some(2),
+            G,
+            &unknown,
+            &raw,
+        )
+        .unwrap();
         let v = e.validation.unwrap();
         let expected = EARTH_RATE * lat.cos() * 200.0;
         let EarthRateTreatment::NotResolved { floor_rad } = v.earth_rate else {
@@ -1256,7 +1543,17 @@ mod tests {
         let figures = |inputs| {
             let c = Correction::from_parameters(&parameters, inputs).unwrap();
             let turns = std::slice::from_ref(&turn);
-            evaluate(&data, &rests, turns, Some(3), G, &none, &c).unwrap()
+            evaluate(
+                &mut imu(&data),
+                &stamps(&data),
+                &rests,
+                turns,
+                Some(3),
+                G,
+                &none,
+                &c,
+            )
+            .unwrap()
         };
         let (right, measured) = (
             figures(ExtensionInputs::True),

@@ -10,6 +10,8 @@
 //!   program;
 //! - [`sections`]: a session's section list (static faces, rotations) and its known turns;
 //! - [`free_motion`]: the coarse start of a hand-turned multi-position recording (no turntable).
+//! - [`stamps`]: the records of the rests and turns on time stamps held or counted in a
+//!   reading, and readings through ranges of records.
 
 pub mod align;
 pub mod angles_program;
@@ -18,3 +20,4 @@ pub mod free_motion;
 pub mod program_start;
 pub mod rests;
 pub mod sections;
+pub mod stamps;

@@ -17,6 +17,7 @@
 
 use crate::check::diagnostics::Segment;
 use crate::motion::align::RateBin;
+use crate::motion::stamps::Stamps;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::earth::Site;
 use sins_model::terms::{ErrorModel, Sensor, SensorInput};
@@ -43,9 +44,10 @@ impl Rest {
     /// before the rest; a grouped record (the coarse fit's) likewise belongs to the rest only
     /// when all of it does. A detector's rest begins at the start of its first record's
     /// interval, the stamp before it, so that record is the first.
-    pub fn records(&self, t: &[f64]) -> std::ops::Range<usize> {
-        let end = t.partition_point(|&x| x <= self.t1);
-        let start = (t.partition_point(|&x| x < self.t0) + 1).min(end);
+    /// The stamps are held or counted in a reading ([`Stamps`]).
+    pub fn records<S: Stamps + ?Sized>(&self, t: &S) -> std::ops::Range<usize> {
+        let end = t.through(self.t1);
+        let start = (t.before(self.t0) + 1).min(end);
         start..end
     }
 
@@ -249,12 +251,13 @@ impl Turn {
     /// last record). 0-based indices into `t`, the end exclusive; empty when the turn lies
     /// after the records. On the records the turn was given on these are the ones stamped `t0`
     /// to `t1`; on records grouped into longer ones (the coarse fit's) the groups that hold them.
-    pub fn records(&self, t: &[f64]) -> std::ops::Range<usize> {
-        let Some(last) = t.len().checked_sub(1) else {
+    /// The stamps are held or counted in a reading ([`Stamps`]).
+    pub fn records<S: Stamps + ?Sized>(&self, t: &S) -> std::ops::Range<usize> {
+        let Some(last) = t.count().checked_sub(1) else {
             return 0..0;
         };
-        let end = t.partition_point(|&x| x < self.t1).min(last) + 1;
-        let start = t.partition_point(|&x| x < self.t0).min(end);
+        let end = t.before(self.t1).min(last) + 1;
+        let start = t.before(self.t0).min(end);
         start..end
     }
 }
@@ -536,7 +539,7 @@ mod tests {
         assert_eq!(turn(t[4], t[9]).records(&t), 4..10);
         assert_eq!(turn(t[4], 90.0).records(&t), 4..20);
         assert!(turn(90.0, 100.0).records(&t).is_empty());
-        assert!(turn(0.0, 1.0).records(&[]).is_empty());
+        assert!(turn(0.0, 1.0).records(&[][..]).is_empty());
         // Grouped by five (stamps 5, 10, 15, 20): the groups that hold records 4 .. 9, 5 .. 10.
         let grouped: Vec<f64> = t.iter().skip(4).step_by(5).copied().collect();
         assert_eq!(turn(t[4], t[9]).records(&grouped), 0..2);

@@ -5,6 +5,7 @@
 
 use crate::io::IoError;
 use crate::motion::rests::{Rest, Turn};
+use crate::motion::stamps::Stamps;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -179,8 +180,33 @@ impl SectionsFile {
     /// the bias, which is calibrated): from the first record after the rest before it through
     /// the first record of the rest after it ([`Rest::records`]; the
     /// span the coarse fit carries the attitude over from one rest to the next); never from the
-    /// first record.
-    pub fn known_turns(&self, rests: &[Rest], t: &[f64]) -> Vec<Turn> {
+    /// first record. The stamps may be counted in a reading ([`Stamps`]): they are asked for the
+    /// rests' times and the records of [`Self::turn_records`].
+    pub fn known_turns(&self, rests: &[Rest], t: &dyn Stamps) -> Vec<Turn> {
+        self.turn_bounds(rests, t)
+            .into_iter()
+            .filter_map(|(s, first, last)| {
+                Turn::about(
+                    &s.name,
+                    (t.stamp(first)?, t.stamp(last)?),
+                    s.axis?,
+                    s.expected_turn_deg?.to_radians(),
+                )
+            })
+            .collect()
+    }
+
+    /// The records whose stamps [`Self::known_turns`] takes (on stamps that answer for the
+    /// rests' times).
+    pub fn turn_records(&self, rests: &[Rest], t: &dyn Stamps) -> Vec<usize> {
+        self.turn_bounds(rests, t)
+            .into_iter()
+            .flat_map(|(_, first, last)| [first, last])
+            .collect()
+    }
+
+    /// Every rotation of the list with the first and last record of its known turn.
+    fn turn_bounds(&self, rests: &[Rest], t: &dyn Stamps) -> Vec<(&Section, usize, usize)> {
         let rest_records: Vec<std::ops::Range<usize>> = rests
             .iter()
             .map(|r| r.records(t))
@@ -189,7 +215,7 @@ impl SectionsFile {
         self.sections
             .iter()
             .filter(|s| s.kind == SectionKind::Rotation)
-            .filter_map(|s| {
+            .map(|s| {
                 let first = rest_records
                     .iter()
                     .filter(|r| r.end <= s.first_record)
@@ -200,12 +226,7 @@ impl SectionsFile {
                     .iter()
                     .find(|r| r.start > s.last_record)
                     .map_or(s.last_record, |r| r.start);
-                Turn::about(
-                    &s.name,
-                    (*t.get(first.max(1))?, *t.get(last)?),
-                    s.axis?,
-                    s.expected_turn_deg?.to_radians(),
-                )
+                (s, first.max(1), last)
             })
             .collect()
     }
@@ -215,9 +236,12 @@ impl SectionsFile {
     /// end on those records' time stamps (within half the median interval). A section list of
     /// another recording, or of an earlier import of this one, is refused here rather than
     /// silently used or skipped. `Err` holds the message: which section, and what was expected.
-    pub fn check_records(&self, times: &[f64]) -> Result<(), String> {
-        let n = times.len();
-        let tolerance = 0.5 * crate::io::timing::median_interval(times);
+    ///
+    /// The stamps may be counted in a reading ([`Stamps`]): they are asked for the sections'
+    /// first and last records, and the median interval.
+    pub fn check_records(&self, times: &dyn Stamps) -> Result<(), String> {
+        let n = times.count();
+        let tolerance = 0.5 * times.median_interval();
         for s in &self.sections {
             for (what, v) in [("up", s.up), ("axis", s.axis)] {
                 let Some(v) = v else { continue };
@@ -242,7 +266,8 @@ impl SectionsFile {
                     n.saturating_sub(1)
                 ));
             }
-            let (t0, t1) = (times[s.first_record], times[s.last_record]);
+            let stamp = |k: usize| times.stamp(k).unwrap_or(f64::NAN);
+            let (t0, t1) = (stamp(s.first_record), stamp(s.last_record));
             let off = (t0 - s.start_s).abs().max((t1 - s.end_s).abs());
             // A NaN (a non-finite stamp) is refused too.
             if off.is_nan() || off > tolerance {

@@ -1147,18 +1147,17 @@ impl<'a> RateSource<'a> {
 
     /// One reading of the records as they are in the file, with their lines.
     pub fn records_of(&mut self, visit: &mut dyn FnMut(&ImuRecord, usize)) -> Result<(), String> {
-        self.source.rewind().map_err(|e| e.to_string())?;
-        loop {
-            self.source
-                .next_chunk(&mut self.chunk, Self::CHUNK)
-                .map_err(|e| e.to_string())?;
-            if self.chunk.is_empty() {
-                return Ok(());
-            }
-            for (r, line) in &self.chunk {
-                visit(r, *line);
-            }
-        }
+        crate::io::source::read_records(self.source, &mut self.chunk, &mut |r, line| {
+            visit(r, line);
+            true
+        })
+        .map_err(|e| e.to_string())
+    }
+
+    /// The source itself, for readings of its own kind (the records of a hand-turned
+    /// recording's rests, its filter's passes) between those of the detector.
+    pub fn source(&mut self) -> &mut dyn ImuSource {
+        self.source
     }
 
     /// One reading of the records in rate form `(t, w, f)`, as [`rates_of`] gives them.
