@@ -380,7 +380,7 @@ pub struct FilterConfig {
     #[serde(skip)]
     pub score_terms: bool,
     /// Along a program whose records' temperature moved, carry the thermal bias terms the
-    /// model lacks at the grade's prior ([`crate::estimate::score_pass::with_thermal_biases`]).
+    /// model lacks at the grade's prior ([`crate::estimate::score_pass`]).
     /// Not a file setting: `calibrate` sets it; the loop, which tests the thermal terms
     /// itself, does not.
     #[serde(skip)]
