@@ -191,17 +191,7 @@ pub fn run(class: Class, seed: u64, values: &[(String, f64)], noise: bool) -> Ou
         .filter(|id| cal.verdict.decisive.iter().any(|l| l.contains(id.as_str())))
         .collect();
     let carried = cal.estimate.carried_terms.clone();
-    let est = &cal.estimate;
-    let worst = est
-        .names
-        .iter()
-        .enumerate()
-        .skip(calib::model::layout::StateLayout::INSTRUMENT)
-        .filter_map(|(i, n)| {
-            let t = sim.truth.get(n)?;
-            Some(((est.values[i] - t) / est.cov[(i, i)].sqrt()).abs())
-        })
-        .fold(0.0, f64::max);
+    let worst = worst_base_error(&cal.estimate, &sim.truth).map_or(0.0, |(_, z)| z.abs());
     Outcome {
         exit3: !cal.verdict.fits(),
         named,
@@ -210,6 +200,22 @@ pub fn run(class: Class, seed: u64, values: &[(String, f64)], noise: bool) -> Ou
         notes: cal.verdict.informative.clone(),
         worst_base_sigma: worst,
     }
+}
+
+/// The base parameter farthest from its truth, and how far (signed, in its sigmas).
+pub fn worst_base_error(
+    est: &calib::estimate::Estimate,
+    truth: &turntable::simulate::Truth,
+) -> Option<(String, f64)> {
+    est.names
+        .iter()
+        .enumerate()
+        .skip(calib::model::layout::StateLayout::INSTRUMENT)
+        .filter_map(|(i, n)| {
+            let t = truth.get(n)?;
+            Some((n.clone(), (est.values[i] - t) / est.cov[(i, i)].sqrt()))
+        })
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
 }
 
 fn calibrate(

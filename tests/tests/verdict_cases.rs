@@ -60,17 +60,7 @@ fn consumer_22_turning(seed: u64, turn: f64, hidden: &HiddenEffects) -> (Calibra
     assert_eq!(rests.len(), 22);
     let (own, noise) = from_data(&truth, &imu, &rests);
     let c = calibrate(&own, &imu, &rests, Some(4), Some(noise));
-    let est = &c.estimate;
-    let worst = est
-        .names
-        .iter()
-        .enumerate()
-        .skip(calib::model::layout::StateLayout::INSTRUMENT)
-        .filter_map(|(i, n)| {
-            let t = sim.truth.get(n)?;
-            Some((n.clone(), (est.values[i] - t) / est.cov[(i, i)].sqrt()))
-        })
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+    let worst = workspace_tests::operating::worst_base_error(&c.estimate, &sim.truth);
     println!("seed {seed}: worst base error {worst:?}");
     (c, worst.map_or(0.0, |w| w.1.abs()))
 }

@@ -410,8 +410,8 @@ impl<'a> Pass<'a> {
         }
         let last = self.j == self.settings.n_steps;
         let sched = &self.engine.schedule;
-        if let Some(gate) = &mut self.rest_gate {
-            if sched.in_accel_window_at(phase) && !gate.step_at_rest(rec.t, self.settings.dt) {
+        if self.rest_gate.is_some() {
+            if sched.in_accel_window_at(phase) && !at_rest {
                 self.window_at_rest = false;
             }
             if (sched.accel_due_at(phase) || last) && !self.window_at_rest {
