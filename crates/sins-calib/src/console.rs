@@ -486,6 +486,22 @@ fn evaluation(f: &FreeMotionFigures) -> String {
             v.fitted_motion_rms_deg,
             v.fitted_motions
         );
+        if let Some((held_out, fitted)) = v.baseline_static_rms_m_s2 {
+            let _ = writeln!(
+                s,
+                "  least-squares baseline  static |f| - g RMS {held_out:.5} m/s^2 held out, \
+                 {fitted:.5} m/s^2 fitted (the nine accelerometer parameters fitted to |f| = g \
+                 at the same rests alone; held-out ratio of this calibration to it {:.2})",
+                v.static_rms_m_s2.1 / held_out
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "  least-squares baseline  not fitted: {} fitted rests for its nine parameters \
+                 (it needs more than nine)",
+                f.fitted_rests
+            );
+        }
     }
     s
 }

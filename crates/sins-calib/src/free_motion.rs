@@ -486,6 +486,9 @@ pub struct ValidationFigures {
     pub fitted_motion_rms_deg: f64,
     /// See `fitted_motion_rms_deg`.
     pub fitted_motions: usize,
+    /// The least-squares `|f| = g` baseline on the same split: held-out and fitted `|f| - g`
+    /// RMS (m/s^2).
+    pub baseline_static_rms_m_s2: Option<(f64, f64)>,
 }
 
 /// The figures of a hand-turned run's result `r` with its `setup`, hold-out and known turns'
@@ -536,6 +539,9 @@ pub fn figures(
             held_out_motions: v.held_out_motions,
             fitted_motion_rms_deg: v.fitted_motion_rms_rad.to_degrees(),
             fitted_motions: v.fitted_motions,
+            baseline_static_rms_m_s2: evaluation
+                .baseline
+                .map(|b| (b.held_out_static_rms_m_s2, b.fitted_static_rms_m_s2)),
         }),
     })
 }

@@ -258,6 +258,15 @@ struct ValidationJson {
     held_out_motions: usize,
     fitted_motion_rms_deg: f64,
     fitted_motions: usize,
+    /// The least-squares `|f| = g` baseline's `|f| - g` RMS on the same split (m/s^2).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    baseline: Option<BaselineJson>,
+}
+
+#[derive(Serialize)]
+struct BaselineJson {
+    held_out_static_rms_m_s2: f64,
+    fitted_static_rms_m_s2: f64,
 }
 
 fn before_after((before, after): (f64, f64)) -> BeforeAfter {
@@ -322,6 +331,12 @@ fn free_motion(f: &FreeMotionFigures) -> FreeMotionJson {
             held_out_motions: v.held_out_motions,
             fitted_motion_rms_deg: v.fitted_motion_rms_deg,
             fitted_motions: v.fitted_motions,
+            baseline: v
+                .baseline_static_rms_m_s2
+                .map(|(held_out, fitted)| BaselineJson {
+                    held_out_static_rms_m_s2: held_out,
+                    fitted_static_rms_m_s2: fitted,
+                }),
         }),
     }
 }

@@ -767,7 +767,7 @@ pub fn calibrate(
         }));
     }
     let stamps = rest_stamps(imu, rests, turns)?;
-    crate::motion::free_motion::check_poses(imu, &stamps, rests, holdout)
+    let fitted_means = crate::motion::free_motion::check_poses(imu, &stamps, rests, holdout)
         .map_err(|e| refused(e, crate::motion::rests::RestError::Poses, &refuse))?;
     let mut config = config.clone();
     config.filter.hold_out_every = holdout;
@@ -790,7 +790,7 @@ pub fn calibrate(
     let evaluation_error = crate::motion::rests::RestError::Evaluation;
     let correction = crate::model::correction::Correction::of_result(&estimate.to_result_file())
         .map_err(|e| refuse(evaluation_error(e.to_string())))?;
-    let evaluation = crate::motion::free_motion::evaluate(
+    let mut evaluation = crate::motion::free_motion::evaluate(
         imu,
         &stamps,
         rests,
@@ -801,6 +801,19 @@ pub fn calibrate(
         &correction,
     )
     .map_err(|e| refused(e, evaluation_error, &refuse))?;
+    if holdout.is_some() && fitted_means.len() > crate::motion::free_motion::BASELINE_PARAMETERS {
+        // The simplest estimate from the same rests, judged on the same held-out ones
+        // (`docs/real-data.md`, "Against the least-squares baseline").
+        let baseline = crate::motion::free_motion::accel_baseline_of_means(&fitted_means, g)
+            .map_err(|e| refused(e, evaluation_error, &refuse))?;
+        let rms = |held| baseline.static_rms_m_s2(&evaluation.poses, held, g);
+        if let (Some(held_out), Some(fitted)) = (rms(true), rms(false)) {
+            evaluation.baseline = Some(crate::motion::free_motion::BaselineFigures {
+                held_out_static_rms_m_s2: held_out,
+                fitted_static_rms_m_s2: fitted,
+            });
+        }
+    }
     Ok(crate::estimate::calibration::Calibration::new(
         estimate,
         config,

@@ -582,6 +582,11 @@ pub fn hand_turned_tests(
     evaluation: Option<&Evaluation>,
 ) -> Vec<VerdictTest> {
     let mut out = scatter_tests(noise);
+    let bias_sigma = ["x", "y", "z"]
+        .iter()
+        .filter_map(|a| est.sigma(&format!("accel.bias.{a}")))
+        .fold(0.0, f64::max);
+    out.extend(evaluation.and_then(|e| trend_test(&e.poses, bias_sigma)));
     let Some(v) = evaluation.and_then(|e| e.validation) else {
         return out;
     };
@@ -706,6 +711,93 @@ fn predictive_test(
             }
         ),
     })
+}
+
+/// How many of the accelerometer biases' sigmas a significant drift must reach over the
+/// recording to decide ([`trend_test`]): the verdict's rule for a called term, which decides
+/// where it moves a base parameter by this many sigmas.
+pub const TREND_MATERIAL_SIGMAS: f64 = 3.0;
+
+/// Fewest rests on which [`trend_test`] looks for a drift.
+pub const TREND_MIN_RESTS: usize = 8;
+
+/// A drift of the calibrated rests' `|f| - g` with time (every rest, fitted and held out,
+/// against the middle of its interval): the least-squares line's slope against the scatter
+/// about it (Student's t with `n - 2` degrees of freedom, two-sided, at [`EXCESS_LEVEL`] / 2
+/// like each held-out test). The model's accelerometer parameters depend on the pose, not on
+/// the time, so a slope the scatter cannot explain is an error that grows with time: a warming
+/// unit's bias or scale factor (the thermal terms, with a temperature record), or a bias walk.
+/// It decides where it is material too: the drift over the rests' span is at least
+/// [`TREND_MATERIAL_SIGMAS`] times `bias_sigma` (the accelerometer biases' largest posterior
+/// sigma, m/s^2), which the drift then moves by about its size; a smaller significant drift is
+/// a finding. `None` for fewer than [`TREND_MIN_RESTS`] rests.
+pub fn trend_test(
+    poses: &[crate::motion::free_motion::PoseResidual],
+    bias_sigma: f64,
+) -> Option<VerdictTest> {
+    let n = poses.len();
+    if n < TREND_MIN_RESTS {
+        return None;
+    }
+    let t: Vec<f64> = poses
+        .iter()
+        .map(|p| 0.5 * (p.rest.t0 + p.rest.t1))
+        .collect();
+    let y: Vec<f64> = poses.iter().map(|p| p.after_m_s2).collect();
+    let nf = n as f64;
+    let (mt, my) = (t.iter().sum::<f64>() / nf, y.iter().sum::<f64>() / nf);
+    let stt: f64 = t.iter().map(|a| (a - mt).powi(2)).sum();
+    let sty: f64 = t.iter().zip(&y).map(|(a, b)| (a - mt) * (b - my)).sum();
+    let syy: f64 = y.iter().map(|b| (b - my).powi(2)).sum();
+    if stt <= 0.0 || syy <= 0.0 {
+        return None;
+    }
+    let slope = sty / stt;
+    let explained = slope * sty;
+    let dof = nf - 2.0;
+    let scatter = ((syy - explained).max(0.0) / dof).max(f64::MIN_POSITIVE);
+    let t_stat = slope / (scatter / stt).sqrt();
+    let p = students_t_two_sided(t_stat, dof);
+    let significant = p < EXCESS_LEVEL / 2.0;
+    let share = explained / syy;
+    let per_hour = slope * 3600.0;
+    let span_h = (t[n - 1] - t[0]) / 3600.0;
+    let drift = (per_hour * span_h).abs();
+    let material = drift >= TREND_MATERIAL_SIGMAS * bias_sigma;
+    Some(VerdictTest {
+        name: "trend",
+        statistic: t_stat,
+        p_value: p,
+        decides: significant && material,
+        fails: significant,
+        line: format!(
+            "trend of the calibrated rests' |f| - g with time: {per_hour:+.3e} m/s^2 an hour \
+             ({:+.2e} m/s^2 over the {n} rests' {:.2} h, {:.1} times the accelerometer \
+             biases' sigma; {:.0} % of the rests' variance), t = {t_stat:.2} with {dof:.0} \
+             dof (p = {p:.2e}){}",
+            per_hour * span_h,
+            span_h,
+            drift / bias_sigma.max(f64::MIN_POSITIVE),
+            100.0 * share,
+            match (significant, material) {
+                (true, true) => {
+                    ": the residuals drift with time, which no pose-dependent parameter makes \
+                     (a warming unit: record the temperature and carry accel_temp_scale or \
+                     accel_temp_bias, or let it settle; a bias walk)"
+                }
+                (true, false) => {
+                    ": a drift smaller than the accelerometer biases' uncertainty can show"
+                }
+                _ => "",
+            }
+        ),
+    })
+}
+
+/// `P(|T| > |t|)` for Student's t with `dof` degrees of freedom.
+fn students_t_two_sided(t: f64, dof: f64) -> f64 {
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    StudentsT::new(0.0, 1.0, dof).map_or(f64::NAN, |d| 2.0 * d.sf(t.abs()))
 }
 
 /// `P(F > x)` for an F distribution with `d1` and `d2` degrees of freedom.

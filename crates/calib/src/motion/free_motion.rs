@@ -231,13 +231,14 @@ fn pose_stat(inc: &Increments, records: &Range<usize>) -> PoseStat {
 /// fewer than three fitted rests (every `holdout`-th held out, [`held_out`]), or fitted rests
 /// whose specific force points in fewer than three directions [`MIN_POSE_SEPARATION_DEG`]
 /// apart.
-/// One reading of `imu` (records stamped `t`) for the fitted rests' mean specific forces.
+/// One reading of `imu` (records stamped `t`) for the fitted rests' mean specific forces, which
+/// it returns (raw, m/s^2, in order; rests with fewer than two records left out).
 pub fn check_poses(
     imu: &mut dyn ImuSource,
     t: &dyn Stamps,
     rests: &[Rest],
     holdout: Option<usize>,
-) -> Result<(), FreeMotionError> {
+) -> Result<Vec<Vector3<f64>>, FreeMotionError> {
     let ranges: Vec<Range<usize>> = poses_of(t, rests)
         .iter()
         .filter(|p| !held_out(p.index, holdout))
@@ -260,7 +261,7 @@ pub fn check_poses(
             directions,
         });
     }
-    Ok(())
+    Ok(fitted)
 }
 
 /// Two rests count as different poses when their specific forces differ in direction by at
@@ -320,6 +321,12 @@ pub enum FreeMotionError {
         /// Distinct directions among them.
         directions: usize,
     },
+    /// Too few rests for the least-squares baseline's nine parameters ([`accel_baseline`]).
+    #[error(
+        "{0} static intervals in the fit: the least-squares |f| = g baseline needs more than \
+         its nine parameters"
+    )]
+    TooFewForBaseline(usize),
     /// Rests out of order.
     #[error("static interval {0} is out of order")]
     BadInterval(usize),
@@ -454,6 +461,116 @@ pub fn coarse_fit(
         parameters,
         fit: joint.fit,
     })
+}
+
+/// Index of the accelerometer bias in the paper's 21 parameters (gyro bias 3, `Theta` 9 before
+/// it); `Gamma`'s six follow it.
+const ACCEL_BIAS_INDEX: usize = 12;
+
+/// The least-squares baseline's parameters: it is fitted only to more rests than these.
+pub const BASELINE_PARAMETERS: usize = 9;
+
+/// The simplest calibration of a recording of rests, what every estimate of this crate must
+/// beat: the accelerometers' nine parameters of the paper's model (biases and the
+/// lower-triangular `Gamma`: scale factors and non-orthogonality) fitted by plain least squares
+/// to `|f| = g` at the means of `rests` (every one with two records or more; a caller with a
+/// hold-out passes the fitted ones), every rest weighted alike and no prior. The gyros are left
+/// as they are (zero parameters). `Err` for [`BASELINE_PARAMETERS`] rests or fewer (the fit
+/// would pass through every one of them), or directions too few ([`check_poses`]).
+pub fn accel_baseline(
+    data: &ImuData,
+    rests: &[Rest],
+    gravity_m_s2: f64,
+) -> Result<AccelBaseline, FreeMotionError> {
+    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
+    let inc = Increments::new(data);
+    let means: Vec<Vector3<f64>> = poses_of(&t, rests)
+        .iter()
+        .map(|p| pose_stat(&inc, &p.records).f)
+        .collect();
+    accel_baseline_of_means(&means, gravity_m_s2)
+}
+
+/// [`accel_baseline`] of the rests' mean specific forces `means` (raw, m/s^2; what
+/// [`check_poses`] returns). A consumer unit's per-cent errors converge from zero in a few
+/// Gauss-Newton iterations.
+pub fn accel_baseline_of_means(
+    means: &[Vector3<f64>],
+    gravity_m_s2: f64,
+) -> Result<AccelBaseline, FreeMotionError> {
+    if !(gravity_m_s2.is_finite() && gravity_m_s2 > 0.0) {
+        return Err(FreeMotionError::BadGravity(gravity_m_s2));
+    }
+    if means.len() <= BASELINE_PARAMETERS {
+        return Err(FreeMotionError::TooFewForBaseline(means.len()));
+    }
+    let directions = distinct_directions(means.iter().copied());
+    if directions < 3 {
+        return Err(FreeMotionError::TooFewDirections {
+            intervals: means.len(),
+            directions,
+        });
+    }
+    // Plain least squares in [`gauss_newton`]'s normalised form: residuals over a common
+    // 1e-4 m/s^2 and parameters over a prior sigma of 1 (m/s^2 and dimensionless), whose
+    // weight in the normal matrix is about 1e-10 of the data's: no prior in effect.
+    const RESIDUAL_UNIT_M_S2: f64 = 1e-4;
+    let paper = |x: &[f64]| {
+        let mut p = [0.0; 21];
+        p[ACCEL_BIAS_INDEX..].copy_from_slice(x);
+        paper_correction(&p)
+    };
+    let fit = gauss_newton(9, &|x: &[f64]| {
+        let cal = paper(x);
+        means
+            .iter()
+            .map(|f| (cal.linear_accel(f).norm() - gravity_m_s2) / RESIDUAL_UNIT_M_S2)
+            .collect()
+    });
+    let mut parameters = [0.0; 9];
+    parameters.copy_from_slice(fit.x.as_slice());
+    Ok(AccelBaseline {
+        parameters,
+        correction: paper(fit.x.as_slice()),
+    })
+}
+
+/// The least-squares `|f| = g` fit of [`accel_baseline`].
+#[derive(Clone, Debug)]
+pub struct AccelBaseline {
+    /// The accelerometer bias (m/s^2) and `Gamma` (in [`sins_model::terms::GAMMA_INDEX`]
+    /// order), the paper's parameters 13-21.
+    pub parameters: [f64; 9],
+    /// The correction they make ([`Correction::paper`], the gyros left as they are).
+    pub correction: Correction,
+}
+
+impl AccelBaseline {
+    /// RMS of `|f| - g` over the rests of `poses` that `held` selects, each rest's raw mean
+    /// corrected by the baseline (its correction is affine in `f`: the corrected mean is the
+    /// mean corrected); `None` where none is selected.
+    pub fn static_rms_m_s2(
+        &self,
+        poses: &[PoseResidual],
+        held: bool,
+        gravity_m_s2: f64,
+    ) -> Option<f64> {
+        let e: Vec<f64> = poses
+            .iter()
+            .filter(|p| p.held_out == held)
+            .map(|p| self.correction.linear_accel(&p.raw_mean_f_m_s2).norm() - gravity_m_s2)
+            .collect();
+        (!e.is_empty()).then(|| (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt())
+    }
+}
+
+/// The least-squares baseline's figures beside a calibration's ([`Evaluation::baseline`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaselineFigures {
+    /// RMS of `|f| - g` over the held-out rests (m/s^2).
+    pub held_out_static_rms_m_s2: f64,
+    /// The same over the fitted rests (m/s^2).
+    pub fitted_static_rms_m_s2: f64,
 }
 
 /// The correction of the paper's parameters `p` ([`Correction::paper`]); none (the raw data)
@@ -613,6 +730,8 @@ pub struct PoseResidual {
     pub before_m_s2: f64,
     /// `|f| - g` of the calibrated mean (m/s^2).
     pub after_m_s2: f64,
+    /// The uncalibrated mean specific force (m/s^2).
+    pub raw_mean_f_m_s2: Vector3<f64>,
 }
 
 /// A known turn, before and after calibration.
@@ -736,6 +855,10 @@ pub struct Evaluation {
     pub turns: Vec<TurnCheck>,
     /// Held-out validation, with a hold-out.
     pub validation: Option<Validation>,
+    /// The least-squares `|f| = g` baseline ([`accel_baseline`]) fitted to the same rests,
+    /// judged on the same held-out ones: what the calibration must not lose to (set by the
+    /// caller that fitted it; `None` without a hold-out).
+    pub baseline: Option<BaselineFigures>,
 }
 
 /// [`Evaluation`] of a calibration: its `correction` (the one `apply` applies,
@@ -770,6 +893,7 @@ pub fn evaluate(
             rest: poses[i].rest,
             held_out: held[i],
             before_m_s2: read.raw_f[i].norm() - gravity_m_s2,
+            raw_mean_f_m_s2: read.raw_f[i],
             after_m_s2: read.cal[i].f.norm() - gravity_m_s2,
         })
         .collect();
@@ -788,6 +912,7 @@ pub fn evaluate(
         poses: residuals,
         turns,
         validation,
+        baseline: None,
     })
 }
 
