@@ -705,6 +705,7 @@ mod tests {
                     held_out: k % 4 == 3,
                     before_m_s2: if k == 9 { 13.0 } else { v },
                     after_m_s2: 0.01 * v,
+                    raw_mean_f_m_s2: nalgebra::Vector3::new(0.0, 0.0, 9.81 + v),
                 }
             })
             .collect();
