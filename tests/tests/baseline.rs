@@ -102,6 +102,8 @@ pub struct Comparison {
     pub reported_baseline: Option<calib::motion::free_motion::BaselineFigures>,
     /// See `reported_baseline`.
     pub verdict: calib::estimate::verdict::RunVerdict,
+    /// The error the rests' windows share, as the calibration measured it (m/s^2).
+    pub rest_error_m_s2: f64,
 }
 
 /// The paper's accelerometer parameters in the baseline's order.
@@ -191,6 +193,7 @@ pub fn compare_on(
         baseline_accel: fit.parameters,
         z2: (0.0, 0.0),
         reported_baseline: c.evaluation.as_ref().and_then(|e| e.baseline),
+        rest_error_m_s2: c.config.filter.rest_error_m_s2,
         verdict: c.verdict,
     }
 }
@@ -202,9 +205,52 @@ pub fn simulated(grade: Grade, seed: u64, poses: usize) -> Comparison {
 
 /// [`simulated`], judged on the noisy recording or on the same without noise.
 pub fn simulated_judged(grade: Grade, seed: u64, poses: usize, noisy: bool) -> Comparison {
+    simulated_with_rest_error(grade, seed, poses, noisy, 0.0)
+}
+
+/// Add to every record of each rest of `rests` one offset of the specific force drawn for
+/// that rest (normal, `sigma_m_s2` per axis; seeded with `seed`): an error the windows of one
+/// rest share (a mount not the same twice, settling).
+pub fn add_rest_error(imu: &mut ImuData, rests: &[Rest], sigma_m_s2: f64, seed: u64) {
+    use rand_distr::{Distribution, StandardNormal};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut previous_t: Option<f64> = None;
+    let offsets: Vec<[f64; 3]> = rests
+        .iter()
+        .map(|_| {
+            let mut o = [0.0; 3];
+            for v in &mut o {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                *v = sigma_m_s2 * z;
+            }
+            o
+        })
+        .collect();
+    for r in &mut imu.records {
+        let dt = previous_t.map_or(0.0, |p| r.t - p);
+        previous_t = Some(r.t);
+        if let Some(k) = rests.iter().position(|x| x.t0 < r.t && r.t <= x.t1) {
+            for (a, o) in r.accel.iter_mut().zip(offsets[k]) {
+                *a += o * dt;
+            }
+        }
+    }
+}
+
+/// [`simulated_judged`] with an error of `rest_error_m_s2` shared by each rest's records
+/// ([`add_rest_error`]) in the fitted recording and in the judged one alike.
+pub fn simulated_with_rest_error(
+    grade: Grade,
+    seed: u64,
+    poses: usize,
+    noisy: bool,
+    rest_error_m_s2: f64,
+) -> Comparison {
     let truth = truth(grade, seed, poses);
     let sim = calib::simulate::simulate_run(&truth, "random poses").unwrap();
-    let imu = ImuData::from_samples(&sim.imu);
+    let mut imu = ImuData::from_samples(&sim.imu);
+    let rests_of_truth = crate::rests::rests(&truth);
+    add_rest_error(&mut imu, &rests_of_truth, rest_error_m_s2, seed);
     let rests = crate::rests::rests(&truth);
     assert_eq!(rests.len(), poses);
     let mut quiet = truth.clone();
@@ -244,11 +290,12 @@ fn explain_one() {
 fn simulated_report(grade: Grade, seed: u64, poses: usize, c: Comparison) -> Comparison {
     println!(
         "{grade:?} seed {seed}, {poses} poses: held-out static filter {:.6} baseline {:.6} m/s^2 \
-         (ratio {:.3}); held-out rotation filter {:.4} deg",
+         (ratio {:.3}); held-out rotation filter {:.4} deg; rest error measured {:.2e} m/s^2",
         c.filter.static_rms_after_m_s2,
         c.baseline.static_rms_after_m_s2,
         c.static_ratio(),
         c.filter.rotation_rms_after_rad.to_degrees(),
+        c.rest_error_m_s2,
     );
     c
 }
@@ -278,15 +325,27 @@ fn survey_filter_against_baseline() {
 #[test]
 #[ignore]
 fn many_seeds() {
+    many_seeds_with(0.0);
+}
+
+#[test]
+#[ignore]
+fn many_seeds_with_rest_error() {
+    many_seeds_with(1e-3);
+}
+
+fn many_seeds_with(rest_error_m_s2: f64) {
     for grade in [Grade::Consumer, Grade::Tactical, Grade::Navigation] {
         let mut ratios = Vec::new();
         let mut filt = 0.0;
         let mut base = 0.0;
         let mut z2 = (0.0, 0.0);
         let (mut trend_fails, mut trend_decides) = (0, 0);
+        let mut rest_error = 0.0;
         for seed in 5000..5060 {
             let poses = 20 + (seed as usize % 31);
-            let c = simulated_judged(grade, seed, poses, false);
+            let c = simulated_with_rest_error(grade, seed, poses, false, rest_error_m_s2);
+            rest_error += c.rest_error_m_s2.powi(2) / 60.0;
             ratios.push(c.static_ratio());
             let trend = c.verdict.tests.iter().find(|t| t.name == "trend").unwrap();
             trend_fails += trend.fails as usize;
@@ -299,6 +358,10 @@ fn many_seeds() {
         let n = ratios.len() as f64;
         let worse = ratios.iter().filter(|r| **r > 1.05).count();
         let mean_log = ratios.iter().map(|r| r.ln()).sum::<f64>() / n;
+        println!(
+            "SUMMARY {grade:?}: rest error measured, RMS {:.2e} m/s^2 (truth {rest_error_m_s2:.1e})",
+            rest_error.sqrt()
+        );
         println!(
             "SUMMARY {grade:?}: trend significant {trend_fails}/60, decisive {trend_decides}/60"
         );
@@ -336,6 +399,33 @@ fn pooled_over_recordings_the_filter_is_not_worse_than_the_baseline() {
         }
         let ratio = (filter / baseline).sqrt();
         println!("{grade:?}: pooled held-out static RMS, filter over baseline {ratio:.3}");
+        assert!(ratio <= 1.05, "{grade:?}: {ratio}");
+    }
+}
+
+/// An error each rest's windows share (1e-3 m/s^2 per axis, what a hand-placed consumer unit's
+/// rests show beyond their noise), six recordings of each grade (seeds 4211-4216, fixed before
+/// the runs): the calibration measures it (the RMS of its estimates within 30 % of the truth)
+/// and, weighing each rest as one measurement of it at most, loses nothing to the baseline
+/// pooled over the recordings (within 5 %).
+#[test]
+fn an_error_shared_by_each_rest_is_measured_and_weighed() {
+    for grade in [Grade::Consumer, Grade::Tactical, Grade::Navigation] {
+        let (mut filter, mut baseline, mut measured) = (0.0, 0.0, 0.0);
+        for seed in 4211..=4216u64 {
+            let poses = 20 + 5 * (seed - 4211) as usize;
+            let c = simulated_with_rest_error(grade, seed, poses, true, 1e-3);
+            measured += c.rest_error_m_s2.powi(2) / 6.0;
+            filter += c.filter.static_rms_after_m_s2.powi(2);
+            baseline += c.baseline.static_rms_after_m_s2.powi(2);
+        }
+        let ratio = (filter / baseline).sqrt();
+        let measured = measured.sqrt();
+        println!("{grade:?}: rest error measured {measured:.2e}; filter over baseline {ratio:.3}");
+        assert!(
+            (measured / 1e-3 - 1.0).abs() <= 0.3,
+            "{grade:?}: {measured}"
+        );
         assert!(ratio <= 1.05, "{grade:?}: {ratio}");
     }
 }

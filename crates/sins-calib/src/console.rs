@@ -207,6 +207,15 @@ fn free_motion_header(f: &FreeMotionFigures) -> String {
          in a hand turn; filter.motion_attitude_noise_deg)",
         table::significant(f.motion_attitude_noise_deg, 3)
     );
+    if f.rest_error_m_s2 > 0.0 {
+        let _ = writeln!(
+            s,
+            "  rests' error    {} m/s^2 shared by the windows of each rest, beyond the white \
+             noise (what the rests' |f| = g residuals scatter beyond their noise; \
+             filter.rest_error_m_s2): a long rest weighs at most one measurement of it",
+            table::significant(f.rest_error_m_s2, 3)
+        );
+    }
     let _ = writeln!(
         s,
         "  gravity         {} m/s^2",

@@ -392,6 +392,8 @@ pub struct FreeMotionFigures {
     pub noise_accel_m_s2: f64,
     /// The attitude noise of a motion (deg).
     pub motion_attitude_noise_deg: f64,
+    /// The error the windows of one rest share (m/s^2, `filter.rest_error_m_s2`).
+    pub rest_error_m_s2: f64,
     /// Normal gravity at the site (m/s^2).
     pub gravity_m_s2: f64,
     /// The rests as static intervals.
@@ -513,6 +515,7 @@ pub fn figures(
         noise_gyro_deg_h: c.noise.gyro_deg_h,
         noise_accel_m_s2: c.noise.accel_m_s2,
         motion_attitude_noise_deg: c.filter.motion_attitude_noise_deg,
+        rest_error_m_s2: c.filter.rest_error_m_s2,
         gravity_m_s2: r.estimate.gravity_m_s2,
         static_intervals: r.estimate.rests.len(),
         holdout,

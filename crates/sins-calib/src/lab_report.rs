@@ -226,11 +226,19 @@ fn noise_md(f: &FreeMotionFigures) -> String {
             );
         }
     }
-    let _ = writeln!(
+    let _ = write!(
         s,
-        "; {} deg of attitude noise per motion.\n",
+        "; {} deg of attitude noise per motion",
         table::significant(f.motion_attitude_noise_deg, 3)
     );
+    if f.rest_error_m_s2 > 0.0 {
+        let _ = write!(
+            s,
+            "; {} m/s^2 of specific-force error shared by the windows of each rest",
+            table::significant(f.rest_error_m_s2, 3)
+        );
+    }
+    let _ = writeln!(s, ".\n");
     s
 }
 

@@ -189,6 +189,8 @@ struct FreeMotionJson {
     noise_gyro_deg_h: f64,
     noise_accel_m_s2: f64,
     motion_attitude_noise_deg: f64,
+    /// The error the windows of one rest share (m/s^2; 0: none).
+    rest_error_m_s2: f64,
     /// Measured noise: the rests' scatter and the factor on its specific-force level.
     #[serde(skip_serializing_if = "Option::is_none")]
     measured: Option<MeasuredJson>,
@@ -297,6 +299,7 @@ fn free_motion(f: &FreeMotionFigures) -> FreeMotionJson {
         noise_gyro_deg_h: f.noise_gyro_deg_h,
         noise_accel_m_s2: f.noise_accel_m_s2,
         motion_attitude_noise_deg: f.motion_attitude_noise_deg,
+        rest_error_m_s2: f.rest_error_m_s2,
         measured,
         gravity_m_s2: f.gravity_m_s2,
         static_intervals: f.static_intervals,

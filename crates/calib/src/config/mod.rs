@@ -154,6 +154,11 @@ mod values {
         in_range(d, 0.0, 180.0, "an attitude noise in 0 .. 180 deg")
     }
 
+    /// A rest's shared specific-force error: 0 .. 1 m/s^2.
+    pub fn rest_error_m_s2<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        in_range(d, 0.0, 1.0, "a specific-force error in 0 .. 1 m/s^2")
+    }
+
     /// The IMU time at which the program starts, within +-[`super::PROGRAM_START_MAX_S`].
     pub fn program_start_s<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
         in_range(
@@ -366,6 +371,20 @@ pub struct FilterConfig {
     /// innovations ([`crate::estimate::hand_turned`]); no effect on a program.
     #[serde(default, deserialize_with = "values::attitude_noise_deg")]
     pub motion_attitude_noise_deg: f64,
+    /// A recording of rests: the error every specific-force window of one rest shares (m/s^2,
+    /// one sigma per axis; absent: 0), beyond the white noise that averages down with the
+    /// rest's length: a hand-placed unit settles, its mount is not the same twice, a slow
+    /// drift moves from one rest to the next. The windows of a rest then carry at most the
+    /// information of one measurement of this sigma, so a long rest no longer outweighs short
+    /// ones by its length alone. `calibrate --free-motion` measures it from the rests'
+    /// least-squares `|f| = g` residuals ([`crate::estimate::hand_turned`]); no effect on a
+    /// program.
+    #[serde(
+        default,
+        deserialize_with = "values::rest_error_m_s2",
+        skip_serializing_if = "is_zero"
+    )]
+    pub rest_error_m_s2: f64,
     /// Hold out the measurements of every `k`-th segment that has measurements (the program's
     /// segments; the rests of a recording without a program), counted from 1 so the first is
     /// never held out: each is evaluated as a prediction (its innovation and innovation

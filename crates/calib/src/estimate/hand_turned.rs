@@ -304,6 +304,58 @@ pub fn default_config(
     Some(c)
 }
 
+/// The error the specific-force windows of one rest share (m/s^2, `filter.rest_error_m_s2`),
+/// measured from the rests fitted in `config`'s hold-out: the `|f| = g` fit of the
+/// accelerometers' nine parameters at `config`'s priors
+/// ([`crate::motion::free_motion::accel_fit_at_priors`]) leaves residuals `e_i`; each rest's
+/// mean has the white noise `sigma^2 / T_i` of its `T_i` seconds (`at_rest`'s 1-s level); what
+/// the residuals scatter beyond that is the shared error,
+/// `sum e_i^2 / (n - r) - mean(sigma^2 / T_i)` with `r` the parameters the rests determine
+/// (the fit's effective number, at most nine; a variance-components estimate; 0 where the
+/// noise explains it all, or where the rests are too few for the fit,
+/// [`crate::motion::free_motion::BASELINE_PARAMETERS`] or fewer).
+pub fn rest_error_m_s2(
+    config: &RunConfig,
+    imu: &mut dyn ImuSource,
+    rests: &[Rest],
+    at_rest: &WhiteNoiseAtRest,
+) -> Result<f64, crate::estimate::EstimateError> {
+    use crate::motion::free_motion::{BASELINE_PARAMETERS, accel_fit_at_priors, check_poses};
+    let holdout = config.filter.hold_out_every;
+    let fitted: Vec<Rest> = rests
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !crate::motion::rests::held_out(*i, holdout))
+        .map(|(_, r)| *r)
+        .collect();
+    if fitted.len() <= BASELINE_PARAMETERS {
+        return Ok(0.0);
+    }
+    let stamps = rest_stamps(imu, &fitted, &[])?;
+    let file = imu.file().to_string();
+    let refuse =
+        |e: crate::motion::free_motion::FreeMotionError| crate::estimate::EstimateError::Rests {
+            file: file.clone(),
+            source: crate::motion::rests::RestError::Evaluation(e.to_string()),
+        };
+    let means = check_poses(imu, &stamps, &fitted, None).map_err(refuse)?;
+    if means.len() != fitted.len() {
+        // A rest of fewer than two records: its duration is not its mean's.
+        return Ok(0.0);
+    }
+    let g = config.site().normal_gravity();
+    let white: Vec<f64> = fitted
+        .iter()
+        .map(|r| at_rest.accel_m_s2 / (r.t1 - r.t0).max(f64::MIN_POSITIVE).sqrt())
+        .collect();
+    let (residuals, determined) = accel_fit_at_priors(&means, &white, g, &config.priors_si());
+    let n = means.len() as f64;
+    let sum_e2: f64 = residuals.iter().map(|e| e * e).sum();
+    let mean_white = white.iter().map(|w| w * w).sum::<f64>() / n;
+    let shared = sum_e2 / (n - determined).max(1.0) - mean_white;
+    Ok(shared.max(0.0).sqrt())
+}
+
 /// The largest motion noise the fit measures (rad, 5.7 deg): a hand turn that leaves the
 /// attitude more uncertain than this carries nothing from one rest to the next, and a model
 /// that calls for more misses something a noise cannot stand for.
@@ -604,6 +656,11 @@ pub(crate) fn fit_measuring_noise(
     // the fits share (only their noise differs): found once, not at every fit.
     let (imu, rests, turns) = (input.imu, input.rests, input.turns);
     let coarse = crate::estimate::coarse_start_at_rests(config, layout, imu, rests, turns)?;
+    let mut config = config.clone();
+    if let Some(at_rest) = measured.filter(|_| config.filter.rest_error_m_s2 == 0.0) {
+        config.filter.rest_error_m_s2 = rest_error_m_s2(&config, imu, rests, &at_rest)?;
+    }
+    let config = &config;
     loop {
         let mut config = config.clone();
         levels.apply(&mut config, base_accel);

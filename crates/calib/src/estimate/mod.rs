@@ -1713,6 +1713,8 @@ fn pass_settings(inp: &PassInputs, kind: ImuKind, feedback: Feedback) -> PassSet
         n_steps: inp.scan.n,
         own_intervals: matches!(inp.motion, Motion::Rests { .. }),
         motion_attitude_noise_rad: config.filter.motion_attitude_noise_deg.to_radians(),
+        rest_error_var: config.filter.rest_error_m_s2.powi(2),
+        accel_rate_hz: config.filter.accel_rate_hz,
         temp_reference_c: inp.scan.temperature(config).map(|t| t.reference_c),
     }
 }

@@ -211,6 +211,12 @@ pub(super) struct PassSettings {
     /// White noise added to each attitude-error axis at the first measurement after a motion
     /// (a recording of rests; rad).
     pub motion_attitude_noise_rad: f64,
+    /// The variance every specific-force window of one rest shares ((m/s^2)^2 per axis;
+    /// `filter.rest_error_m_s2` squared), and the measurement rate (Hz): a window of a rest of
+    /// `m` windows is weighted as one of white noise plus `m` times it ([`Pass::step`]).
+    pub rest_error_var: f64,
+    /// See `rest_error_var`.
+    pub accel_rate_hz: f64,
     /// The reference temperature of the thermal terms (deg C), when the records have a
     /// temperature: each record's departure from it is the terms' input.
     pub temp_reference_c: Option<f64>,
@@ -464,14 +470,28 @@ impl<'a> Pass<'a> {
                     })?;
             }
         }
-        let report = self
-            .engine
-            .measurement_instant(self.layout, self.j, &self.settings.f_enu, last)
-            .map_err(|source| EstimateError::Filter {
-                t: rec.t,
-                line,
-                source,
-            })?;
+        // A rest's windows share an error of variance `v`: each of its `m` windows is weighted
+        // as white noise plus `m v` (the equicorrelated block's information on what all the
+        // windows see alike is that of the rest's mean with variance white / m + v).
+        let white_psd = self.engine.noise.accel_psd;
+        if self.settings.rest_error_var > 0.0
+            && let Some(rest) = self.rest_gate.as_ref().and_then(RestGate::current)
+        {
+            let windows = ((rest.t1 - rest.t0) * self.settings.accel_rate_hz)
+                .floor()
+                .max(1.0);
+            self.engine.noise.accel_psd +=
+                windows * self.settings.rest_error_var / self.settings.accel_rate_hz;
+        }
+        let report =
+            self.engine
+                .measurement_instant(self.layout, self.j, &self.settings.f_enu, last);
+        self.engine.noise.accel_psd = white_psd;
+        let report = report.map_err(|source| EstimateError::Filter {
+            t: rec.t,
+            line,
+            source,
+        })?;
         self.count(&report, rec.t);
         if let Some(k) = self.layout.tau {
             self.tau_sigma = self.engine.filter.std_dev(k);

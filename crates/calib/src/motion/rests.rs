@@ -335,6 +335,12 @@ impl RestGate {
             .get(self.next)
             .is_some_and(|r| r.t0 <= t - dt && t <= r.t1)
     }
+
+    /// The rest the last step asked about lay in, or else the next one (`None` after the
+    /// last).
+    pub fn current(&self) -> Option<&Rest> {
+        self.rests.get(self.next)
+    }
 }
 
 /// The start attitude levelled (and, where the gyros resolve it, gyrocompassed) in the first
