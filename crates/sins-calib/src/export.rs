@@ -357,7 +357,10 @@ fn read_noise(path: &Path, args: &Args, notes: &mut Vec<String>) -> Result<Noise
         &root,
         &file,
         "accel",
-        [("white_m_s2", "m/s^2"), ("bias_walk_m_s2_sqrt_s", "m/s^2/sqrt(s)")],
+        [
+            ("white_m_s2", "m/s^2"),
+            ("bias_walk_m_s2_sqrt_s", "m/s^2/sqrt(s)"),
+        ],
     )?;
     check_levels(&file, args, &gyro, &accel, notes)?;
     // deg/h at 1 Hz is deg/h * sqrt(s) = deg/h/sqrt(Hz); deg/h/sqrt(h) is deg/h / (60 sqrt(s)).
@@ -470,9 +473,8 @@ fn load_calibration(
         ));
     }
     crate::apply::check_compensation(&result, &file)?;
-    let c = Correction::of_result(&result).map_err(|e| {
-        format!("{file}: {e} (a result file of `calibrate --json` is expected)")
-    })?;
+    let c = Correction::of_result(&result)
+        .map_err(|e| format!("{file}: {e} (a result file of `calibrate --json` is expected)"))?;
     let dropped = dropped_terms(&c, args.to);
     if !dropped.is_empty() {
         if !args.drop_terms {

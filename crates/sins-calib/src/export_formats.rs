@@ -141,11 +141,7 @@ fn noise_lines(n: &NoiseFigures, indent: &str) -> String {
         );
     }
     let _ = writeln!(s, "{indent}rostopic: {}", yaml_string(&n.rostopic));
-    let _ = writeln!(
-        s,
-        "{indent}update_rate: {}  # Hz",
-        number(n.update_rate_hz)
-    );
+    let _ = writeln!(s, "{indent}update_rate: {}  # Hz", number(n.update_rate_hz));
     s
 }
 
@@ -238,9 +234,7 @@ pub(crate) fn openvins_intrinsics(
 pub(crate) fn openvins_yaml(n: &NoiseFigures, c: &OpenVinsIntrinsics, header: &str) -> String {
     let mut s = format!("%YAML:1.0\n{header}\nimu0:\n  T_i_b:\n");
     for i in 0..4 {
-        let row: Vec<&str> = (0..4)
-            .map(|j| if i == j { "1.0" } else { "0.0" })
-            .collect();
+        let row: Vec<&str> = (0..4).map(|j| if i == j { "1.0" } else { "0.0" }).collect();
         let _ = writeln!(s, "    - [{}]", row.join(", "));
     }
     s += &noise_lines(n, "  ");
@@ -327,7 +321,15 @@ mod tests {
     #[test]
     fn numbers_read_back_exactly_with_a_point() {
         for x in [
-            0.0, 1.0, -2.5, 1e-4, 9.999e-5, 1.234_567_890_123e-7, 3e12, -4.2e-20, 200.0,
+            0.0,
+            1.0,
+            -2.5,
+            1e-4,
+            9.999e-5,
+            1.234_567_890_123e-7,
+            3e12,
+            -4.2e-20,
+            200.0,
         ] {
             let s = number(x);
             assert_eq!(s.parse::<f64>().unwrap(), x, "{s}");
