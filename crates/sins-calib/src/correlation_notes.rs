@@ -41,6 +41,24 @@ fn cause(a: &str, b: &str) -> Option<String> {
              precisely than the angle sensors do"
         ));
     }
+    if a.starts_with("accel.gamma.") && b.starts_with("gyro.theta.") {
+        let (p, q): (Vec<char>, Vec<char>) =
+            (suffix(a).chars().collect(), suffix(b).chars().collect());
+        let same_pair = p.len() == 2 && q.len() == 2 && p[0] != p[1] && {
+            let (mut p, mut q) = (p.clone(), q.clone());
+            p.sort_unstable();
+            q.sort_unstable();
+            p == q
+        };
+        if same_pair && let Some(axis) = third_axis(suffix(a)) {
+            return Some(format!(
+                "the rests see gravity through the accelerometers and the attitude between \
+                 them is the gyros': a rotation of one triad against the other about {axis} \
+                 shows as either misalignment, and only the turntable's angles (or rests whose \
+                 turns differ in axis) tell which triad is turned"
+            ));
+        }
+    }
     if a.starts_with("gyro.theta.") && b.starts_with("gyro.theta.") {
         let (p, q): (Vec<char>, Vec<char>) =
             (suffix(a).chars().collect(), suffix(b).chars().collect());
@@ -146,6 +164,8 @@ mod tests {
         assert!(s.contains("about z"), "{s}");
         // theta.yz does not pair with delta.y by this cause.
         assert!(sentence("gyro.theta.yz", "install.delta.y", 0.95).contains("design"));
+        let s = sentence("gyro.theta.yz", "accel.gamma.zy", 0.999);
+        assert!(s.contains("one triad against the other about x"), "{s}");
     }
 
     #[test]
