@@ -164,7 +164,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
     write_all(&files, &texts)?;
     let mut report = format!("sins-calib export --to {}\n", target_name(args.to));
     for f in &files {
-        report += &format!("  wrote  {}\n", f.display());
+        if crate::output::is_stdout(f) {
+            report += "  wrote  the standard output\n";
+        } else {
+            report += &format!("  wrote  {}\n", f.display());
+        }
     }
     for n in &notes {
         report += &format!("  note   {n}\n");
@@ -452,7 +456,11 @@ fn load_calibration(
     notes: &mut Vec<String>,
 ) -> Result<Correction, Error> {
     let file = path.display().to_string();
-    let result = read_result_json(path)?;
+    let result = read_result_json(path).map_err(|e| {
+        format!(
+            "{e}: expected the JSON that `calibrate --json` writes (or a truth.json of `simulate`)"
+        )
+    })?;
     if let Some(v) = result.verdict.as_ref().filter(|v| !v.fits) {
         if !args.accept_misfit {
             return Err(format!(
