@@ -145,7 +145,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .as_deref()
         .map(|p| load_calibration(p, args, &mut notes))
         .transpose()?;
-    let header = header(args);
+    // The YAML files say in comments what was let through or left out (imu_tk's files hold
+    // numbers only: the report says it).
+    let header = header(args, &notes);
     let texts: Vec<String> = match (args.to, &noise, &calibration) {
         (Target::Kalibr, Some(n), _) => vec![fmt::kalibr_yaml(n, &header)],
         (Target::Openvins, Some(n), Some(c)) => {
@@ -159,7 +161,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
             vec![fmt::openvins_yaml(n, &i, &header)]
         }
         (Target::ImuTk, _, Some(c)) => imu_tk_of(c, &args.calibration_name())?,
-        _ => unreachable!("check_inputs requires the inputs of every target"),
+        // `check_inputs` requires the inputs of every target.
+        (to, _, _) => {
+            return Err(format!("--to {}: an input is missing", target_name(to)).into());
+        }
     };
     write_all(&files, &texts)?;
     let mut report = format!("sins-calib export --to {}\n", target_name(args.to));
@@ -214,8 +219,9 @@ fn write_all(files: &[PathBuf], texts: &[String]) -> Result<(), Error> {
     Ok(())
 }
 
-/// The comment lines at the top of a YAML file: what wrote it, from what, in which units.
-fn header(args: &Args) -> String {
+/// The comment lines at the top of a YAML file: what wrote it, from what, which axis, and
+/// `notes` (what was let through or left out).
+fn header(args: &Args, notes: &[String]) -> String {
     let mut h = format!(
         "# Written by sins-calib export --to {}",
         target_name(args.to)
@@ -228,6 +234,9 @@ fn header(args: &Args) -> String {
     }
     h += "\n# Each noise figure is the largest of the three axes (one figure per sensor: the \
           conservative one).\n";
+    for n in notes {
+        h += &format!("# Note: {}\n", n.replace(['\n', '\r'], " "));
+    }
     h
 }
 

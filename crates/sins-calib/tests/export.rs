@@ -461,6 +461,12 @@ fn refusals_name_the_cause_and_write_nothing() {
         s(&out),
         "--allow-unchecked",
     ]);
+    // The file itself says what was let through.
+    let written = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        written.contains("# Note: the levels of accel y failed their check"),
+        "{written}"
+    );
     std::fs::remove_file(&out).unwrap();
     let mut v = json_of(&noise);
     v["gyro"]["ml"][2]["gauss_markov"] = json!(true);
