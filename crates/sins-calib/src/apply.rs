@@ -251,7 +251,7 @@ fn check_interval(
 /// [`calib::config::plausible::MAX_COMPENSATION_CONDITION`]): inverting them would amplify the
 /// records' noise into nonsense. (Each entry is already within its physical bound, which
 /// keeps them well-conditioned; this is the check of what the correction inverts.)
-fn check_compensation(result: &calib::io::ResultFile, file: &str) -> Result<(), Error> {
+pub(crate) fn check_compensation(result: &calib::io::ResultFile, file: &str) -> Result<(), Error> {
     use calib::config::plausible::{MAX_COMPENSATION_CONDITION, condition_number};
     const AXES: [char; 3] = ['x', 'y', 'z'];
     for (prefix, sign, what) in [

@@ -168,6 +168,7 @@ fn write_outputs(
             base: None,
             extension: None,
             navigation: Some(&r.navigation),
+            correction: r.result.correction.as_ref(),
         };
         let plots = crate::lab_report::write(dir, &report)?;
         written.report = Some((dir.clone(), plots));

@@ -15,6 +15,8 @@ pub fn write(dir: &Path, d: &Diagnosis) -> Result<usize, Error> {
     let Some(lab) = &d.lab else {
         return Err("diagnose: the report's figures were not made".into());
     };
+    // The final model's correction, as `calibrate --json` would write it for that model.
+    let result_file = r.last.calibration.result_file();
     let report = Report {
         title: "Model diagnosis report",
         id: &lab.id,
@@ -37,6 +39,7 @@ pub fn write(dir: &Path, d: &Diagnosis) -> Result<usize, Error> {
         }),
         extension: Some(extension_md(d)),
         navigation: d.navigation.last().map(|m| &m.navigation),
+        correction: result_file.correction.as_ref(),
     };
     crate::lab_report::write(dir, &report)
 }

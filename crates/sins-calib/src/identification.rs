@@ -7,8 +7,9 @@ use calib::config::RunConfig;
 use std::path::{Path, PathBuf};
 
 /// Every file a report directory may hold (the names an earlier report may have left).
-pub const NAMES: [&str; 14] = [
+pub const NAMES: [&str; 15] = [
     "report.md",
+    "report.html",
     "navigation.png",
     "temperature.png",
     "correlation.png",

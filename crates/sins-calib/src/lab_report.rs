@@ -20,6 +20,7 @@ use calib::estimate::Estimate;
 use calib::estimate::verdict::MeanNis;
 use calib::estimate::verdict::VerdictTest;
 use calib::model::MeasurementKind;
+use calib::model::correction::CorrectionBlock;
 use calib::report::lab::{self, ParameterRow, SegmentRow};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -68,6 +69,9 @@ pub struct Report<'a> {
     pub extension: Option<String>,
     /// What the reported model buys in navigation: its section, with the plot of rho(t).
     pub navigation: Option<&'a crate::navigation::Navigation>,
+    /// The reported model inverted (the result file's `correction` block): what `apply`
+    /// applies.
+    pub correction: Option<&'a CorrectionBlock>,
 }
 
 /// Write the report into `dir` (checked before the work with [`crate::output::check_dir`] and
@@ -76,9 +80,10 @@ pub fn write(dir: &Path, report: &Report<'_>) -> Result<usize, Error> {
     let out = DirOutput::begin(dir, &NAMES)?;
     let tmp = out.tmp_dir();
     let mut md = format!("# {}\n\n", report.title);
-    md += &identification_md(report.id);
+    md += &identification_md(report.id, dir);
     md += &verdict_md(report);
     md += &parameters_md(report);
+    md += &correction_md(report.correction);
     let mut plots = 0;
     md += &correlation_md(tmp, report, &mut plots)?;
     md += &residuals_md(tmp, report, &mut plots)?;
@@ -91,12 +96,46 @@ pub fn write(dir: &Path, report: &Report<'_>) -> Result<usize, Error> {
     }
     md += &further_plots_md(tmp, report, &mut plots)?;
     let path = out.path("report.md");
-    std::fs::write(&path, md).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    std::fs::write(&path, &md).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    // The same report as one self-contained page, its plots embedded.
+    let html = crate::report_html::html_of(&md, report.title, tmp)?;
+    let path = out.path("report.html");
+    std::fs::write(&path, html).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     out.commit()?;
     Ok(plots)
 }
 
-fn identification_md(id: &Identification) -> String {
+/// `path` relative to the report directory `dir` (`../imu.csv` for a report in `run/report`),
+/// so that the report names its inputs wherever the run's directory is moved; the absolute
+/// forms of both are compared, with links resolved where the files exist.
+pub fn relative_to_report(dir: &Path, path: &Path) -> String {
+    let resolved = |p: &Path| -> std::path::PathBuf {
+        if let Ok(c) = p.canonicalize() {
+            return c;
+        }
+        let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+        match (abs.parent(), abs.file_name()) {
+            (Some(parent), Some(name)) => parent
+                .canonicalize()
+                .unwrap_or_else(|_| parent.to_path_buf())
+                .join(name),
+            _ => abs,
+        }
+    };
+    let (d, f) = (resolved(dir), resolved(path));
+    let (dc, fc): (Vec<_>, Vec<_>) = (d.components().collect(), f.components().collect());
+    let common = dc.iter().zip(&fc).take_while(|(a, b)| a == b).count();
+    let mut rel = std::path::PathBuf::new();
+    for _ in common..dc.len() {
+        rel.push("..");
+    }
+    for c in &fc[common..] {
+        rel.push(c);
+    }
+    rel.display().to_string()
+}
+
+fn identification_md(id: &Identification, dir: &Path) -> String {
     let mut s = String::from("## 1. Identification\n\n");
     let _ = writeln!(
         s,
@@ -113,14 +152,15 @@ fn identification_md(id: &Identification) -> String {
     }
     let _ = writeln!(
         s,
-        "Input files:\n\n| role | file | bytes | SHA-256 |\n|---|---|---:|---|"
+        "Input files (paths relative to this report's directory):\n\n| role | file | bytes | \
+         SHA-256 |\n|---|---|---:|---|"
     );
     for f in &id.inputs {
         let _ = writeln!(
             s,
             "| {} | `{}` | {} | `{}` |",
             f.role,
-            f.path.display(),
+            relative_to_report(dir, &f.path).replace('|', "\\|"),
             f.bytes,
             f.sha256
         );
@@ -465,6 +505,24 @@ fn correlation_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<
         let _ = writeln!(s, "| {a} | {b} | {c:+.4} |");
     }
     s.push('\n');
+    let notes = crate::correlation_notes::sentences(report.strongest);
+    if notes.is_empty() {
+        let _ = writeln!(
+            s,
+            "No two estimates are correlated at {} or more in magnitude.\n",
+            crate::correlation_notes::EXPLAINED_ABOVE
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "The correlations of {} or more in magnitude:\n",
+            crate::correlation_notes::EXPLAINED_ABOVE
+        );
+        for n in notes {
+            let _ = writeln!(s, "- {n}");
+        }
+        s.push('\n');
+    }
     Ok(s)
 }
 
@@ -587,7 +645,7 @@ fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<Str
     for kind in kinds_of(d) {
         let _ = writeln!(
             s,
-            "{}:\n\n| # | segment | IMU time [s] | updates | NIS/dof | band | p | \
+            "{}:\n\n| # | segment | IMU time [s] | updates | NIS/dof | band | p | test \
              |\n|---:|---|---|---:|---:|---|---:|---|",
             calib::check::diagnostics::kind_label(kind)
         );
@@ -605,7 +663,7 @@ fn segments_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Result<Str
                 r.band_per_dof.0,
                 r.band_per_dof.1,
                 p_value_text(r.p_value),
-                if r.fails { "**fails**" } else { "" }
+                if r.fails { "**fails**" } else { "passes" }
             );
         }
         s.push('\n');
@@ -651,4 +709,102 @@ fn further_plots_md(dir: &Path, report: &Report<'_>, plots: &mut usize) -> Resul
         let _ = writeln!(s, "![{}]({f})\n", f.trim_end_matches(".png"));
     }
     Ok(s)
+}
+
+/// A number of the correction tables: 12 decimals for the matrices' entries (their
+/// deviations from 1 are parts per million), otherwise 6 significant digits.
+fn entry(x: f64, matrix: bool) -> String {
+    if matrix {
+        format!("{:.12}", x + 0.0)
+    } else if x == 0.0 {
+        "0".into()
+    } else {
+        format!("{x:.5e}")
+    }
+}
+
+/// One triad's table: rows x, y, z; the matrix's three columns (when there is one), then the
+/// vectors.
+fn triad_table(matrix: Option<(&[[f64; 3]; 3], &str)>, vectors: &[(&str, [f64; 3])]) -> String {
+    let mut s = String::from("| |");
+    let mut rule = String::from("|---|");
+    if let Some((_, name)) = matrix {
+        let _ = write!(s, " {name} x | {name} y | {name} z |");
+        rule += "---:|---:|---:|";
+    }
+    for (name, _) in vectors {
+        let _ = write!(s, " {name} |");
+        rule += "---:|";
+    }
+    let _ = writeln!(s, "\n{rule}");
+    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+        let _ = write!(s, "| **{axis}** |");
+        if let Some((m, _)) = matrix {
+            for v in m[i] {
+                let _ = write!(s, " {} |", entry(v, true));
+            }
+        }
+        for (_, v) in vectors {
+            let _ = write!(s, " {} |", entry(v[i], false));
+        }
+        s.push('\n');
+    }
+    s.push('\n');
+    s
+}
+/// The reported model inverted: the matrices and offsets `apply` applies (the result file's
+/// `correction` block, in SI), with the formulas they belong to.
+fn correction_md(c: Option<&CorrectionBlock>) -> String {
+    let Some(c) = c else {
+        return String::new();
+    };
+    let mut s = format!(
+        "### The correction\n\nThe estimated model inverted, as `sins-calib apply` applies it \
+         to raw records (SI; docs/formats.md, \"Correction\"): `{}`.\n\n",
+        c.convention
+    );
+    let mut gyro = vec![("b_g [rad/s]", c.gyro.offset)];
+    if let Some(a) = c.gyro.asym {
+        gyro.push(("a", a));
+    }
+    s += "Gyros:\n\n";
+    s += &triad_table(Some((&c.gyro.matrix, "M_g")), &gyro);
+    if let Some(g) = &c.gyro.gsens {
+        s += "g-sensitivity G [rad/s per m/s^2]:\n\n";
+        s += &triad_table(Some((g, "G")), &[]);
+    }
+    let mut accel = vec![("b_a [m/s^2]", c.accel.offset)];
+    if let Some(k2) = c.accel.k2 {
+        accel.push(("k2 [1/(m/s^2)]", k2));
+    }
+    s += "Accelerometers:\n\n";
+    s += &triad_table(Some((&c.accel.matrix, "M_a")), &accel);
+    if let Some(l) = &c.accel.lever {
+        s += "Size effect, row i the offset r_i of accelerometer i [m]:\n\n";
+        s += &triad_table(Some((l, "r")), &[]);
+    }
+    if let Some(d) = c.accel.time_offset_s {
+        let _ = writeln!(
+            s,
+            "Time offset d of the accelerometers: {} s.\n",
+            entry(d, false)
+        );
+    }
+    if let Some(t) = &c.thermal {
+        let _ = writeln!(
+            s,
+            "The matrices and offsets hold at {} deg C; per kelvin from it:\n",
+            t.reference_c
+        );
+        s += &triad_table(
+            None,
+            &[
+                ("gyro bias [rad/s/K]", t.gyro_bias),
+                ("accel bias [m/s^2/K]", t.accel_bias),
+                ("gyro scale [1/K]", t.gyro_scale),
+                ("accel scale [1/K]", t.accel_scale),
+            ],
+        );
+    }
+    s
 }

@@ -10,7 +10,8 @@
 //!   fitted noise terms);
 //! - `diagnose`: what the model gets wrong, and the terms that fix it (model-extension loop);
 //! - `design`: a program that separates candidate terms;
-//! - `apply`: raw IMU records corrected with a calibration result.
+//! - `apply`: raw IMU records corrected with a calibration result;
+//! - `export`: noise levels and a calibration written for Kalibr, OpenVINS or imu_tk.
 //!
 //! The work is done by the `calib` library; this crate only reads arguments, reports and exits.
 //! File formats: `docs/formats.md`.
@@ -43,6 +44,7 @@ mod apply;
 mod args;
 mod calibrate;
 mod console;
+mod correlation_notes;
 mod design;
 mod design_navigation;
 mod detector_args;
@@ -50,6 +52,8 @@ mod diagnose;
 mod diagnose_report;
 mod diagnosis;
 mod diagnostic_plots;
+mod export;
+mod export_formats;
 mod free_motion;
 mod identification;
 mod import;
@@ -65,6 +69,7 @@ mod output;
 mod plot;
 mod provenance;
 mod recording_checks;
+mod report_html;
 mod report_plots;
 mod result_json;
 mod run_report;
@@ -170,6 +175,14 @@ enum Command {
     /// parameters say which terms to invert; unknown or incomplete ones are refused. The
     /// formulas: docs/formats.md, "Correction".
     Apply(apply::Args),
+    /// Write noise levels (`noise --json`) and a calibration (`calibrate --json`) in the files
+    /// of Kalibr (imu.yaml), OpenVINS (kalibr_imu_chain.yaml) or imu_tk (*_acc.calib,
+    /// *_gyro.calib).
+    ///
+    /// The same linear correction as `apply`, factored into each tool's matrices; terms a format
+    /// cannot hold are refused unless --drop-terms. The conventions: docs/formats.md, "Files
+    /// written by `export`".
+    Export(export::Args),
 }
 
 /// Read a run configuration by name (`paper`, `paper-reconciled`) or path; returns it with the
@@ -227,6 +240,7 @@ fn main() -> ExitCode {
         Command::Diagnose(args) => diagnose::run(&args).map(ExitCode::from),
         Command::Design(args) => design::run(&args).map(|()| ExitCode::SUCCESS),
         Command::Apply(args) => apply::run(&args).map(|()| ExitCode::SUCCESS),
+        Command::Export(args) => export::run(&args).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,

@@ -8,6 +8,7 @@ mod cli;
 mod cli_options;
 mod common;
 mod diagnose;
+mod export;
 mod free_motion;
 mod import;
 mod json_outputs;

@@ -134,7 +134,95 @@ fn assert_report(dir: &Path, sections: &[&str]) -> String {
     }
     // The correlations, and per measurement residuals, NIS, spectrum and autocorrelation.
     assert!(plots >= 5, "{plots} plots");
+    assert_html(dir, &md, plots);
     md
+}
+
+/// `report.html`: one self-contained page with everything of report.md. No reference to
+/// anything outside it (no `src` or `href` to the network, no script), every image one of the
+/// report's PNGs as a `data:` URI, the correction matrices and every correlation of 0.9 or
+/// more explained.
+fn assert_html(dir: &Path, md: &str, plots: usize) {
+    let html = std::fs::read_to_string(dir.join("report.html")).expect("report.html");
+    assert!(html.starts_with("<!DOCTYPE html>"), "{}", &html[..100]);
+    for outside in [
+        "src=\"http",
+        "href=\"http",
+        "src='http",
+        "<script",
+        "<link",
+        "@import",
+        "url(",
+    ] {
+        assert!(!html.contains(outside), "report.html has `{outside}`");
+    }
+    let images: Vec<&str> = html.split("<img ").skip(1).collect();
+    assert_eq!(images.len(), plots, "one <img> per plot");
+    for img in &images {
+        assert!(
+            img.starts_with("src=\"data:image/png;base64,iVBORw0KGgo"),
+            "{}",
+            &img[..80.min(img.len())]
+        );
+    }
+    // The headings and the correction matrices of report.md, in the page.
+    for line in md
+        .lines()
+        .filter(|l| l.starts_with("## ") || l.starts_with("### "))
+    {
+        let heading = line.trim_start_matches('#').trim();
+        assert!(
+            html.contains(&format!(">{heading}</h")),
+            "heading `{heading}` not in report.html"
+        );
+    }
+    for needle in [
+        ">M_g x</th>",
+        ">b_g [rad/s]</th>",
+        ">M_a z</th>",
+        "<th>test</th>",
+    ] {
+        assert!(html.contains(needle), "`{needle}` not in report.html");
+    }
+    // Every correlation of 0.9 or more in the table has its sentence, in both.
+    let mut strong = 0;
+    for row in md
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.ends_with(" |"))
+    {
+        let cells: Vec<&str> = row.trim_matches('|').split('|').map(str::trim).collect();
+        if cells.len() != 3 {
+            continue;
+        }
+        let Ok(r) = cells[2].parse::<f64>() else {
+            continue;
+        };
+        if r.abs() >= 0.9 {
+            strong += 1;
+            let sentence = format!(
+                "`{}` and `{}` are correlated at {}",
+                cells[0], cells[1], cells[2]
+            );
+            assert!(
+                md.contains(&sentence),
+                "no sentence `{sentence}` in report.md"
+            );
+            let in_html = format!(
+                "<code>{}</code> and <code>{}</code> are correlated at {}",
+                cells[0], cells[1], cells[2]
+            );
+            assert!(
+                html.contains(&in_html),
+                "no sentence `{in_html}` in report.html"
+            );
+        }
+    }
+    if strong == 0 {
+        assert!(
+            md.contains("No two estimates are correlated at 0.9 or more"),
+            "{md}"
+        );
+    }
 }
 
 const CALIBRATION_SECTIONS: [&str; 8] = [
@@ -180,8 +268,7 @@ fn calibrate_and_diagnose_write_the_report_a_lab_files() {
     // configuration's text embedded; scale factors in ppm; the truth's errors in sigmas.
     assert!(
         md.contains(&format!(
-            "| rotation program | `{}` | {} | `{PROGRAM_SHA256}` |",
-            dir.join("six.toml").display(),
+            "| rotation program | `../six.toml` | {} | `{PROGRAM_SHA256}` |",
             PROGRAM.len()
         )),
         "{md}"
