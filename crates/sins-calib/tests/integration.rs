@@ -10,6 +10,7 @@ mod common;
 mod diagnose;
 mod free_motion;
 mod import;
+mod import_bag;
 mod json_outputs;
 mod navigation;
 mod noise;

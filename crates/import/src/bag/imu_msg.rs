@@ -156,3 +156,96 @@ pub fn decode_cdr(bytes: &[u8]) -> Result<ImuMessage, String> {
         linear_acceleration_covariance: m.linear_acceleration_covariance,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ROS 1 message laid out by hand: header, then the 37 float64 numbered 0..37.
+    fn ros1_bytes(frame_id: &str) -> Vec<u8> {
+        let mut b = Vec::new();
+        for v in [7u32, 12, 500] {
+            b.extend(v.to_le_bytes());
+        }
+        b.extend((frame_id.len() as u32).to_le_bytes());
+        b.extend(frame_id.as_bytes());
+        for k in 0..37 {
+            b.extend(f64::from(k).to_le_bytes());
+        }
+        b
+    }
+
+    #[test]
+    fn ros1_fields_in_order_and_exact_length() {
+        let m = decode_ros1(&ros1_bytes("imu")).expect("decodes");
+        assert_eq!((m.stamp_sec, m.stamp_nanosec, m.frame_id.as_str()), (12, 500, "imu"));
+        assert_eq!(m.orientation, [0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(m.orientation_covariance[8], 12.0);
+        assert_eq!(m.angular_velocity, [13.0, 14.0, 15.0]);
+        assert_eq!(m.angular_velocity_covariance[0], 16.0);
+        assert_eq!(m.linear_acceleration, [25.0, 26.0, 27.0]);
+        assert_eq!(m.linear_acceleration_covariance[8], 36.0);
+        let mut long = ros1_bytes("imu");
+        long.push(0);
+        assert!(decode_ros1(&long).unwrap_err().contains("expected the message to end"));
+        let short = ros1_bytes("imu");
+        let e = decode_ros1(&short[..short.len() - 1]).unwrap_err();
+        assert!(e.contains("linear_acceleration_covariance"), "{e}");
+    }
+
+    #[derive(serde::Serialize)]
+    struct Cdr {
+        sec: i32,
+        nanosec: u32,
+        frame_id: String,
+        values: ([f64; 4], [f64; 9], [f64; 3], [f64; 9], [f64; 3], [f64; 9]),
+    }
+
+    #[test]
+    fn cdr_either_byte_order_and_exact_length() {
+        let mut k = 0.0;
+        let mut next = || {
+            k += 1.0;
+            k - 1.0
+        };
+        let mut filled = |v: &mut [f64]| v.iter_mut().for_each(|x| *x = next());
+        let mut values = ([0.0; 4], [0.0; 9], [0.0; 3], [0.0; 9], [0.0; 3], [0.0; 9]);
+        filled(&mut values.0);
+        filled(&mut values.1);
+        filled(&mut values.2);
+        filled(&mut values.3);
+        filled(&mut values.4);
+        filled(&mut values.5);
+        let msg = Cdr {
+            sec: -3,
+            nanosec: 9,
+            frame_id: "imu_link".into(),
+            values,
+        };
+        // Serde lays the arrays out as fixed arrays, as the message's fields.
+        for bytes in [
+            cdr::serialize::<_, _, cdr::CdrLe>(&msg, cdr::Infinite).expect("ser"),
+            cdr::serialize::<_, _, cdr::CdrBe>(&msg, cdr::Infinite).expect("ser"),
+        ] {
+            let m = decode_cdr(&bytes).expect("decodes");
+            assert_eq!((m.stamp_sec, m.stamp_nanosec), (-3, 9));
+            assert_eq!(m.frame_id, "imu_link");
+            assert_eq!(m.angular_velocity, [13.0, 14.0, 15.0]);
+            assert_eq!(m.linear_acceleration, [25.0, 26.0, 27.0]);
+            let mut long = bytes.clone();
+            long.extend([0u8; 8]);
+            assert!(decode_cdr(&long).is_err());
+            assert!(decode_cdr(&bytes[..bytes.len() - 8]).is_err());
+        }
+    }
+
+    #[test]
+    fn stamps_to_seconds() {
+        use super::super::stamp_seconds;
+        assert_eq!(stamp_seconds(101, 318_359_375), 101.318359375);
+        assert_eq!(stamp_seconds(0, 100_000_000), 0.1);
+        assert_eq!(stamp_seconds(-1, 500_000_000), -0.5);
+        let epoch = stamp_seconds(1_700_000_000, 123_456_789);
+        assert!((epoch - 1_700_000_000.123_456_789).abs() <= 2.4e-7, "{epoch}");
+    }
+}

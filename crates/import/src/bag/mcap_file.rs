@@ -37,7 +37,7 @@ pub fn read(
     let broken = |e: mcap::McapError| {
         ImportError::file(
             file,
-            format!("the MCAP file cannot be read on ({e}): expected a whole MCAP file (truncated?)"),
+            format!("reading stopped: {e}: expected a whole MCAP file (truncated?)"),
         )
     };
     let mut f = std::fs::File::open(path).map_err(read_err)?;

@@ -89,7 +89,7 @@ pub fn read(
     let broken = |e: rosbag::Error| {
         ImportError::file(
             file,
-            format!("the bag cannot be read on ({e}): expected a whole ROS 1 bag (truncated?)"),
+            format!("reading stopped: {e}: expected a whole ROS 1 bag (truncated?)"),
         )
     };
     // Connection id -> its entry in `topics`.
