@@ -13,6 +13,8 @@
 //!   `turntable.csv` when the source has angles, `sections.json` when the profile has a section
 //!   list, and the report `import.json`;
 //! - [`sections`]: section lists (static faces, rotations) carried onto the imported records.
+//! - [`bag`]: ROS 1 bags and MCAP files ([`import_bag`]): the `sensor_msgs/Imu` messages on a
+//!   topic into `imu.csv` at their header stamps, streamed, with the same checks.
 //!
 //! Every refusal is an [`ImportError`] naming the file, the line where there is one, and what was
 //! expected; nothing panics on user data. Formats: `docs/formats.md`.
@@ -40,9 +42,9 @@ pub mod sections;
 mod streamed;
 mod text;
 
+pub use bag::import_bag;
 pub use calib::estimate::data_checks::Stuck;
 pub use error::ImportError;
-pub use bag::import_bag;
 pub use streamed::{ImportedFiles, import_into};
 
 use calib::io::timing::{self, GapAt, Timing};

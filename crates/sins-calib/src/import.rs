@@ -17,7 +17,12 @@ pub struct Args {
     /// which column is which, the time base, units, axis mapping and sensor ranges. Relative
     /// paths in it resolve against its own directory. Ready profiles: examples/xsens_mti.toml,
     /// examples/ferraris_session.toml.
-    #[arg(long, value_name = "FILE", required_unless_present = "bag", conflicts_with = "bag")]
+    #[arg(
+        long,
+        value_name = "FILE",
+        required_unless_present = "bag",
+        conflicts_with = "bag"
+    )]
     pub profile: Option<PathBuf>,
     /// Instead of a profile: a ROS 1 bag (.bag) or an MCAP file (.mcap, ROS 2 messages in CDR),
     /// told apart by their first bytes; the sensor_msgs/Imu messages on --topic become the

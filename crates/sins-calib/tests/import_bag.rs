@@ -10,7 +10,9 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn repo(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(path)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(path)
 }
 
 fn ok(args: &[&str]) -> String {
@@ -70,8 +72,19 @@ fn ferraris_bag_and_mcap_import_and_calibrate_as_the_csv_route() {
     for (name, ty) in [("bag", "sensor_msgs/Imu"), ("mcap", "sensor_msgs/msg/Imu")] {
         let dir = scratch(name);
         let bag = repo(&format!("tests/fixtures/bags/ferraris_imu.{name}"));
-        let out = ok(&["import", "--bag", s(&bag), "--topic", "/imu/data", "--out", s(&dir)]);
-        assert!(out.contains(&format!("10376 messages of {ty} on /imu/data")), "{out}");
+        let out = ok(&[
+            "import",
+            "--bag",
+            s(&bag),
+            "--topic",
+            "/imu/data",
+            "--out",
+            s(&dir),
+        ]);
+        assert!(
+            out.contains(&format!("10376 messages of {ty} on /imu/data")),
+            "{out}"
+        );
         assert!(
             std::fs::read(dir.join("imu.csv")).expect("imu.csv") == imu_csv,
             "{name}: imu.csv differs from the CSV route's"
@@ -108,7 +121,10 @@ fn refusals_name_the_file_topic_and_message() {
             "{e}"
         );
         let e = refused(&bag, "/temperature", &out);
-        assert!(e.contains("topic /temperature carries `sensor_msgs/"), "{e}");
+        assert!(
+            e.contains("topic /temperature carries `sensor_msgs/"),
+            "{e}"
+        );
         assert!(e.contains(&format!("expected {ty}")), "{e}");
         let e = refused(&bag, "/imu", &out);
         assert!(
@@ -127,12 +143,25 @@ fn refusals_name_the_file_topic_and_message() {
         assert!(e.contains(s(&cut)) && e.contains("truncated?"), "{e}");
         // Not a bag at all.
         let e = refused(&repo("examples/ferraris_session.toml"), "/imu/data", &out);
-        assert!(e.contains("expected a ROS 1 bag (.bag) or an MCAP file"), "{e}");
+        assert!(
+            e.contains("expected a ROS 1 bag (.bag) or an MCAP file"),
+            "{e}"
+        );
     }
     // --bag without --topic, and with --profile, are usage errors.
     let bag = repo("tests/fixtures/bags/refusals.bag");
     let o = run(&["import", "--bag", s(&bag), "--out", "x"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
-    let o = run(&["import", "--bag", s(&bag), "--topic", "/imu/data", "--profile", "p.toml", "--out", "x"]);
+    let o = run(&[
+        "import",
+        "--bag",
+        s(&bag),
+        "--topic",
+        "/imu/data",
+        "--profile",
+        "p.toml",
+        "--out",
+        "x",
+    ]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
 }

@@ -129,8 +129,8 @@ struct Ros2Time {
 /// Decode a ROS 2 `sensor_msgs/msg/Imu` in CDR (either byte order, as its encapsulation
 /// header says).
 pub fn decode_cdr(bytes: &[u8]) -> Result<ImuMessage, String> {
-    let m: Ros2Imu = cdr::deserialize(bytes)
-        .map_err(|e| format!("not a CDR sensor_msgs/msg/Imu ({e})"))?;
+    let m: Ros2Imu =
+        cdr::deserialize(bytes).map_err(|e| format!("not a CDR sensor_msgs/msg/Imu ({e})"))?;
     // The CDR size of the message with this frame_id (4 bytes of encapsulation header; in the
     // body the stamp, the string's length, its bytes with a NUL, padding to 8, 37 float64):
     // more bytes than that, beyond padding to 8, are another message definition under the
@@ -178,7 +178,10 @@ mod tests {
     #[test]
     fn ros1_fields_in_order_and_exact_length() {
         let m = decode_ros1(&ros1_bytes("imu")).expect("decodes");
-        assert_eq!((m.stamp_sec, m.stamp_nanosec, m.frame_id.as_str()), (12, 500, "imu"));
+        assert_eq!(
+            (m.stamp_sec, m.stamp_nanosec, m.frame_id.as_str()),
+            (12, 500, "imu")
+        );
         assert_eq!(m.orientation, [0.0, 1.0, 2.0, 3.0]);
         assert_eq!(m.orientation_covariance[8], 12.0);
         assert_eq!(m.angular_velocity, [13.0, 14.0, 15.0]);
@@ -187,7 +190,11 @@ mod tests {
         assert_eq!(m.linear_acceleration_covariance[8], 36.0);
         let mut long = ros1_bytes("imu");
         long.push(0);
-        assert!(decode_ros1(&long).unwrap_err().contains("expected the message to end"));
+        assert!(
+            decode_ros1(&long)
+                .unwrap_err()
+                .contains("expected the message to end")
+        );
         let short = ros1_bytes("imu");
         let e = decode_ros1(&short[..short.len() - 1]).unwrap_err();
         assert!(e.contains("linear_acceleration_covariance"), "{e}");
@@ -198,7 +205,12 @@ mod tests {
         sec: i32,
         nanosec: u32,
         frame_id: String,
-        values: ([f64; 4], [f64; 9], [f64; 3], [f64; 9], [f64; 3], [f64; 9]),
+        orientation: [f64; 4],
+        orientation_covariance: [f64; 9],
+        angular_velocity: [f64; 3],
+        angular_velocity_covariance: [f64; 9],
+        linear_acceleration: [f64; 3],
+        linear_acceleration_covariance: [f64; 9],
     }
 
     #[test]
@@ -209,19 +221,23 @@ mod tests {
             k - 1.0
         };
         let mut filled = |v: &mut [f64]| v.iter_mut().for_each(|x| *x = next());
-        let mut values = ([0.0; 4], [0.0; 9], [0.0; 3], [0.0; 9], [0.0; 3], [0.0; 9]);
-        filled(&mut values.0);
-        filled(&mut values.1);
-        filled(&mut values.2);
-        filled(&mut values.3);
-        filled(&mut values.4);
-        filled(&mut values.5);
-        let msg = Cdr {
+        let mut msg = Cdr {
             sec: -3,
             nanosec: 9,
             frame_id: "imu_link".into(),
-            values,
+            orientation: [0.0; 4],
+            orientation_covariance: [0.0; 9],
+            angular_velocity: [0.0; 3],
+            angular_velocity_covariance: [0.0; 9],
+            linear_acceleration: [0.0; 3],
+            linear_acceleration_covariance: [0.0; 9],
         };
+        filled(&mut msg.orientation);
+        filled(&mut msg.orientation_covariance);
+        filled(&mut msg.angular_velocity);
+        filled(&mut msg.angular_velocity_covariance);
+        filled(&mut msg.linear_acceleration);
+        filled(&mut msg.linear_acceleration_covariance);
         // Serde lays the arrays out as fixed arrays, as the message's fields.
         for bytes in [
             cdr::serialize::<_, _, cdr::CdrLe>(&msg, cdr::Infinite).expect("ser"),
@@ -246,6 +262,9 @@ mod tests {
         assert_eq!(stamp_seconds(0, 100_000_000), 0.1);
         assert_eq!(stamp_seconds(-1, 500_000_000), -0.5);
         let epoch = stamp_seconds(1_700_000_000, 123_456_789);
-        assert!((epoch - 1_700_000_000.123_456_789).abs() <= 2.4e-7, "{epoch}");
+        assert!(
+            (epoch - (1_700_000_000.0 + 0.123_456_789)).abs() <= 2.4e-7,
+            "{epoch}"
+        );
     }
 }

@@ -274,7 +274,8 @@ impl Writing<'_> {
                 self.more_frame_ids = true;
             }
         }
-        let same = |a: &[f64; 9], b: &[f64; 9]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        let same =
+            |a: &[f64; 9], b: &[f64; 9]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
         match &self.covariance {
             None => {
                 self.covariance = Some(ImuCovariance {

@@ -37,7 +37,10 @@ fn check_index_position(path: &Path, file: &str) -> Result<(), ImportError> {
         )
     };
     let rest = &head[MAGIC.len()..];
-    let Some(n) = rest.get(..4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])) else {
+    let Some(n) = rest
+        .get(..4)
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    else {
         return Err(bad("the file ends inside the bag header"));
     };
     let Some(mut fields) = rest.get(4..4 + n as usize) else {

@@ -27,7 +27,14 @@ pub fn run(bag: &Path, topic: &str, args: &Args) -> Result<(), Error> {
         #[serde(flatten)]
         provenance: ImportProvenance,
     }
-    let role = format!("{} file", if source.format == "ros1" { "ROS 1 bag" } else { "MCAP" });
+    let role = format!(
+        "{} file",
+        if source.format == "ros1" {
+            "ROS 1 bag"
+        } else {
+            "MCAP"
+        }
+    );
     let mut output_sha256 = std::collections::BTreeMap::new();
     output_sha256.insert(
         "imu.csv".to_string(),
@@ -57,7 +64,11 @@ pub fn run(bag: &Path, topic: &str, args: &Args) -> Result<(), Error> {
         s,
         "  read {} ({}): {} messages of {} on {topic}, header frame id{} {}{}",
         bag.display(),
-        if source.format == "ros1" { "ROS 1 bag" } else { "MCAP, ROS 2 CDR" },
+        if source.format == "ros1" {
+            "ROS 1 bag"
+        } else {
+            "MCAP, ROS 2 CDR"
+        },
         r.records,
         source.message_type,
         if source.frame_ids.len() == 1 { "" } else { "s" },
