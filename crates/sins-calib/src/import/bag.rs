@@ -17,6 +17,17 @@ pub fn run(bag: &Path, topic: &str, args: &Args) -> Result<(), Error> {
     let (out, imported) = import_atomically(&args.out, &[bag], |dir| {
         ::import::import_bag(bag, topic, &options, dir)
     })?;
+    stamp_report(bag, &imported)?;
+    let (imu_final, report_final) = (out.final_path("imu.csv"), out.final_path("import.json"));
+    out.commit()?;
+
+    let r = &imported.report;
+    print(&printout(bag, topic, r, &imu_final, &report_final))
+}
+
+/// Write `import.json` again, with the schema stamp first and the SHA-256 of the bag and of
+/// `imu.csv` (`crate::provenance::ImportProvenance`): a calibration of the records names them.
+fn stamp_report(bag: &Path, imported: &::import::ImportedFiles) -> Result<(), Error> {
     let r = &imported.report;
     let source = r.bag.as_ref().expect("a bag's report");
     // import.json again, with the schema stamp first and the SHA-256 of the bag and of imu.csv.
@@ -54,9 +65,18 @@ pub fn run(bag: &Path, topic: &str, args: &Args) -> Result<(), Error> {
         calib::io::schema::to_json(calib::io::schema::IMPORT, &json)?,
     )
     .map_err(|e| format!("{}: cannot write: {e}", report_path.display()))?;
-    let (imu_final, report_final) = (out.final_path("imu.csv"), out.final_path("import.json"));
-    out.commit()?;
+    Ok(())
+}
 
+/// What `import --bag` prints.
+fn printout(
+    bag: &Path,
+    topic: &str,
+    r: &::import::ImportReport,
+    imu_final: &Path,
+    report_final: &Path,
+) -> String {
+    let source = r.bag.as_ref().expect("a bag's report");
     let c = table::compact;
     let mut s = String::new();
     let _ = writeln!(s, "sins-calib import: {} (topic {topic})", bag.display());
@@ -141,7 +161,7 @@ pub fn run(bag: &Path, topic: &str, args: &Args) -> Result<(), Error> {
         r.records
     );
     let _ = writeln!(s, "  wrote {}", report_final.display());
-    print(&s)
+    s
 }
 
 /// A covariance for the printout: `unknown (zeros)`, its diagonal, or `full`.
