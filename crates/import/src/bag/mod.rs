@@ -547,3 +547,6 @@ fn check_force_at_rest(
         G_BAND.1
     )))
 }
+
+#[cfg(test)]
+mod tests;
