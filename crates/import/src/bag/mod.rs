@@ -143,6 +143,13 @@ impl BagFormat {
     pub fn of(path: &Path) -> Result<Self, ImportError> {
         use std::io::Read;
         let file = path.display().to_string();
+        // A named pipe or a device would block or never end: only a file is read.
+        if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) && path.exists() {
+            return Err(ImportError::file(
+                &file,
+                "is not a regular file: expected a ROS 1 bag (.bag) or an MCAP file (.mcap)",
+            ));
+        }
         let mut head = Vec::new();
         std::fs::File::open(path)
             .and_then(|f| f.take(16).read_to_end(&mut head))
