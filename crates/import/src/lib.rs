@@ -13,6 +13,8 @@
 //!   `turntable.csv` when the source has angles, `sections.json` when the profile has a section
 //!   list, and the report `import.json`;
 //! - [`sections`]: section lists (static faces, rotations) carried onto the imported records.
+//! - [`bag`]: ROS 1 bags and MCAP files ([`import_bag`]): the `sensor_msgs/Imu` messages on a
+//!   topic into `imu.csv` at their header stamps, streamed, with the same checks.
 //!
 //! Every refusal is an [`ImportError`] naming the file, the line where there is one, and what was
 //! expected; nothing panics on user data. Formats: `docs/formats.md`.
@@ -32,6 +34,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod bag;
 mod error;
 mod fields;
 pub mod profile;
@@ -39,6 +42,7 @@ pub mod sections;
 mod streamed;
 mod text;
 
+pub use bag::import_bag;
 pub use calib::estimate::data_checks::Stuck;
 pub use error::ImportError;
 pub use streamed::{ImportedFiles, import_into};
@@ -148,8 +152,9 @@ pub struct StaticForce {
 /// What an import read, found and wrote (`import.json`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ImportReport {
-    /// The profile file.
-    pub profile: String,
+    /// The profile file (absent for a ROS recording, which needs none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profile: Option<String>,
     /// The profile's description.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
@@ -176,6 +181,10 @@ pub struct ImportReport {
     /// Number of sections written to `sections.json` (absent without a section list).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sections: Option<usize>,
+    /// The topic, message type, frame ids and covariances of a ROS recording (absent for a
+    /// profile's import).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bag: Option<bag::BagSource>,
 }
 
 /// An imported recording.
@@ -553,7 +562,7 @@ pub fn import_recording(
     };
 
     let report = ImportReport {
-        profile: profile.origin.clone(),
+        profile: Some(profile.origin.clone()),
         description: profile.description.clone(),
         inputs: sources.iter().map(input_file).collect(),
         form: match imu.kind {
@@ -570,6 +579,7 @@ pub fn import_recording(
         static_force,
         turntable: turntable.is_some(),
         sections: sections.as_ref().map(|s| s.sections.len()),
+        bag: None,
     };
     Ok(Imported {
         imu,
@@ -825,7 +835,7 @@ fn check_magnitudes(
     for (k, r) in imu.records.iter().enumerate() {
         let dt = previous.map_or(median, |p| r.t - p);
         previous = Some(r.t);
-        if let Some((s, i, v)) = beyond_magnitude(profile, r, dt) {
+        if let Some((s, i, v)) = beyond_magnitude(profile.form, r, dt) {
             let src = &sources[s].table;
             return Err(magnitude_error(profile, s, i, v, &src.file, src.lines[k]));
         }
@@ -835,8 +845,8 @@ fn check_magnitudes(
 
 /// The first sensor (0 gyro, 1 accelerometer), axis and value of a record beyond the plausible
 /// magnitude (`dt`: its interval, for increments).
-fn beyond_magnitude(profile: &Profile, r: &ImuRecord, dt: f64) -> Option<(usize, usize, f64)> {
-    let scale = if profile.form == Form::Increments {
+fn beyond_magnitude(form: Form, r: &ImuRecord, dt: f64) -> Option<(usize, usize, f64)> {
+    let scale = if form == Form::Increments {
         1.0 / dt
     } else {
         1.0

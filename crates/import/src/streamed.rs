@@ -198,13 +198,13 @@ fn check_join(profile: &Profile, g: &Scan, a: &Scan) -> Result<(), ImportError> 
 }
 
 /// A file written line by line.
-struct Out {
+pub(crate) struct Out {
     path: PathBuf,
     w: std::io::BufWriter<std::fs::File>,
 }
 
 impl Out {
-    fn create(path: PathBuf) -> Result<Self, ImportError> {
+    pub(crate) fn create(path: PathBuf) -> Result<Self, ImportError> {
         let f = std::fs::File::create(&path).map_err(|source| ImportError::Write {
             file: path.display().to_string(),
             source,
@@ -215,7 +215,7 @@ impl Out {
         })
     }
 
-    fn write(&mut self, text: &str) -> Result<(), ImportError> {
+    pub(crate) fn write(&mut self, text: &str) -> Result<(), ImportError> {
         self.w
             .write_all(text.as_bytes())
             .map_err(|source| ImportError::Write {
@@ -224,7 +224,7 @@ impl Out {
             })
     }
 
-    fn finish(mut self) -> Result<PathBuf, ImportError> {
+    pub(crate) fn finish(mut self) -> Result<PathBuf, ImportError> {
         self.w.flush().map_err(|source| ImportError::Write {
             file: self.path.display().to_string(),
             source,
@@ -343,7 +343,7 @@ fn convert(profile: &Profile, scans: &[Scan], dir: &Path) -> Result<Converted, I
 }
 
 /// The records of the written `imu.csv`, read again.
-fn read_imu(path: &Path, mut visit: impl FnMut(&ImuRecord)) -> Result<(), ImportError> {
+pub(crate) fn read_imu(path: &Path, mut visit: impl FnMut(&ImuRecord)) -> Result<(), ImportError> {
     let mut r = calib::io::ImuReader::open(path)?;
     while let Some(rec) = r.next_record()? {
         visit(&rec);
@@ -354,7 +354,7 @@ fn read_imu(path: &Path, mut visit: impl FnMut(&ImuRecord)) -> Result<(), Import
 /// The quietest window of [`detect::quietest_window`] found from the records given one at a
 /// time: each gap-free block's running sums of the specific force about its first record, the
 /// last `len + 1` of them held.
-struct Quietest {
+pub(crate) struct Quietest {
     len: usize,
     ring: Vec<([f64; 3], [f64; 3])>,
     reference: [f64; 3],
@@ -479,7 +479,7 @@ pub fn import_into(
         median,
     };
     check_time_base(profile, &g.file, g.lines.line(0), median)?;
-    let read = read_timing(profile, &imu)?;
+    let read = read_timing(profile.checks.gap_factor, profile.form, &imu)?;
     let gap_reports = gap_reports(&read.gaps, &read.timing, &g.file, |k| g.lines.line(k));
     if !options.allow_gaps {
         check_gaps(profile, &read.timing, &gap_reports, |k| g.lines.line(k))?;
@@ -511,7 +511,7 @@ pub fn import_into(
     );
     let sections = carry_sections(profile, &imu)?;
     let report = ImportReport {
-        profile: profile.origin.clone(),
+        profile: Some(profile.origin.clone()),
         description: profile.description.clone(),
         inputs: scans.iter().map(Scan::input_file).collect(),
         form: match imu.kind {
@@ -528,6 +528,7 @@ pub fn import_into(
         static_force,
         turntable: converted.turntable.is_some(),
         sections: sections.as_ref().map(|s| s.sections.len()),
+        bag: None,
     };
     let written = write_reports(
         dir,
@@ -545,11 +546,11 @@ pub fn import_into(
 
 /// The written `imu.csv` as the checks read it again: its path, form, number of records and
 /// median interval.
-struct WrittenImu {
-    path: PathBuf,
-    kind: ImuKind,
-    records: usize,
-    median: f64,
+pub(crate) struct WrittenImu {
+    pub(crate) path: PathBuf,
+    pub(crate) kind: ImuKind,
+    pub(crate) records: usize,
+    pub(crate) median: f64,
 }
 
 /// The specific force of record `k` as a rate (m/s^2): increments over the interval to the
@@ -570,18 +571,22 @@ fn rate_force(imu: &WrittenImu, r: &ImuRecord, k: usize, previous: Option<f64>) 
 /// What one reading of the written records finds: the intervals' range, the gaps, the first
 /// value beyond a plausible magnitude (`(record, sensor, axis, value)`) and the quietest
 /// window's search.
-struct TimingReading {
-    timing: Timing,
-    gaps: Vec<GapAt>,
-    beyond: Option<(usize, usize, usize, f64)>,
-    quiet: Quietest,
-    stuck: crate::Stuck,
+pub(crate) struct TimingReading {
+    pub(crate) timing: Timing,
+    pub(crate) gaps: Vec<GapAt>,
+    pub(crate) beyond: Option<(usize, usize, usize, f64)>,
+    pub(crate) quiet: Quietest,
+    pub(crate) stuck: crate::Stuck,
 }
 
 /// One reading of the written records: the intervals, the gaps, the magnitudes and the
 /// quietest second.
-fn read_timing(profile: &Profile, imu: &WrittenImu) -> Result<TimingReading, ImportError> {
-    let (median, gap_factor) = (imu.median, profile.checks.gap_factor);
+pub(crate) fn read_timing(
+    gap_factor: f64,
+    form: Form,
+    imu: &WrittenImu,
+) -> Result<TimingReading, ImportError> {
+    let median = imu.median;
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     let mut gaps = Vec::new();
     let mut beyond: Option<(usize, usize, usize, f64)> = None;
@@ -606,7 +611,7 @@ fn read_timing(profile: &Profile, imu: &WrittenImu) -> Result<TimingReading, Imp
         }
         if beyond.is_none() {
             let dt = previous.map_or(median, |p| r.t - p);
-            beyond = beyond_magnitude(profile, r, dt).map(|(s, i, v)| (k, s, i, v));
+            beyond = beyond_magnitude(form, r, dt).map(|(s, i, v)| (k, s, i, v));
         }
         quiet.push(rate_force(imu, r, k, previous));
         previous = Some(r.t);
@@ -634,6 +639,34 @@ fn quietest_force(
     quiet: Quietest,
     a: &Scan,
 ) -> Result<StaticForce, ImportError> {
+    let q = quietest_window(imu, quiet)?;
+    static_force(
+        profile,
+        q.median_norm,
+        q.std,
+        q.window_s,
+        &a.file,
+        [a.lines.line(q.records.0), a.lines.line(q.records.1)],
+    )
+}
+
+/// The quietest second of the written records.
+pub(crate) struct QuietWindow {
+    /// Median magnitude of the specific force over it (m/s^2).
+    pub(crate) median_norm: f64,
+    /// Standard deviation of the specific force over it (m/s^2).
+    pub(crate) std: f64,
+    /// Its first and last time stamp (s).
+    pub(crate) window_s: [f64; 2],
+    /// Its first and last record (0-based).
+    pub(crate) records: (usize, usize),
+}
+
+/// The quietest second found by `quiet`, read again for its specific force's median magnitude.
+pub(crate) fn quietest_window(
+    imu: &WrittenImu,
+    quiet: Quietest,
+) -> Result<QuietWindow, ImportError> {
     let (wa, wb, std) = quiet.finish(imu.records);
     let mut norms = Vec::with_capacity(wb - wa);
     let mut window_s = [f64::NAN; 2];
@@ -650,14 +683,12 @@ fn quietest_force(
         previous = Some(r.t);
         k += 1;
     })?;
-    static_force(
-        profile,
-        timing::median_of(&mut norms),
+    Ok(QuietWindow {
+        median_norm: timing::median_of(&mut norms),
         std,
         window_s,
-        &a.file,
-        [a.lines.line(wa), a.lines.line(wb - 1)],
-    )
+        records: (wa, wb - 1),
+    })
 }
 
 /// The profile's section list carried onto the written records (one more reading), when it
@@ -682,7 +713,7 @@ fn carry_sections(
 }
 
 /// Write `sections.json` (with a section list) and `import.json`; the files written.
-fn write_reports(
+pub(crate) fn write_reports(
     dir: &Path,
     report: &ImportReport,
     sections: Option<&SectionsFile>,

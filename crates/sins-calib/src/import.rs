@@ -1,6 +1,8 @@
 //! `sins-calib import`: a recording in another layout turned into `imu.csv` (and
 //! `turntable.csv`, `sections.json`) by an import profile; the work is the `import` crate's.
 
+mod bag;
+
 use crate::table;
 use crate::{Error, output, print};
 use ::import::profile::Profile;
@@ -15,8 +17,22 @@ pub struct Args {
     /// which column is which, the time base, units, axis mapping and sensor ranges. Relative
     /// paths in it resolve against its own directory. Ready profiles: examples/xsens_mti.toml,
     /// examples/ferraris_session.toml.
-    #[arg(long, value_name = "FILE")]
-    pub profile: PathBuf,
+    #[arg(
+        long,
+        value_name = "FILE",
+        required_unless_present = "bag",
+        conflicts_with = "bag"
+    )]
+    pub profile: Option<PathBuf>,
+    /// Instead of a profile: a ROS 1 bag (.bag) or an MCAP file (.mcap, ROS 2 messages in CDR),
+    /// told apart by their first bytes; the sensor_msgs/Imu messages on --topic become the
+    /// records, at their header stamps, in rad/s and m/s^2 as the messages carry them
+    /// (docs/formats.md, "ROS recordings").
+    #[arg(long, value_name = "FILE", requires = "topic")]
+    pub bag: Option<PathBuf>,
+    /// The topic of the bag to import (e.g. /imu/data).
+    #[arg(long, value_name = "TOPIC", requires = "bag")]
+    pub topic: Option<String>,
     /// Directory to write imu.csv, import.json and, where the source has them, turntable.csv and
     /// sections.json into; created when missing. Nothing is written when the import is refused;
     /// otherwise the files of an earlier import are replaced together (a turntable.csv or
@@ -33,40 +49,30 @@ pub struct Args {
 }
 
 /// Every file `import` may write into its directory.
-const OUTPUTS: [&str; 4] = ["imu.csv", "turntable.csv", "sections.json", "import.json"];
+pub(crate) const OUTPUTS: [&str; 4] = ["imu.csv", "turntable.csv", "sections.json", "import.json"];
 
 /// Run `import`.
 pub fn run(args: &Args) -> Result<(), Error> {
-    let profile = Profile::load(&args.profile)?;
+    if let (Some(bag), Some(topic)) = (&args.bag, &args.topic) {
+        return bag::run(bag, topic, args);
+    }
+    let profile_path = args.profile.as_ref().expect("clap: --profile or --bag");
+    let profile = Profile::load(profile_path)?;
     let mut inputs: Vec<PathBuf> = profile.input_files().into_iter().map(|(_, p)| p).collect();
-    inputs.push(args.profile.clone());
+    inputs.push(profile_path.clone());
     if let Some(s) = &profile.sections {
         inputs.push(profile.resolve(&s.file));
     }
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
-    output::Outputs::new(&inputs).dir(&args.out, "--out", &OUTPUTS)?;
     let options = ImportOptions {
         allow_gaps: args.allow_gaps,
     };
-    // Read, converted and written row by row into the temporary directory (removed on a
-    // refusal): the memory does not grow with the recording.
-    let created = missing_ancestors(&args.out);
-    let out = output::DirOutput::begin(&args.out, &OUTPUTS)?;
-    let imported = match import_into(&profile, &options, out.tmp_dir()) {
-        Ok(imported) => imported,
-        Err(e) => {
-            // Nothing is left of a refused import: the temporary directory goes with `out`,
-            // and the directories made for it (deepest first; only when empty).
-            drop(out);
-            for d in created {
-                let _ = std::fs::remove_dir(d);
-            }
-            return Err(e.into());
-        }
-    };
+    let (out, imported) = import_atomically(&args.out, &inputs, |dir| {
+        import_into(&profile, &options, dir)
+    })?;
     let tmp = &imported.written;
     stamp_outputs(
-        &args.profile,
+        profile_path,
         &profile,
         &imported.report,
         imported.sections.as_ref(),
@@ -89,7 +95,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let c = table::compact;
 
     let mut s = String::new();
-    let _ = writeln!(s, "sins-calib import: {}", args.profile.display());
+    let _ = writeln!(s, "sins-calib import: {}", profile_path.display());
     if let Some(d) = &r.description {
         let _ = writeln!(s, "  {d}");
     }
@@ -194,6 +200,32 @@ fn stamp_outputs(
     )
 }
 
+/// Check `out` (against the `inputs`), then import into a temporary directory beside it
+/// (removed on a refusal, with the directories made for it): the output and what was imported.
+pub(crate) fn import_atomically(
+    out_dir: &std::path::Path,
+    inputs: &[&std::path::Path],
+    import: impl FnOnce(&std::path::Path) -> Result<ImportedFiles, ::import::ImportError>,
+) -> Result<(output::DirOutput, ImportedFiles), Error> {
+    output::Outputs::new(inputs).dir(out_dir, "--out", &OUTPUTS)?;
+    // Read, converted and written row by row into the temporary directory (removed on a
+    // refusal): the memory does not grow with the recording.
+    let created = missing_ancestors(out_dir);
+    let out = output::DirOutput::begin(out_dir, &OUTPUTS)?;
+    match import(out.tmp_dir()) {
+        Ok(imported) => Ok((out, imported)),
+        Err(e) => {
+            // Nothing is left of a refused import: the temporary directory goes with `out`,
+            // and the directories made for it (deepest first; only when empty).
+            drop(out);
+            for d in created {
+                let _ = std::fs::remove_dir(d);
+            }
+            Err(e.into())
+        }
+    }
+}
+
 /// The directories above `out` that do not exist yet, deepest first.
 fn missing_ancestors(out: &std::path::Path) -> Vec<PathBuf> {
     let absolute = std::path::absolute(out).unwrap_or_else(|_| out.to_path_buf());
@@ -206,7 +238,7 @@ fn missing_ancestors(out: &std::path::Path) -> Vec<PathBuf> {
 }
 
 /// The gaps of the time stamps, or that there are none.
-fn gap_lines(r: &ImportReport) -> String {
+pub(crate) fn gap_lines(r: &ImportReport) -> String {
     let c = table::compact;
     let mut s = String::new();
     let tm = &r.timing;

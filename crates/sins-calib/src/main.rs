@@ -135,7 +135,8 @@ enum Command {
     /// where the source has angles or a section list) and DIR/import.json.
     ///
     /// An import profile (TOML) says which files, columns, time base, units, axes and ranges the
-    /// recording has. Time stamps keep their jitter; gaps are refused (or kept with
+    /// recording has; or --bag and --topic read the sensor_msgs/Imu messages of a ROS 1 bag or
+    /// an MCAP file. Time stamps keep their jitter; gaps are refused (or kept with
     /// --allow-gaps), saturated samples counted, a specific force at rest nowhere near g refused.
     Import(import::Args),
     /// Split an imu.csv into static intervals and motion, and print the static intervals.

@@ -11,6 +11,7 @@ mod diagnose;
 mod export;
 mod free_motion;
 mod import;
+mod import_bag;
 mod json_outputs;
 mod navigation;
 mod noise;
