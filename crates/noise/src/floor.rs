@@ -11,11 +11,16 @@
 //! result while the floor is plain to see.
 //!
 //! Flat: the minimum (over the points with at least [`FLOOR_MIN_EDF`] degrees of freedom: a
-//! point of fewer is as likely a low draw as the floor) and its neighbours whose 68 % interval (flicker degrees of freedom)
-//! reaches down to within [`FLAT_FACTOR`] of the minimum form a run; the run must span at least
-//! [`FLOOR_SPAN`] in averaging time (two octaves). White noise and a walk alone have a minimum
-//! too, but no flat run: one octave either side of their minimum the deviation is 1.12 times
-//! it, two octaves 1.46 times. The interval of `B` is the minimum point's own 68 % interval
+//! point of fewer is as likely a low draw as the floor) is at least [`FLOOR_FALL`] of the
+//! deviation two octaves ([`FLOOR_SPAN`]) before it: the curve has stopped falling like white
+//! noise; and where the curve reaches two octaves beyond it, the deviation there is at most
+//! `1 / FLOOR_FALL` times the minimum: it does not rise like a walk. White noise alone falls by
+//! 2 over two octaves; white noise and a walk have a minimum, and whatever the octave grid's
+//! offset from it, the deviation two octaves before or two after is more than `sqrt(2)` times
+//! the lowest grid point (1.46 times where the grid hits the minimum). (A first version took the
+//! minimum's neighbours whose 68 % interval reached within 1.1 times the minimum, over two
+//! octaves: on the Xsens recording the last points, of one or two degrees of freedom, made a
+//! "floor" of the white noise at 2.56 s.) The interval of `B` is the minimum point's own 68 % interval
 //! over 0.664 (its degrees of freedom those of flicker noise). The minimum of noisy estimates is
 //! biased low (the lowest of several); on a flat floor the neighbours' scatter is that of one
 //! estimate, which the interval covers.
@@ -32,12 +37,14 @@
 
 use crate::allan::AllanCurve;
 use crate::edf::{self, NoiseType};
-use crate::likelihood::MlFit;
+use crate::likelihood::{BLOCKS_PER_CORRELATION, MlFit};
 use serde::{Deserialize, Serialize};
 
-/// Deviation factor within which a neighbour of the minimum counts as on the floor (its 68 %
-/// interval's lower end at most this times the minimum). Fixed before the first run on data.
-pub const FLAT_FACTOR: f64 = 1.1;
+/// The least ratio of the minimum to the deviation two octaves before it for a floor: the
+/// curve falls there by less than `sqrt(2)`, an average slope shallower than -1/4 on the
+/// log-log plot, halfway between white noise (-1/2, a ratio of 0.5) and a floor (0). White
+/// noise and a walk alone reach their minimum at a ratio of 0.69.
+pub const FLOOR_FALL: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
 /// Degrees of freedom (under flicker noise) the minimum point must have: its deviation then
 /// has a relative standard deviation of about 22 % at most. The lowest of the curve's points
@@ -45,7 +52,8 @@ pub const FLAT_FACTOR: f64 = 1.1;
 /// `tests/mems.rs` it was the last point (2.7 degrees of freedom), at half the floor.
 pub const FLOOR_MIN_EDF: f64 = 10.0;
 
-/// The span in averaging time (last over first point) a floor must have: two octaves.
+/// How far before the minimum (a factor in averaging time) the curve must have stopped falling:
+/// two octaves.
 pub const FLOOR_SPAN: f64 = 4.0;
 
 /// `sqrt(2 ln 2 / pi)`: the Allan deviation of flicker rate noise per unit of bias instability.
@@ -60,9 +68,9 @@ pub struct Floor {
     pub adev: f64,
     /// Its degrees of freedom under flicker noise.
     pub edf: f64,
-    /// The flat run around it: first and last averaging time (s).
+    /// The stretch the curve is flat over: the point two octaves before the minimum (s).
     pub from_tau_s: f64,
-    /// Last averaging time of the run (s).
+    /// The minimum's averaging time (s).
     pub to_tau_s: f64,
     /// The bias instability `adev / 0.664` (rate unit, SI).
     pub value: f64,
@@ -72,8 +80,11 @@ pub struct Floor {
     pub upper: f64,
 }
 
-/// The floor of `curve`, where it has one (module docs).
-pub fn flicker_floor(curve: &AllanCurve) -> Option<Floor> {
+/// The floor of `curve` at averaging times from `tau_min_s` on, where it has one (module docs).
+/// Below the sensor's correlation time its own filter shapes the curve (the Allan fit's
+/// fitted range, [`crate::fit::NoiseFit::tau_min_s`]): a filter flattens the curve at the
+/// short taus, and that is no floor.
+pub fn flicker_floor(curve: &AllanCurve, tau_min_s: f64) -> Option<Floor> {
     let flicker_ci = |i: usize| {
         let p = &curve.points[i];
         let edf: f64 = curve
@@ -86,26 +97,29 @@ pub fn flicker_floor(curve: &AllanCurve) -> Option<Floor> {
     };
     let valid = |i: usize| {
         let p = &curve.points[i];
-        p.terms > 0 && p.adev.is_finite() && p.adev > 0.0
+        p.terms > 0 && p.adev.is_finite() && p.adev > 0.0 && p.tau_s >= tau_min_s * (1.0 - 1e-9)
     };
     let n = curve.points.len();
     let min = (0..n)
         .filter(|&i| valid(i) && flicker_ci(i).0 >= FLOOR_MIN_EDF)
         .min_by(|&a, &b| curve.points[a].adev.total_cmp(&curve.points[b].adev))?;
-    let bound = FLAT_FACTOR * curve.points[min].adev;
-    let on_floor = |i: usize| valid(i) && flicker_ci(i).1 <= bound;
-    let mut first = min;
-    while first > 0 && on_floor(first - 1) {
-        first -= 1;
-    }
-    let mut last = min;
-    while last + 1 < n && on_floor(last + 1) {
-        last += 1;
-    }
-    let (from, to) = (curve.points[first].tau_s, curve.points[last].tau_s);
-    if to < FLOOR_SPAN * from * (1.0 - 1e-9) {
+    // The point two octaves before the minimum: the curve must have stopped falling at the
+    // white noise's rate by then.
+    let tau = curve.points[min].tau_s;
+    let before = (0..min)
+        .rev()
+        .find(|&i| valid(i) && curve.points[i].tau_s <= tau / FLOOR_SPAN * (1.0 + 1e-9))?;
+    if curve.points[min].adev / curve.points[before].adev < FLOOR_FALL {
         return None;
     }
+    // Two octaves after it (whatever its degrees of freedom), where there is a point: the curve
+    // must not rise like a walk.
+    let after = (min + 1..n)
+        .find(|&i| valid(i) && curve.points[i].tau_s >= tau * FLOOR_SPAN * (1.0 - 1e-9));
+    if after.is_some_and(|i| curve.points[min].adev / curve.points[i].adev < FLOOR_FALL) {
+        return None;
+    }
+    let (from, to) = (curve.points[before].tau_s, tau);
     let p = &curve.points[min];
     let (edf, lo, hi) = flicker_ci(min);
     Some(Floor {
@@ -138,7 +152,8 @@ pub struct SlowTerms {
 }
 
 /// Whether the rests of `curve` are long enough to tell a walk (the likelihood's, `ml`) and a
-/// bias instability (module docs).
+/// bias instability (module docs; the floor above [`BLOCKS_PER_CORRELATION`] times the
+/// likelihood's correlation time, where the Allan fit starts).
 pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
     let longest = curve.interval_records.iter().copied().max().unwrap_or(0);
     let longest_tau_s = curve
@@ -163,7 +178,8 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
         longest_tau_s,
         walk_crossover_s,
         walk: longest_tau_s >= FLOOR_SPAN * walk_crossover_s * (1.0 - 1e-9),
-        bias_instability: flicker_floor(curve).is_some(),
+        bias_instability: flicker_floor(curve, BLOCKS_PER_CORRELATION as f64 * ml.correlation_s)
+            .is_some(),
     }
 }
 
@@ -205,20 +221,23 @@ mod tests {
 
     #[test]
     fn a_flat_floor_gives_its_level_and_white_and_walk_give_none() {
-        // White 1e-3 at 1 s and a flicker floor of B = 1e-4 over 3 h at 100 Hz.
+        // White 3.2e-4 at 1 s and a flicker floor of B = 1e-4 over 3 h at 100 Hz.
         let b = 1e-4;
         let c = curve(1_080_000, |t| {
-            (1e-6 / t + (FLICKER_ADEV * b).powi(2)).sqrt()
+            (1e-7 / t + (FLICKER_ADEV * b).powi(2)).sqrt()
         });
-        let f = flicker_floor(&c).expect("a floor");
-        // The minimum is at the longest tau, where the white noise still adds 2 %.
-        let last = c.points.last().unwrap();
-        assert_eq!(f.tau_s, last.tau_s);
-        assert_eq!(f.value, last.adev / FLICKER_ADEV);
+        let f = flicker_floor(&c, 0.0).expect("a floor");
+        // The minimum is the longest tau of 10 degrees of freedom or more (655 s), where the
+        // white noise still adds 2 %.
+        let at = c.points.iter().find(|p| p.tau_s == f.tau_s).unwrap();
+        assert!(f.edf >= FLOOR_MIN_EDF && f.tau_s > 600.0, "{f:?}");
+        assert_eq!(f.value, at.adev / FLICKER_ADEV);
         assert!((f.value / b - 1.0).abs() < 0.03, "{f:?}");
         assert!(f.lower < f.value && f.value < f.upper);
-        // White noise and a walk crossing at 1 s: a minimum, no floor.
+        // White noise and a walk crossing at 1 s: a minimum, no floor; white noise alone: none.
         let c = curve(1_080_000, |t| (1e-6 / t + 1e-6 * t).sqrt());
-        assert!(flicker_floor(&c).is_none());
+        assert!(flicker_floor(&c, 0.0).is_none());
+        let c = curve(1_080_000, |t| (1e-6 / t).sqrt());
+        assert!(flicker_floor(&c, 0.0).is_none());
     }
 }

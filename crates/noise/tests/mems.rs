@@ -136,7 +136,7 @@ fn an_oscillation_and_a_flicker_floor() {
         at_1s.tau_s,
         at_1s.adev * at_1s.tau_s.sqrt() / DEG_H
     );
-    let floor = flicker_floor(&axis.curve).expect("a floor");
+    let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s).expect("a floor");
     let truth_b = flicker_adev_unit(1000.0) * gm_sigma() / FLICKER_ADEV / DEG_H;
     let ripple: Vec<f64> = [30.0, 100.0, 300.0, 1000.0, 3000.0]
         .iter()
