@@ -229,6 +229,29 @@ impl Model {
     }
 }
 
+impl Model {
+    /// The variance of whole-second means about their own rest's mean that the white noise
+    /// and the walk imply, pooled over rests of `whole_seconds` seconds (those of fewer than two
+    /// left out; `None` without any): what a scatter of 1-s means inside rests measures
+    /// (`calibrate`'s white noise, `calib::estimate::hand_turned::white_noise_at_rest`). Each
+    /// 1-s mean has the white variance `N^2`; a walk adds, in a rest of `n` seconds,
+    /// `K^2 (sum_i V_i - S / n) / (n - 1)` with `V_i = i + 1/3` the variance of the `i`-th
+    /// mean of a walk started at 0 and `S` the sum of all their covariances
+    /// (`i + 1/2` for `i < j`). A Gauss-Markov bias is not in it.
+    pub fn one_second_scatter(&self, whole_seconds: &[usize]) -> Option<f64> {
+        let (mut ss, mut dof) = (0.0, 0usize);
+        for &n in whole_seconds.iter().filter(|&&n| n >= 2) {
+            let nf = n as f64;
+            let sum_v = nf * (nf - 1.0) / 2.0 + nf / 3.0;
+            let cross: f64 = (0..n).map(|i| (i as f64 + 0.5) * (nf - 1.0 - i as f64)).sum();
+            let walk_ss = sum_v - (sum_v + 2.0 * cross) / nf;
+            ss += self.white * self.white * (nf - 1.0) + self.walk * self.walk * walk_ss;
+            dof += n - 1;
+        }
+        (dof > 0).then(|| ss / dof as f64)
+    }
+}
+
 /// The per-block moments of the model for a block of duration `t` (module docs).
 #[derive(Clone, Copy, Debug)]
 struct Moments {
@@ -1495,6 +1518,28 @@ mod tests {
         assert!((m.avar(1e6) / (n2 / 1e6) - 1.0).abs() < 1e-3);
         let (a, b) = (m.avar(tc * 0.999_999e-3), m.avar(tc * 1.000_001e-3));
         assert!((a / b - 1.0).abs() < 1e-5, "{a} {b}");
+    }
+
+    #[test]
+    fn one_second_scatter_of_a_walk() {
+        // Two seconds: the two means differ by a walk's variance 2/3, so their scatter is 1/3.
+        let walk = Model {
+            white: 0.0,
+            walk: 1.0,
+            gauss_markov: None,
+        };
+        assert!((walk.one_second_scatter(&[2]).unwrap() - 1.0 / 3.0).abs() < 1e-12);
+        // The white noise alone: N^2 whatever the rests.
+        let white = Model {
+            white: 2.0,
+            walk: 0.0,
+            gauss_markov: None,
+        };
+        assert_eq!(white.one_second_scatter(&[5, 1, 30]).unwrap(), 4.0);
+        assert!(white.one_second_scatter(&[1, 0]).is_none());
+        // A long rest: the scatter of a walk's means about their mean grows as n / 6.
+        let s = walk.one_second_scatter(&[3000]).unwrap();
+        assert!((s / 500.0 - 1.0).abs() < 0.01, "{s}");
     }
 
     #[test]

@@ -160,7 +160,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let rest = find_rest(args, &mut source, &file)?;
     let fits = fit_levels(&mut source, &rest, has_temp, &file)?;
     let mut out = summary(args, &file, &rest, &fits.sensors);
-    out += &tables(&fits, rest.median);
+    out += &tables(&fits, rest.median, &rest.intervals);
     let (base, base_origin) = match &config {
         Some((cfg, origin)) => (cfg.clone(), origin.clone()),
         None => (RunConfig::paper(), String::new()),
@@ -171,8 +171,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let block = noise_block(&base.noise, &base_origin, &fits.sensors, &fits.band);
     let _ = writeln!(
         out,
-        "\n[noise] block (the largest of the three axes; white levels as the sigma of a 1-s \
-         average):\n"
+        "\n[noise] block (the largest of the three axes; white levels: the white noise alone, as \
+         the sigma of a 1-s average of it):\n"
     );
     out += &block;
     if let Some(path) = &args.plot {
@@ -413,10 +413,15 @@ fn summary(args: &Args, file: &str, rest: &AtRest, sensors: &[SensorNoise]) -> S
 }
 
 /// The tables of both fits, the thermal regression, and what removing it did.
-fn tables(fits: &Fitted, median: f64) -> String {
+fn tables(fits: &Fitted, median: f64, intervals: &[Range<usize>]) -> String {
     let mut out = String::new();
+    let whole_seconds: Vec<usize> = intervals
+        .iter()
+        .map(|r| (r.len() as f64 * median + 1e-9).floor() as usize)
+        .collect();
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {
         out += &ml_table(s, sn);
+        out += &crate::noise_slow::one_second_line(s, sn, &whole_seconds);
     }
     out += &crate::noise_consistency::report(&fits.band, &fits.splits, median);
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {

@@ -160,3 +160,31 @@ pub(crate) fn oscillation_json(s: &Sensor, m: &MlFit) -> Value {
         None => Value::Null,
     }
 }
+
+/// The scatter of the rests' 1-s means each axis's likelihood model implies, and pooled over
+/// the axes as `calibrate` pools it: the figure `calibrate` measures and uses as its white
+/// noise, which a walk inside the rests adds to (docs/noise.md, "`noise` and `calibrate`").
+pub(crate) fn one_second_line(s: &Sensor, sn: &SensorNoise, whole_seconds: &[usize]) -> String {
+    let per: Vec<Option<f64>> = sn
+        .ml
+        .iter()
+        .map(|m| m.model().one_second_scatter(whole_seconds))
+        .collect();
+    if per.iter().any(Option::is_none) {
+        return String::new();
+    }
+    let v: Vec<f64> = per.into_iter().flatten().collect();
+    let pooled = (v.iter().sum::<f64>() / v.len() as f64).sqrt();
+    let f = s.adev_factor;
+    format!(
+        "  the scatter of the rests' 1-s means these models imply (white noise and walk; what \
+         `calibrate` measures in its rests, the axes pooled): {} {unit}, pooled {} {unit}\n",
+        v.iter()
+            .zip(AXES)
+            .map(|(x, a)| format!("{a} {}", sig(x.sqrt() * f)))
+            .collect::<Vec<_>>()
+            .join(", "),
+        sig(pooled * f),
+        unit = s.adev_unit
+    )
+}
