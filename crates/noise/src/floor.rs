@@ -13,11 +13,11 @@
 //! Flat: the minimum (over the points with at least [`FLOOR_MIN_EDF`] degrees of freedom: a
 //! point of fewer is as likely a low draw as the floor) is at least [`FLOOR_FALL`] of the
 //! deviation two octaves ([`FLOOR_SPAN`]) before it: the curve has stopped falling like white
-//! noise; and where the curve reaches two octaves beyond it, the deviation there is at most
-//! `1 / FLOOR_FALL` times the minimum: it does not rise like a walk. White noise alone falls by
-//! 2 over two octaves; white noise and a walk have a minimum, and whatever the octave grid's
-//! offset from it, the deviation two octaves before or two after is more than `sqrt(2)` times
-//! the lowest grid point (1.46 times where the grid hits the minimum). (A first version took the
+//! noise; and where the curve reaches two octaves beyond it, the deviations two octaves before
+//! and after exceed the minimum by less than [`FLOOR_BOWL`] together (the product of the two
+//! ratios): it is no bowl of white noise and a walk. White noise alone falls by 2 over two
+//! octaves; white noise and a walk have a minimum, and whatever the octave grid's offset from
+//! it, the two ratios' product is 2.03 or more. (A first version took the
 //! minimum's neighbours whose 68 % interval reached within 1.1 times the minimum, over two
 //! octaves: on the Xsens recording the last points, of one or two degrees of freedom, made a
 //! "floor" of the white noise at 2.56 s.) The interval of `B` is the minimum point's own 68 % interval
@@ -51,6 +51,14 @@ pub const FLOOR_FALL: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// whatever their degrees of freedom was tried first: on the simulated recording of
 /// `tests/mems.rs` it was the last point (2.7 degrees of freedom), at half the floor.
 pub const FLOOR_MIN_EDF: f64 = 10.0;
+
+/// The most the deviations two octaves before and two after the minimum may exceed it by, as
+/// the product of the two ratios: the geometric middle between a floor (1) and white noise with
+/// a walk (2.03 at the least, whatever the octave grid's offset from their minimum; 2.13 where
+/// the grid hits it). Fixed before it was run on data (a first rule, that the deviation two
+/// octaves after rise less than `sqrt(2)`, let the 4-h simulation of white noise and a walk
+/// make a floor of its minimum on gyro z, its point two octaves after low by chance).
+pub const FLOOR_BOWL: f64 = std::f64::consts::SQRT_2;
 
 /// How far before the minimum (a factor in averaging time) the curve must have stopped falling:
 /// two octaves.
@@ -113,10 +121,13 @@ pub fn flicker_floor(curve: &AllanCurve, tau_min_s: f64) -> Option<Floor> {
         return None;
     }
     // Two octaves after it (whatever its degrees of freedom), where there is a point: the curve
-    // must not rise like a walk.
+    // must not bend up on both sides like the bowl of white noise and a walk.
     let after = (min + 1..n)
         .find(|&i| valid(i) && curve.points[i].tau_s >= tau * FLOOR_SPAN * (1.0 - 1e-9));
-    if after.is_some_and(|i| curve.points[min].adev / curve.points[i].adev < FLOOR_FALL) {
+    let bowl = |i: usize| {
+        curve.points[before].adev * curve.points[i].adev / curve.points[min].adev.powi(2)
+    };
+    if after.is_some_and(|i| bowl(i) >= FLOOR_BOWL) {
         return None;
     }
     let (from, to) = (curve.points[before].tau_s, tau);

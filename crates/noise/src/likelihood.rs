@@ -243,7 +243,9 @@ impl Model {
         for &n in whole_seconds.iter().filter(|&&n| n >= 2) {
             let nf = n as f64;
             let sum_v = nf * (nf - 1.0) / 2.0 + nf / 3.0;
-            let cross: f64 = (0..n).map(|i| (i as f64 + 0.5) * (nf - 1.0 - i as f64)).sum();
+            let cross: f64 = (0..n)
+                .map(|i| (i as f64 + 0.5) * (nf - 1.0 - i as f64))
+                .sum();
             let walk_ss = sum_v - (sum_v + 2.0 * cross) / nf;
             ss += self.white * self.white * (nf - 1.0) + self.walk * self.walk * walk_ss;
             dof += n - 1;
