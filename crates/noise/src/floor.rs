@@ -29,11 +29,12 @@
 //!
 //! A bias instability and a walk are slow: from rests of a few seconds neither can be told from
 //! white noise, from the other, or from a unit settling after each motion. [`slow_terms`] says
-//! whether the rests are long enough: a walk only where the longest averaging time reaches two
-//! octaves beyond the time where the walk's Allan variance equals the white noise's (it then
-//! dominates the curve over two octaves; where the walk's interval reaches 0, the walk at its
-//! upper end is taken: the rests must be long enough to see the largest walk the data allow);
-//! a bias instability only where the curve shows a floor (above).
+//! whether the rests are long enough: a walk above 0 only where the longest averaging time
+//! reaches two octaves beyond the time where the walk's Allan variance equals the white
+//! noise's (it then dominates the curve over two octaves); a walk whose interval reaches 0 (a
+//! bound, written as 0) only where the curve reaches the time at which a walk at the bound
+//! would equal the white noise (the data then see that much); a bias instability only where
+//! the curve shows a floor (above).
 
 use crate::allan::AllanCurve;
 use crate::edf::{self, NoiseType};
@@ -155,7 +156,10 @@ pub struct SlowTerms {
     /// The averaging time from which the walk (at its value, or at its upper end where its
     /// interval reaches 0) dominates the white noise (s; infinite for no walk at all).
     pub walk_crossover_s: f64,
-    /// Whether the walk is determined: the curve reaches [`FLOOR_SPAN`] times the crossover.
+    /// Whether the walk's interval reaches 0: then the crossover is that of its upper end.
+    pub walk_bound: bool,
+    /// Whether the walk is determined: the curve reaches [`FLOOR_SPAN`] times the crossover
+    /// (a walk whose interval reaches 0: the crossover at its upper end).
     pub walk: bool,
     /// Whether a bias instability is determined: the curve shows a floor
     /// ([`flicker_floor`]).
@@ -173,10 +177,13 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
         .filter(|p| p.terms > 0)
         .map(|p| p.tau_s)
         .fold(0.0, f64::max);
-    let k = if ml.walk.lower > 0.0 {
-        ml.walk.value
+    // A walk above 0 must dominate the curve over two octaves; a bound (the interval reaching
+    // 0) says something where the curve reaches the time at which a walk at the bound would
+    // equal the white noise.
+    let (k, reach) = if ml.walk.lower > 0.0 {
+        (ml.walk.value, FLOOR_SPAN)
     } else {
-        ml.walk.upper
+        (ml.walk.upper, 1.0)
     };
     // N^2 / tau = K^2 tau / 3 at tau = sqrt(3) N / K.
     let walk_crossover_s = if k > 0.0 && k.is_finite() {
@@ -188,7 +195,8 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
         longest_rest_s: longest as f64 * curve.tau0_s,
         longest_tau_s,
         walk_crossover_s,
-        walk: longest_tau_s >= FLOOR_SPAN * walk_crossover_s * (1.0 - 1e-9),
+        walk_bound: ml.walk.lower <= 0.0,
+        walk: longest_tau_s >= reach * walk_crossover_s * (1.0 - 1e-9),
         bias_instability: flicker_floor(curve, BLOCKS_PER_CORRELATION as f64 * ml.correlation_s)
             .is_some(),
     }

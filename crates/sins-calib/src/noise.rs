@@ -855,6 +855,12 @@ fn block_field(key: &str, per: &[Result<(f64, Basis), String>], guess: f64, fact
         let _ = write!(comment, "; left out: {}", out.join("; "));
     }
     if value == 0.0 {
+        // A 0 from the axes kept says nothing of an axis whose rests could not tell its walk.
+        if why.iter().any(|w| w.0.starts_with("not determined")) {
+            return format!(
+                "# {key} not set: {comment}; on the others none significantly above 0\n"
+            );
+        }
         comment += "; none significantly above 0";
     }
     format!("{key} = {}  # {comment}\n", sig(value))

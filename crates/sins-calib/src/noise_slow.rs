@@ -44,10 +44,20 @@ pub(crate) fn walk_not_determined(st: &SlowTerms) -> String {
     );
     if st.walk_crossover_s.is_finite() {
         format!(
-            "{reach} is too short: the walk (at the upper end of its interval where that \
-             reaches 0) would dominate the white noise only from {} s, and two octaves beyond \
-             that are needed",
-            sig(st.walk_crossover_s)
+            "{reach} is too short: {}",
+            if st.walk_bound {
+                format!(
+                    "a walk at the upper end of its interval (which reaches 0) would equal the \
+                     white noise only at {} s",
+                    sig(st.walk_crossover_s)
+                )
+            } else {
+                format!(
+                    "the walk would dominate the white noise from {} s, and two octaves beyond \
+                     that are needed",
+                    sig(st.walk_crossover_s)
+                )
+            }
         )
     } else {
         format!("{reach}: no walk bounded")
@@ -80,16 +90,21 @@ pub(crate) fn report(s: &Sensor, sn: &SensorNoise) -> String {
                 sig(st.longest_tau_s)
             ),
         };
-        let w = if st.walk {
-            format!(
+        let w = match (st.walk, st.walk_bound) {
+            (true, false) => format!(
                 "walk determined (the curve reaches {} s, {} times the {} s from which the walk \
                  dominates the white noise)",
                 sig(st.longest_tau_s),
                 table::compact(FLOOR_SPAN),
                 sig(st.walk_crossover_s)
-            )
-        } else {
-            format!("walk not determined: {}", walk_not_determined(st))
+            ),
+            (true, true) => format!(
+                "walk bounded (its interval reaches 0; the curve reaches {} s, past the {} s at \
+                 which a walk at its upper end would equal the white noise)",
+                sig(st.longest_tau_s),
+                sig(st.walk_crossover_s)
+            ),
+            (false, _) => format!("walk not determined: {}", walk_not_determined(st)),
         };
         let _ = writeln!(out, "  {}: {b}; {w}", AXES[a]);
     }
@@ -141,6 +156,7 @@ pub(crate) fn sensor_json(s: &Sensor, sn: &SensorNoise) -> (Value, Value) {
                 "longest_tau_s": st.longest_tau_s,
                 "walk_crossover_s": st.walk_crossover_s.is_finite().then_some(st.walk_crossover_s),
                 "walk_determined": st.walk,
+                "walk_bound": st.walk_bound,
                 "bias_instability_determined": st.bias_instability,
             })
         })
