@@ -31,10 +31,9 @@
 //! white noise, from the other, or from a unit settling after each motion. [`slow_terms`] says
 //! whether the rests are long enough: a walk above 0 only where the longest averaging time
 //! reaches two octaves beyond the time where the walk's Allan variance equals the white
-//! noise's (it then dominates the curve over two octaves); a walk whose interval reaches 0 (a
-//! bound, written as 0) only where the curve reaches the time at which a walk at the bound
-//! would equal the white noise (the data then see that much); a bias instability only where
-//! the curve shows a floor (above).
+//! noise's (it then dominates the curve over two octaves); a walk whose interval reaches 0 is
+//! a bound, what the data say whatever the rests' length (its upper end says how much could
+//! hide); a bias instability only where the curve shows a floor (above).
 
 use crate::allan::AllanCurve;
 use crate::edf::{self, NoiseType};
@@ -158,8 +157,8 @@ pub struct SlowTerms {
     pub walk_crossover_s: f64,
     /// Whether the walk's interval reaches 0: then the crossover is that of its upper end.
     pub walk_bound: bool,
-    /// Whether the walk is determined: the curve reaches [`FLOOR_SPAN`] times the crossover
-    /// (a walk whose interval reaches 0: the crossover at its upper end).
+    /// Whether the walk is determined: a bound (its interval reaches 0), or the curve reaches
+    /// [`FLOOR_SPAN`] times the crossover.
     pub walk: bool,
     /// Whether a bias instability is determined: the curve shows a floor
     /// ([`flicker_floor`]).
@@ -177,14 +176,13 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
         .filter(|p| p.terms > 0)
         .map(|p| p.tau_s)
         .fold(0.0, f64::max);
-    // A walk above 0 must dominate the curve over two octaves; a bound (the interval reaching
-    // 0) says something where the curve reaches the time at which a walk at the bound would
-    // equal the white noise.
-    let (k, reach) = if ml.walk.lower > 0.0 {
-        (ml.walk.value, FLOOR_SPAN)
-    } else {
-        (ml.walk.upper, 1.0)
-    };
+    // A walk above 0 must dominate the curve over two octaves. A bound (the interval reaching
+    // 0) is what the data say whatever the rests: its upper end is where a walk would just
+    // show at the longest taus, so its crossover scales with the rests and no rule relative to
+    // them separates short rests from long (on an hour's rest it lay at 1.0 to 1.6 times the
+    // longest tau, on 7-s rests at 1.2 to 1.8 times).
+    let bound = ml.walk.lower <= 0.0;
+    let k = if bound { ml.walk.upper } else { ml.walk.value };
     // N^2 / tau = K^2 tau / 3 at tau = sqrt(3) N / K.
     let walk_crossover_s = if k > 0.0 && k.is_finite() {
         3f64.sqrt() * ml.white.value / k
@@ -195,8 +193,8 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
         longest_rest_s: longest as f64 * curve.tau0_s,
         longest_tau_s,
         walk_crossover_s,
-        walk_bound: ml.walk.lower <= 0.0,
-        walk: longest_tau_s >= reach * walk_crossover_s * (1.0 - 1e-9),
+        walk_bound: bound,
+        walk: bound || longest_tau_s >= FLOOR_SPAN * walk_crossover_s * (1.0 - 1e-9),
         bias_instability: flicker_floor(curve, BLOCKS_PER_CORRELATION as f64 * ml.correlation_s)
             .is_some(),
     }

@@ -4,9 +4,10 @@
 //! the first run.
 
 use noise::analyse_axis_from;
+use noise::consistency::check_family;
 use noise::fit::Term;
 use noise::floor::{FLICKER_ADEV, flicker_floor, slow_terms};
-use noise::likelihood::{BLOCKS_PER_CORRELATION, Model, fit_ml};
+use noise::likelihood::{BLOCKS_PER_CORRELATION, Model, fit_ml, fit_ml_blocks};
 use rand::{SeedableRng, rngs::Xoshiro256PlusPlus};
 use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::TAU;
@@ -135,6 +136,27 @@ fn an_oscillation_and_a_flicker_floor() {
         axis.fit.term(Term::White).value / DEG_H,
         at_1s.tau_s,
         at_1s.adev * at_1s.tau_s.sqrt() / DEG_H
+    );
+    // For comparison (a measurement, not tested): the blocks the correlation search alone
+    // would give, ten times its last correlated lag.
+    let last_lag = (osc.correlated_to_s / DT).round() as usize;
+    let old = fit_ml_blocks(
+        &increments,
+        DT,
+        &intervals,
+        BLOCKS_PER_CORRELATION * last_lag,
+    )
+    .expect("ml fit");
+    println!(
+        "without the oscillation rule: blocks {} s, white {:.1} deg/h",
+        old.block_s,
+        old.white.value / DEG_H
+    );
+    let band = check_family(&[(&axis.curve, &ml)]);
+    println!(
+        "likelihood model against the Allan curve: {} of {} points outside the band",
+        band.axes[0].outside().count(),
+        band.points
     );
     let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s).expect("a floor");
     let truth_b = flicker_adev_unit(1000.0) * gm_sigma() / FLICKER_ADEV / DEG_H;

@@ -44,20 +44,9 @@ pub(crate) fn walk_not_determined(st: &SlowTerms) -> String {
     );
     if st.walk_crossover_s.is_finite() {
         format!(
-            "{reach} is too short: {}",
-            if st.walk_bound {
-                format!(
-                    "a walk at the upper end of its interval (which reaches 0) would equal the \
-                     white noise only at {} s",
-                    sig(st.walk_crossover_s)
-                )
-            } else {
-                format!(
-                    "the walk would dominate the white noise from {} s, and two octaves beyond \
-                     that are needed",
-                    sig(st.walk_crossover_s)
-                )
-            }
+            "{reach} is too short: the walk would dominate the white noise from {} s, and two \
+             octaves beyond that are needed",
+            sig(st.walk_crossover_s)
         )
     } else {
         format!("{reach}: no walk bounded")
@@ -99,10 +88,10 @@ pub(crate) fn report(s: &Sensor, sn: &SensorNoise) -> String {
                 sig(st.walk_crossover_s)
             ),
             (true, true) => format!(
-                "walk bounded (its interval reaches 0; the curve reaches {} s, past the {} s at \
-                 which a walk at its upper end would equal the white noise)",
-                sig(st.longest_tau_s),
-                sig(st.walk_crossover_s)
+                "walk bounded: its interval reaches 0 (a walk at its upper end would equal the \
+                 white noise at {} s; the curve reaches {} s)",
+                sig(st.walk_crossover_s),
+                sig(st.longest_tau_s)
             ),
             (false, _) => format!("walk not determined: {}", walk_not_determined(st)),
         };
