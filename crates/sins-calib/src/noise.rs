@@ -663,6 +663,19 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
             format!("{} x {} s", m.blocks, table::significant(m.block_s, 3)),
         ]);
     }
+    let notes = ml_notes(s, sn);
+    format!(
+        "\n{}, maximum likelihood (value [68 % profile interval]; the Gauss-Markov bias where \
+         the likelihood-ratio test, p in LR p, selects it at p < 0.01; check p: the model \
+         against the data, whiteness of the innovations)\n{}{notes}",
+        s.name,
+        t.render()
+    )
+}
+
+/// The notes under a sensor's likelihood table: an oscillation the blocks were chosen above, a
+/// check that fails, too few blocks, a correlation time at a bound.
+fn ml_notes(s: &Sensor, sn: &SensorNoise) -> String {
     let mut notes = String::new();
     for (a, m) in sn.ml.iter().enumerate() {
         if let Some(n) = crate::noise_slow::oscillation_note(s, AXES[a], m) {
@@ -713,19 +726,13 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
             _ => {}
         }
     }
-    format!(
-        "\n{}, maximum likelihood (value [68 % profile interval]; the Gauss-Markov bias where \
-         the likelihood-ratio test, p in LR p, selects it at p < 0.01; check p: the model \
-         against the data, whiteness of the innovations)\n{}{notes}",
-        s.name,
-        t.render()
-    )
+    notes
 }
 
 /// Which fit an axis's `[noise]` levels come from: only one that passed its check.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Basis {
-    /// The maximum-likelihood fit, its whiteness check passed.
+    /// The maximum-likelihood fit, its whiteness check and its band check passed.
     Likelihood,
     /// The Allan fit, its chi-square and band check passed (the likelihood's failed).
     Allan,
