@@ -229,6 +229,31 @@ impl Model {
     }
 }
 
+impl Model {
+    /// The variance of whole-second means about their own rest's mean that the white noise
+    /// and the walk imply, pooled over rests of `whole_seconds` seconds (those of fewer than two
+    /// left out; `None` without any): what a scatter of 1-s means inside rests measures
+    /// (`calibrate`'s white noise, `calib::estimate::hand_turned::white_noise_at_rest`). Each
+    /// 1-s mean has the white variance `N^2`; a walk adds, in a rest of `n` seconds,
+    /// `K^2 (sum_i V_i - S / n) / (n - 1)` with `V_i = i + 1/3` the variance of the `i`-th
+    /// mean of a walk started at 0 and `S` the sum of all their covariances
+    /// (`i + 1/2` for `i < j`). A Gauss-Markov bias is not in it.
+    pub fn one_second_scatter(&self, whole_seconds: &[usize]) -> Option<f64> {
+        let (mut ss, mut dof) = (0.0, 0usize);
+        for &n in whole_seconds.iter().filter(|&&n| n >= 2) {
+            let nf = n as f64;
+            let sum_v = nf * (nf - 1.0) / 2.0 + nf / 3.0;
+            let cross: f64 = (0..n)
+                .map(|i| (i as f64 + 0.5) * (nf - 1.0 - i as f64))
+                .sum();
+            let walk_ss = sum_v - (sum_v + 2.0 * cross) / nf;
+            ss += self.white * self.white * (nf - 1.0) + self.walk * self.walk * walk_ss;
+            dof += n - 1;
+        }
+        (dof > 0).then(|| ss / dof as f64)
+    }
+}
+
 /// The per-block moments of the model for a block of duration `t` (module docs).
 #[derive(Clone, Copy, Debug)]
 struct Moments {
@@ -754,9 +779,39 @@ pub struct MlFit {
     /// Whether the Gauss-Markov correlation time sits at a bound of its search (10 blocks or
     /// 1000 longest intervals): then the value is the bound's, not the data's.
     pub tc_at_bound: bool,
+    /// An oscillation in the samples ([`correlation_of`]): the blocks were chosen above its
+    /// period rather than above the last correlated lag.
+    #[serde(default)]
+    pub oscillation: Option<Oscillation>,
+}
+
+/// An oscillation in an axis's samples ([`correlation_of`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Oscillation {
+    /// Its period (s): the first lag at which the first differences' autocorrelation peaks
+    /// positive.
+    pub period_s: f64,
+    /// Its root mean square in the rate (rad/s or m/s^2).
+    pub rms: f64,
+    /// The autocorrelation of the first differences at the period.
+    pub autocorrelation: f64,
+    /// The last lag at which the differences' autocorrelation departs from white (s): where
+    /// the correlation search would have put the correlation time without it.
+    pub correlated_to_s: f64,
 }
 
 impl MlFit {
+    /// Record the correlation the blocks were chosen from (`tau0_s` the record interval).
+    pub fn set_correlation(&mut self, c: &Correlation, tau0_s: f64) {
+        self.correlation_s = c.records as f64 * tau0_s;
+        self.oscillation = c.oscillation.map(|(p, r, rms)| Oscillation {
+            period_s: p as f64 * tau0_s,
+            rms: rms / tau0_s,
+            autocorrelation: r,
+            correlated_to_s: c.last_lag as f64 * tau0_s,
+        });
+    }
+
     /// Whether the blocks are shorter than [`BLOCKS_PER_CORRELATION`] correlation times (the
     /// cap of [`fit_ml`]): the sensor's own correlation may then show in the check.
     pub fn below_correlation(&self) -> bool {
@@ -1085,6 +1140,7 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
                 let (lo, hi) = (10.0 * blocks.block_s, 1000.0 * blocks.longest_s());
                 tc < lo * 1.01 || tc > hi / 1.01
             }),
+            oscillation: None,
         })
     } else {
         let (white, walk) = base_levels(blocks, n, k, best);
@@ -1107,6 +1163,7 @@ pub fn fit_blocks(blocks: &Blocks) -> Result<MlFit, NoiseError> {
             blocks: blocks.len(),
             correlation_s: 0.0,
             tc_at_bound: false,
+            oscillation: None,
         })
     }
 }
@@ -1129,7 +1186,8 @@ pub fn fit_ml(
     intervals: &[Range<usize>],
 ) -> Result<MlFit, NoiseError> {
     check_intervals(increments.len(), intervals)?;
-    let k = correlation_records(increments, intervals);
+    let correlation = correlation_of(increments, intervals);
+    let k = correlation.records;
     // Blocks ten correlation lengths long, but no longer than a tenth of the longest interval:
     // with fewer blocks the white level and the check are no longer determined (a strongly
     // quantised axis whose quantisation error stays put for seconds, as on the Ferraris
@@ -1143,7 +1201,7 @@ pub fn fit_ml(
         intervals,
         (BLOCKS_PER_CORRELATION * k).min(cap),
     )?;
-    fit.correlation_s = k as f64 * tau0_s;
+    fit.set_correlation(&correlation, tau0_s);
     Ok(fit)
 }
 
@@ -1159,7 +1217,8 @@ pub const BLOCKS_PER_CORRELATION: usize = 10;
 /// The sensor's correlation length in records, from the data: the last lag at which the
 /// sample autocorrelation of the first differences of the increments (within each interval,
 /// pooled over the intervals) departs from that of white increments, searched up to a tenth
-/// of the longest interval (at most 1000 lags); 0 for white samples.
+/// of the longest interval (at most 1000 lags); 0 for white samples; the period of an
+/// oscillation where the samples hold one ([`correlation_of`]).
 ///
 /// Why the differences and not the increments themselves: a bias walk (or a slow Gauss-Markov
 /// bias), which the likelihood models, makes the increments' autocorrelation significant at
@@ -1174,6 +1233,42 @@ pub const BLOCKS_PER_CORRELATION: usize = 10;
 /// 1 % over all the lags searched (Bonferroni), each lag's standard deviation `sqrt(1.5 / n)`
 /// (Bartlett's formula for the differences of white samples, `1 + 2 (1/2)^2 = 1.5`).
 pub fn correlation_records(increments: &[f64], intervals: &[Range<usize>]) -> usize {
+    correlation_of(increments, intervals).records
+}
+
+/// Autocorrelation of the first differences (at the period) from which a positive peak is
+/// taken for an oscillation, besides being significant: an oscillation of period 5 records
+/// with about 7 % of the samples' variance. Fixed before the first run on any data.
+pub const OSCILLATION_MIN_AUTOCORRELATION: f64 = 0.05;
+
+/// What the autocorrelation of the first differences says about a sensor's short-time
+/// structure ([`correlation_of`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Correlation {
+    /// The correlation length the blocks are chosen above (records): [`Self::last_lag`], or
+    /// the oscillation's period where there is one.
+    pub records: usize,
+    /// The last lag at which the differences' autocorrelation departs from white (records).
+    pub last_lag: usize,
+    /// An oscillation: its period (records), the differences' autocorrelation there and the
+    /// oscillation's root mean square in the increments.
+    pub oscillation: Option<(usize, f64, f64)>,
+}
+
+/// [`correlation_records`] with the oscillation it looks for: a positive autocorrelation of
+/// the first differences at a lag of 2 or more, significant (the same test) and at least
+/// [`OSCILLATION_MIN_AUTOCORRELATION`]. A sensor's own low-pass filter (a moving average, a
+/// first-order lag) and any bias process give the differences negative autocorrelations only;
+/// a positive one at lag `P` is a periodic part of period about `P` records, and the first
+/// lag at which it peaks is taken as that period. An oscillation that stays coherent keeps
+/// the differences correlated at its multiples to the end of the search, and blocks ten times
+/// that long (on a user's MEMS gyro, 94 s) take a flicker floor for white noise; but a block
+/// mean over many of its periods averages it out (its variance falls as `1 / T^2`, the white
+/// noise's as `1 / T`), so the blocks are chosen above its period instead. Its root mean
+/// square in the increments: a periodic part of variance `v` and angular frequency
+/// `omega = 2 pi / P` adds `v (2 - 2 cos omega) cos(omega k)` to the differences'
+/// autocovariance at lag `k`, so at `k = P` it is `gamma_d(P) / (2 - 2 cos omega)`.
+pub fn correlation_of(increments: &[f64], intervals: &[Range<usize>]) -> Correlation {
     let diffs: Vec<Vec<f64>> = intervals
         .iter()
         .filter(|r| r.end <= increments.len() && r.len() >= 3)
@@ -1186,26 +1281,58 @@ pub fn correlation_records(increments: &[f64], intervals: &[Range<usize>]) -> us
         .collect();
     let n: usize = diffs.iter().map(Vec::len).sum();
     let g0: f64 = diffs.iter().flatten().map(|v| v * v).sum();
-    if n < 10 || g0.is_nan() || g0 <= 0.0 {
-        return 0;
-    }
     let longest = diffs.iter().map(Vec::len).max().unwrap_or(0);
     let max_lag = (longest / 10).clamp(1, 1000);
+    let mut gk = vec![0.0; max_lag + 1];
+    if n >= 10 {
+        for (k, g) in gk.iter_mut().enumerate().skip(1) {
+            *g = diffs
+                .iter()
+                .filter(|c| c.len() > k)
+                .map(|c| c.iter().zip(&c[k..]).map(|(a, b)| a * b).sum::<f64>())
+                .sum();
+        }
+    }
+    correlation_from_sums(n, g0, &gk)
+}
+
+/// [`correlation_of`] from the sums: `n` differences, `g0` the sum of their squares, `gk[k]`
+/// the sum of their products at lag `k` (`1 ..= gk.len() - 1`, the lags searched).
+pub fn correlation_from_sums(n: usize, g0: f64, gk: &[f64]) -> Correlation {
+    let none = Correlation {
+        records: 0,
+        last_lag: 0,
+        oscillation: None,
+    };
+    if n < 10 || g0.is_nan() || g0 <= 0.0 || gk.len() < 2 {
+        return none;
+    }
+    let max_lag = gk.len() - 1;
     let z = statrs::distribution::Normal::standard().inverse_cdf(1.0 - 0.005 / max_lag as f64);
     let threshold = z * (1.5 / n as f64).sqrt();
+    let r = |k: usize| gk[k] / g0;
     let mut last = 0;
     for k in 1..=max_lag {
-        let gk: f64 = diffs
-            .iter()
-            .filter(|c| c.len() > k)
-            .map(|c| c.iter().zip(&c[k..]).map(|(a, b)| a * b).sum::<f64>())
-            .sum();
         let white = if k == 1 { -0.5 } else { 0.0 };
-        if (gk / g0 - white).abs() > threshold {
+        if (r(k) - white).abs() > threshold {
             last = k;
         }
     }
-    last
+    let oscillation = (2..=max_lag)
+        .find(|&k| {
+            let peak = r(k) >= r(k - 1) && (k == max_lag || r(k) >= r(k + 1));
+            peak && r(k) > threshold && r(k) >= OSCILLATION_MIN_AUTOCORRELATION
+        })
+        .map(|p| {
+            let omega = std::f64::consts::TAU / p as f64;
+            let gamma = gk[p] / n as f64;
+            (p, r(p), (gamma / (2.0 - 2.0 * omega.cos())).max(0.0).sqrt())
+        });
+    Correlation {
+        records: oscillation.map_or(last, |o| o.0),
+        last_lag: last,
+        oscillation,
+    }
 }
 
 /// [`fit_ml`] on blocks of at least `min_records` records (more where [`MAX_BLOCKS`] needs
@@ -1393,6 +1520,28 @@ mod tests {
         assert!((m.avar(1e6) / (n2 / 1e6) - 1.0).abs() < 1e-3);
         let (a, b) = (m.avar(tc * 0.999_999e-3), m.avar(tc * 1.000_001e-3));
         assert!((a / b - 1.0).abs() < 1e-5, "{a} {b}");
+    }
+
+    #[test]
+    fn one_second_scatter_of_a_walk() {
+        // Two seconds: the two means differ by a walk's variance 2/3, so their scatter is 1/3.
+        let walk = Model {
+            white: 0.0,
+            walk: 1.0,
+            gauss_markov: None,
+        };
+        assert!((walk.one_second_scatter(&[2]).unwrap() - 1.0 / 3.0).abs() < 1e-12);
+        // The white noise alone: N^2 whatever the rests.
+        let white = Model {
+            white: 2.0,
+            walk: 0.0,
+            gauss_markov: None,
+        };
+        assert_eq!(white.one_second_scatter(&[5, 1, 30]).unwrap(), 4.0);
+        assert!(white.one_second_scatter(&[1, 0]).is_none());
+        // A long rest: the scatter of a walk's means about their mean grows as n / 6.
+        let s = walk.one_second_scatter(&[3000]).unwrap();
+        assert!((s / 500.0 - 1.0).abs() < 0.01, "{s}");
     }
 
     #[test]

@@ -11,9 +11,10 @@
 //! with the recording.
 
 use crate::allan::{self, AllanCurve};
-use crate::likelihood::{self, BLOCKS_PER_CORRELATION, Blocks, MIN_BLOCKS_PER_INTERVAL, MlFit};
+use crate::likelihood::{
+    self, BLOCKS_PER_CORRELATION, Blocks, Correlation, MIN_BLOCKS_PER_INTERVAL, MlFit,
+};
 use crate::{AxisNoise, NoiseError, fit};
-use statrs::distribution::ContinuousCDF;
 use std::collections::VecDeque;
 use std::ops::Range;
 
@@ -42,7 +43,8 @@ pub fn fit_axes_streamed<E>(
     let mut first = FirstReading::new(axes, intervals);
     read(&mut |i, v| first.visit(i, v))?;
     first.finish();
-    let k_of = first.correlation_lengths();
+    let correlations = first.correlations();
+    let k_of: Vec<usize> = correlations.iter().map(|c| c.records).collect();
     let means = first.means();
     let block_len = block_lengths(&k_of, intervals);
     let mut second = SecondReading::new(axes, tau0_s, intervals, means, block_len);
@@ -51,13 +53,13 @@ pub fn fit_axes_streamed<E>(
     let longest = intervals.iter().map(|r| r.len()).max().unwrap_or(0);
     Ok((0..axes)
         .map(|a| {
-            let correlation_s = k_of[a] as f64 * tau0_s;
+            let correlation = &correlations[a];
             match first.non_finite[a] {
                 _ if !(tau0_s.is_finite() && tau0_s > 0.0) => {
                     refused(&NoiseError::BadInterval0(tau0_s))
                 }
                 Some(record) => refused(&NoiseError::NotFinite { record }),
-                None => second.axis_fits(a, longest, correlation_s),
+                None => second.axis_fits(a, longest, correlation),
             }
         })
         .collect())
@@ -201,26 +203,10 @@ impl<'a> FirstReading<'a> {
         }
     }
 
-    /// The correlation length of each axis, as [`likelihood::correlation_records`] decides it.
-    fn correlation_lengths(&self) -> Vec<usize> {
+    /// The correlation of each axis, as [`likelihood::correlation_of`] finds it.
+    fn correlations(&self) -> Vec<Correlation> {
         (0..self.g0.len())
-            .map(|a| {
-                let g0 = self.g0[a];
-                if self.n_diffs < 10 || g0.is_nan() || g0 <= 0.0 {
-                    return 0;
-                }
-                let z = statrs::distribution::Normal::standard()
-                    .inverse_cdf(1.0 - 0.005 / self.max_lag as f64);
-                let threshold = z * (1.5 / self.n_diffs as f64).sqrt();
-                let mut last = 0;
-                for k in 1..=self.max_lag {
-                    let white = if k == 1 { -0.5 } else { 0.0 };
-                    if (self.gk[a][k] / g0 - white).abs() > threshold {
-                        last = k;
-                    }
-                }
-                last
-            })
+            .map(|a| likelihood::correlation_from_sums(self.n_diffs, self.g0[a], &self.gk[a]))
             .collect()
     }
 
@@ -417,7 +403,8 @@ impl<'a> SecondReading<'a> {
 
     /// Both fits of axis `a` from its blocks and Allan sums (its correlation time
     /// `correlation_s`; the blocks are taken out).
-    fn axis_fits(&mut self, a: usize, longest: usize, correlation_s: f64) -> AxisFits {
+    fn axis_fits(&mut self, a: usize, longest: usize, correlation: &Correlation) -> AxisFits {
+        let correlation_s = correlation.records as f64 * self.tau0_s;
         let b = std::mem::take(&mut self.blocks[a]);
         let ml = if b.iter().all(|x| x.len() < 3) {
             Err(NoiseError::TooShort { longest })
@@ -427,7 +414,7 @@ impl<'a> SecondReading<'a> {
                 intervals: b,
             };
             likelihood::fit_blocks(&blocks).map(|mut f| {
-                f.correlation_s = correlation_s;
+                f.set_correlation(correlation, self.tau0_s);
                 f
             })
         };

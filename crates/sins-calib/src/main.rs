@@ -65,6 +65,7 @@ mod noise_consistency;
 mod noise_json;
 mod noise_model;
 mod noise_plot;
+mod noise_slow;
 mod output;
 mod plot;
 mod provenance;

@@ -10,7 +10,9 @@ use crate::table::{self, Align, Table};
 use crate::{Error, load_config};
 use ::calib::motion::detect::{DetectorSettings, RateSource, segment_streamed};
 use ::noise::AxisNoise;
+use ::noise::consistency::AxisCheck;
 use ::noise::fit::{NoiseFit, Term};
+use ::noise::floor::SlowTerms;
 use ::noise::likelihood::{Level, MlFit};
 use calib::config::{NoiseConfig, RunConfig};
 use calib::io::ImuKind;
@@ -158,7 +160,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let rest = find_rest(args, &mut source, &file)?;
     let fits = fit_levels(&mut source, &rest, has_temp, &file)?;
     let mut out = summary(args, &file, &rest, &fits.sensors);
-    out += &tables(&fits, rest.median);
+    out += &tables(&fits, rest.median, &rest.intervals);
     let (base, base_origin) = match &config {
         Some((cfg, origin)) => (cfg.clone(), origin.clone()),
         None => (RunConfig::paper(), String::new()),
@@ -166,11 +168,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some((cfg, origin)) = &config {
         out += &comparison(cfg, origin, &fits.sensors);
     }
-    let block = noise_block(&base.noise, &base_origin, &fits.sensors);
+    let block = noise_block(&base.noise, &base_origin, &fits.sensors, &fits.band);
     let _ = writeln!(
         out,
-        "\n[noise] block (the largest of the three axes; white levels as the sigma of a 1-s \
-         average):\n"
+        "\n[noise] block (the largest of the three axes; white levels: the white noise alone, as \
+         the sigma of a 1-s average of it):\n"
     );
     out += &block;
     if let Some(path) = &args.plot {
@@ -411,14 +413,22 @@ fn summary(args: &Args, file: &str, rest: &AtRest, sensors: &[SensorNoise]) -> S
 }
 
 /// The tables of both fits, the thermal regression, and what removing it did.
-fn tables(fits: &Fitted, median: f64) -> String {
+fn tables(fits: &Fitted, median: f64, intervals: &[Range<usize>]) -> String {
     let mut out = String::new();
+    let whole_seconds: Vec<usize> = intervals
+        .iter()
+        .map(|r| (r.len() as f64 * median + 1e-9).floor() as usize)
+        .collect();
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {
         out += &ml_table(s, sn);
+        out += &crate::noise_slow::one_second_line(s, sn, &whole_seconds);
     }
     out += &crate::noise_consistency::report(&fits.band, &fits.splits, median);
     for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {
         out += &sensor_table(s, sn);
+    }
+    for (s, sn) in [&GYRO, &ACCEL].into_iter().zip(&fits.sensors) {
+        out += &crate::noise_slow::report(s, sn);
     }
     if let Some(t) = &fits.thermal {
         out += &thermal_table(t);
@@ -464,11 +474,23 @@ fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
     cols.push(("fitted tau [s]", Align::Right));
     cols.push(("sum in 95 % band", Align::Left));
     let mut t = Table::new(&cols);
+    let slow = crate::noise_slow::slow_terms(sn);
     for (a, ax) in sn.axes.iter().enumerate() {
         let f = &ax.fit;
         let mut row = vec![AXES[a].to_string()];
         for j in order {
-            row.push(level(f, j, s.factors[j]));
+            // Slow terms the rests cannot tell are no figures (docs/noise.md, "Rests too short
+            // to tell").
+            let undetermined = match j {
+                2 => !slow[a].bias_instability,
+                3 => !slow[a].walk,
+                _ => false,
+            };
+            row.push(if undetermined && f.terms[j].included {
+                "not determined".to_string()
+            } else {
+                level(f, j, s.factors[j])
+            });
         }
         row.push(format!("{:.2}/{}", f.chi2, f.dof));
         row.push(calib::check::stats::p_value_text(f.p_value));
@@ -611,6 +633,7 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
         ("check p", Align::Right),
         ("blocks", Align::Right),
     ]);
+    let slow = crate::noise_slow::slow_terms(sn);
     for (a, m) in sn.ml.iter().enumerate() {
         let (gm, tc) = match &m.gauss_markov {
             Some(g) => (
@@ -626,7 +649,11 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
         t.row(vec![
             AXES[a].to_string(),
             ml_level(&m.white, s.factors[1]),
-            ml_level(&m.walk, s.factors[3]),
+            if slow[a].walk {
+                ml_level(&m.walk, s.factors[3])
+            } else {
+                "not determined".to_string()
+            },
             gm,
             tc,
             calib::check::stats::p_value_text(m.lr_p_value),
@@ -636,8 +663,24 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
             format!("{} x {} s", m.blocks, table::significant(m.block_s, 3)),
         ]);
     }
+    let notes = ml_notes(s, sn);
+    format!(
+        "\n{}, maximum likelihood (value [68 % profile interval]; the Gauss-Markov bias where \
+         the likelihood-ratio test, p in LR p, selects it at p < 0.01; check p: the model \
+         against the data, whiteness of the innovations)\n{}{notes}",
+        s.name,
+        t.render()
+    )
+}
+
+/// The notes under a sensor's likelihood table: an oscillation the blocks were chosen above, a
+/// check that fails, too few blocks, a correlation time at a bound.
+fn ml_notes(s: &Sensor, sn: &SensorNoise) -> String {
     let mut notes = String::new();
     for (a, m) in sn.ml.iter().enumerate() {
+        if let Some(n) = crate::noise_slow::oscillation_note(s, AXES[a], m) {
+            notes += &n;
+        }
         let corr = if m.below_correlation() {
             format!(
                 "blocks of {} s, a tenth of the longest interval, short of ten times the \
@@ -683,57 +726,84 @@ fn ml_table(s: &Sensor, sn: &SensorNoise) -> String {
             _ => {}
         }
     }
-    format!(
-        "\n{}, maximum likelihood (value [68 % profile interval]; the Gauss-Markov bias where \
-         the likelihood-ratio test, p in LR p, selects it at p < 0.01; check p: the model \
-         against the data, whiteness of the innovations)\n{}{notes}",
-        s.name,
-        t.render()
-    )
+    notes
 }
 
 /// Which fit an axis's `[noise]` levels come from: only one that passed its check.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Basis {
-    /// The maximum-likelihood fit, its whiteness check passed.
+    /// The maximum-likelihood fit, its whiteness check and its band check passed.
     Likelihood,
     /// The Allan fit, its chi-square and band check passed (the likelihood's failed).
     Allan,
 }
 
-/// The white level and walk (SI) the `[noise]` block takes from one axis, and from which fit:
-/// the maximum-likelihood ones where that model passes its check, else the Allan fit's where
-/// it passes its own (its walk only where it has the term); `None` where neither passes.
-/// A likelihood walk counts only where it is significantly above 0 (the lower end of its
-/// interval above 0).
-fn block_levels(axis: &AxisNoise, m: &MlFit) -> Option<(f64, f64, Basis)> {
-    if m.passes() {
+/// What one axis gives the `[noise]` block: its white level and its walk (SI), each with the
+/// fit it comes from, or why the axis gives none.
+struct AxisLevels {
+    white: Result<(f64, Basis), String>,
+    walk: Result<(f64, Basis), String>,
+}
+
+/// The `[noise]` levels of one axis: the maximum-likelihood ones where that model passes both
+/// its checks (the whiteness of its innovations and the band of the measured Allan deviation),
+/// else the Allan fit's where it passes its own (its walk only where it has the term), else
+/// none, with why. A likelihood walk counts only where it is significantly above 0 (the lower
+/// end of its interval above 0); a walk the rests are too short to tell is left out
+/// ([`::noise::floor::slow_terms`]).
+fn axis_levels(axis: &AxisNoise, m: &MlFit, band: &AxisCheck, slow: &SlowTerms) -> AxisLevels {
+    let p = calib::check::stats::p_value_text;
+    let basis = if m.passes() && band.passes() {
         let walk = if m.walk.lower > 0.0 {
             m.walk.value
         } else {
             0.0
         };
-        Some((m.white.value, walk, Basis::Likelihood))
+        Ok((m.white.value, walk, Basis::Likelihood))
     } else if axis.fit.passes() {
         let w = axis.fit.term(Term::RandomWalk);
         let walk = if w.included { w.value } else { 0.0 };
-        Some((axis.fit.term(Term::White).value, walk, Basis::Allan))
+        Ok((axis.fit.term(Term::White).value, walk, Basis::Allan))
     } else {
-        None
+        let ml_why = if !m.passes() {
+            m.whiteness
+                .map_or("too few blocks to check it".to_string(), |w| {
+                    format!("its whiteness check p {}", p(w.p_value))
+                })
+        } else {
+            let w = band.worst();
+            w.map_or(String::new(), |w| {
+                format!(
+                    "its model leaves the Allan band at {} s, x{}",
+                    table::significant(w.tau_s, 3),
+                    table::significant(w.ratio, 2)
+                )
+            })
+        };
+        Err(format!(
+            "the likelihood fails ({ml_why}) and so does the Allan fit (chi-square p {})",
+            p(axis.fit.p_value)
+        ))
+    };
+    let walk = match &basis {
+        Ok(_) if !slow.walk => Err(format!(
+            "not determined: the longest rest, {} s, is too short to tell a walk",
+            table::significant(slow.longest_rest_s, 3)
+        )),
+        Ok((_, k, b)) => Ok((*k, *b)),
+        Err(e) => Err(e.clone()),
+    };
+    AxisLevels {
+        white: basis.map(|(n, _, b)| (n, b)),
+        walk,
     }
 }
 
-/// One `[noise]` field of a sensor: the largest level over the axes whose fit passed its
-/// check (`level` picks white or walk), with a comment naming the fits and the axes left
-/// out; commented out, with the failed Allan fit's figure for orientation only, where no axis
-/// passes.
-fn block_field(
-    key: &str,
-    sn: &SensorNoise,
-    level: fn((f64, f64, Basis)) -> f64,
-    allan: fn(&AxisNoise) -> f64,
-    factor: f64,
-) -> String {
+/// One `[noise]` field of a sensor: the largest level over the axes that give one (`per`),
+/// with a comment naming the fits and the axes left out and why; commented out where no axis
+/// gives one (with `guess`, the failed Allan fit's figure, for orientation only where a
+/// failed check is why).
+fn block_field(key: &str, per: &[Result<(f64, Basis), String>], guess: f64, factor: f64) -> String {
     let sig = |x: f64| {
         if x > 0.0 {
             table::significant(x, 3)
@@ -741,35 +811,42 @@ fn block_field(
             "0".into()
         }
     };
-    let per: Vec<Option<(f64, f64, Basis)>> = sn
-        .axes
-        .iter()
-        .zip(&sn.ml)
-        .map(|(a, m)| block_levels(a, m))
-        .collect();
     let names = |b: Basis| -> Vec<&str> {
         per.iter()
             .enumerate()
-            .filter(|(_, p)| p.is_some_and(|x| x.2 == b))
+            .filter(|(_, p)| p.as_ref().is_ok_and(|x| x.1 == b))
             .map(|(i, _)| AXES[i])
             .collect()
     };
-    let out: Vec<&str> = per
+    // The axes left out, those with the same reason together.
+    let mut why: Vec<(&str, Vec<&str>)> = Vec::new();
+    for (i, p) in per.iter().enumerate() {
+        if let Err(e) = p {
+            match why.iter_mut().find(|w| w.0 == e.as_str()) {
+                Some(w) => w.1.push(AXES[i]),
+                None => why.push((e.as_str(), vec![AXES[i]])),
+            }
+        }
+    }
+    let out: Vec<String> = why
         .iter()
-        .enumerate()
-        .filter(|(_, p)| p.is_none())
-        .map(|(i, _)| AXES[i])
+        .map(|(e, axes)| format!("{} ({e})", axes.join(", ")))
         .collect();
-    if out.len() == per.len() {
-        let guess = sn.axes.iter().map(allan).fold(0.0, f64::max) * factor;
+    if per.iter().all(Result::is_err) {
+        let undetermined = per
+            .iter()
+            .all(|p| p.as_ref().is_err_and(|e| e.starts_with("not determined")));
+        if undetermined {
+            return format!("# {key} not set: {}\n", out.join("; "));
+        }
         return format!(
             "# {key} = {}  # not set: no fit passes its check on any axis (the likelihood's \
-             whiteness and the Allan fit's chi-square and band); the figure is the failed Allan \
-             fit's, for orientation only: set yours\n",
-            sig(guess)
+             whiteness and band, the Allan fit's chi-square and band); the figure is the failed \
+             Allan fit's, for orientation only: set yours\n",
+            sig(guess * factor)
         );
     }
-    let value = per.iter().flatten().map(|x| level(*x)).fold(0.0, f64::max) * factor;
+    let value = per.iter().flatten().map(|x| x.0).fold(0.0, f64::max) * factor;
     let mut from = Vec::new();
     for (b, name) in [
         (Basis::Likelihood, "maximum likelihood"),
@@ -782,13 +859,15 @@ fn block_field(
     }
     let mut comment = format!("measured ({})", from.join("; "));
     if !out.is_empty() {
-        let _ = write!(
-            comment,
-            "; left out: {} (no fit passes its check there)",
-            out.join(", ")
-        );
+        let _ = write!(comment, "; left out: {}", out.join("; "));
     }
     if value == 0.0 {
+        // A 0 from the axes kept says nothing of an axis whose rests could not tell its walk.
+        if why.iter().any(|w| w.0.starts_with("not determined")) {
+            return format!(
+                "# {key} not set: {comment}; on the others none significantly above 0\n"
+            );
+        }
         comment += "; none significantly above 0";
     }
     format!("{key} = {}  # {comment}\n", sig(value))
@@ -825,54 +904,62 @@ fn comparison(cfg: &RunConfig, origin: &str, sensors: &[SensorNoise]) -> String 
 
 /// The `[noise]` block: the measured white levels and walks (largest axis), the reading and
 /// the angle-sensor noise from the configuration (or the paper's, said so).
-fn noise_block(base: &NoiseConfig, origin: &str, sensors: &[SensorNoise]) -> String {
+fn noise_block(
+    base: &NoiseConfig,
+    origin: &str,
+    sensors: &[SensorNoise],
+    band: &::noise::consistency::FamilyCheck,
+) -> String {
     let from = if origin.is_empty() {
         "not measured here: the paper's value, set yours".to_string()
     } else {
         format!("from {origin}, not measured here")
     };
-    let g = &sensors[0];
-    let a = &sensors[1];
     let reading = match base.reading {
         calib::config::NoiseReading::Average => "average",
         calib::config::NoiseReading::Sample => "sample",
     };
+    let levels: Vec<Vec<AxisLevels>> = sensors
+        .iter()
+        .enumerate()
+        .map(|(i, sn)| {
+            let slow = crate::noise_slow::slow_terms(sn);
+            (0..sn.axes.len())
+                .map(|a| axis_levels(&sn.axes[a], &sn.ml[a], &band.axes[3 * i + a], &slow[a]))
+                .collect()
+        })
+        .collect();
+    let field = |i: usize, key: &str, walk: bool, factor: f64| {
+        let per: Vec<_> = levels[i]
+            .iter()
+            .map(|l| {
+                if walk {
+                    l.walk.clone()
+                } else {
+                    l.white.clone()
+                }
+            })
+            .collect();
+        let term = if walk { Term::RandomWalk } else { Term::White };
+        let guess = sensors[i]
+            .axes
+            .iter()
+            .map(|a| a.fit.term(term).value)
+            .fold(0.0, f64::max);
+        block_field(key, &per, guess, factor)
+    };
     let mut s = String::new();
     let _ = writeln!(s, "[noise]");
     let _ = writeln!(s, "reading = \"{reading}\"  # {from}");
-    s += &block_field(
-        "gyro_deg_h",
-        g,
-        |x| x.0,
-        |a| a.fit.term(Term::White).value,
-        1.0 / DEG_PER_HOUR,
-    );
-    s += &block_field(
-        "accel_m_s2",
-        a,
-        |x| x.0,
-        |a| a.fit.term(Term::White).value,
-        1.0,
-    );
+    s += &field(0, "gyro_deg_h", false, 1.0 / DEG_PER_HOUR);
+    s += &field(1, "accel_m_s2", false, 1.0);
     let _ = writeln!(
         s,
         "angle_arcsec = {}  # {from}",
         table::compact(base.angle_arcsec)
     );
-    s += &block_field(
-        "gyro_bias_walk_deg_h_sqrt_h",
-        g,
-        |x| x.1,
-        |a| a.fit.term(Term::RandomWalk).value,
-        60.0 / DEG_PER_HOUR,
-    );
-    s += &block_field(
-        "accel_bias_walk_m_s2_sqrt_s",
-        a,
-        |x| x.1,
-        |a| a.fit.term(Term::RandomWalk).value,
-        1.0,
-    );
+    s += &field(0, "gyro_bias_walk_deg_h_sqrt_h", true, 60.0 / DEG_PER_HOUR);
+    s += &field(1, "accel_bias_walk_m_s2_sqrt_s", true, 1.0);
     s
 }
 

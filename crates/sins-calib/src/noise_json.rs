@@ -67,8 +67,16 @@ fn sensor_json(s: &Sensor, sn: &SensorNoise) -> Map<String, Value> {
     gauss_markov_levels(&mut m, s, sn);
     m.insert(
         "ml".into(),
-        json!(sn.ml.iter().map(ml_statistics).collect::<Vec<_>>()),
+        json!(
+            sn.ml
+                .iter()
+                .map(|f| ml_statistics(s, f))
+                .collect::<Vec<_>>()
+        ),
     );
+    let (floors, slow) = crate::noise_slow::sensor_json(s, sn);
+    m.insert("floor".into(), floors);
+    m.insert("slow_terms".into(), slow);
     m.insert(
         "terms".into(),
         json!(
@@ -169,8 +177,9 @@ fn gauss_markov_levels(m: &mut Map<String, Value>, s: &Sensor, sn: &SensorNoise)
 }
 
 /// An axis's maximum-likelihood statistics: the selection, the check, the blocks.
-fn ml_statistics(f: &MlFit) -> Value {
+fn ml_statistics(s: &Sensor, f: &MlFit) -> Value {
     json!({
+        "oscillation": crate::noise_slow::oscillation_json(s, f),
         "gauss_markov": f.gauss_markov.is_some(),
         "lr_statistic": f.lr_statistic,
         "lr_p_value": f.lr_p_value,

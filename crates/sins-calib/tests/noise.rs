@@ -730,8 +730,9 @@ fn noise_of_shipped(profile: &str, name: &str) -> (String, serde_json::Value) {
 /// lies within its band on every axis and no cause is named. On the Xsens recording the models
 /// lie within their bands too (the long-tau points that the models lie 4 and 12 times above on
 /// accelerometers y and z have 1.1 degrees of freedom under the models' walks), the printout
-/// says how far they are (the furthest point of each axis), and the accelerometer z Allan fit,
-/// which fails its own check (p 0.002, a bend at 5.12 s), gives no result.
+/// says how far they are (the furthest point of each axis; on accelerometer z, whose blocks
+/// are 2.56 s long, from 1 s on: the white level is a 1-s figure), and the accelerometer z
+/// Allan fit, which fails its own check (p 0.002, a bend at 5.12 s), gives no result.
 #[test]
 fn the_shipped_recordings_say_nothing_false_of_the_likelihood_models() {
     let (stdout, v) = noise_of_shipped("ferraris_session.toml", "ferraris");
@@ -758,7 +759,7 @@ fn the_shipped_recordings_say_nothing_false_of_the_likelihood_models() {
     }
     assert!(
         stdout.contains(
-            "accelerometer z: within the band (4 points, 2.56 .. 20.5 s; furthest at 20.5 s, \
+            "accelerometer z: within the band (5 points, 1.28 .. 20.5 s; furthest at 20.5 s, \
              model / measured x12 with 1.1 degrees of freedom)"
         ),
         "{stdout}"

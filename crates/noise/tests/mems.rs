@@ -1,0 +1,225 @@
+//! A MEMS gyro at rest as a user's recording showed it: white noise, an oscillation at a fifth
+//! of the sample rate (lag-2 autocorrelation of the samples about -0.35), and a flicker floor
+//! (docs/noise.md, "An oscillation and a flicker floor"). Seeds and bounds were fixed before
+//! the first run.
+
+use noise::analyse_axis_from;
+use noise::consistency::check_family;
+use noise::fit::Term;
+use noise::floor::{FLICKER_ADEV, flicker_floor, slow_terms};
+use noise::likelihood::{BLOCKS_PER_CORRELATION, Model, fit_ml, fit_ml_blocks};
+use rand::{SeedableRng, rngs::Xoshiro256PlusPlus};
+use rand_distr::{Distribution, StandardNormal};
+use std::f64::consts::TAU;
+use std::ops::Range;
+
+const DEG_H: f64 = std::f64::consts::PI / 180.0 / 3600.0;
+const DT: f64 = 0.01;
+/// White level (deg/h, the deviation of a 1-s average) and bias instability (deg/h) of the
+/// user's gyro.
+const WHITE_DEG_H: f64 = 139.0;
+const INSTABILITY_DEG_H: f64 = 27.5;
+/// The flicker floor: first-order Gauss-Markov processes of equal variance, three time
+/// constants a decade from 0.1 s to 10^4 s (a sum of log-spaced Gauss-Markov processes has a
+/// 1/f spectrum between its shortest and longest time constant).
+const GM_DECADES: (i32, i32) = (-3, 12);
+
+fn time_constants() -> Vec<f64> {
+    (GM_DECADES.0..=GM_DECADES.1)
+        .map(|i| 10f64.powf(i as f64 / 3.0))
+        .collect()
+}
+
+/// The Allan deviation of the Gauss-Markov sum with unit deviation per process.
+fn flicker_adev_unit(tau_s: f64) -> f64 {
+    time_constants()
+        .iter()
+        .map(|&tc| {
+            Model {
+                white: 0.0,
+                walk: 0.0,
+                gauss_markov: Some((1.0, tc)),
+            }
+            .avar(tau_s)
+        })
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Each process's deviation (rad/s) for a floor of `0.664 B` at 1000 s, the middle of the
+/// floor.
+fn gm_sigma() -> f64 {
+    FLICKER_ADEV * INSTABILITY_DEG_H * DEG_H / flicker_adev_unit(1000.0)
+}
+
+/// `records` rate samples (rad/s) at 100 Hz: white noise, the oscillation (a sinusoid of
+/// period 5 records whose phase jitters by 0.02 rad a record, sized for a lag-2
+/// autocorrelation of -0.35), the flicker floor.
+fn simulate(records: usize, seed: u64) -> Vec<f64> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut normal = || -> f64 { StandardNormal.sample(&mut rng) };
+    let white_sd = WHITE_DEG_H * DEG_H / DT.sqrt();
+    // A sinusoid of variance A^2 / 2 = s / (1 - s) of the white variance has a share s of the
+    // samples' variance and lag-2 autocorrelation s cos(4 pi / 5) = -0.809 s: s = 0.43.
+    let share: f64 = 0.43;
+    let amplitude = (2.0 * share / (1.0 - share)).sqrt() * white_sd;
+    let sigma = gm_sigma();
+    let tcs = time_constants();
+    let phis: Vec<f64> = tcs.iter().map(|tc| (-DT / tc).exp()).collect();
+    let mut gm: Vec<f64> = tcs.iter().map(|_| sigma * normal()).collect();
+    let mut phase = TAU * normal();
+    (0..records)
+        .map(|_| {
+            let mut y = white_sd * normal() + amplitude * phase.sin();
+            phase += TAU / 5.0 + 0.02 * normal();
+            for (g, phi) in gm.iter_mut().zip(&phis) {
+                *g = phi * *g + sigma * (1.0 - phi * phi).sqrt() * normal();
+                y += *g;
+            }
+            y
+        })
+        .collect()
+}
+
+fn autocorrelation(y: &[f64], lag: usize) -> f64 {
+    let mean = y.iter().sum::<f64>() / y.len() as f64;
+    let c0: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
+    let ck: f64 = y
+        .iter()
+        .zip(&y[lag..])
+        .map(|(a, b)| (a - mean) * (b - mean))
+        .sum();
+    ck / c0
+}
+
+/// 2.8 h at 100 Hz, the user's recording: the likelihood's white level and the floor's bias
+/// instability against the truth (white within 10 %, instability within 30 %), the
+/// oscillation named with its period. About 5 s in release.
+#[test]
+#[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
+fn an_oscillation_and_a_flicker_floor() {
+    let records = 1_008_000;
+    let rate = simulate(records, 31);
+    println!(
+        "samples' autocorrelation: lag 2 {:+.3}, lag 5 {:+.3}",
+        autocorrelation(&rate, 2),
+        autocorrelation(&rate, 5)
+    );
+    let increments: Vec<f64> = rate.iter().map(|w| w * DT).collect();
+    let intervals = [0..records];
+    let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
+    let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
+    let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+    let at_1s = axis
+        .curve
+        .points
+        .iter()
+        .find(|p| p.tau_s > 1.0)
+        .expect("a point above 1 s");
+    let osc = ml.oscillation.expect("the oscillation named");
+    println!(
+        "oscillation: period {} s, rms {:.1} deg/h, differences' autocorrelation {:+.3}, \
+         correlated to {} s; blocks {} s",
+        osc.period_s,
+        osc.rms / DEG_H,
+        osc.autocorrelation,
+        osc.correlated_to_s,
+        ml.block_s
+    );
+    let white = ml.white.value / DEG_H;
+    println!(
+        "white: likelihood {:.1} [{:.1}, {:.1}] deg/h, Allan fit {:.1}, Allan deviation at {} s \
+         times sqrt(tau) {:.1}, truth {WHITE_DEG_H}",
+        white,
+        ml.white.lower / DEG_H,
+        ml.white.upper / DEG_H,
+        axis.fit.term(Term::White).value / DEG_H,
+        at_1s.tau_s,
+        at_1s.adev * at_1s.tau_s.sqrt() / DEG_H
+    );
+    // For comparison (a measurement, not tested): the blocks the correlation search alone
+    // would give, ten times its last correlated lag.
+    let last_lag = (osc.correlated_to_s / DT).round() as usize;
+    let old = fit_ml_blocks(
+        &increments,
+        DT,
+        &intervals,
+        BLOCKS_PER_CORRELATION * last_lag,
+    )
+    .expect("ml fit");
+    println!(
+        "without the oscillation rule: blocks {} s, white {:.1} deg/h",
+        old.block_s,
+        old.white.value / DEG_H
+    );
+    let band = check_family(&[(&axis.curve, &ml)]);
+    println!(
+        "likelihood model against the Allan curve: {} of {} points outside the band",
+        band.axes[0].outside().count(),
+        band.points
+    );
+    let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s).expect("a floor");
+    let truth_b = flicker_adev_unit(1000.0) * gm_sigma() / FLICKER_ADEV / DEG_H;
+    let ripple: Vec<f64> = [30.0, 100.0, 300.0, 1000.0, 3000.0]
+        .iter()
+        .map(|&t| flicker_adev_unit(t) * gm_sigma() / FLICKER_ADEV / DEG_H)
+        .collect();
+    println!(
+        "floor: {:.1} [{:.1}, {:.1}] deg/h at {} s ({} .. {} s), truth {:.1} (the floor's \
+         own B at 30, 100, 300, 1000, 3000 s: {:.1?})",
+        floor.value / DEG_H,
+        floor.lower / DEG_H,
+        floor.upper / DEG_H,
+        floor.tau_s,
+        floor.from_tau_s,
+        floor.to_tau_s,
+        truth_b,
+        ripple
+    );
+    let slow = slow_terms(&axis.curve, &ml);
+    println!("{slow:?}");
+    assert!(
+        (osc.period_s - 0.05).abs() < 1e-9,
+        "period {}",
+        osc.period_s
+    );
+    assert!(
+        (white / WHITE_DEG_H - 1.0).abs() < 0.10,
+        "likelihood white {white} deg/h"
+    );
+    assert!(
+        (floor.value / DEG_H / truth_b - 1.0).abs() < 0.30,
+        "floor {} deg/h",
+        floor.value / DEG_H
+    );
+    assert!(slow.bias_instability);
+}
+
+/// 20 poses of 5 s (10 s of motion between them, not used) of the same gyro: too short to
+/// tell a bias instability or a walk.
+#[test]
+fn short_poses_do_not_determine_the_slow_terms() {
+    let pose = 500;
+    let rate = simulate(20 * 1500, 32);
+    let increments: Vec<f64> = rate.iter().map(|w| w * DT).collect();
+    let intervals: Vec<Range<usize>> = (0..20).map(|i| i * 1500..i * 1500 + pose).collect();
+    let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
+    let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
+    let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+    let slow = slow_terms(&axis.curve, &ml);
+    println!(
+        "white {:.1} [{:.1}, {:.1}] deg/h, walk {:.0} [{:.0}, {:.0}] deg/h/sqrt(h); {slow:?}",
+        ml.white.value / DEG_H,
+        ml.white.lower / DEG_H,
+        ml.white.upper / DEG_H,
+        ml.walk.value / DEG_H * 60.0,
+        ml.walk.lower / DEG_H * 60.0,
+        ml.walk.upper / DEG_H * 60.0,
+    );
+    assert_eq!(slow.longest_rest_s, 5.0);
+    assert!(!slow.walk, "walk determined from 5-s poses");
+    assert!(
+        !slow.bias_instability,
+        "bias instability determined from 5-s poses"
+    );
+}
