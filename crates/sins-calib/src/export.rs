@@ -253,6 +253,8 @@ struct AxisLevels {
     walk: [f64; 3],
     passes: [bool; 3],
     gauss_markov: [bool; 3],
+    /// Whether the recording was long enough to tell the walk (`slow_terms[axis]`).
+    walk_determined: [bool; 3],
 }
 
 /// The three numbers of `sensor.key` (finite, at least 0).
@@ -308,11 +310,32 @@ fn axis_levels(
         passes[i] = flag(i, "passes")?;
         gauss_markov[i] = flag(i, "gauss_markov")?;
     }
+    let slow = root
+        .get(sensor)
+        .and_then(|s| s.get("slow_terms"))
+        .and_then(Value::as_array)
+        .filter(|a| a.len() == 3)
+        .ok_or_else(|| {
+            format!(
+                "{file}: expected `{sensor}.slow_terms`, whether the recording tells each axis's \
+                 walk (a noise file of this version)"
+            )
+        })?;
+    let mut walk_determined = [false; 3];
+    for (i, d) in walk_determined.iter_mut().enumerate() {
+        *d = slow[i]
+            .get("walk_determined")
+            .and_then(Value::as_bool)
+            .ok_or_else(|| {
+                format!("{file}: expected `{sensor}.slow_terms[{i}].walk_determined`, true or false")
+            })?;
+    }
     Ok(AxisLevels {
         white,
         walk,
         passes,
         gauss_markov,
+        walk_determined,
     })
 }
 
@@ -436,6 +459,23 @@ fn check_levels(
         notes.push(format!(
             "the levels of {} failed their check; written as --allow-unchecked asks",
             failed.join(", ")
+        ));
+    }
+    let undetermined = list(|l, i| !l.walk_determined[i]);
+    if !undetermined.is_empty() {
+        if !args.allow_unchecked {
+            return Err(format!(
+                "{file}: the bias walk of {} is not determined (the recording's rests are too \
+                 short to tell it, `slow_terms[axis].walk_determined` false): the random walk \
+                 written would be no result. Record longer rests, or give --allow-unchecked to \
+                 write it anyway",
+                undetermined.join(", ")
+            )
+            .into());
+        }
+        notes.push(format!(
+            "the bias walk of {} is not determined; written as --allow-unchecked asks",
+            undetermined.join(", ")
         ));
     }
     let gm = list(|l, i| l.gauss_markov[i]);

@@ -207,6 +207,7 @@ fn openvins_file_gives_applys_correction() {
         "openvins",
         "--noise",
         s(&noise),
+        "--allow-unchecked",
         "--calibration",
         s(&calibration),
         "--out",
@@ -242,7 +243,8 @@ fn openvins_file_gives_applys_correction() {
     }
 }
 
-/// A 120-s static simulated recording's `noise --json`.
+/// A 120-s static simulated recording's `noise --json` (too short to tell a bias walk: the
+/// exports of it are asked for with `--allow-unchecked`).
 fn static_noise(dir: &Path) -> PathBuf {
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/static-4h.toml");
     let t = std::fs::read_to_string(example).expect("example");
@@ -282,6 +284,7 @@ fn kalibr_file_holds_the_noise_files_levels() {
         "kalibr",
         "--noise",
         s(&noise),
+        "--allow-unchecked",
         "--out",
         s(&out),
         "--rostopic",
@@ -333,6 +336,13 @@ fn refusals_name_the_cause_and_write_nothing() {
     let (truth, _) = simulated_run(&dir);
     let noise = static_noise(&dir);
     let out = dir.join("out.yaml");
+    // A 120-s recording cannot tell a bias walk: not written unless asked (--allow-unchecked,
+    // which the other cases here give).
+    refused(
+        &["export", "--to", "kalibr", "--noise", s(&noise), "--out", s(&out)],
+        &["is not determined", "--allow-unchecked"],
+        &out,
+    );
     // Missing and superfluous inputs.
     refused(
         &[
@@ -341,6 +351,7 @@ fn refusals_name_the_cause_and_write_nothing() {
             "openvins",
             "--noise",
             s(&noise),
+            "--allow-unchecked",
             "--out",
             s(&out),
         ],
@@ -354,6 +365,7 @@ fn refusals_name_the_cause_and_write_nothing() {
             "kalibr",
             "--noise",
             s(&noise),
+            "--allow-unchecked",
             "--calibration",
             s(&truth),
             "--out",
@@ -481,6 +493,7 @@ fn refusals_name_the_cause_and_write_nothing() {
             s(&gm),
             "--out",
             s(&out),
+            "--allow-unchecked",
         ],
         &["gyro z has a Gauss-Markov bias", "--drop-terms"],
         &out,
