@@ -102,7 +102,8 @@ pub struct Comparison {
     pub reported_baseline: Option<calib::motion::free_motion::BaselineFigures>,
     /// See `reported_baseline`.
     pub verdict: calib::estimate::verdict::RunVerdict,
-    /// The error the rests' windows share, as the calibration measured it (m/s^2).
+    /// The error the rests' windows share, as the calibration measured it (m/s^2; 0 where
+    /// the rests could not tell it).
     pub rest_error_m_s2: f64,
 }
 
@@ -129,20 +130,27 @@ impl Comparison {
 /// `calibrate --free-motion --holdout 4` without a configuration, and the baseline fitted to
 /// the same rests, on `imu` with `rests`; `latitude_deg` for the rotation figures.
 pub fn compare(truth: &RunConfig, imu: &ImuData, rests: &[Rest]) -> Comparison {
-    compare_on(truth, imu, rests, imu)
+    compare_on(truth, imu, rests, imu, false)
 }
 
 /// [`compare`] with the held-out figures taken on `judged` (the same recording without noise:
-/// the parameters' errors alone).
+/// the parameters' errors alone); with `weigh`, calibrated again with the rests' excess the
+/// first calibration measured weighed (`--rest-error`, as its report advises).
 pub fn compare_on(
     truth: &RunConfig,
     imu: &ImuData,
     rests: &[Rest],
     judged: &ImuData,
+    weigh: bool,
 ) -> Comparison {
     let holdout = Some(4);
-    let (own, noise) = from_data(truth, imu, rests);
-    let c = calibrate(&own, imu, rests, holdout, Some(noise));
+    let (mut own, noise) = from_data(truth, imu, rests);
+    let mut c = calibrate(&own, imu, rests, holdout, Some(noise));
+    let excess = c.evaluation.as_ref().and_then(|e| e.rest_excess_m_s2);
+    if let Some(x) = excess.filter(|&x| weigh && x > 0.0) {
+        own.filter.rest_error_m_s2 = x;
+        c = calibrate(&own, imu, rests, holdout, Some(noise));
+    }
     let g = c.estimate.gravity_m_s2;
     let t: Vec<f64> = imu.records.iter().map(|r| r.t).collect();
     let earth = EarthRotation::at(truth.site.latitude_deg.to_radians(), 1.0);
@@ -193,7 +201,7 @@ pub fn compare_on(
         baseline_accel: fit.parameters,
         z2: (0.0, 0.0),
         reported_baseline: c.evaluation.as_ref().and_then(|e| e.baseline),
-        rest_error_m_s2: c.config.filter.rest_error_m_s2,
+        rest_error_m_s2: excess.unwrap_or(0.0),
         verdict: c.verdict,
     }
 }
@@ -205,7 +213,7 @@ pub fn simulated(grade: Grade, seed: u64, poses: usize) -> Comparison {
 
 /// [`simulated`], judged on the noisy recording or on the same without noise.
 pub fn simulated_judged(grade: Grade, seed: u64, poses: usize, noisy: bool) -> Comparison {
-    simulated_with_rest_error(grade, seed, poses, noisy, 0.0)
+    simulated_with_rest_error(grade, seed, poses, noisy, 0.0, false)
 }
 
 /// Add to every record of each rest of `rests` one offset of the specific force drawn for
@@ -245,6 +253,7 @@ pub fn simulated_with_rest_error(
     poses: usize,
     noisy: bool,
     rest_error_m_s2: f64,
+    weigh: bool,
 ) -> Comparison {
     let truth = truth(grade, seed, poses);
     let sim = calib::simulate::simulate_run(&truth, "random poses").unwrap();
@@ -264,7 +273,7 @@ pub fn simulated_with_rest_error(
         grade,
         seed,
         poses,
-        compare_on(&truth, &imu, &rests, &judged),
+        compare_on(&truth, &imu, &rests, &judged, weigh),
     );
     for (k, n) in ACCEL_NAMES.iter().enumerate() {
         let t = sim.truth.get(n).unwrap();
@@ -325,16 +334,19 @@ fn survey_filter_against_baseline() {
 #[test]
 #[ignore]
 fn many_seeds() {
-    many_seeds_with(0.0);
+    many_seeds_with(0.0, false);
+    many_seeds_with(0.0, true);
 }
 
 #[test]
 #[ignore]
 fn many_seeds_with_rest_error() {
-    many_seeds_with(1e-3);
+    many_seeds_with(1e-3, false);
+    many_seeds_with(1e-3, true);
 }
 
-fn many_seeds_with(rest_error_m_s2: f64) {
+fn many_seeds_with(rest_error_m_s2: f64, weigh: bool) {
+    println!("SUMMARY rest error {rest_error_m_s2:e}, weighed {weigh}");
     for grade in [Grade::Consumer, Grade::Tactical, Grade::Navigation] {
         let mut ratios = Vec::new();
         let mut filt = 0.0;
@@ -344,7 +356,7 @@ fn many_seeds_with(rest_error_m_s2: f64) {
         let mut rest_error = 0.0;
         for seed in 5000..5060 {
             let poses = 20 + (seed as usize % 31);
-            let c = simulated_with_rest_error(grade, seed, poses, false, rest_error_m_s2);
+            let c = simulated_with_rest_error(grade, seed, poses, false, rest_error_m_s2, weigh);
             rest_error += c.rest_error_m_s2.powi(2) / 60.0;
             ratios.push(c.static_ratio());
             let trend = c.verdict.tests.iter().find(|t| t.name == "trend").unwrap();
@@ -405,23 +417,32 @@ fn pooled_over_recordings_the_filter_is_not_worse_than_the_baseline() {
 
 /// An error each rest's windows share (1e-3 m/s^2 per axis, what a hand-placed consumer unit's
 /// rests show beyond their noise), six recordings of each grade (seeds 4211-4216, fixed before
-/// the runs): the calibration measures it (the RMS of its estimates within 30 % of the truth)
-/// and, weighing each rest as one measurement of it at most, loses nothing to the baseline
-/// pooled over the recordings (within 5 %).
+/// the runs): the calibration measures it (the "rests' excess"; the RMS of its estimates within
+/// 30 % of the truth over the recordings whose rests tell it) and, calibrated again with it
+/// weighed as its report advises (`--rest-error`), loses nothing to the baseline pooled over
+/// the recordings (within 5 %). First written with the excess weighed automatically; that
+/// took the Ferraris session's white level to its floor (docs/real-data.md), and the weighing
+/// became the user's choice.
 #[test]
 fn an_error_shared_by_each_rest_is_measured_and_weighed() {
     for grade in [Grade::Consumer, Grade::Tactical, Grade::Navigation] {
-        let (mut filter, mut baseline, mut measured) = (0.0, 0.0, 0.0);
+        let (mut filter, mut baseline, mut measured, mut told) = (0.0, 0.0, 0.0, 0);
         for seed in 4211..=4216u64 {
             let poses = 20 + 5 * (seed - 4211) as usize;
-            let c = simulated_with_rest_error(grade, seed, poses, true, 1e-3);
-            measured += c.rest_error_m_s2.powi(2) / 6.0;
+            let c = simulated_with_rest_error(grade, seed, poses, true, 1e-3, true);
+            if c.rest_error_m_s2 > 0.0 {
+                measured += c.rest_error_m_s2.powi(2);
+                told += 1;
+            }
             filter += c.filter.static_rms_after_m_s2.powi(2);
             baseline += c.baseline.static_rms_after_m_s2.powi(2);
         }
         let ratio = (filter / baseline).sqrt();
-        let measured = measured.sqrt();
-        println!("{grade:?}: rest error measured {measured:.2e}; filter over baseline {ratio:.3}");
+        let measured = (measured / told.max(1) as f64).sqrt();
+        println!(
+            "{grade:?}: rest error measured {measured:.2e} on {told} of 6; filter over baseline {ratio:.3}"
+        );
+        assert!(told >= 4, "{grade:?}: told on {told}");
         assert!(
             (measured / 1e-3 - 1.0).abs() <= 0.3,
             "{grade:?}: {measured}"

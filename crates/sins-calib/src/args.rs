@@ -52,6 +52,12 @@ pub struct CalibrateArgs {
     /// the fit and report the errors on those (a "validation" block in the JSON).
     #[arg(long, value_name = "K", requires = "free_motion")]
     pub holdout: Option<usize>,
+    /// With --free-motion: the error every specific-force window of one rest shares (m/s^2,
+    /// one sigma per axis), weighed so that a rest counts at most as one measurement of it
+    /// (`filter.rest_error_m_s2`). The report measures it ("rests' excess"); absent: the
+    /// configuration's (0).
+    #[arg(long, value_name = "M_S2", requires = "free_motion", value_parser = rest_error_value)]
+    pub rest_error: Option<f64>,
     /// With --free-motion: write a PNG of |f| - g per static interval, before and after.
     #[arg(long, value_name = "FILE", requires = "free_motion")]
     pub plot: Option<PathBuf>,
@@ -194,4 +200,12 @@ pub struct SiteArgs {
         allow_negative_numbers = true
     )]
     pub height: Option<f64>,
+}
+
+/// `--rest-error`: a specific-force error in 0 .. 1 m/s^2.
+fn rest_error_value(text: &str) -> Result<f64, String> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|v| (0.0..=1.0).contains(v))
+        .ok_or_else(|| format!("`{text}`: expected a specific-force error in 0 .. 1 m/s^2"))
 }

@@ -207,12 +207,28 @@ fn free_motion_header(f: &FreeMotionFigures) -> String {
          in a hand turn; filter.motion_attitude_noise_deg)",
         table::significant(f.motion_attitude_noise_deg, 3)
     );
+    if let Some((excess, dof)) = f.rest_excess_m_s2 {
+        let _ = writeln!(
+            s,
+            "  rests' excess   {} m/s^2 ({dof:.1} degrees of freedom): what the rests' |f| = g \
+             residuals scatter beyond their white noise, an error each rest's windows share \
+             (settling, placement, drift){}",
+            table::significant(excess, 3),
+            if f.rest_error_m_s2 > 0.0 || excess == 0.0 {
+                String::new()
+            } else {
+                format!(
+                    "; taken as independent (--rest-error {} weighs it)",
+                    table::significant(excess, 2)
+                )
+            }
+        );
+    }
     if f.rest_error_m_s2 > 0.0 {
         let _ = writeln!(
             s,
-            "  rests' error    {} m/s^2 shared by the windows of each rest, beyond the white \
-             noise (what the rests' |f| = g residuals scatter beyond their noise; \
-             filter.rest_error_m_s2): a long rest weighs at most one measurement of it",
+            "  rests' error    {} m/s^2 shared by the windows of each rest, weighed: a long rest \
+             counts at most as one measurement of it (--rest-error, filter.rest_error_m_s2)",
             table::significant(f.rest_error_m_s2, 3)
         );
     }

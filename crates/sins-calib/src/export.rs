@@ -327,7 +327,9 @@ fn axis_levels(
             .get("walk_determined")
             .and_then(Value::as_bool)
             .ok_or_else(|| {
-                format!("{file}: expected `{sensor}.slow_terms[{i}].walk_determined`, true or false")
+                format!(
+                    "{file}: expected `{sensor}.slow_terms[{i}].walk_determined`, true or false"
+                )
             })?;
     }
     Ok(AxisLevels {

@@ -392,8 +392,11 @@ pub struct FreeMotionFigures {
     pub noise_accel_m_s2: f64,
     /// The attitude noise of a motion (deg).
     pub motion_attitude_noise_deg: f64,
-    /// The error the windows of one rest share (m/s^2, `filter.rest_error_m_s2`).
+    /// The error the windows of one rest share, weighed (m/s^2, `filter.rest_error_m_s2`).
     pub rest_error_m_s2: f64,
+    /// What the fitted rests' `|f| = g` residuals scatter beyond their white noise (m/s^2;
+    /// with the noise measured), and its degrees of freedom.
+    pub rest_excess_m_s2: Option<(f64, f64)>,
     /// Normal gravity at the site (m/s^2).
     pub gravity_m_s2: f64,
     /// The rests as static intervals.
@@ -516,6 +519,9 @@ pub fn figures(
         noise_accel_m_s2: c.noise.accel_m_s2,
         motion_attitude_noise_deg: c.filter.motion_attitude_noise_deg,
         rest_error_m_s2: c.filter.rest_error_m_s2,
+        rest_excess_m_s2: evaluation
+            .rest_excess_m_s2
+            .map(|x| (x, evaluation.rest_excess_dof)),
         gravity_m_s2: r.estimate.gravity_m_s2,
         static_intervals: r.estimate.rests.len(),
         holdout,

@@ -189,8 +189,14 @@ struct FreeMotionJson {
     noise_gyro_deg_h: f64,
     noise_accel_m_s2: f64,
     motion_attitude_noise_deg: f64,
-    /// The error the windows of one rest share (m/s^2; 0: none).
+    /// The error the windows of one rest share, weighed (m/s^2; 0: none).
     rest_error_m_s2: f64,
+    /// What the rests' |f| = g residuals scatter beyond their white noise (m/s^2).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rest_excess_m_s2: Option<f64>,
+    /// Its degrees of freedom.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rest_excess_dof: Option<f64>,
     /// Measured noise: the rests' scatter and the factor on its specific-force level.
     #[serde(skip_serializing_if = "Option::is_none")]
     measured: Option<MeasuredJson>,
@@ -300,6 +306,8 @@ fn free_motion(f: &FreeMotionFigures) -> FreeMotionJson {
         noise_accel_m_s2: f.noise_accel_m_s2,
         motion_attitude_noise_deg: f.motion_attitude_noise_deg,
         rest_error_m_s2: f.rest_error_m_s2,
+        rest_excess_m_s2: f.rest_excess_m_s2.map(|(x, _)| x),
+        rest_excess_dof: f.rest_excess_m_s2.map(|(_, d)| d),
         measured,
         gravity_m_s2: f.gravity_m_s2,
         static_intervals: f.static_intervals,

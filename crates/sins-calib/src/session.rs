@@ -242,6 +242,7 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
             site: (args.site.latitude, args.site.height),
             sections: args.sections.as_deref(),
             terms: &terms,
+            rest_error_m_s2: args.rest_error,
         });
         layout = rests_streamed(&mut session, &args.detector, "calibrate", asked)?;
     }
@@ -425,6 +426,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
             site: (args.site.latitude, args.site.height),
             sections: args.sections.as_deref(),
             terms: &[],
+            rest_error_m_s2: None,
         });
         rests_streamed(&mut session, &args.detector, "diagnose", asked)?;
         settings.measured_noise = session.free_motion().and_then(|f| f.measured);
@@ -701,6 +703,8 @@ struct FreeMotionArgs<'a> {
     sections: Option<&'a Path>,
     /// The terms asked for.
     terms: &'a [Candidate],
+    /// `--rest-error`: the error each rest's windows share, weighed (m/s^2).
+    rest_error_m_s2: Option<f64>,
 }
 
 /// Set up a `--free-motion` run on the rests `found` in the records of `source`
@@ -721,8 +725,12 @@ fn set_up_free_motion(
         site,
         sections,
         terms,
+        rest_error_m_s2,
     } = args;
-    let setup = free_motion::setup(given, site, sections, terms, source, &found.rests)?;
+    let mut setup = free_motion::setup(given, site, sections, terms, source, &found.rests)?;
+    if let Some(v) = rest_error_m_s2 {
+        setup.config.filter.rest_error_m_s2 = v;
+    }
     found.free_motion = Some(FreeMotion {
         summary: setup.summary(),
         measured: setup.measured,

@@ -339,7 +339,15 @@ fn refusals_name_the_cause_and_write_nothing() {
     // A 120-s recording cannot tell a bias walk: not written unless asked (--allow-unchecked,
     // which the other cases here give).
     refused(
-        &["export", "--to", "kalibr", "--noise", s(&noise), "--out", s(&out)],
+        &[
+            "export",
+            "--to",
+            "kalibr",
+            "--noise",
+            s(&noise),
+            "--out",
+            s(&out),
+        ],
         &["is not determined", "--allow-unchecked"],
         &out,
     );

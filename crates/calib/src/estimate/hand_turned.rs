@@ -312,14 +312,15 @@ pub fn default_config(
 /// the residuals scatter beyond that is the shared error,
 /// `sum e_i^2 / (n - r) - mean(sigma^2 / T_i)` with `r` the parameters the rests determine
 /// (the fit's effective number, at most nine; a variance-components estimate; 0 where the
-/// noise explains it all, or where the rests are too few for the fit,
-/// [`crate::motion::free_motion::BASELINE_PARAMETERS`] or fewer).
+/// noise explains it all), with its degrees of freedom `n - r`. `None` where the rests cannot
+/// tell it: fewer than [`REST_ERROR_MIN_DOF`] degrees of freedom, a rest of fewer than two
+/// records.
 pub fn rest_error_m_s2(
     config: &RunConfig,
     imu: &mut dyn ImuSource,
     rests: &[Rest],
     at_rest: &WhiteNoiseAtRest,
-) -> Result<f64, crate::estimate::EstimateError> {
+) -> Result<Option<(f64, f64)>, crate::estimate::EstimateError> {
     use crate::motion::free_motion::{BASELINE_PARAMETERS, accel_fit_at_priors, check_poses};
     let holdout = config.filter.hold_out_every;
     let fitted: Vec<Rest> = rests
@@ -329,7 +330,7 @@ pub fn rest_error_m_s2(
         .map(|(_, r)| *r)
         .collect();
     if fitted.len() <= BASELINE_PARAMETERS {
-        return Ok(0.0);
+        return Ok(None);
     }
     let stamps = rest_stamps(imu, &fitted, &[])?;
     let file = imu.file().to_string();
@@ -341,7 +342,7 @@ pub fn rest_error_m_s2(
     let means = check_poses(imu, &stamps, &fitted, None).map_err(refuse)?;
     if means.len() != fitted.len() {
         // A rest of fewer than two records: its duration is not its mean's.
-        return Ok(0.0);
+        return Ok(None);
     }
     let g = config.site().normal_gravity();
     let white: Vec<f64> = fitted
@@ -352,9 +353,21 @@ pub fn rest_error_m_s2(
     let n = means.len() as f64;
     let sum_e2: f64 = residuals.iter().map(|e| e * e).sum();
     let mean_white = white.iter().map(|w| w * w).sum::<f64>() / n;
-    let shared = sum_e2 / (n - determined).max(1.0) - mean_white;
-    Ok(shared.max(0.0).sqrt())
+    let dof = n - determined;
+    if dof < REST_ERROR_MIN_DOF {
+        return Ok(None);
+    }
+    let shared = sum_e2 / dof - mean_white;
+    Ok(Some((shared.max(0.0).sqrt(), dof)))
 }
+
+/// Fewest degrees of freedom (fitted rests less the parameters they determine) from which
+/// [`rest_error_m_s2`] measures the shared error: one, the least a variance needs. Its
+/// precision is the user's to judge from the degrees of freedom the report gives with it
+/// (`sqrt(2 / dof)` relative on the variance). It is weighed only where asked: weighed
+/// automatically, as first built, the 13 Ferraris rests' excess (4 degrees of freedom) took
+/// their whole scatter and the white level to its floor.
+pub const REST_ERROR_MIN_DOF: f64 = 1.0;
 
 /// The largest motion noise the fit measures (rad, 5.7 deg): a hand turn that leaves the
 /// attitude more uncertain than this carries nothing from one rest to the next, and a model
@@ -656,11 +669,6 @@ pub(crate) fn fit_measuring_noise(
     // the fits share (only their noise differs): found once, not at every fit.
     let (imu, rests, turns) = (input.imu, input.rests, input.turns);
     let coarse = crate::estimate::coarse_start_at_rests(config, layout, imu, rests, turns)?;
-    let mut config = config.clone();
-    if let Some(at_rest) = measured.filter(|_| config.filter.rest_error_m_s2 == 0.0) {
-        config.filter.rest_error_m_s2 = rest_error_m_s2(&config, imu, rests, &at_rest)?;
-    }
-    let config = &config;
     loop {
         let mut config = config.clone();
         levels.apply(&mut config, base_accel);
@@ -689,8 +697,17 @@ pub(crate) fn fit_measuring_noise(
             NOISE_FLOOR_ACCEL_M_S2 / base_accel,
             est.gravity_m_s2,
         );
+        // With a rest's shared error weighed, each window's variance is the white level plus
+        // `m` times the shared one, more than a window's own scatter: the likelihood would take
+        // the white level down for it (to its floor on the Ferraris session). It stays at
+        // least the rests' measured level there.
+        let least_factor = if config.filter.rest_error_m_s2 > 0.0 {
+            1.0
+        } else {
+            0.0
+        };
         let next = ml.map_or(levels, |m| MeasuredLevels {
-            accel_factor: m.accel_factor,
+            accel_factor: m.accel_factor.max(least_factor),
             motion_rad: m.motion_sigma_rad,
         });
         if settled(levels, next) || fits == MAX_NOISE_FITS {
@@ -858,6 +875,14 @@ pub fn calibrate(
         &correction,
     )
     .map_err(|e| refused(e, evaluation_error, &refuse))?;
+    if let Some(at_rest) = measured {
+        // What the rests' |f| = g residuals scatter beyond their white noise: reported, and
+        // weighed only where asked (`filter.rest_error_m_s2`, `--rest-error`).
+        if let Some((excess, dof)) = rest_error_m_s2(&config, imu, rests, &at_rest)? {
+            evaluation.rest_excess_m_s2 = Some(excess);
+            evaluation.rest_excess_dof = dof;
+        }
+    }
     if holdout.is_some() && fitted_means.len() > crate::motion::free_motion::BASELINE_PARAMETERS {
         // The simplest estimate from the same rests, judged on the same held-out ones
         // (`docs/real-data.md`, "Against the least-squares baseline").

@@ -470,23 +470,7 @@ impl<'a> Pass<'a> {
                     })?;
             }
         }
-        // A rest's windows share an error of variance `v`: each of its `m` windows is weighted
-        // as white noise plus `m v` (the equicorrelated block's information on what all the
-        // windows see alike is that of the rest's mean with variance white / m + v).
-        let white_psd = self.engine.noise.accel_psd;
-        if self.settings.rest_error_var > 0.0
-            && let Some(rest) = self.rest_gate.as_ref().and_then(RestGate::current)
-        {
-            let windows = ((rest.t1 - rest.t0) * self.settings.accel_rate_hz)
-                .floor()
-                .max(1.0);
-            self.engine.noise.accel_psd +=
-                windows * self.settings.rest_error_var / self.settings.accel_rate_hz;
-        }
-        let report =
-            self.engine
-                .measurement_instant(self.layout, self.j, &self.settings.f_enu, last);
-        self.engine.noise.accel_psd = white_psd;
+        let report = self.measurement_instant(last);
         let report = report.map_err(|source| EstimateError::Filter {
             t: rec.t,
             line,
@@ -501,6 +485,28 @@ impl<'a> Pass<'a> {
             self.feed_back(report.accel_z.as_ref());
         }
         Ok(())
+    }
+
+    /// The engine's measurement instant at the current step. A rest's windows share an error
+    /// of variance `v` (`rest_error_var`): each of its `m` windows is weighted as white noise
+    /// plus `m v` (the equicorrelated block's information on what all its windows see alike is
+    /// that of the rest's mean with variance white / m + v).
+    fn measurement_instant(&mut self, last: bool) -> Result<InstantReport, kalman::KalmanError> {
+        let white_psd = self.engine.noise.accel_psd;
+        if self.settings.rest_error_var > 0.0
+            && let Some(rest) = self.rest_gate.as_ref().and_then(RestGate::current)
+        {
+            let windows = ((rest.t1 - rest.t0) * self.settings.accel_rate_hz)
+                .floor()
+                .max(1.0);
+            self.engine.noise.accel_psd +=
+                windows * self.settings.rest_error_var / self.settings.accel_rate_hz;
+        }
+        let report =
+            self.engine
+                .measurement_instant(self.layout, self.j, &self.settings.f_enu, last);
+        self.engine.noise.accel_psd = white_psd;
+        report
     }
 
     /// The true increments of a record under the current parameter estimates.

@@ -964,6 +964,12 @@ pub struct Evaluation {
     /// judged on the same held-out ones: what the calibration must not lose to (set by the
     /// caller that fitted it; `None` without a hold-out).
     pub baseline: Option<BaselineFigures>,
+    /// What the fitted rests' `|f| = g` residuals scatter beyond their white noise (m/s^2,
+    /// [`crate::estimate::hand_turned::rest_error_m_s2`]; set by the caller that measured the
+    /// noise; `None` where the rests are too few to tell).
+    pub rest_excess_m_s2: Option<f64>,
+    /// Its degrees of freedom (fitted rests less the parameters they determine).
+    pub rest_excess_dof: f64,
 }
 
 /// [`Evaluation`] of a calibration: its `correction` (the one `apply` applies,
@@ -1018,6 +1024,8 @@ pub fn evaluate(
         turns,
         validation,
         baseline: None,
+        rest_excess_m_s2: None,
+        rest_excess_dof: 0.0,
     })
 }
 
