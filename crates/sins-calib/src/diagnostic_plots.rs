@@ -19,7 +19,9 @@ use std::path::{Path, PathBuf};
 const BEFORE: RGBColor = RGBColor(31, 119, 180);
 const AFTER: RGBColor = RGBColor(255, 127, 14);
 const BAND: RGBColor = RGBColor(120, 120, 120);
-const AXES: [&str; 3] = ["x", "y", "z"];
+/// The axes of the innovations of both kinds: the local geographic frame (ENU), named as in the
+/// report's residual plots.
+const AXES: [&str; 3] = ["East", "North", "Up"];
 const FAILS: RGBColor = RGBColor(214, 39, 40);
 /// Title font size (px), smaller or wrapped where a title does not fit the width.
 const TITLE_SIZE: f64 = 18.0;
@@ -205,7 +207,7 @@ fn innovations_plot(
             .y_label_formatter(&linear_ticks(-y, y))
             .x_label_formatter(&linear_ticks(t0, t1))
             .x_desc("IMU time [s]")
-            .y_desc(format!("axis {} [sigma]", AXES[a]))
+            .y_desc(format!("{} [sigma]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
@@ -307,7 +309,7 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
             .y_label_formatter(&log_tick)
             .x_label_formatter(&log_tick)
             .x_desc("frequency [Hz]")
-            .y_desc(format!("axis {} [power / white]", AXES[a]))
+            .y_desc(format!("{} [power / white]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
@@ -397,7 +399,7 @@ fn autocorrelation_plot(
             .collect();
         let panel = titled(
             panel,
-            &format!("axis {}: Ljung-Box p = {}", AXES[a], ljung_box.join(", ")),
+            &format!("{}: Ljung-Box p = {}", AXES[a], ljung_box.join(", ")),
             13.0,
         )?;
         let mut chart = ChartBuilder::on(&panel)
@@ -411,7 +413,7 @@ fn autocorrelation_plot(
             .y_label_formatter(&linear_ticks(-y, y))
             .x_label_formatter(&count_tick)
             .x_desc("lag [updates]")
-            .y_desc(format!("axis {} [correlation]", AXES[a]))
+            .y_desc(format!("{} [correlation]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
