@@ -129,7 +129,9 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Calibration, Error> {
         let fit_before = shown.fit;
         let (fit, fraction) = shown.advance(done, total);
         if fit != fit_before && fit > 1 {
-            bar.set_message(format!("fit {fit}, with the noise levels the fit before measured"));
+            bar.set_message(format!(
+                "fit {fit}, with the noise levels the fit before measured"
+            ));
         }
         bar.set_position((fraction * BAR_STEPS as f64).round() as u64);
     };
