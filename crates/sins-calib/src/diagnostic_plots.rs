@@ -454,29 +454,10 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
         TITLE_SIZE,
     )?;
     let ks = kinds(fits, kind);
-    // Each segment at the time of its updates: the first fit's, or the second's where only it
-    // has the segment (the same segments and times when both are of one recording).
-    let mut at = BTreeMap::new();
-    for (f, _) in ks.iter().rev() {
-        at.extend(segment_times(f.innov, kind));
-    }
-    let mid = |s: &calib::check::diagnostics::SegmentNis| {
-        at.get(&s.segment).copied().ok_or_else(|| {
-            format!(
-                "plotting: segment {} has a NIS but no update of its kind",
-                s.segment
-            )
-        })
-    };
-    let mut xs = vec![];
-    for (_, k) in &ks {
-        for s in &k.segments {
-            xs.push(mid(s)?);
-        }
-    }
-    let (x0, x1) = range(xs.iter().copied(), false);
-    let pad = (0.03 * (x1 - x0)).max(0.5);
-    let (x0, x1) = (x0 - pad, x1 + pad);
+    let at = nis_times(&ks, kind)?;
+    let mid = |s: &calib::check::diagnostics::SegmentNis| at[&s.segment];
+    let xs = ks.iter().flat_map(|(_, k)| k.segments.iter().map(mid));
+    let (x0, x1) = range(xs, false);
     let vals = ks.iter().flat_map(|(_, k)| {
         k.segments
             .iter()
@@ -518,10 +499,7 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
             0.0
         };
         let d = |s: &calib::check::diagnostics::SegmentNis| s.nis.dof.max(1.0);
-        let mut points = vec![];
-        for s in &k.segments {
-            points.push((mid(s)? + dx, s));
-        }
+        let points: Vec<_> = k.segments.iter().map(|s| (mid(s) + dx, s)).collect();
         chart
             .draw_series(points.iter().map(|&(x, s)| {
                 PathElement::new(
@@ -548,6 +526,28 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
             .map_err(|e| perr(&e))?;
     }
     Ok(())
+}
+
+/// The time of every segment with a NIS in `ks` ([`segment_times`]): the first fit's, or the
+/// second's where only it has the segment (the same segments and times when both are of one
+/// recording).
+fn nis_times(
+    ks: &[(&Fit<'_>, &KindDiagnostics)],
+    kind: MeasurementKind,
+) -> Result<BTreeMap<usize, f64>, String> {
+    let mut at = BTreeMap::new();
+    for (f, _) in ks.iter().rev() {
+        at.extend(segment_times(f.innov, kind));
+    }
+    for (_, k) in ks {
+        if let Some(s) = k.segments.iter().find(|s| !at.contains_key(&s.segment)) {
+            return Err(format!(
+                "plotting: segment {} has a NIS but no update of its kind",
+                s.segment
+            ));
+        }
+    }
+    Ok(at)
 }
 
 /// Each segment's time on the IMU clock (s) in the NIS plot: midway between its first and
