@@ -61,15 +61,17 @@ fn run(truth: &RunConfig, fit: &RunConfig, hidden: &HiddenEffects) -> (Vec<Strin
     let sim = calib::simulate::simulate_run_hidden(truth, "19 positions", hidden).unwrap();
     let imu = ImuData::from_samples(&sim.imu);
     let mut data = MemoryImu::new(&imu, "imu.csv");
+    let mut lines = vec![];
     let result = run_loop_at_rests(
         config,
         &mut data,
         &rests,
         &[],
         &LoopSettings::default(),
-        &mut |_| {},
+        &mut |l| lines.push(l.to_string()),
     )
     .unwrap();
+    check_progress(&lines, &result);
     let terms = result.accepted_terms.clone();
     let fits = result.final_model_fits();
     let checks: Vec<String> = result
@@ -88,6 +90,34 @@ fn run(truth: &RunConfig, fit: &RunConfig, hidden: &HiddenEffects) -> (Vec<Strin
          first round {first:?}"
     );
     (terms, fits)
+}
+
+/// The progress lines of each round's candidates say which of how many is being fitted:
+/// `round R, candidate I of N: ...`, I counting 1..=N in order, N the candidates the round
+/// reports.
+fn check_progress(lines: &[String], result: &calib::extend::LoopResult) {
+    let mut seen: Vec<Vec<(usize, usize)>> = vec![vec![]; result.rounds.len()];
+    for l in lines.iter().filter(|l| l.starts_with("round ")) {
+        let (place, _) = l
+            .split_once(": ")
+            .expect("a colon after the candidate's place");
+        let n: Vec<usize> = place
+            .split(|c: char| !c.is_ascii_digit())
+            .filter(|w| !w.is_empty())
+            .map(|w| w.parse().unwrap())
+            .collect();
+        assert_eq!(n.len(), 3, "{l}");
+        assert!(n[0] >= 1 && n[0] <= result.rounds.len(), "{l}");
+        let round = &mut seen[n[0] - 1];
+        if round.last().is_none_or(|&(i, _)| i != n[1]) {
+            round.push((n[1], n[2]));
+        }
+    }
+    for (k, (seen, round)) in seen.iter().zip(&result.rounds).enumerate() {
+        let planned = round.candidates.len();
+        let expected: Vec<(usize, usize)> = (1..=planned).map(|i| (i, planned)).collect();
+        assert_eq!(seen, &expected, "round {}: {lines:?}", k + 1);
+    }
 }
 
 #[test]

@@ -18,15 +18,49 @@ fn progress_bar(records: usize) -> ProgressBar {
     if records <= PROGRESS_ABOVE_RECORDS || !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
     }
-    // The length is set from the library's (done, total) reports.
-    let bar = ProgressBar::with_draw_target(Some(records as u64), ProgressDrawTarget::stderr());
+    // The bar shows the fraction of a fit's work in per mille (`FitProgress`): the library's
+    // record totals change within a fit, so records read would move the bar back.
+    let bar = ProgressBar::with_draw_target(Some(BAR_STEPS), ProgressDrawTarget::stderr());
     if let Ok(style) = ProgressStyle::with_template(
-        "calibrating [{bar:30}] {human_pos}/{human_len} IMU records read over all passes \
-         ({percent:>3} %), {elapsed} elapsed, about {eta} left",
+        "calibrating, {msg} [{bar:30}] {percent:>3} % of its most passes (fewer when it \
+         converges), {elapsed} elapsed",
     ) {
         bar.set_style(style.progress_chars("=> "));
     }
+    bar.set_message("fit 1");
     bar
+}
+
+/// The bar's length: a fit's work in per mille.
+const BAR_STEPS: u64 = 1000;
+
+/// The library's `(done, total)` reports turned into a bar that never moves back within a
+/// fit. `total` is an upper bound that changes within a fit (the first read of the records
+/// reports against a guess from the file's size, the passes against their most passes), and
+/// a recording of rests whose noise is measured is fitted more than once, each fit reporting
+/// from zero again: a report below the previous one starts the next fit.
+#[derive(Debug, Default)]
+struct FitProgress {
+    /// The fit being run, from 1.
+    fit: usize,
+    last_done: usize,
+    /// The largest fraction of the fit's work reported so far.
+    fraction: f64,
+}
+
+impl FitProgress {
+    /// The fit and the fraction of its work done after the report `(done, total)`.
+    fn advance(&mut self, done: usize, total: usize) -> (usize, f64) {
+        if self.fit == 0 || done < self.last_done {
+            self.fit += 1;
+            self.fraction = 0.0;
+        }
+        self.last_done = done;
+        if total > 0 {
+            self.fraction = self.fraction.max((done as f64 / total as f64).min(1.0));
+        }
+        (self.fit, self.fraction)
+    }
 }
 
 /// Run `calibrate` with a program, turntable angles, or on a recording of rests (with
@@ -90,9 +124,16 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Calibration, Error> {
         Records::Held(data) => data.records.len(),
     };
     let bar = progress_bar(records);
+    let mut shown = FitProgress::default();
     let mut progress = |done: usize, total: usize| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
+        let fit_before = shown.fit;
+        let (fit, fraction) = shown.advance(done, total);
+        if fit != fit_before && fit > 1 {
+            bar.set_message(format!(
+                "fit {fit}, with the noise levels the fit before measured"
+            ));
+        }
+        bar.set_position((fraction * BAR_STEPS as f64).round() as u64);
     };
     let calibration = match (&mut s.records, &s.rests) {
         (Records::Streamed(imu), Some(found)) => {
@@ -174,4 +215,28 @@ fn write_outputs(
         written.report = Some((dir.clone(), plots));
     }
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FitProgress;
+
+    #[test]
+    fn progress_never_moves_back_within_a_fit_and_a_restart_starts_the_next_fit() {
+        let mut p = FitProgress::default();
+        // The first read against a guessed total, then the passes against a larger one.
+        assert_eq!(p.advance(4096, 30_000), (1, 4096.0 / 30_000.0));
+        let (fit, f) = p.advance(8192, 30_000);
+        assert_eq!(fit, 1);
+        let (fit, g) = p.advance(10_000 + 100, 50_000);
+        assert_eq!(fit, 1);
+        assert_eq!(g, f, "a larger total must not move the bar back");
+        let (_, h) = p.advance(30_000, 50_000);
+        assert!((h - 0.6).abs() < 1e-12);
+        // The fit converged early: its last report is total of total.
+        assert_eq!(p.advance(50_000, 50_000), (1, 1.0));
+        // A second fit reports from zero again.
+        assert_eq!(p.advance(4096, 40_960), (2, 0.1));
+        assert_eq!(p.advance(4096, 0), (2, 0.1));
+    }
 }

@@ -14,12 +14,15 @@ use calib::model::MeasurementKind;
 use plotters::coord::Shift;
 use plotters::coord::combinators::{LogCoord, WithKeyPoints};
 use plotters::prelude::*;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 const BEFORE: RGBColor = RGBColor(31, 119, 180);
 const AFTER: RGBColor = RGBColor(255, 127, 14);
 const BAND: RGBColor = RGBColor(120, 120, 120);
-const AXES: [&str; 3] = ["x", "y", "z"];
+/// The axes of the innovations of both kinds: the local geographic frame (ENU), named as in the
+/// report's residual plots.
+const AXES: [&str; 3] = ["East", "North", "Up"];
 const FAILS: RGBColor = RGBColor(214, 39, 40);
 /// Title font size (px), smaller or wrapped where a title does not fit the width.
 const TITLE_SIZE: f64 = 18.0;
@@ -205,7 +208,7 @@ fn innovations_plot(
             .y_label_formatter(&linear_ticks(-y, y))
             .x_label_formatter(&linear_ticks(t0, t1))
             .x_desc("IMU time [s]")
-            .y_desc(format!("axis {} [sigma]", AXES[a]))
+            .y_desc(format!("{} [sigma]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
@@ -307,7 +310,7 @@ fn spectrum_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Re
             .y_label_formatter(&log_tick)
             .x_label_formatter(&log_tick)
             .x_desc("frequency [Hz]")
-            .y_desc(format!("axis {} [power / white]", AXES[a]))
+            .y_desc(format!("{} [power / white]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
@@ -397,7 +400,7 @@ fn autocorrelation_plot(
             .collect();
         let panel = titled(
             panel,
-            &format!("axis {}: Ljung-Box p = {}", AXES[a], ljung_box.join(", ")),
+            &format!("{}: Ljung-Box p = {}", AXES[a], ljung_box.join(", ")),
             13.0,
         )?;
         let mut chart = ChartBuilder::on(&panel)
@@ -411,7 +414,7 @@ fn autocorrelation_plot(
             .y_label_formatter(&linear_ticks(-y, y))
             .x_label_formatter(&count_tick)
             .x_desc("lag [updates]")
-            .y_desc(format!("axis {} [correlation]", AXES[a]))
+            .y_desc(format!("{} [correlation]", AXES[a]))
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(240, 240, 240))
             .draw()
@@ -451,11 +454,10 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
         TITLE_SIZE,
     )?;
     let ks = kinds(fits, kind);
-    let n_seg = ks
-        .iter()
-        .flat_map(|(_, k)| k.segments.iter().map(|s| s.segment + 1))
-        .max()
-        .unwrap_or(1);
+    let at = nis_times(&ks, kind)?;
+    let mid = |s: &calib::check::diagnostics::SegmentNis| at[&s.segment];
+    let xs = ks.iter().flat_map(|(_, k)| k.segments.iter().map(mid));
+    let (x0, x1) = range(xs, false);
     let vals = ks.iter().flat_map(|(_, k)| {
         k.segments
             .iter()
@@ -467,31 +469,39 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d(-0.5..n_seg as f64 - 0.5, lo..hi)
+        .build_cartesian_2d(x0..x1, lo..hi)
         .map_err(|e| perr(&e))?;
     chart
         .configure_mesh()
         .y_label_formatter(&linear_ticks(lo, hi))
-        .x_desc("segment number (names: report.md, or the diagnostics in the JSON)")
+        .x_desc(
+            "time on the IMU clock [s], midway between each segment's first and last update \
+             (segment names: report.md, or the diagnostics in the JSON)",
+        )
         .y_desc("NIS / dof [1 expected]")
-        .x_label_formatter(&count_tick)
+        .x_label_formatter(&linear_ticks(x0, x1))
         .label_style(("sans-serif", 14))
         .light_line_style(RGBColor(240, 240, 240))
         .draw()
         .map_err(|e| perr(&e))?;
     chart
         .draw_series(LineSeries::new(
-            [(-0.5, 1.0), (n_seg as f64 - 0.5, 1.0)],
+            [(x0, 1.0), (x1, 1.0)],
             BAND.stroke_width(1),
         ))
         .map_err(|e| perr(&e))?;
     let m = ks.len().max(1) as f64;
     for (n, (f, k)) in ks.iter().enumerate() {
-        let dx = if m > 1.0 { (n as f64 - 0.5) * 0.2 } else { 0.0 };
+        // Two fits side by side, a little apart.
+        let dx = if m > 1.0 {
+            (n as f64 - 0.5) * 0.004 * (x1 - x0)
+        } else {
+            0.0
+        };
         let d = |s: &calib::check::diagnostics::SegmentNis| s.nis.dof.max(1.0);
+        let points: Vec<_> = k.segments.iter().map(|s| (mid(s) + dx, s)).collect();
         chart
-            .draw_series(k.segments.iter().map(|s| {
-                let x = s.segment as f64 + dx;
+            .draw_series(points.iter().map(|&(x, s)| {
                 PathElement::new(
                     [(x, s.nis.band.0 / d(s)), (x, s.nis.band.1 / d(s))],
                     f.colour.mix(0.5).stroke_width(3),
@@ -499,31 +509,59 @@ fn nis_plot(root: &Area<'_>, kind: MeasurementKind, fits: &[Fit<'_>]) -> Result<
             }))
             .map_err(|e| perr(&e))?;
         chart
-            .draw_series(k.segments.iter().map(|s| {
-                Circle::new(
-                    (s.segment as f64 + dx, s.nis.sum / d(s)),
-                    4,
-                    f.colour.filled(),
-                )
-            }))
+            .draw_series(
+                points
+                    .iter()
+                    .map(|&(x, s)| Circle::new((x, s.nis.sum / d(s)), 4, f.colour.filled())),
+            )
             .map_err(|e| perr(&e))?;
         let level = f.diag.per_test_level;
         chart
             .draw_series(
-                k.segments
+                points
                     .iter()
-                    .filter(|s| s.nis.p_value.is_nan() || s.nis.p_value < level)
-                    .map(|s| {
-                        Circle::new(
-                            (s.segment as f64 + dx, s.nis.sum / d(s)),
-                            8,
-                            FAILS.stroke_width(2),
-                        )
-                    }),
+                    .filter(|(_, s)| s.nis.p_value.is_nan() || s.nis.p_value < level)
+                    .map(|&(x, s)| Circle::new((x, s.nis.sum / d(s)), 8, FAILS.stroke_width(2))),
             )
             .map_err(|e| perr(&e))?;
     }
     Ok(())
+}
+
+/// The time of every segment with a NIS in `ks` ([`segment_times`]): the first fit's, or the
+/// second's where only it has the segment (the same segments and times when both are of one
+/// recording).
+fn nis_times(
+    ks: &[(&Fit<'_>, &KindDiagnostics)],
+    kind: MeasurementKind,
+) -> Result<BTreeMap<usize, f64>, String> {
+    let mut at = BTreeMap::new();
+    for (f, _) in ks.iter().rev() {
+        at.extend(segment_times(f.innov, kind));
+    }
+    for (_, k) in ks {
+        if let Some(s) = k.segments.iter().find(|s| !at.contains_key(&s.segment)) {
+            return Err(format!(
+                "plotting: segment {} has a NIS but no update of its kind",
+                s.segment
+            ));
+        }
+    }
+    Ok(at)
+}
+
+/// Each segment's time on the IMU clock (s) in the NIS plot: midway between its first and
+/// last update of `kind`.
+fn segment_times(innov: &[Innovation], kind: MeasurementKind) -> BTreeMap<usize, f64> {
+    let mut span: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
+    for i in innov.iter().filter(|i| i.kind == kind && i.t.is_finite()) {
+        let e = span.entry(i.segment).or_insert((i.t, i.t));
+        e.0 = e.0.min(i.t);
+        e.1 = e.1.max(i.t);
+    }
+    span.into_iter()
+        .map(|(k, (a, b))| (k, 0.5 * (a + b)))
+        .collect()
 }
 
 #[cfg(test)]
@@ -551,6 +589,19 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    #[test]
+    fn nis_segments_sit_midway_between_their_first_and_last_update_of_the_kind() {
+        let a = innovations(1.0);
+        // Specific force: even k, t = 0.5 k; segment 0 holds k = 0..=98, segment 3 k = 300..=398.
+        let accel = segment_times(&a, MeasurementKind::Accel);
+        assert_eq!(accel.len(), 4);
+        assert_eq!(accel[&0], 0.5 * (0.0 + 49.0));
+        assert_eq!(accel[&3], 0.5 * (150.0 + 199.0));
+        // Turntable angles: odd k; segment 1 holds k = 101..=199.
+        let angles = segment_times(&a, MeasurementKind::Turntable);
+        assert_eq!(angles[&1], 0.5 * (50.5 + 99.5));
     }
 
     #[test]

@@ -526,6 +526,9 @@ struct Context<'a> {
     turns: &'a [crate::motion::rests::Turn],
     settings: &'a LoopSettings,
     progress: &'a mut dyn FnMut(&str),
+    /// Where a candidate's fits stand in their round, put before their progress lines
+    /// (`round 2, candidate 3 of 7: `; empty outside a round's candidates).
+    stage: String,
     /// The recording's temperature on the program's clock and the thermal terms' reference:
     /// what the covariance analysis of a thermal candidate sees (`None`: no temperature).
     recorded_temperature: Option<(turntable::temperature::TemperatureProfile, f64)>,
@@ -544,6 +547,12 @@ enum LoopRecords<'a> {
 }
 
 impl<'a> Context<'a> {
+    /// A progress line, after the place of the candidate being tested in its round.
+    fn say(&mut self, what: &str) {
+        let line = format!("{}{what}", self.stage);
+        (self.progress)(&line);
+    }
+
     /// The rests of a recording without a program (`None` for a programmed run).
     fn rests(&self) -> Option<&'a [crate::motion::rests::Rest]> {
         match self.records {
@@ -656,7 +665,7 @@ impl<'a> Context<'a> {
         current: &Fit,
         c: Candidate,
     ) -> Result<(CandidateEvidence, Fit), LoopError> {
-        (self.progress)(&format!("fitting with {}", c.id()));
+        self.say(&format!("fitting with {}", c.id()));
         let ext = with_term(&current.extension, c, self.config.unit_grade());
         let fit = self.fit(&ext)?;
         let names = c.param_names();
@@ -741,7 +750,7 @@ impl<'a> Context<'a> {
         for &q in &grid {
             // q in rad/s/sqrt(s); shown in the unit of `[noise] gyro_bias_walk_deg_h_sqrt_h`.
             let shown = q * 60.0 / sins_model::units::DEG_PER_HOUR;
-            (self.progress)(&format!(
+            self.say(&format!(
                 "fitting with a gyro bias random walk of {shown:.3} deg/h/sqrt(h)"
             ));
             let mut ext = current.extension.clone();
@@ -767,7 +776,7 @@ impl<'a> Context<'a> {
             }
             let mut ext = current.extension.clone();
             ext.gyro_drift = Some(values);
-            (self.progress)("fitting with the per-axis random walk");
+            self.say("fitting with the per-axis random walk");
             fit = self.fit(&ext)?;
         }
         let estimate = (0..3)
@@ -914,6 +923,7 @@ pub fn run_loop(
         turns: &[],
         settings,
         progress,
+        stage: String::new(),
         recorded_temperature: None,
     };
     loop_in(cx)
@@ -967,6 +977,7 @@ pub fn run_loop_at_rests(
         turns,
         settings,
         progress,
+        stage: String::new(),
         recorded_temperature: None,
     };
     loop_in(cx)
@@ -1170,7 +1181,7 @@ impl Context<'_> {
         st: &mut LoopState,
     ) -> Result<Vec<(CandidateEvidence, Fit)>, LoopError> {
         let settings = self.settings;
-        let mut evidence: Vec<(CandidateEvidence, Fit)> = Vec::new();
+        let mut planned = Vec::new();
         for &c in &settings.candidates {
             if has_term(&reference.extension, c) {
                 continue;
@@ -1183,11 +1194,23 @@ impl Context<'_> {
                 }
                 continue;
             }
-            evidence.push(if c == Candidate::GyroBiasDrift {
-                self.drift(reference)?
+            planned.push(c);
+        }
+        let mut evidence: Vec<(CandidateEvidence, Fit)> = Vec::new();
+        for (i, &c) in planned.iter().enumerate() {
+            self.stage = format!(
+                "round {}, candidate {} of {}: ",
+                st.rounds.len() + 1,
+                i + 1,
+                planned.len()
+            );
+            let e = if c == Candidate::GyroBiasDrift {
+                self.drift(reference)
             } else {
-                self.constant_term(reference, c)?
-            });
+                self.constant_term(reference, c)
+            };
+            self.stage.clear();
+            evidence.push(e?);
         }
         evidence.sort_by(|a, b| a.0.ln_p_value.total_cmp(&b.0.ln_p_value));
         Ok(evidence)
