@@ -56,7 +56,13 @@ pub struct CalibrateArgs {
     /// one sigma per axis), weighed so that a rest counts at most as one measurement of it
     /// (`filter.rest_error_m_s2`). The report measures it ("rests' excess"); absent: the
     /// configuration's (0).
-    #[arg(long, value_name = "M_S2", requires = "free_motion", value_parser = rest_error_value)]
+    #[arg(
+        long,
+        value_name = "M_S2",
+        requires = "free_motion",
+        value_parser = rest_error_value,
+        allow_negative_numbers = true
+    )]
     pub rest_error: Option<f64>,
     /// With --free-motion: write a PNG of |f| - g per static interval, before and after.
     #[arg(long, value_name = "FILE", requires = "free_motion")]
