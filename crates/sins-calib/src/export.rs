@@ -358,25 +358,7 @@ fn largest(v: &[f64; 3]) -> (f64, char) {
 /// axes whose fit failed its check (unless --allow-unchecked) and a Gauss-Markov bias Kalibr
 /// cannot hold (unless --drop-terms); `notes` gets what was let through.
 fn read_noise(path: &Path, args: &Args, notes: &mut Vec<String>) -> Result<NoiseFigures, Error> {
-    let file = path.display().to_string();
-    let text = sins_model::text::read_text_bounded(
-        path,
-        sins_model::text::RESULT_MAX_BYTES,
-        "noise result JSON",
-    )
-    .map_err(|e| format!("{file}: cannot read: {e}"))?;
-    let root: Value = serde_json::from_str(&text).map_err(|e| {
-        format!(
-            "{file}: line {}: {e}: expected the JSON that `sins-calib noise --json` writes",
-            e.line()
-        )
-    })?;
-    calib::io::schema::check(
-        &file,
-        root.get("schema"),
-        &[calib::io::schema::NOISE],
-        "the JSON that `sins-calib noise --json` writes",
-    )?;
+    let (file, root) = crate::noise::read_noise_json(path)?;
     let median = root
         .get("median_interval_s")
         .and_then(Value::as_f64)

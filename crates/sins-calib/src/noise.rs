@@ -993,10 +993,9 @@ impl IdentifiedWalk {
     }
 }
 
-/// Read the identified gyro bias walk from the JSON of `sins-calib noise --json`: the keys
-/// `gyro.bias_walk_deg_h_sqrt_h`, `..._lower` and `..._upper` (three axes each). The axis with
-/// the largest value is taken, as the `[noise]` block takes it.
-pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedWalk, Error> {
+/// The JSON of `sins-calib noise --json` at `path` (read within the size bound, its schema
+/// checked), with the file's name for messages.
+pub(crate) fn read_noise_json(path: &std::path::Path) -> Result<(String, Value), Error> {
     let file = path.display().to_string();
     let text = sins_model::text::read_text_bounded(
         path,
@@ -1016,6 +1015,14 @@ pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedW
         &[calib::io::schema::NOISE],
         "the JSON that `sins-calib noise --json` writes",
     )?;
+    Ok((file, root))
+}
+
+/// Read the identified gyro bias walk from the JSON of `sins-calib noise --json`: the keys
+/// `gyro.bias_walk_deg_h_sqrt_h`, `..._lower` and `..._upper` (three axes each). The axis with
+/// the largest value is taken, as the `[noise]` block takes it.
+pub(crate) fn read_identified_walk(path: &std::path::Path) -> Result<IdentifiedWalk, Error> {
+    let (file, root) = read_noise_json(path)?;
     let key = "bias_walk_deg_h_sqrt_h";
     let axes = |suffix: &str| -> Result<Vec<Option<f64>>, Error> {
         let k = format!("{key}{suffix}");

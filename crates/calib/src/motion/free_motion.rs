@@ -254,19 +254,29 @@ pub fn check_poses(
     if fitted.len() < 3 {
         return Err(FreeMotionError::TooFewIntervals(fitted.len()));
     }
-    let directions = distinct_directions(fitted.iter().copied());
-    if directions < 3 {
-        return Err(FreeMotionError::TooFewDirections {
-            intervals: fitted.len(),
-            directions,
-        });
-    }
+    require_directions(fitted.iter().copied(), fitted.len())?;
     Ok(fitted)
 }
 
 /// Two rests count as different poses when their specific forces differ in direction by at
 /// least this much (deg): five rests on one face do not separate nine accelerometer parameters.
 pub const MIN_POSE_SEPARATION_DEG: f64 = 10.0;
+
+/// `Err` where the `intervals` rests' specific forces `f` point in fewer than three
+/// [`distinct_directions`].
+fn require_directions(
+    f: impl Iterator<Item = Vector3<f64>>,
+    intervals: usize,
+) -> Result<(), FreeMotionError> {
+    let directions = distinct_directions(f);
+    if directions < 3 {
+        return Err(FreeMotionError::TooFewDirections {
+            intervals,
+            directions,
+        });
+    }
+    Ok(())
+}
 
 /// How many of the directions `f` lie at least [`MIN_POSE_SEPARATION_DEG`] from each other
 /// (each joins the first earlier one within it, or starts a new direction).
@@ -423,13 +433,7 @@ pub fn coarse_fit(
     if stats.len() < 3 {
         return Err(FreeMotionError::TooFewIntervals(stats.len()));
     }
-    let directions = distinct_directions(stats.iter().map(|s| s.f));
-    if directions < 3 {
-        return Err(FreeMotionError::TooFewDirections {
-            intervals: stats.len(),
-            directions,
-        });
-    }
+    require_directions(stats.iter().map(|s| s.f), stats.len())?;
     let ctx = FitContext {
         inc: &inc,
         poses: &poses,
@@ -505,13 +509,7 @@ pub fn accel_baseline_of_means(
     if means.len() <= BASELINE_PARAMETERS {
         return Err(FreeMotionError::TooFewForBaseline(means.len()));
     }
-    let directions = distinct_directions(means.iter().copied());
-    if directions < 3 {
-        return Err(FreeMotionError::TooFewDirections {
-            intervals: means.len(),
-            directions,
-        });
-    }
+    require_directions(means.iter().copied(), means.len())?;
     let paper = |x: &[f64]| {
         let mut p = [0.0; 21];
         p[ACCEL_BIAS_INDEX..].copy_from_slice(x);
