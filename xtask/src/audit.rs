@@ -803,28 +803,19 @@ fn command(bin: &Path, args: &[String], case: &CaseSpec) -> Result<Command, Stri
     Ok(cmd)
 }
 
-fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcome, String> {
-    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
-    for (name, f) in &case.files {
-        make_file(&dir.join(name), f, fx, dir)?;
-    }
-    for (name, f) in &case.files {
-        if f.readonly && f.dir && !permissions_enforced(&dir.join(name)) {
-            return Ok(Outcome {
-                class: "skipped",
-                detail: "directory permissions are not enforced for this user (root)".into(),
-            });
-        }
-    }
-    let args: Vec<String> = case
-        .cmd
-        .split_whitespace()
-        .map(|a| substitute(a, fx, dir))
-        .collect();
-    let before = snapshot(dir);
-    let stdout_unread = case.stdout.is_some();
-    let stderr_unread = case.stderr.is_some();
-    let mut cmd = command(bin, &args, case)?;
+/// What a case's process did: its exit status (`None`: killed at the time limit), what it
+/// printed (the first MiB of each stream) and how long it took.
+struct Ran {
+    status: Option<std::process::ExitStatus>,
+    stdout: String,
+    stderr: String,
+    elapsed: f64,
+    limit_s: u64,
+}
+
+/// Run the case's command in `dir` until it ends or its time limit passes.
+fn run_process(bin: &Path, args: &[String], dir: &Path, case: &CaseSpec) -> Result<Ran, String> {
+    let mut cmd = command(bin, args, case)?;
     cmd.current_dir(dir).stdin(Stdio::null());
     let t0 = Instant::now();
     let mut child = cmd.spawn().map_err(|e| format!("{}: {e}", bin.display()))?;
@@ -866,39 +857,74 @@ fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcom
         }
         std::thread::sleep(Duration::from_millis(5));
     };
-    let stdout = out_thread.join().unwrap_or_default();
-    let stderr = err_thread.join().unwrap_or_default();
-    let elapsed = t0.elapsed().as_secs_f64();
-    let first = stderr
+    Ok(Ran {
+        status,
+        stdout: out_thread.join().unwrap_or_default(),
+        stderr: err_thread.join().unwrap_or_default(),
+        elapsed: t0.elapsed().as_secs_f64(),
+        limit_s: limit.as_secs(),
+    })
+}
+
+fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcome, String> {
+    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    for (name, f) in &case.files {
+        make_file(&dir.join(name), f, fx, dir)?;
+    }
+    for (name, f) in &case.files {
+        if f.readonly && f.dir && !permissions_enforced(&dir.join(name)) {
+            return Ok(Outcome {
+                class: "skipped",
+                detail: "directory permissions are not enforced for this user (root)".into(),
+            });
+        }
+    }
+    let args: Vec<String> = case
+        .cmd
+        .split_whitespace()
+        .map(|a| substitute(a, fx, dir))
+        .collect();
+    let before = snapshot(dir);
+    let ran = run_process(bin, &args, dir, case)?;
+    let first = ran
+        .stderr
         .lines()
         .find(|l| l.starts_with("error") || l.contains("panicked"))
-        .or_else(|| stderr.lines().last())
+        .or_else(|| ran.stderr.lines().last())
         .unwrap_or("")
         .to_string();
-    let outcome = |class: &'static str, what: String| {
-        Ok(Outcome {
-            class,
-            detail: format!("{what} ({elapsed:.2} s) {first}"),
-        })
-    };
-    let Some(status) = status else {
-        return outcome(
-            "panic/abort",
-            format!("no end within {} s", limit.as_secs()),
-        );
+    let (class, what) = judge(fx, dir, case, &ran, &before);
+    Ok(Outcome {
+        class,
+        detail: format!("{what} ({:.2} s) {first}", ran.elapsed),
+    })
+}
+
+/// The outcome's class and what it saw, from what the case's process did.
+fn judge(
+    fx: &Path,
+    dir: &Path,
+    case: &CaseSpec,
+    ran: &Ran,
+    before: &BTreeMap<PathBuf, (String, u64, u64)>,
+) -> (&'static str, String) {
+    let Some(status) = ran.status else {
+        return ("panic/abort", format!("no end within {} s", ran.limit_s));
     };
     let code = status.code();
-    if stderr.contains("panicked") || !matches!(code, Some(0..=3)) {
-        return outcome("panic/abort", format!("{status}"));
+    if ran.stderr.contains("panicked") || !matches!(code, Some(0..=3)) {
+        return ("panic/abort", format!("{status}"));
     }
     let code = code.expect("an exit code");
+    let stderr_unread = case.stderr.is_some();
+    let missing = missing_words(case, &ran.stderr, stderr_unread);
     match case.expect {
         Expect::Refuse => {
             if code == 0 || code == 3 {
-                return outcome("silent success", format!("exit {code}"));
+                return ("silent success", format!("exit {code}"));
             }
             let after = snapshot(dir);
-            if before != after {
+            if *before != after {
                 let changed: Vec<String> = before
                     .keys()
                     .chain(after.keys())
@@ -907,65 +933,66 @@ fn run_case(bin: &Path, fx: &Path, dir: &Path, case: &CaseSpec) -> Result<Outcom
                     .collect::<std::collections::BTreeSet<_>>()
                     .into_iter()
                     .collect();
-                return outcome(
+                return (
                     "damaged output",
                     format!("exit {code}, changed: {}", changed.join(", ")),
                 );
             }
-            if !stdout_unread && !stdout.trim().is_empty() {
-                return outcome(
+            if case.stdout.is_none() && !ran.stdout.trim().is_empty() {
+                return (
                     "late refusal",
-                    format!("exit {code} after printing {} bytes", stdout.len()),
+                    format!("exit {code} after printing {} bytes", ran.stdout.len()),
                 );
             }
-            let missing = missing_words(case, &stderr, stderr_unread);
             if !missing.is_empty() {
-                return outcome("unclear error", format!("exit {code}, lacks {missing:?}:"));
+                return ("unclear error", format!("exit {code}, lacks {missing:?}:"));
             }
-            if let Some(max) = case.max_stderr.filter(|m| stderr.len() > *m) {
-                return outcome(
+            if let Some(max) = case.max_stderr.filter(|m| ran.stderr.len() > *m) {
+                return (
                     "unclear error",
                     format!(
                         "exit {code}, a message of {} bytes (at most {max}):",
-                        stderr.len()
+                        ran.stderr.len()
                     ),
                 );
             }
-            outcome("ok", format!("exit {code}"))
+            ("ok", format!("exit {code}"))
         }
         Expect::Keep => {
             match code {
                 1 => {}
-                0 | 3 => return outcome("silent success", format!("exit {code}")),
-                _ => return outcome("refused good input", format!("exit {code}")),
+                0 | 3 => return ("silent success", format!("exit {code}")),
+                _ => return ("refused good input", format!("exit {code}")),
             }
-            for o in &case.outputs {
-                if let Some(why) = check_output(Path::new(&substitute(o, fx, dir))) {
-                    return outcome("damaged output", why);
-                }
+            if let Some(why) = damaged_output(fx, dir, case) {
+                return ("damaged output", why);
             }
-            let missing = missing_words(case, &stderr, stderr_unread);
             if !missing.is_empty() {
-                return outcome("unclear error", format!("exit {code}, lacks {missing:?}:"));
+                return ("unclear error", format!("exit {code}, lacks {missing:?}:"));
             }
-            outcome("ok", format!("exit {code}"))
+            ("ok", format!("exit {code}"))
         }
         Expect::Succeed => {
             if code == 1 || code == 2 || (case.exit0 && code != 0) {
-                return outcome("refused good input", format!("exit {code}"));
+                return ("refused good input", format!("exit {code}"));
             }
-            for o in &case.outputs {
-                if let Some(why) = check_output(Path::new(&substitute(o, fx, dir))) {
-                    return outcome("damaged output", why);
-                }
+            if let Some(why) = damaged_output(fx, dir, case) {
+                return ("damaged output", why);
             }
             for a in &case.absent {
                 let a = substitute(a, fx, dir);
                 if std::fs::symlink_metadata(&a).is_ok() {
-                    return outcome("damaged output", format!("{a}: left behind"));
+                    return ("damaged output", format!("{a}: left behind"));
                 }
             }
-            outcome("ok", format!("exit {code}"))
+            ("ok", format!("exit {code}"))
         }
     }
+}
+
+/// The first of the case's outputs that is damaged, and how.
+fn damaged_output(fx: &Path, dir: &Path, case: &CaseSpec) -> Option<String> {
+    case.outputs
+        .iter()
+        .find_map(|o| check_output(Path::new(&substitute(o, fx, dir))))
 }

@@ -420,126 +420,163 @@ struct Tally {
     skipped: usize,
 }
 
+/// A file's report as it is written, and its counts.
+#[derive(Default)]
+struct Log {
+    report: String,
+    tally: Tally,
+}
+
+impl Log {
+    fn say(&mut self, line: String) {
+        self.report.push_str(&line);
+        self.report.push('\n');
+    }
+}
+
 /// Runs the blocks of one file in the working copy `work`; returns the report and the counts.
 fn check_file(rel: &str, file: &Path, work: &Path, root: &Path, bin_dir: &Path) -> (String, Tally) {
-    let mut report = String::new();
-    let mut tally = Tally::default();
-    macro_rules! say {
-        ($($arg:tt)*) => {{
-            report.push_str(&format!($($arg)*));
-            report.push('\n');
-        }};
-    }
+    let mut log = Log::default();
     let text = match std::fs::read_to_string(file) {
         Ok(t) => t,
         Err(e) => {
-            say!("FAIL {rel}: cannot read: {e}");
-            tally.failed += 1;
-            return (report, tally);
+            log.say(format!("FAIL {rel}: cannot read: {e}"));
+            log.tally.failed += 1;
+            return (log.report, log.tally);
         }
     };
     let items = parse_markdown(&text);
     let (cases, orphans) = cases(&items);
     for line in orphans {
-        say!(
+        log.say(format!(
             "FAIL {rel}:{line}: a block without a language tag that is neither a command nor \
              follows one: tag it (`text` for an illustration, `sh` for a command)"
-        );
-        tally.failed += 1;
+        ));
+        log.tally.failed += 1;
     }
     if cases.is_empty() {
-        return (report, tally);
+        return (log.report, log.tally);
     }
     if let Err(e) = copy_repository(root, work).and_then(|_| {
         let _ = std::fs::remove_dir_all(work.join("tmp"));
         std::fs::create_dir_all(work.join("tmp"))
     }) {
-        say!(
+        log.say(format!(
             "FAIL {rel}: cannot copy the repository to {}: {e}",
             work.display()
-        );
-        tally.failed += 1;
-        return (report, tally);
+        ));
+        log.tally.failed += 1;
+        return (log.report, log.tally);
     }
-    let tmp = work.join("tmp");
+    let place = Place {
+        rel,
+        work,
+        root,
+        bin_dir,
+    };
     for case in &cases {
-        let at = format!("{rel}:{}", case.command.line);
-        if let Some(reason) = &case.command.skip {
-            say!(
-                "skip {at} ({reason}){}",
-                if case.outputs.is_empty() {
-                    String::new()
-                } else {
-                    format!(", and its {} output block(s)", case.outputs.len())
-                }
-            );
-            tally.skipped += 1 + case.outputs.len();
-            continue;
-        }
-        let t = Instant::now();
-        let out = Command::new("bash")
-            .arg("-c")
-            .arg(script(&case.command.body, &tmp, root, bin_dir))
-            .current_dir(work)
-            .stdin(Stdio::null())
-            .stderr(Stdio::inherit())
-            .output();
-        let secs = t.elapsed().as_secs_f64();
-        let out = match out {
-            Ok(o) => o,
-            Err(e) => {
-                say!("FAIL {at}: cannot run bash: {e}");
-                tally.failed += 1 + case.outputs.len();
-                continue;
+        run_block(&place, case, &mut log);
+    }
+    check_json_examples(rel, work, &items, &mut log);
+    (log.report, log.tally)
+}
+
+/// Where a file's blocks run: the file, its working copy, the repository and the binaries.
+struct Place<'a> {
+    rel: &'a str,
+    work: &'a Path,
+    root: &'a Path,
+    bin_dir: &'a Path,
+}
+
+/// Runs one command block and compares its output with the text blocks after it.
+fn run_block(place: &Place, case: &Case, log: &mut Log) {
+    let Place {
+        rel,
+        work,
+        root,
+        bin_dir,
+    } = *place;
+    let tmp = work.join("tmp");
+    let at = format!("{rel}:{}", case.command.line);
+    if let Some(reason) = &case.command.skip {
+        log.say(format!(
+            "skip {at} ({reason}){}",
+            if case.outputs.is_empty() {
+                String::new()
+            } else {
+                format!(", and its {} output block(s)", case.outputs.len())
             }
-        };
-        let printed =
-            String::from_utf8_lossy(&out.stdout).replace(&format!("{}/", tmp.display()), "/tmp/");
-        // What the block printed, for updating the documentation from it (`--keep`).
-        let _ = std::fs::write(
-            work.join(format!("docs-check-{}.out", at.replace(['/', ':'], "-"))),
-            printed.as_bytes(),
-        );
-        if !out.status.success() {
-            say!(
-                "FAIL {at}: the commands exited with {} after {secs:.1} s; their last output:",
-                out.status
-            );
-            let lines: Vec<&str> = printed.lines().collect();
-            for l in &lines[lines.len().saturating_sub(15)..] {
-                say!("      | {l}");
-            }
-            tally.failed += 1 + case.outputs.len();
-            continue;
+        ));
+        log.tally.skipped += 1 + case.outputs.len();
+        return;
+    }
+    let t = Instant::now();
+    let out = Command::new("bash")
+        .arg("-c")
+        .arg(script(&case.command.body, &tmp, root, bin_dir))
+        .current_dir(work)
+        .stdin(Stdio::null())
+        .stderr(Stdio::inherit())
+        .output();
+    let secs = t.elapsed().as_secs_f64();
+    let out = match out {
+        Ok(o) => o,
+        Err(e) => {
+            log.say(format!("FAIL {at}: cannot run bash: {e}"));
+            log.tally.failed += 1 + case.outputs.len();
+            return;
         }
-        say!("ok   {at}: ran in {secs:.1} s");
-        tally.passed += 1;
-        let output = normalised_lines(printed.lines());
-        let mut pos = 0;
-        for block in &case.outputs {
-            let excerpt = normalised_lines(block.body.iter().map(String::as_str));
-            match match_excerpt(&excerpt, &output, pos) {
-                Ok(next) => {
-                    say!(
-                        "ok   {rel}:{}: output as shown ({} lines)",
-                        block.line,
-                        excerpt.iter().filter(|l| *l != "...").count()
-                    );
-                    tally.passed += 1;
-                    pos = next;
-                }
-                Err(why) => {
-                    say!(
-                        "FAIL {rel}:{}: output differs from the command's ({at}):\n      {why}",
-                        block.line
-                    );
-                    tally.failed += 1;
-                }
+    };
+    let printed =
+        String::from_utf8_lossy(&out.stdout).replace(&format!("{}/", tmp.display()), "/tmp/");
+    // What the block printed, for updating the documentation from it (`--keep`).
+    let _ = std::fs::write(
+        work.join(format!("docs-check-{}.out", at.replace(['/', ':'], "-"))),
+        printed.as_bytes(),
+    );
+    if !out.status.success() {
+        log.say(format!(
+            "FAIL {at}: the commands exited with {} after {secs:.1} s; their last output:",
+            out.status
+        ));
+        let lines: Vec<&str> = printed.lines().collect();
+        for l in &lines[lines.len().saturating_sub(15)..] {
+            log.say(format!("      | {l}"));
+        }
+        log.tally.failed += 1 + case.outputs.len();
+        return;
+    }
+    log.say(format!("ok   {at}: ran in {secs:.1} s"));
+    log.tally.passed += 1;
+    let output = normalised_lines(printed.lines());
+    let mut pos = 0;
+    for block in &case.outputs {
+        let excerpt = normalised_lines(block.body.iter().map(String::as_str));
+        match match_excerpt(&excerpt, &output, pos) {
+            Ok(next) => {
+                log.say(format!(
+                    "ok   {rel}:{}: output as shown ({} lines)",
+                    block.line,
+                    excerpt.iter().filter(|l| *l != "...").count()
+                ));
+                log.tally.passed += 1;
+                pos = next;
+            }
+            Err(why) => {
+                log.say(format!(
+                    "FAIL {rel}:{}: output differs from the command's ({at}):\n      {why}",
+                    block.line
+                ));
+                log.tally.failed += 1;
             }
         }
     }
-    // The JSON examples, against the files the commands wrote.
-    for item in &items {
+}
+
+/// The JSON examples of a file, against the files its commands wrote.
+fn check_json_examples(rel: &str, work: &Path, items: &[Item], log: &mut Log) {
+    for item in items {
         let Item::Block(block) = item else { continue };
         let Some(path) = &block.json_file else {
             continue;
@@ -548,21 +585,41 @@ fn check_file(rel: &str, file: &Path, work: &Path, root: &Path, bin_dir: &Path) 
         match std::fs::read_to_string(work.join(path)) {
             Ok(file) => match match_json_numbers(&block.body.join("\n"), &file) {
                 Ok(n) => {
-                    say!("ok   {at}: JSON example's {n} numbers as in {path}");
-                    tally.passed += 1;
+                    log.say(format!(
+                        "ok   {at}: JSON example's {n} numbers as in {path}"
+                    ));
+                    log.tally.passed += 1;
                 }
                 Err(why) => {
-                    say!("FAIL {at}: JSON example differs from {path}: {why}");
-                    tally.failed += 1;
+                    log.say(format!(
+                        "FAIL {at}: JSON example differs from {path}: {why}"
+                    ));
+                    log.tally.failed += 1;
                 }
             },
             Err(e) => {
-                say!("FAIL {at}: {path}: cannot read (written by no command before?): {e}");
-                tally.failed += 1;
+                log.say(format!(
+                    "FAIL {at}: {path}: cannot read (written by no command before?): {e}"
+                ));
+                log.tally.failed += 1;
             }
         }
     }
-    (report, tally)
+}
+
+/// `cargo build --release -p sins-calib`: the binary the blocks run.
+fn build_cli(root: &Path) -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    println!("docs-check: building sins-calib (cargo build --release -p sins-calib)");
+    match Command::new(&cargo)
+        .current_dir(root)
+        .args(["build", "--release", "--quiet", "-p", "sins-calib"])
+        .status()
+    {
+        Ok(s) if s.success() => Ok(()),
+        Ok(s) => Err(format!("cargo build --release -p sins-calib failed ({s})")),
+        Err(e) => Err(format!("cannot run {cargo}: {e}")),
+    }
 }
 
 /// `cargo xtask docs-check`: see the module's documentation.
@@ -572,22 +629,9 @@ pub fn docs_check(only: &[String], keep: bool, jobs: usize) -> ExitCode {
         .parent()
         .expect("xtask lies in the workspace")
         .to_path_buf();
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    println!("docs-check: building sins-calib (cargo build --release -p sins-calib)");
-    match Command::new(&cargo)
-        .current_dir(&root)
-        .args(["build", "--release", "--quiet", "-p", "sins-calib"])
-        .status()
-    {
-        Ok(s) if s.success() => {}
-        Ok(s) => {
-            eprintln!("error: cargo build --release -p sins-calib failed ({s})");
-            return ExitCode::FAILURE;
-        }
-        Err(e) => {
-            eprintln!("error: cannot run {cargo}: {e}");
-            return ExitCode::FAILURE;
-        }
+    if let Err(e) = build_cli(&root) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
     }
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)

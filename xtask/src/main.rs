@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 mod audit;
+mod bounds;
 mod docs_check;
 mod hidden;
 mod operating;
@@ -341,26 +342,67 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) 
         return ExitCode::FAILURE;
     };
     let elapsed = t0.elapsed().as_secs_f64();
+    let (mut ok, out) = print_tables(&lit, &rec, config_name);
+    ok &= conclusions_hold(&rec, config_name);
+    let (nav_ok, nav_json) = navigation_check(&rec, plot_path);
+    ok &= nav_ok;
+    println!(
+        "\nliteral = configs/paper.toml, {config_name} = {}; see docs/paper-check.md ({elapsed:.1} s)",
+        if config_name == "paper-reconciled" {
+            "configs/paper-reconciled.toml (crates/calib)"
+        } else {
+            config_name
+        }
+    );
+    if let Some(path) = json_path {
+        let doc = json!({
+            "schema": calib::io::schema::Schema::current(calib::io::schema::PAPER_CHECK),
+            "tables": Value::Object(out),
+            "navigation": nav_json,
+        });
+        if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap() + "\n") {
+            eprintln!("error: {}: cannot write: {e}", path.display());
+            return ExitCode::FAILURE;
+        }
+        println!("wrote {}", path.display());
+    }
+    if ok {
+        println!("paper-check: PASS");
+        ExitCode::SUCCESS
+    } else {
+        println!("paper-check: FAIL");
+        ExitCode::FAILURE
+    }
+}
+
+/// Both of the paper's tables beside the literal reading's and the checked configuration's,
+/// printed; whether every checked entry is within 0.5 to 2 times the paper's, and the tables as
+/// JSON.
+fn print_tables(
+    lit: &(Posterior, Posterior),
+    rec: &(Posterior, Posterior),
+    config_name: &str,
+) -> (bool, Map<String, Value>) {
     let mut ok = true;
     let mut out = Map::new();
     for (key, title, paper, lit_p, rec_p) in [
         (
             "imu_only",
             "Without the turntable angles (24 states)",
-            PaperTable::PAPER_IMU_ONLY,
+            sins_model::paper::TABLE_IMU_ONLY,
             &lit.0,
             &rec.0,
         ),
         (
             "with_turntable",
             "With the turntable angles (28 states)",
-            PaperTable::PAPER_WITH_TURNTABLE,
+            sins_model::paper::TABLE_WITH_TURNTABLE,
             &lit.1,
             &rec.1,
         ),
     ] {
-        let tl = PaperTable::from_posterior(lit_p);
-        let tr = PaperTable::from_posterior(rec_p);
+        let tl = calib::report::paper_table(lit_p);
+        let tr = calib::report::paper_table(rec_p);
         println!("\n{title}: largest posterior sigma of each group");
         println!(
             "{:<17} {:>7} {:>10} | {:>10} {:>6} | {:>10} {:>6}",
@@ -394,44 +436,15 @@ fn paper_check(json_path: Option<PathBuf>, config_name: &str, plot_path: &Path) 
         }
         out.insert(key.into(), table_json(&tr, rec_p, &tl));
     }
-    ok &= conclusions_hold(&rec, config_name);
-    let (nav_ok, nav_json) = navigation_check(&rec, plot_path);
-    ok &= nav_ok;
-    println!(
-        "\nliteral = configs/paper.toml, {config_name} = {}; see docs/paper-check.md ({elapsed:.1} s)",
-        if config_name == "paper-reconciled" {
-            "configs/paper-reconciled.toml (crates/calib)"
-        } else {
-            config_name
-        }
-    );
-    if let Some(path) = json_path {
-        let doc = json!({
-            "schema": calib::io::schema::Schema::current(calib::io::schema::PAPER_CHECK),
-            "tables": Value::Object(out),
-            "navigation": nav_json,
-        });
-        if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap() + "\n") {
-            eprintln!("error: {}: cannot write: {e}", path.display());
-            return ExitCode::FAILURE;
-        }
-        println!("wrote {}", path.display());
-    }
-    if ok {
-        println!("paper-check: PASS");
-        ExitCode::SUCCESS
-    } else {
-        println!("paper-check: FAIL");
-        ExitCode::FAILURE
-    }
+    (ok, out)
 }
 
 /// The paper's qualitative conclusions, checked on the tables of `rec` (printed).
 fn conclusions_hold(rec: &(Posterior, Posterior), config_name: &str) -> bool {
     let mut ok = true;
     let (a, b) = (
-        PaperTable::from_posterior(&rec.0),
-        PaperTable::from_posterior(&rec.1),
+        calib::report::paper_table(&rec.0),
+        calib::report::paper_table(&rec.1),
     );
     let conclusions = [
         (
@@ -463,10 +476,10 @@ fn conclusions_hold(rec: &(Posterior, Posterior), config_name: &str) -> bool {
 fn sweep_row(label: &str, config: &RunConfig) {
     match both_tables(config) {
         Ok((a, b)) => {
-            let ra = PaperTable::from_posterior(&a).values();
-            let rb = PaperTable::from_posterior(&b).values();
-            let pa = PaperTable::PAPER_IMU_ONLY.values();
-            let pb = PaperTable::PAPER_WITH_TURNTABLE.values();
+            let ra = calib::report::paper_table(&a).values();
+            let rb = calib::report::paper_table(&b).values();
+            let pa = sins_model::paper::TABLE_IMU_ONLY.values();
+            let pb = sins_model::paper::TABLE_WITH_TURNTABLE.values();
             print!("| {label:<34} |");
             for i in 0..6 {
                 print!(" {:.2}", ra[i] / pa[i]);
@@ -763,7 +776,7 @@ fn nav_budget() -> Result<(), String> {
         let mut c = calib::paper::reconciled();
         c.priors.initial_heading_deg = h_arcmin / 60.0;
         let p = covariance_analysis(&c, false).map_err(|e| e.to_string())?;
-        let nu0 = PaperTable::from_posterior(&p).nu0_deg_h;
+        let nu0 = calib::report::paper_table(&p).nu0_deg_h;
         let r = rho(
             &diagonal_only(&instrument_covariance(&p)?),
             &navsim::NavOptions::default(),

@@ -1,7 +1,9 @@
 //! `cargo xtask structure`: the shape of the code, measured from the sources.
 //!
-//! - every function in `crates/*/src` longer than [`MAX_FN_LINES`] lines (from the `fn` line to
-//!   its closing brace; `#[cfg(test)]` modules left out);
+//! - every function in `crates/*/src` and `xtask/src` longer than [`MAX_FN_LINES`] lines (from
+//!   the `fn` line to its closing brace; `#[cfg(test)]` modules left out);
+//! - where things live (`crate::bounds`): files over 1,000 non-test lines, the estimate's entry,
+//!   the command line's top-level files, exact repeats, candidate terms named in many files;
 //! - the entries at the top of `crates/calib/src` (at most [`MAX_CALIB_ENTRIES`]);
 //! - cycles between the modules of `calib`: between its rooms (the top-level modules), and
 //!   between sibling files inside a room (a parent's `mod.rs` and its children's `super::` are the
@@ -36,16 +38,22 @@ pub struct LongFn {
 /// Run the check from the repository's root; `Ok(true)` when every bound holds.
 pub fn run(root: &Path) -> Result<bool, String> {
     let mut long = Vec::new();
-    for file in rust_files(&root.join("crates"))? {
+    let mut sources = Vec::new();
+    let mut files = rust_files(&root.join("crates"))?;
+    files.extend(rust_files(&root.join("xtask/src"))?);
+    for file in files {
         let rel = file
             .strip_prefix(root)
             .unwrap_or(&file)
             .display()
             .to_string();
-        if !rel.contains("/src/") {
+        if !rel.contains("/src/") && !rel.starts_with("xtask/src") {
             continue;
         }
         let text = read(&file)?;
+        if rel.starts_with("crates/") {
+            sources.push((rel.clone(), text.clone()));
+        }
         long.extend(
             long_functions(&text, MAX_FN_LINES)
                 .into_iter()
@@ -59,7 +67,7 @@ pub fn run(root: &Path) -> Result<bool, String> {
     }
     long.sort_by(|a, b| b.lines.cmp(&a.lines).then(a.file.cmp(&b.file)));
     println!(
-        "functions over {MAX_FN_LINES} lines in crates/*/src: {}",
+        "functions over {MAX_FN_LINES} lines in crates/*/src and xtask/src: {}",
         long.len()
     );
     for f in &long {
@@ -100,7 +108,9 @@ pub fn run(root: &Path) -> Result<bool, String> {
     for c in &sibling_cycles {
         println!("  {}", c.join(" -> "));
     }
-    Ok(long.is_empty()
+    let bounds = crate::bounds::check(root, &sources)?;
+    Ok(bounds
+        && long.is_empty()
         && entries.len() <= MAX_CALIB_ENTRIES
         && room_cycles.is_empty()
         && sibling_cycles.is_empty())

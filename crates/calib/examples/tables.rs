@@ -4,7 +4,6 @@
 use calib::{
     config::{NoiseReading, RunConfig},
     estimate::covariance::covariance_analysis,
-    report::PaperTable,
 };
 fn main() {
     let mut config = RunConfig::paper();
@@ -35,11 +34,11 @@ fn main() {
     }
     for tt in [false, true] {
         let p = covariance_analysis(&config, tt).unwrap();
-        let tab = PaperTable::from_posterior(&p);
+        let tab = calib::report::paper_table(&p);
         let paper = if tt {
-            PaperTable::PAPER_WITH_TURNTABLE
+            sins_model::paper::TABLE_WITH_TURNTABLE
         } else {
-            PaperTable::PAPER_IMU_ONLY
+            sins_model::paper::TABLE_IMU_ONLY
         };
         print!("{}:", if tt { "tt " } else { "imu" });
         for (o, pp) in tab.values().iter().zip(paper.values()) {

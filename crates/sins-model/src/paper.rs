@@ -3,8 +3,9 @@
 //! one-hour snake flight. Everything that compares against the paper (the paper-check, the
 //! navigation budget, the report) reads them from here.
 
-/// One of the paper's result tables: the largest sigma of each group of parameters.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// One of the paper's result tables: the largest sigma of each group of parameters (also the
+/// same table computed from a covariance analysis, `calib::report::paper_table`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ResultTable {
     /// Gyro bias nu0 (deg/h).
     pub nu0_deg_h: f64,
@@ -18,6 +19,20 @@ pub struct ResultTable {
     pub gamma_ii: f64,
     /// Accelerometer non-orthogonality, below the diagonal of Gamma (arcmin).
     pub gamma_ij_arcmin: f64,
+}
+
+impl ResultTable {
+    /// The entries in the order of the fields (the order of `calib::report::COLUMNS`).
+    pub fn values(&self) -> [f64; 6] {
+        [
+            self.nu0_deg_h,
+            self.theta_ii,
+            self.theta_ij_arcmin,
+            self.df0_m_s2,
+            self.gamma_ii,
+            self.gamma_ij_arcmin,
+        ]
+    }
 }
 
 /// The paper's table without the turntable angles (IMU data alone).

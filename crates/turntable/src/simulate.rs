@@ -273,21 +273,10 @@ fn legendre(n: usize, x: f64) -> (f64, f64) {
 }
 
 /// Exact (to quadrature precision) noise-free increments over `[a, b]`: the integrals of the
-/// measured body rate `w - nu(p)` and specific force `f + df(p)`. The interval is split at program
-/// piece boundaries (and at `t = 0`, before which the program holds its start).
-pub fn increments(
-    kin: &Kinematics,
-    model: &ErrorModel,
-    p_true: &[f64],
-    rule: &GaussLegendre,
-    a: f64,
-    b: f64,
-) -> (Vector3<f64>, Vector3<f64>) {
-    increments_at(kin, model, p_true, rule, a, b, 0.0)
-}
-
-/// [`increments`] with the instrument `temp_delta` (K) from the thermal terms' reference over
-/// the interval (a temperature moves by millikelvin within one).
+/// measured body rate `w - nu(p)` and specific force `f + df(p)`, with the instrument
+/// `temp_delta` (K) from the thermal terms' reference over the interval (a temperature moves by
+/// millikelvin within one; 0 without thermal terms). The interval is split at program piece
+/// boundaries (and at `t = 0`, before which the program holds its start).
 pub fn increments_at(
     kin: &Kinematics,
     model: &ErrorModel,

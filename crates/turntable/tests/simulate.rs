@@ -9,8 +9,8 @@ use turntable::kinematics::{Kinematics, Mounting};
 use turntable::program::Program;
 use turntable::sensor::AngleSensor;
 use turntable::simulate::{
-    GaussLegendre, SimConfig, SimRng, Truth, draw_parameters, increments, simulate, simulate_imu,
-    simulate_turntable,
+    GaussLegendre, SimConfig, SimRng, Truth, draw_parameters, increments_at, simulate,
+    simulate_imu, simulate_turntable,
 };
 
 fn site() -> Site {
@@ -95,8 +95,8 @@ fn refining_the_quadrature_changes_nothing() {
         (12.0, 12.5),
         (50.0, 53.0),
     ] {
-        let (t5, v5) = increments(&kin, &m, &p, &r5, a, b);
-        let (t16, v16) = increments(&kin, &m, &p, &r16, a, b);
+        let (t5, v5) = increments_at(&kin, &m, &p, &r5, a, b, 0.0);
+        let (t16, v16) = increments_at(&kin, &m, &p, &r16, a, b, 0.0);
         assert!((t5 - t16).norm() <= 1e-12 * t16.norm(), "[{a}, {b}]");
         assert!((v5 - v16).norm() <= 1e-12 * v16.norm(), "[{a}, {b}]");
     }
@@ -112,7 +112,7 @@ fn integral_of_body_rate_matches_closed_form_and_fine_numerical_integration() {
     let u = kin.earth_rate_enu();
     let w = 10f64.to_radians();
     for (a, b) in [(0.0, 0.01), (3.21, 3.23), (10.0, 17.5)] {
-        let (dtheta, _) = increments(&kin, &m, &[], &rule, a, b);
+        let (dtheta, _) = increments_at(&kin, &m, &[], &rule, a, b, 0.0);
         let (ka, kb) = (w * a, w * b);
         let int_cos = (kb.sin() - ka.sin()) / w;
         let int_sin = -(kb.cos() - ka.cos()) / w;
@@ -129,7 +129,7 @@ fn integral_of_body_rate_matches_closed_form_and_fine_numerical_integration() {
     // The same against a 1e5-step composite Simpson rule over an interval spanning pieces.
     let kin = Kinematics::new(program(), mounting(), site());
     let (a, b) = (49.0, 51.0); // the move's heading leg ends at 49 s, its pitch leg follows
-    let (dtheta, dv) = increments(&kin, &m, &[], &rule, a, b);
+    let (dtheta, dv) = increments_at(&kin, &m, &[], &rule, a, b, 0.0);
     let n = 100_000;
     let h = (b - a) / n as f64;
     let (mut st, mut sv) = (Vector3::zeros(), Vector3::zeros());
@@ -473,9 +473,9 @@ fn time_offset_increments_are_the_shifted_increments() {
     let d = 1e-3;
     let rule = GaussLegendre::new(6).unwrap();
     for (a, b) in [(0.0, 0.01), (12.0, 12.01), (35.995, 36.005), (50.0, 50.01)] {
-        let (_, v_late) = increments(&kin, &late, &[d], &rule, a, b);
-        let (_, v_plain) = increments(&kin, &plain, &[], &rule, a, b);
-        let (_, v_shift) = increments(&kin, &plain, &[], &rule, a - d, b - d);
+        let (_, v_late) = increments_at(&kin, &late, &[d], &rule, a, b, 0.0);
+        let (_, v_plain) = increments_at(&kin, &plain, &[], &rule, a, b, 0.0);
+        let (_, v_shift) = increments_at(&kin, &plain, &[], &rule, a - d, b - d, 0.0);
         let effect = (v_shift - v_plain).norm();
         assert!(effect > 1e-6, "[{a}, {b}]: effect {effect:e}");
         // Second order in d inside a piece; across a kink of f (36 s: the rotation stops, df/dt
@@ -514,8 +514,8 @@ fn size_effect_counts_rate_jumps_once() {
     let mut centripetal = Vector3::zeros();
     for k in 0..n {
         let (a, b) = (t0 + k as f64 * dt, t0 + (k + 1) as f64 * dt);
-        let (_, v_lever) = increments(&kin, &lever, &p, &rule, a, b);
-        let (_, v_plain) = increments(&kin, &plain, &[], &rule, a, b);
+        let (_, v_lever) = increments_at(&kin, &lever, &p, &rule, a, b, 0.0);
+        let (_, v_plain) = increments_at(&kin, &plain, &[], &rule, a, b, 0.0);
         sum += v_lever - v_plain;
         // The centripetal part by a fine midpoint sum.
         let m = 200;
@@ -533,10 +533,10 @@ fn size_effect_counts_rate_jumps_once() {
         "{sum} vs {expect}"
     );
     // A jump exactly at the end of an interval is not in it.
-    let (_, v_before) = increments(&kin, &lever, &p, &rule, 35.99, 36.0);
-    let (_, v_after) = increments(&kin, &lever, &p, &rule, 36.0, 36.01);
-    let (_, p_before) = increments(&kin, &plain, &[], &rule, 35.99, 36.0);
-    let (_, p_after) = increments(&kin, &plain, &[], &rule, 36.0, 36.01);
+    let (_, v_before) = increments_at(&kin, &lever, &p, &rule, 35.99, 36.0, 0.0);
+    let (_, v_after) = increments_at(&kin, &lever, &p, &rule, 36.0, 36.01, 0.0);
+    let (_, p_before) = increments_at(&kin, &plain, &[], &rule, 35.99, 36.0, 0.0);
+    let (_, p_after) = increments_at(&kin, &plain, &[], &rule, 36.0, 36.01, 0.0);
     assert!((v_before - p_before).norm() < 0.1 * tangential.norm());
     assert!((v_after - p_after - tangential).norm() < 0.1 * tangential.norm());
 }

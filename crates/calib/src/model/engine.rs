@@ -515,17 +515,13 @@ impl Engine {
             _ => None,
         };
         let (phi, q) = model.transition();
-        if self.covariance_only {
-            self.filter.predict_covariance(phi, q)?;
-        } else {
-            self.filter.predict(phi, q)?;
-            if let Some(shadow) = &mut self.shadow {
-                shadow.predict(phi, q)?;
-            }
-            if let Some(sens) = &mut self.offset_sensitivity {
-                sens.predict(phi);
-            }
-        }
+        predict_every_filter(
+            &mut self.filter,
+            &mut self.shadow,
+            &mut self.offset_sensitivity,
+            self.covariance_only,
+            (phi, q),
+        )?;
         model.reset_transition();
         (report.parameter_updates, report.parameter_nis_sum) = self.parameter_update()?;
         // How the residual taken responds to an offset of the window's mean residual: one,
@@ -557,17 +553,13 @@ impl Engine {
     /// last window was not used).
     pub fn predict_to_now(&mut self) -> Result<(), KalmanError> {
         let (phi, q) = self.model.transition();
-        if self.covariance_only {
-            self.filter.predict_covariance(phi, q)?;
-        } else {
-            self.filter.predict(phi, q)?;
-            if let Some(shadow) = &mut self.shadow {
-                shadow.predict(phi, q)?;
-            }
-            if let Some(sens) = &mut self.offset_sensitivity {
-                sens.predict(phi);
-            }
-        }
+        predict_every_filter(
+            &mut self.filter,
+            &mut self.shadow,
+            &mut self.offset_sensitivity,
+            self.covariance_only,
+            (phi, q),
+        )?;
         self.model.reset_transition();
         self.parameter_update()?;
         Ok(())
@@ -627,6 +619,29 @@ impl Engine {
             Ok(Some(record))
         }
     }
+}
+
+/// The time update of the filter and of what rides along with it (the held-out shadow, the
+/// offset sensitivity) with the transition `(phi, q)`; in a covariance analysis, of the
+/// covariance alone.
+fn predict_every_filter(
+    filter: &mut KalmanFilter,
+    shadow: &mut Option<KalmanFilter>,
+    offset_sensitivity: &mut Option<OffsetSensitivity>,
+    covariance_only: bool,
+    (phi, q): (MatRef<'_, f64>, MatRef<'_, f64>),
+) -> Result<(), KalmanError> {
+    if covariance_only {
+        return filter.predict_covariance(phi, q);
+    }
+    filter.predict(phi, q)?;
+    if let Some(shadow) = shadow {
+        shadow.predict(phi, q)?;
+    }
+    if let Some(sens) = offset_sensitivity {
+        sens.predict(phi);
+    }
+    Ok(())
 }
 
 #[cfg(test)]

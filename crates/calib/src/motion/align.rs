@@ -117,33 +117,10 @@ const MIN_AXIS_SPREAD: f64 = 1e-3;
 const MIN_RATE: f64 = 0.01;
 
 /// Align the start attitude to `program`, which starts at IMU time `program_start`, from the
-/// rate bins of the data. `t_start` is the start of the first record. `None` when the program
+/// rate bins of the data: bin `i` of `n_bins` made on demand by `bin` (the same bin each time),
+/// in memory independent of `n_bins`: the usable bins are kept as runs of indices, and made
+/// again for the second sum. `t_start` is the start of the first record. `None` when the program
 /// does not turn about two axes within the data.
-#[allow(clippy::too_many_arguments)]
-pub fn align_to_program(
-    bins: &[RateBin],
-    program: &Program,
-    site: &Site,
-    program_start: f64,
-    t_start: f64,
-    model: &ErrorModel,
-    gyro_psd: f64,
-) -> Option<Alignment> {
-    align_to_program_by(
-        bins.len(),
-        &|i| bins[i],
-        program,
-        site,
-        program_start,
-        t_start,
-        model,
-        gyro_psd,
-    )
-}
-
-/// [`align_to_program`] with bin `i` of `n` made on demand by `bin` (the same bin each time),
-/// in memory independent of `n`: the usable bins are kept as runs of indices, and made again
-/// for the second sum. The same result to the last bit.
 #[allow(clippy::too_many_arguments)]
 pub fn align_to_program_by(
     n_bins: usize,

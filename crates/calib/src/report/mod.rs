@@ -3,27 +3,13 @@
 //! [`lab`] the figures of the report a laboratory files (`sins-calib calibrate --report`).
 
 use crate::estimate::covariance::Posterior;
-use serde::{Deserialize, Serialize};
 use sins_model::terms::GAMMA_INDEX;
 
 pub mod lab;
 
-/// One row of the paper's tables.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PaperTable {
-    /// Gyro bias (deg/h).
-    pub nu0_deg_h: f64,
-    /// Gyro scale factors (-).
-    pub theta_ii: f64,
-    /// Gyro misalignments (arcmin).
-    pub theta_ij_arcmin: f64,
-    /// Accelerometer biases (m/s^2).
-    pub df0_m_s2: f64,
-    /// Accelerometer scale factors (-).
-    pub gamma_ii: f64,
-    /// Accelerometer non-orthogonality (arcmin).
-    pub gamma_ij_arcmin: f64,
-}
+/// One row of the paper's tables: the paper's own (`sins_model::paper::TABLE_IMU_ONLY`,
+/// `TABLE_WITH_TURNTABLE`) or computed from a covariance analysis ([`paper_table`]).
+pub use sins_model::paper::ResultTable as PaperTable;
 
 /// The column names, in order, with units.
 pub const COLUMNS: [(&str, &str); 6] = [
@@ -35,55 +21,24 @@ pub const COLUMNS: [(&str, &str); 6] = [
     ("gamma_ij_arcmin", "arcmin"),
 ];
 
-impl PaperTable {
-    /// The paper's table without the turntable angles ([`sins_model::paper`]).
-    pub const PAPER_IMU_ONLY: PaperTable = Self::from_paper(sins_model::paper::TABLE_IMU_ONLY);
-    /// The paper's table with the turntable angles ([`sins_model::paper`]).
-    pub const PAPER_WITH_TURNTABLE: PaperTable =
-        Self::from_paper(sins_model::paper::TABLE_WITH_TURNTABLE);
-
-    const fn from_paper(t: sins_model::paper::ResultTable) -> Self {
-        PaperTable {
-            nu0_deg_h: t.nu0_deg_h,
-            theta_ii: t.theta_ii,
-            theta_ij_arcmin: t.theta_ij_arcmin,
-            df0_m_s2: t.df0_m_s2,
-            gamma_ii: t.gamma_ii,
-            gamma_ij_arcmin: t.gamma_ij_arcmin,
-        }
-    }
-
-    /// The entries in [`COLUMNS`] order.
-    pub fn values(&self) -> [f64; 6] {
-        [
-            self.nu0_deg_h,
-            self.theta_ii,
-            self.theta_ij_arcmin,
-            self.df0_m_s2,
-            self.gamma_ii,
-            self.gamma_ij_arcmin,
-        ]
-    }
-
-    /// Largest posterior sigma per group, in the paper's units.
-    pub fn from_posterior(p: &Posterior) -> Self {
-        let max_of = |names: &[String]| {
-            names
-                .iter()
-                .map(|n| p.sigma(n).unwrap_or(f64::NAN))
-                .fold(f64::NEG_INFINITY, f64::max)
-        };
-        let groups = Groups::new();
-        let deg_h = 1.0 / sins_model::units::DEG_PER_HOUR;
-        let arcmin = 1.0 / sins_model::units::ARCMIN;
-        PaperTable {
-            nu0_deg_h: max_of(&groups.nu0) * deg_h,
-            theta_ii: max_of(&groups.theta_ii),
-            theta_ij_arcmin: max_of(&groups.theta_ij) * arcmin,
-            df0_m_s2: max_of(&groups.df0),
-            gamma_ii: max_of(&groups.gamma_ii),
-            gamma_ij_arcmin: max_of(&groups.gamma_ij) * arcmin,
-        }
+/// Largest posterior sigma per group, in the paper's units.
+pub fn paper_table(p: &Posterior) -> PaperTable {
+    let max_of = |names: &[String]| {
+        names
+            .iter()
+            .map(|n| p.sigma(n).unwrap_or(f64::NAN))
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    let groups = Groups::new();
+    let deg_h = 1.0 / sins_model::units::DEG_PER_HOUR;
+    let arcmin = 1.0 / sins_model::units::ARCMIN;
+    PaperTable {
+        nu0_deg_h: max_of(&groups.nu0) * deg_h,
+        theta_ii: max_of(&groups.theta_ii),
+        theta_ij_arcmin: max_of(&groups.theta_ij) * arcmin,
+        df0_m_s2: max_of(&groups.df0),
+        gamma_ii: max_of(&groups.gamma_ii),
+        gamma_ij_arcmin: max_of(&groups.gamma_ij) * arcmin,
     }
 }
 
