@@ -32,8 +32,9 @@
 //! whether the rests are long enough: a walk above 0 only where the longest averaging time
 //! reaches two octaves beyond the time where the walk's Allan variance equals the white
 //! noise's (it then dominates the curve over two octaves); a walk whose interval reaches 0 is
-//! a bound, what the data say whatever the rests' length (its upper end says how much could
-//! hide); a bias instability only where the curve shows a floor (above).
+//! a bound (its upper end says how much could hide) where the curve reaches
+//! [`MIN_WALK_BOUND_TAU_S`]: from a shorter one it allows walks no unit has, and says nothing;
+//! a bias instability only where the curve shows a floor (above).
 
 use crate::allan::AllanCurve;
 use crate::edf::{self, NoiseType};
@@ -63,6 +64,17 @@ pub const FLOOR_BOWL: f64 = std::f64::consts::SQRT_2;
 /// How far before the minimum (a factor in averaging time) the curve must have stopped falling:
 /// two octaves.
 pub const FLOOR_SPAN: f64 = 4.0;
+
+/// The longest averaging time (s) the curve must reach for a walk whose interval reaches 0 to
+/// count as a bound. The bound's upper end is the walk that would just show at the curve's end
+/// (it equals the white noise at 1.0 to 1.8 times the longest averaging time), so a short curve
+/// bounds nothing a unit could have: from a curve to 2.5 s (rests of 5 s) a consumer gyro's
+/// white noise of 139 deg/h at 1 s allows walks up to about 4 000 deg/h/sqrt(h), from one to
+/// 100 s up to about 100 deg/h/sqrt(h), the top of consumer datasheets. Added after a survey
+/// (`tests/mems.rs`: 20 poses of 5 s, seeds 3201-3250) found the walk's interval reaching 0 on
+/// 41 of 50 recordings, each then counted as determined; the value comes from the datasheet
+/// argument, not from that survey (any value above its 2.5 s passes it).
+pub const MIN_WALK_BOUND_TAU_S: f64 = 100.0;
 
 /// `sqrt(2 ln 2 / pi)`: the Allan deviation of flicker rate noise per unit of bias instability.
 pub const FLICKER_ADEV: f64 = 0.664_282_466_029_688_7;
@@ -157,8 +169,8 @@ pub struct SlowTerms {
     pub walk_crossover_s: f64,
     /// Whether the walk's interval reaches 0: then the crossover is that of its upper end.
     pub walk_bound: bool,
-    /// Whether the walk is determined: a bound (its interval reaches 0), or the curve reaches
-    /// [`FLOOR_SPAN`] times the crossover.
+    /// Whether the walk is determined: a bound (its interval reaches 0) where the curve reaches
+    /// [`MIN_WALK_BOUND_TAU_S`], or a value where it reaches [`FLOOR_SPAN`] times the crossover.
     pub walk: bool,
     /// Whether a bias instability is determined: the curve shows a floor
     /// ([`flicker_floor`]).
@@ -177,10 +189,10 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
         .map(|p| p.tau_s)
         .fold(0.0, f64::max);
     // A walk above 0 must dominate the curve over two octaves. A bound (the interval reaching
-    // 0) is what the data say whatever the rests: its upper end is where a walk would just
-    // show at the longest taus, so its crossover scales with the rests and no rule relative to
-    // them separates short rests from long (on an hour's rest it lay at 1.0 to 1.6 times the
-    // longest tau, on 7-s rests at 1.2 to 1.8 times).
+    // 0): its upper end is where a walk would just show at the longest taus, so its crossover
+    // scales with the rests and no rule relative to them separates short rests from long (on
+    // an hour's rest it lay at 1.0 to 1.6 times the longest tau, on 7-s rests at 1.2 to 1.8
+    // times); what separates them is what the bound allows (`MIN_WALK_BOUND_TAU_S`).
     let bound = ml.walk.lower <= 0.0;
     let k = if bound { ml.walk.upper } else { ml.walk.value };
     // N^2 / tau = K^2 tau / 3 at tau = sqrt(3) N / K.
@@ -194,7 +206,11 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
         longest_tau_s,
         walk_crossover_s,
         walk_bound: bound,
-        walk: bound || longest_tau_s >= FLOOR_SPAN * walk_crossover_s * (1.0 - 1e-9),
+        walk: if bound {
+            longest_tau_s >= MIN_WALK_BOUND_TAU_S * (1.0 - 1e-9)
+        } else {
+            longest_tau_s >= FLOOR_SPAN * walk_crossover_s * (1.0 - 1e-9)
+        },
         bias_instability: flicker_floor(curve, BLOCKS_PER_CORRELATION as f64 * ml.correlation_s)
             .is_some(),
     }
