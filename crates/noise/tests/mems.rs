@@ -227,6 +227,7 @@ fn short_poses_do_not_determine_the_slow_terms() {
 /// What the analysis of one 2.8-h recording gives: the oscillation's period (s), the
 /// likelihood's white level (deg/h), the floor's bias instability (deg/h; `None`: no floor)
 /// and whether the slow terms call the bias instability determined.
+#[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
 fn measure(seed: u64) -> (Option<f64>, f64, Option<f64>, bool) {
     let records = 1_008_000;
     let increments: Vec<f64> = simulate(records, seed).iter().map(|w| w * DT).collect();
@@ -319,6 +320,7 @@ fn simulate_white_and_walk(records: usize, seed: u64) -> Vec<f64> {
 /// minute). Threshold fixed before the first run: at most 1 of 20.
 #[test]
 #[ignore]
+#[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
 fn survey_no_floor_from_white_noise_and_a_walk() {
     let records = 1_440_000;
     let mut floors = Vec::new();
