@@ -8,7 +8,7 @@
 //! The instrument's reduced proof mass is taken to lie on the rotation axes, so the specific
 //! force is gravity's reaction, `(0, 0, g)` in ENU, whatever the platform does.
 
-use crate::gimbal::{c_platform_to_base, platform_rate_base};
+use crate::gimbal::{c_platform_to_base, gimbal_frame_sin_cos};
 use crate::program::Program;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -113,8 +113,11 @@ impl Kinematics {
     }
 
     fn motion(&self, t: f64, k: [f64; 3], k_dot: [f64; 3]) -> MotionSample {
-        let c = self.c_body_to_enu(&k);
-        let platform_rate_enu = self.c_base_to_enu * platform_rate_base(&k, &k_dot);
+        // One sine and cosine per angle for the attitude and the rate together (the same to the
+        // bit as `c_body_to_enu` and `gimbal::platform_rate_base`, which take them twice).
+        let (c_platform, jacobian) = gimbal_frame_sin_cos(&k.map(f64::sin_cos));
+        let c = self.c_base_to_enu * c_platform * self.c_body_to_platform;
+        let platform_rate_enu = self.c_base_to_enu * (jacobian * Vector3::from(k_dot));
         let omega_body = c.transpose() * (self.u_enu + platform_rate_enu);
         MotionSample {
             t,
