@@ -2,7 +2,8 @@
 //! the commands that read records (`segment`, `noise`): time stamps in seconds, a specific
 //! force of g at rest (not g units, not the gyro columns), magnitudes an IMU gives.
 
-use crate::{Error, table};
+use crate::Error;
+use crate::render::table;
 use ::calib::motion::detect::Segmentation;
 
 /// Refuse records no IMU gives before segmenting: a median interval outside

@@ -211,8 +211,8 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
         .map(|_| (origin.as_str(), &config.unit));
     let mut provenance =
         crate::provenance::gather(&args.imu, config_unit, &args.unit, args.free_motion)?;
-    let terms = crate::terms::terms_asked(&args.terms, args.terms_from.as_deref())?;
-    crate::terms::check_thermal(
+    let terms = crate::args::terms::terms_asked(&args.terms, args.terms_from.as_deref())?;
+    crate::args::terms::check_thermal(
         &terms,
         imu.has_temp(),
         "calibrate",
@@ -308,10 +308,14 @@ fn calibrate_outputs(
         outputs.png(path, "--plot")?;
     }
     if let Some(dir) = &args.report {
-        outputs.dir(dir, "--report", &crate::identification::NAMES)?;
+        outputs.dir(dir, "--report", &crate::provenance::identification::NAMES)?;
     }
     if let Some(dir) = &args.diagnostics {
-        outputs.dir(dir, "--diagnostics", &crate::diagnostic_plots::NAMES)?;
+        outputs.dir(
+            dir,
+            "--diagnostics",
+            &crate::plots::innovation_diagnostics::NAMES,
+        )?;
     }
     Ok((args.plot.clone(), args.diagnostics.clone()))
 }
@@ -363,7 +367,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         settings.hold_out_every = Some(k);
     }
     if !args.terms.is_empty() {
-        settings.candidates = crate::terms::parse_terms(&args.terms)?;
+        settings.candidates = crate::args::terms::parse_terms(&args.terms)?;
     }
     let walk_prior = args.noise.as_deref().map(walk_prior).transpose()?;
     if let Some((_, grid)) = &walk_prior {
@@ -376,7 +380,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
     let imu_file = args.imu.display().to_string();
     // Without --terms every candidate is considered and the loop leaves the thermal ones out
     // on records without temperatures, saying so; named, they are refused.
-    crate::terms::check_thermal(
+    crate::args::terms::check_thermal(
         &settings.candidates,
         args.terms.is_empty() || imu.have_temp(),
         "diagnose",
@@ -462,7 +466,7 @@ fn diagnose_outputs(args: &crate::args::DiagnoseArgs) -> Result<(), Error> {
         outputs.file(p, "--json")?;
     }
     if let Some(p) = &args.report {
-        outputs.dir(p, "--report", &crate::identification::NAMES)?;
+        outputs.dir(p, "--report", &crate::provenance::identification::NAMES)?;
     }
     // The family-wise level of a decision: a probability, and one that means something.
     if !(args.level.is_finite() && args.level > 0.0 && args.level <= 0.5) {
@@ -481,7 +485,7 @@ fn diagnose_outputs(args: &crate::args::DiagnoseArgs) -> Result<(), Error> {
 /// The walk identified at rest (`--noise`) as the drift candidate's grid: tried where the
 /// data at rest put it.
 fn walk_prior(path: &Path) -> Result<(String, Vec<f64>), Error> {
-    let walk = crate::noise::read_identified_walk(path)?;
+    let walk = crate::commands::noise::read_identified_walk(path)?;
     let grid = walk.grid();
     if grid.is_empty() {
         return Err(format!(
@@ -617,11 +621,11 @@ fn check_turntable_coverage(
              IMU records (the rest would go without turntable measurements); give the whole \
              recording, or leave --turntable out to calibrate from the IMU alone",
             records.file(),
-            crate::table::compact(a),
-            crate::table::compact(b),
-            crate::table::compact(covered),
-            crate::table::compact(i0),
-            crate::table::compact(i1),
+            crate::render::table::compact(a),
+            crate::render::table::compact(b),
+            crate::render::table::compact(covered),
+            crate::render::table::compact(i0),
+            crate::render::table::compact(i1),
             100.0 * covered / length,
             100.0 * TURNTABLE_COVERAGE_MIN
         )
@@ -634,7 +638,7 @@ fn check_turntable_coverage(
 fn refuse_detector_with_program(
     command: &str,
     has_program: bool,
-    detector: &crate::detector_args::DetectorArgs,
+    detector: &crate::args::detector::DetectorArgs,
 ) -> Result<(), Error> {
     if has_program && detector.any() {
         return Err(format!(
@@ -651,14 +655,14 @@ fn refuse_detector_with_program(
 fn find_rests(
     source: &mut RateSource,
     file: &str,
-    detector: &crate::detector_args::DetectorArgs,
+    detector: &crate::args::detector::DetectorArgs,
     command: &str,
 ) -> Result<RestsFound, Error> {
     let settings = detector.settings().map_err(|e| format!("{command}: {e}"))?;
-    let (rests, seg) = crate::detector_args::rests_and_segmentation(source, file, &settings)?;
+    let (rests, seg) = crate::args::detector::rests_and_segmentation(source, file, &settings)?;
     Ok(RestsFound {
         rests,
-        missed: seg.missed_report(crate::detector_args::option_name),
+        missed: seg.missed_report(crate::args::detector::option_name),
         free_motion: None,
     })
 }
@@ -669,7 +673,7 @@ fn find_rests(
 /// command on a long run").
 fn rests_streamed<T>(
     session: &mut Session<T>,
-    detector: &crate::detector_args::DetectorArgs,
+    detector: &crate::args::detector::DetectorArgs,
     command: &str,
     free_motion: Option<FreeMotionArgs>,
 ) -> Result<Option<StateLayout>, Error> {
