@@ -117,7 +117,7 @@ enum Command {
     ///
     /// A record is static when, over a window centred on it, the standard deviations of the
     /// specific force and of the rate and the magnitude of the mean rate are below thresholds;
-    /// runs of static records at least --min-duration long are the static intervals.
+    /// runs of static records at least --rest-min-duration long are the static intervals.
     Segment(segment::Args),
     /// The sensors' noise from data at rest: the white level and bias walk of every gyro and
     /// accelerometer axis by maximum likelihood with 68 % profile intervals, the overlapping

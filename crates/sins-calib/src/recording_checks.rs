@@ -69,7 +69,7 @@ pub(crate) fn check_plausible_streamed(
     let span = t1 - t0;
     if window_s > span {
         return Err(format!(
-            "--window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
+            "--rest-window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
              window of a few records up to the recording's length"
         )
         .into());

@@ -1,37 +1,50 @@
-//! The static detector's settings as command-line options, shared by every command that finds
-//! rests in a recording (`calibrate` without a program, `calibrate --free-motion`).
+//! The static detector's settings as command-line options, declared once and shared by every
+//! command that finds rests in a recording: `segment`, `noise`, and `calibrate` / `diagnose`
+//! on a recording without a program (and with `--free-motion`). One spelling everywhere
+//! (`--rest-*`); `segment`'s and `noise`'s former spellings (`--window`, `--max-std-f`, ...)
+//! stay accepted as hidden aliases so that existing scripts keep working.
 
 use ::calib::motion::detect::DetectorSettings;
 use calib::motion::rests::Rest;
 
 /// Options of the static detector (`calib::motion::detect`; the defaults are
-/// `DetectorSettings::default()`).
+/// `DetectorSettings::default()`). Their help heading is set where they are flattened.
 #[derive(Debug, Clone, clap::Args)]
-#[command(next_help_heading = "Static detection (recordings without a program)")]
 pub struct DetectorArgs {
     /// Length of the sliding window centred on each record, in seconds. Default: a quarter of
     /// the typical rest (the lower quartile of the quiet stretches a 0.25-s window finds), at
     /// most 1 s and at least 0.25 s.
-    #[arg(long = "rest-window", value_name = "SECONDS")]
+    #[arg(long = "rest-window", alias = "window", value_name = "SECONDS")]
     pub window: Option<f64>,
     /// Largest standard deviation of the specific force over the window (root of the summed
-    /// variances of the three axes), m/s^2; raised to --rest-noise-factor times the
-    /// recording's own noise floor where that is larger.
-    #[arg(long = "rest-max-std-f", value_name = "M_S2")]
+    /// variances of the three axes), m/s^2 (default 0.1); raised to --rest-noise-factor times
+    /// the recording's own noise floor where that is larger.
+    #[arg(long = "rest-max-std-f", alias = "max-std-f", value_name = "M_S2")]
     pub max_std_f: Option<f64>,
-    /// Largest standard deviation of the angular rate over the window, rad/s (raised likewise).
-    #[arg(long = "rest-max-std-w", value_name = "RAD_S")]
+    /// Largest standard deviation of the angular rate over the window, rad/s (default 0.05;
+    /// raised likewise).
+    #[arg(long = "rest-max-std-w", alias = "max-std-w", value_name = "RAD_S")]
     pub max_std_w: Option<f64>,
-    /// Largest magnitude of the mean angular rate over the window, rad/s.
-    #[arg(long = "rest-max-rate", value_name = "RAD_S")]
+    /// Largest magnitude of the mean angular rate over the window, rad/s (default 0.1: keeps a
+    /// steady rotation from passing for rest; above any plausible gyro bias).
+    #[arg(long = "rest-max-rate", alias = "max-rate", value_name = "RAD_S")]
     pub max_rate: Option<f64>,
-    /// Shortest rest, in seconds. Default: half the typical rest, at most 2 s, at least the
-    /// window and the time the noise needs for a mean good to 0.002 m/s^2 on each axis.
-    #[arg(long = "rest-min-duration", value_name = "SECONDS")]
+    /// Shortest rest (static interval, first to last record), in seconds. Default: half the
+    /// typical rest, at most 2 s, at least the window and the time the noise needs for a mean
+    /// good to 0.002 m/s^2 on each axis.
+    #[arg(
+        long = "rest-min-duration",
+        alias = "min-duration",
+        value_name = "SECONDS"
+    )]
     pub min_duration: Option<f64>,
     /// The deviation thresholds are at least this many times the recording's noise floor (the
-    /// tenth percentile of the windowed deviations); 0 keeps them as given.
-    #[arg(long = "rest-noise-factor", value_name = "FACTOR")]
+    /// tenth percentile of the windowed deviations; default 3); 0 keeps them as given.
+    #[arg(
+        long = "rest-noise-factor",
+        alias = "noise-factor",
+        value_name = "FACTOR"
+    )]
     pub noise_factor: Option<f64>,
 }
 
@@ -53,7 +66,13 @@ impl DetectorArgs {
     /// The settings: the defaults with the options given, checked (the message names the
     /// option).
     pub fn settings(&self) -> Result<DetectorSettings, String> {
-        let d = DetectorSettings::default();
+        self.settings_over(DetectorSettings::default())
+    }
+
+    /// The settings: `base` (the defaults with a command's own settings, e.g. `segment
+    /// --gap-factor`) with the options given, checked (the message names the option).
+    pub fn settings_over(&self, base: DetectorSettings) -> Result<DetectorSettings, String> {
+        let d = base;
         let s = DetectorSettings {
             window_s: self.window.unwrap_or(d.window_s),
             max_std_f_m_s2: self.max_std_f.unwrap_or(d.max_std_f_m_s2),
@@ -161,6 +180,7 @@ pub fn option_name(setting: &str) -> String {
         "max_rate_rad_s" => "--rest-max-rate",
         "min_duration_s" => "--rest-min-duration",
         "noise_factor" => "--rest-noise-factor",
+        "gap_factor" => "--gap-factor",
         _ => "a detector option",
     }
     .to_string()

@@ -28,7 +28,7 @@ pub struct Args {
     /// The unit the --imu records are of (also read from the `[unit]` of the import profile,
     /// through the import.json beside them): a calibration of another unit (its `unit`) is
     /// refused.
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = crate::args::heading::UNIT)]
     pub unit: crate::provenance::UnitArgs,
     /// Apply a calibration whose unit (model or serial) differs from the data's: refused
     /// without this.

@@ -20,31 +20,9 @@ pub struct Args {
     /// between them and any gaps (docs/formats.md "Segment file").
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
-    /// Length of the sliding window centred on each record, in seconds. Default: a quarter of
-    /// the typical rest (the lower quartile of the quiet stretches a 0.25-s window finds), at
-    /// most 1 s and at least 0.25 s.
-    #[arg(long, value_name = "SECONDS")]
-    pub window: Option<f64>,
-    /// Largest standard deviation of the specific force over the window (root of the summed
-    /// variances of the three axes), m/s^2.
-    #[arg(long, value_name = "M_S2", default_value_t = DetectorSettings::default().max_std_f_m_s2)]
-    pub max_std_f: f64,
-    /// Largest standard deviation of the angular rate over the window, rad/s.
-    #[arg(long, value_name = "RAD_S", default_value_t = DetectorSettings::default().max_std_w_rad_s)]
-    pub max_std_w: f64,
-    /// Largest magnitude of the mean angular rate over the window, rad/s (keeps a steady
-    /// rotation from passing for rest; above any plausible gyro bias).
-    #[arg(long, value_name = "RAD_S", default_value_t = DetectorSettings::default().max_rate_rad_s)]
-    pub max_rate: f64,
-    /// Shortest static interval, in seconds (first to last record). Default: half the typical
-    /// rest, at most 2 s, at least the window and the time the noise needs for a mean good to
-    /// 0.002 m/s^2 on each axis.
-    #[arg(long, value_name = "SECONDS")]
-    pub min_duration: Option<f64>,
-    /// The deviation thresholds are at least this many times the recording's noise floor (the
-    /// tenth percentile of the windowed deviations); 0 keeps them as given.
-    #[arg(long, value_name = "FACTOR", default_value_t = DetectorSettings::default().noise_factor)]
-    pub noise_factor: f64,
+    /// The detector's options (`--rest-*`, as for `calibrate`).
+    #[command(flatten, next_help_heading = crate::args::heading::REST_DETECTION)]
+    pub detector: crate::args::detector::DetectorArgs,
     /// An interval between records longer than this many median intervals is a gap; static
     /// intervals end at gaps.
     #[arg(long, value_name = "FACTOR", default_value_t = DetectorSettings::default().gap_factor)]
@@ -66,22 +44,6 @@ struct SegmentJson<'a> {
 /// A setting to three significant digits, without trailing zeros (1, 0.1, 0.563).
 fn short(x: f64) -> String {
     table::compact(table::significant(x, 3).parse().unwrap_or(x))
-}
-
-/// This command's option for a detector setting (`DetectorSettings` field name), for messages
-/// and the report of missed rests.
-fn option_name(setting: &str) -> String {
-    match setting {
-        "window_s" => "--window",
-        "max_std_f_m_s2" => "--max-std-f",
-        "max_std_w_rad_s" => "--max-std-w",
-        "max_rate_rad_s" => "--max-rate",
-        "min_duration_s" => "--min-duration",
-        "noise_factor" => "--noise-factor",
-        "gap_factor" => "--gap-factor",
-        _ => "a detector option",
-    }
-    .to_string()
 }
 
 /// How the window and the minimum duration were chosen, as a line of the printout.
@@ -148,24 +110,13 @@ struct Request {
 /// Resolve the command line: the settings checked (messages name the option), the output
 /// checked before any work.
 fn resolve(args: &Args) -> Result<Request, Error> {
-    let d = DetectorSettings::default();
-    let settings = DetectorSettings {
-        window_s: args.window.unwrap_or(d.window_s),
-        max_std_f_m_s2: args.max_std_f,
-        max_std_w_rad_s: args.max_std_w,
-        max_rate_rad_s: args.max_rate,
-        min_duration_s: args.min_duration.unwrap_or(d.min_duration_s),
+    let base = DetectorSettings {
         gap_factor: args.gap_factor,
-        noise_factor: args.noise_factor,
-        adapt_window: args.window.is_none(),
-        adapt_min_duration: args.min_duration.is_none(),
-        ..d
+        ..DetectorSettings::default()
     };
-    settings.check().map_err(|e| {
-        let setting = e.split(' ').next().unwrap_or_default();
-        format!("segment: {}: {e}", option_name(setting))
-    })?;
-    crate::args::detector::check_bounds(&settings, &option_name)
+    let settings = args
+        .detector
+        .settings_over(base)
         .map_err(|e| format!("segment: {e}"))?;
     if let Some(path) = &args.json {
         output::Outputs::new(&[&args.imu]).file(path, "--json")?;
@@ -188,7 +139,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let file = req.imu.display().to_string();
     let mut source = RateSource::new(&mut imu)?;
     recording_checks::check_plausible_streamed(&mut source, &file, settings.window_s)?;
-    crate::args::detector::check_span_streamed(settings, &mut source, &file, &option_name)?;
+    crate::args::detector::check_span_streamed(
+        settings,
+        &mut source,
+        &file,
+        &crate::args::detector::option_name,
+    )?;
     let seg = segment_streamed(&mut source, settings).map_err(|e| format!("{file}: {e}"))?;
     recording_checks::check_static_force(&seg, &file)?;
     // The records' temperature, where they have one: each static interval's mean (a thermal
@@ -330,7 +286,7 @@ fn intervals_table(seg: &Segmentation, interval_temp_c: Option<&[f64]>) -> Strin
 /// The rests the detector may have missed, and the gaps of the records.
 fn missed_and_gaps(seg: &Segmentation, file: &str) -> String {
     let mut s = String::new();
-    if let Some(lines) = seg.missed_report(option_name) {
+    if let Some(lines) = seg.missed_report(crate::args::detector::option_name) {
         s.push('\n');
         for line in lines {
             let _ = writeln!(s, "  {line}");
