@@ -169,7 +169,9 @@ impl<T> Session<T> {
 
 /// Resolve the command line of `calibrate`.
 pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>, Error> {
-    if args.free_motion && (args.turntable.is_some() || args.program_start.is_some()) {
+    if args.free_motion
+        && (args.program.turntable.is_some() || args.program.program_start.is_some())
+    {
         return Err(
             "calibrate --free-motion: --turntable and --program-start belong to a \
                     turntable calibration (a hand-turned recording has neither)"
@@ -182,13 +184,13 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
         "calibrate: --config is required (or --free-motion for a hand-turned \
                     recording without a rotation program)",
     )??;
-    program_start(&mut config, args.program_start)?;
+    program_start(&mut config, args.program.program_start)?;
     // Read the truth first: a wrong path should not cost a whole run.
     let truth = args.truth.as_deref().map(read_result_json).transpose()?;
     // The IMU file is streamed (read once per pass, kept in memory only when short).
     let imu = FileImu::open(&args.imu)?;
     let imu_file = calib::estimate::ImuSource::file(&imu).to_string();
-    let turntable = args.turntable.as_deref().map(AngleFile::open).transpose()?;
+    let turntable = args.program.open_turntable()?;
     let program = program_of(&config, turntable.as_ref())?;
     check_turntable_coverage(
         &config,
@@ -294,7 +296,7 @@ fn calibrate_outputs(
     args: &crate::args::CalibrateArgs,
 ) -> Result<(Option<PathBuf>, Option<PathBuf>), Error> {
     let mut inputs: Vec<&Path> = vec![args.imu.as_path()];
-    inputs.extend(args.turntable.as_deref());
+    inputs.extend(args.program.turntable.as_deref());
     inputs.extend(args.truth.as_deref());
     inputs.extend(args.sections.as_deref());
     inputs.extend(args.terms_from.as_deref());
@@ -323,7 +325,12 @@ fn calibrate_outputs(
 /// The data files `calibrate` reads, with their roles, for a report's identification.
 fn calibrate_report_inputs(args: &crate::args::CalibrateArgs) -> Vec<(&'static str, PathBuf)> {
     let mut v = vec![("IMU records", args.imu.clone())];
-    v.extend(args.turntable.clone().map(|p| ("turntable angles", p)));
+    v.extend(
+        args.program
+            .turntable
+            .clone()
+            .map(|p| ("turntable angles", p)),
+    );
     v.extend(args.truth.clone().map(|p| ("truth", p)));
     v.extend(args.sections.clone().map(|p| ("section list", p)));
     v.extend(
@@ -358,7 +365,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         .unwrap_or_else(|| {
             load_config("paper").map(|(c, origin)| (c, origin, ConfigSource::Paper))
         })?;
-    program_start(&mut config, args.program_start)?;
+    program_start(&mut config, args.program.program_start)?;
     let mut settings = LoopSettings {
         level: args.level,
         ..LoopSettings::default()
@@ -375,7 +382,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
     }
     // A recording of rests (no program, no angles) is read again for every fit; a programmed
     // run's records are held for the model-extension loop (`calib::extend::run_loop`).
-    let rests_mode = args.turntable.is_none() && config.program_from_angles();
+    let rests_mode = args.program.turntable.is_none() && config.program_from_angles();
     let imu = diagnose_records(&args.imu, rests_mode)?;
     let imu_file = args.imu.display().to_string();
     // Without --terms every candidate is considered and the loop leaves the thermal ones out
@@ -387,7 +394,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         &format!("{imu_file}: no `temp` column"),
         "records with a `temp` column (deg C)",
     )?;
-    let turntable = args.turntable.as_deref().map(AngleFile::open).transpose()?;
+    let turntable = args.program.open_turntable()?;
     if args.free_motion && !config.program_from_angles() {
         return Err(format!(
             "diagnose --free-motion: {origin} has a rotation program; --free-motion is for a \
@@ -408,7 +415,12 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         span.map(|(a, b)| (a.t, b.t)),
     )?;
     let mut report_inputs = vec![("IMU records", args.imu.clone())];
-    report_inputs.extend(args.turntable.clone().map(|p| ("turntable angles", p)));
+    report_inputs.extend(
+        args.program
+            .turntable
+            .clone()
+            .map(|p| ("turntable angles", p)),
+    );
     let mut session = Session {
         config,
         source,
@@ -456,7 +468,7 @@ fn diagnose_records(path: &Path, stream: bool) -> Result<Records, Error> {
 /// Check `diagnose`'s outputs and options before any work (outputs, level, hold-out).
 fn diagnose_outputs(args: &crate::args::DiagnoseArgs) -> Result<(), Error> {
     let mut inputs: Vec<&Path> = vec![args.imu.as_path()];
-    inputs.extend(args.turntable.as_deref());
+    inputs.extend(args.program.turntable.as_deref());
     inputs.extend(args.sections.as_deref());
     inputs.extend(args.noise.as_deref());
     inputs.extend(args.config.as_deref().map(Path::new));

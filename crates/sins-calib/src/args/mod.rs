@@ -1,5 +1,10 @@
-//! The command lines of `calibrate` and `diagnose` (their options and help). They are read
-//! once, by `crate::session`, which resolves them into the session the commands run over.
+//! The command lines: `calibrate`'s and `diagnose`'s (read once, by `crate::session`, which
+//! resolves them into the session the commands run over), and the option groups several
+//! commands share, each declared once: the records (`RecordsArgs`), the programmed run
+//! (`ProgramArgs`), the site (`SiteArgs`), the static detector (`detector::DetectorArgs`), the
+//! candidate terms (`terms`), with the help headings they are listed under (`heading`). The
+//! unit (`crate::provenance::UnitArgs`) and the flight (`crate::navigation::FlightArgs`) are
+//! declared beside what they feed.
 
 pub mod detector;
 pub mod terms;
@@ -44,23 +49,9 @@ pub struct CalibrateArgs {
     /// defaults.
     #[arg(long, value_name = "FILE|NAME")]
     pub config: Option<String>,
-    /// Turntable angle records: a CSV with the header `t,k1,k2,k3` (t in s on the turntable
-    /// clock, related to the IMU clock by the configuration's `[clock]`; heading, bank and pitch in
-    /// degrees). Adds the installation misalignment and the delay to the estimated parameters
-    /// (28 states); without it the IMU data alone are used (24 states).
-    #[arg(long, value_name = "FILE", help_heading = heading::PROGRAMMED)]
-    pub turntable: Option<PathBuf>,
-    /// IMU time (s) at which the rotation program starts. Without it the start is found from the
-    /// data, by matching the measured rate magnitude against the program's; with it, the data are
-    /// checked against the program from there. Either way a recording that does not follow the
-    /// program is refused.
-    #[arg(
-        long,
-        value_name = "SECONDS",
-        allow_negative_numbers = true,
-        help_heading = heading::PROGRAMMED
-    )]
-    pub program_start: Option<f64>,
+    /// The rotation program's start and the turntable's records.
+    #[command(flatten)]
+    pub program: ProgramArgs,
     /// A hand-turned multi-position recording, without a rotation program or turntable: the
     /// filter of a recording of rests (the specific force measured in the rests the detector
     /// finds, the attitude carried by the gyros through every motion) with the paper's model
@@ -153,17 +144,9 @@ pub struct DiagnoseArgs {
         required_unless_present = "free_motion"
     )]
     pub config: Option<String>,
-    /// Turntable angle records (as for `calibrate`); without them the IMU-only model is used.
-    #[arg(long, value_name = "FILE", help_heading = heading::PROGRAMMED)]
-    pub turntable: Option<PathBuf>,
-    /// IMU time (s) at which the rotation program starts (as for `calibrate`).
-    #[arg(
-        long,
-        value_name = "SECONDS",
-        allow_negative_numbers = true,
-        help_heading = heading::PROGRAMMED
-    )]
-    pub program_start: Option<f64>,
+    /// The rotation program's start and the turntable's records (as for `calibrate`).
+    #[command(flatten)]
+    pub program: ProgramArgs,
     /// A hand-turned multi-position recording (no program, no turntable): the loop runs on the
     /// filter of a recording of rests as for a configuration without a program; without
     /// --config, with the configuration `calibrate --free-motion` makes from the recording
@@ -182,14 +165,14 @@ pub struct DiagnoseArgs {
     /// (default 4).
     #[arg(long, value_name = "K", requires = "free_motion", help_heading = heading::FREE_MOTION)]
     pub holdout: Option<usize>,
-    /// The site of a recording without a configuration.
-    #[command(flatten, next_help_heading = heading::FREE_MOTION)]
-    pub site: SiteArgs,
     /// How rests are found in a recording without a program (a configuration without
     /// `program` and no --turntable: the loop then runs on the filter of `calibrate` for such
     /// recordings, each candidate's separability from the fit's own posterior).
     #[command(flatten, next_help_heading = heading::REST_DETECTION_NO_PROGRAM)]
     pub detector: crate::args::detector::DetectorArgs,
+    /// The site of a recording without a configuration.
+    #[command(flatten, next_help_heading = heading::FREE_MOTION)]
+    pub site: SiteArgs,
     /// Candidate terms to consider (ids; default all): gyro_g_sensitivity,
     /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_bias_drift,
     /// gyro_accel_time_offset.
@@ -216,6 +199,50 @@ pub struct DiagnoseArgs {
     /// The flight of the navigation figure of every model the loop moves to.
     #[command(flatten, next_help_heading = heading::OUTPUTS)]
     pub flight: crate::navigation::FlightArgs,
+}
+
+/// The records of the commands that read a recording as it is (`segment`, `noise`).
+#[derive(Debug, clap::Args)]
+pub struct RecordsArgs {
+    /// IMU records (imu.csv, rates or increments; as written by `import` or `simulate`).
+    #[arg(long, value_name = "FILE")]
+    pub imu: PathBuf,
+}
+
+/// The options of a programmed run (`calibrate` and `diagnose`): the turntable's records and
+/// where the rotation program starts.
+#[derive(Debug, clap::Args)]
+pub struct ProgramArgs {
+    /// Turntable angle records: a CSV with the header `t,k1,k2,k3` (t in s on the turntable
+    /// clock, related to the IMU clock by the configuration's `[clock]`; heading, bank and pitch in
+    /// degrees). Adds the installation misalignment and the delay to the estimated parameters
+    /// (28 states); without it the IMU data alone are used (24 states).
+    #[arg(long, value_name = "FILE", help_heading = heading::PROGRAMMED)]
+    pub turntable: Option<PathBuf>,
+    /// IMU time (s) at which the rotation program starts. Without it the start is found from the
+    /// data, by matching the measured rate magnitude against the program's; with it, the data are
+    /// checked against the program from there. Either way a recording that does not follow the
+    /// program is refused.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        allow_negative_numbers = true,
+        help_heading = heading::PROGRAMMED
+    )]
+    pub program_start: Option<f64>,
+}
+
+impl ProgramArgs {
+    /// The turntable's records (`--turntable`), opened (`None` without the option).
+    pub fn open_turntable(
+        &self,
+    ) -> Result<Option<calib::io::angle_records::AngleFile>, crate::Error> {
+        Ok(self
+            .turntable
+            .as_deref()
+            .map(calib::io::angle_records::AngleFile::open)
+            .transpose()?)
+    }
 }
 
 /// The site of a hand-turned recording without a configuration (`calibrate` and `diagnose`

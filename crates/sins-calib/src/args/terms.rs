@@ -5,9 +5,9 @@
 use crate::Error;
 use sins_model::candidates::Candidate;
 
-/// Parse candidate ids, naming the valid ones on a bad id and refusing one given twice (it
-/// would be tested twice and halve every Bonferroni threshold).
-pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
+/// Refuse a term given twice in --terms (it would be tested twice and halve every Bonferroni
+/// threshold).
+pub fn check_distinct(ids: &[String]) -> Result<(), Error> {
     for (i, id) in ids.iter().enumerate() {
         if ids[..i].contains(id) {
             return Err(format!(
@@ -17,6 +17,13 @@ pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
             .into());
         }
     }
+    Ok(())
+}
+
+/// Parse candidate ids, naming the valid ones on a bad id and refusing one given twice
+/// ([`check_distinct`]).
+pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
+    check_distinct(ids)?;
     ids.iter()
         .map(|id| {
             Candidate::from_id(id).ok_or_else(|| {

@@ -214,6 +214,24 @@ fn navigation_gain_line(models: &[ModelNavigation], term: &str) -> String {
     }
 }
 
+/// Whether a candidate can be told apart from the model's parameters, in words: "yes",
+/// `near_prior` when its posterior sigma stays near its prior, or the parameters it is
+/// confounded with (the printout and the report word the middle case each their own way).
+pub fn separability(c: &calib::extend::CandidateEvidence, near_prior: &str) -> String {
+    let confounded = c
+        .separation
+        .as_ref()
+        .map(|x| x.confounded())
+        .unwrap_or_default();
+    if c.separable {
+        "yes".to_string()
+    } else if confounded.is_empty() {
+        near_prior.to_string()
+    } else {
+        format!("no: confounded with {}", confounded.join(", "))
+    }
+}
+
 /// One round of the loop: its candidates with their evidence and separability, what was
 /// accepted with its gain (in likelihood and in navigation), and the accepted term's size.
 fn round_lines(
@@ -236,18 +254,7 @@ fn round_lines(
         "term", "statistic", "dof", "p"
     );
     for c in &round.candidates {
-        let conf = c
-            .separation
-            .as_ref()
-            .map(|x| x.confounded())
-            .unwrap_or_default();
-        let sep = if c.separable {
-            "yes".to_string()
-        } else if conf.is_empty() {
-            "no (posterior sigma near the prior)".to_string()
-        } else {
-            format!("no: confounded with {}", conf.join(", "))
-        };
+        let sep = separability(c, "no (posterior sigma near the prior)");
         let _ = writeln!(
             s,
             "  {:<24} {:>12.2} {:>4} {:>10}  {sep}",

@@ -12,14 +12,9 @@ use std::path::PathBuf;
 /// Arguments of `segment`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// IMU records (imu.csv, rates or increments; as written by `import` or `simulate`).
-    #[arg(long, value_name = "FILE")]
-    pub imu: PathBuf,
-    /// Also write the segmentation to this JSON file: the settings, every static interval (start,
-    /// end, duration, records, mean specific force and |f|, mean rate, deviations), the motion
-    /// between them and any gaps (docs/formats.md "Segment file").
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
+    /// The records read.
+    #[command(flatten)]
+    pub records: crate::args::RecordsArgs,
     /// The detector's options (`--rest-*`, as for `calibrate`).
     #[command(flatten, next_help_heading = crate::args::heading::REST_DETECTION)]
     pub detector: crate::args::detector::DetectorArgs,
@@ -27,6 +22,11 @@ pub struct Args {
     /// intervals end at gaps.
     #[arg(long, value_name = "FACTOR", default_value_t = DetectorSettings::default().gap_factor)]
     pub gap_factor: f64,
+    /// Also write the segmentation to this JSON file: the settings, every static interval (start,
+    /// end, duration, records, mean specific force and |f|, mean rate, deviations), the motion
+    /// between them and any gaps (docs/formats.md "Segment file").
+    #[arg(long, value_name = "FILE", help_heading = crate::args::heading::OUTPUTS)]
+    pub json: Option<PathBuf>,
 }
 
 /// The JSON file: the segmentation with the file it is of.
@@ -119,11 +119,11 @@ fn resolve(args: &Args) -> Result<Request, Error> {
         .settings_over(base)
         .map_err(|e| format!("segment: {e}"))?;
     if let Some(path) = &args.json {
-        output::Outputs::new(&[&args.imu]).file(path, "--json")?;
+        output::Outputs::new(&[&args.records.imu]).file(path, "--json")?;
     }
     Ok(Request {
         settings,
-        imu: args.imu.clone(),
+        imu: args.records.imu.clone(),
         json: args.json.clone(),
     })
 }

@@ -168,19 +168,28 @@ fn three_panels<'a>(root: &Area<'a>, title: &str) -> Result<Vec<Area<'a>>, Strin
     Ok(titled(root, title, TITLE_SIZE)?.split_evenly((3, 1)))
 }
 
+/// The title of the innovations' panels, after the measurement kind.
+const INNOVATIONS_TITLE: &str = "whitened innovations L^-1 nu, lines at +-3";
+/// The title of the autocorrelations' panels, after the measurement kind.
+const AUTOCORRELATION_TITLE: &str = "autocorrelation of whitened innovations, lines: 95 % band";
+
+/// [`three_panels`] titled `<kind>: <what><the fits' note>`.
+fn kind_panels<'a>(
+    root: &Area<'a>,
+    kind: MeasurementKind,
+    fits: &[Fit<'_>],
+    what: &str,
+) -> Result<Vec<Area<'a>>, String> {
+    let title = format!("{}: {what}{}", kind_label(kind), fits_note(fits));
+    three_panels(root, &title)
+}
+
 fn innovations_plot(
     root: &Area<'_>,
     kind: MeasurementKind,
     fits: &[Fit<'_>],
 ) -> Result<(), String> {
-    let panels = three_panels(
-        root,
-        &format!(
-            "{}: whitened innovations L^-1 nu, lines at +-3{}",
-            kind_label(kind),
-            fits_note(fits)
-        ),
-    )?;
+    let panels = kind_panels(root, kind, fits, INNOVATIONS_TITLE)?;
     let series: Vec<Vec<(f64, [f64; 3])>> = fits
         .iter()
         .map(|f| {
@@ -363,14 +372,7 @@ fn autocorrelation_plot(
     kind: MeasurementKind,
     fits: &[Fit<'_>],
 ) -> Result<(), String> {
-    let panels = three_panels(
-        root,
-        &format!(
-            "{}: autocorrelation of whitened innovations, lines: 95 % band{}",
-            kind_label(kind),
-            fits_note(fits)
-        ),
-    )?;
+    let panels = kind_panels(root, kind, fits, AUTOCORRELATION_TITLE)?;
     let ks = kinds(fits, kind);
     let lags = ks
         .iter()

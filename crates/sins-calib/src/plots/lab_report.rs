@@ -10,6 +10,7 @@ use calib::check::diagnostics::{Segment, kind_label};
 use calib::model::MeasurementKind;
 use calib::report::lab::{Residual, residual_unit};
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
@@ -22,6 +23,27 @@ const SHADE: RGBColor = RGBColor(238, 238, 238);
 const FAILING: RGBColor = RGBColor(250, 200, 200);
 /// The axes of the innovations: the local geographic frame.
 const ENU: [&str; 3] = ["East", "North", "Up"];
+
+/// The mesh of a panel in the report's style: the axes' titles, linear ticks over `x` and `y`,
+/// no light grid lines.
+fn draw_mesh(
+    chart: &mut ChartContext<'_, BitMapBackend<'_>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    (x_desc, y_desc): (&str, &str),
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> Result<(), String> {
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .x_label_formatter(&linear_ticks(x0, x1))
+        .y_label_formatter(&linear_ticks(y0, y1))
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
+        .light_line_style(TRANSPARENT)
+        .draw()
+        .map_err(|e| e.to_string())
+}
 
 /// The `q`-quantile of the magnitudes of `values` (0 when empty).
 fn quantile_abs(values: impl Iterator<Item = f64>, q: f64) -> f64 {
@@ -115,17 +137,12 @@ fn residual_panel(
             })
         }))
         .map_err(|e| pe(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("IMU time [s]")
-        .y_desc(format!("{} [{unit}]", ENU[axis]))
-        .x_label_formatter(&linear_ticks(t0, t1))
-        .y_label_formatter(&linear_ticks(-y, y))
-        .label_style(("sans-serif", 12))
-        .axis_desc_style(("sans-serif", 13))
-        .light_line_style(TRANSPARENT)
-        .draw()
-        .map_err(|e| pe(&e))?;
+    draw_mesh(
+        &mut chart,
+        ("IMU time [s]", &format!("{} [{unit}]", ENU[axis])),
+        (t0, t1),
+        (-y, y),
+    )?;
     // The band as dots: the sigma of the angles changes from one update to the next as the
     // gimbals turn, and a line through it would fill the panel. A band wider than the axis is
     // left out (at the edge it would look like residuals).
@@ -274,17 +291,12 @@ fn temperature_panel(
         .y_label_area_size(62)
         .build_cartesian_2d(t0..t1, c0..c1)
         .map_err(|e| pe(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("IMU time [s]")
-        .y_desc("temperature [deg C]")
-        .x_label_formatter(&linear_ticks(t0, t1))
-        .y_label_formatter(&linear_ticks(c0, c1))
-        .label_style(("sans-serif", 12))
-        .axis_desc_style(("sans-serif", 13))
-        .light_line_style(TRANSPARENT)
-        .draw()
-        .map_err(|e| pe(&e))?;
+    draw_mesh(
+        &mut chart,
+        ("IMU time [s]", "temperature [deg C]"),
+        (t0, t1),
+        (c0, c1),
+    )?;
     chart
         .draw_series(LineSeries::new(series.iter().map(|p| (p[0], p[1])), POINTS))
         .map_err(|e| pe(&e))?;
@@ -322,17 +334,15 @@ fn against_temperature_panel(
         .y_label_area_size(62)
         .build_cartesian_2d(c0..c1, -y..y)
         .map_err(|e| pe(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("temperature [deg C]")
-        .y_desc(format!("{} [{unit}]", ["x", "y", "z"][axis]))
-        .x_label_formatter(&linear_ticks(c0, c1))
-        .y_label_formatter(&linear_ticks(-y, y))
-        .label_style(("sans-serif", 12))
-        .axis_desc_style(("sans-serif", 13))
-        .light_line_style(TRANSPARENT)
-        .draw()
-        .map_err(|e| pe(&e))?;
+    draw_mesh(
+        &mut chart,
+        (
+            "temperature [deg C]",
+            &format!("{} [{unit}]", ["x", "y", "z"][axis]),
+        ),
+        (c0, c1),
+        (-y, y),
+    )?;
     chart
         .draw_series(
             at.iter()

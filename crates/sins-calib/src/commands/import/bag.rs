@@ -2,7 +2,7 @@
 //! or an MCAP file turned into `imu.csv`; the work is the `import` crate's
 //! (`import::import_bag`).
 
-use super::{Args, gap_lines, import_atomically};
+use super::{Args, gap_lines, import_atomically, static_force_line};
 use crate::provenance::{ImportProvenance, InputHash};
 use crate::render::table;
 use crate::{Error, print};
@@ -145,16 +145,7 @@ fn printout(
         s,
         "  saturation: not checked (a sensor_msgs/Imu message carries no sensor range)"
     );
-    let f = &r.static_force;
-    let _ = writeln!(
-        s,
-        "  specific force at rest: median |f| = {} m/s^2 ({} g) over t = {} .. {} s (the \
-         quietest second)",
-        table::significant(f.median_norm_m_s2, 5),
-        table::significant(f.ratio_to_g, 4),
-        c(f.window_s[0]),
-        c(f.window_s[1])
-    );
+    s += &static_force_line(r);
     let _ = writeln!(
         s,
         "  wrote {}: {} records, rates (rad/s, m/s^2)",

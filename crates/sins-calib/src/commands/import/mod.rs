@@ -124,16 +124,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     );
     s += &gap_lines(r);
     s += &saturation_lines(r);
-    let f = &r.static_force;
-    let _ = writeln!(
-        s,
-        "  specific force at rest: median |f| = {} m/s^2 ({} g) over t = {} .. {} s (the \
-         quietest second)",
-        table::significant(f.median_norm_m_s2, 5),
-        table::significant(f.ratio_to_g, 4),
-        c(f.window_s[0]),
-        c(f.window_s[1])
-    );
+    s += &static_force_line(r);
     s += &written_lines(&imported, &written);
     let _ = writeln!(s, "  wrote {}", written.report.display());
     print(&s)
@@ -241,6 +232,20 @@ fn missing_ancestors(out: &std::path::Path) -> Vec<PathBuf> {
         .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
         .map(std::path::Path::to_path_buf)
         .collect()
+}
+
+/// The specific force at rest the import found (the quietest second's median |f|), as a line
+/// of the printout.
+pub(crate) fn static_force_line(r: &ImportReport) -> String {
+    let f = &r.static_force;
+    format!(
+        "  specific force at rest: median |f| = {} m/s^2 ({} g) over t = {} .. {} s (the \
+         quietest second)\n",
+        table::significant(f.median_norm_m_s2, 5),
+        table::significant(f.ratio_to_g, 4),
+        table::compact(f.window_s[0]),
+        table::compact(f.window_s[1])
+    )
 }
 
 /// The gaps of the time stamps, or that there are none.

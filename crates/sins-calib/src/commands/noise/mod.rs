@@ -35,19 +35,9 @@ use std::path::PathBuf;
 /// Arguments of `noise`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// IMU records (imu.csv, rates or increments; as written by `import` or `simulate`).
-    #[arg(long, value_name = "FILE")]
-    pub imu: PathBuf,
-    /// Also write the results to this JSON file: per sensor the levels of every term per axis
-    /// with their sigmas, the fit statistics and the Allan deviation curve with its confidence
-    /// interval (docs/noise.md).
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
-    /// Also plot the Allan deviations to this PNG file: per axis the measured deviation with its
-    /// 68 % confidence interval, the fitted terms and their sum, and with --config the
-    /// configured noise model.
-    #[arg(long, value_name = "FILE")]
-    pub plot: Option<PathBuf>,
+    /// The records read.
+    #[command(flatten)]
+    pub records: crate::args::RecordsArgs,
     /// A run configuration (file, or `paper` / `paper-reconciled`) whose `[noise]` levels are
     /// compared with the measured ones and drawn over them; its `reading` and `angle_arcsec`
     /// go into the printed `[noise]` block.
@@ -60,11 +50,21 @@ pub struct Args {
     /// The detector's options (`--rest-*`, as for `segment` and `calibrate`).
     #[command(flatten, next_help_heading = crate::args::heading::REST_DETECTION)]
     pub detector: crate::args::detector::DetectorArgs,
+    /// Also write the results to this JSON file: per sensor the levels of every term per axis
+    /// with their sigmas, the fit statistics and the Allan deviation curve with its confidence
+    /// interval (docs/noise.md).
+    #[arg(long, value_name = "FILE", help_heading = crate::args::heading::OUTPUTS)]
+    pub json: Option<PathBuf>,
+    /// Also plot the Allan deviations to this PNG file: per axis the measured deviation with its
+    /// 68 % confidence interval, the fitted terms and their sum, and with --config the
+    /// configured noise model.
+    #[arg(long, value_name = "FILE", help_heading = crate::args::heading::OUTPUTS)]
+    pub plot: Option<PathBuf>,
 }
 
 /// The outputs checked before the work: never onto an input, plots as PNG.
 fn check_outputs(args: &Args) -> Result<(), Error> {
-    let mut inputs: Vec<&std::path::Path> = vec![args.imu.as_path()];
+    let mut inputs: Vec<&std::path::Path> = vec![args.records.imu.as_path()];
     if let Some(c) = args.config.as_deref() {
         inputs.push(std::path::Path::new(c));
     }
@@ -163,9 +163,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let config = args.config.as_deref().map(load_config).transpose()?;
     // The records are read again for every step rather than held (docs/performance.md,
     // "Memory of every command on a long run").
-    let mut imu = calib::estimate::FileImu::open(&args.imu)?;
+    let mut imu = calib::estimate::FileImu::open(&args.records.imu)?;
     let has_temp = imu.has_temp();
-    let file = args.imu.display().to_string();
+    let file = args.records.imu.display().to_string();
     let mut source = RateSource::new(&mut imu)?;
     let rest = find_rest(args, &mut source, &file)?;
     let fits = fit_levels(&mut source, &rest, has_temp, &file)?;

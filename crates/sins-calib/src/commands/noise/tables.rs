@@ -108,7 +108,13 @@ pub(super) fn sensor_table(s: &Sensor, sn: &SensorNoise) -> String {
         let outside: Vec<String> = f
             .misfits
             .iter()
-            .map(|m| format!("{} s x{}", tau_range(m), table::significant(m.worst_ratio, 2)))
+            .map(|m| {
+                format!(
+                    "{} s x{}",
+                    tau_range(m),
+                    table::significant(m.worst_ratio, 2)
+                )
+            })
             .collect();
         row.push(if outside.is_empty() {
             "yes".to_string()

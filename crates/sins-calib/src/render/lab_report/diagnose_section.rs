@@ -71,16 +71,8 @@ fn extension_md(d: &Diagnosis) -> String {
             p_value_text(round.threshold)
         );
         for c in &round.candidates {
-            let conf = c
-                .separation
-                .as_ref()
-                .map(|x| x.confounded())
-                .unwrap_or_default();
-            let separable = match (c.separable, conf.is_empty()) {
-                (true, _) => "yes".to_string(),
-                (false, true) => "no (posterior near the prior)".to_string(),
-                (false, false) => format!("no: confounded with {}", conf.join(", ")),
-            };
+            let separable =
+                crate::commands::diagnose::separability(c, "no (posterior near the prior)");
             let accepted = round.accepted.as_deref() == Some(c.term.as_str());
             let _ = writeln!(
                 s,
