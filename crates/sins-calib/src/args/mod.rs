@@ -9,6 +9,8 @@
 pub mod detector;
 pub mod terms;
 
+use std::path::PathBuf;
+
 /// The help headings the options are grouped under, by what they are for (`--help` lists the
 /// common inputs first, then one heading per kind of run and purpose).
 pub mod heading {
@@ -27,8 +29,6 @@ pub mod heading {
     /// The unit the data are of.
     pub const UNIT: &str = "Unit";
 }
-
-use std::path::PathBuf;
 
 /// Arguments of `calibrate`.
 #[derive(Debug, clap::Args)]
