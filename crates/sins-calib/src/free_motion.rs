@@ -5,7 +5,7 @@
 //! the JSON that only such a recording has (noise measured in the rests, held-out rests, turns).
 
 use crate::Error;
-use crate::table;
+use crate::render::table;
 use ::import::sections::SectionsFile;
 use calib::config::RunConfig;
 use calib::estimate::calibration::Calibration;

@@ -39,48 +39,21 @@ macro_rules! eprint {
     }};
 }
 
-mod analyse;
-mod apply;
 mod args;
-mod calibrate;
-mod console;
-mod correlation_notes;
-mod design;
-mod design_navigation;
-mod detector_args;
-mod diagnose;
-mod diagnose_report;
-mod diagnosis;
-mod diagnostic_plots;
-mod export;
-mod export_formats;
+mod commands;
 mod free_motion;
-mod identification;
-mod import;
-mod lab_report;
 mod navigation;
-mod navigation_plot;
-mod noise;
-mod noise_consistency;
-mod noise_json;
-mod noise_model;
-mod noise_plot;
-mod noise_slow;
 mod output;
-mod plot;
+mod plots;
 mod provenance;
 mod recording_checks;
-mod report_html;
-mod report_plots;
-mod result_json;
-mod run_report;
-mod segment;
+mod render;
 mod session;
-mod sha256;
 mod signals;
-mod simulate;
-mod table;
-mod terms;
+
+use commands::{
+    analyse, apply, calibrate, design, diagnose, export, import, noise, segment, simulate,
+};
 
 use calib::config::RunConfig;
 use clap::{Parser, Subcommand};
@@ -144,7 +117,7 @@ enum Command {
     ///
     /// A record is static when, over a window centred on it, the standard deviations of the
     /// specific force and of the rate and the magnitude of the mean rate are below thresholds;
-    /// runs of static records at least --min-duration long are the static intervals.
+    /// runs of static records at least --rest-min-duration long are the static intervals.
     Segment(segment::Args),
     /// The sensors' noise from data at rest: the white level and bias walk of every gyro and
     /// accelerometer axis by maximum likelihood with 68 % profile intervals, the overlapping

@@ -198,7 +198,7 @@ pub fn duration(s: f64) -> String {
     } else if s >= 60.0 && whole(s / 60.0) {
         format!("{} min", (s / 60.0).round())
     } else {
-        format!("{} s", crate::table::compact(s))
+        format!("{} s", crate::render::table::compact(s))
     }
 }
 
@@ -335,7 +335,7 @@ impl Navigation {
             f.horizon.grade.name(),
             f.alignment
         );
-        crate::navigation_plot::rho_png(&dir.join("navigation.png"), f, &self.flight_name)?;
+        crate::plots::navigation::rho_png(&dir.join("navigation.png"), f, &self.flight_name)?;
         *plots += 1;
         s += "![rho(t), calibrated and uncalibrated](navigation.png)\n\n";
         s += &budget_md(f);

@@ -2,7 +2,8 @@
 //! the commands that read records (`segment`, `noise`): time stamps in seconds, a specific
 //! force of g at rest (not g units, not the gyro columns), magnitudes an IMU gives.
 
-use crate::{Error, table};
+use crate::Error;
+use crate::render::table;
 use ::calib::motion::detect::Segmentation;
 
 /// Refuse records no IMU gives before segmenting: a median interval outside
@@ -68,7 +69,7 @@ pub(crate) fn check_plausible_streamed(
     let span = t1 - t0;
     if window_s > span {
         return Err(format!(
-            "--window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
+            "--rest-window {window_s:e}: longer than the recording in {file} ({span:e} s): expected a \
              window of a few records up to the recording's length"
         )
         .into());

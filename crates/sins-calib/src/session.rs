@@ -169,7 +169,9 @@ impl<T> Session<T> {
 
 /// Resolve the command line of `calibrate`.
 pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>, Error> {
-    if args.free_motion && (args.turntable.is_some() || args.program_start.is_some()) {
+    if args.free_motion
+        && (args.program.turntable.is_some() || args.program.program_start.is_some())
+    {
         return Err(
             "calibrate --free-motion: --turntable and --program-start belong to a \
                     turntable calibration (a hand-turned recording has neither)"
@@ -182,13 +184,13 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
         "calibrate: --config is required (or --free-motion for a hand-turned \
                     recording without a rotation program)",
     )??;
-    program_start(&mut config, args.program_start)?;
+    program_start(&mut config, args.program.program_start)?;
     // Read the truth first: a wrong path should not cost a whole run.
     let truth = args.truth.as_deref().map(read_result_json).transpose()?;
     // The IMU file is streamed (read once per pass, kept in memory only when short).
     let imu = FileImu::open(&args.imu)?;
     let imu_file = calib::estimate::ImuSource::file(&imu).to_string();
-    let turntable = args.turntable.as_deref().map(AngleFile::open).transpose()?;
+    let turntable = args.program.open_turntable()?;
     let program = program_of(&config, turntable.as_ref())?;
     check_turntable_coverage(
         &config,
@@ -211,8 +213,8 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
         .map(|_| (origin.as_str(), &config.unit));
     let mut provenance =
         crate::provenance::gather(&args.imu, config_unit, &args.unit, args.free_motion)?;
-    let terms = crate::terms::terms_asked(&args.terms, args.terms_from.as_deref())?;
-    crate::terms::check_thermal(
+    let terms = crate::args::terms::terms_asked(&args.terms, args.terms_from.as_deref())?;
+    crate::args::terms::check_thermal(
         &terms,
         imu.has_temp(),
         "calibrate",
@@ -294,7 +296,7 @@ fn calibrate_outputs(
     args: &crate::args::CalibrateArgs,
 ) -> Result<(Option<PathBuf>, Option<PathBuf>), Error> {
     let mut inputs: Vec<&Path> = vec![args.imu.as_path()];
-    inputs.extend(args.turntable.as_deref());
+    inputs.extend(args.program.turntable.as_deref());
     inputs.extend(args.truth.as_deref());
     inputs.extend(args.sections.as_deref());
     inputs.extend(args.terms_from.as_deref());
@@ -308,10 +310,14 @@ fn calibrate_outputs(
         outputs.png(path, "--plot")?;
     }
     if let Some(dir) = &args.report {
-        outputs.dir(dir, "--report", &crate::identification::NAMES)?;
+        outputs.dir(dir, "--report", &crate::provenance::identification::NAMES)?;
     }
     if let Some(dir) = &args.diagnostics {
-        outputs.dir(dir, "--diagnostics", &crate::diagnostic_plots::NAMES)?;
+        outputs.dir(
+            dir,
+            "--diagnostics",
+            &crate::plots::innovation_diagnostics::NAMES,
+        )?;
     }
     Ok((args.plot.clone(), args.diagnostics.clone()))
 }
@@ -319,7 +325,12 @@ fn calibrate_outputs(
 /// The data files `calibrate` reads, with their roles, for a report's identification.
 fn calibrate_report_inputs(args: &crate::args::CalibrateArgs) -> Vec<(&'static str, PathBuf)> {
     let mut v = vec![("IMU records", args.imu.clone())];
-    v.extend(args.turntable.clone().map(|p| ("turntable angles", p)));
+    v.extend(
+        args.program
+            .turntable
+            .clone()
+            .map(|p| ("turntable angles", p)),
+    );
     v.extend(args.truth.clone().map(|p| ("truth", p)));
     v.extend(args.sections.clone().map(|p| ("section list", p)));
     v.extend(
@@ -354,7 +365,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         .unwrap_or_else(|| {
             load_config("paper").map(|(c, origin)| (c, origin, ConfigSource::Paper))
         })?;
-    program_start(&mut config, args.program_start)?;
+    program_start(&mut config, args.program.program_start)?;
     let mut settings = LoopSettings {
         level: args.level,
         ..LoopSettings::default()
@@ -363,7 +374,7 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         settings.hold_out_every = Some(k);
     }
     if !args.terms.is_empty() {
-        settings.candidates = crate::terms::parse_terms(&args.terms)?;
+        settings.candidates = crate::args::terms::parse_terms(&args.terms)?;
     }
     let walk_prior = args.noise.as_deref().map(walk_prior).transpose()?;
     if let Some((_, grid)) = &walk_prior {
@@ -371,19 +382,19 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
     }
     // A recording of rests (no program, no angles) is read again for every fit; a programmed
     // run's records are held for the model-extension loop (`calib::extend::run_loop`).
-    let rests_mode = args.turntable.is_none() && config.program_from_angles();
+    let rests_mode = args.program.turntable.is_none() && config.program_from_angles();
     let imu = diagnose_records(&args.imu, rests_mode)?;
     let imu_file = args.imu.display().to_string();
     // Without --terms every candidate is considered and the loop leaves the thermal ones out
     // on records without temperatures, saying so; named, they are refused.
-    crate::terms::check_thermal(
+    crate::args::terms::check_thermal(
         &settings.candidates,
         args.terms.is_empty() || imu.have_temp(),
         "diagnose",
         &format!("{imu_file}: no `temp` column"),
         "records with a `temp` column (deg C)",
     )?;
-    let turntable = args.turntable.as_deref().map(AngleFile::open).transpose()?;
+    let turntable = args.program.open_turntable()?;
     if args.free_motion && !config.program_from_angles() {
         return Err(format!(
             "diagnose --free-motion: {origin} has a rotation program; --free-motion is for a \
@@ -404,7 +415,12 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
         span.map(|(a, b)| (a.t, b.t)),
     )?;
     let mut report_inputs = vec![("IMU records", args.imu.clone())];
-    report_inputs.extend(args.turntable.clone().map(|p| ("turntable angles", p)));
+    report_inputs.extend(
+        args.program
+            .turntable
+            .clone()
+            .map(|p| ("turntable angles", p)),
+    );
     let mut session = Session {
         config,
         source,
@@ -452,7 +468,7 @@ fn diagnose_records(path: &Path, stream: bool) -> Result<Records, Error> {
 /// Check `diagnose`'s outputs and options before any work (outputs, level, hold-out).
 fn diagnose_outputs(args: &crate::args::DiagnoseArgs) -> Result<(), Error> {
     let mut inputs: Vec<&Path> = vec![args.imu.as_path()];
-    inputs.extend(args.turntable.as_deref());
+    inputs.extend(args.program.turntable.as_deref());
     inputs.extend(args.sections.as_deref());
     inputs.extend(args.noise.as_deref());
     inputs.extend(args.config.as_deref().map(Path::new));
@@ -462,7 +478,7 @@ fn diagnose_outputs(args: &crate::args::DiagnoseArgs) -> Result<(), Error> {
         outputs.file(p, "--json")?;
     }
     if let Some(p) = &args.report {
-        outputs.dir(p, "--report", &crate::identification::NAMES)?;
+        outputs.dir(p, "--report", &crate::provenance::identification::NAMES)?;
     }
     // The family-wise level of a decision: a probability, and one that means something.
     if !(args.level.is_finite() && args.level > 0.0 && args.level <= 0.5) {
@@ -481,7 +497,7 @@ fn diagnose_outputs(args: &crate::args::DiagnoseArgs) -> Result<(), Error> {
 /// The walk identified at rest (`--noise`) as the drift candidate's grid: tried where the
 /// data at rest put it.
 fn walk_prior(path: &Path) -> Result<(String, Vec<f64>), Error> {
-    let walk = crate::noise::read_identified_walk(path)?;
+    let walk = crate::commands::noise::read_identified_walk(path)?;
     let grid = walk.grid();
     if grid.is_empty() {
         return Err(format!(
@@ -617,11 +633,11 @@ fn check_turntable_coverage(
              IMU records (the rest would go without turntable measurements); give the whole \
              recording, or leave --turntable out to calibrate from the IMU alone",
             records.file(),
-            crate::table::compact(a),
-            crate::table::compact(b),
-            crate::table::compact(covered),
-            crate::table::compact(i0),
-            crate::table::compact(i1),
+            crate::render::table::compact(a),
+            crate::render::table::compact(b),
+            crate::render::table::compact(covered),
+            crate::render::table::compact(i0),
+            crate::render::table::compact(i1),
             100.0 * covered / length,
             100.0 * TURNTABLE_COVERAGE_MIN
         )
@@ -634,7 +650,7 @@ fn check_turntable_coverage(
 fn refuse_detector_with_program(
     command: &str,
     has_program: bool,
-    detector: &crate::detector_args::DetectorArgs,
+    detector: &crate::args::detector::DetectorArgs,
 ) -> Result<(), Error> {
     if has_program && detector.any() {
         return Err(format!(
@@ -651,14 +667,14 @@ fn refuse_detector_with_program(
 fn find_rests(
     source: &mut RateSource,
     file: &str,
-    detector: &crate::detector_args::DetectorArgs,
+    detector: &crate::args::detector::DetectorArgs,
     command: &str,
 ) -> Result<RestsFound, Error> {
     let settings = detector.settings().map_err(|e| format!("{command}: {e}"))?;
-    let (rests, seg) = crate::detector_args::rests_and_segmentation(source, file, &settings)?;
+    let (rests, seg) = crate::args::detector::rests_and_segmentation(source, file, &settings)?;
     Ok(RestsFound {
         rests,
-        missed: seg.missed_report(crate::detector_args::option_name),
+        missed: seg.missed_report(crate::args::detector::option_name),
         free_motion: None,
     })
 }
@@ -669,7 +685,7 @@ fn find_rests(
 /// command on a long run").
 fn rests_streamed<T>(
     session: &mut Session<T>,
-    detector: &crate::detector_args::DetectorArgs,
+    detector: &crate::args::detector::DetectorArgs,
     command: &str,
     free_motion: Option<FreeMotionArgs>,
 ) -> Result<Option<StateLayout>, Error> {

@@ -25,11 +25,12 @@ fn help_lists_import_and_segment_with_their_options() {
             &[
                 "--imu",
                 "--json",
-                "--window",
-                "--max-std-f",
-                "--max-std-w",
-                "--max-rate",
-                "--min-duration",
+                "--rest-window",
+                "--rest-max-std-f",
+                "--rest-max-std-w",
+                "--rest-max-rate",
+                "--rest-min-duration",
+                "--rest-noise-factor",
                 "--gap-factor",
             ][..],
         ),
@@ -199,4 +200,73 @@ unit = "m/s^2"
         "{}",
         text(&out.stderr)
     );
+}
+
+/// The static detector's options are one set with one spelling (`--rest-*`) on every command
+/// that finds rests; `segment`'s and `noise`'s former spellings are hidden aliases that give the
+/// same result.
+#[test]
+fn rest_options_are_one_spelling_and_the_old_ones_hidden_aliases() {
+    let rest_options = [
+        "--rest-window",
+        "--rest-max-std-f",
+        "--rest-max-std-w",
+        "--rest-max-rate",
+        "--rest-min-duration",
+        "--rest-noise-factor",
+    ];
+    let old_spellings = [
+        "--window",
+        "--max-std-f",
+        "--max-std-w",
+        "--max-rate",
+        "--min-duration",
+        "--noise-factor",
+    ];
+    for sub in ["segment", "noise", "calibrate", "diagnose"] {
+        let out = run(&[sub, "--help"]);
+        assert!(out.status.success(), "{sub} --help");
+        let help = text(&out.stdout);
+        for option in rest_options {
+            assert!(
+                help.contains(option),
+                "{sub} --help lacks {option}:\n{help}"
+            );
+        }
+        for old in old_spellings {
+            assert!(!help.contains(old), "{sub} --help shows {old}:\n{help}");
+        }
+    }
+
+    let dir = scratch("rest-aliases");
+    let out = run(&[
+        "import",
+        "--profile",
+        s(&example("xsens_mti.toml")),
+        "--out",
+        s(&dir),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let imu = dir.join("imu.csv");
+    let values = ["0.5", "0.2", "0.06", "0.12", "3", "4"];
+    let spelled = |names: &[&str]| -> Vec<String> {
+        names
+            .iter()
+            .zip(values)
+            .flat_map(|(n, v)| [n.to_string(), v.to_string()])
+            .collect()
+    };
+    for sub in ["segment", "noise"] {
+        let printed = |names: &[&str]| {
+            let mut args = vec![sub.to_string(), "--imu".into(), s(&imu).into()];
+            args.extend(spelled(names));
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            let out = run(&args);
+            assert!(out.status.success(), "{args:?}: {}", text(&out.stderr));
+            text(&out.stdout)
+        };
+        let new = printed(&rest_options);
+        assert!(new.contains("0.5 s"), "{sub}:\n{new}");
+        assert_eq!(new, printed(&old_spellings), "{sub}: the aliases differ");
+    }
 }

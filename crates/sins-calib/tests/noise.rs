@@ -442,10 +442,10 @@ fn refusals_name_the_file_and_the_axis() {
     let out = run(&["noise", "--imu", s(&dir.join("absent.csv"))]);
     assert_eq!(out.status.code(), Some(1));
     assert!(text(&out.stderr).contains("absent.csv"));
-    let out = run(&["noise", "--imu", s(&imu), "--min-duration=-1"]);
+    let out = run(&["noise", "--imu", s(&imu), "--rest-min-duration=-1"]);
     assert_eq!(out.status.code(), Some(1));
     assert!(
-        text(&out.stderr).contains("--min-duration"),
+        text(&out.stderr).contains("--rest-min-duration"),
         "{}",
         text(&out.stderr)
     );

@@ -310,13 +310,13 @@ fn option_cases(dir: &Path, cfg: &Path) -> Vec<(Vec<String>, &'static str)> {
     let free = s(&["calibrate", "--free-motion", "--imu", &imu]);
     let diag = s(&["diagnose", "--free-motion", "--imu", &imu]);
     let seg = s(&["segment", "--imu", &imu]);
+    let noise = s(&["noise", "--imu", &imu]);
     let mut cases = vec![
         (cal.clone(), "--program-start"),
         (free.clone(), "--latitude"),
         (free.clone(), "--holdout"),
         (diag.clone(), "--level"),
         (diag.clone(), "--latitude"),
-        (s(&["noise", "--imu", &imu]), "--min-duration"),
         (
             s(&["simulate", "--config", &cfg, "--out", &format!("{imu}.d")]),
             "--seed",
@@ -332,18 +332,10 @@ fn option_cases(dir: &Path, cfg: &Path) -> Vec<(Vec<String>, &'static str)> {
     ] {
         cases.push((free.clone(), o));
         cases.push((diag.clone(), o));
-    }
-    for o in [
-        "--window",
-        "--max-std-f",
-        "--max-std-w",
-        "--max-rate",
-        "--min-duration",
-        "--noise-factor",
-        "--gap-factor",
-    ] {
         cases.push((seg.clone(), o));
+        cases.push((noise.clone(), o));
     }
+    cases.push((seg.clone(), "--gap-factor"));
     cases
 }
 

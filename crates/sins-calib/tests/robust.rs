@@ -530,12 +530,12 @@ fn segment_refuses_data_no_imu_gives() {
     let o = run(&["segment", "--imu", s(&good)]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     refused(
-        &run(&["segment", "--imu", s(&good), "--window", "1e300"]),
-        &["--window 1e300", "at most 600 s"],
+        &run(&["segment", "--imu", s(&good), "--rest-window", "1e300"]),
+        &["--rest-window 1e300", "at most 600 s"],
     );
     refused(
-        &run(&["segment", "--imu", s(&good), "--window", "599"]),
-        &["--window", "longer than the recording", "good.csv"],
+        &run(&["segment", "--imu", s(&good), "--rest-window", "599"]),
+        &["--rest-window", "longer than the recording", "good.csv"],
     );
     let edit = |name: &str, f: &dyn Fn(usize, &mut Vec<String>)| {
         let text = std::fs::read_to_string(&good).unwrap();

@@ -1,0 +1,155 @@
+//! Candidate terms named on the command line: the ids of `--terms` (each once, each known) and
+//! the `accepted_terms` of a `diagnose --json` result (`--terms-from`). Shared by `calibrate`,
+//! `diagnose`, `analyse` and `design`.
+
+use crate::Error;
+use sins_model::candidates::Candidate;
+
+/// Refuse a term given twice in --terms (it would be tested twice and halve every Bonferroni
+/// threshold).
+pub fn check_distinct(ids: &[String]) -> Result<(), Error> {
+    for (i, id) in ids.iter().enumerate() {
+        if ids[..i].contains(id) {
+            return Err(format!(
+                "--terms {}: `{id}` is given twice: expected each candidate term once",
+                ids.join(" ")
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// Parse candidate ids, naming the valid ones on a bad id and refusing one given twice
+/// ([`check_distinct`]).
+pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
+    check_distinct(ids)?;
+    ids.iter()
+        .map(|id| {
+            Candidate::from_id(id).ok_or_else(|| {
+                let valid: Vec<&str> = Candidate::ALL.iter().map(|c| c.id()).collect();
+                format!(
+                    "unknown term {}: expected one of {}",
+                    excerpt(id),
+                    valid.join(", ")
+                )
+                .into()
+            })
+        })
+        .collect()
+}
+
+/// Refuse a thermal term (`--terms gyro_temp_bias`, ...) where there is no temperature for it
+/// to act on: its effect is the temperature's departure from its reference, so without one its
+/// coefficients would stay at their prior, with no reference temperature in the result (and
+/// `apply` refusing it later), or a design would propose a program that separates nothing.
+/// `lacks` says what is missing (`imu.csv: no \`temp\` column`), `expected` what would do.
+pub fn check_thermal(
+    terms: &[Candidate],
+    has_temperature: bool,
+    command: &str,
+    lacks: &str,
+    expected: &str,
+) -> Result<(), Error> {
+    if has_temperature {
+        return Ok(());
+    }
+    let Some(c) = terms.iter().find(|c| c.is_thermal()) else {
+        return Ok(());
+    };
+    Err(format!(
+        "{command}: {lacks}: the thermal term {} acts on the temperature's departure from its \
+         reference, so without temperatures its coefficients stay at their prior: expected \
+         {expected}, or the term left out (docs/temperature.md)",
+        c.id()
+    )
+    .into())
+}
+
+/// The terms of `--terms` and `--terms-from` (a `diagnose --json` result's `accepted_terms`),
+/// each once, in the order given.
+pub fn terms_asked(
+    ids: &[String],
+    from: Option<&std::path::Path>,
+) -> Result<Vec<Candidate>, Error> {
+    let mut all: Vec<String> = ids.to_vec();
+    if let Some(path) = from {
+        for id in accepted_terms(path)? {
+            // Named with its file: the id came from there, not from the command line.
+            if Candidate::from_id(&id).is_none() {
+                return Err(format!(
+                    "--terms-from {}: `accepted_terms` holds {}: {}",
+                    path.display(),
+                    excerpt(&id),
+                    parse_terms(std::slice::from_ref(&id))
+                        .err()
+                        .map_or_else(String::new, |e| e.to_string())
+                )
+                .into());
+            }
+            if !all.contains(&id) {
+                all.push(id);
+            }
+        }
+    }
+    parse_terms(&all)
+}
+
+/// The `accepted_terms` of the `diagnose --json` result at `path`.
+fn accepted_terms(path: &std::path::Path) -> Result<Vec<String>, Error> {
+    let text = read_bounded(path, "--terms-from", TERMS_FROM_MAX_BYTES)?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        format!(
+            "{}: not a diagnose result (JSON): {e}; expected the file `sins-calib diagnose \
+             --json` writes",
+            path.display()
+        )
+    })?;
+    calib::io::schema::check(
+        &path.display().to_string(),
+        v.get("schema"),
+        &[calib::io::schema::DIAGNOSIS],
+        "the file `sins-calib diagnose --json` writes",
+    )?;
+    let accepted = v
+        .get("accepted_terms")
+        .and_then(|a| a.as_array())
+        .ok_or_else(|| {
+            format!(
+                "{}: no `accepted_terms` list: expected the file `sins-calib diagnose --json` \
+                 writes",
+                path.display()
+            )
+        })?;
+    accepted
+        .iter()
+        .map(|t| {
+            t.as_str().map(str::to_string).ok_or_else(|| {
+                format!(
+                    "{}: `accepted_terms` holds {t}: expected term ids (strings)",
+                    path.display()
+                )
+                .into()
+            })
+        })
+        .collect()
+}
+
+/// A string as shown in a message: at most 60 characters of it.
+fn excerpt(s: &str) -> String {
+    let mut out: String = s.chars().take(60).collect();
+    if out.len() < s.len() {
+        out += "...";
+    }
+    format!("{out:?}")
+}
+
+/// The largest `--terms-from` file read (a diagnose result is a few tens of kilobytes).
+const TERMS_FROM_MAX_BYTES: u64 = 16 << 20;
+
+/// The text of a small file, refused past `max` bytes (the shared bounded reader: a device
+/// such as /dev/zero is refused at the bound too).
+fn read_bounded(path: &std::path::Path, option: &str, max: u64) -> Result<String, Error> {
+    sins_model::text::read_text_bounded(path, max, "diagnose result")
+        .map_err(|e| format!("{option} {}: cannot read: {e}", path.display()).into())
+}
