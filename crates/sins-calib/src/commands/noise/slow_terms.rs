@@ -5,7 +5,7 @@
 
 use crate::commands::noise::model::{AXES, Sensor, SensorNoise};
 use crate::render::table;
-use ::noise::floor::{self, FLOOR_SPAN, Floor, SlowTerms};
+use ::noise::floor::{self, FLOOR_SPAN, Floor, MIN_WALK_BOUND_TAU_S, SlowTerms};
 use ::noise::likelihood::MlFit;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
@@ -42,7 +42,14 @@ pub(crate) fn walk_not_determined(st: &SlowTerms) -> String {
         sig(st.longest_rest_s),
         sig(st.longest_tau_s)
     );
-    if st.walk_crossover_s.is_finite() {
+    if st.walk_bound && st.walk_crossover_s.is_finite() {
+        format!(
+            "{reach} is too short: its interval reaches 0, but a bound needs the curve to reach \
+             {} s (this one allows a walk that would dominate the white noise from {} s)",
+            sig(MIN_WALK_BOUND_TAU_S),
+            sig(st.walk_crossover_s)
+        )
+    } else if st.walk_crossover_s.is_finite() {
         format!(
             "{reach} is too short: the walk would dominate the white noise from {} s, and two \
              octaves beyond that are needed",
