@@ -14,59 +14,41 @@ pub enum ImportError {
         /// What is wrong (TOML errors carry their line and column) and what was expected.
         message: String,
     },
-    /// A line of an input file does not have the expected form.
-    #[error("{file}: line {line}: {message}")]
-    Line {
-        /// File name.
-        file: String,
-        /// 1-based line number.
-        line: usize,
-        /// What was found and what was expected.
-        message: String,
-    },
-    /// An input file as a whole is unusable (e.g. its specific force is nowhere near g).
-    #[error("{file}: {message}")]
-    File {
-        /// File name.
-        file: String,
-        /// What is wrong and what was expected.
-        message: String,
-    },
-    /// A file could not be read.
-    #[error("{file}: cannot read: {source}")]
-    Read {
-        /// File name.
-        file: String,
-        /// Cause.
-        source: std::io::Error,
-    },
-    /// A file or directory could not be written.
-    #[error("{file}: cannot write: {source}")]
-    Write {
-        /// File name.
-        file: String,
-        /// Cause.
-        source: std::io::Error,
-    },
-    /// An interchange file (`imu.csv`) refused by its reader, or not written.
+    /// A file not read or not written, a line of it without the expected form, or a file
+    /// unusable as a whole (e.g. its specific force is nowhere near g): `calib::io`'s errors,
+    /// which name the file, the line where there is one, and what was expected.
     #[error(transparent)]
-    Interchange(#[from] IoError),
+    Io(#[from] IoError),
 }
 
 impl ImportError {
     pub(crate) fn line(file: &str, line: usize, message: impl Into<String>) -> Self {
-        Self::Line {
+        Self::Io(IoError::Line {
             file: file.to_string(),
             line,
             message: message.into(),
-        }
+        })
     }
 
     pub(crate) fn file(file: &str, message: impl Into<String>) -> Self {
-        Self::File {
+        Self::Io(IoError::File {
             file: file.to_string(),
             message: message.into(),
-        }
+        })
+    }
+
+    pub(crate) fn read(file: &str, source: std::io::Error) -> Self {
+        Self::Io(IoError::Read {
+            file: file.to_string(),
+            source,
+        })
+    }
+
+    pub(crate) fn write(file: &str, source: std::io::Error) -> Self {
+        Self::Io(IoError::Write {
+            file: file.to_string(),
+            source,
+        })
     }
 
     pub(crate) fn profile(file: &str, message: impl Into<String>) -> Self {

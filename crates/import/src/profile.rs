@@ -325,10 +325,7 @@ impl Profile {
             sins_model::text::PROFILE_MAX_BYTES,
             "import profile",
         )
-        .map_err(|source| ImportError::Read {
-            file: file.clone(),
-            source,
-        })?;
+        .map_err(|source| ImportError::read(&file, source))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Self::parse(&text, &file, &base)
     }

@@ -5,7 +5,7 @@
 use crate::error::ImportError;
 use crate::fields::{SectionsSource, Sensor};
 use crate::text::excerpt;
-use calib::io::{ImuData, ImuKind};
+use calib::io::ImuKind;
 pub use calib::motion::sections::{MAX_TURN_DEG, Section, SectionKind, SectionsFile, check_turn};
 use serde::Deserialize;
 use std::path::Path;
@@ -68,24 +68,6 @@ fn parse_name(name: &str) -> Option<(SectionKind, usize, f64)> {
     }
 }
 
-/// Read an imucal section list and put it on the imported records (`data`, whose record `k` is
-/// data row `k` of the source) with the sensors' axis mappings.
-pub(crate) fn carry(
-    source: &SectionsSource,
-    path: &Path,
-    data: &ImuData,
-    gyro: &Sensor,
-    accel: &Sensor,
-) -> Result<SectionsFile, ImportError> {
-    let t: Vec<f64> = data.records.iter().map(|r| r.t).collect();
-    let median = calib::io::timing::median_interval(&t);
-    let mut carried = Carry::new(source, path, data.records.len(), data.kind, median, gyro)?;
-    for r in &data.records {
-        carried.push(r.t, r.gyro, r.accel);
-    }
-    Ok(carried.finish(accel))
-}
-
 /// One section of the list as it is being carried.
 struct Open {
     name: String,
@@ -132,10 +114,7 @@ impl Carry {
             sins_model::text::SECTIONS_MAX_BYTES,
             "section list",
         )
-        .map_err(|source| ImportError::Read {
-            file: file.clone(),
-            source,
-        })?;
+        .map_err(|source| ImportError::read(&file, source))?;
         let Entries(list) = serde_json::from_str(&text).map_err(|e| {
             ImportError::line(
                 &file,

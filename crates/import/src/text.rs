@@ -25,42 +25,6 @@ pub(crate) struct Wanted<'a> {
     pub column: &'a Column,
 }
 
-/// The wanted columns of every data row.
-#[derive(Debug)]
-pub(crate) struct Table {
-    /// The file's name in messages.
-    pub file: String,
-    /// 1-based line of each data row.
-    pub lines: Vec<usize>,
-    /// Number of wanted columns.
-    pub width: usize,
-    /// Row-major values, `width` per row.
-    pub values: Vec<f64>,
-    /// 0-based field of each wanted column.
-    pub index: Vec<usize>,
-}
-
-impl Table {
-    /// Number of data rows.
-    pub fn rows(&self) -> usize {
-        self.lines.len()
-    }
-
-    /// Where wanted column `j` is, for messages (as [`Rows::place`]).
-    pub fn place(&self, j: usize, named: bool) -> String {
-        if named {
-            format!(", field {}", self.index[j] + 1)
-        } else {
-            String::new()
-        }
-    }
-
-    /// Value `j` of row `i`.
-    pub fn get(&self, i: usize, j: usize) -> f64 {
-        self.values[i * self.width + j]
-    }
-}
-
 /// The longest line read: a row of a recording is at most a few hundred bytes, and a header
 /// a few kilobytes; a line past this is not text of rows.
 const MAX_LINE_BYTES: u64 = 1 << 20;
@@ -82,10 +46,7 @@ impl Lines {
         // binary file) is refused at the bound instead of filling the memory.
         let n = std::io::Read::take(&mut self.reader, MAX_LINE_BYTES + 1)
             .read_until(b'\n', &mut self.buf)
-            .map_err(|source| ImportError::Read {
-                file: self.file.clone(),
-                source,
-            })?;
+            .map_err(|source| ImportError::read(&self.file, source))?;
         if n == 0 {
             return Ok(None);
         }
@@ -286,36 +247,10 @@ impl Rows {
     }
 }
 
-/// Read the wanted columns of every data row of `path` laid out as `input` says (`profile`
-/// names the profile in messages).
-pub(crate) fn read_table(
-    path: &Path,
-    input: &Input,
-    wanted: &[Wanted<'_>],
-    profile: &str,
-) -> Result<Table, ImportError> {
-    let mut rows = Rows::open(path, input, wanted, profile)?;
-    let mut table = Table {
-        file: rows.file().to_string(),
-        lines: Vec::new(),
-        width: wanted.len(),
-        values: Vec::new(),
-        index: rows.index.clone(),
-    };
-    while let Some(n) = rows.next_row()? {
-        table.values.extend_from_slice(&rows.values);
-        table.lines.push(n);
-    }
-    Ok(table)
-}
-
 /// The file's lines, from the first.
 fn open_lines(path: &Path) -> Result<Lines, ImportError> {
     let file = path.display().to_string();
-    let f = std::fs::File::open(path).map_err(|source| ImportError::Read {
-        file: file.clone(),
-        source,
-    })?;
+    let f = std::fs::File::open(path).map_err(|source| ImportError::read(&file, source))?;
     Ok(Lines {
         reader: Box::new(std::io::BufReader::with_capacity(1 << 16, f)),
         file,

@@ -4,16 +4,18 @@
 
 use calib::motion::detect::{DetectorSettings, MissReason, Segmentation, Source};
 
-/// The detector on the records held, checked against the streamed detector (the same
-/// segmentation to the last bit, missed stretches and suggestions included).
+/// The detector on the records (given from memory at every reading), checked against the
+/// segmentation the code gave before the detector had one implementation, missed stretches and
+/// suggestions included, to the last bit (`fixtures/segmentations/NAME.json`; how they were made:
+/// `fixtures/README.md`).
 fn detect_static(
+    name: &str,
     t: &[f64],
     w: &[[f64; 3]],
     f: &[[f64; 3]],
     settings: &DetectorSettings,
 ) -> Result<Segmentation, String> {
-    let held = calib::motion::detect::detect_static(t, w, f, settings);
-    let streamed = calib::motion::detect::detect_static_streamed(
+    let seg = calib::motion::detect::detect_static_streamed(
         &mut |visit| {
             for i in 0..t.len() {
                 visit(t[i], w[i], f[i]);
@@ -23,8 +25,15 @@ fn detect_static(
         None,
         settings,
     );
-    assert_eq!(held, streamed);
-    held
+    if let Ok(s) = &seg {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures/segmentations")
+            .join(format!("{name}.json"));
+        let before = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
+        let now = serde_json::to_string_pretty(s).unwrap() + "\n";
+        assert!(now == before, "{name}: not the segmentation of {path:?}");
+    }
+    seg
 }
 
 /// A xorshift stream with Box-Muller normals: fixed seeds, the same recording on every machine.
@@ -190,7 +199,14 @@ fn one_per_rest(rec: &Recording, seg: &Segmentation, tol: f64) {
 #[test]
 fn forty_six_short_rests_are_all_found_with_the_defaults() {
     let rec = consumer_46();
-    let seg = detect_static(&rec.t, &rec.w, &rec.f, &DetectorSettings::default()).unwrap();
+    let seg = detect_static(
+        "consumer_46_defaults",
+        &rec.t,
+        &rec.w,
+        &rec.f,
+        &DetectorSettings::default(),
+    )
+    .unwrap();
     assert_eq!(seg.static_intervals.len(), 46, "{:#?}", seg.adaptation);
     one_per_rest(&rec, &seg, 1e-9);
     // The window and minimum came from the rests: shorter than the fixed 1 s and 2 s.
@@ -215,7 +231,7 @@ fn the_fixed_window_loses_short_rests_and_says_so() {
         adapt_min_duration: false,
         ..DetectorSettings::default()
     };
-    let seg = detect_static(&rec.t, &rec.w, &rec.f, &fixed).unwrap();
+    let seg = detect_static("consumer_46_fixed", &rec.t, &rec.w, &rec.f, &fixed).unwrap();
     let found = seg.static_intervals.len();
     assert!(found < 40, "{found}");
     assert_eq!(seg.adaptation.window, Source::Given);
@@ -269,7 +285,14 @@ fn navigation_grade_long_rests_keep_the_fixed_defaults() {
         turn_deg: (80.0, 100.0),
         seed: 7,
     });
-    let seg = detect_static(&rec.t, &rec.w, &rec.f, &DetectorSettings::default()).unwrap();
+    let seg = detect_static(
+        "navigation_defaults",
+        &rec.t,
+        &rec.w,
+        &rec.f,
+        &DetectorSettings::default(),
+    )
+    .unwrap();
     assert_eq!(seg.static_intervals.len(), 19);
     // The slow ends of a turn of several seconds (a raised-cosine rate stays below the 0.1-rad/s
     // and 0.05-rad/s thresholds for about half a second) pass for rest at the fixed thresholds,
@@ -291,7 +314,7 @@ fn navigation_grade_long_rests_keep_the_fixed_defaults() {
         adapt_min_duration: false,
         ..DetectorSettings::default()
     };
-    let before = detect_static(&rec.t, &rec.w, &rec.f, &fixed).unwrap();
+    let before = detect_static("navigation_fixed", &rec.t, &rec.w, &rec.f, &fixed).unwrap();
     assert_eq!(before.static_intervals, seg.static_intervals);
     assert_eq!(seg.motion_events, 18);
     assert!(seg.missed_quiet_stretches.is_empty());
@@ -323,7 +346,14 @@ fn rests_too_short_to_use_are_named_in_the_report() {
         turn_deg: (70.0, 110.0),
         seed: 11,
     });
-    let seg = detect_static(&rec.t, &rec.w, &rec.f, &DetectorSettings::default()).unwrap();
+    let seg = detect_static(
+        "too_short_defaults",
+        &rec.t,
+        &rec.w,
+        &rec.f,
+        &DetectorSettings::default(),
+    )
+    .unwrap();
     assert_eq!(
         (seg.settings.window_s, seg.settings.min_duration_s),
         (1.0, 2.0)
@@ -362,7 +392,7 @@ fn a_given_window_and_minimum_are_used_as_given() {
         adapt_min_duration: false,
         ..DetectorSettings::default()
     };
-    let seg = detect_static(&rec.t, &rec.w, &rec.f, &given).unwrap();
+    let seg = detect_static("consumer_46_given", &rec.t, &rec.w, &rec.f, &given).unwrap();
     assert_eq!(
         (seg.settings.window_s, seg.settings.min_duration_s),
         (0.5, 1.0)
@@ -376,7 +406,7 @@ fn a_given_window_and_minimum_are_used_as_given() {
         adapt_window: false,
         ..DetectorSettings::default()
     };
-    let seg = detect_static(&rec.t, &rec.w, &rec.f, &half).unwrap();
+    let seg = detect_static("consumer_46_given_window", &rec.t, &rec.w, &rec.f, &half).unwrap();
     assert_eq!(seg.adaptation.window, Source::Given);
     assert_eq!(seg.adaptation.min_duration, Source::Rests);
 }

@@ -2,18 +2,24 @@
 //! the fixed 1-s window and 2-s minimum, which the defaults therefore keep, so the intervals are
 //! those of the fixed settings, and the motion suggests no rest the detector missed.
 
+mod common;
+
 use calib::motion::detect::{DetectorSettings, Segmentation, Source, segment};
+use common::import_to;
+use import::ImportOptions;
 use import::profile::Profile;
-use import::{ImportOptions, import_recording};
 use std::path::Path;
 
-fn segmented(profile: &str) -> (Segmentation, Segmentation) {
+fn segmented(profile_name: &str) -> (Segmentation, Segmentation) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../examples")
-        .join(profile);
+        .join(profile_name);
     let profile = Profile::load(&path).expect("shipped profile");
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("import-adaptive-real-data")
+        .join(profile_name);
     let imported =
-        import_recording(&profile, &ImportOptions::default()).expect("shipped recording imports");
+        import_to(&profile, &ImportOptions::default(), &dir).expect("shipped recording imports");
     let adaptive = segment(&imported.imu, &DetectorSettings::default()).unwrap();
     let fixed = DetectorSettings {
         adapt_window: false,

@@ -2,8 +2,12 @@
 //! mapping and sign flips, two files joined, jitter kept, gaps, saturation, a specific force that
 //! is not g.
 
+mod common;
+
+use common::{Imported, import_to};
 use import::profile::Profile;
-use import::{ImportError, ImportOptions, Imported, import_into, import_recording, write_outputs};
+use import::{ImportError, ImportOptions};
+use sha2::Digest;
 use std::path::{Path, PathBuf};
 
 /// A fresh directory for one test.
@@ -27,50 +31,56 @@ fn setup(dir: &Path, toml: &str, files: &[(&str, String)]) -> Result<Profile, Im
 }
 
 fn import(dir: &Path, toml: &str, files: &[(&str, String)]) -> Result<Imported, ImportError> {
-    both(&setup(dir, toml, files)?, &ImportOptions::default())
+    import_with(&setup(dir, toml, files)?, &ImportOptions::default())
 }
 
-/// The held import ([`import_recording`]), checked against the streamed one ([`import_into`]):
-/// the same refusal, or the same files byte for byte.
-fn both(profile: &Profile, options: &ImportOptions) -> Result<Imported, ImportError> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static RUN: AtomicUsize = AtomicUsize::new(0);
-    let run = RUN.fetch_add(1, Ordering::Relaxed);
+/// The import of the recording `profile` (in a test's scratch directory) into a fresh
+/// directory there, read back, and checked against what the code gave before the import had one
+/// implementation: the same refusal, or the same files (their SHA-256 in
+/// `fixtures/profiles_outputs.txt`; `fixtures/README.md` says how they were made).
+fn import_with(profile: &Profile, options: &ImportOptions) -> Result<Imported, ImportError> {
     let base = Path::new(&profile.origin).parent().unwrap().to_path_buf();
-    let (held_dir, streamed_dir) = (
-        base.join(format!("held-{run}")),
-        base.join(format!("streamed-{run}")),
-    );
-    let _ = std::fs::remove_dir_all(&streamed_dir);
-    std::fs::create_dir_all(&streamed_dir).unwrap();
-    let held = import_recording(profile, options);
-    let streamed = import_into(profile, options, &streamed_dir);
-    match (&held, streamed) {
-        (Err(h), Err(s)) => assert_eq!(h.to_string(), s.to_string()),
-        (Ok(h), Ok(s)) => {
-            let w = write_outputs(h, &held_dir).unwrap();
-            assert_eq!(h.report, s.report);
-            assert_eq!(h.sections, s.sections);
-            let pairs = [
-                (Some(&w.imu), Some(&s.written.imu)),
-                (w.turntable.as_ref(), s.written.turntable.as_ref()),
-                (w.sections.as_ref(), s.written.sections.as_ref()),
-                (Some(&w.report), Some(&s.written.report)),
-            ];
-            for (a, b) in pairs {
-                assert_eq!(a.is_some(), b.is_some(), "{a:?} {b:?}");
-                if let (Some(a), Some(b)) = (a, b) {
-                    assert_eq!(
-                        std::fs::read(a).unwrap(),
-                        std::fs::read(b).unwrap(),
-                        "{b:?}"
-                    );
-                }
+    let name = base.file_name().unwrap().to_str().unwrap().to_string();
+    // The imports of one test run one after the other: the n-th of its directory is its key.
+    static IMPORTS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let n = {
+        let mut imports = IMPORTS.lock().unwrap();
+        imports.push(name.clone());
+        imports.iter().filter(|x| **x == name).count()
+    };
+    let key = format!("{name}-{n}");
+    let imported = import_to(profile, options, &base.join(format!("out-{n}")));
+    // Paths in messages and reports are the scratch directory's: masked.
+    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("import-profiles");
+    let mask = |text: &str| text.replace(tmp.to_str().unwrap(), "<tmp>");
+    let mut found = Vec::new();
+    match &imported {
+        Err(e) => found.push(format!("{key} refused {:?}", mask(&e.to_string()))),
+        Ok(i) => {
+            let w = &i.written;
+            for p in [
+                Some(&w.imu),
+                w.turntable.as_ref(),
+                w.sections.as_ref(),
+                Some(&w.report),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                let text = mask(&std::fs::read_to_string(p).unwrap());
+                let digest = sha2::Sha256::digest(text.as_bytes());
+                let hex: String = digest.iter().map(|b| format!("{b:02x}")).collect();
+                let file = p.file_name().unwrap().to_str().unwrap();
+                found.push(format!("{key} {file} {hex}"));
             }
         }
-        (h, s) => panic!("held {h:?}, streamed {s:?}"),
     }
-    held
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/profiles_outputs.txt");
+    let fixture = std::fs::read_to_string(fixture).expect("fixtures/profiles_outputs.txt");
+    let prefix = format!("{key} ");
+    let expected: Vec<&str> = fixture.lines().filter(|l| l.starts_with(&prefix)).collect();
+    assert_eq!(found, expected, "{key}: the outputs before");
+    imported
 }
 
 /// `n` rows at 100 Hz of `t,gx,gy,gz,ax,ay,az` (rates in deg/s, force in m/s^2) at rest with z
@@ -119,9 +129,7 @@ fn a_plain_profile_imports_and_converts_units() {
     assert_eq!(imported.report.records, 300);
     assert_eq!(imported.report.inputs[0].first_line, 2);
     assert!(imported.report.gaps.is_empty());
-    let written = write_outputs(&imported, &dir.join("out")).unwrap();
-    let back = calib::io::read_imu_csv(&written.imu).unwrap();
-    assert_eq!(back, imported.imu);
+    let written = &imported.written;
     assert!(written.turntable.is_none() && written.sections.is_none());
 }
 
@@ -353,9 +361,7 @@ fn two_files_are_joined_on_time_and_jitter_is_kept() {
     let r = &imported.imu.records[7];
     assert_eq!((r.gyro, r.accel), ([0.01, 0.02, 0.03], [0.1, 0.2, 9.8]));
     // Every record keeps its own time stamp, through imu.csv and back.
-    let written = write_outputs(&imported, &dir.join("out")).unwrap();
-    let back = calib::io::read_imu_csv(&written.imu).unwrap();
-    for (i, r) in back.records.iter().enumerate() {
+    for (i, r) in imported.imu.records.iter().enumerate() {
         let t: f64 = format!("{:.6e}", jitter(i)).parse().unwrap();
         assert_eq!(r.t, t, "record {i}");
     }
@@ -417,7 +423,7 @@ fn a_gap_is_refused_with_line_and_length_unless_allowed() {
     );
     assert!(e.contains("--allow-gaps"), "{e}");
     let profile = setup(&dir, REST_PROFILE, &[("data.csv", text)]).unwrap();
-    let imported = both(&profile, &ImportOptions { allow_gaps: true }).unwrap();
+    let imported = import_with(&profile, &ImportOptions { allow_gaps: true }).unwrap();
     let gaps = &imported.report.gaps;
     assert_eq!(gaps.len(), 1);
     assert_eq!((gaps[0].record, gaps[0].line), (101, 103));
@@ -528,7 +534,7 @@ fn files_cut_off_or_not_text_are_refused() {
     )
     .unwrap();
     let profile = Profile::load(&dir.join("profile.toml")).unwrap();
-    let e = message(both(&profile, &ImportOptions::default()).unwrap_err());
+    let e = message(import_with(&profile, &ImportOptions::default()).unwrap_err());
     assert!(e.contains("data.csv: line 2: not UTF-8"), "{e}");
     let e = message(Profile::load(&dir.join("none.toml")).unwrap_err());
     assert!(e.contains("none.toml: cannot read"), "{e}");
@@ -552,9 +558,7 @@ fn angles_go_to_the_turntable_file() {
     assert_eq!(tt.records.len(), 200);
     assert_eq!(tt.records[3].t, 0.03);
     assert!((tt.records[3].k_deg[0] - 180.0).abs() < 1e-12);
-    let written = write_outputs(&imported, &dir.join("out")).unwrap();
-    let back = calib::io::read_turntable_csv(written.turntable.as_ref().unwrap()).unwrap();
-    assert_eq!(back.records.len(), 200);
+    assert_eq!(tt.records.len(), 200);
 }
 
 #[test]
@@ -585,8 +589,7 @@ unit = "m/s"
     let imported = import(&dir, toml, &[("inc.csv", text)]).unwrap();
     assert_eq!(imported.imu.kind, calib::io::ImuKind::Increments);
     assert!((imported.report.static_force.median_norm_m_s2 - 9.81).abs() < 1e-9);
-    let written = write_outputs(&imported, &dir.join("out")).unwrap();
-    let header = std::fs::read_to_string(&written.imu).unwrap();
+    let header = std::fs::read_to_string(&imported.written.imu).unwrap();
     assert!(
         header.starts_with("t,dthx,dthy,dthz,dvx,dvy,dvz\n"),
         "{header:.40}"
@@ -667,11 +670,8 @@ fn a_temperature_column_is_converted_to_deg_c() {
         for r in &imported.imu.records {
             assert_eq!(r.temp, Some(celsius), "{table}");
         }
-        let written = write_outputs(&imported, &dir.join("out")).unwrap();
-        let text = std::fs::read_to_string(&written.imu).unwrap();
+        let text = std::fs::read_to_string(&imported.written.imu).unwrap();
         assert!(text.starts_with("t,wx,wy,wz,fx,fy,fz,temp\n"), "{text}");
-        let back = calib::io::read_imu_csv(&written.imu).unwrap();
-        assert_eq!(back, imported.imu);
     }
     // Without [temperature] no temp column, though the file has one.
     let imported = import(
@@ -681,8 +681,7 @@ fn a_temperature_column_is_converted_to_deg_c() {
     )
     .unwrap();
     assert!(imported.imu.records.iter().all(|r| r.temp.is_none()));
-    let written = write_outputs(&imported, &dir.join("out")).unwrap();
-    let text = std::fs::read_to_string(&written.imu).unwrap();
+    let text = std::fs::read_to_string(&imported.written.imu).unwrap();
     assert!(text.starts_with("t,wx,wy,wz,fx,fy,fz\n"), "{text}");
 }
 
@@ -781,9 +780,9 @@ fn comment_lines_move_the_lines_named_the_same_in_the_streamed_import() {
             "unit = \"deg/s\"\nrange = [-2000.0, 2000.0]",
         );
     let profile = setup(&dir, &toml, &[("data.csv", text)]).unwrap();
-    let e = message(both(&profile, &ImportOptions::default()).unwrap_err());
+    let e = message(import_with(&profile, &ImportOptions::default()).unwrap_err());
     assert!(e.contains("a gap of 0.51 s"), "{e}");
-    let imported = both(&profile, &ImportOptions { allow_gaps: true }).unwrap();
+    let imported = import_with(&profile, &ImportOptions { allow_gaps: true }).unwrap();
     assert_eq!(imported.report.gaps.len(), 1);
     let sat = &imported.report.saturation[0];
     assert_eq!(sat.count, 1);

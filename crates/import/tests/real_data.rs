@@ -2,10 +2,13 @@
 //! (two raw-count files with jittered time) and the Ferraris session (one CSV, a sample counter
 //! and a section list).
 
+mod common;
+
 use calib::motion::detect::{DetectorSettings, segment};
+use common::{Imported, import_to};
+use import::ImportOptions;
 use import::profile::Profile;
 use import::sections::SectionKind;
-use import::{ImportOptions, Imported, import_recording};
 use std::path::{Path, PathBuf};
 
 fn example(name: &str) -> PathBuf {
@@ -14,14 +17,18 @@ fn example(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn import(name: &str) -> Imported {
+/// The shipped profile `name` imported into `out` (a directory of the test's own) and read back.
+fn import(name: &str, out: &str) -> Imported {
     let profile = Profile::load(&example(name)).expect("shipped profile");
-    import_recording(&profile, &ImportOptions::default()).expect("shipped recording imports")
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("import-real-data")
+        .join(out);
+    import_to(&profile, &ImportOptions::default(), &dir).expect("shipped recording imports")
 }
 
 #[test]
 fn xsens_keeps_its_jittered_time_and_has_38_static_intervals() {
-    let imported = import("xsens_mti.toml");
+    let imported = import("xsens_mti.toml", "xsens-jitter");
     let r = &imported.report;
     assert_eq!(r.records, 51175);
     assert_eq!(r.inputs.len(), 2);
@@ -59,7 +66,7 @@ fn xsens_keeps_its_jittered_time_and_has_38_static_intervals() {
 
 #[test]
 fn xsens_count_is_stable_around_the_defaults() {
-    let imported = import("xsens_mti.toml");
+    let imported = import("xsens_mti.toml", "xsens-stable");
     let d = DetectorSettings::default();
     for settings in [
         DetectorSettings { window_s: 0.5, ..d },
@@ -85,7 +92,7 @@ fn xsens_count_is_stable_around_the_defaults() {
 
 #[test]
 fn ferraris_import_reproduces_its_sections() {
-    let imported = import("ferraris_session.toml");
+    let imported = import("ferraris_session.toml", "ferraris-sections");
     assert_eq!(imported.report.records, 10376);
     assert_eq!(imported.imu.records[540].t, 540.0 / 102.4);
     let sections = imported.sections.as_ref().expect("sections");
@@ -134,7 +141,7 @@ fn ferraris_import_reproduces_its_sections() {
 
 #[test]
 fn ferraris_static_faces_lie_within_detected_intervals() {
-    let imported = import("ferraris_session.toml");
+    let imported = import("ferraris_session.toml", "ferraris-faces");
     let sections = imported.sections.as_ref().unwrap();
     let seg = segment(&imported.imu, &DetectorSettings::default()).unwrap();
     let s = &seg.static_intervals;

@@ -103,27 +103,31 @@ pub fn decode_ros1(bytes: &[u8]) -> Result<ImuMessage, String> {
 
 /// The ROS 2 message as CDR lays it out (`builtin_interfaces/Time`, `std_msgs/Header`;
 /// `geometry_msgs/Quaternion` and `Vector3` are plain float64 fields, laid out as arrays).
+/// Tests serialize it to make messages.
 #[derive(Deserialize)]
-struct Ros2Imu {
-    header: Ros2Header,
-    orientation: [f64; 4],
-    orientation_covariance: [f64; 9],
-    angular_velocity: [f64; 3],
-    angular_velocity_covariance: [f64; 9],
-    linear_acceleration: [f64; 3],
-    linear_acceleration_covariance: [f64; 9],
+#[cfg_attr(test, derive(serde::Serialize))]
+pub(super) struct Ros2Imu {
+    pub(super) header: Ros2Header,
+    pub(super) orientation: [f64; 4],
+    pub(super) orientation_covariance: [f64; 9],
+    pub(super) angular_velocity: [f64; 3],
+    pub(super) angular_velocity_covariance: [f64; 9],
+    pub(super) linear_acceleration: [f64; 3],
+    pub(super) linear_acceleration_covariance: [f64; 9],
 }
 
 #[derive(Deserialize)]
-struct Ros2Header {
-    stamp: Ros2Time,
-    frame_id: String,
+#[cfg_attr(test, derive(serde::Serialize))]
+pub(super) struct Ros2Header {
+    pub(super) stamp: Ros2Time,
+    pub(super) frame_id: String,
 }
 
 #[derive(Deserialize)]
-struct Ros2Time {
-    sec: i32,
-    nanosec: u32,
+#[cfg_attr(test, derive(serde::Serialize))]
+pub(super) struct Ros2Time {
+    pub(super) sec: i32,
+    pub(super) nanosec: u32,
 }
 
 /// Decode a ROS 2 `sensor_msgs/msg/Imu` in CDR (either byte order, as its encapsulation
@@ -200,19 +204,6 @@ mod tests {
         assert!(e.contains("linear_acceleration_covariance"), "{e}");
     }
 
-    #[derive(serde::Serialize)]
-    struct Cdr {
-        sec: i32,
-        nanosec: u32,
-        frame_id: String,
-        orientation: [f64; 4],
-        orientation_covariance: [f64; 9],
-        angular_velocity: [f64; 3],
-        angular_velocity_covariance: [f64; 9],
-        linear_acceleration: [f64; 3],
-        linear_acceleration_covariance: [f64; 9],
-    }
-
     #[test]
     fn cdr_either_byte_order_and_exact_length() {
         let mut k = 0.0;
@@ -221,10 +212,14 @@ mod tests {
             k - 1.0
         };
         let mut filled = |v: &mut [f64]| v.iter_mut().for_each(|x| *x = next());
-        let mut msg = Cdr {
-            sec: -3,
-            nanosec: 9,
-            frame_id: "imu_link".into(),
+        let mut msg = Ros2Imu {
+            header: Ros2Header {
+                stamp: Ros2Time {
+                    sec: -3,
+                    nanosec: 9,
+                },
+                frame_id: "imu_link".into(),
+            },
             orientation: [0.0; 4],
             orientation_covariance: [0.0; 9],
             angular_velocity: [0.0; 3],

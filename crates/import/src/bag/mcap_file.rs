@@ -2,7 +2,7 @@
 //! read in pieces and each chunk decompressed on its own, so memory holds one chunk however
 //! long the recording.
 
-use super::{MessageVisitor, TopicCount, Topics};
+use super::{MessageVisitor, TopicCounts, Topics};
 use crate::ImportError;
 use mcap::records::Record;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader};
@@ -24,16 +24,8 @@ struct ChannelOf {
 
 /// Read the file's records in order: every channel counted, every message on `topic` (of
 /// schema `sensor_msgs/msg/Imu` in CDR, else refused) given to `visit` as its bytes.
-pub fn read(
-    path: &Path,
-    file: &str,
-    topic: &str,
-    visit: MessageVisitor<'_>,
-) -> Result<Vec<TopicCount>, ImportError> {
-    let read_err = |source| ImportError::Read {
-        file: file.to_string(),
-        source,
-    };
+pub fn read(path: &Path, file: &str, topic: &str, visit: MessageVisitor<'_>) -> TopicCounts {
+    let read_err = |source| ImportError::read(file, source);
     let broken = |e: mcap::McapError| {
         ImportError::file(
             file,

@@ -15,10 +15,11 @@ mod ros1;
 
 pub use imu_msg::{ImuMessage, decode_cdr, decode_ros1};
 
-use crate::streamed::{Out, Quietest, WrittenImu, read_imu, read_timing, write_reports};
+use crate::checks::{show_number, show_t};
+use crate::profile_import::{Out, Quietest, WrittenImu, read_imu, read_timing, write_reports};
 use crate::{
     G_BAND, GapReport, ImportError, ImportOptions, ImportReport, ImportedFiles, InputFile,
-    MAX_ACCEL_M_S2, MAX_GYRO_RAD_S, MEDIAN_INTERVAL_RANGE_S, StaticForce, show_number, show_t,
+    MAX_ACCEL_M_S2, MAX_GYRO_RAD_S, MEDIAN_INTERVAL_RANGE_S, StaticForce,
 };
 use calib::io::{ImuKind, format_f64};
 use profile::{Form, STANDARD_GRAVITY};
@@ -30,6 +31,10 @@ use crate::profile;
 
 /// What an import visits of each message on the topic: its bytes.
 pub(crate) type MessageVisitor<'a> = &'a mut dyn FnMut(&[u8]) -> Result<(), ImportError>;
+
+/// What a format's reader gives: every topic of the file counted (its messages given to the
+/// [`MessageVisitor`] on the way), or the refusal.
+pub(crate) type TopicCounts = Result<Vec<TopicCount>, ImportError>;
 
 /// A topic of the file with its message type and how many messages it holds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -153,10 +158,7 @@ impl BagFormat {
         let mut head = Vec::new();
         std::fs::File::open(path)
             .and_then(|f| f.take(16).read_to_end(&mut head))
-            .map_err(|source| ImportError::Read {
-                file: file.clone(),
-                source,
-            })?;
+            .map_err(|source| ImportError::read(&file, source))?;
         if head.starts_with(ros1::MAGIC) {
             Ok(Self::Ros1)
         } else if head.starts_with(mcap_file::MAGIC) {
@@ -527,7 +529,7 @@ fn check_force_at_rest(
     quiet: Quietest,
     refuse: &dyn Fn(String) -> ImportError,
 ) -> Result<StaticForce, ImportError> {
-    let q = crate::streamed::quietest_window(imu, quiet)?;
+    let q = crate::profile_import::quietest_window(imu, quiet)?;
     let ratio = q.median_norm / STANDARD_GRAVITY;
     if (G_BAND.0..=G_BAND.1).contains(&ratio) {
         return Ok(StaticForce {

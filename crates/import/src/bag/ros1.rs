@@ -2,7 +2,7 @@
 //! (the operating system pages it in and out; nothing is copied but one decompressed chunk at a
 //! time) and walks its chunks in file order.
 
-use super::{MessageVisitor, TopicCount, Topics};
+use super::{MessageVisitor, TopicCounts, Topics};
 use crate::ImportError;
 use rosbag::{ChunkRecord, MessageRecord, RosBag};
 use std::io::Read;
@@ -19,10 +19,7 @@ const IMU_MD5: &str = "6a62c6daae103f4ff57a132d6f95cec2";
 /// Where the bag header says the index starts: checked against the file's length before the
 /// crate slices the mapped file there (a truncated or unindexed bag would make it panic).
 fn check_index_position(path: &Path, file: &str) -> Result<(), ImportError> {
-    let read_err = |source| ImportError::Read {
-        file: file.to_string(),
-        source,
-    };
+    let read_err = |source| ImportError::read(file, source);
     let len = std::fs::metadata(path).map_err(read_err)?.len();
     let mut head = Vec::new();
     std::fs::File::open(path)
@@ -78,17 +75,9 @@ fn check_index_position(path: &Path, file: &str) -> Result<(), ImportError> {
 
 /// Read the bag's chunks in order: every connection counted, every message on `topic` (of
 /// type `sensor_msgs/Imu`, else refused) given to `visit` as its bytes.
-pub fn read(
-    path: &Path,
-    file: &str,
-    topic: &str,
-    visit: MessageVisitor<'_>,
-) -> Result<Vec<TopicCount>, ImportError> {
+pub fn read(path: &Path, file: &str, topic: &str, visit: MessageVisitor<'_>) -> TopicCounts {
     check_index_position(path, file)?;
-    let bag = RosBag::new(path).map_err(|source| ImportError::Read {
-        file: file.to_string(),
-        source,
-    })?;
+    let bag = RosBag::new(path).map_err(|source| ImportError::read(file, source))?;
     let broken = |e: rosbag::Error| {
         ImportError::file(
             file,

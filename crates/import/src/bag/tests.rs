@@ -2,32 +2,23 @@
 //! chunks) and messages serialized with the `cdr` crate: gaps, frame ids and covariances,
 //! magnitudes and the specific force at rest.
 
+use super::imu_msg::{Ros2Header as Header, Ros2Imu as Imu, Ros2Time as Time};
 use super::*;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-
-/// A ROS 2 `sensor_msgs/msg/Imu` as CDR lays it out.
-#[derive(serde::Serialize)]
-struct Imu {
-    sec: i32,
-    nanosec: u32,
-    frame_id: String,
-    orientation: [f64; 4],
-    orientation_covariance: [f64; 9],
-    angular_velocity: [f64; 3],
-    angular_velocity_covariance: [f64; 9],
-    linear_acceleration: [f64; 3],
-    linear_acceleration_covariance: [f64; 9],
-}
 
 /// A message at `stamp_ns` at rest (gravity along z, a small deterministic wobble so that no
 /// triad is constant).
 fn at_rest(k: usize, stamp_ns: i64) -> Imu {
     let wobble = (k as f64 * 0.7).sin() * 1e-3;
     Imu {
-        sec: (stamp_ns.div_euclid(1_000_000_000)) as i32,
-        nanosec: stamp_ns.rem_euclid(1_000_000_000) as u32,
-        frame_id: "imu".into(),
+        header: Header {
+            stamp: Time {
+                sec: (stamp_ns.div_euclid(1_000_000_000)) as i32,
+                nanosec: stamp_ns.rem_euclid(1_000_000_000) as u32,
+            },
+            frame_id: "imu".into(),
+        },
         orientation: [0.0, 0.0, 0.0, 1.0],
         orientation_covariance: [-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         angular_velocity: [wobble, -wobble, 0.5 * wobble],
@@ -137,7 +128,7 @@ fn a_gap_is_refused_at_its_message_or_kept_with_allow_gaps() {
 #[test]
 fn frame_ids_and_changing_covariances_are_recorded() {
     let mut messages = recording(0..0);
-    messages[7].frame_id = "other_frame".into();
+    messages[7].header.frame_id = "other_frame".into();
     messages[9].linear_acceleration_covariance[4] = 1e-4;
     let path = write_mcap("frames", mcap::Compression::Lz4, &messages);
     let done =

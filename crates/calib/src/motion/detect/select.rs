@@ -149,6 +149,18 @@ pub fn quantile_rank(len: usize, q: f64) -> usize {
     ((len - 1) as f64 * q).round() as usize
 }
 
+/// The `q` quantile of `v` held in a slice (by selection; NaN for an empty slice): the value of
+/// rank [`quantile_rank`], as [`select_streamed`] gives it from values read again.
+pub(crate) fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut c = v.to_vec();
+    let k = quantile_rank(c.len(), q);
+    let (_, x, _) = c.select_nth_unstable_by(k, f64::total_cmp);
+    *x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,22 +1,29 @@
-//! The static detector on records read again from their start ([`detect_static_streamed`]), in
-//! memory independent of their number: the same [`Segmentation`] as [`detect_static`] on the
-//! records held, to the last bit (`tests::streamed_equals_held`).
+//! The static detector ([`detect_static_streamed`]) on records read again from their start, in
+//! memory independent of their number.
 //!
-//! What the held detector keeps per record (the windowed deviations and mean rate of each
-//! pass, prefix sums, copies of the records) is worked out again at every reading instead: a
-//! window of `2 h + 2` prefix sums slides along the records ([`Windower`], the same sums as
-//! [`Prefix`] from the same first record of each gap-free block, so the same bits), and each
-//! pass takes its noise floor by an exact streamed selection ([`super::select`]). What is kept
-//! is what the answer needs: the runs of static and of clearly moving records of the first pass
-//! (a few per rest and per motion), the static intervals with their sums, the gaps.
+//! Nothing is kept per record: each pass's windowed deviations and mean rate are worked out
+//! again at every reading, a window of `2 h + 2` prefix sums sliding along the records
+//! ([`read_windows`]; the sums of each gap-free block taken about its first record, for
+//! precision), and each pass takes its noise floor by an exact streamed selection
+//! ([`super::select`]). What is kept is what the answer needs: the runs of static and of clearly
+//! moving records of the first pass (a few per rest and per motion), the static intervals with
+//! their sums, the gaps.
 //!
 //! Readings: four for the median interval, two for each pass's noise floor (more when a
 //! million windows share sixteen bits of their deviation), one for the first pass's runs, one
 //! for the intervals; with rests missed, one more for their deviations (two or more) and the
 //! suggested settings' pass (three).
 
+use super::adapt::{adapt, half_window, noise_factor_for, suggested_lengths};
+use super::segmentation::{
+    MissReason, QuietStretch, Segmentation, Span, StaticInterval, Suggestion, gap,
+};
 use super::select::{quantile_rank, select_streamed};
-use super::*;
+use super::settings::{
+    CLEAR_FACTOR, DetectorSettings, FIRST_PASS_WINDOW_S, MERGE_GAP_INTERVALS, MERGE_MAX_ANGLE_RAD,
+    MIN_HALF_WINDOW_RECORDS, MIN_QUIET_STRETCH_S, NOISE_FLOOR_QUANTILE,
+};
+use crate::io::timing::GapAt;
 use std::collections::VecDeque;
 
 /// Records in rate form `(t, w, f)` (s, rad/s, m/s^2), visited from the first at every call.
@@ -49,7 +56,7 @@ pub(super) trait Visit {
 
 /// Prefix sums of both triads (sum and sum of squares of the differences from the block's
 /// first record).
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy, Debug, Default)]
 struct Sums {
     sf: [f64; 3],
     qf: [f64; 3],
@@ -57,7 +64,8 @@ struct Sums {
     qw: [f64; 3],
 }
 
-/// [`Prefix::stats`] over `[a, b)` from the prefix sums at `a` and `b`: the same operations.
+/// Mean (about the reference `r`) and summed variance over `[a, b)` (`m` records) from the
+/// prefix sums at `a` and `b`.
 #[inline]
 fn stats(
     sa: &[f64; 3],
@@ -212,7 +220,7 @@ pub(super) struct Run {
     pub t_after: f64,
 }
 
-/// The thresholds of one pass (as [`Pass`] has them).
+/// The thresholds of one pass, the deviations' raised to `noise_factor` times the noise floor.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Levels {
     pub floor_f: f64,
@@ -241,7 +249,8 @@ pub(super) struct Frame {
     pub gap_factor: f64,
 }
 
-/// [`Pass::new`]'s thresholds: the floors by streamed selection.
+/// The thresholds of a pass with `h` records each side of a window: the noise floors (the
+/// [`NOISE_FLOOR_QUANTILE`] of the windowed deviations) by streamed selection.
 fn levels(
     read: &mut Reading,
     frame: &Frame,
@@ -271,7 +280,7 @@ fn levels(
     })
 }
 
-/// Maximal runs of records for which `keep` holds, within the blocks (as [`Pass::runs`]).
+/// Maximal runs of records for which `keep` holds, within the blocks.
 struct Runs<F: Fn(&Win) -> bool> {
     keep: F,
     open: Option<Run>,
@@ -405,23 +414,15 @@ fn first_runs(
     })
 }
 
-/// Sums of a stretch of records for [`interval`]'s statistics, from its first record.
+/// Sums of a stretch of records for its static interval's statistics, from its first record.
 #[derive(Clone, Copy, Debug)]
 struct Acc {
     first: usize,
     t_first: f64,
     rf: [f64; 3],
     rw: [f64; 3],
-    s: Sums2,
+    s: Sums,
     records: usize,
-}
-
-#[derive(Clone, Copy, Debug, Default)]
-struct Sums2 {
-    sf: [f64; 3],
-    qf: [f64; 3],
-    sw: [f64; 3],
-    qw: [f64; 3],
 }
 
 impl Acc {
@@ -431,7 +432,7 @@ impl Acc {
             t_first: x.t,
             rf: x.f,
             rw: x.w,
-            s: Sums2::default(),
+            s: Sums::default(),
             records: 0,
         };
         a.add(x);
@@ -448,7 +449,7 @@ impl Acc {
         }
         self.records += 1;
     }
-    /// [`interval`] of the records summed, the last at `last` (time `t_last`).
+    /// The static interval of the records summed, the last at `last` (time `t_last`).
     fn interval(&self, last: usize, t_last: f64) -> StaticInterval {
         let m = self.records as f64;
         let z = [0.0; 3];
@@ -535,18 +536,24 @@ impl IntervalRuns<'_> {
         self.want_after = true;
     }
 }
+impl IntervalRuns<'_> {
+    /// The last interval kept, when it still waits for the time of the record after it: `t`.
+    fn close_after(&mut self, t: f64) {
+        if self.want_after {
+            if let Some(last) = self.out.last_mut() {
+                last.2 = t;
+            }
+            self.want_after = false;
+        }
+    }
+}
 impl Visit for IntervalRuns<'_> {
     fn block_start(&mut self, first: usize, _: f64, before: Option<f64>) {
         self.block_first = first;
         self.gap_before = before;
     }
     fn record(&mut self, x: &Win) {
-        if self.want_after {
-            if let Some(last) = self.out.last_mut() {
-                last.2 = x.t;
-            }
-            self.want_after = false;
-        }
+        self.close_after(x.t);
         if self.lv.is_static(x) {
             match &mut self.run {
                 Some((own, cont, _, t_last)) => {
@@ -570,12 +577,7 @@ impl Visit for IntervalRuns<'_> {
         } else {
             self.end_run(None);
             // `end_run` may have kept the run that ended at the record before this one.
-            if self.want_after {
-                if let Some(last) = self.out.last_mut() {
-                    last.2 = x.t;
-                }
-                self.want_after = false;
-            }
+            self.close_after(x.t);
         }
         self.prev_t = x.t;
     }
@@ -584,7 +586,8 @@ impl Visit for IntervalRuns<'_> {
     }
 }
 
-/// The static intervals of one pass ([`intervals_of`]), with for each the time of the record
+/// The static intervals of one pass: runs of static records of at least `min_duration_s`,
+/// joined across short gaps when the settings say so; with for each the time of the record
 /// before it and after it (for the motion between them).
 fn intervals_streamed(
     read: &mut Reading,
@@ -682,10 +685,11 @@ fn motion_streamed(found: &[(StaticInterval, f64, f64)], n: usize, t: [f64; 2]) 
     motion
 }
 
-/// [`detect_static`] on records read again at every call of `read` (rate form, strictly
-/// increasing time, at least two records), in memory independent of their number; `median`
-/// is the median record interval when the caller has it (the same as
-/// [`timing::median_interval`]), else it is found with four readings.
+/// Split a recording into static intervals and motion (the module [`super`] says how): the
+/// records (rate form: time stamps (s), angular rates (rad/s), specific forces (m/s^2); strictly
+/// increasing time, at least two records) read again at every call of `read`, in memory
+/// independent of their number; `median` is the median record interval when the caller has it
+/// (the same as [`crate::io::timing::median_interval`]), else it is found with four readings.
 pub fn detect_static_streamed(
     read: &mut Reading,
     median: Option<f64>,
@@ -756,7 +760,10 @@ fn quiet_records(quiet: &[Run], a: usize, b: usize) -> usize {
         .sum()
 }
 
-/// [`missed_stretches`] from the first pass's runs.
+/// The motion events of the first pass (runs of clearly moving records, two closer than
+/// [`MIN_QUIET_STRETCH_S`] joined) and the quiet stretches between them (and before the first
+/// and after the last, within each gap-free block) that hold no static interval; a stretch is
+/// too short when at least half its records are quiet at the first pass's window.
 fn missed_streamed(runs: &FirstRuns, intervals: &[StaticInterval]) -> (usize, Vec<QuietStretch>) {
     let mut events = 0;
     let mut missed = Vec::new();
@@ -831,7 +838,10 @@ impl Visit for Feed<'_> {
     }
 }
 
-/// [`suggest`] on the records read again.
+/// Settings that would take the missed stretches: the adaptive rule applied to the too-short
+/// ones (their longest quiet run at the first pass's window, that window added back), the noise
+/// factor raised past the too-noisy ones' deviations (their median ratio to the floor); tried
+/// on the records read again.
 #[allow(clippy::too_many_arguments)]
 fn suggest_streamed(
     read: &mut Reading,
@@ -910,4 +920,15 @@ fn suggest_streamed(
             .count(),
         static_intervals: intervals.len(),
     })
+}
+
+/// Whether a static interval shares a record with `first ..= last`.
+fn holds_rest(intervals: &[StaticInterval], first: usize, last: usize) -> bool {
+    intervals
+        .iter()
+        .any(|s| s.first_record <= last && first <= s.last_record)
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }

@@ -1,17 +1,28 @@
-//! The import in memory independent of the recording's length ([`import_into`]): the source
-//! rows are read, converted and written one at a time, and the checks that need the whole
-//! recording (the median interval, the gaps, the magnitudes, the quietest second, the sections)
-//! read the written `imu.csv` again. What is held: the lines of the source rows where they do
-//! not follow each other (comments, blank lines skipped; none in a plain file), the gaps and
-//! saturated stretches the report lists, and one second of running sums for the quietest
-//! window. The result is the held import's ([`crate::import_recording`] and
-//! [`crate::write_outputs`]) byte for byte, refusals included.
+//! The import of a recording a profile describes ([`import_into`]), in memory independent of
+//! the recording's length: the source rows are read, converted and written one at a time, and
+//! the checks that need the whole recording (the median interval, the gaps, the magnitudes, the
+//! quietest second, the sections) read the written `imu.csv` again. What is held: the lines of
+//! the source rows where they do not follow each other (comments, blank lines skipped; none in
+//! a plain file), the gaps and saturated stretches the report lists, and one second of running
+//! sums for the quietest window.
 
-use super::*;
+use crate::checks::{
+    JoinRow, beyond_magnitude, celsius, check_gaps, check_time_base, join_pair, join_tolerance,
+    magnitude_error, static_force, time_not_finite, time_not_increasing, too_short, unpartnered,
+};
+use crate::columns::{Layout, time_of, wanted_of};
+use crate::profile::{AngleUnit, Form, Profile};
+use crate::report::{Saturation, gap_reports, saturation_reports_of};
+use crate::sections::{self, SectionsFile};
 use crate::text::Rows;
-use calib::io::format_f64;
+use crate::{
+    ImportError, ImportOptions, ImportReport, InputFile, QUIET_WINDOW_S, StaticForce, Written,
+};
+use calib::io::timing::{self, GapAt, Timing};
+use calib::io::{ImuKind, ImuRecord, format_f64};
 use sins_model::timing::StreamedIntervalMedian;
 use std::io::Write;
+use std::path::{Path, PathBuf};
 
 /// What [`import_into`] found and wrote.
 #[derive(Clone, Debug)]
@@ -110,9 +121,9 @@ impl<'a> Reading<'a> {
     }
 }
 
-/// Read an input file through once: every row parsed (a row that is not is refused first, as
-/// the held import reads the whole file before it looks at the times), every time finite and
-/// after the one before.
+/// Read an input file through once: every row parsed (a row that is not is refused first: the
+/// whole file is read before its times are looked at), every time finite and after the one
+/// before.
 fn scan(profile: &Profile, role: &'static str, path: &Path) -> Result<Scan, ImportError> {
     let mut reading = Reading::open(profile, role, path)?;
     let file = reading.rows.file().to_string();
@@ -205,10 +216,8 @@ pub(crate) struct Out {
 
 impl Out {
     pub(crate) fn create(path: PathBuf) -> Result<Self, ImportError> {
-        let f = std::fs::File::create(&path).map_err(|source| ImportError::Write {
-            file: path.display().to_string(),
-            source,
-        })?;
+        let f = std::fs::File::create(&path)
+            .map_err(|source| ImportError::write(&path.display().to_string(), source))?;
         Ok(Self {
             w: std::io::BufWriter::with_capacity(1 << 16, f),
             path,
@@ -218,17 +227,13 @@ impl Out {
     pub(crate) fn write(&mut self, text: &str) -> Result<(), ImportError> {
         self.w
             .write_all(text.as_bytes())
-            .map_err(|source| ImportError::Write {
-                file: self.path.display().to_string(),
-                source,
-            })
+            .map_err(|source| ImportError::write(&self.path.display().to_string(), source))
     }
 
     pub(crate) fn finish(mut self) -> Result<PathBuf, ImportError> {
-        self.w.flush().map_err(|source| ImportError::Write {
-            file: self.path.display().to_string(),
-            source,
-        })?;
+        self.w
+            .flush()
+            .map_err(|source| ImportError::write(&self.path.display().to_string(), source))?;
         Ok(self.path)
     }
 }
@@ -351,9 +356,11 @@ pub(crate) fn read_imu(path: &Path, mut visit: impl FnMut(&ImuRecord)) -> Result
     Ok(())
 }
 
-/// The quietest window of [`detect::quietest_window`] found from the records given one at a
-/// time: each gap-free block's running sums of the specific force about its first record, the
-/// last `len + 1` of them held.
+/// The quietest window of the specific force: `[start, end)` of the [`QUIET_WINDOW_S`] window
+/// with the smallest standard deviation within one gap-free stretch (a recording shorter than
+/// the window: its longest gap-free stretch), found from the records given one at a time: each
+/// gap-free block's running sums of the specific force about its first record, the last
+/// `len + 1` of them held.
 pub(crate) struct Quietest {
     len: usize,
     ring: Vec<([f64; 3], [f64; 3])>,
@@ -447,10 +454,9 @@ impl Quietest {
 }
 
 /// Import the recording `profile` describes into `dir` (which must exist): `imu.csv`,
-/// `turntable.csv` with angles, `sections.json` with a section list, and `import.json`, the
-/// same bytes as [`crate::import_recording`] then [`crate::write_outputs`] give, in memory
-/// independent of the recording's length. A refusal is the held import's; files written into
-/// `dir` before it are left there (write into a fresh directory and remove it on an error).
+/// `turntable.csv` with angles, `sections.json` with a section list, and `import.json`, in
+/// memory independent of the recording's length. Files written into `dir` before a refusal are
+/// left there (write into a fresh directory and remove it on an error).
 pub fn import_into(
     profile: &Profile,
     options: &ImportOptions,
@@ -497,10 +503,7 @@ pub fn import_into(
     }
     read.stuck
         .check(g.lines.line(0), g.lines.line(imu.records - 1))
-        .map_err(|message| ImportError::File {
-            file: g.file.clone(),
-            message,
-        })?;
+        .map_err(|message| ImportError::file(&g.file, message))?;
     let static_force = quietest_force(profile, &imu, read.quiet, a)?;
     let line_g = |k: usize| g.lines.line(k);
     let line_a = |k: usize| a.lines.line(k);
@@ -721,10 +724,8 @@ pub(crate) fn write_reports(
     turntable: Option<PathBuf>,
 ) -> Result<Written, ImportError> {
     let json = |path: &Path, text: String| {
-        std::fs::write(path, text + "\n").map_err(|source| ImportError::Write {
-            file: path.display().to_string(),
-            source,
-        })
+        std::fs::write(path, text + "\n")
+            .map_err(|source| ImportError::write(&path.display().to_string(), source))
     };
     let sections_path = match sections {
         Some(s) => {
