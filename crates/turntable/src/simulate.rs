@@ -775,24 +775,12 @@ pub fn simulate(
     sensor: &AngleSensor,
     config: &SimConfig,
 ) -> Result<Simulation, SimulateError> {
-    simulate_drifting(kin, model, p_true, sensor, config, None)
+    simulate_walking(kin, model, p_true, sensor, config, None, None)
 }
 
-/// [`simulate`] with the gyro biases drifting ([`simulate_imu_drifting`]); the noise of the
-/// records is that of the run without the drift.
-pub fn simulate_drifting(
-    kin: &Kinematics,
-    model: &ErrorModel,
-    p_true: &[f64],
-    sensor: &AngleSensor,
-    config: &SimConfig,
-    drift: Option<&GyroDrift>,
-) -> Result<Simulation, SimulateError> {
-    simulate_walking(kin, model, p_true, sensor, config, drift, None)
-}
-
-/// [`simulate_drifting`] with the accelerometer biases drifting too
-/// ([`simulate_imu_walking`]).
+/// [`simulate`] with the gyro biases drifting ([`simulate_imu_drifting`]) and the
+/// accelerometer biases too ([`simulate_imu_walking`]); the noise of the records is that of the
+/// run without the drift.
 pub fn simulate_walking(
     kin: &Kinematics,
     model: &ErrorModel,

@@ -514,15 +514,7 @@ impl Engine {
             }
             _ => None,
         };
-        let (phi, q) = model.transition();
-        predict_every_filter(
-            &mut self.filter,
-            &mut self.shadow,
-            &mut self.offset_sensitivity,
-            self.covariance_only,
-            (phi, q),
-        )?;
-        model.reset_transition();
+        self.predict_now()?;
         (report.parameter_updates, report.parameter_nis_sum) = self.parameter_update()?;
         // How the residual taken responds to an offset of the window's mean residual: one,
         // and in the vertical row of the second-order correction its derivative.
@@ -552,16 +544,28 @@ impl Engine {
     /// Predict to the end of the last step without an update (the end of a recording whose
     /// last window was not used).
     pub fn predict_to_now(&mut self) -> Result<(), KalmanError> {
-        let (phi, q) = self.model.transition();
-        predict_every_filter(
-            &mut self.filter,
-            &mut self.shadow,
-            &mut self.offset_sensitivity,
-            self.covariance_only,
-            (phi, q),
-        )?;
-        self.model.reset_transition();
+        self.predict_now()?;
         self.parameter_update()?;
+        Ok(())
+    }
+
+    /// The time update over the steps since the last one: of the filter and of what rides
+    /// along with it (the held-out shadow, the offset sensitivity); in a covariance analysis, of
+    /// the covariance alone.
+    fn predict_now(&mut self) -> Result<(), KalmanError> {
+        let (phi, q) = self.model.transition();
+        if self.covariance_only {
+            self.filter.predict_covariance(phi, q)?;
+        } else {
+            self.filter.predict(phi, q)?;
+            if let Some(shadow) = &mut self.shadow {
+                shadow.predict(phi, q)?;
+            }
+            if let Some(sens) = &mut self.offset_sensitivity {
+                sens.predict(phi);
+            }
+        }
+        self.model.reset_transition();
         Ok(())
     }
 
@@ -619,29 +623,6 @@ impl Engine {
             Ok(Some(record))
         }
     }
-}
-
-/// The time update of the filter and of what rides along with it (the held-out shadow, the
-/// offset sensitivity) with the transition `(phi, q)`; in a covariance analysis, of the
-/// covariance alone.
-fn predict_every_filter(
-    filter: &mut KalmanFilter,
-    shadow: &mut Option<KalmanFilter>,
-    offset_sensitivity: &mut Option<OffsetSensitivity>,
-    covariance_only: bool,
-    (phi, q): (MatRef<'_, f64>, MatRef<'_, f64>),
-) -> Result<(), KalmanError> {
-    if covariance_only {
-        return filter.predict_covariance(phi, q);
-    }
-    filter.predict(phi, q)?;
-    if let Some(shadow) = shadow {
-        shadow.predict(phi, q)?;
-    }
-    if let Some(sens) = offset_sensitivity {
-        sens.predict(phi);
-    }
-    Ok(())
 }
 
 #[cfg(test)]
