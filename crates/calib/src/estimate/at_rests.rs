@@ -9,6 +9,7 @@ use super::{
     Estimate, EstimateError, ImuSource, Motion, Nominal, PassInputs, Plan, Scan,
     coarse_start_at_rests, score_pass,
 };
+
 use crate::config::RunConfig;
 use crate::estimate::data_checks::{check_gyros_alive, check_specific_force_within};
 use crate::io::IoError;
@@ -39,6 +40,7 @@ pub fn estimate_at_rests(
     let plan = Plan::of(config);
     rests_estimate(config, &plan, layout, imu, recording, coarse, progress)
 }
+
 /// The rests and known turns of a recording without a program.
 #[derive(Clone, Copy)]
 pub(super) struct Recording<'a> {
@@ -47,6 +49,7 @@ pub(super) struct Recording<'a> {
     /// Known turns between them.
     pub(super) turns: &'a [crate::motion::rests::Turn],
 }
+
 /// [`estimate_at_rests`] with its plan resolved.
 pub(super) fn rests_estimate(
     config: &RunConfig,
@@ -84,6 +87,7 @@ pub(super) fn rests_estimate(
     };
     iterate_passes(&inp, imu, first_point, feedback, progress)
 }
+
 /// The extended pass of the score tests ([`score_pass`]) for a fit `est` of a recording of
 /// rests in `data` made with `config` and `layout`: linearised about the fit's last estimates,
 /// with its motion, priors and held-out rests. `calibrate` makes it once, after the noise fixed
@@ -118,6 +122,7 @@ pub fn score_rests(
     est.replay = Some(replay);
     Ok(())
 }
+
 /// The checks of a recording of rests before any filter: the records' mean rate is the
 /// configured one, the gyros are alive, the specific force's magnitude is within what the
 /// priors allow, and the rests lie within the records.
@@ -157,6 +162,7 @@ pub(super) fn check_recording_of_rests(
         }
     })
 }
+
 /// What the unit did on a recording of rests: its rests, those less their margins, the start
 /// attitude levelled in the first (and gyrocompassed where the gyros resolve the Earth rate)
 /// about the coarse start or the prior means, the known turns in time order. With a coarse
@@ -218,6 +224,7 @@ pub(super) fn motion_at_rests(
     };
     Ok((motion, first_point))
 }
+
 /// What the first pass over a recording of rests feeds back: the tilt alone from a coarse
 /// start or where the heading is free (not gyrocompassed), else [`first_pass_feedback`].
 pub(super) fn first_feedback_at_rests(
@@ -249,6 +256,7 @@ pub(super) fn first_feedback_at_rests(
         first_pass_feedback(config)
     }
 }
+
 /// [`estimate_at_rests`] with a coarse start where the priors call for
 /// one ([`crate::estimate::needs_coarse_start`]): the batch fit of [`crate::motion::free_motion`] (the paper's 21
 /// parameters from the rests' mean specific forces and the rotations between them), whose
@@ -275,5 +283,6 @@ pub fn calibrate_rests(
         progress,
     )
 }
+
 /// How far the mean record interval of a recording of rests may be from the configured one.
 pub(super) const MEAN_INTERVAL_TOLERANCE: f64 = 0.01;

@@ -32,6 +32,7 @@ pub(crate) fn coarse_start_at_rests(
     let plan = Plan::of(config);
     Ok(Some(coarse_start(&plan, layout, imu, &fitted, turns)?))
 }
+
 /// Whether the priors are wide enough that the first pass needs a coarse start: a gyro or
 /// accelerometer scale factor above 1 %, a misalignment above 10 arcmin, a gyro bias above
 /// 0.1 deg/s or an accelerometer bias above 0.1 m/s^2. The paper's priors (1e-3, 3 arcmin,
@@ -45,6 +46,7 @@ pub fn needs_coarse_start(config: &RunConfig) -> bool {
         || p.gyro_bias_deg_h > 360.0
         || p.accel_bias_m_s2 > 0.1
 }
+
 /// The coarse start of [`calibrate_rests`]: the batch fit's values of the paper's parameters
 /// (by name; the extension terms at zero).
 pub(super) fn coarse_start(
@@ -88,8 +90,10 @@ pub(super) fn coarse_start(
             .collect(),
     )
 }
+
 /// Length of the record groups of the coarse start (s).
 pub(super) const COARSE_GROUP_S: f64 = 0.1;
+
 /// The records of `data` combined in groups of about [`COARSE_GROUP_S`], for the coarse start:
 /// the batch fit integrates every record about 25 times per Gauss-Newton iteration (a central
 /// difference per gyro parameter), which was most of a consumer-grade calibration's time (0.47 s

@@ -4,11 +4,13 @@
 use super::pass::{
     AngleReader, Feedback, Linearisation, Pass, PassResult, PassSettings, Strapdown,
 };
+
 use super::start_point::start_filter;
 use super::{
     Estimate, EstimateError, ImuSource, Motion, Nominal, PROGRESS_EVERY, PassInputs, Plan, Replay,
     consider, score_pass,
 };
+
 use crate::check::diagnostics;
 use crate::config::RunConfig;
 use crate::io::ImuKind;
@@ -120,9 +122,11 @@ pub(super) fn iterate_passes(
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
 }
+
 /// The start heading's posterior sigma above which a pass does not move the next pass's start
 /// heading (rad): the gyrocompassing threshold of [`crate::motion::rests`].
 pub(super) const HEADING_UNRESOLVED_RAD: f64 = crate::motion::rests::GYROCOMPASS_MAX_SIGMA_RAD;
+
 /// Whether the gyro noise walks the tilt of a trajectory integrated over `run_s` far enough
 /// that its second-order specific-force error (`g sigma^2 / 2`, `sigma^2 = q run_s`) exceeds
 /// a tenth of the noise of one specific-force measurement: then later passes on a recording of
@@ -137,6 +141,7 @@ pub(super) fn gyro_noise_walks_the_tilt(config: &RunConfig, plan: &Plan, run_s: 
     let one_measurement = (config.accel_psd() * config.filter.accel_rate_hz).sqrt();
     second_order > 0.1 * one_measurement
 }
+
 /// Set by [`force_baseline_instructions`].
 pub(super) static BASELINE_ONLY: std::sync::atomic::AtomicBool =
     std::sync::atomic::AtomicBool::new(false);
@@ -147,6 +152,7 @@ pub(super) static BASELINE_ONLY: std::sync::atomic::AtomicBool =
 pub fn force_baseline_instructions(on: bool) {
     BASELINE_ONLY.store(on, std::sync::atomic::Ordering::Relaxed);
 }
+
 /// IMU records through [`Pass::step`], compiled for every instruction set pulp dispatches to
 /// (on x86-64 AVX2 with FMA, and the baseline; NEON on aarch64) and run with the one the
 /// processor has: `step` and what it calls are inlined into [`pulp::WithSimd::with_simd`], which
@@ -157,6 +163,7 @@ pub(super) struct Steps<'p, 'a, 'c> {
     pub(super) pass: &'p mut Pass<'a>,
     pub(super) chunk: &'c [(crate::io::ImuRecord, usize)],
 }
+
 impl pulp::WithSimd for Steps<'_, '_, '_> {
     type Output = Result<(), EstimateError>;
 
@@ -168,20 +175,25 @@ impl pulp::WithSimd for Steps<'_, '_, '_> {
         Ok(())
     }
 }
+
 /// Passes over the data at most: the first closed loop, each further one linearised about the
 /// one before (parameters and start attitude).
 pub(super) const MAX_PASSES: usize = 4;
+
 /// Most passes over a recording of rests ([`estimate_at_rests`]).
 pub(super) const MAX_PASSES_RESTS: usize = 8;
+
 /// A pass whose estimates moved less than this (posterior sigmas, largest over the parameters)
 /// from the pass before ends the iteration.
 pub(super) const CONVERGED_SIGMA: f64 = 0.02;
+
 /// [`CONVERGED_SIGMA`] on a recording of rests. Its passes contract by a factor of about ten
 /// each (largest shifts 0.17, 0.020, 0.0019 sigma on the 324-s consumer-grade recording of
 /// docs/performance.md; 0.50, 0.027, 0.004 on the shipped Xsens recording), so a pass that
 /// moved less than this leaves the next one to move less than a hundredth of a sigma; at 0.02
 /// both recordings ran a fourth pass for that, a seventh of the whole job's CPU time.
 pub(super) const CONVERGED_SIGMA_RESTS: f64 = 0.05;
+
 /// The IMU-time intervals whose measurements a fit with `filter.hold_out_every = every` holds
 /// out: every `every`-th segment with measurements, counted from 1 (the program's segments;
 /// the rests of a recording of rests, whose motions have none).
@@ -204,9 +216,11 @@ pub(super) fn held_out_windows(
         .map(|(_, s)| (s.t0, s.t1))
         .collect()
 }
+
 /// What [`run_pass`] gives: the estimate, the start attitude the pass used and, when asked
 /// for, its sensitivity to a constant specific-force residual offset (`n x 3`).
 pub(super) type PassOutcome = (Estimate, Matrix3<f64>, Option<DMatrix<f64>>);
+
 /// One pass over the data, linearised about `nominal` (the prior means and the program's
 /// start attitude if `None`): compensation, turntable reading and start attitude with the
 /// nominal values, the prior mean of each error state the prior mean less the nominal value.
@@ -234,6 +248,7 @@ pub(super) fn run_pass(
     let (estimate, offset_sensitivity) = pass_estimate(inp, imu.kind(), final_time, pass.finish());
     Ok((estimate, c0, offset_sensitivity))
 }
+
 /// The filter engine of a pass: the linear model of the layout at the IMU step, the schedule
 /// of the measurements and their configured noise, the vertical row to second order in the
 /// tilt on a recording of rests, and the sensitivity to a specific-force residual offset when
@@ -261,6 +276,7 @@ pub(super) fn pass_engine(
     }
     engine
 }
+
 /// The fixed settings of a pass over records of `kind`.
 pub(super) fn pass_settings(inp: &PassInputs, kind: ImuKind, feedback: Feedback) -> PassSettings {
     let config = inp.config;
@@ -281,6 +297,7 @@ pub(super) fn pass_settings(inp: &PassInputs, kind: ImuKind, feedback: Feedback)
         temp_reference_c: inp.scan.temperature(config).map(|t| t.reference_c),
     }
 }
+
 /// The pass at its start: the strapdown from the start attitude `c0`, the linearisation point
 /// `totals`, the turntable reader; on a recording of rests the gate of its rests and its known
 /// turns; the held-out windows; the motion before the first record where the model takes rate
@@ -322,6 +339,7 @@ pub(super) fn set_up_pass<'r>(
     }
     pass
 }
+
 /// The motion in the middle of the interval before the first record (body rate and specific
 /// force), in the body through the start attitude `c0`: the middle, because the program's
 /// start is found to a few microseconds, and a jump at the first record's start must fall
@@ -342,6 +360,7 @@ pub(super) fn motion_before(inp: &PassInputs, c0: &Matrix3<f64>) -> (Vector3<f64
         c0.transpose() * site.specific_force_at_rest_enu(),
     )
 }
+
 /// Every IMU record through the pass, read in chunks of [`PROGRESS_EVERY`] (one call through
 /// the source per chunk) and stepped with the best instruction set the processor has
 /// ([`Steps`]); `progress` hears the records done. The last record's time (`first_time`
@@ -382,6 +401,7 @@ pub(super) fn run_records(
     }
     Ok(final_time)
 }
+
 /// The estimate of a finished pass over records of `imu_kind` that ended at `final_time`,
 /// its innovations assigned to the motion's segments; and the pass's offset sensitivity.
 pub(super) fn pass_estimate(

@@ -8,6 +8,7 @@ use super::{
     Estimate, EstimateError, ImuSource, MemoryImu, Motion, PassInputs, Plan, RunData, Scan,
     TurntableSetup, score_pass,
 };
+
 use crate::config::RunConfig;
 use crate::estimate::data_checks::{check_gyros_alive, check_specific_force};
 use crate::io::angle_records::AngleRecords;
@@ -28,6 +29,7 @@ pub fn estimate(
     let layout = layout_for(config, data.turntable.is_some());
     estimate_with(config, &layout, data, progress)
 }
+
 /// Calibrate from recorded data in memory with the paper's model extended by `ext`
 /// ([`crate::model::layout::layout_with`]: the extra terms' parameters are states after the paper's,
 /// a gyro drift is process noise on the gyro biases). With an empty extension this is
@@ -39,6 +41,7 @@ pub fn estimate_ext(
 ) -> Result<Estimate, EstimateError> {
     estimate_ext_kept(config, data, ext, &mut None)
 }
+
 /// [`estimate_ext`] with the program kept for the next fit ([`estimate_from_kept`]).
 pub(crate) fn estimate_ext_kept(
     config: &RunConfig,
@@ -57,6 +60,7 @@ pub(crate) fn estimate_ext_kept(
         &mut |_, _| {},
     )
 }
+
 /// [`estimate`] with any state layout (e.g. an extended instrument model).
 pub fn estimate_with(
     config: &RunConfig,
@@ -67,6 +71,7 @@ pub fn estimate_with(
     let mut imu = MemoryImu::new(data.imu, data.imu_file);
     estimate_from(config, layout, &mut imu, data.turntable, progress)
 }
+
 /// Calibrate from any IMU source (e.g. a file read record by record, twice) and the turntable
 /// records, with the state layout `layout`.
 ///
@@ -86,6 +91,7 @@ pub fn estimate_from(
 ) -> Result<Estimate, EstimateError> {
     estimate_from_kept(config, layout, imu, turntable, &mut None, progress)
 }
+
 /// [`estimate_from`] with the program kept in `program` for fits of the same configuration
 /// (the model-extension loop's): used when there, else compiled (after the records are read,
 /// so that the errors come in the same order) and left there. Only the noise, the model and
@@ -140,6 +146,7 @@ pub(crate) fn estimate_from_kept(
     estimate.carried_terms = carried;
     Ok(estimate)
 }
+
 /// What the first pass from the prior feeds back: everything (closed loop), except in a fit
 /// with held-out measurements, where only the attitude is. A held-out stretch leaves the
 /// attitude unaided for a whole segment; closed loop, the first update after it moved the
@@ -151,6 +158,7 @@ pub(super) fn first_pass_feedback(config: &RunConfig) -> Feedback {
         None => Feedback::All,
     }
 }
+
 /// Find (or check) where the program starts on the IMU clock. A program that never turns has
 /// no start to find: it is taken to start with the data.
 pub(super) fn locate_program(

@@ -19,6 +19,7 @@ pub(super) struct TemperatureScan {
     /// The open second: its index, sum and count.
     pub(super) open: Option<(i64, f64, usize)>,
 }
+
 impl TemperatureScan {
     pub(super) fn push(&mut self, t: f64, temp: f64) {
         if self.n == 0 {
@@ -51,11 +52,13 @@ impl TemperatureScan {
         self.sum / self.n as f64
     }
 }
+
 /// Why the thermal terms' reference temperature is the one it is.
 pub(super) const REFERENCE_MEAN: &str = "the mean of the records' temperatures: the biases and scale \
     factors of the result are those at it, where they are least correlated with the temperature \
     coefficients";
 pub(super) const REFERENCE_CONFIGURED: &str = "temperature.reference_c of the configuration";
+
 impl Scan {
     /// The reference temperature and the summary for the result, when the records have a
     /// temperature.
@@ -75,8 +78,10 @@ impl Scan {
         })
     }
 }
+
 /// Length of the rate bins of the scan (s).
 pub(super) const BIN_S: f64 = 0.1;
+
 /// How far one record's interval may be from the configured one: a programmed run's records
 /// come at a fixed rate (within 5 %); a recording of rests may have jittered time stamps (each
 /// record is then integrated over its own interval: within 50 %) and, in rate form, a few
@@ -87,6 +92,7 @@ pub(super) enum Spacing {
     Fixed,
     Jittered,
 }
+
 impl Spacing {
     /// The accepted range of `interval / configured interval`.
     pub(super) fn range(self, kind: ImuKind) -> (f64, f64) {
@@ -97,6 +103,7 @@ impl Spacing {
         }
     }
 }
+
 /// Read the IMU data once: count the records and check that they come at the configured rate
 /// (within the `spacing`'s tolerance), naming the first line that does not.
 pub(super) fn scan_imu(

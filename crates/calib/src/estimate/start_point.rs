@@ -58,6 +58,7 @@ pub(super) fn start_prior(
     )
     .unwrap_or_else(nominal)
 }
+
 /// The point the first pass starts from. With the turntable angles, the mounting fitted to the
 /// program's directions ([`fit_mounting`]: levelling where the platform rests, the rotation axes
 /// where it turns), so that the first pass does not linearise about a start attitude and an
@@ -93,6 +94,7 @@ pub(super) fn first_linearisation_point(
         c_start: c_platform_to_base(&k0) * m,
     })
 }
+
 /// The filter at the start of a pass: the prior covariance about the program's start attitude
 /// (aligned or from the installation), the prior means of the errors of the linearisation
 /// point `totals`, and the start attitude (the program's with the nominal mounting, or the

@@ -23,6 +23,7 @@ pub(super) struct TurntableSetup<'a> {
     pub(super) angle_var: f64,
     pub(super) rate_changes: RateChanges,
 }
+
 impl<'a> TurntableSetup<'a> {
     /// Check the records of `file` against the IMU span and the clock relation.
     pub(super) fn new(
