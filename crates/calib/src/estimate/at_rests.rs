@@ -6,8 +6,7 @@ use super::passes::{gyro_noise_walks_the_tilt, iterate_passes};
 use super::programmed::first_pass_feedback;
 use super::scan::{Spacing, scan_imu};
 use super::{
-    Estimate, EstimateError, ImuSource, Motion, Nominal, PassInputs, Plan, Scan,
-    coarse_start_at_rests, score_pass,
+    Estimate, EstimateError, ImuSource, Motion, Nominal, PassInputs, Scan, SitePriors, score_pass,
 };
 
 use crate::config::RunConfig;
@@ -18,16 +17,17 @@ use crate::motion::rests::{Rest, RestError};
 
 /// Calibrate a recording without a program or turntable angles: the unit rests in several
 /// orientations (`rests`, on the IMU clock, in time order) and is turned between them in any
-/// way. The same filter as for a program ([`crate::estimate::estimate_from`]), with the specific force measured
-/// only where every step of a window lies in a rest (less [`crate::motion::rests::REST_MARGIN_S`] at
-/// both ends), the start attitude levelled in the first rest (and gyrocompassed where the gyros
-/// resolve the Earth rate), and the attitude carried by the gyros through every motion
-/// ([`crate::motion::rests`]). The layout must be an IMU-only one.
+/// way. The same filter as for a program ([`crate::estimate::run`]), with the specific force
+/// measured only where every step of a window lies in a rest (less
+/// [`crate::motion::rests::REST_MARGIN_S`] at both ends), the start attitude levelled in the first
+/// rest (and gyrocompassed where the gyros resolve the Earth rate), and the attitude carried by the
+/// gyros through every motion ([`crate::motion::rests`]). The layout must be an IMU-only one.
 ///
 /// `coarse` is where the first pass starts: the totals of the instrument parameters (in the
 /// layout's order), or `None` for the prior means. Units whose errors are large (per-cent scale
-/// factors, degrees per second of bias) need one ([`calibrate_rests`] makes it).
-pub fn estimate_at_rests(
+/// factors, degrees per second of bias) need one ([`super::coarse_start::coarse_start_at_rests`]
+/// makes it).
+pub(super) fn fit_at_rests(
     config: &RunConfig,
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
@@ -37,7 +37,7 @@ pub fn estimate_at_rests(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let recording = Recording { rests, turns };
-    let plan = Plan::of(config);
+    let plan = SitePriors::of(config);
     rests_estimate(config, &plan, layout, imu, recording, coarse, progress)
 }
 
@@ -50,10 +50,10 @@ pub(super) struct Recording<'a> {
     pub(super) turns: &'a [crate::motion::rests::Turn],
 }
 
-/// [`estimate_at_rests`] with its plan resolved.
+/// [`fit_at_rests`] with its site and priors resolved.
 pub(super) fn rests_estimate(
     config: &RunConfig,
-    plan: &Plan,
+    plan: &SitePriors,
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
     recording: Recording,
@@ -93,7 +93,7 @@ pub(super) fn rests_estimate(
 /// with its motion, priors and held-out rests. `calibrate` makes it once, after the noise fixed
 /// point settles (each fit of the fixed point would otherwise make its own). Nothing to do for
 /// a fit that kept no replay.
-pub fn score_rests(
+pub(super) fn score_rests(
     config: &RunConfig,
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
@@ -102,7 +102,7 @@ pub fn score_rests(
     let Some(replay) = est.replay.take() else {
         return Ok(());
     };
-    let plan = Plan::of(config);
+    let plan = SitePriors::of(config);
     let rate = config.filter.imu_rate_hz;
     let mut scan = scan_imu(imu, rate, Spacing::Jittered, &mut |_, _| {})?;
     scan.program_start = scan.span.0 - 1.0 / rate;
@@ -128,7 +128,7 @@ pub fn score_rests(
 /// priors allow, and the rests lie within the records.
 pub(super) fn check_recording_of_rests(
     config: &RunConfig,
-    plan: &Plan,
+    plan: &SitePriors,
     scan: &Scan,
     rests: &[Rest],
     file: &str,
@@ -170,7 +170,7 @@ pub(super) fn check_recording_of_rests(
 /// attitude levelled with it.
 pub(super) fn motion_at_rests(
     config: &RunConfig,
-    plan: &Plan,
+    plan: &SitePriors,
     layout: &StateLayout,
     scan: &Scan,
     recording: Recording,
@@ -255,33 +255,6 @@ pub(super) fn first_feedback_at_rests(
     } else {
         first_pass_feedback(config)
     }
-}
-
-/// [`estimate_at_rests`] with a coarse start where the priors call for
-/// one ([`crate::estimate::needs_coarse_start`]): the batch fit of [`crate::motion::free_motion`] (the paper's 21
-/// parameters from the rests' mean specific forces and the rotations between them), whose
-/// values the filter's first pass linearises about. Without it the first closed-loop pass
-/// runs away on a consumer-grade unit: on the shipped Xsens recording the accelerometer bias
-/// and scale factor of the vertical axis, which one rest cannot tell apart, went to
-/// -19.8 m/s^2 and +2.0 within the first rest, and the filter diverged after the first turn.
-pub fn calibrate_rests(
-    config: &RunConfig,
-    layout: &StateLayout,
-    imu: &mut dyn ImuSource,
-    rests: &[Rest],
-    turns: &[crate::motion::rests::Turn],
-    progress: &mut dyn FnMut(usize, usize),
-) -> Result<Estimate, EstimateError> {
-    let coarse = coarse_start_at_rests(config, layout, imu, rests, turns)?;
-    estimate_at_rests(
-        config,
-        layout,
-        imu,
-        rests,
-        turns,
-        coarse.as_deref(),
-        progress,
-    )
 }
 
 /// How far the mean record interval of a recording of rests may be from the configured one.

@@ -1,7 +1,7 @@
 //! The coarse start of a recording of rests: the batch fit's values of the paper's parameters,
 //! which the first pass linearises about where the priors are wide.
 
-use super::{EstimateError, ImuSource, Plan};
+use super::{EstimateError, ImuSource, SitePriors};
 use crate::config::RunConfig;
 use crate::io::{ImuData, ImuKind, ImuRecord, IoError};
 use crate::model::layout::StateLayout;
@@ -9,8 +9,16 @@ use crate::motion::rests::{Rest, RestError};
 use nalgebra::{Matrix3, Vector3};
 use sins_model::attitude::{exp_so3, log_so3};
 
-/// The coarse start of [`calibrate_rests`] where the priors call for one
-/// ([`needs_coarse_start`]), from the rests the fit does not hold out; `None` otherwise.
+/// The coarse start of a fit of a recording of rests (`at_rests::fit_at_rests`) where the priors
+/// call for one ([`needs_coarse_start`]), from the rests the fit does not hold out; `None`
+/// otherwise.
+///
+/// The batch fit of [`crate::motion::free_motion`] (the paper's 21 parameters from the rests'
+/// mean specific forces and the rotations between them), whose values the filter's first pass
+/// linearises about. Without it the first closed-loop pass runs away on a consumer-grade unit:
+/// on the shipped Xsens recording the accelerometer bias and scale factor of the vertical axis,
+/// which one rest cannot tell apart, went to -19.8 m/s^2 and +2.0 within the first rest, and the
+/// filter diverged after the first turn.
 pub(crate) fn coarse_start_at_rests(
     config: &RunConfig,
     layout: &StateLayout,
@@ -29,7 +37,7 @@ pub(crate) fn coarse_start_at_rests(
         .filter(|(i, _)| !crate::motion::rests::held_out(*i, config.filter.hold_out_every))
         .map(|(_, r)| *r)
         .collect();
-    let plan = Plan::of(config);
+    let plan = SitePriors::of(config);
     Ok(Some(coarse_start(&plan, layout, imu, &fitted, turns)?))
 }
 
@@ -47,10 +55,10 @@ pub fn needs_coarse_start(config: &RunConfig) -> bool {
         || p.accel_bias_m_s2 > 0.1
 }
 
-/// The coarse start of [`calibrate_rests`]: the batch fit's values of the paper's parameters
-/// (by name; the extension terms at zero).
+/// The coarse start of a fit of a recording of rests (`at_rests::fit_at_rests`): the batch fit's
+/// values of the paper's parameters (by name; the extension terms at zero).
 pub(super) fn coarse_start(
-    plan: &Plan,
+    plan: &SitePriors,
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
     rests: &[Rest],

@@ -23,10 +23,11 @@ use crate::check::diagnostics::{self, Innovation};
 use crate::config::{ConfigError, RunConfig};
 use crate::io::angle_records::AngleRecords;
 use crate::io::{ImuData, ImuKind, ResultFile, ResultParameter};
-use crate::model::layout::StateLayout;
+use crate::model::layout::{StateLayout, layout_for};
 use crate::motion::align::RateBin;
 use crate::motion::program_start::{ProgramStartError, TurntableClockError};
-use crate::motion::rests::{Rest, RestError};
+use crate::motion::rests::{Rest, RestError, Turn};
+use calibration::Calibration;
 use nalgebra::{DMatrix, Matrix3};
 use sins_model::terms::Unit;
 
@@ -47,18 +48,157 @@ pub mod score_pass;
 mod start_point;
 mod turntable_setup;
 pub mod verdict;
-pub use at_rests::{calibrate_rests, estimate_at_rests, score_rests};
-pub(crate) use coarse_start::coarse_start_at_rests;
 pub use coarse_start::needs_coarse_start;
 pub use passes::force_baseline_instructions;
 use passes::run_pass;
-pub(crate) use programmed::estimate_ext_kept;
-pub use programmed::{estimate, estimate_ext, estimate_from, estimate_with};
+pub(crate) use programmed::fit_extended;
 use scan::TemperatureScan;
 use turntable_setup::TurntableSetup;
 
 pub use crate::io::source::{FileImu, ImuSource, MemoryImu};
 use pass::Feedback;
+
+/// What a calibration is to be: the configuration, the model, and the kind of run with its
+/// options. With the records ([`Records`]) it is all [`run`] needs.
+#[derive(Clone, Copy)]
+pub struct Plan<'a> {
+    /// The configuration.
+    pub config: &'a RunConfig,
+    /// The state layout (e.g. the paper's model extended by candidate terms:
+    /// [`crate::model::layout::layout_with`]); `None`: the configuration's model
+    /// ([`layout_for`]), with the turntable's states where its angles are given.
+    pub layout: Option<&'a StateLayout>,
+    /// The kind of run.
+    pub kind: RunKind<'a>,
+}
+
+impl<'a> Plan<'a> {
+    /// A programmed run of the configuration's model, the fit alone
+    /// ([`ProgramOptions::FIT_ONLY`]).
+    pub fn fit_only(config: &'a RunConfig) -> Self {
+        Self {
+            config,
+            layout: None,
+            kind: RunKind::Programmed(ProgramOptions::FIT_ONLY),
+        }
+    }
+}
+
+/// The kinds of run.
+#[derive(Clone, Copy)]
+pub enum RunKind<'a> {
+    /// Along a turntable program (given, or read from the angle records), with the turntable's
+    /// angles where the layout has their states: located on the IMU clock, then passes over
+    /// the records until the parameters settle.
+    Programmed(ProgramOptions),
+    /// A hand-turned recording of rests (no program, no turntable): the filter of a recording
+    /// of rests, with its noise measured and rests held out where asked, and the figures of
+    /// the result on the rests ([`hand_turned`]).
+    HandTurned(HandTurnedRun<'a>),
+    /// The filter alone on a recording of rests: the configured noise, no hold-out, no score
+    /// tests and no figures ([`Calibration::evaluation`] is `None`).
+    RestsFilter {
+        /// The rests, on the IMU clock, in time order.
+        rests: &'a [Rest],
+        /// Known turns between them, as measurements.
+        turns: &'a [Turn],
+    },
+}
+
+/// What a programmed run does beyond the fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ProgramOptions {
+    /// The score tests of the candidate terms ([`score_pass`]).
+    pub score_terms: bool,
+    /// The thermal terms carried where the records' temperature spans enough
+    /// (`score_pass::with_thermal_biases`).
+    pub carry_thermal: bool,
+}
+
+impl ProgramOptions {
+    /// `calibrate`'s: the score tests, and the thermal terms carried where they can be.
+    pub const CALIBRATE: Self = Self {
+        score_terms: true,
+        carry_thermal: true,
+    };
+    /// The fit alone (as the configuration asks).
+    pub const FIT_ONLY: Self = Self {
+        score_terms: false,
+        carry_thermal: false,
+    };
+}
+
+/// A hand-turned recording of rests ([`RunKind::HandTurned`]).
+#[derive(Clone, Copy, Debug)]
+pub struct HandTurnedRun<'a> {
+    /// The rests, on the IMU clock, in time order.
+    pub rests: &'a [Rest],
+    /// Known turns between them, as measurements.
+    pub turns: &'a [Turn],
+    /// Every how many rests one is held out (`filter.hold_out_every`); `None`: none.
+    pub holdout: Option<usize>,
+    /// The rests' white noise, where the noise is measured from the recording
+    /// ([`hand_turned::white_noise_at_rest`]); `None`: the configured noise.
+    pub measured: Option<hand_turned::WhiteNoiseAtRest>,
+}
+
+/// The records a calibration is made from.
+pub enum Records<'a> {
+    /// Held in memory (IMU records and, for a programmed run, the turntable's).
+    Held(RunData<'a>),
+    /// An IMU source read again for every pass (e.g. a file read record by record), and the
+    /// turntable records.
+    Streamed {
+        /// The IMU records.
+        imu: &'a mut dyn ImuSource,
+        /// The turntable records, for a programmed run with the angles.
+        turntable: Option<AngleRecords<'a>>,
+    },
+}
+
+/// Calibrate: the one entry into the estimate. `progress` is called with (work done, total
+/// work) now and then; the work counts the reading of the records and the passes.
+///
+/// A recording of rests has no turntable angles: given with one, it is refused.
+pub fn run(
+    plan: Plan,
+    records: Records,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Calibration, EstimateError> {
+    let mut held;
+    let (imu, turntable): (&mut dyn ImuSource, _) = match records {
+        Records::Held(data) => {
+            held = MemoryImu::new(data.imu, data.imu_file);
+            (&mut held, data.turntable)
+        }
+        Records::Streamed { imu, turntable } => (imu, turntable),
+    };
+    let config = plan.config;
+    let configured;
+    let layout = match plan.layout {
+        Some(layout) => layout,
+        None => {
+            configured = layout_for(config, turntable.is_some());
+            &configured
+        }
+    };
+    if turntable.is_some() && !matches!(plan.kind, RunKind::Programmed(_)) {
+        return Err(EstimateError::Rests {
+            file: imu.file().to_string(),
+            source: RestError::WithTurntable,
+        });
+    }
+    match plan.kind {
+        RunKind::Programmed(options) => {
+            programmed::calibrate(config, layout, imu, turntable, options, progress)
+        }
+        RunKind::HandTurned(run) => hand_turned::calibrate(config, layout, imu, &run, progress),
+        RunKind::RestsFilter { rests, turns } => {
+            let input = hand_turned::RestsInput { imu, rests, turns };
+            hand_turned::filter_only(config, layout, input, progress)
+        }
+    }
+}
 
 /// Errors of an estimation run.
 #[derive(Debug, thiserror::Error)]
@@ -210,7 +350,7 @@ pub struct Estimate {
     /// The segments the innovations are assigned to: the program's pieces, or the rests and
     /// the motions between them.
     pub segments: Vec<diagnostics::Segment>,
-    /// A recording without a program: its rests ([`estimate_at_rests`]); empty with a program.
+    /// A recording without a program: its rests ([`RunKind::HandTurned`]); empty with a program.
     pub rests: Vec<Rest>,
     /// A recording without a program: how its start attitude was found; `None` with a program.
     pub start_alignment: Option<crate::motion::rests::RestAlignment>,
@@ -233,7 +373,7 @@ pub struct Estimate {
     pub carried_terms: Vec<String>,
     /// What the fit's last pass was made with (its motion and the point its extended pass is
     /// linearised about): for the extended pass of a recording of rests, made once after the
-    /// noise fixed point settles rather than in each of its fits ([`score_rests`]).
+    /// noise fixed point settles rather than in each of its fits (`at_rests::score_rests`).
     replay: Option<Box<Replay>>,
 }
 
@@ -329,7 +469,7 @@ impl Estimate {
 /// site (its gravity and Earth rate) and the priors in SI. The fits of one calibration may
 /// differ in their noise levels and held-out segments, never in these.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Plan {
+pub(crate) struct SitePriors {
     /// The site.
     site: sins_model::earth::Site,
     /// The specific force at rest there (m/s^2).
@@ -338,7 +478,7 @@ pub(crate) struct Plan {
     priors: sins_model::terms::PaperPriors,
 }
 
-impl Plan {
+impl SitePriors {
     /// The plan of an estimate with `config`.
     pub(crate) fn of(config: &RunConfig) -> Self {
         let site = config.site();
@@ -403,12 +543,12 @@ struct Nominal {
 }
 
 /// What every pass of a calibration reads: the configuration, the state layout, the turntable
-/// side (set up only for a layout with the mounting states: [`estimate_from`]), the scan of
+/// side (set up only for a layout with the mounting states: [`run`]), the scan of
 /// the IMU data and what the unit did.
 #[derive(Clone, Copy)]
 struct PassInputs<'r, 't> {
     config: &'r RunConfig,
-    plan: &'r Plan,
+    plan: &'r SitePriors,
     layout: &'r StateLayout,
     turntable: Option<&'r TurntableSetup<'t>>,
     scan: &'r Scan,

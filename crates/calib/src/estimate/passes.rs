@@ -7,8 +7,8 @@ use super::pass::{
 
 use super::start_point::start_filter;
 use super::{
-    Estimate, EstimateError, ImuSource, Motion, Nominal, PROGRESS_EVERY, PassInputs, Plan, Replay,
-    consider, score_pass,
+    Estimate, EstimateError, ImuSource, Motion, Nominal, PROGRESS_EVERY, PassInputs, Replay,
+    SitePriors, consider, score_pass,
 };
 
 use crate::check::diagnostics;
@@ -135,7 +135,7 @@ pub(super) const HEADING_UNRESOLVED_RAD: f64 = crate::motion::rests::GYROCOMPASS
 /// Not on every recording: on one whose configured accelerometer noise is ten times too low
 /// (crates/sins-calib/tests/rests.rs) the fed-back tilt ran away (mean NIS 6.4e6 against 281
 /// without).
-pub(super) fn gyro_noise_walks_the_tilt(config: &RunConfig, plan: &Plan, run_s: f64) -> bool {
+pub(super) fn gyro_noise_walks_the_tilt(config: &RunConfig, plan: &SitePriors, run_s: f64) -> bool {
     let g = plan.gravity_m_s2;
     let second_order = 0.5 * g * config.gyro_psd() * run_s;
     let one_measurement = (config.accel_psd() * config.filter.accel_rate_hz).sqrt();
@@ -180,7 +180,7 @@ impl pulp::WithSimd for Steps<'_, '_, '_> {
 /// one before (parameters and start attitude).
 pub(super) const MAX_PASSES: usize = 4;
 
-/// Most passes over a recording of rests ([`estimate_at_rests`]).
+/// Most passes over a recording of rests (`at_rests::fit_at_rests`).
 pub(super) const MAX_PASSES_RESTS: usize = 8;
 
 /// A pass whose estimates moved less than this (posterior sigmas, largest over the parameters)

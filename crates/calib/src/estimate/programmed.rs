@@ -5,45 +5,55 @@ use super::passes::iterate_passes;
 use super::scan::{Spacing, scan_imu};
 use super::start_point::first_linearisation_point;
 use super::{
-    Estimate, EstimateError, ImuSource, MemoryImu, Motion, PassInputs, Plan, RunData, Scan,
-    TurntableSetup, score_pass,
+    Estimate, EstimateError, ImuSource, MemoryImu, Motion, PassInputs, ProgramOptions, RunData,
+    Scan, SitePriors, TurntableSetup, score_pass,
 };
 
+use crate::check::diagnostics::DiagnosticSettings;
 use crate::config::RunConfig;
+use crate::estimate::calibration::Calibration;
 use crate::estimate::data_checks::{check_gyros_alive, check_specific_force};
+use crate::estimate::noise::NoiseSource;
 use crate::io::angle_records::AngleRecords;
 use crate::model::extension::ModelExtension;
-use crate::model::layout::{StateLayout, layout_for, layout_with};
+use crate::model::layout::{StateLayout, layout_with};
 use crate::motion::program_start::{
     ProgramStart, ProgramStartError, check_program_start, find_program_start,
 };
 
-/// Calibrate from recorded data in memory with the configuration's model and settings.
-/// `progress` is called with (work done, total work) now and then; the work counts the reading
-/// of the records and both filter passes, so the total is three times the records.
-pub fn estimate(
+/// A programmed run ([`super::RunKind::Programmed`]): the fit of [`fit_program`] with the
+/// options' extra work (the score tests' pass, the thermal terms carried), its innovations
+/// tested with the default settings, and its verdict.
+pub(super) fn calibrate(
     config: &RunConfig,
-    data: &RunData,
+    layout: &StateLayout,
+    imu: &mut dyn ImuSource,
+    turntable: Option<AngleRecords>,
+    options: ProgramOptions,
     progress: &mut dyn FnMut(usize, usize),
-) -> Result<Estimate, EstimateError> {
-    let layout = layout_for(config, data.turntable.is_some());
-    estimate_with(config, &layout, data, progress)
+) -> Result<Calibration, EstimateError> {
+    let mut config = config.clone();
+    let given = (config.filter.score_terms, config.filter.carry_thermal);
+    config.filter.score_terms |= options.score_terms;
+    config.filter.carry_thermal |= options.carry_thermal;
+    let estimate = fit_program(&config, layout, imu, turntable, &mut None, progress)?;
+    // The options are the run's, not the configuration's: it is kept as given.
+    (config.filter.score_terms, config.filter.carry_thermal) = given;
+    Ok(Calibration::new(
+        estimate,
+        config,
+        NoiseSource::Configured,
+        None,
+        &DiagnosticSettings::default(),
+    ))
 }
 
-/// Calibrate from recorded data in memory with the paper's model extended by `ext`
-/// ([`crate::model::layout::layout_with`]: the extra terms' parameters are states after the paper's,
-/// a gyro drift is process noise on the gyro biases). With an empty extension this is
-/// [`estimate`], bit for bit.
-pub fn estimate_ext(
-    config: &RunConfig,
-    data: RunData,
-    ext: &ModelExtension,
-) -> Result<Estimate, EstimateError> {
-    estimate_ext_kept(config, data, ext, &mut None)
-}
-
-/// [`estimate_ext`] with the program kept for the next fit ([`estimate_from_kept`]).
-pub(crate) fn estimate_ext_kept(
+/// A fit of held records with the paper's model extended by `ext`
+/// ([`crate::model::layout::layout_with`]: the extra terms' parameters are states after the
+/// paper's, a gyro drift is process noise on the gyro biases), the program kept in `program`
+/// for the next fit ([`fit_program`]): the model-extension loop's fits. With an empty
+/// extension this is the fit of the paper's model, bit for bit.
+pub(crate) fn fit_extended(
     config: &RunConfig,
     data: RunData,
     ext: &ModelExtension,
@@ -51,7 +61,7 @@ pub(crate) fn estimate_ext_kept(
 ) -> Result<Estimate, EstimateError> {
     let layout = layout_with(config, data.turntable.is_some(), ext);
     let mut imu = MemoryImu::new(data.imu, data.imu_file);
-    estimate_from_kept(
+    fit_program(
         config,
         &layout,
         &mut imu,
@@ -61,43 +71,23 @@ pub(crate) fn estimate_ext_kept(
     )
 }
 
-/// [`estimate`] with any state layout (e.g. an extended instrument model).
-pub fn estimate_with(
-    config: &RunConfig,
-    layout: &StateLayout,
-    data: &RunData,
-    progress: &mut dyn FnMut(usize, usize),
-) -> Result<Estimate, EstimateError> {
-    let mut imu = MemoryImu::new(data.imu, data.imu_file);
-    estimate_from(config, layout, &mut imu, data.turntable, progress)
-}
-
-/// Calibrate from any IMU source (e.g. a file read record by record, twice) and the turntable
-/// records, with the state layout `layout`.
+/// Calibrate along a program from any IMU source (e.g. a file read record by record, again for
+/// every pass) and the turntable records, with the state layout `layout`.
 ///
-/// Two passes over the data. The first feeds every estimate back as it goes (closed loop) and
-/// starts from the prior means; its linearisation errors are products of the current errors,
-/// which are large at first: an unobservable 1-degree heading error times a 1e-3 scale-factor
-/// error puts 5 sigma of bias into the IMU-only accelerometer matrix. The second pass
-/// linearises about the first pass's estimates (the increments are compensated with them, the
-/// turntable angles read with their delay and installation) and keeps the same prior, so only
-/// the attitude is fed back and the parameter errors stay in the filter state.
-pub fn estimate_from(
-    config: &RunConfig,
-    layout: &StateLayout,
-    imu: &mut dyn ImuSource,
-    turntable: Option<AngleRecords>,
-    progress: &mut dyn FnMut(usize, usize),
-) -> Result<Estimate, EstimateError> {
-    estimate_from_kept(config, layout, imu, turntable, &mut None, progress)
-}
-
-/// [`estimate_from`] with the program kept in `program` for fits of the same configuration
+/// The first pass feeds every estimate back as it goes (closed loop) and starts from the prior
+/// means; its linearisation errors are products of the current errors, which are large at
+/// first: an unobservable 1-degree heading error times a 1e-3 scale-factor error puts 5 sigma
+/// of bias into the IMU-only accelerometer matrix. The passes after it linearise about the one
+/// before (the increments are compensated with its estimates, the turntable angles read with
+/// its delay and installation) and keep the same prior, so only the attitude is fed back and
+/// the parameter errors stay in the filter state.
+///
+/// The program is kept in `program` for fits of the same configuration
 /// (the model-extension loop's): used when there, else compiled (after the records are read,
 /// so that the errors come in the same order) and left there. Only the noise, the model and
 /// the held-out segments may differ between the configurations of the fits that share it: a
 /// program that `config` reads from the angle records must have been resolved into it.
-pub(crate) fn estimate_from_kept(
+pub(super) fn fit_program(
     config: &RunConfig,
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
@@ -114,7 +104,7 @@ pub(crate) fn estimate_from_kept(
         Some(p) => p.clone(),
         None => program.insert(config.program()?).clone(),
     };
-    let plan = Plan::of(config);
+    let plan = SitePriors::of(config);
     let turns = program.pieces().iter().any(|p| p.rate != [0.0; 3]);
     check_gyros_alive(&scan.bins, turns, imu.file())?;
     check_specific_force(&scan.bins, plan.gravity_m_s2, imu.file())?;
@@ -163,7 +153,7 @@ pub(super) fn first_pass_feedback(config: &RunConfig) -> Feedback {
 /// no start to find: it is taken to start with the data.
 pub(super) fn locate_program(
     config: &RunConfig,
-    plan: &Plan,
+    plan: &SitePriors,
     scan: &mut Scan,
     program: &turntable::program::Program,
     file: &str,

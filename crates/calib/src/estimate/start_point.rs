@@ -1,6 +1,6 @@
 //! Where the passes start: the prior about the start attitude, and the first linearisation point.
 
-use super::{EstimateError, Motion, Nominal, Plan, Scan};
+use super::{EstimateError, Motion, Nominal, Scan, SitePriors};
 use crate::config::{AttitudePrior, RunConfig};
 use crate::model::engine::prior_filter;
 use crate::model::layout::{StateLayout, initial_covariance};
@@ -17,7 +17,7 @@ use turntable::gimbal::c_platform_to_base;
 /// ([`crate::motion::align`]), with the error tied to the gyro parameters.
 pub(super) fn start_prior(
     config: &RunConfig,
-    plan: &Plan,
+    plan: &SitePriors,
     layout: &StateLayout,
     scan: &Scan,
     motion: &Motion,
@@ -67,7 +67,7 @@ pub(super) fn start_prior(
 /// off). Without them the start prior itself comes from the program ([`start_prior`]).
 pub(super) fn first_linearisation_point(
     config: &RunConfig,
-    plan: &Plan,
+    plan: &SitePriors,
     layout: &StateLayout,
     scan: &Scan,
     motion: &Motion,
@@ -101,7 +101,7 @@ pub(super) fn first_linearisation_point(
 /// estimate of the pass before), which it returns with the filter.
 pub(super) fn start_filter(
     config: &RunConfig,
-    plan: &Plan,
+    plan: &SitePriors,
     layout: &StateLayout,
     scan: &Scan,
     motion: &Motion,

@@ -8,7 +8,7 @@ use crate::config::RunConfig;
 use crate::estimate::calibration::Calibration;
 use crate::estimate::covariance::{Posterior, covariance_analysis_ext};
 use crate::estimate::noise::{MeasuredLevels, NoiseSource};
-use crate::estimate::{Estimate, ImuSource, RunData, estimate_ext_kept};
+use crate::estimate::{Estimate, ImuSource, RunData, fit_extended};
 use crate::extend::evidence::{
     InformationGain, ScoreTest, chi_bar_square_sf, ln_chi_square_sf, score_test, separability,
 };
@@ -121,7 +121,7 @@ impl<'a> Context<'a> {
     ) -> Result<Fit, LoopError> {
         let (estimate, config, noise) = match &mut self.records {
             LoopRecords::Program(data) => {
-                let est = estimate_ext_kept(config, **data, ext, &mut self.program)?;
+                let est = fit_extended(config, **data, ext, &mut self.program)?;
                 (est, config.clone(), NoiseSource::Configured)
             }
             LoopRecords::Rests { imu, rests } => {

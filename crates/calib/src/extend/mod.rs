@@ -4,7 +4,7 @@
 //!
 //! Each round:
 //! 1. every candidate term not yet in the model is fitted together with the model
-//!    ([`crate::estimate::estimate_ext`]); its score statistic ([`crate::extend::evidence::score_test`])
+//!    (`crate::estimate::fit_extended`); its score statistic ([`crate::extend::evidence::score_test`])
 //!    says whether the innovations call for it, with a chi-square p-value; the gyro bias random
 //!    walk, a noise process and not a state, is tested by the likelihood ratio of the
 //!    innovations over a grid of intensities, with the chi-bar-square p-value of a parameter on

@@ -74,7 +74,7 @@ pub(super) fn check_coverage(
 }
 
 /// [`run_loop`] on a recording of rests without a program or turntable angles
-/// ([`crate::estimate::calibrate_rests`]): the same candidates, tests and decisions, with each
+/// ([`crate::estimate::run`]): the same candidates, tests and decisions, with each
 /// candidate's separability from the fit's own posterior (no program to analyse along). A time
 /// offset or the inner lever arms need specific force measured during rotation, which such a
 /// recording does not have: their posterior stays at the prior and they are not separable.

@@ -2,7 +2,7 @@
 //! and the figures a calibration of such a recording is judged on.
 //!
 //! - **The coarse start** ([`coarse_fit`]): the filter of a recording of rests
-//!   ([`crate::estimate::calibrate_rests`]) linearises its first pass about these values where
+//!   ([`crate::estimate::run`]) linearises its first pass about these values where
 //!   the priors are wide (a consumer unit: per-cent scale factors, degrees per second of bias).
 //!   A Gauss-Newton least-squares fit with priors of the paper's 21 parameters (gyro bias, full
 //!   `Theta`, accelerometer bias, lower-triangular `Gamma`), the records calibrated by their
