@@ -1,5 +1,13 @@
 //! Calibration from recorded data (the method in full: `docs/estimation.md`).
 //!
+//! The one entry is [`run`]: a [`Plan`] (the configuration, the model and the kind of run with
+//! its options: [`RunKind`]) and the [`Records`] in, a [`calibration::Calibration`] out. Its
+//! parts: the first reading of the records (`scan`), a programmed run located on the IMU clock
+//! (`programmed`), a recording of rests (`at_rests`, its coarse start `coarse_start`, the
+//! hand-turned run with its measured noise [`hand_turned`]), the turntable side
+//! (`turntable_setup`), where the passes start (`start_point`), the passes themselves
+//! (`passes`, one pass `pass`).
+//!
 //! - Checks before any filter: values no sensor gives, the specific force at rest, dead gyros,
 //!   the program's start on the IMU clock (found from the rates or checked), the turntable
 //!   angles against the program through the clock relation.
