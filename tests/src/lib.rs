@@ -205,7 +205,7 @@ pub fn monte_carlo_both_models(
     config: impl Fn(u64) -> RunConfig + Sync,
     mut inspect: impl FnMut(bool, &Estimate),
 ) {
-    use calib::estimate::{RunData, estimate};
+    use calib::estimate::{Plan, Records, RunData, run};
     use calib::io::{ImuData, TurntableData};
     // The runs are independent: they go in parallel, and their results are taken in seed
     // order, so the figures do not depend on the number of threads.
@@ -220,7 +220,9 @@ pub fn monte_carlo_both_models(
                 imu_file: "imu.csv",
                 turntable: with_tt.then_some((&tt, "turntable.csv").into()),
             };
-            let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
+            let est = run(Plan::fit_only(&config), Records::Held(data), &mut |_, _| {})
+                .map(|c| c.estimate)
+                .unwrap();
             let (e, s) = state_errors(&config, &sim, &est);
             (est, e, s)
         })

@@ -4,8 +4,9 @@
 //! `docs/verdict.md`) and, on a small fixed subset, by `tests/tests/operating.rs` in CI.
 //!
 //! A run is simulated with [`calib::simulate::simulate_run_hidden`] and calibrated as
-//! `calibrate` does it ([`calib::estimate::calibration::calibrate_program`] along a program,
-//! [`calib::estimate::hand_turned::calibrate`] on the rests of a recording without one), with
+//! `calibrate` does it ([`calib::estimate::run`] along a program with
+//! [`calib::estimate::ProgramOptions::CALIBRATE`], and hand-turned on the rests of a recording
+//! without one), with
 //! the configured noise; its verdict is [`calib::estimate::verdict::RunVerdict`].
 //!
 //! Effect sizes are stated as the base-parameter error they cause: a reference magnitude (every
@@ -18,8 +19,8 @@
 use crate::hidden::{case_config, warm_up};
 use crate::parallel_map;
 use calib::config::RunConfig;
-use calib::estimate::calibration::{Calibration, calibrate_program};
-use calib::estimate::{MemoryImu, hand_turned};
+use calib::estimate::calibration::Calibration;
+use calib::estimate::{self, HandTurnedRun, MemoryImu, Plan, ProgramOptions, Records, RunKind};
 use calib::io::{ImuData, TurntableData};
 use calib::model::extension::HiddenEffects;
 use calib::model::layout::layout_for;
@@ -235,22 +236,35 @@ fn calibrate(
             .collect();
         let mut config = config.clone();
         config.inline_program = None;
-        return hand_turned::calibrate(
-            &config,
-            &layout,
-            &mut MemoryImu::new(imu, "imu.csv"),
-            &rests,
-            &[],
-            None,
-            None,
-            &mut |_, _| {},
-        )
-        .expect("calibration");
+        let run = HandTurnedRun {
+            rests: &rests,
+            turns: &[],
+            holdout: None,
+            measured: None,
+        };
+        let plan = Plan {
+            config: &config,
+            layout: Some(&layout),
+            kind: RunKind::HandTurned(run),
+        };
+        let records = Records::Streamed {
+            imu: &mut MemoryImu::new(imu, "imu.csv"),
+            turntable: None,
+        };
+        return estimate::run(plan, records, &mut |_, _| {}).expect("calibration");
     }
     let tt = TurntableData::from_samples(turntable);
     let angles = class.turntable().then(|| (&tt, "turntable.csv").into());
-    let mut source = MemoryImu::new(imu, "imu.csv");
-    calibrate_program(config, &layout, &mut source, angles, &mut |_, _| {}).expect("calibration")
+    let plan = Plan {
+        config,
+        layout: Some(&layout),
+        kind: RunKind::Programmed(ProgramOptions::CALIBRATE),
+    };
+    let records = Records::Streamed {
+        imu: &mut MemoryImu::new(imu, "imu.csv"),
+        turntable: angles,
+    };
+    estimate::run(plan, records, &mut |_, _| {}).expect("calibration")
 }
 
 /// The reference magnitude of `term` on `class`: every parameter at its grade's prior sigma,

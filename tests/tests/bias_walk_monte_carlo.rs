@@ -9,7 +9,7 @@
 //! ([`workspace_tests::MonteCarlo::check`]).
 
 use calib::config::RunConfig;
-use calib::estimate::{RunData, estimate};
+use calib::estimate::{Plan, Records, RunData, run};
 use calib::io::{ImuData, TurntableData};
 use workspace_tests::{monte_carlo_both_models, simulated_run_config, state_errors};
 
@@ -35,7 +35,9 @@ fn one_run_with_the_walk_every_parameter_within_3_sigma() {
             imu_file: "imu.csv",
             turntable: with_tt.then_some((&tt, "turntable.csv").into()),
         };
-        let est = estimate(&c, &data, &mut |_, _| {}).unwrap();
+        let est = run(Plan::fit_only(&c), Records::Held(data), &mut |_, _| {})
+            .map(|c| c.estimate)
+            .unwrap();
         let (e, s) = state_errors(&c, &sim, &est);
         let (z, name) = (3..e.len())
             .map(|i| (e[i] / s[i], &est.names[i]))
@@ -85,9 +87,21 @@ fn expected_walk_statistic_matches_simulated_runs() {
             imu_file: "imu.csv",
             turntable: None,
         };
-        let with = log_likelihood(&estimate(&c, &data, &mut |_, _| {}).unwrap().innovations).0;
+        let with = log_likelihood(
+            &run(Plan::fit_only(&c), Records::Held(data), &mut |_, _| {})
+                .map(|c| c.estimate)
+                .unwrap()
+                .innovations,
+        )
+        .0;
         c.noise.gyro_bias_walk_deg_h_sqrt_h = 0.0;
-        let without = log_likelihood(&estimate(&c, &data, &mut |_, _| {}).unwrap().innovations).0;
+        let without = log_likelihood(
+            &run(Plan::fit_only(&c), Records::Held(data), &mut |_, _| {})
+                .map(|c| c.estimate)
+                .unwrap()
+                .innovations,
+        )
+        .0;
         2.0 * (with - without)
     });
     let n = stats.len() as f64;

@@ -2,7 +2,7 @@
 //! the reported sigma with the covariance analysis, the IMU-only case, refused input.
 
 use calib::estimate::covariance::{covariance_analysis_with, layout_for};
-use calib::estimate::{RunData, estimate};
+use calib::estimate::{Plan, Records, RunData, run};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;
 use nalgebra::Vector3;
@@ -30,7 +30,9 @@ fn delay_and_installation_are_recovered_and_sigma_matches_the_covariance_analysi
             imu_file: "imu.csv",
             turntable: with_tt.then_some((&tt, "turntable.csv").into()),
         };
-        let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
+        let est = run(Plan::fit_only(&config), Records::Held(data), &mut |_, _| {})
+            .map(|c| c.estimate)
+            .unwrap();
         assert_eq!(est.names.len(), if with_tt { 28 } else { 24 });
         if with_tt {
             for name in [
@@ -95,7 +97,8 @@ fn a_turntable_file_outside_the_imu_run_is_refused_by_name() {
         imu_file: "imu.csv",
         turntable: Some((&tt, "rec/turntable.csv").into()),
     };
-    let e = estimate(&config, &data, &mut |_, _| {})
+    let e = run(Plan::fit_only(&config), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
         .unwrap_err()
         .to_string();
     assert!(
@@ -117,7 +120,8 @@ fn imu_records_at_another_rate_are_refused_with_the_line() {
         imu_file: "imu.csv",
         turntable: None,
     };
-    let e = estimate(&config, &data, &mut |_, _| {})
+    let e = run(Plan::fit_only(&config), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
         .unwrap_err()
         .to_string();
     assert!(e.contains("imu.csv") && e.contains("line 102"), "{e}");

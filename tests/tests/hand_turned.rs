@@ -15,10 +15,10 @@
 //! 50 deg/h/g (905, a quadratic term, did not spoil the held-out figures: see its test).
 
 use calib::config::RunConfig;
-use calib::estimate::MemoryImu;
 use calib::estimate::calibration::Calibration;
 use calib::estimate::hand_turned::{self, WhiteNoiseAtRest};
 use calib::estimate::verdict::RunVerdict;
+use calib::estimate::{HandTurnedRun, MemoryImu, Plan, Records, RunKind};
 use calib::extend::{LoopSettings, run_loop_at_rests};
 use calib::io::ImuData;
 use calib::model::extension::HiddenEffects;
@@ -60,17 +60,22 @@ pub(crate) fn calibrate(
     holdout: Option<usize>,
     measured: Option<WhiteNoiseAtRest>,
 ) -> Calibration {
-    hand_turned::calibrate(
-        config,
-        &layout_for(config, false),
-        &mut calib::estimate::MemoryImu::new(imu, "imu.csv"),
+    let run = HandTurnedRun {
         rests,
-        &[],
+        turns: &[],
         holdout,
         measured,
-        &mut |_, _| {},
-    )
-    .unwrap()
+    };
+    let plan = Plan {
+        config,
+        layout: Some(&layout_for(config, false)),
+        kind: RunKind::HandTurned(run),
+    };
+    let records = Records::Streamed {
+        imu: &mut MemoryImu::new(imu, "imu.csv"),
+        turntable: None,
+    };
+    calib::estimate::run(plan, records, &mut |_, _| {}).unwrap()
 }
 
 #[test]

@@ -10,7 +10,7 @@
 //! `--ignored` (`cargo test --release -p workspace-tests --test integration noiseless:: -- --ignored`).
 
 use calib::config::RunConfig;
-use calib::estimate::{RunData, estimate};
+use calib::estimate::{Plan, Records, RunData, run};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;
 use workspace_tests::simulated_run_config;
@@ -66,7 +66,9 @@ fn largest_errors(c: &RunConfig) -> Vec<(usize, f64, String)> {
                 imu_file: "imu.csv",
                 turntable: with_tt.then_some((&tt, "turntable.csv").into()),
             };
-            let est = estimate(c, &data, &mut |_, _| {}).unwrap();
+            let est = run(Plan::fit_only(c), Records::Held(data), &mut |_, _| {})
+                .map(|c| c.estimate)
+                .unwrap();
             let (worst, name) = est
                 .names
                 .iter()

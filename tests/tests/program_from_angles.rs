@@ -3,7 +3,7 @@
 //! calibration with it matches the calibration with the true program.
 
 use calib::config::PROGRAM_FROM_ANGLES;
-use calib::estimate::{RunData, estimate};
+use calib::estimate::{Plan, Records, RunData, run};
 use calib::io::{ImuData, TurntableData};
 use calib::motion::angles_program::program_from_angles;
 use turntable::program::Program;
@@ -53,10 +53,18 @@ fn the_program_read_from_the_angles_is_the_one_run() {
         imu_file: "imu.csv",
         turntable: Some((&tt, "turntable.csv").into()),
     };
-    let given = estimate(&config, &data, &mut |_, _| {}).unwrap();
+    let given = run(Plan::fit_only(&config), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+        .unwrap();
     let mut from_angles = config.clone();
     from_angles.program = PROGRAM_FROM_ANGLES.into();
-    let read = estimate(&from_angles, &data, &mut |_, _| {}).unwrap();
+    let read = run(
+        Plan::fit_only(&from_angles),
+        Records::Held(data),
+        &mut |_, _| {},
+    )
+    .map(|c| c.estimate)
+    .unwrap();
     let worst = (3..given.names.len())
         .map(|i| (read.values[i] - given.values[i]).abs() / given.cov[(i, i)].sqrt())
         .fold(0.0, f64::max);
@@ -74,8 +82,13 @@ fn the_program_read_from_the_angles_is_the_one_run() {
         turntable: None,
         ..data
     };
-    let e = estimate(&from_angles, &imu_only, &mut |_, _| {})
-        .unwrap_err()
-        .to_string();
+    let e = run(
+        Plan::fit_only(&from_angles),
+        Records::Held(imu_only),
+        &mut |_, _| {},
+    )
+    .map(|c| c.estimate)
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("turntable"), "{e}");
 }

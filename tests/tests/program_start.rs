@@ -3,7 +3,7 @@
 //! one that does, and say where the program starts; a wrong given start and data that follow no
 //! program are refused with the cause named.
 
-use calib::estimate::{Estimate, EstimateError, RunData, estimate};
+use calib::estimate::{self, Estimate, EstimateError, Plan, Records, RunData};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;
 use workspace_tests::simulated_run_config;
@@ -30,7 +30,9 @@ fn run(imu: &ImuData, tt: &TurntableData, config: &calib::config::RunConfig) -> 
         imu_file: "imu.csv",
         turntable: Some((tt, "turntable.csv").into()),
     };
-    estimate(config, &data, &mut |_, _| {}).expect("calibrates")
+    estimate::run(Plan::fit_only(config), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+        .expect("calibrates")
 }
 
 #[test]
@@ -77,7 +79,9 @@ fn a_wrong_given_start_and_data_of_another_program_are_refused() {
     // A start 1 s late: the rate changes in the data say otherwise.
     let mut late = config.clone();
     late.filter.program_start_s = Some(1.0);
-    match estimate(&late, &data, &mut |_, _| {}) {
+    match estimate::run(Plan::fit_only(&late), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+    {
         Err(e @ EstimateError::ProgramStart { .. }) => {
             let msg = e.to_string();
             assert!(msg.starts_with("imu.csv: "), "{msg}");
@@ -97,7 +101,9 @@ fn a_wrong_given_start_and_data_of_another_program_are_refused() {
         imu_file: "imu.csv",
         turntable: None,
     };
-    match estimate(&config, &data, &mut |_, _| {}) {
+    match estimate::run(Plan::fit_only(&config), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+    {
         Err(e @ EstimateError::ProgramStart { .. }) => {
             let msg = e.to_string();
             assert!(msg.contains("deg/s given as rad/s"), "{msg}");

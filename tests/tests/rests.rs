@@ -1,5 +1,5 @@
 //! Recordings without a program: the same filter on the rests alone (`calib::estimate::
-//! estimate_at_rests`) against the filter that knows the program, on the same simulated data.
+//! run`) against the filter that knows the program, on the same simulated data.
 //!
 //! The recording: a 19-position run of a navigation-grade unit (the paper's priors and noise),
 //! 20-s rests joined by 90-degree turns at 10 deg/s about the three gimbals, the installation
@@ -13,7 +13,7 @@
 //! the Bonferroni bound for 24 states).
 
 use calib::config::RunConfig;
-use calib::estimate::{MemoryImu, RunData, estimate, estimate_at_rests};
+use calib::estimate::{self, HandTurnedRun, MemoryImu, Plan, Records, RunData, RunKind};
 use calib::io::ImuData;
 use calib::model::layout::layout_for;
 use calib::motion::rests::Rest;
@@ -105,19 +105,22 @@ fn run(seeds: std::ops::RangeInclusive<u64>) {
             imu_file: "imu.csv",
             turntable: None,
         };
-        let programmed = estimate(&config, &data, &mut |_, _| {}).unwrap();
-        let layout = layout_for(&config, false);
-        let mut source = MemoryImu::new(&imu, "imu.csv");
-        let at_rests = estimate_at_rests(
-            &config,
-            &layout,
-            &mut source,
-            &rests(&config),
-            &[],
-            None,
-            &mut |_, _| {},
-        )
-        .unwrap();
+        let programmed =
+            estimate::run(Plan::fit_only(&config), Records::Held(data), &mut |_, _| {})
+                .map(|c| c.estimate)
+                .unwrap();
+        let rests = rests(&config);
+        let plan = Plan {
+            config: &config,
+            layout: None,
+            kind: RunKind::RestsFilter {
+                rests: &rests,
+                turns: &[],
+            },
+        };
+        let at_rests = estimate::run(plan, Records::Held(data), &mut |_, _| {})
+            .unwrap()
+            .estimate;
         let (e, s) = state_errors(&config, &sim, &at_rests);
         (seed, programmed, at_rests, e, s)
     });
@@ -178,8 +181,8 @@ fn nineteen_positions_without_the_program_50_seeds() {
 /// A consumer-grade unit on the same 19-position recording: per-cent scale factors, a degree of
 /// misalignment, a degree per second of gyro bias, 0.3 m/s^2 of accelerometer bias, and the
 /// noise of a MEMS unit (120 deg/h and 0.0012 m/s^2, each the sigma of a 1-s average; the Xsens
-/// MTi of `docs/real-data.md` is of this order). `calibrate_rests` starts it from the coarse
-/// batch fit (`needs_coarse_start`).
+/// MTi of `docs/real-data.md` is of this order). `calib::estimate::run` (`RunKind::RestsFilter`)
+/// starts it from the coarse batch fit (`needs_coarse_start`).
 ///
 /// Fixed before the runs were looked at: seeds 800-809 (in CI) and 850-899 (behind
 /// `--ignored`), the same consistency figures as the navigation-grade runs. Both pass since the
@@ -209,16 +212,23 @@ fn run_consumer(seeds: std::ops::RangeInclusive<u64>) {
         assert!(calib::estimate::needs_coarse_start(&config));
         let sim = calib::simulate::simulate_run(&config, "19 positions").unwrap();
         let imu = ImuData::from_samples(&sim.imu);
-        let layout = layout_for(&config, false);
-        let est = calib::estimate::calibrate_rests(
-            &config,
-            &layout,
-            &mut MemoryImu::new(&imu, "imu.csv"),
-            &rests(&config),
-            &[],
-            &mut |_, _| {},
-        )
-        .unwrap();
+        let rests = rests(&config);
+        let plan = Plan {
+            config: &config,
+            layout: None,
+            kind: RunKind::RestsFilter {
+                rests: &rests,
+                turns: &[],
+            },
+        };
+        let held = RunData {
+            imu: &imu,
+            imu_file: "imu.csv",
+            turntable: None,
+        };
+        let est = estimate::run(plan, Records::Held(held), &mut |_, _| {})
+            .unwrap()
+            .estimate;
         let (e, s) = state_errors(&config, &sim, &est);
         (est, e, s)
     });
@@ -322,17 +332,23 @@ fn a_known_turn_pulls_the_calibration_towards_its_angle() {
             .map(|o| known(angle + o.to_radians()))
             .into_iter()
             .collect();
-        calib::estimate::hand_turned::calibrate(
-            &config,
-            &layout,
-            &mut MemoryImu::new(&imu, "imu.csv"),
-            &rests,
-            &turns,
-            None,
-            None,
-            &mut |_, _| {},
-        )
-        .unwrap()
+        let run = HandTurnedRun {
+            rests: &rests,
+            turns: &turns,
+            holdout: None,
+            measured: None,
+        };
+        let plan = Plan {
+            config: &config,
+            layout: Some(&layout),
+            kind: RunKind::HandTurned(run),
+        };
+        let imu = &mut MemoryImu::new(&imu, "imu.csv");
+        let records = Records::Streamed {
+            imu,
+            turntable: None,
+        };
+        estimate::run(plan, records, &mut |_, _| {}).unwrap()
     };
     let (none, exact, off) = (
         calibrated(None),

@@ -290,9 +290,9 @@ fn the_loop_accepts_nothing_on_a_clean_tactical_recording_turned_both_ways() {
 ///   deg/h/sqrt(h) at which the loop accepts the walk alone on at least 9 of the 10.
 /// - The pilot showed the walk called first at p = 1e-88 to 1e-10 and refused by the held-out
 ///   check on four runs (gains -0.27 to -0.87 nats), and a clean run (793) whose first pass
-///   diverged (fixed: `calib::estimate::estimate_at_rests` feeds back only the tilt where the
-///   heading is free). With the check refusing only a loss of more than one nat
-///   (`calib::extend::HELD_OUT_TOLERANCE_NATS`) the pilot gave 9 of 10 at 3 deg/h/sqrt(h), and
+///   diverged (fixed: the filter of a recording of rests, `calib::estimate::at_rests`, feeds back
+///   only the tilt where the heading is free). With the check refusing only a loss of more than one
+///   nat (`calib::extend::HELD_OUT_TOLERANCE_NATS`) the pilot gave 9 of 10 at 3 deg/h/sqrt(h), and
 ///   the test at seed 708 failed: the walk called at p = 2e-25 and refused at -1.42.
 ///
 /// Over the pilot and 708 the walk's held-out gain ran from -1.42 to +1.60 nats, unrelated to

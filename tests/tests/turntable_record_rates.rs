@@ -8,7 +8,7 @@
 //! `--ignored`: 10 runs per rate (seeds 200-209, fixed in advance) with the NEES and bias
 //! checks of [`MonteCarlo::check`].
 
-use calib::estimate::{RunData, estimate};
+use calib::estimate::{Plan, Records, RunData, run};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;
 use workspace_tests::{MonteCarlo, simulated_run_config};
@@ -29,7 +29,9 @@ fn runs(rate_hz: f64, seeds: std::ops::RangeInclusive<u64>) -> MonteCarlo {
             imu_file: "imu.csv",
             turntable: Some((&tt, "turntable.csv").into()),
         };
-        let est = estimate(&config, &data, &mut |_, _| {}).unwrap();
+        let est = run(Plan::fit_only(&config), Records::Held(data), &mut |_, _| {})
+            .map(|c| c.estimate)
+            .unwrap();
         let s = &est.stats;
         let total = s.turntable_samples + s.turntable_samples_near_rate_changes;
         let left_out = s.turntable_samples_near_rate_changes as f64 / total as f64;

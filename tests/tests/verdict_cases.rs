@@ -6,7 +6,7 @@
 
 use crate::hand_turned::{calibrate, from_data};
 use calib::estimate::calibration::Calibration;
-use calib::estimate::hand_turned;
+use calib::estimate::{HandTurnedRun, Plan, Records, RunKind};
 use calib::io::ImuData;
 use calib::model::extension::{HiddenEffects, ModelExtension};
 use calib::model::layout::layout_with;
@@ -182,17 +182,22 @@ fn the_right_model_with_overstated_noise_exits_0() {
         false,
         &ModelExtension::with(&[Candidate::AccelQuadratic]),
     );
-    let c = hand_turned::calibrate(
-        &config,
-        &layout,
-        &mut calib::estimate::MemoryImu::new(&imu, "imu.csv"),
-        &rests,
-        &[],
-        Some(4),
-        None,
-        &mut |_, _| {},
-    )
-    .unwrap();
+    let run = HandTurnedRun {
+        rests: &rests,
+        turns: &[],
+        holdout: Some(4),
+        measured: None,
+    };
+    let plan = Plan {
+        config: &config,
+        layout: Some(&layout),
+        kind: RunKind::HandTurned(run),
+    };
+    let records = Records::Streamed {
+        imu: &mut calib::estimate::MemoryImu::new(&imu, "imu.csv"),
+        turntable: None,
+    };
+    let c = calib::estimate::run(plan, records, &mut |_, _| {}).unwrap();
     let v = &c.verdict;
     println!("{:#?}\n{:#?}", v.decisive, v.informative);
     assert!(v.fits(), "exit 3: {v:?}");

@@ -4,7 +4,7 @@
 //! `cargo bench -p calib --bench calibration`
 
 use calib::config::{AttitudePrior, RunConfig};
-use calib::estimate::{RunData, estimate};
+use calib::estimate::{Plan, Records, RunData, run};
 use calib::io::{
     ImuData, TurntableData, format_imu_csv, format_turntable_csv, parse_imu_csv,
     parse_turntable_csv,
@@ -48,9 +48,14 @@ fn bench(c: &mut Criterion) {
                     imu_file: "imu.csv",
                     turntable: with_tt.then_some((&tt, "turntable.csv").into()),
                 };
-                estimate(&config, black_box(&data), &mut |_, _| {})
-                    .unwrap()
-                    .values[3]
+                run(
+                    Plan::fit_only(&config),
+                    Records::Held(*black_box(&data)),
+                    &mut |_, _| {},
+                )
+                .unwrap()
+                .estimate
+                .values[3]
             })
         });
     }

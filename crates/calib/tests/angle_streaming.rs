@@ -4,7 +4,7 @@
 
 use crate::paper_20hz::paper_20hz_run;
 use calib::config::PROGRAM_FROM_ANGLES;
-use calib::estimate::{RunData, estimate};
+use calib::estimate::{Plan, Records, RunData, run};
 use calib::io::angle_records::AngleFile;
 use calib::io::write_turntable_csv;
 
@@ -29,7 +29,9 @@ fn streamed_angle_records_give_the_estimates_of_records_in_memory() {
                 imu_file: "imu.csv",
                 turntable: Some(turntable),
             };
-            estimate(config, &data, &mut |_, _| {}).unwrap()
+            run(Plan::fit_only(config), Records::Held(data), &mut |_, _| {})
+                .map(|c| c.estimate)
+                .unwrap()
         };
         let memory = run((&tt, "turntable.csv").into());
         assert_eq!(memory.values.len(), 28);

@@ -4,7 +4,7 @@
 
 use calib::config::{AttitudePrior, RunConfig};
 use calib::estimate::covariance::covariance_analysis;
-use calib::estimate::{Estimate, RunData, estimate};
+use calib::estimate::{self, Estimate, Plan, Records, RunData};
 use calib::io::{ImuData, TurntableData};
 use calib::model::layout::layout_for;
 use calib::simulate::{accel_drift_seed, drift_seed, simulate_run};
@@ -104,7 +104,9 @@ fn run(c: &RunConfig, sim: &Simulation) -> Estimate {
         imu_file: "imu.csv",
         turntable: Some((&tt, "turntable.csv").into()),
     };
-    estimate(c, &data, &mut |_, _| {}).unwrap()
+    estimate::run(Plan::fit_only(c), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+        .unwrap()
 }
 
 /// Errors in sigmas of every parameter (attitude excluded) against the truth, the biases at

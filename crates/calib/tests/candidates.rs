@@ -1,7 +1,8 @@
 //! Candidate terms end to end (issue 10): truth simulation with the effect
 //! ([`simulate_run_hidden`]), covariance analysis ([`covariance_analysis_ext`]) and estimation
-//! ([`estimate_ext`]) with the term. Every run is the paper's program as the workspace tests set
-//! it up (28 states with the turntable angles, plus the term's).
+//! ([`calib::estimate::run`] with the layout [`layout_with`]) with the term. Every run is the
+//! paper's program as the workspace tests set it up (28 states with the turntable angles, plus the
+//! term's).
 //!
 //! Noiseless runs with the effect present (0.5 to 2 prior sigma on every parameter of the term).
 //! The estimate is the posterior mean: where the run knows a parameter only to a tenth of its
@@ -14,7 +15,7 @@
 
 use calib::config::{AttitudePrior, RunConfig};
 use calib::estimate::covariance::{covariance_analysis, covariance_analysis_ext};
-use calib::estimate::{Estimate, RunData, estimate, estimate_ext};
+use calib::estimate::{self, Estimate, Plan, ProgramOptions, Records, RunData, RunKind};
 use calib::io::{ImuData, TurntableData};
 use calib::model::extension::{HiddenEffects, ModelExtension};
 use calib::model::layout::{layout_for, layout_with};
@@ -57,7 +58,20 @@ fn data<'a>(imu: &'a ImuData, tt: &'a TurntableData, with_tt: bool) -> RunData<'
 fn run(c: &RunConfig, sim: &Simulation, with_tt: bool, ext: &ModelExtension) -> Estimate {
     let imu = ImuData::from_samples(&sim.imu);
     let tt = TurntableData::from_samples(&sim.turntable);
-    estimate_ext(c, data(&imu, &tt, with_tt), ext).unwrap()
+    fit_extended(c, data(&imu, &tt, with_tt), ext)
+}
+
+/// The fit alone of `data` with the paper's model extended by `ext`.
+fn fit_extended(c: &RunConfig, data: RunData, ext: &ModelExtension) -> Estimate {
+    let layout = layout_with(c, data.turntable.is_some(), ext);
+    let plan = Plan {
+        config: c,
+        layout: Some(&layout),
+        kind: RunKind::Programmed(ProgramOptions::FIT_ONLY),
+    };
+    estimate::run(plan, Records::Held(data), &mut |_, _| {})
+        .unwrap()
+        .estimate
 }
 
 /// The true value of every parameter of `est` (the simulation's truth; the drifting gyro
@@ -280,8 +294,14 @@ fn empty_extension_is_the_paper_model() {
     assert_eq!(sim.truth, hid.truth);
     let imu = ImuData::from_samples(&sim.imu);
     let tt = TurntableData::from_samples(&sim.turntable);
-    let a = estimate(&c, &data(&imu, &tt, true), &mut |_, _| {}).unwrap();
-    let b = estimate_ext(&c, data(&imu, &tt, true), &ModelExtension::default()).unwrap();
+    let a = estimate::run(
+        Plan::fit_only(&c),
+        Records::Held(data(&imu, &tt, true)),
+        &mut |_, _| {},
+    )
+    .map(|c| c.estimate)
+    .unwrap();
+    let b = fit_extended(&c, data(&imu, &tt, true), &ModelExtension::default());
     assert_eq!(a.values, b.values);
     assert_eq!(a.cov, b.cov);
     assert_eq!(a.stats, b.stats);
@@ -341,9 +361,9 @@ fn hidden_effects_keep_the_noise_draws() {
 
 /// The gyro biases drift (0.5 deg/h/sqrt(h): 0.43 deg/h of 1-sigma change over the run's
 /// 0.76 h, against a posterior sigma of 0.02 to 0.05 deg/h). With the drift in the filter the
-/// run stays consistent: mean NIS of both measurements per degree of freedom within [0.8, 1.25] and the NEES of the
-/// parameters at the end (biases against their final true values) below the 99.9 % point of
-/// chi-square for their number (bounds fixed in advance, one seed). Without it the biases'
+/// run stays consistent: mean NIS of both measurements per degree of freedom within [0.8, 1.25] and
+/// the NEES of the parameters at the end (biases against their final true values) below the 99.9 %
+/// point of chi-square for their number (bounds fixed in advance, one seed). Without it the biases'
 /// NEES is far beyond (checked as a sanity check of the test: above the same point).
 #[test]
 fn drift_in_the_filter_keeps_the_run_consistent() {

@@ -3,6 +3,7 @@
 //! simulated without them (same program, mounting and delay).
 
 use calib::config::RunConfig;
+use calib::estimate::{Plan, Records, run};
 use calib::io::{ImuData, ImuKind, ImuRecord, ResultFile};
 use calib::model::correction::{Correction, ExtensionInputs, correct_records};
 use calib::model::extension::HiddenEffects;
@@ -325,7 +326,9 @@ fn filter_result_carries_correlation_and_correction() {
         imu_file: "imu.csv",
         turntable: Some((&tt, "turntable.csv").into()),
     };
-    let est = calib::estimate::estimate(&c, &data, &mut |_, _| {}).expect("estimate");
+    let est = run(Plan::fit_only(&c), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+        .expect("estimate");
     let r = est.to_result_file();
     let n = r.parameters.len();
     assert_eq!(n, 25);

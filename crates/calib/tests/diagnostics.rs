@@ -4,7 +4,7 @@
 
 use calib::check::diagnostics::{DiagnosticSettings, Diagnostics, diagnose, segments};
 use calib::config::{AttitudePrior, RunConfig};
-use calib::estimate::{Estimate, RunData, estimate};
+use calib::estimate::{Estimate, Plan, Records, RunData, run};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;
 use turntable::simulate::Simulation;
@@ -32,7 +32,9 @@ fn calibrate(config: &RunConfig, sim: &Simulation, with_tt: bool) -> (Estimate, 
         imu_file: "imu.csv",
         turntable: with_tt.then_some((&tt, "turntable.csv").into()),
     };
-    let est = estimate(config, &data, &mut |_, _| {}).unwrap();
+    let est = run(Plan::fit_only(config), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+        .unwrap();
     let segs = segments(&config.program().unwrap(), est.program_start_s);
     let d = diagnose(&est.innovations, &segs, &DiagnosticSettings::default());
     (est, d)

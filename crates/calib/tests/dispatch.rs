@@ -5,7 +5,7 @@
 //! path meanwhile: the same bits, only slower.)
 
 use crate::paper_20hz::paper_20hz_run;
-use calib::estimate::{RunData, estimate, force_baseline_instructions};
+use calib::estimate::{Plan, Records, RunData, force_baseline_instructions, run};
 
 #[test]
 fn every_instruction_set_gives_the_same_estimates() {
@@ -17,7 +17,9 @@ fn every_instruction_set_gives_the_same_estimates() {
     };
     let run = |baseline: bool| {
         force_baseline_instructions(baseline);
-        let est = estimate(&c, &data, &mut |_, _| {}).unwrap();
+        let est = run(Plan::fit_only(&c), Records::Held(data), &mut |_, _| {})
+            .map(|c| c.estimate)
+            .unwrap();
         force_baseline_instructions(false);
         est
     };

@@ -10,7 +10,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use calib::config::RunConfig;
-use calib::estimate::{FitStatistics, RunData, estimate};
+use calib::estimate::{FitStatistics, Plan, Records, RunData, run};
 use calib::io::{ImuData, TurntableData};
 
 #[path = "paper_20hz.rs"]
@@ -46,7 +46,9 @@ fn count(c: &RunConfig, imu: &ImuData, tt: &TurntableData) -> (usize, FitStatist
         turntable: Some((tt, "turntable.csv").into()),
     };
     let before = ALLOCATIONS.load(Ordering::SeqCst);
-    let est = estimate(c, &data, &mut |_, _| {}).unwrap();
+    let est = run(Plan::fit_only(c), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+        .unwrap();
     (ALLOCATIONS.load(Ordering::SeqCst) - before, est.stats)
 }
 

@@ -16,7 +16,7 @@
 
 use calib::config::{AttitudePrior, RunConfig};
 use calib::estimate::verdict::{mean_nis_figures, mean_nis_half_band, misfit_reasons};
-use calib::estimate::{Estimate, RunData, estimate};
+use calib::estimate::{self, Estimate, Plan, Records, RunData};
 use calib::io::{ImuData, TurntableData};
 use calib::simulate::simulate_run;
 
@@ -46,7 +46,9 @@ fn run(config: &RunConfig) -> Estimate {
         imu_file: "imu.csv",
         turntable: Some((&tt, "turntable.csv").into()),
     };
-    estimate(config, &data, &mut |_, _| {}).unwrap()
+    estimate::run(Plan::fit_only(config), Records::Held(data), &mut |_, _| {})
+        .map(|c| c.estimate)
+        .unwrap()
 }
 
 #[test]

@@ -9,12 +9,10 @@
 
 use crate::check::diagnostics::{DiagnosticSettings, Diagnostics, diagnose};
 use crate::config::RunConfig;
+use crate::estimate::Estimate;
 use crate::estimate::noise::NoiseSource;
 use crate::estimate::verdict::RunVerdict;
-use crate::estimate::{Estimate, EstimateError, ImuSource, estimate_from};
 use crate::io::ResultFile;
-use crate::io::angle_records::AngleRecords;
-use crate::model::layout::StateLayout;
 use crate::motion::free_motion::Evaluation;
 
 /// The result of a calibration with its checks and its verdict.
@@ -75,29 +73,4 @@ impl Calibration {
     pub fn result_file(&self) -> ResultFile {
         self.estimate.to_result_file()
     }
-}
-
-/// Calibrate along a program (and the turntable's angles, when the layout has their
-/// states) with the configured noise: [`estimate_from`], its innovations tested with the
-/// default settings, and its verdict.
-pub fn calibrate_program(
-    config: &RunConfig,
-    layout: &StateLayout,
-    imu: &mut dyn ImuSource,
-    turntable: Option<AngleRecords>,
-    progress: &mut dyn FnMut(usize, usize),
-) -> Result<Calibration, EstimateError> {
-    let mut config = config.clone();
-    config.filter.score_terms = true;
-    config.filter.carry_thermal = true;
-    let estimate = estimate_from(&config, layout, imu, turntable, progress)?;
-    config.filter.score_terms = false;
-    config.filter.carry_thermal = false;
-    Ok(Calibration::new(
-        estimate,
-        config,
-        NoiseSource::Configured,
-        None,
-        &DiagnosticSettings::default(),
-    ))
 }

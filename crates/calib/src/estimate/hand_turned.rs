@@ -1,5 +1,5 @@
 //! A hand-turned recording without a program, a turntable or a configuration: what the filter
-//! of a recording of rests ([`crate::estimate::calibrate_rests`]) needs that a laboratory
+//! of a recording of rests ([`crate::estimate::run`]) needs that a laboratory
 //! configuration would give, taken from the recording itself, and the held-out figures of
 //! [`crate::motion::free_motion`] for its result.
 //!
@@ -15,13 +15,14 @@
 //!   the priors ([`crate::config::grade_priors`]).
 //! - **A configuration** ([`default_config`]): the grade's priors, the site's latitude, the
 //!   record rate measured from the time stamps, the measured noise.
-//! - **The noise scale and the motion noise** ([`calibrate`]): the specific-force level brought
-//!   to the fit's innovations (up or down), and the attitude noise of a motion measured from
-//!   the first window after each motion ([`noise_ml`]).
+//! - **The noise scale and the motion noise** ([`crate::estimate::RunKind::HandTurned`]): the
+//!   specific-force level brought to the fit's innovations (up or down), and the attitude noise
+//!   of a motion measured from the first window after each motion ([`noise_ml`]).
 //! - **The model**: the paper's, plus the terms the caller names (a `diagnose` result's, or the
 //!   user's): none is added without evidence.
-//! - **The verdict** ([`crate::estimate::verdict::hand_turned_tests`]): with noise the tool set itself, the innovations' scatter is
-//!   no test of the model; the held-out rests are. Exit status 3 only where they contradict it.
+//! - **The verdict** ([`crate::estimate::verdict::hand_turned_tests`]): with noise the tool set
+//!   itself, the innovations' scatter is no test of the model; the held-out rests are. Exit status
+//!   3 only where they contradict it.
 
 use crate::check::diagnostics::Innovation;
 use crate::config::RunConfig;
@@ -377,8 +378,8 @@ pub const MAX_MOTION_NOISE_RAD: f64 = 0.1;
 /// A motion noise below this (rad, 0.2 arcsec) is no different from none.
 pub const MOTION_NOISE_NEGLIGIBLE_RAD: f64 = 1e-6;
 
-/// How many fits [`calibrate`] makes at most to bring measured noise to the data's scatter and
-/// measure the motion noise.
+/// How many fits a hand-turned calibration makes at most to bring measured noise to the data's
+/// scatter and measure the motion noise.
 pub const MAX_NOISE_FITS: usize = 10;
 
 pub use crate::estimate::noise::{
@@ -572,8 +573,8 @@ fn golden_max(f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
 /// tilt's prior is levelled from the same data, so its NIS is small by construction), and the
 /// held-out ones. A rest's first window also holds what the motion before it did to the
 /// attitude: with the vertical row taken to second order in the tilt
-/// ([`crate::model::engine::Engine::vertical_second_order`]) that is a tilt the window measures, and
-/// what remains is the unit settling (on the shipped Xsens recording a few first windows are 3
+/// ([`crate::model::engine::Engine::vertical_second_order`]) that is a tilt the window measures,
+/// and what remains is the unit settling (on the shipped Xsens recording a few first windows are 3
 /// to 6 sigma off in the vertical alone), which is part of the scatter the noise level has to
 /// carry. (Before the correction those windows were left out: their mean NIS was 55.)
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -668,11 +669,11 @@ pub(crate) fn fit_measuring_noise(
     // The coarse start depends on the priors, the rests, the turns and the hold-out, which
     // the fits share (only their noise differs): found once, not at every fit.
     let (imu, rests, turns) = (input.imu, input.rests, input.turns);
-    let coarse = crate::estimate::coarse_start_at_rests(config, layout, imu, rests, turns)?;
+    let coarse = super::coarse_start::coarse_start_at_rests(config, layout, imu, rests, turns)?;
     loop {
         let mut config = config.clone();
         levels.apply(&mut config, base_accel);
-        let est = crate::estimate::estimate_at_rests(
+        let est = super::at_rests::fit_at_rests(
             &config,
             layout,
             imu,
@@ -809,26 +810,25 @@ fn next_motion(motion: f64, estimated: f64, previous: Option<(f64, f64)>) -> f64
     }
 }
 
-/// Calibrate a recording of rests (no program, no turntable) with the filter of
-/// [`crate::estimate::calibrate_rests`], the model `layout`, the known `turns` as measurements,
-/// every `holdout`-th rest held out (`filter.hold_out_every`), the noise measured where
-/// `measured` (`fit_measuring_noise`), and report what the result does to the rests, the
-/// turns and the held-out rests, with its verdict ([`crate::estimate::calibration::Calibration`]).
+/// Calibrate a recording of rests (no program, no turntable:
+/// [`crate::estimate::RunKind::HandTurned`]) with the filter of a recording of rests, the model
+/// `layout`, the known `turns` as measurements, every `holdout`-th rest held out
+/// (`filter.hold_out_every`), the noise measured where `measured` (`fit_measuring_noise`), and
+/// report what the result does to the rests, the turns and the held-out rests, with its verdict
+/// ([`crate::estimate::calibration::Calibration`]).
 ///
 /// The records are read from `imu` again for every step, not held: the rests put on the
 /// records once ([`StampCounts`]), then the poses' check, every pass of every fit, the score
 /// tests' pass and the figures each read them through.
-#[allow(clippy::too_many_arguments)]
-pub fn calibrate(
+pub(super) fn calibrate(
     config: &RunConfig,
     layout: &crate::model::layout::StateLayout,
     imu: &mut dyn ImuSource,
-    rests: &[Rest],
-    turns: &[crate::motion::rests::Turn],
-    holdout: Option<usize>,
-    measured: Option<WhiteNoiseAtRest>,
+    run: &crate::estimate::HandTurnedRun,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<crate::estimate::calibration::Calibration, crate::estimate::EstimateError> {
+    let (rests, turns) = (run.rests, run.turns);
+    let (holdout, measured) = (run.holdout, run.measured);
     let file = imu.file().to_string();
     let refuse = |source| crate::estimate::EstimateError::Rests {
         file: file.clone(),
@@ -853,7 +853,7 @@ pub fn calibrate(
     } = fit_measuring_noise(&config, layout, input, measured, None, progress)?;
     // The score tests' extended pass, once, on the fit the noise settled on.
     let mut estimate = estimate;
-    crate::estimate::score_rests(&config, layout, imu, &mut estimate)?;
+    super::at_rests::score_rests(&config, layout, imu, &mut estimate)?;
     let g = estimate.gravity_m_s2;
     let bias_sigma = ["x", "y", "z"]
         .iter()
@@ -901,6 +901,25 @@ pub fn calibrate(
         config,
         noise,
         Some(evaluation),
+        &crate::check::diagnostics::DiagnosticSettings::default(),
+    ))
+}
+
+/// The filter alone on a recording of rests ([`crate::estimate::RunKind::RestsFilter`]): the
+/// configured noise, no hold-out, a coarse start where the priors call for one, and neither
+/// the score tests' pass nor the figures.
+pub(super) fn filter_only(
+    config: &RunConfig,
+    layout: &crate::model::layout::StateLayout,
+    input: RestsInput,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<crate::estimate::calibration::Calibration, crate::estimate::EstimateError> {
+    let fit = fit_measuring_noise(config, layout, input, None, None, progress)?;
+    Ok(crate::estimate::calibration::Calibration::new(
+        fit.estimate,
+        fit.config,
+        fit.noise,
+        None,
         &crate::check::diagnostics::DiagnosticSettings::default(),
     ))
 }

@@ -3,7 +3,7 @@
 //! ([`HiddenEffects`]). The terms themselves live in [`sins_model::candidates`].
 //!
 //! The entry points that take an extension: [`crate::model::layout::layout_with`],
-//! [`crate::estimate::covariance::covariance_analysis_ext`], [`crate::estimate::estimate_ext`] and
+//! [`crate::estimate::covariance::covariance_analysis_ext`], [`crate::estimate::run`] and
 //! [`crate::simulate::simulate_run_hidden`].
 
 use sins_model::candidates::{Candidate, UnitGrade};

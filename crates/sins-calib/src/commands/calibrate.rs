@@ -6,7 +6,8 @@ use crate::render::calibrate_figures::RunReport;
 use crate::render::console::Written;
 use crate::session::{Calibrate, Records, Session};
 use calib::estimate::ImuSource as _;
-use calib::estimate::calibration::{Calibration, calibrate_program};
+use calib::estimate::calibration::Calibration;
+use calib::estimate::{HandTurnedRun, Plan, ProgramOptions, RunKind};
 use calib::io::angle_records::AngleFile;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal as _;
@@ -138,32 +139,35 @@ fn fit(s: &mut Session<Calibrate>) -> Result<Calibration, Error> {
         }
         bar.set_position((fraction * BAR_STEPS as f64).round() as u64);
     };
-    let calibration = match (&mut s.records, &s.rests) {
-        (Records::Streamed(imu), Some(found)) => {
-            let free_motion = found.free_motion.as_ref();
-            calib::estimate::hand_turned::calibrate(
-                &s.config,
-                &s.task.layout,
-                &mut **imu,
-                &found.rests,
-                free_motion.map_or(&[], |f| &f.turns),
-                s.holdout,
-                free_motion.and_then(|f| f.measured),
-                &mut progress,
-            )?
-        }
-        (Records::Streamed(imu), None) => {
-            let turntable = s.turntable.as_ref().map(AngleFile::records);
-            calibrate_program(
-                &s.config,
-                &s.task.layout,
-                &mut **imu,
-                turntable,
-                &mut progress,
-            )?
-        }
-        (Records::Held(_), _) => unreachable!("calibrate streams its records"),
+    let (Records::Streamed(imu), rests) = (&mut s.records, &s.rests) else {
+        unreachable!("calibrate streams its records")
     };
+    let (kind, turntable) = match rests {
+        Some(found) => {
+            let free_motion = found.free_motion.as_ref();
+            let run = HandTurnedRun {
+                rests: &found.rests,
+                turns: free_motion.map_or(&[], |f| &f.turns),
+                holdout: s.holdout,
+                measured: free_motion.and_then(|f| f.measured),
+            };
+            (RunKind::HandTurned(run), None)
+        }
+        None => (
+            RunKind::Programmed(ProgramOptions::CALIBRATE),
+            s.turntable.as_ref().map(AngleFile::records),
+        ),
+    };
+    let plan = Plan {
+        config: &s.config,
+        layout: Some(&s.task.layout),
+        kind,
+    };
+    let records = calib::estimate::Records::Streamed {
+        imu: &mut **imu,
+        turntable,
+    };
+    let calibration = calib::estimate::run(plan, records, &mut progress)?;
     bar.finish_and_clear();
     Ok(calibration)
 }

@@ -656,16 +656,22 @@ fn held_out_verdict(
     let layout = calib::model::layout::layout_with(&s.config, false, &result.last.extension);
     // Its verdict with the tests of its innovations, as `calibrate --free-motion` runs them:
     // they inform.
-    let r = calib::estimate::hand_turned::calibrate(
-        &s.config,
-        &layout,
-        &mut **imu,
-        &found.rests,
-        known,
-        Some(every),
-        Some(noise),
-        &mut |_, _| {},
-    )?;
+    let run = calib::estimate::HandTurnedRun {
+        rests: &found.rests,
+        turns: known,
+        holdout: Some(every),
+        measured: Some(noise),
+    };
+    let plan = calib::estimate::Plan {
+        config: &s.config,
+        layout: Some(&layout),
+        kind: calib::estimate::RunKind::HandTurned(run),
+    };
+    let records = calib::estimate::Records::Streamed {
+        imu: &mut **imu,
+        turntable: None,
+    };
+    let r = calib::estimate::run(plan, records, &mut |_, _| {})?;
     let figures = found.free_motion.as_ref().and_then(|f| {
         let turns = calib::estimate::verdict::known_turn_figures(&r.estimate.stats);
         crate::free_motion::figures(&r, &f.summary, Some(every), turns)
