@@ -35,11 +35,15 @@ pub struct CalibrateArgs {
     /// white noise and motion noise from the recording (docs/real-data.md).
     #[arg(long)]
     pub free_motion: bool,
-    /// Candidate terms to add to the paper's model (ids): gyro_g_sensitivity,
-    /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_accel_time_offset and the
-    /// thermal gyro_temp_bias, accel_temp_bias, gyro_temp_scale, accel_temp_scale (these need a
-    /// `temp` column). None is added without being named.
-    #[arg(long, value_name = "ID", num_args = 1..)]
+    // Candidate terms to add to the paper's model: the help lists every id from the
+    // declarations.
+    #[arg(
+        long,
+        value_name = "ID",
+        num_args = 1..,
+        help = crate::terms::calibrate_help(),
+        long_help = crate::terms::calibrate_long_help()
+    )]
     pub terms: Vec<String>,
     /// Add the terms a `diagnose --json` result accepted (`accepted_terms`).
     #[arg(long, value_name = "DIAGNOSE.json")]
@@ -163,10 +167,15 @@ pub struct DiagnoseArgs {
     /// (docs/model-extension.md, "The evidence for a term")
     #[arg(long, value_name = "FILE")]
     pub noise: Option<PathBuf>,
-    /// Candidate terms to consider (ids; default all): gyro_g_sensitivity,
-    /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_bias_drift,
-    /// gyro_accel_time_offset.
-    #[arg(long, value_name = "ID", num_args = 1..)]
+    // Candidate terms to consider (default all): the help lists every id from the
+    // declarations.
+    #[arg(
+        long,
+        value_name = "ID",
+        num_args = 1..,
+        help = crate::terms::diagnose_help(),
+        long_help = crate::terms::diagnose_long_help()
+    )]
     pub terms: Vec<String>,
     /// IMU time (s) at which the rotation program starts (as for `calibrate`).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]

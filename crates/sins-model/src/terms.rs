@@ -96,7 +96,7 @@ impl Unit {
         }
     }
     /// Multiply an SI value by this to get it in the report unit.
-    pub fn report_factor(self) -> f64 {
+    pub const fn report_factor(self) -> f64 {
         match self {
             Unit::RadPerSecond => 1.0 / crate::units::DEG_PER_HOUR,
             Unit::MeterPerSecond2 | Unit::Second => 1.0,
@@ -330,6 +330,35 @@ impl AffineError {
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
+/// The Jacobian of a term whose nine parameters are a 3x3 matrix row by row and whose
+/// parameter `(i, j)` acts on axis `i` alone, with slope `slope(i, j)`: column `3 i + j` is
+/// `e_i slope(i, j)` (`Theta w`: `slope(i, j) = w_j`).
+pub fn matrix_jacobian(slope: impl Fn(usize, usize) -> f64, out: &mut [Vector3<f64>]) {
+    for i in 0..3 {
+        for j in 0..3 {
+            let mut col = Vector3::zeros();
+            col[i] = slope(i, j);
+            out[3 * i + j] = col;
+        }
+    }
+}
+
+/// The [`AxisColumn`]s of a 3x3 matrix term row by row that multiplies an input vector:
+/// column `3 i + j` is `e_i feature(j)` ([`matrix_jacobian`] with `slope(i, j)` that feature).
+pub fn matrix_axis_columns(feature: fn(usize) -> Feature) -> Vec<AxisColumn> {
+    (0..9)
+        .map(|k| AxisColumn::new(k / 3, feature(k % 3)))
+        .collect()
+}
+
+/// The Jacobian of a term with one parameter per axis, parameter `k` acting on axis `k` with
+/// slope `slope_k`: column `k` is `e_k slope_k`.
+pub fn diagonal_jacobian(slope: &Vector3<f64>, out: &mut [Vector3<f64>]) {
+    out[0] = Vector3::new(slope.x, 0.0, 0.0);
+    out[1] = Vector3::new(0.0, slope.y, 0.0);
+    out[2] = Vector3::new(0.0, 0.0, slope.z);
+}
+
 /// A constant bias of one triad (3 parameters): the gyro bias `nu0` (`gyro.bias.*`, rad/s,
 /// `nu += nu0`) or the accelerometer bias `df0` (`accel.bias.*`, m/s^2, `df += df0`).
 #[derive(Clone, Debug)]
@@ -432,20 +461,10 @@ impl ErrorTerm for GyroMatrix {
     }
     fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
         let w = input.omega_body;
-        for i in 0..3 {
-            for j in 0..3 {
-                let mut col = Vector3::zeros();
-                col[i] = w[j];
-                out[3 * i + j] = col;
-            }
-        }
+        matrix_jacobian(|_, j| w[j], out);
     }
     fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
-        Some(
-            (0..9)
-                .map(|k| AxisColumn::new(k / 3, Feature::Omega(k % 3)))
-                .collect(),
-        )
+        Some(matrix_axis_columns(Feature::Omega))
     }
 }
 
