@@ -35,20 +35,6 @@ pub struct Args {
     pub flight: crate::navigation::FlightArgs,
 }
 
-/// Refuse a term given twice in --terms.
-fn check_distinct_terms(ids: &[String]) -> Result<(), Error> {
-    for (i, id) in ids.iter().enumerate() {
-        if ids[..i].contains(id) {
-            return Err(format!(
-                "--terms {}: `{id}` is given twice: expected each candidate term once",
-                ids.join(" ")
-            )
-            .into());
-        }
-    }
-    Ok(())
-}
-
 /// Run `design`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, origin) = load_config(&args.config)?;
@@ -63,7 +49,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if args.terms.is_empty() {
         return crate::design_navigation::run(args, &config, &flight);
     }
-    check_distinct_terms(&args.terms)?;
+    // parse_terms refuses a term given twice, as it does for the other commands.
     let terms = parse_terms(&args.terms)?;
     if terms.contains(&sins_model::candidates::Candidate::GyroBiasDrift) {
         // The design leaves it out (it has no parameters to separate): named, it would be

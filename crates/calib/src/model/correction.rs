@@ -74,8 +74,9 @@ pub enum CorrectionError {
     #[error(
         "parameter `{0}` is not an instrument parameter this program can correct: expected the \
          paper's (gyro.bias, gyro.theta, accel.bias, accel.gamma), the extension terms \
-         (gyro.gsens, gyro.asym, accel.k2, accel.lever, time.gyro_accel) or parameters that do \
-         not act on the sensor output (install.delta, turntable.*, base.gamma, gyro.drift)"
+         ({solved}) or parameters that do not act on the sensor output (install.delta, \
+         turntable.*, base.gamma, gyro.drift)",
+        solved = solved_prefixes()
     )]
     Unknown(String),
     /// A required parameter, or one of a term's, is missing.
@@ -134,6 +135,17 @@ pub enum CorrectionError {
         "an increments file needs at least two records (the first record's interval is the one to the second)"
     )]
     TooFewRecords,
+}
+
+/// The parameter prefixes of the candidate terms the correction solves with the sensor
+/// equations ([`CorrectionPart::Solved`]), for a message: `gyro.gsens, ..., time.gyro_accel`.
+fn solved_prefixes() -> String {
+    Candidate::ALL
+        .into_iter()
+        .filter(|c| matches!(c.declaration().correction, CorrectionPart::Solved(_)))
+        .map(|c| c.declaration().params.prefix().trim_end_matches('.'))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The inverse of an estimated instrument model.
@@ -1297,6 +1309,16 @@ mod tests {
             )
             .unwrap();
         assert!(w.norm() < 1e-20, "{w}");
+    }
+
+    /// The message of an unknown parameter names the solved terms' prefixes, from their
+    /// declarations.
+    #[test]
+    fn unknown_names_the_solved_prefixes() {
+        assert_eq!(
+            solved_prefixes(),
+            "gyro.gsens, gyro.asym, accel.k2, accel.lever, time.gyro_accel"
+        );
     }
 
     /// Every term the correction solves has its entry in the block, under its declared key

@@ -32,6 +32,7 @@ mod gyro_tscale;
 mod thermal;
 mod time_gyro_accel;
 
+pub use crate::terms::Effect;
 use crate::terms::{AxisColumn, ErrorTerm, ParamSpec, Sensor, SensorInput, Unit};
 use nalgebra::Vector3;
 use std::fmt::Debug;
@@ -125,32 +126,6 @@ pub struct GradePriors {
     pub consumer: f64,
 }
 
-/// A term's error and its Jacobian, the part of an [`ErrorTerm`] that is the term's own (the
-/// sensor and the parameters come from its [`Declaration`]). The methods are those of
-/// [`ErrorTerm`], with the same meaning and defaults.
-pub trait Effect: Debug + Send + Sync {
-    /// [`ErrorTerm::error`].
-    fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64>;
-    /// [`ErrorTerm::jacobian`].
-    fn jacobian(&self, p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]);
-    /// [`ErrorTerm::is_affine`].
-    fn is_affine(&self) -> bool {
-        false
-    }
-    /// [`ErrorTerm::is_affine_in_orthant`].
-    fn is_affine_in_orthant(&self) -> bool {
-        self.is_affine()
-    }
-    /// [`ErrorTerm::axis_columns`].
-    fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
-        None
-    }
-    /// [`ErrorTerm::uses_rate_derivatives`].
-    fn uses_rate_derivatives(&self) -> bool {
-        false
-    }
-}
-
 /// How a term enters the inverse of the sensor models (the correction `apply` applies, written
 /// as the `correction` block of a result file: `docs/formats.md`, "Correction"): the true rate
 /// and specific force solve `w = M_g (w' + b_g + sum of the gyro terms' effects)` and
@@ -222,21 +197,25 @@ pub struct Declaration {
     pub correction: CorrectionPart,
 }
 
-/// A candidate's [`ErrorTerm`]: its declared sensor and parameters, its [`Effect`].
+/// A candidate's [`ErrorTerm`]: its declaration's sensor, its parameters, its declaration's
+/// [`Effect`].
 #[derive(Debug)]
 struct CandidateTerm {
-    sensor: Sensor,
+    declaration: &'static Declaration,
     params: Vec<ParamSpec>,
     effect: &'static dyn Effect,
 }
 
 impl ErrorTerm for CandidateTerm {
     fn sensor(&self) -> Sensor {
-        self.sensor
+        self.declaration.sensor
     }
     fn params(&self) -> &[ParamSpec] {
         &self.params
     }
+}
+
+impl Effect for CandidateTerm {
     fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
         self.effect.error(p, input)
     }
@@ -388,7 +367,7 @@ impl Candidate {
             .map(|n| ParamSpec::new(n, d.unit, prior_sigma))
             .collect();
         Some(Box::new(CandidateTerm {
-            sensor: d.sensor,
+            declaration: d,
             params,
             effect: d.effect?,
         }))
