@@ -57,7 +57,7 @@ pub use crate::io::correction_block::{
 };
 use crate::io::{ImuKind, ImuRecord, ResultParameter};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
-use sins_model::candidates::{Candidate, CorrectionPart, Solved, ThermalPart};
+use sins_model::candidates::{Candidate, CorrectionPart, Solved, SolvedEffect, ThermalPart};
 use sins_model::names;
 use sins_model::terms::{AffineError, ErrorModel, GAMMA_INDEX, Sensor, SensorInput};
 
@@ -486,7 +486,7 @@ impl Correction {
         &self,
         sensor: Sensor,
         iterated: bool,
-    ) -> impl Iterator<Item = (fn(&[f64], &SensorInput) -> Vector3<f64>, &[f64])> {
+    ) -> impl Iterator<Item = (SolvedEffect, &[f64])> {
         self.extension
             .iter()
             .filter(move |t| {

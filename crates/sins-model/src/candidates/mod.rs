@@ -150,11 +150,14 @@ pub struct Solved {
     pub key: &'static str,
     /// Its effect (`nu` or `df`) at the rate and specific force it is evaluated at: the
     /// term's error in the order of operations of the correction.
-    pub effect: fn(&[f64], &SensorInput) -> Vector3<f64>,
+    pub effect: SolvedEffect,
     /// Whether the effect depends on the rate derivatives alone, so that it is evaluated once
     /// per record rather than in the fixed point of the non-linear terms.
     pub derivatives_only: bool,
 }
+
+/// A solved term's effect ([`Solved::effect`]): its values and the inputs in, `nu` or `df` out.
+pub type SolvedEffect = fn(&[f64], &SensorInput) -> Vector3<f64>;
 
 /// Which coefficient a thermal term is ([`CorrectionPart::Thermal`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
