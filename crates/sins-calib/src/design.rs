@@ -35,6 +35,20 @@ pub struct Args {
     pub flight: crate::navigation::FlightArgs,
 }
 
+/// Refuse a term given twice in --terms.
+fn check_distinct_terms(ids: &[String]) -> Result<(), Error> {
+    for (i, id) in ids.iter().enumerate() {
+        if ids[..i].contains(id) {
+            return Err(format!(
+                "--terms {}: `{id}` is given twice: expected each candidate term once",
+                ids.join(" ")
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
 /// Run `design`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let (config, origin) = load_config(&args.config)?;
@@ -49,15 +63,15 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if args.terms.is_empty() {
         return crate::design_navigation::run(args, &config, &flight);
     }
-    // parse_terms refuses a term given twice, as it does for the other commands.
+    check_distinct_terms(&args.terms)?;
     let terms = parse_terms(&args.terms)?;
     if terms.contains(&sins_model::candidates::Candidate::GyroBiasDrift) {
         // The design leaves it out (it has no parameters to separate): named, it would be
         // dropped without a word.
         return Err(format!(
             "design --terms {}: a random walk of the gyro biases has no parameters for a \
-                 program to separate (it is process noise, not a state): expected candidate \
-                 terms with parameters; `analyse --walk-reach` says which walk a program shows",
+             program to separate (it is process noise, not a state): expected candidate terms \
+             with parameters; `analyse --walk-reach` says which walk a program shows",
             sins_model::candidates::Candidate::GyroBiasDrift.id()
         )
         .into());
