@@ -8,8 +8,9 @@
 //! - [`terms`]: instrument errors as composable terms (parameters with names, units and prior sigma;
 //!   the effect on the sensor output; its Jacobian);
 //! - [`candidates`]: candidate terms beyond the paper's model (g-sensitivity, scale asymmetry,
-//!   accelerometer nonlinearity, size effect, gyro-accelerometer time offset) and the gyro bias
-//!   drift option, each with ids, parameter names, units and default priors;
+//!   accelerometer nonlinearity, size effect, gyro-accelerometer time offset, the thermal terms)
+//!   and the gyro bias drift option, each declared once in its own file (id, parameter names,
+//!   units, priors by grade, group title, help text, effect, correction part);
 //! - [`errors`]: the attitude-error equation for `beta` and the specific-force measurement.
 //!
 //! ```

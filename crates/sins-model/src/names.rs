@@ -30,24 +30,6 @@ pub const BASE_PREFIX: &str = "base.gamma.";
 
 /// The gyro biases (the paper's `nu0`), the states a gyro drift acts on.
 pub const GYRO_BIAS: [&str; 3] = ["gyro.bias.x", "gyro.bias.y", "gyro.bias.z"];
-/// Prefix of the gyro g-sensitivity parameters `gyro.gsens.<ij>` ([`crate::candidates`]).
-pub const GYRO_GSENS_PREFIX: &str = "gyro.gsens.";
-/// Prefix of the gyro scale-factor asymmetries `gyro.asym.<i>`.
-pub const GYRO_ASYM_PREFIX: &str = "gyro.asym.";
-/// Prefix of the accelerometers' quadratic coefficients `accel.k2.<i>`.
-pub const ACCEL_K2_PREFIX: &str = "accel.k2.";
-/// Prefix of the accelerometers' offsets `accel.lever.<i><j>` (size effect).
-pub const ACCEL_LEVER_PREFIX: &str = "accel.lever.";
-/// Prefix of the gyro bias temperature coefficients (`gyro.tbias.x`, ...).
-pub const GYRO_TBIAS_PREFIX: &str = "gyro.tbias.";
-/// Prefix of the accelerometer bias temperature coefficients (`accel.tbias.x`, ...).
-pub const ACCEL_TBIAS_PREFIX: &str = "accel.tbias.";
-/// Prefix of the gyro scale-factor temperature coefficients (`gyro.tscale.x`, ...).
-pub const GYRO_TSCALE_PREFIX: &str = "gyro.tscale.";
-/// Prefix of the accelerometer scale-factor temperature coefficients (`accel.tscale.x`, ...).
-pub const ACCEL_TSCALE_PREFIX: &str = "accel.tscale.";
-/// Delay of the accelerometer samples against the gyros' (s).
-pub const TIME_GYRO_ACCEL: &str = "time.gyro_accel";
 /// Random-walk intensities of the gyro biases (rad/s/sqrt(s)); model options, not states.
 pub const GYRO_DRIFT: [&str; 3] = ["gyro.drift.x", "gyro.drift.y", "gyro.drift.z"];
 /// Accelerometer biases `df0` (the paper's model).

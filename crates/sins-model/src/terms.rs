@@ -96,7 +96,7 @@ impl Unit {
         }
     }
     /// Multiply an SI value by this to get it in the report unit.
-    pub fn report_factor(self) -> f64 {
+    pub const fn report_factor(self) -> f64 {
         match self {
             Unit::RadPerSecond => 1.0 / crate::units::DEG_PER_HOUR,
             Unit::MeterPerSecond2 | Unit::Second => 1.0,
@@ -140,7 +140,7 @@ impl ParamSpec {
 /// What a sensor is exposed to at one instant, in the instrument (body) frame.
 ///
 /// The two derivatives are zero by default (the paper's terms do not use them). A term that uses
-/// them ([`ErrorTerm::uses_rate_derivatives`]) must be affine in them with a slope that does not
+/// them ([`Effect::uses_rate_derivatives`]) must be affine in them with a slope that does not
 /// depend on the other inputs, `e = e0(p; w, f) + A(p) dw/dt + B(p) df/dt`: the turntable
 /// programs have rate jumps, and the truth simulator integrates that part exactly from the
 /// values of `w` and `f` at the ends of an interval (`integral of dw/dt = w(b) - w(a)`, jumps
@@ -160,15 +160,22 @@ pub struct SensorInput {
     pub temp_delta: f64,
 }
 
-/// An instrument error term.
-pub trait ErrorTerm: Debug + Send + Sync {
+/// An instrument error term: an [`Effect`] on one sensor triad, with named parameters.
+pub trait ErrorTerm: Effect {
     /// The triad this term corrupts.
     fn sensor(&self) -> Sensor;
-    /// The term's parameters, in the order used by [`ErrorTerm::error`] and the Jacobian.
+    /// The term's parameters, in the order used by [`Effect::error`] and the Jacobian.
     fn params(&self) -> &[ParamSpec];
+}
+
+/// What a term does to its sensor's output: its error and the error's Jacobian for given
+/// parameter values, and the form of the error (the part of an [`ErrorTerm`] that is the
+/// term's own; a candidate term's sensor and parameters come from its declaration,
+/// [`crate::candidates::Declaration`]).
+pub trait Effect: Debug + Send + Sync {
     /// The term's contribution to the sensor error (`nu` or `df`) for parameter values `p`.
     fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64>;
-    /// Jacobian of [`ErrorTerm::error`] with respect to `p`, one column per parameter, written
+    /// Jacobian of [`Effect::error`] with respect to `p`, one column per parameter, written
     /// into `out` (length = number of parameters).
     fn jacobian(&self, p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]);
     /// Whether the error is affine in the input (`a + B w + C f` for fixed parameters), so that
@@ -186,7 +193,7 @@ pub trait ErrorTerm: Debug + Send + Sync {
     /// The Jacobian's columns as [`AxisColumn`]s (column `k` is the unit vector of an axis times
     /// one input feature, whatever the parameters), when they have that form. The estimator
     /// then accumulates the rotated Jacobian column by column without calling
-    /// [`ErrorTerm::jacobian`] at every IMU step ([`AxisJacobian`]). `None` (the default) keeps
+    /// [`Effect::jacobian`] at every IMU step ([`AxisJacobian`]). `None` (the default) keeps
     /// the general path; a term that says `Some` is checked against its `jacobian` by the tests.
     fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
         None
@@ -330,6 +337,35 @@ impl AffineError {
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
+/// The Jacobian of a term whose nine parameters are a 3x3 matrix row by row and whose
+/// parameter `(i, j)` acts on axis `i` alone, with slope `slope(i, j)`: column `3 i + j` is
+/// `e_i slope(i, j)` (`Theta w`: `slope(i, j) = w_j`).
+pub fn matrix_jacobian(slope: impl Fn(usize, usize) -> f64, out: &mut [Vector3<f64>]) {
+    for i in 0..3 {
+        for j in 0..3 {
+            let mut col = Vector3::zeros();
+            col[i] = slope(i, j);
+            out[3 * i + j] = col;
+        }
+    }
+}
+
+/// The [`AxisColumn`]s of a 3x3 matrix term row by row that multiplies an input vector:
+/// column `3 i + j` is `e_i feature(j)` ([`matrix_jacobian`] with `slope(i, j)` that feature).
+pub fn matrix_axis_columns(feature: fn(usize) -> Feature) -> Vec<AxisColumn> {
+    (0..9)
+        .map(|k| AxisColumn::new(k / 3, feature(k % 3)))
+        .collect()
+}
+
+/// The Jacobian of a term with one parameter per axis, parameter `k` acting on axis `k` with
+/// slope `slope_k`: column `k` is `e_k slope_k`.
+pub fn diagonal_jacobian(slope: &Vector3<f64>, out: &mut [Vector3<f64>]) {
+    out[0] = Vector3::new(slope.x, 0.0, 0.0);
+    out[1] = Vector3::new(0.0, slope.y, 0.0);
+    out[2] = Vector3::new(0.0, 0.0, slope.z);
+}
+
 /// A constant bias of one triad (3 parameters): the gyro bias `nu0` (`gyro.bias.*`, rad/s,
 /// `nu += nu0`) or the accelerometer bias `df0` (`accel.bias.*`, m/s^2, `df += df0`).
 #[derive(Clone, Debug)]
@@ -359,14 +395,17 @@ impl Bias {
 }
 
 impl ErrorTerm for Bias {
-    fn is_affine(&self) -> bool {
-        true
-    }
     fn sensor(&self) -> Sensor {
         self.sensor
     }
     fn params(&self) -> &[ParamSpec] {
         &self.params
+    }
+}
+
+impl Effect for Bias {
+    fn is_affine(&self) -> bool {
+        true
     }
     fn error(&self, p: &[f64], _input: &SensorInput) -> Vector3<f64> {
         Vector3::new(p[0], p[1], p[2])
@@ -413,14 +452,17 @@ impl GyroMatrix {
 }
 
 impl ErrorTerm for GyroMatrix {
-    fn is_affine(&self) -> bool {
-        true
-    }
     fn sensor(&self) -> Sensor {
         Sensor::Gyro
     }
     fn params(&self) -> &[ParamSpec] {
         &self.params
+    }
+}
+
+impl Effect for GyroMatrix {
+    fn is_affine(&self) -> bool {
+        true
     }
     fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
         let w = input.omega_body;
@@ -432,20 +474,10 @@ impl ErrorTerm for GyroMatrix {
     }
     fn jacobian(&self, _p: &[f64], input: &SensorInput, out: &mut [Vector3<f64>]) {
         let w = input.omega_body;
-        for i in 0..3 {
-            for j in 0..3 {
-                let mut col = Vector3::zeros();
-                col[i] = w[j];
-                out[3 * i + j] = col;
-            }
-        }
+        matrix_jacobian(|_, j| w[j], out);
     }
     fn axis_columns(&self) -> Option<Vec<AxisColumn>> {
-        Some(
-            (0..9)
-                .map(|k| AxisColumn::new(k / 3, Feature::Omega(k % 3)))
-                .collect(),
-        )
+        Some(matrix_axis_columns(Feature::Omega))
     }
 }
 
@@ -481,14 +513,17 @@ impl AccelLowerTriangular {
 }
 
 impl ErrorTerm for AccelLowerTriangular {
-    fn is_affine(&self) -> bool {
-        true
-    }
     fn sensor(&self) -> Sensor {
         Sensor::Accel
     }
     fn params(&self) -> &[ParamSpec] {
         &self.params
+    }
+}
+
+impl Effect for AccelLowerTriangular {
+    fn is_affine(&self) -> bool {
+        true
     }
     fn error(&self, p: &[f64], input: &SensorInput) -> Vector3<f64> {
         let f = input.f_body;
@@ -643,7 +678,7 @@ impl ErrorModel {
     }
 
     /// One triad's error as an affine function of the input for parameters `p`, when every term
-    /// of that triad is affine in the input ([`ErrorTerm::is_affine`]) or idle at `p`
+    /// of that triad is affine in the input ([`Effect::is_affine`]) or idle at `p`
     /// ([`ErrorModel::idle`]); `None` otherwise.
     pub fn affine(&self, sensor: Sensor, p: &[f64]) -> Option<AffineError> {
         let all_affine = self
@@ -657,7 +692,7 @@ impl ErrorModel {
 
     /// One triad's error as an affine function of the input within the orthant of the rate
     /// whose component signs are `signs` (each +1 or -1), when every term of that triad is
-    /// affine there ([`ErrorTerm::is_affine_in_orthant`]); `None` otherwise. The rate columns
+    /// affine there ([`Effect::is_affine_in_orthant`]); `None` otherwise. The rate columns
     /// are the error's derivative inside the orthant (`(e(s_i u_i) - e(0)) / s_i`), so the form
     /// is exact for every rate with those signs; on an affine model it is [`ErrorModel::affine`].
     pub fn affine_in_orthant(
@@ -699,7 +734,7 @@ impl ErrorModel {
     }
 
     /// The Jacobian of `sensor`'s error as [`AxisColumn`]s, when every term of that sensor gives
-    /// them ([`ErrorTerm::axis_columns`]); `None` otherwise.
+    /// them ([`Effect::axis_columns`]); `None` otherwise.
     pub fn axis_jacobian(&self, sensor: Sensor) -> Option<AxisJacobian> {
         let mut columns = Vec::new();
         for (t, &o) in self.terms.iter().zip(&self.offsets) {
@@ -713,7 +748,7 @@ impl ErrorModel {
         Some(AxisJacobian { columns })
     }
 
-    /// Whether any term uses the rate derivatives ([`ErrorTerm::uses_rate_derivatives`]).
+    /// Whether any term uses the rate derivatives ([`Effect::uses_rate_derivatives`]).
     pub fn uses_rate_derivatives(&self) -> bool {
         self.terms.iter().any(|t| t.uses_rate_derivatives())
     }

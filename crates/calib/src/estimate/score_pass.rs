@@ -8,8 +8,8 @@ use super::{Estimate, EstimateError, Feedback, Nominal, PassInputs, run_pass};
 use crate::check::score::ExtendedPosterior;
 use crate::config::RunConfig;
 use crate::model::layout::{StateLayout, non_instrument_priors};
-use sins_model::candidates::Candidate;
-use sins_model::terms::ErrorModel;
+use sins_model::candidates::{Candidate, CorrectionPart, ThermalPart};
+use sins_model::terms::{ErrorModel, Sensor};
 
 /// The smallest span of the records' temperatures (K) over which the thermal candidates are
 /// tested: below it their effect cannot be told from the constant biases and scale factors.
@@ -53,20 +53,25 @@ pub(super) fn with_thermal_biases(
     if span_k.is_none_or(|s| s < CARRY_THERMAL_SPAN_K) {
         return None;
     }
-    let has = |triad: &str| {
-        layout.entries().iter().any(|e| {
-            e.name.starts_with(triad) && (e.name.contains(".tbias.") || e.name.contains(".tscale."))
-        })
+    // Whether the model has a thermal term of the triad; the bias terms, from their
+    // declarations.
+    let has = |sensor: Sensor| {
+        Candidate::thermal()
+            .filter(|c| c.sensor() == sensor)
+            .any(|c| c.param_names().iter().any(|n| layout.index(n).is_some()))
+    };
+    let is_bias = |c: &Candidate| {
+        matches!(
+            c.declaration().correction,
+            CorrectionPart::Thermal(ThermalPart::Bias)
+        )
     };
     let grade = config.unit_grade();
-    let extra: Vec<(Candidate, f64)> = [
-        ("gyro.", Candidate::GyroTempBias),
-        ("accel.", Candidate::AccelTempBias),
-    ]
-    .into_iter()
-    .filter(|(triad, _)| !has(triad))
-    .map(|(_, c)| (c, c.prior_sigma(grade)))
-    .collect();
+    let extra: Vec<(Candidate, f64)> = Candidate::thermal()
+        .filter(is_bias)
+        .filter(|c| !has(c.sensor()))
+        .map(|c| (c, c.prior_sigma(grade)))
+        .collect();
     if extra.is_empty() {
         return None;
     }

@@ -12,6 +12,7 @@ use crate::estimate::FitStatistics;
 use crate::estimate::noise::{EXCESS_LEVEL, GROSS_VARIANCE_RATIO, NoiseSource, ScatterExcess};
 use crate::model::MeasurementKind;
 use crate::motion::free_motion::Evaluation;
+use sins_model::candidates::Candidate;
 
 /// Half-width of the band of a mean of `n` chi-square(3) values: three standard deviations,
 /// `3 sqrt(6 / n)` (a false alarm about once in 370 fits per measurement).
@@ -387,9 +388,10 @@ pub fn thermal_finding(est: &crate::estimate::Estimate) -> Option<String> {
         format!(
             "the temperature moved {span:.1} K over the run and the model has no temperature \
              coefficient for the {}: their biases and scale factors are a mean over it; \
-             `diagnose` tests the thermal terms (gyro_temp_bias, accel_temp_bias, ...), \
-             `calibrate --terms` adds them",
-            missing.join(" or the ")
+             `diagnose` tests the thermal terms ({}, {}, ...), `calibrate --terms` adds them",
+            missing.join(" or the "),
+            Candidate::GyroTempBias.id(),
+            Candidate::AccelTempBias.id(),
         )
     })
 }
@@ -780,15 +782,17 @@ pub fn trend_test(
             drift / bias_sigma.max(f64::MIN_POSITIVE),
             100.0 * share,
             match (significant, material) {
-                (true, true) => {
+                (true, true) => format!(
                     ": the residuals drift with time, which no pose-dependent parameter makes \
-                     (a warming unit: record the temperature and carry accel_temp_scale or \
-                     accel_temp_bias, or let it settle; a bias walk)"
-                }
+                     (a warming unit: record the temperature and carry {} or {}, or let it \
+                     settle; a bias walk)",
+                    Candidate::AccelTempScale.id(),
+                    Candidate::AccelTempBias.id()
+                ),
                 (true, false) => {
-                    ": a drift smaller than the accelerometer biases' uncertainty can show"
+                    ": a drift smaller than the accelerometer biases' uncertainty can show".into()
                 }
-                _ => "",
+                _ => String::new(),
             }
         ),
     })

@@ -42,7 +42,7 @@ pub struct ParameterValue {
 /// The evidence for one candidate in one round.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CandidateEvidence {
-    /// Term id (`gyro_g_sensitivity`, ...).
+    /// Term id ([`Candidate::id`]).
     pub term: String,
     /// Score statistic (constant terms) or likelihood ratio (the random walk).
     pub statistic: f64,

@@ -57,7 +57,7 @@ pub use crate::io::correction_block::{
 };
 use crate::io::{ImuKind, ImuRecord, ResultParameter};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
-use sins_model::candidates::Candidate;
+use sins_model::candidates::{Candidate, CorrectionPart, Solved, SolvedEffect, ThermalPart};
 use sins_model::names;
 use sins_model::terms::{AffineError, ErrorModel, GAMMA_INDEX, Sensor, SensorInput};
 
@@ -74,8 +74,9 @@ pub enum CorrectionError {
     #[error(
         "parameter `{0}` is not an instrument parameter this program can correct: expected the \
          paper's (gyro.bias, gyro.theta, accel.bias, accel.gamma), the extension terms \
-         (gyro.gsens, gyro.asym, accel.k2, accel.lever, time.gyro_accel) or parameters that do \
-         not act on the sensor output (install.delta, turntable.*, base.gamma, gyro.drift)"
+         ({solved}) or parameters that do not act on the sensor output (install.delta, \
+         turntable.*, base.gamma, gyro.drift)",
+        solved = solved_prefixes()
     )]
     Unknown(String),
     /// A required parameter, or one of a term's, is missing.
@@ -136,6 +137,17 @@ pub enum CorrectionError {
     TooFewRecords,
 }
 
+/// The parameter prefixes of the candidate terms the correction solves with the sensor
+/// equations ([`CorrectionPart::Solved`]), for a message: `gyro.gsens, ..., time.gyro_accel`.
+fn solved_prefixes() -> String {
+    Candidate::ALL
+        .into_iter()
+        .filter(|c| matches!(c.declaration().correction, CorrectionPart::Solved(_)))
+        .map(|c| c.declaration().params.prefix().trim_end_matches('.'))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// The inverse of an estimated instrument model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Correction {
@@ -143,25 +155,40 @@ pub struct Correction {
     pub gyro_matrix: Matrix3<f64>,
     /// `b_g = nu0` (rad/s).
     pub gyro_offset: Vector3<f64>,
-    /// g-sensitivity `G` (rad/s per m/s^2), when estimated.
-    pub gyro_gsens: Option<Matrix3<f64>>,
-    /// Scale-factor asymmetry `a`, when estimated.
-    pub gyro_asym: Option<Vector3<f64>>,
     /// `M_a = (I + Gamma)^-1`.
     pub accel_matrix: Matrix3<f64>,
     /// `b_a = -df0` (m/s^2).
     pub accel_offset: Vector3<f64>,
-    /// Quadratic coefficients `k2` (1/(m/s^2)), when estimated.
-    pub accel_k2: Option<Vector3<f64>>,
-    /// Size effect: row `i` is the offset `r_i` (m) of accelerometer `i`, when estimated.
-    pub accel_lever: Option<Matrix3<f64>>,
-    /// Delay `d` of the accelerometer samples against the gyros' (s), when estimated.
-    pub time_offset_s: Option<f64>,
+    /// The estimated candidate terms solved with the sensor equations
+    /// ([`CorrectionPart::Solved`]: g-sensitivity, scale asymmetry, quadratic, size effect,
+    /// time offset), in [`Candidate::ALL`] order.
+    pub extension: Vec<ExtensionTerm>,
     /// What the gyro extension terms are evaluated at.
     pub extension_inputs: ExtensionInputs,
     /// The thermal terms, when estimated: the correction then depends on each record's
     /// temperature ([`Correction::at_temperature`]).
     pub thermal: Option<ThermalCorrection>,
+}
+
+/// A candidate term of a [`Correction`] with its values (SI, in its parameters' order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtensionTerm {
+    /// The term.
+    pub candidate: Candidate,
+    /// Its parameters' values.
+    pub values: Vec<f64>,
+}
+
+impl ExtensionTerm {
+    /// Its part in the correction (the terms of [`Correction::extension`] are all solved).
+    fn solved(&self) -> &'static Solved {
+        match &self.candidate.declaration().correction {
+            CorrectionPart::Solved(s) => s,
+            CorrectionPart::None | CorrectionPart::Thermal(_) => {
+                unreachable!("only solved terms are in a correction's extension")
+            }
+        }
+    }
 }
 
 /// The temperature dependence of a [`Correction`]: at temperature `T` (deg C), with
@@ -186,42 +213,54 @@ pub struct ThermalCorrection {
 }
 
 impl ThermalCorrection {
-    /// The thermal terms given (in [`Candidate::THERMAL`] order; `None`: not estimated) about
+    /// The thermal terms given (in [`Candidate::ALL`] order, with their coefficients) about
     /// `reference_c`, with the sensor matrices before inversion; `None` without any, refused
     /// without a reference.
     fn of(
-        terms: [Option<Vector3<f64>>; 4],
+        terms: &[(Candidate, Vector3<f64>)],
         reference_c: Option<f64>,
         gyro_sensor: Matrix3<f64>,
         accel_sensor: Matrix3<f64>,
     ) -> Result<Option<Self>, CorrectionError> {
-        if terms.iter().all(Option::is_none) {
+        if terms.is_empty() {
             return Ok(None);
         }
-        let given: Vec<&str> = Candidate::THERMAL
-            .iter()
-            .zip(&terms)
-            .filter(|(_, v)| v.is_some())
-            .map(|(c, _)| c.id())
-            .collect();
+        let given: Vec<&str> = terms.iter().map(|(c, _)| c.id()).collect();
         let reference_c = reference_c
             .filter(|t| t.is_finite())
             .ok_or_else(|| CorrectionError::NoReferenceTemperature(given.join(", ")))?;
-        let [gyro_bias, accel_bias, gyro_scale, accel_scale] = terms.map(Option::unwrap_or_default);
-        Ok(Some(Self {
+        let mut th = Self {
             reference_c,
-            gyro_bias,
-            accel_bias,
-            gyro_scale,
-            accel_scale,
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            gyro_scale: Vector3::zeros(),
+            accel_scale: Vector3::zeros(),
             gyro_sensor,
             accel_sensor,
-        }))
+        };
+        for (c, v) in terms {
+            let CorrectionPart::Thermal(part) = c.declaration().correction else {
+                continue;
+            };
+            let slot = match (c.sensor(), part) {
+                (Sensor::Gyro, ThermalPart::Bias) => &mut th.gyro_bias,
+                (Sensor::Accel, ThermalPart::Bias) => &mut th.accel_bias,
+                (Sensor::Gyro, ThermalPart::Scale) => &mut th.gyro_scale,
+                (Sensor::Accel, ThermalPart::Scale) => &mut th.accel_scale,
+            };
+            *slot = *v;
+        }
+        Ok(Some(th))
     }
 }
 
 fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
+}
+
+/// Rows of a 3x3 matrix given row by row (nine values).
+fn rows_of(values: &[f64]) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| values[3 * i + j]))
 }
 
 /// Expected SI unit of every parameter the correction uses.
@@ -232,7 +271,7 @@ fn expected_unit(name: &str) -> Option<&'static str> {
     }
     Candidate::ALL
         .into_iter()
-        .filter(|c| *c != Candidate::GyroBiasDrift)
+        .filter(|c| !matches!(c.declaration().correction, CorrectionPart::None))
         .find(|c| c.param_names().iter().any(|n| n == name))
         .map(|c| c.unit().si_name())
 }
@@ -277,14 +316,10 @@ impl Correction {
         Ok(Self {
             gyro_matrix: invert(&theta).ok_or(CorrectionError::Singular("gyro I - Theta"))?,
             gyro_offset: Vector3::new(p[0], p[1], p[2]),
-            gyro_gsens: None,
-            gyro_asym: None,
             accel_matrix: invert(&gamma)
                 .ok_or(CorrectionError::Singular("accelerometer I + Gamma"))?,
             accel_offset: -Vector3::new(p[12], p[13], p[14]),
-            accel_k2: None,
-            accel_lever: None,
-            time_offset_s: None,
+            extension: Vec::new(),
             extension_inputs: ExtensionInputs::True,
             thermal: None,
         })
@@ -351,30 +386,35 @@ impl Correction {
         let gyro_matrix = invert(&theta).ok_or(CorrectionError::Singular("gyro I - Theta"))?;
         let accel_matrix =
             invert(&gamma).ok_or(CorrectionError::Singular("accelerometer I + Gamma"))?;
-        let vector = |c: Candidate| -> Result<Option<Vector3<f64>>, CorrectionError> {
-            Ok(term(c)?.map(|v| Vector3::from_column_slice(&v)))
+        // The thermal terms first, then the solved ones (the order their errors are found in).
+        let of_part = |thermal: bool| {
+            Candidate::ALL
+                .into_iter()
+                .filter(move |c| match c.declaration().correction {
+                    CorrectionPart::None => false,
+                    CorrectionPart::Thermal(_) => thermal,
+                    CorrectionPart::Solved(_) => !thermal,
+                })
         };
-        let thermal = ThermalCorrection::of(
-            [
-                vector(Candidate::GyroTempBias)?,
-                vector(Candidate::AccelTempBias)?,
-                vector(Candidate::GyroTempScale)?,
-                vector(Candidate::AccelTempScale)?,
-            ],
-            reference_c,
-            theta,
-            gamma,
-        )?;
+        let mut thermal_terms = Vec::new();
+        for c in of_part(true) {
+            if let Some(v) = term(c)? {
+                thermal_terms.push((c, Vector3::from_column_slice(&v)));
+            }
+        }
+        let thermal = ThermalCorrection::of(&thermal_terms, reference_c, theta, gamma)?;
+        let mut extension = Vec::new();
+        for candidate in of_part(false) {
+            if let Some(values) = term(candidate)? {
+                extension.push(ExtensionTerm { candidate, values });
+            }
+        }
         Ok(Self {
             gyro_matrix,
             gyro_offset: Vector3::new(p[0], p[1], p[2]),
-            gyro_gsens: term(Candidate::GyroGSensitivity)?.map(|v| Matrix3::from_row_slice(&v)),
-            gyro_asym: term(Candidate::GyroScaleAsymmetry)?.map(|v| Vector3::from_column_slice(&v)),
             accel_matrix,
             accel_offset: -Vector3::new(p[12], p[13], p[14]),
-            accel_k2: term(Candidate::AccelQuadratic)?.map(|v| Vector3::from_column_slice(&v)),
-            accel_lever: term(Candidate::AccelSizeEffect)?.map(|v| Matrix3::from_row_slice(&v)),
-            time_offset_s: term(Candidate::GyroAccelTimeOffset)?.map(|v| v[0]),
+            extension,
             extension_inputs: inputs,
             thermal,
         })
@@ -402,16 +442,58 @@ impl Correction {
         }))
     }
 
+    /// The values of candidate term `c`, when the correction has it.
+    pub fn values(&self, c: Candidate) -> Option<&[f64]> {
+        self.extension
+            .iter()
+            .find(|t| t.candidate == c)
+            .map(|t| t.values.as_slice())
+    }
+
+    /// Whether the correction has candidate term `c` (a thermal one: [`Correction::thermal`]).
+    pub fn has(&self, c: Candidate) -> bool {
+        self.values(c).is_some()
+    }
+
+    /// Whether term `t` is evaluated at the measured values, once per record (the gyro terms
+    /// of [`ExtensionInputs::Measured`]), not at the corrected ones.
+    fn on_measured(&self, t: &ExtensionTerm) -> bool {
+        self.extension_inputs == ExtensionInputs::Measured && t.candidate.sensor() == Sensor::Gyro
+    }
+
     /// Whether the inverse needs the fixed-point iteration (a term not linear in the unknowns).
     pub fn is_nonlinear(&self) -> bool {
-        let gyro_on_true =
-            self.extension_inputs == ExtensionInputs::True && self.gyro_asym.is_some();
-        gyro_on_true || self.accel_k2.is_some() || self.accel_lever.is_some()
+        self.extension.iter().any(|t| {
+            let affine = t
+                .candidate
+                .declaration()
+                .effect
+                .is_some_and(|e| e.is_affine());
+            !affine && !t.solved().derivatives_only && !self.on_measured(t)
+        })
     }
 
     /// Whether the correction uses the rate derivatives (size effect, time offset).
     pub fn uses_derivatives(&self) -> bool {
-        self.accel_lever.is_some() || self.time_offset_s.is_some()
+        self.extension.iter().any(|t| {
+            let effect = t.candidate.declaration().effect;
+            effect.is_some_and(|e| e.uses_rate_derivatives())
+        })
+    }
+
+    /// The terms of `sensor` in the fixed point (`iterated`) or evaluated once per record.
+    fn terms_of(
+        &self,
+        sensor: Sensor,
+        iterated: bool,
+    ) -> impl Iterator<Item = (SolvedEffect, &[f64])> {
+        self.extension
+            .iter()
+            .filter(move |t| {
+                let once = t.solved().derivatives_only || self.on_measured(t);
+                t.candidate.sensor() == sensor && once != iterated
+            })
+            .map(|t| (t.solved().effect, t.values.as_slice()))
     }
 
     /// The linear part alone: `(M_g (w' + b_g), M_a (f' + b_a))`.
@@ -447,40 +529,39 @@ impl Correction {
         derivatives: Option<(Vector3<f64>, Vector3<f64>)>,
     ) -> Result<(Vector3<f64>, Vector3<f64>), CorrectionError> {
         let (w_dot, f_dot) = derivatives.unwrap_or_default();
-        let measured = self.extension_inputs == ExtensionInputs::Measured;
-        // The part of each right-hand side that does not depend on the unknowns.
+        // The part of each right-hand side that does not depend on the unknowns: the terms on
+        // the measured values and those of the rate derivatives alone.
+        let once = SensorInput {
+            omega_body: *gyro,
+            f_body: *accel,
+            omega_dot_body: w_dot,
+            f_dot_body: f_dot,
+            temp_delta: 0.0,
+        };
         let mut gyro_rhs = gyro + self.gyro_offset;
-        if measured {
-            if let Some(g) = &self.gyro_gsens {
-                gyro_rhs += g * accel;
-            }
-            if let Some(a) = &self.gyro_asym {
-                gyro_rhs += a.component_mul(&gyro.abs());
-            }
+        for (effect, p) in self.terms_of(Sensor::Gyro, false) {
+            gyro_rhs += effect(p, &once);
         }
         let mut accel_rhs = accel + self.accel_offset;
-        if let Some(d) = self.time_offset_s {
-            accel_rhs += f_dot * d;
+        for (effect, p) in self.terms_of(Sensor::Accel, false) {
+            accel_rhs -= effect(p, &once);
         }
+        // The accelerometers' terms at the iterate, then the gyros' at it and the new force.
         let step = |w: &Vector3<f64>, f: &Vector3<f64>| {
+            let mut at = SensorInput {
+                omega_body: *w,
+                f_body: *f,
+                ..once
+            };
             let mut fr = accel_rhs;
-            if let Some(k2) = &self.accel_k2 {
-                fr -= k2.component_mul(&f.component_mul(f));
-            }
-            if let Some(r) = &self.accel_lever {
-                let sw = w.cross_matrix();
-                let m = w_dot.cross_matrix() + sw * sw;
-                fr -= Vector3::from_fn(|i, _| (0..3).map(|j| m[(i, j)] * r[(i, j)]).sum());
+            for (effect, p) in self.terms_of(Sensor::Accel, true) {
+                fr -= effect(p, &at);
             }
             let f_new = self.accel_matrix * fr;
+            at.f_body = f_new;
             let mut gr = gyro_rhs;
-            if !measured {
-                if let Some(g) = &self.gyro_gsens {
-                    gr += g * f_new;
-                }
-                if let Some(a) = &self.gyro_asym {
-                    gr += a.component_mul(&w.abs());
-                }
+            for (effect, p) in self.terms_of(Sensor::Gyro, true) {
+                gr += effect(p, &at);
             }
             (self.gyro_matrix * gr, f_new)
         };
@@ -543,15 +624,17 @@ impl Correction {
             gyro: GyroBlock {
                 matrix: rows(&self.gyro_matrix),
                 offset: self.gyro_offset.into(),
-                gsens: self.gyro_gsens.as_ref().map(rows),
-                asym: self.gyro_asym.map(Into::into),
+                gsens: self.block_entry(Sensor::Gyro, "gsens").map(rows_of),
+                asym: self.block_entry(Sensor::Gyro, "asym").map(axes_of),
             },
             accel: AccelBlock {
                 matrix: rows(&self.accel_matrix),
                 offset: self.accel_offset.into(),
-                k2: self.accel_k2.map(Into::into),
-                lever: self.accel_lever.as_ref().map(rows),
-                time_offset_s: self.time_offset_s,
+                k2: self.block_entry(Sensor::Accel, "k2").map(axes_of),
+                lever: self.block_entry(Sensor::Accel, "lever").map(rows_of),
+                time_offset_s: self
+                    .block_entry(Sensor::Accel, "time_offset_s")
+                    .map(|v| v[0]),
             },
             thermal: self.thermal.as_ref().map(|t| ThermalBlock {
                 reference_c: t.reference_c,
@@ -561,6 +644,23 @@ impl Correction {
                 accel_scale: t.accel_scale.into(),
             }),
         }
+    }
+}
+
+/// The values of a per-axis term (three values).
+fn axes_of(values: &[f64]) -> [f64; 3] {
+    [values[0], values[1], values[2]]
+}
+
+impl Correction {
+    /// The values of the term whose block key ([`Solved::key`]) is `key` in `sensor`'s part
+    /// of the block; the test `every_solved_term_has_its_block_entry` checks that every
+    /// declared key is one the block holds.
+    fn block_entry(&self, sensor: Sensor, key: &str) -> Option<&[f64]> {
+        self.extension
+            .iter()
+            .find(|t| t.candidate.sensor() == sensor && t.solved().key == key)
+            .map(|t| t.values.as_slice())
     }
 }
 
@@ -1089,8 +1189,8 @@ mod tests {
         assert!(!c.is_nonlinear());
         let (w_raw, f_raw) = (Vector3::new(0.5, -1.0, 0.25), Vector3::new(1.0, -2.0, 9.5));
         let (w, f) = c.apply_rates(&w_raw, &f_raw, None).unwrap();
-        let g = c.gyro_gsens.unwrap();
-        let a = c.gyro_asym.unwrap();
+        let g = Matrix3::from_row_slice(c.values(Candidate::GyroGSensitivity).unwrap());
+        let a = Vector3::from_column_slice(c.values(Candidate::GyroScaleAsymmetry).unwrap());
         let expect =
             c.gyro_matrix * (w_raw + c.gyro_offset + g * f_raw + a.component_mul(&w_raw.abs()));
         assert!((w - expect).norm() < 1e-15 * w.norm());
@@ -1122,7 +1222,9 @@ mod tests {
         let e = Correction::from_parameters(&partial, ExtensionInputs::True).unwrap_err();
         let s = e.to_string();
         assert!(
-            s.contains("accel_quadratic") && s.contains("accel.k2.x") && s.contains("accel.k2.z"),
+            s.contains(Candidate::AccelQuadratic.id())
+                && s.contains("accel.k2.x")
+                && s.contains("accel.k2.z"),
             "{s}"
         );
         let mut unit = good.clone();
@@ -1209,6 +1311,63 @@ mod tests {
         assert!(w.norm() < 1e-20, "{w}");
     }
 
+    /// The message of an unknown parameter names the solved terms' prefixes, from their
+    /// declarations.
+    #[test]
+    fn unknown_names_the_solved_prefixes() {
+        assert_eq!(
+            solved_prefixes(),
+            "gyro.gsens, gyro.asym, accel.k2, accel.lever, time.gyro_accel"
+        );
+    }
+
+    /// Every term the correction solves has its entry in the block, under its declared key
+    /// in its triad's part, with its values; every thermal term its coefficients.
+    #[test]
+    fn every_solved_term_has_its_block_entry() {
+        let (m, p) = full_model();
+        let c =
+            Correction::from_parameters_at(&parameters(&m, &p), ExtensionInputs::True, Some(20.0))
+                .unwrap();
+        let block = serde_json::to_value(c.block()).unwrap();
+        fn flat(v: &serde_json::Value) -> Vec<f64> {
+            match v {
+                serde_json::Value::Array(a) => a.iter().flat_map(flat).collect(),
+                other => vec![other.as_f64().expect("a number")],
+            }
+        }
+        for cand in Candidate::ALL {
+            let triad = match cand.sensor() {
+                Sensor::Gyro => "gyro",
+                Sensor::Accel => "accel",
+            };
+            match cand.declaration().correction {
+                CorrectionPart::Solved(s) => {
+                    let entry = &block[triad][s.key];
+                    assert!(!entry.is_null(), "{}: no `{triad}.{}`", cand.id(), s.key);
+                    assert_eq!(flat(entry), c.values(cand).unwrap(), "{}", cand.id());
+                }
+                CorrectionPart::Thermal(part) => {
+                    let key = match part {
+                        ThermalPart::Bias => format!("{triad}_bias"),
+                        ThermalPart::Scale => format!("{triad}_scale"),
+                    };
+                    let entry = flat(&block["thermal"][&key]);
+                    let names = cand.param_names();
+                    let expect: Vec<f64> = names
+                        .iter()
+                        .map(|n| {
+                            let k = m.params().iter().position(|q| &q.name == n).unwrap();
+                            p[k]
+                        })
+                        .collect();
+                    assert_eq!(entry, expect, "{}", cand.id());
+                }
+                CorrectionPart::None => assert!(cand.term(1.0).is_none()),
+            }
+        }
+    }
+
     /// The block reads back to itself and carries what the correction holds.
     #[test]
     fn block_round_trips_through_json() {
@@ -1221,14 +1380,18 @@ mod tests {
         // Thermal terms without their reference temperature are refused, with the terms named.
         assert!(matches!(
             Correction::from_parameters(&parameters(&m, &p), ExtensionInputs::True),
-            Err(CorrectionError::NoReferenceTemperature(t)) if t.contains("gyro_temp_bias")
+            Err(CorrectionError::NoReferenceTemperature(t))
+                if t.contains(Candidate::GyroTempBias.id())
         ));
         assert_eq!(c.at_temperature(None), Err(CorrectionError::NoTemperature));
         let text = serde_json::to_string(&b).unwrap();
         let back: CorrectionBlock = serde_json::from_str(&text).unwrap();
         assert_eq!(back, b);
         assert_eq!(b.gyro.matrix[0][1], c.gyro_matrix[(0, 1)]);
-        assert_eq!(b.accel.lever.unwrap()[2][0], c.accel_lever.unwrap()[(2, 0)]);
+        assert_eq!(
+            b.accel.lever.unwrap()[2][0],
+            c.values(Candidate::AccelSizeEffect).unwrap()[6]
+        );
         assert!(
             text.contains("\"extension_inputs\":\"corrected\""),
             "{text}"

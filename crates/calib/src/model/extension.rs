@@ -128,7 +128,10 @@ mod tests {
         assert!(!e.is_empty());
         assert!(ModelExtension::default().is_empty());
         assert_eq!(
-            ModelExtension::from_ids(&["accel_quadratic", "gyro_bias_drift"]),
+            ModelExtension::from_ids(&[
+                Candidate::AccelQuadratic.id(),
+                Candidate::GyroBiasDrift.id()
+            ]),
             Ok(e)
         );
         assert_eq!(ModelExtension::from_ids(&["bogus"]), Err("bogus".into()));

@@ -89,11 +89,16 @@ pub struct CalibrateArgs {
     /// How rests are found in a recording without a program (and with --free-motion).
     #[command(flatten, next_help_heading = heading::REST_DETECTION_NO_PROGRAM)]
     pub detector: crate::args::detector::DetectorArgs,
-    /// Candidate terms to add to the paper's model (ids): gyro_g_sensitivity,
-    /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_accel_time_offset and the
-    /// thermal gyro_temp_bias, accel_temp_bias, gyro_temp_scale, accel_temp_scale (these need a
-    /// `temp` column). None is added without being named.
-    #[arg(long, value_name = "ID", num_args = 1.., help_heading = heading::MODEL)]
+    // Candidate terms to add to the paper's model: the help lists every id from the
+    // declarations.
+    #[arg(
+        long,
+        value_name = "ID",
+        num_args = 1..,
+        help = crate::args::terms::calibrate_help(),
+        long_help = crate::args::terms::calibrate_long_help(),
+        help_heading = heading::MODEL
+    )]
     pub terms: Vec<String>,
     /// Add the terms a `diagnose --json` result accepted (`accepted_terms`).
     #[arg(long, value_name = "DIAGNOSE.json", help_heading = heading::MODEL)]
@@ -173,10 +178,16 @@ pub struct DiagnoseArgs {
     /// The site of a recording without a configuration.
     #[command(flatten, next_help_heading = heading::FREE_MOTION)]
     pub site: SiteArgs,
-    /// Candidate terms to consider (ids; default all): gyro_g_sensitivity,
-    /// gyro_scale_asymmetry, accel_quadratic, accel_size_effect, gyro_bias_drift,
-    /// gyro_accel_time_offset.
-    #[arg(long, value_name = "ID", num_args = 1.., help_heading = heading::MODEL)]
+    // Candidate terms to consider (default all): the help lists every id from the
+    // declarations.
+    #[arg(
+        long,
+        value_name = "ID",
+        num_args = 1..,
+        help = crate::args::terms::diagnose_help(),
+        long_help = crate::args::terms::diagnose_long_help(),
+        help_heading = heading::MODEL
+    )]
     pub terms: Vec<String>,
     /// Family-wise level of each round's decision.
     #[arg(long, default_value_t = 0.01, value_name = "P", help_heading = heading::MODEL)]

@@ -39,7 +39,90 @@ pub fn parse_terms(ids: &[String]) -> Result<Vec<Candidate>, Error> {
         .collect()
 }
 
-/// Refuse a thermal term (`--terms gyro_temp_bias`, ...) where there is no temperature for it
+/// The ids of the candidates `keep` keeps, from their declarations: the others', then "and the
+/// thermal" ones' with `thermal_note` (what they need) after them.
+fn ids_listed(keep: impl Fn(Candidate) -> bool, thermal_note: &str) -> String {
+    let ids = |thermal: bool| {
+        Candidate::ALL
+            .into_iter()
+            .filter(|c| keep(*c) && c.is_thermal() == thermal)
+            .map(Candidate::id)
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "{} and the thermal {} ({thermal_note})",
+        ids(false),
+        ids(true)
+    )
+}
+
+/// The long help of a `--terms` option: its short help `short`, then each term `keep` keeps
+/// with its help text ([`sins_model::candidates::Declaration::help`]).
+fn long_help(short: String, keep: impl Fn(Candidate) -> bool) -> String {
+    let mut text = short;
+    text.push('\n');
+    for c in Candidate::ALL.into_iter().filter(|c| keep(*c)) {
+        text.push_str(&format!("\n  {}: {}", c.id(), c.declaration().help));
+    }
+    text
+}
+
+/// Whether `calibrate --terms` takes the candidate: every one (the drift as the model's bias
+/// walk).
+fn calibrate_takes(_: Candidate) -> bool {
+    true
+}
+
+/// `calibrate --terms`: the help of the option.
+pub fn calibrate_help() -> String {
+    format!(
+        "Candidate terms to add to the paper's model (ids): {}. None is added without being \
+         named",
+        ids_listed(calibrate_takes, "these need a `temp` column")
+    )
+}
+
+/// `calibrate --terms --help`.
+pub fn calibrate_long_help() -> String {
+    long_help(calibrate_help(), calibrate_takes)
+}
+
+/// `diagnose --terms`: the help of the option.
+pub fn diagnose_help() -> String {
+    format!(
+        "Candidate terms to consider (ids; default all): {}",
+        ids_listed(calibrate_takes, "tested where the temperature moves")
+    )
+}
+
+/// `diagnose --terms --help`.
+pub fn diagnose_long_help() -> String {
+    long_help(diagnose_help(), calibrate_takes)
+}
+
+/// Whether `design --terms` takes the candidate: one with parameters to separate (not the
+/// drift, process noise).
+fn design_takes(c: Candidate) -> bool {
+    c.declaration().effect.is_some()
+}
+
+/// `design --terms`: the help of the option.
+pub fn design_help() -> String {
+    format!(
+        "Candidate term ids to separate: {}; without them, programs are ranked by the \
+         navigation figure they buy (the recorded program, it without each part between its \
+         moves, and the menu's additions) and the best is proposed",
+        ids_listed(design_takes, "these need a [temperature] profile")
+    )
+}
+
+/// `design --terms --help`.
+pub fn design_long_help() -> String {
+    long_help(design_help(), design_takes)
+}
+
+/// Refuse a thermal term (`--terms <a thermal id>`) where there is no temperature for it
 /// to act on: its effect is the temperature's departure from its reference, so without one its
 /// coefficients would stay at their prior, with no reference temperature in the result (and
 /// `apply` refusing it later), or a design would propose a program that separates nothing.
@@ -152,4 +235,27 @@ const TERMS_FROM_MAX_BYTES: u64 = 16 << 20;
 fn read_bounded(path: &std::path::Path, option: &str, max: u64) -> Result<String, Error> {
     sins_model::text::read_text_bounded(path, max, "diagnose result")
         .map_err(|e| format!("{option} {}: cannot read: {e}", path.display()).into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The help of every `--terms` names every id the command takes, from the declarations,
+    /// and the long help each one's help text.
+    #[test]
+    fn helps_name_every_id() {
+        for c in Candidate::ALL {
+            let id = c.id();
+            for help in [calibrate_help(), diagnose_help(), calibrate_long_help()] {
+                assert!(help.contains(id), "{id} not in {help}");
+            }
+            assert!(diagnose_long_help().contains(c.declaration().help));
+            assert_eq!(design_help().contains(id), c.term(1.0).is_some(), "{id}");
+            assert_eq!(
+                design_long_help().contains(c.declaration().help),
+                c.term(1.0).is_some()
+            );
+        }
+    }
 }

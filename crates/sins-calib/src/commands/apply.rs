@@ -5,6 +5,7 @@ use crate::{Error, print};
 use calib::config::UnitIdentity;
 use calib::io::{ImuKind, ImuReader, ImuRecord, format_f64, read_result_json};
 use calib::model::correction::{Correction, CorrectionWindow, ExtensionInputs};
+use sins_model::candidates::Candidate;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `apply`.
@@ -107,11 +108,17 @@ fn same_file(a: &Path, b: &Path) -> bool {
 fn terms(c: &Correction) -> String {
     let mut t = vec!["the paper's model (nu0, Theta, df0, Gamma)"];
     for (on, name) in [
-        (c.gyro_gsens.is_some(), "g-sensitivity"),
-        (c.gyro_asym.is_some(), "scale asymmetry"),
-        (c.accel_k2.is_some(), "accelerometer quadratic term"),
-        (c.accel_lever.is_some(), "size effect"),
-        (c.time_offset_s.is_some(), "gyro-accelerometer time offset"),
+        (c.has(Candidate::GyroGSensitivity), "g-sensitivity"),
+        (c.has(Candidate::GyroScaleAsymmetry), "scale asymmetry"),
+        (
+            c.has(Candidate::AccelQuadratic),
+            "accelerometer quadratic term",
+        ),
+        (c.has(Candidate::AccelSizeEffect), "size effect"),
+        (
+            c.has(Candidate::GyroAccelTimeOffset),
+            "gyro-accelerometer time offset",
+        ),
         (
             c.thermal.is_some(),
             "temperature coefficients (at each record's temperature)",

@@ -1,7 +1,7 @@
 //! Plain-text tables in the paper's units: parameter groups, number formatting, alignment.
 
-/// Parameter groups of the reports, in order: (title, name prefix).
-const GROUPS: [(&str, &str); 17] = [
+/// Parameter groups of the reports that are not candidate terms: (title, name prefix).
+const GROUPS: [(&str, &str); 7] = [
     ("Gyro biases nu0", "gyro.bias."),
     (
         "Gyro matrix Theta (diagonal: scale factors, off-diagonal: misalignments)",
@@ -24,46 +24,18 @@ const GROUPS: [(&str, &str); 17] = [
         "Base misalignment gamma_p (turntable base against ENU)",
         sins_model::names::BASE_PREFIX,
     ),
-    (
-        "Gyro g-sensitivity G (row: gyro, column: specific force)",
-        "gyro.gsens.",
-    ),
-    (
-        "Gyro scale-factor asymmetry a (positive rates 1 - theta - a, negative 1 - theta + a)",
-        "gyro.asym.",
-    ),
-    (
-        "Accelerometer quadratic term (per axis, on its own specific force)",
-        "accel.k2.",
-    ),
-    (
-        "Accelerometer lever arms (size effect; row: accelerometer)",
-        "accel.lever.",
-    ),
-    ("Gyro-accelerometer time offset", "time.gyro_accel"),
-    ("Gyro bias random walk", "gyro.drift."),
-    (
-        "Gyro bias temperature coefficients (about the reference temperature)",
-        sins_model::names::GYRO_TBIAS_PREFIX,
-    ),
-    (
-        "Accelerometer bias temperature coefficients",
-        sins_model::names::ACCEL_TBIAS_PREFIX,
-    ),
-    (
-        "Gyro scale-factor temperature coefficients",
-        sins_model::names::GYRO_TSCALE_PREFIX,
-    ),
-    (
-        "Accelerometer scale-factor temperature coefficients",
-        sins_model::names::ACCEL_TSCALE_PREFIX,
-    ),
 ];
 
-/// Title of the group a parameter belongs to.
+/// Title of the group a parameter belongs to: the paper's and the turntable's groups, then
+/// each candidate term's, from its declaration.
 fn group_title(name: &str) -> &'static str {
+    let candidates = sins_model::candidates::Candidate::ALL.map(|c| {
+        let d = c.declaration();
+        (d.group_title, d.params.prefix())
+    });
     GROUPS
         .iter()
+        .chain(&candidates)
         .find(|(_, prefix)| name.starts_with(prefix))
         .map_or("Other parameters", |(title, _)| title)
 }
@@ -243,6 +215,19 @@ impl Table {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every parameter of every candidate term lands in its own group, under its declared
+    /// title; the paper's keep theirs.
+    #[test]
+    fn every_candidate_parameter_has_its_group() {
+        for c in sins_model::candidates::Candidate::ALL {
+            for name in c.param_names() {
+                assert_eq!(group_title(&name), c.declaration().group_title, "{name}");
+            }
+        }
+        assert_eq!(group_title("gyro.bias.x"), "Gyro biases nu0");
+        assert_eq!(group_title("gyro.wobble.x"), "Other parameters");
+    }
 
     #[test]
     fn precision_follows_the_sigma() {

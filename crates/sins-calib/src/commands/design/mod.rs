@@ -16,10 +16,14 @@ pub struct Args {
     /// Run configuration whose program is the recorded (or planned) one.
     #[arg(long, value_name = "FILE|NAME")]
     pub config: String,
-    /// Candidate term ids to separate; without them, programs are ranked by the navigation
-    /// figure they buy (the recorded program, it without each part between its moves, and the
-    /// menu's additions) and the best is proposed.
-    #[arg(long, value_name = "ID", num_args = 1..)]
+    // Candidate term ids to separate: the help lists every id from the declarations.
+    #[arg(
+        long,
+        value_name = "ID",
+        num_args = 1..,
+        help = crate::args::terms::design_help(),
+        long_help = crate::args::terms::design_long_help()
+    )]
     pub terms: Vec<String>,
     /// Analyse with the turntable angles (28-state model and more); default: the IMU alone.
     #[arg(long)]
@@ -52,12 +56,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if terms.contains(&sins_model::candidates::Candidate::GyroBiasDrift) {
         // The design leaves it out (it has no parameters to separate): named, it would be
         // dropped without a word.
-        return Err(
-            "design --terms gyro_bias_drift: a random walk of the gyro biases has no parameters \
-             for a program to separate (it is process noise, not a state): expected candidate \
-             terms with parameters; `analyse --walk-reach` says which walk a program shows"
-                .into(),
-        );
+        return Err(format!(
+            "design --terms {}: a random walk of the gyro biases has no parameters for a \
+             program to separate (it is process noise, not a state): expected candidate terms \
+             with parameters; `analyse --walk-reach` says which walk a program shows",
+            sins_model::candidates::Candidate::GyroBiasDrift.id()
+        )
+        .into());
     }
     crate::args::terms::check_thermal(
         &terms,

@@ -10,6 +10,7 @@ use crate::commands::export::formats::{self as fmt, Densities, NoiseFigures};
 use calib::io::read_result_json;
 use calib::model::correction::{Correction, ExtensionInputs};
 use serde_json::Value;
+use sins_model::candidates::Candidate;
 use sins_model::units::DEG_PER_HOUR;
 use std::path::{Path, PathBuf};
 
@@ -542,17 +543,23 @@ fn dropped_terms(c: &Correction, to: Target) -> Vec<String> {
     let mut d = Vec::new();
     for (on, name) in [
         (
-            c.gyro_gsens.is_some() && !gsens_held,
+            c.has(Candidate::GyroGSensitivity) && !gsens_held,
             "the gyro g-sensitivity (gyro.gsens)",
         ),
-        (c.gyro_asym.is_some(), "the scale asymmetry (gyro.asym)"),
         (
-            c.accel_k2.is_some(),
+            c.has(Candidate::GyroScaleAsymmetry),
+            "the scale asymmetry (gyro.asym)",
+        ),
+        (
+            c.has(Candidate::AccelQuadratic),
             "the accelerometer quadratic term (accel.k2)",
         ),
-        (c.accel_lever.is_some(), "the size effect (accel.lever)"),
         (
-            c.time_offset_s.is_some(),
+            c.has(Candidate::AccelSizeEffect),
+            "the size effect (accel.lever)",
+        ),
+        (
+            c.has(Candidate::GyroAccelTimeOffset),
             "the gyro-accelerometer time offset (time.gyro_accel)",
         ),
     ] {
@@ -572,13 +579,13 @@ fn dropped_terms(c: &Correction, to: Target) -> Vec<String> {
 /// OpenVINS's intrinsics of the correction.
 fn openvins_of(c: &Correction, args: &Args) -> Result<fmt::OpenVinsIntrinsics, Error> {
     let gsens = c
-        .gyro_gsens
-        .as_ref()
+        .values(Candidate::GyroGSensitivity)
+        .map(nalgebra::Matrix3::from_row_slice)
         .filter(|_| c.extension_inputs == ExtensionInputs::True);
     fmt::openvins_intrinsics(
         &c.gyro_matrix,
         &c.gyro_offset,
-        gsens,
+        gsens.as_ref(),
         &c.accel_matrix,
         &c.accel_offset,
     )
