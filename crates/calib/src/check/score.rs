@@ -253,6 +253,20 @@ pub fn term_scores(p: &ExtendedPosterior, level: f64) -> Vec<TermScore> {
     out
 }
 
+/// Every candidate term of `p` tested alone against the model without any of them (the other
+/// candidates at zero), with its parameters as the model extended by it alone estimates them:
+/// what a fit of the base model extended by the one term gives in the linear-Gaussian model,
+/// from one pass (the model-extension loop's evidence, `crate::extend`). `None` where the
+/// candidates' posterior covariance is not positive definite.
+pub fn solo_scores(p: &ExtendedPosterior) -> Option<Vec<(ScoreTest, Vec<TermParameter>)>> {
+    let joint = Joint::of(p)?;
+    Some(
+        (0..p.terms.len())
+            .map(|k| (joint.test(k, &[]), joint.parameters(k, p)))
+            .collect(),
+    )
+}
+
 /// The candidates' joint posterior in prior units, from which every term's test comes.
 struct Joint {
     /// Normalised means and covariance of every parameter.

@@ -85,7 +85,7 @@ pub(super) fn rests_estimate(
         scan: &scan,
         motion: &motion,
     };
-    iterate_passes(&inp, imu, first_point, feedback, progress)
+    iterate_passes(&inp, imu, first_point, feedback, false, progress)
 }
 
 /// The extended pass of the score tests ([`score_pass`]) for a fit `est` of a recording of

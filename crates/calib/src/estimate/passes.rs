@@ -21,7 +21,9 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use sins_model::attitude::exp_so3;
 
 /// The passes over the data: a first pass from `first` (or the prior) that feeds back
-/// `first_feedback` (everything: closed loop), then passes
+/// `first_feedback` (everything: closed loop), or with `warm` one linearised about `first` as
+/// the later passes are (the converged estimates of a fit of a model that differs only in
+/// its noise: the model-extension loop's walk), then passes
 /// linearised about the one before until no parameter moves by more than
 /// [`CONVERGED_SIGMA`]; the second-order specific-force error is then carried into the
 /// covariance through the final pass's sensitivity to a residual offset.
@@ -30,6 +32,7 @@ pub(super) fn iterate_passes(
     imu: &mut dyn ImuSource,
     first: Option<Nominal>,
     first_feedback: Feedback,
+    warm: bool,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let PassInputs {
@@ -96,7 +99,9 @@ pub(super) fn iterate_passes(
         if est.cov[(s + 2, s + 2)].sqrt() > HEADING_UNRESOLVED_RAD {
             beta.z = 0.0;
         }
-        if let (Some(prev), true) = (&nominal, pass > 1) {
+        // A warm start (`first` the converged estimates of a fit of a neighbouring model) is
+        // a pass like the later ones: it may be the last.
+        if let (Some(prev), true) = (&nominal, pass > 1 || warm) {
             shift = (StateLayout::INSTRUMENT..layout.dim())
                 .map(|i| (est.values[i] - prev.totals[i]).abs() / est.cov[(i, i)].sqrt())
                 .fold(0.0, f64::max);

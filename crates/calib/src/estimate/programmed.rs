@@ -36,7 +36,13 @@ pub(super) fn calibrate(
     let given = (config.filter.score_terms, config.filter.carry_thermal);
     config.filter.score_terms |= options.score_terms;
     config.filter.carry_thermal |= options.carry_thermal;
-    let estimate = fit_program(&config, layout, imu, turntable, &mut None, progress)?;
+    let records = ProgramRecords {
+        imu,
+        turntable,
+        program: &mut None,
+        warm: None,
+    };
+    let estimate = fit_program(&config, layout, records, progress)?;
     // The options are the run's, not the configuration's: it is kept as given.
     (config.filter.score_terms, config.filter.carry_thermal) = given;
     Ok(Calibration::new(
@@ -58,17 +64,29 @@ pub(crate) fn fit_extended(
     data: RunData,
     ext: &ModelExtension,
     program: &mut Option<turntable::program::Program>,
+    warm: Option<&Estimate>,
 ) -> Result<Estimate, EstimateError> {
     let layout = layout_with(config, data.turntable.is_some(), ext);
     let mut imu = MemoryImu::new(data.imu, data.imu_file);
-    fit_program(
-        config,
-        &layout,
-        &mut imu,
-        data.turntable,
+    let records = ProgramRecords {
+        imu: &mut imu,
+        turntable: data.turntable,
         program,
-        &mut |_, _| {},
-    )
+        warm,
+    };
+    fit_program(config, &layout, records, &mut |_, _| {})
+}
+
+/// What [`fit_program`] fits: the IMU records and turntable angles, the program if compiled
+/// already, and where to start.
+pub(super) struct ProgramRecords<'p, 'a> {
+    pub(super) imu: &'p mut dyn ImuSource,
+    pub(super) turntable: Option<AngleRecords<'a>>,
+    pub(super) program: &'p mut Option<turntable::program::Program>,
+    /// A fit of a model with the same states on the same records (another noise model): its
+    /// converged estimates are the first linearisation point, and a pass that moves nothing
+    /// from them is the last (`None`: from the prior, the first pass closed loop).
+    pub(super) warm: Option<&'p Estimate>,
 }
 
 /// Calibrate along a program from any IMU source (e.g. a file read record by record, again for
@@ -90,11 +108,15 @@ pub(crate) fn fit_extended(
 pub(super) fn fit_program(
     config: &RunConfig,
     layout: &StateLayout,
-    imu: &mut dyn ImuSource,
-    turntable: Option<AngleRecords>,
-    program: &mut Option<turntable::program::Program>,
+    records: ProgramRecords,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
+    let ProgramRecords {
+        imu,
+        turntable,
+        program,
+        warm,
+    } = records;
     let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Fixed, progress)?;
     let imu_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
     let resolved =
@@ -123,7 +145,19 @@ pub(super) fn fit_program(
         _ => None,
     };
     let motion = Motion::Program(program);
-    let first = first_linearisation_point(config, &plan, layout, &scan, &motion);
+    let warm = warm
+        .filter(|w| {
+            carried.is_empty() && w.names.iter().eq(layout.entries().iter().map(|e| &e.name))
+        })
+        .and_then(|w| w.replay.as_ref())
+        .map(|r| r.nominal.clone());
+    let (first, feedback) = match warm.clone() {
+        Some(n) => (Some(n), Feedback::None),
+        None => (
+            first_linearisation_point(config, &plan, layout, &scan, &motion),
+            first_pass_feedback(config),
+        ),
+    };
     let inp = PassInputs {
         config,
         plan: &plan,
@@ -132,7 +166,7 @@ pub(super) fn fit_program(
         scan: &scan,
         motion: &motion,
     };
-    let mut estimate = iterate_passes(&inp, imu, first, first_pass_feedback(config), progress)?;
+    let mut estimate = iterate_passes(&inp, imu, first, feedback, warm.is_some(), progress)?;
     estimate.carried_terms = carried;
     Ok(estimate)
 }

@@ -160,6 +160,50 @@ pub fn separability(
     }
 }
 
+/// A posterior (`names`, `prior_sigma`, `cov`, SI) of a model extended by several terms,
+/// conditioned on the parameters `fixed` being zero: the posterior covariance of the model
+/// without them (leaving a term out of a linear-Gaussian model is knowing it is zero), so one
+/// covariance analysis of the model extended by every candidate gives each candidate's
+/// separability as an analysis of the model extended by it alone would. The Schur complement
+/// `P_kk - P_kf P_ff^-1 P_fk`, in prior units (the scales run from 1e-9 to 1); `None` where
+/// `P_ff` is not positive definite. Returns the kept names, prior sigmas and covariance.
+pub fn without_parameters(
+    names: &[String],
+    prior_sigma: &[f64],
+    cov: &DMatrix<f64>,
+    fixed: &[String],
+) -> Option<(Vec<String>, Vec<f64>, DMatrix<f64>)> {
+    let (drop, keep): (Vec<usize>, Vec<usize>) =
+        (0..names.len()).partition(|&i| fixed.contains(&names[i]));
+    let scale = |i: usize| {
+        if prior_sigma[i] > 0.0 {
+            prior_sigma[i]
+        } else {
+            1.0
+        }
+    };
+    let pn = |rows: &[usize], cols: &[usize]| {
+        DMatrix::from_fn(rows.len(), cols.len(), |a, b| {
+            cov[(rows[a], cols[b])] / (scale(rows[a]) * scale(cols[b]))
+        })
+    };
+    let mut kept = pn(&keep, &keep);
+    if !drop.is_empty() {
+        let c = pn(&drop, &drop);
+        let chol = ((&c + c.transpose()) * 0.5).cholesky()?;
+        let b = pn(&keep, &drop);
+        kept -= &b * chol.solve(&b.transpose());
+    }
+    let cov = DMatrix::from_fn(keep.len(), keep.len(), |a, b| {
+        kept[(a, b)] * scale(keep[a]) * scale(keep[b])
+    });
+    Some((
+        keep.iter().map(|&i| names[i].clone()).collect(),
+        keep.iter().map(|&i| prior_sigma[i]).collect(),
+        (&cov + cov.transpose()) * 0.5,
+    ))
+}
+
 /// The prior weight left on a base parameter whose prior is removed: enough to keep the
 /// information matrix invertible where the data leave a base parameter free (its prior then
 /// 1000 times wider), far below any prior's own weight.

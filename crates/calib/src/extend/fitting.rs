@@ -4,13 +4,15 @@
 use super::outcome::{
     CandidateEvidence, Fit, HeldOutCheck, ParameterValue, TermGain, held_out_decides,
 };
+use crate::check::score::solo_scores;
 use crate::config::RunConfig;
 use crate::estimate::calibration::Calibration;
 use crate::estimate::covariance::{Posterior, covariance_analysis_ext};
 use crate::estimate::noise::{MeasuredLevels, NoiseSource};
 use crate::estimate::{Estimate, ImuSource, RunData, fit_extended};
 use crate::extend::evidence::{
-    InformationGain, ScoreTest, chi_bar_square_sf, ln_chi_square_sf, score_test, separability,
+    InformationGain, ScoreTest, Separability, chi_bar_square_sf, ln_chi_square_sf, score_test,
+    separability, without_parameters,
 };
 
 use super::{LoopError, LoopSettings, drift_grid, held_out_log_density, log_likelihood, with_term};
@@ -119,9 +121,27 @@ impl<'a> Context<'a> {
         config: &RunConfig,
         ext: &ModelExtension,
     ) -> Result<Fit, LoopError> {
+        self.fit_from(config, ext, None)
+    }
+
+    /// A fit of `ext` whose passes start from the converged estimates of `warm` (a fit of a
+    /// model with the same states: another walk intensity), along a program; from the prior
+    /// otherwise. Started there, a pass that moves no parameter by more than the convergence
+    /// bound is the last: one or two passes where a fit from the prior takes three.
+    pub(super) fn fit_warm(&mut self, ext: &ModelExtension, warm: &Fit) -> Result<Fit, LoopError> {
+        let config = self.config().clone();
+        self.fit_from(&config, ext, Some(&warm.calibration.estimate))
+    }
+
+    fn fit_from(
+        &mut self,
+        config: &RunConfig,
+        ext: &ModelExtension,
+        warm: Option<&Estimate>,
+    ) -> Result<Fit, LoopError> {
         let (estimate, config, noise) = match &mut self.records {
             LoopRecords::Program(data) => {
-                let est = fit_extended(config, **data, ext, &mut self.program)?;
+                let est = fit_extended(config, **data, ext, &mut self.program, warm)?;
                 (est, config.clone(), NoiseSource::Configured)
             }
             LoopRecords::Rests { imu, rests } => {
@@ -170,6 +190,105 @@ impl<'a> Context<'a> {
             self.with_turntable(),
             ext,
         )?)
+    }
+
+    /// Whether a round tests its constant candidates by the score of the reference fit's
+    /// extended pass (one pass for all of them, `crate::estimate::score_pass`) rather than by a
+    /// fit each: along a program. A recording of rests fits each candidate, every fit at the
+    /// noise the data give it (a missing term's misfit read as noise in the reference fit
+    /// would hide the term's own information: [`LoopSettings::measured_noise`]).
+    pub(super) fn scores_from_pass(&self) -> bool {
+        matches!(self.records, LoopRecords::Program(_))
+    }
+
+    /// A fit of `ext` that carries the extended pass where a round tests its candidates from
+    /// it ([`Self::scores_from_pass`]): the fits a round tests against, and its final model's
+    /// (whose verdict then has the score tests, as `calibrate`'s has).
+    pub(super) fn fit_scored(&mut self, ext: &ModelExtension) -> Result<Fit, LoopError> {
+        let mut config = self.config().clone();
+        config.filter.score_terms |= self.scores_from_pass();
+        self.fit_with(&config, ext)
+    }
+
+    /// The evidence for the constant candidates `planned` against `reference` from its
+    /// extended pass, without a fit per candidate: each one's score test against the model
+    /// without any of them and its parameters as the model extended by it alone estimates them
+    /// ([`solo_scores`]; exactly what a fit of that model gives in the linear-Gaussian model),
+    /// and its separability from the same pass's posterior conditioned on the others being zero
+    /// ([`without_parameters`]; a covariance analysis of its own where that fails): the pass
+    /// runs over the whole recorded program (a part is refused, [`LoopError::PartialProgram`])
+    /// with the fit's noise, as the analysis would, and with the recorded temperature and
+    /// timing. Candidates the pass did not carry are left out (the caller fits them).
+    pub(super) fn scored_terms(
+        &mut self,
+        reference: &Fit,
+        planned: &[Candidate],
+    ) -> Result<Vec<CandidateEvidence>, LoopError> {
+        let est = &reference.calibration.estimate;
+        let Some(pass) = est.extended.as_ref() else {
+            return Ok(Vec::new());
+        };
+        let Some(solo) = solo_scores(pass) else {
+            return Ok(Vec::new());
+        };
+        let scored: Vec<(Candidate, ScoreTest, Vec<ParameterValue>)> = pass
+            .terms
+            .iter()
+            .zip(solo)
+            .filter_map(|((id, _), (test, params))| {
+                let c = planned.iter().copied().find(|c| c.id() == id)?;
+                let values = params
+                    .into_iter()
+                    .map(|p| ParameterValue {
+                        name: p.name,
+                        value: p.value,
+                        sigma: p.sigma,
+                    })
+                    .collect();
+                Some((c, test, values))
+            })
+            .collect();
+        if scored.is_empty() {
+            return Ok(Vec::new());
+        }
+        self.say(&format!(
+            "score tests and separability of {} candidate terms from the extended pass",
+            scored.len()
+        ));
+        let grade = self.config.unit_grade();
+        let base = parameter_names(est);
+        let mut out = Vec::new();
+        for (c, test, estimate) in scored.iter().cloned() {
+            let names = c.param_names();
+            let others: Vec<String> = scored
+                .iter()
+                .filter(|(o, _, _)| *o != c)
+                .flat_map(|(o, _, _)| o.param_names())
+                .collect();
+            let conditioned =
+                without_parameters(&pass.names, &pass.prior_sigma, &pass.cov, &others);
+            let sep = match conditioned {
+                Some((n, s0, cov)) => separability(&n, &s0, &cov, &names, &base),
+                None => {
+                    let post = self.analyse(&with_term(&reference.extension, c, grade))?;
+                    separability(&post.names, &post.prior_sigma, &post.cov, &names, &base)
+                }
+            };
+            out.push(evidence_of(c, test, sep, estimate));
+        }
+        Ok(out)
+    }
+
+    /// The fit of `reference`'s model extended by the candidate `term`, tested by its score
+    /// and picked by the round.
+    pub(super) fn fit_candidate(&mut self, reference: &Fit, term: &str) -> Result<Fit, LoopError> {
+        let c = Candidate::ALL
+            .into_iter()
+            .find(|c| c.id() == term)
+            .expect("a candidate's id");
+        self.say(&format!("fitting with {term}"));
+        let ext = with_term(&reference.extension, c, self.config.unit_grade());
+        self.fit_scored(&ext)
     }
 
     /// The evidence for a constant-parameter candidate against the model `current`.
@@ -268,7 +387,7 @@ impl<'a> Context<'a> {
             ));
             let mut ext = current.extension.clone();
             ext.gyro_drift = Some([q; 3]);
-            let fit = self.fit(&ext)?;
+            let fit = self.fit_warm(&ext, current)?;
             if best
                 .as_ref()
                 .is_none_or(|(_, b)| fit.log_likelihood > b.log_likelihood)
@@ -331,7 +450,7 @@ impl<'a> Context<'a> {
             v[axis] *= factor;
             let mut ext = current.extension.clone();
             ext.gyro_drift = Some(v);
-            pts.push((v[axis], self.fit(&ext)?.log_likelihood));
+            pts.push((v[axis], self.fit_warm(&ext, current)?.log_likelihood));
         }
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         let best = (0..pts.len())
@@ -387,5 +506,24 @@ pub(super) fn gain(before: &Fit, after: &Fit, parameters: usize) -> TermGain {
             before.calibration.diagnostics.fits,
             after.calibration.diagnostics.fits,
         ),
+    }
+}
+
+/// A constant candidate's evidence from its test, separability and estimate.
+fn evidence_of(
+    c: Candidate,
+    test: ScoreTest,
+    sep: Separability,
+    estimate: Vec<ParameterValue>,
+) -> CandidateEvidence {
+    CandidateEvidence {
+        term: c.id().to_string(),
+        statistic: test.statistic,
+        dof: test.dof,
+        p_value: test.p_value,
+        ln_p_value: test.ln_p_value,
+        separable: sep.separable,
+        separation: Some(sep),
+        estimate,
     }
 }

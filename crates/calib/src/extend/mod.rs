@@ -3,15 +3,18 @@
 //! the gain is significant (the method in full: `docs/model-extension.md`).
 //!
 //! Each round:
-//! 1. every candidate term not yet in the model is fitted together with the model
-//!    (`crate::estimate::fit_extended`); its score statistic ([`crate::extend::evidence::score_test`])
-//!    says whether the innovations call for it, with a chi-square p-value; the gyro bias random
-//!    walk, a noise process and not a state, is tested by the likelihood ratio of the
-//!    innovations over a grid of intensities, with the chi-bar-square p-value of a parameter on
-//!    the boundary;
-//! 2. a covariance analysis of the extended model on the recorded program
-//!    ([`crate::estimate::covariance::covariance_analysis_ext`]) says whether each candidate is separable
-//!    from the parameters already in the model ([`crate::extend::evidence::separability`]);
+//! 1. every candidate term not yet in the model gets its score statistic, which says whether
+//!    the innovations call for it, with a chi-square p-value: along a program from one extended
+//!    pass over the round's reference fit with every candidate appended
+//!    ([`crate::check::score::solo_scores`], no fit per candidate); on a recording of rests
+//!    whose noise every fit measures, from a fit of the model extended by it
+//!    ([`crate::extend::evidence::score_test`]); the gyro bias random walk, a noise process and
+//!    not a state, is tested by the likelihood ratio of the innovations over a grid of
+//!    intensities, with the chi-bar-square p-value of a parameter on the boundary;
+//! 2. the same pass's posterior (conditioned on the other candidates being zero,
+//!    [`crate::extend::evidence::without_parameters`]), or the fit's, says whether each candidate
+//!    is separable from the parameters already in the model
+//!    ([`crate::extend::evidence::separability`]);
 //! 3. the candidate with the smallest p-value is accepted if that p-value is below the level
 //!    divided by the number of candidates tested in the round (Bonferroni: the family-wise
 //!    chance of accepting a term the data do not call for stays under the level) and the

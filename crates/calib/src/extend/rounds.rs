@@ -105,7 +105,7 @@ pub fn run_loop_at_rests(
 /// The loop itself, on a context.
 pub(super) fn loop_in(mut cx: Context) -> Result<LoopResult, LoopError> {
     (cx.progress)("fitting the paper's model");
-    let base = cx.fit(&ModelExtension::default())?;
+    let base = cx.fit_scored(&ModelExtension::default())?;
     if let LoopRecords::Program(data) = cx.records {
         let program = cx.program.as_ref().expect("a fit of a program keeps it");
         check_coverage(cx.config, program, data, &base.calibration.estimate)?;
@@ -196,8 +196,14 @@ pub(super) fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopEr
             st.rounds.push(round);
             break;
         };
+        // A candidate tested by the score alone is fitted now that it is picked.
+        if evidence[k].1.is_none() {
+            let term = evidence[k].0.term.clone();
+            evidence[k].1 = Some(cx.fit_candidate(&reference, &term)?);
+        }
+        let (evidence_k, fit_k) = (&evidence[k].0, evidence[k].1.as_ref().expect("fitted"));
         // Acceptance needs evidence: the likelihood must rise with the term.
-        let rise = evidence[k].1.log_likelihood - reference.log_likelihood;
+        let rise = fit_k.log_likelihood - reference.log_likelihood;
         if rise.is_nan() || rise <= 0.0 {
             round.carried = false;
             round.refused = Some(format!(
@@ -207,8 +213,12 @@ pub(super) fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopEr
             break;
         }
         if let Some(every) = settings.hold_out_every.filter(|_| !round.carried) {
-            let (e, fit) = &evidence[k];
-            let check = cx.held_out_check(&e.term, &reference.extension, &fit.extension, every)?;
+            let check = cx.held_out_check(
+                &evidence_k.term,
+                &reference.extension,
+                &fit_k.extension,
+                every,
+            )?;
             let refused = check.refused();
             round.held_out = Some(check);
             if refused {
@@ -218,12 +228,15 @@ pub(super) fn loop_from(mut cx: Context, base: Fit) -> Result<LoopResult, LoopEr
                 break;
             }
         }
-        cx.accept(&mut st, round, evidence.swap_remove(k), &reference)?;
+        let (e, fit) = evidence.swap_remove(k);
+        cx.accept(&mut st, round, (e, fit.expect("fitted")), &reference)?;
     }
     let drift_reach = cx.last_drift_reach(&st)?;
     // The final model's verdict as `calibrate` gives it: with the score tests of the candidate
     // terms left out (one more fit with the extended pass; the estimate is the same).
-    if cx.rests().is_none() {
+    let scored = st.current.calibration.estimate.extended.is_some()
+        || st.current.calibration.estimate.extended_error.is_some();
+    if cx.rests().is_none() && !scored {
         // The configuration it was fitted with (not the loop's, whose noise may be scaled to
         // the data for testing).
         let mut config = st.current.calibration.config.clone();
@@ -287,7 +300,7 @@ impl Context<'_> {
         if st.rounds.is_empty() {
             st.noise_rescaled = Some(r);
         }
-        self.fit(&st.current.extension)
+        self.fit_scored(&st.current.extension)
     }
 
     /// The evidence for every candidate of the settings not in `reference`'s model against
@@ -298,7 +311,7 @@ impl Context<'_> {
         reference: &Fit,
         thermal_off: Option<&str>,
         st: &mut LoopState,
-    ) -> Result<Vec<(CandidateEvidence, Fit)>, LoopError> {
+    ) -> Result<Vec<(CandidateEvidence, Option<Fit>)>, LoopError> {
         let settings = self.settings;
         let mut planned = Vec::new();
         for &c in &settings.candidates {
@@ -315,13 +328,29 @@ impl Context<'_> {
             }
             planned.push(c);
         }
-        let mut evidence: Vec<(CandidateEvidence, Fit)> = Vec::new();
-        for (i, &c) in planned.iter().enumerate() {
+        let mut evidence: Vec<(CandidateEvidence, Option<Fit>)> = Vec::new();
+        if self.scores_from_pass() {
+            self.stage = format!("round {}: ", st.rounds.len() + 1);
+            let constant: Vec<Candidate> = planned
+                .iter()
+                .copied()
+                .filter(|c| *c != Candidate::GyroBiasDrift)
+                .collect();
+            let scored = self.scored_terms(reference, &constant);
+            self.stage.clear();
+            evidence.extend(scored?.into_iter().map(|e| (e, None)));
+        }
+        let rest: Vec<Candidate> = planned
+            .iter()
+            .copied()
+            .filter(|c| !evidence.iter().any(|(e, _)| e.term == c.id()))
+            .collect();
+        for (i, &c) in rest.iter().enumerate() {
             self.stage = format!(
                 "round {}, candidate {} of {}: ",
                 st.rounds.len() + 1,
                 i + 1,
-                planned.len()
+                rest.len()
             );
             let e = if c == Candidate::GyroBiasDrift {
                 self.drift(reference)
@@ -329,7 +358,8 @@ impl Context<'_> {
                 self.constant_term(reference, c)
             };
             self.stage.clear();
-            evidence.push(e?);
+            let (e, fit) = e?;
+            evidence.push((e, Some(fit)));
         }
         evidence.sort_by(|a, b| a.0.ln_p_value.total_cmp(&b.0.ln_p_value));
         Ok(evidence)
@@ -364,7 +394,7 @@ impl Context<'_> {
         }
         st.rounds.push(round);
         st.current = if self.scaled.take().is_some() {
-            self.fit(&fit.extension)?
+            self.fit_scored(&fit.extension)?
         } else {
             fit
         };
