@@ -23,8 +23,8 @@ use crate::motion::rests::{Rest, RestError};
 /// rest (and gyrocompassed where the gyros resolve the Earth rate), and the attitude carried by the
 /// gyros through every motion ([`crate::motion::rests`]). The layout must be an IMU-only one.
 ///
-/// `coarse` is where the first pass starts: the totals of the instrument parameters (in the
-/// layout's order), or `None` for the prior means. Units whose errors are large (per-cent scale
+/// `start.coarse` is where the first pass starts: the totals of the instrument parameters (in
+/// the layout's order), or `None` for the prior means ([`RestsStart`]). Units whose errors are large (per-cent scale
 /// factors, degrees per second of bias) need one ([`super::coarse_start::coarse_start_at_rests`]
 /// makes it).
 pub(super) fn fit_at_rests(
@@ -33,12 +33,24 @@ pub(super) fn fit_at_rests(
     imu: &mut dyn ImuSource,
     rests: &[Rest],
     turns: &[crate::motion::rests::Turn],
-    coarse: Option<&[f64]>,
+    start: RestsStart,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let recording = Recording { rests, turns };
     let plan = SitePriors::of(config);
-    rests_estimate(config, &plan, layout, imu, recording, coarse, progress)
+    rests_estimate(config, &plan, layout, imu, recording, start, progress)
+}
+
+/// Where a fit of a recording of rests starts.
+#[derive(Clone, Copy, Default)]
+pub(super) struct RestsStart<'a> {
+    /// The totals of the instrument parameters (in the layout's order) the first pass starts
+    /// from, or `None` for the prior means ([`fit_at_rests`]).
+    pub(super) coarse: Option<&'a [f64]>,
+    /// A fit of the same states on the same records with other noise levels (the noise fixed
+    /// point's fit before): its converged estimates are the first linearisation point, its
+    /// first pass one like the later ones, which may be the last.
+    pub(super) warm: Option<&'a Estimate>,
 }
 
 /// The rests and known turns of a recording without a program.
@@ -57,7 +69,7 @@ pub(super) fn rests_estimate(
     layout: &StateLayout,
     imu: &mut dyn ImuSource,
     recording: Recording,
-    coarse: Option<&[f64]>,
+    start: RestsStart,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let rests = recording.rests;
@@ -71,12 +83,19 @@ pub(super) fn rests_estimate(
     check_recording_of_rests(config, plan, &scan, rests, imu.file())?;
     scan.program_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
     scan.program_start_found = false;
-    let (motion, first_point) = motion_at_rests(config, plan, layout, &scan, recording, coarse)
-        .map_err(|source| EstimateError::Rests {
-            file: imu.file().to_string(),
-            source,
-        })?;
+    let (motion, first_point) =
+        motion_at_rests(config, plan, layout, &scan, recording, start.coarse).map_err(
+            |source| EstimateError::Rests {
+                file: imu.file().to_string(),
+                source,
+            },
+        )?;
     let feedback = first_feedback_at_rests(config, &motion, first_point.is_some());
+    let warm = start
+        .warm
+        .filter(|w| w.names.iter().eq(layout.entries().iter().map(|e| &e.name)))
+        .and_then(|w| w.replay.as_ref())
+        .map(|r| r.nominal.clone());
     let inp = PassInputs {
         config,
         plan,
@@ -85,7 +104,10 @@ pub(super) fn rests_estimate(
         scan: &scan,
         motion: &motion,
     };
-    iterate_passes(&inp, imu, first_point, feedback, false, progress)
+    match warm {
+        Some(n) => iterate_passes(&inp, imu, Some(n), feedback, true, progress),
+        None => iterate_passes(&inp, imu, first_point, feedback, false, progress),
+    }
 }
 
 /// The extended pass of the score tests ([`score_pass`]) for a fit `est` of a recording of

@@ -670,18 +670,19 @@ pub(crate) fn fit_measuring_noise(
     // the fits share (only their noise differs): found once, not at every fit.
     let (imu, rests, turns) = (input.imu, input.rests, input.turns);
     let coarse = super::coarse_start::coarse_start_at_rests(config, layout, imu, rests, turns)?;
+    // Each fit after the first starts from the one before's converged estimates (the same
+    // states, other noise levels): one or two passes where a fit from the coarse start takes
+    // three to eight.
+    let mut before: Option<crate::estimate::Estimate> = None;
     loop {
         let mut config = config.clone();
         levels.apply(&mut config, base_accel);
-        let est = super::at_rests::fit_at_rests(
-            &config,
-            layout,
-            imu,
-            rests,
-            turns,
-            coarse.as_deref(),
-            progress,
-        )?;
+        let start = super::at_rests::RestsStart {
+            coarse: coarse.as_deref(),
+            warm: before.as_ref(),
+        };
+        let est =
+            super::at_rests::fit_at_rests(&config, layout, imu, rests, turns, start, progress)?;
         fits += 1;
         let Some(at_rest) = measured else {
             return Ok(MeasuredFit {
@@ -720,13 +721,33 @@ pub(crate) fn fit_measuring_noise(
                 noise,
             });
         }
-        let motion = next_motion(levels.motion_rad, next.motion_rad, previous_motion);
+        before = Some(est);
+        let motion = if at_boundary_twice(levels, next, previous_motion) {
+            // The likelihood puts the motion noise at zero, again, with the specific-force
+            // level settled: it is zero, not a value to approach by quarters (a consumer-grade
+            // simulated recording took seven fits to get there, 0.1 deg quartered each time).
+            0.0
+        } else {
+            next_motion(levels.motion_rad, next.motion_rad, previous_motion)
+        };
         previous_motion = Some((levels.motion_rad, next.motion_rad));
         levels = MeasuredLevels {
             accel_factor: next.accel_factor,
             motion_rad: motion,
         };
     }
+}
+
+/// Whether the motion noise the likelihood estimated is zero for the second fit running
+/// (`previous`: the fit before's motion noise and estimate) while the specific-force factor
+/// has settled (within 3 %, as in [`settled`]).
+fn at_boundary_twice(
+    now: MeasuredLevels,
+    next: MeasuredLevels,
+    previous: Option<(f64, f64)>,
+) -> bool {
+    let factor_settled = (next.accel_factor / now.accel_factor - 1.0).abs() <= 0.03;
+    factor_settled && next.motion_rad == 0.0 && previous.is_some_and(|(_, e)| e == 0.0)
 }
 
 /// Whether the levels a fit estimated (`next`) are those it was made with (`now`): the factor

@@ -73,7 +73,7 @@ pub(super) fn iterate_passes(
     let mut sensitivity;
     let mut estimate = loop {
         let done = (1 + pass) * n;
-        let feedback = if pass == 0 {
+        let feedback = if pass == 0 && !warm {
             first_feedback
         } else if matches!(motion, Motion::Rests { .. }) && tilt_walks {
             Feedback::Tilt
