@@ -359,6 +359,9 @@ pub struct SetupSummary {
     pub terms: Vec<Candidate>,
     /// What the configuration assumed ([`Setup::assumptions`]).
     pub assumptions: Vec<String>,
+    /// The rests' excess, where it is weighed without `--rest-error`
+    /// ([`calib::estimate::hand_turned::RestExcess::weighed_unasked`]; set by the session).
+    pub rest_error_unasked: Option<calib::estimate::hand_turned::RestExcess>,
 }
 
 impl Setup {
@@ -370,6 +373,7 @@ impl Setup {
             unit_grade: self.unit_grade,
             terms: self.terms.clone(),
             assumptions: self.assumptions.clone(),
+            rest_error_unasked: None,
         }
     }
 }
@@ -394,6 +398,8 @@ pub struct FreeMotionFigures {
     pub motion_attitude_noise_deg: f64,
     /// The error the windows of one rest share, weighed (m/s^2, `filter.rest_error_m_s2`).
     pub rest_error_m_s2: f64,
+    /// The rests' excess, where it is weighed without `--rest-error`.
+    pub rest_error_unasked: Option<calib::estimate::hand_turned::RestExcess>,
     /// What the fitted rests' `|f| = g` residuals scatter beyond their white noise (m/s^2;
     /// with the noise measured), and its degrees of freedom.
     pub rest_excess_m_s2: Option<(f64, f64)>,
@@ -519,6 +525,7 @@ pub fn figures(
         noise_accel_m_s2: c.noise.accel_m_s2,
         motion_attitude_noise_deg: c.filter.motion_attitude_noise_deg,
         rest_error_m_s2: c.filter.rest_error_m_s2,
+        rest_error_unasked: setup.rest_error_unasked,
         rest_excess_m_s2: evaluation
             .rest_excess_m_s2
             .map(|x| (x, evaluation.rest_excess_dof)),

@@ -245,6 +245,7 @@ pub fn calibrate(args: &crate::args::CalibrateArgs) -> Result<Session<Calibrate>
             sections: args.sections.as_deref(),
             terms: &terms,
             rest_error_m_s2: args.rest_error,
+            holdout: args.holdout,
         });
         layout = rests_streamed(&mut session, &args.detector, "calibrate", asked)?;
     }
@@ -443,6 +444,8 @@ pub fn diagnose(args: &crate::args::DiagnoseArgs) -> Result<Session<Diagnose>, E
             sections: args.sections.as_deref(),
             terms: &[],
             rest_error_m_s2: None,
+            // The loop fits every rest; its held-out verdict holds some out afterwards.
+            holdout: None,
         });
         rests_streamed(&mut session, &args.detector, "diagnose", asked)?;
         settings.measured_noise = session.free_motion().and_then(|f| f.measured);
@@ -721,6 +724,8 @@ struct FreeMotionArgs<'a> {
     terms: &'a [Candidate],
     /// `--rest-error`: the error each rest's windows share, weighed (m/s^2).
     rest_error_m_s2: Option<f64>,
+    /// `--holdout`: the rests held out of the fit, whose excess is not measured.
+    holdout: Option<usize>,
 }
 
 /// Set up a `--free-motion` run on the rests `found` in the records of `source`
@@ -742,13 +747,29 @@ fn set_up_free_motion(
         sections,
         terms,
         rest_error_m_s2,
+        holdout,
     } = args;
     let mut setup = free_motion::setup(given, site, sections, terms, source, &found.rests)?;
-    if let Some(v) = rest_error_m_s2 {
-        setup.config.filter.rest_error_m_s2 = v;
+    let mut rest_error_unasked = None;
+    match (rest_error_m_s2, setup.measured) {
+        (Some(v), _) => setup.config.filter.rest_error_m_s2 = v,
+        // Without a configuration the rests' excess is weighed where the rests show it
+        // (`RestExcess::weighed_unasked`), measured on the rests the fit uses.
+        (None, Some(at_rest)) => {
+            rest_error_unasked = calib::estimate::hand_turned::weigh_rest_excess_unasked(
+                &mut setup.config,
+                source.source(),
+                &found.rests,
+                &at_rest,
+                holdout,
+            )?;
+        }
+        _ => {}
     }
+    let mut summary = setup.summary();
+    summary.rest_error_unasked = rest_error_unasked;
     found.free_motion = Some(FreeMotion {
-        summary: setup.summary(),
+        summary,
         measured: setup.measured,
         turns: setup.turns,
     });

@@ -70,7 +70,8 @@ pub struct CalibrateArgs {
     /// With --free-motion: the error every specific-force window of one rest shares (m/s^2,
     /// one sigma per axis), weighed so that a rest counts at most as one measurement of it
     /// (`filter.rest_error_m_s2`). The report measures it ("rests' excess"); absent: the
-    /// configuration's (0).
+    /// configuration's, or without one the rests' excess where it is significant (p below 1 %
+    /// over at least 10 degrees of freedom); 0: the windows taken as independent.
     #[arg(
         long,
         value_name = "M_S2",

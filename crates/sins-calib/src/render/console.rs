@@ -224,7 +224,18 @@ fn free_motion_header(f: &FreeMotionFigures) -> String {
             }
         );
     }
-    if f.rest_error_m_s2 > 0.0 {
+    if let (true, Some(e)) = (f.rest_error_m_s2 > 0.0, f.rest_error_unasked) {
+        let _ = writeln!(
+            s,
+            "  rests' error    {} m/s^2 shared by the windows of each rest, weighed unasked: the \
+             rests' excess is significant (p = {:.2e} over {:.1} degrees of freedom); a long \
+             rest counts at most as one measurement of it (--rest-error 0 takes the windows as \
+             independent)",
+            table::significant(f.rest_error_m_s2, 3),
+            e.p_value,
+            e.dof
+        );
+    } else if f.rest_error_m_s2 > 0.0 {
         let _ = writeln!(
             s,
             "  rests' error    {} m/s^2 shared by the windows of each rest, weighed: a long rest \

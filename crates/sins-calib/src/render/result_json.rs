@@ -191,6 +191,10 @@ struct FreeMotionJson {
     motion_attitude_noise_deg: f64,
     /// The error the windows of one rest share, weighed (m/s^2; 0: none).
     rest_error_m_s2: f64,
+    /// Where it was weighed without `--rest-error`: the p-value of the rests' excess that
+    /// made it so.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rest_error_unasked_p_value: Option<f64>,
     /// What the rests' |f| = g residuals scatter beyond their white noise (m/s^2).
     #[serde(skip_serializing_if = "Option::is_none")]
     rest_excess_m_s2: Option<f64>,
@@ -306,6 +310,7 @@ fn free_motion(f: &FreeMotionFigures) -> FreeMotionJson {
         noise_accel_m_s2: f.noise_accel_m_s2,
         motion_attitude_noise_deg: f.motion_attitude_noise_deg,
         rest_error_m_s2: f.rest_error_m_s2,
+        rest_error_unasked_p_value: f.rest_error_unasked.map(|e| e.p_value),
         rest_excess_m_s2: f.rest_excess_m_s2.map(|(x, _)| x),
         rest_excess_dof: f.rest_excess_m_s2.map(|(_, d)| d),
         measured,

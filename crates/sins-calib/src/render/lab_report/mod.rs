@@ -278,8 +278,16 @@ fn noise_md(f: &FreeMotionFigures) -> String {
     if f.rest_error_m_s2 > 0.0 {
         let _ = write!(
             s,
-            "; {} m/s^2 of specific-force error shared by the windows of each rest",
-            table::significant(f.rest_error_m_s2, 3)
+            "; {} m/s^2 of specific-force error shared by the windows of each rest{}",
+            table::significant(f.rest_error_m_s2, 3),
+            match f.rest_error_unasked {
+                Some(e) => format!(
+                    " (the rests' excess, weighed unasked: p = {:.2e} over {:.1} degrees of \
+                     freedom)",
+                    e.p_value, e.dof
+                ),
+                None => String::new(),
+            }
         );
     }
     let _ = writeln!(s, ".\n");
