@@ -51,6 +51,7 @@ pub mod noise;
 mod pass;
 mod passes;
 mod programmed;
+mod rest_excess;
 mod scan;
 pub mod score_pass;
 mod start_point;
