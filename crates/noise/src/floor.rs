@@ -31,7 +31,8 @@
 //! white noise, from the other, or from a unit settling after each motion. [`slow_terms`] says
 //! whether the rests are long enough: a walk above 0 only where the longest averaging time
 //! reaches two octaves beyond the time where the walk's Allan variance equals the white
-//! noise's (it then dominates the curve over two octaves); a walk whose interval reaches 0 is
+//! noise's (it then dominates the curve over two octaves) and the curve there does not lie
+//! below it ([`walk_contradicted`]); a walk whose interval reaches 0 is
 //! a bound (its upper end says how much could hide) where the curve reaches
 //! [`MIN_WALK_BOUND_TAU_S`]: from a shorter one it allows walks no unit has, and says nothing;
 //! a bias instability only where the curve shows a floor (above).
@@ -164,13 +165,20 @@ pub struct SlowTerms {
     pub longest_rest_s: f64,
     /// The longest averaging time of the curve (s).
     pub longest_tau_s: f64,
+    /// Where the curve beyond the crossover contradicts the walk (a value, not a bound): the
+    /// averaging time (s) of the point whose upper bound, at [`WALK_CONTRADICTION_LEVEL`]
+    /// over the points beyond the crossover, lies furthest below the deviation of the white
+    /// noise and the walk at the lower end of its 68 % interval, with that ratio (walk over
+    /// bound, above 1). `None` where no point does.
+    pub walk_contradicted_at: Option<(f64, f64)>,
     /// The averaging time from which the walk (at its value, or at its upper end where its
     /// interval reaches 0) dominates the white noise (s; infinite for no walk at all).
     pub walk_crossover_s: f64,
     /// Whether the walk's interval reaches 0: then the crossover is that of its upper end.
     pub walk_bound: bool,
     /// Whether the walk is determined: a bound (its interval reaches 0) where the curve reaches
-    /// [`MIN_WALK_BOUND_TAU_S`], or a value where it reaches [`FLOOR_SPAN`] times the crossover.
+    /// [`MIN_WALK_BOUND_TAU_S`], or a value where the curve reaches [`FLOOR_SPAN`] times the
+    /// crossover and does not contradict it there (`walk_contradicted_at`).
     pub walk: bool,
     /// Whether a bias instability is determined: the curve shows a floor
     /// ([`flicker_floor`]).
@@ -201,19 +209,65 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
     } else {
         f64::INFINITY
     };
+    let walk_contradicted_at = if bound {
+        None
+    } else {
+        walk_contradicted(curve, ml.white.value, ml.walk.lower, walk_crossover_s)
+    };
     SlowTerms {
         longest_rest_s: longest as f64 * curve.tau0_s,
         longest_tau_s,
+        walk_contradicted_at,
         walk_crossover_s,
         walk_bound: bound,
         walk: if bound {
             longest_tau_s >= MIN_WALK_BOUND_TAU_S * (1.0 - 1e-9)
         } else {
             longest_tau_s >= FLOOR_SPAN * walk_crossover_s * (1.0 - 1e-9)
+                && walk_contradicted_at.is_none()
         },
         bias_instability: flicker_floor(curve, BLOCKS_PER_CORRELATION as f64 * ml.correlation_s)
             .is_some(),
     }
+}
+
+/// The family-wise level at which the curve's points beyond a walk's crossover contradict it
+/// ([`walk_contradicted`]): 1 %, Bonferroni over those points.
+pub const WALK_CONTRADICTION_LEVEL: f64 = 0.01;
+
+/// Where the measured curve beyond `crossover_s` contradicts a walk `k` (rad/s/sqrt(s) or
+/// m/s^2/sqrt(s); the lower end of its 68 % interval) with white noise `n`: a point whose
+/// one-sided upper bound at [`WALK_CONTRADICTION_LEVEL`] over those points lies below the
+/// two's deviation `sqrt(n^2 / tau + k^2 tau / 3)`; the furthest one, as (tau, deviation over
+/// bound). The likelihood's walk rests on the records' structure over its blocks; a sensor whose
+/// deviation rises over a few seconds and falls again (a correlation, a unit settling) gives a
+/// walk the longer averaging times deny: the Xsens accelerometer z's 0.00132 m/s^2/sqrt(s),
+/// dominating from 1.6 s, lay 5.5 and 12 times above the curve at 10 and 20 s (5.5 and 1.7
+/// degrees of freedom), inside the band check, which widens by the model's own interval at a
+/// level corrected over every point of every axis, and was written into `[noise]`.
+pub fn walk_contradicted(
+    curve: &AllanCurve,
+    n: f64,
+    k: f64,
+    crossover_s: f64,
+) -> Option<(f64, f64)> {
+    if !(k > 0.0 && crossover_s.is_finite()) {
+        return None;
+    }
+    let beyond: Vec<_> = curve
+        .points
+        .iter()
+        .filter(|p| p.terms > 0 && p.edf > 0.0 && p.tau_s >= crossover_s * (1.0 - 1e-9))
+        .collect();
+    let alpha = WALK_CONTRADICTION_LEVEL / beyond.len().max(1) as f64;
+    beyond
+        .iter()
+        .filter_map(|p| {
+            let (_, upper) = edf::confidence_interval(p.adev, p.edf, 1.0 - 2.0 * alpha);
+            let model = (n * n / p.tau_s + k * k * p.tau_s / 3.0).sqrt();
+            (model > upper).then_some((p.tau_s, model / upper))
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 #[cfg(test)]
@@ -250,6 +304,53 @@ mod tests {
         let types = vec![NoiseType::WhiteRate; c.points.len()];
         c.set_noise_types(&types);
         c
+    }
+
+    /// A likelihood fit of white noise `n` and a walk `k` (68 % interval +-10 %).
+    fn ml(n: f64, k: f64) -> MlFit {
+        use crate::likelihood::Level;
+        MlFit {
+            white: Level {
+                value: n,
+                lower: 0.9 * n,
+                upper: 1.1 * n,
+            },
+            walk: Level {
+                value: k,
+                lower: 0.9 * k,
+                upper: 1.1 * k,
+            },
+            gauss_markov: None,
+            neg2_log_likelihood: 0.0,
+            lr_statistic: 0.0,
+            lr_p_value: 1.0,
+            whiteness: None,
+            block_s: 0.1,
+            blocks: 100,
+            correlation_s: 0.0,
+            tc_at_bound: false,
+            oscillation: None,
+        }
+    }
+
+    /// A walk dominating from 1 s over two octaves is determined where the curve follows it,
+    /// and not where the curve beyond 1 s falls (a correlation of a second, the Xsens
+    /// accelerometer z's shape), though the curve reaches as far.
+    #[test]
+    fn a_walk_the_curve_denies_is_not_determined() {
+        let (n, k) = (1e-3, 3f64.sqrt() * 1e-3);
+        let walk = |t: f64| (n * n / t + k * k * t / 3.0).sqrt();
+        let st = slow_terms(&curve(100_000, walk), &ml(n, k));
+        assert!((st.walk_crossover_s - 1.0).abs() < 1e-9, "{st:?}");
+        assert!(st.walk && st.walk_contradicted_at.is_none(), "{st:?}");
+        // A Gauss-Markov bias of 1 s: the deviation peaks near the correlation time and then
+        // falls as 1/sqrt(tau).
+        let bump = |t: f64| {
+            let gm = k * (1.0f64).min(1.0 / t).sqrt();
+            (n * n / t + gm * gm).sqrt()
+        };
+        let st = slow_terms(&curve(100_000, bump), &ml(n, k));
+        assert!(!st.walk && st.walk_contradicted_at.is_some(), "{st:?}");
     }
 
     #[test]

@@ -475,6 +475,9 @@ fn axis_levels(axis: &AxisNoise, m: &MlFit, band: &AxisCheck, slow: &SlowTerms) 
         ))
     };
     let walk = match &basis {
+        Ok(_) if slow.walk_contradicted_at.is_some() => {
+            Err("not determined: the curve at longer averaging times lies below it".to_string())
+        }
         Ok(_) if !slow.walk => Err(format!(
             "not determined: the longest rest, {} s, is too short to tell a walk",
             table::significant(slow.longest_rest_s, 3)

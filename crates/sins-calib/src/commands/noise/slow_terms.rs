@@ -49,6 +49,16 @@ pub(crate) fn walk_not_determined(st: &SlowTerms) -> String {
             sig(MIN_WALK_BOUND_TAU_S),
             sig(st.walk_crossover_s)
         )
+    } else if let Some((tau_s, ratio)) = st.walk_contradicted_at {
+        format!(
+            "the curve beyond {} s, from which the walk would dominate the white noise, lies \
+             below it (at {} s {} times below its upper bound at {} % over those points): a \
+             correlation of a few seconds or a unit settling, not a walk",
+            sig(st.walk_crossover_s),
+            sig(tau_s),
+            table::significant(ratio, 2),
+            table::compact(100.0 * ::noise::floor::WALK_CONTRADICTION_LEVEL)
+        )
     } else if st.walk_crossover_s.is_finite() {
         format!(
             "{reach} is too short: the walk would dominate the white noise from {} s, and two \
@@ -89,7 +99,7 @@ pub(crate) fn report(s: &Sensor, sn: &SensorNoise) -> String {
         let w = match (st.walk, st.walk_bound) {
             (true, false) => format!(
                 "walk determined (the curve reaches {} s, {} times the {} s from which the walk \
-                 dominates the white noise)",
+                 dominates the white noise, and follows it)",
                 sig(st.longest_tau_s),
                 table::compact(FLOOR_SPAN),
                 sig(st.walk_crossover_s)
@@ -153,6 +163,7 @@ pub(crate) fn sensor_json(s: &Sensor, sn: &SensorNoise) -> (Value, Value) {
                 "walk_crossover_s": st.walk_crossover_s.is_finite().then_some(st.walk_crossover_s),
                 "walk_determined": st.walk,
                 "walk_bound": st.walk_bound,
+                "walk_contradicted_at_tau_s": st.walk_contradicted_at.map(|(tau_s, _)| tau_s),
                 "bias_instability_determined": st.bias_instability,
             })
         })
