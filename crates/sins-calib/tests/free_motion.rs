@@ -76,7 +76,10 @@ fn xsens_held_out_targets() {
     // 5 % on the held-out rests. By default since the rests' excess is weighed where the rests
     // show it (1.08 before, 1.04 now: docs/real-data.md).
     let baseline = num(v, &["baseline", "held_out_static_rms_m_s2"]);
-    assert!(after <= 1.05 * baseline, "{after} against the baseline's {baseline}");
+    assert!(
+        after <= 1.05 * baseline,
+        "{after} against the baseline's {baseline}"
+    );
     let p = num(&r["free_motion"], &["rest_error_unasked_p_value"]);
     assert!(p < 0.01, "the excess weighed unasked at p = {p}");
     let bytes = std::fs::read(&png).expect("png");
