@@ -345,12 +345,14 @@ impl Context<'_> {
             .copied()
             .filter(|c| !evidence.iter().any(|(e, _)| e.term == c.id()))
             .collect();
+        // Numbered among all the round's candidates, after those the pass tested.
+        let scored = evidence.len();
         for (i, &c) in rest.iter().enumerate() {
             self.stage = format!(
                 "round {}, candidate {} of {}: ",
                 st.rounds.len() + 1,
-                i + 1,
-                rest.len()
+                scored + i + 1,
+                planned.len()
             );
             let e = if c == Candidate::GyroBiasDrift {
                 self.drift(reference)
