@@ -91,11 +91,7 @@ pub(super) fn rests_estimate(
             },
         )?;
     let feedback = first_feedback_at_rests(config, &motion, first_point.is_some());
-    let warm = start
-        .warm
-        .filter(|w| w.names.iter().eq(layout.entries().iter().map(|e| &e.name)))
-        .and_then(|w| w.replay.as_ref())
-        .map(|r| r.nominal.clone());
+    let warm = start.warm.and_then(|w| w.warm_start(layout));
     let inp = PassInputs {
         config,
         plan,
@@ -104,10 +100,9 @@ pub(super) fn rests_estimate(
         scan: &scan,
         motion: &motion,
     };
-    match warm {
-        Some(n) => iterate_passes(&inp, imu, Some(n), feedback, true, progress),
-        None => iterate_passes(&inp, imu, first_point, feedback, false, progress),
-    }
+    let is_warm = warm.is_some();
+    let first = warm.or(first_point);
+    iterate_passes(&inp, imu, first, feedback, is_warm, progress)
 }
 
 /// The extended pass of the score tests ([`score_pass`]) for a fit `est` of a recording of

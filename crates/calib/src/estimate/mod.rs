@@ -409,6 +409,18 @@ impl std::fmt::Debug for Replay {
 }
 
 impl Estimate {
+    /// The converged estimates of this fit as the first linearisation point of a fit of the
+    /// same states (`layout`'s, in order) with another noise model: a warm start. `None` for
+    /// other states or a fit that kept no replay.
+    fn warm_start(&self, layout: &crate::model::layout::StateLayout) -> Option<Nominal> {
+        let same = self
+            .names
+            .iter()
+            .eq(layout.entries().iter().map(|e| &e.name));
+        let replay = self.replay.as_ref().filter(|_| same)?;
+        Some(replay.nominal.clone())
+    }
+
     fn index(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| n == name)
     }

@@ -146,18 +146,10 @@ pub(super) fn fit_program(
     };
     let motion = Motion::Program(program);
     let warm = warm
-        .filter(|w| {
-            carried.is_empty() && w.names.iter().eq(layout.entries().iter().map(|e| &e.name))
-        })
-        .and_then(|w| w.replay.as_ref())
-        .map(|r| r.nominal.clone());
-    let (first, feedback) = match warm.clone() {
-        Some(n) => (Some(n), Feedback::None),
-        None => (
-            first_linearisation_point(config, &plan, layout, &scan, &motion),
-            first_pass_feedback(config),
-        ),
-    };
+        .filter(|_| carried.is_empty())
+        .and_then(|w| w.warm_start(layout));
+    let is_warm = warm.is_some();
+    let first = warm.or_else(|| first_linearisation_point(config, &plan, layout, &scan, &motion));
     let inp = PassInputs {
         config,
         plan: &plan,
@@ -166,7 +158,8 @@ pub(super) fn fit_program(
         scan: &scan,
         motion: &motion,
     };
-    let mut estimate = iterate_passes(&inp, imu, first, feedback, warm.is_some(), progress)?;
+    let feedback = first_pass_feedback(config);
+    let mut estimate = iterate_passes(&inp, imu, first, feedback, is_warm, progress)?;
     estimate.carried_terms = carried;
     Ok(estimate)
 }

@@ -144,7 +144,6 @@ fn first_crossing<T, E>(
     threshold: f64,
     mut statistic: impl FnMut(f64) -> Result<(f64, T), E>,
 ) -> Result<Option<T>, E> {
-    const TOLERANCE: f64 = CROSSING_TOLERANCE;
     let (at_hi, top) = statistic(hi)?;
     if at_hi < threshold {
         return Ok(None);
@@ -157,12 +156,12 @@ fn first_crossing<T, E>(
     // The two latest points, for the secant.
     let (mut older, mut latest) = ((a, at_lo), (b, at_hi));
     let mut found = top;
-    while b - a > TOLERANCE {
+    while b - a > CROSSING_TOLERANCE {
         let ((x0, s0), (x1, s1)) = (older, latest);
         let secant = x1 + (threshold / s1).ln() * (x1 - x0) / (s1 / s0).ln();
-        let x = if s0 > 0.0 && secant.is_finite() && b - a > 2.0 * TOLERANCE {
+        let x = if s0 > 0.0 && secant.is_finite() && b - a > 2.0 * CROSSING_TOLERANCE {
             // Within the tolerance of an end, the point one tolerance in closes the bracket.
-            secant.clamp(a + TOLERANCE, b - TOLERANCE)
+            secant.clamp(a + CROSSING_TOLERANCE, b - CROSSING_TOLERANCE)
         } else {
             0.5 * (a + b)
         };

@@ -282,10 +282,7 @@ impl<'a> Context<'a> {
     /// The fit of `reference`'s model extended by the candidate `term`, tested by its score
     /// and picked by the round.
     pub(super) fn fit_candidate(&mut self, reference: &Fit, term: &str) -> Result<Fit, LoopError> {
-        let c = Candidate::ALL
-            .into_iter()
-            .find(|c| c.id() == term)
-            .expect("a candidate's id");
+        let c = Candidate::from_id(term).expect("a candidate's id");
         self.say(&format!("fitting with {term}"));
         let ext = with_term(&reference.extension, c, self.config.unit_grade());
         self.fit_scored(&ext)
@@ -315,12 +312,7 @@ impl<'a> Context<'a> {
         let cov =
             nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| est.cov[(idx[a], idx[b])]);
         let s0: Vec<f64> = idx.iter().map(|&i| est.prior_sigma[i]).collect();
-        let ScoreTest {
-            statistic,
-            dof,
-            p_value,
-            ln_p_value,
-        } = score_test(&theta, &cov, &s0);
+        let test = score_test(&theta, &cov, &s0);
         // Without a program there is no motion to analyse along: the fit's own posterior says
         // what the recording separates (a term it cannot observe keeps its prior).
         let post = match self.rests() {
@@ -355,19 +347,7 @@ impl<'a> Context<'a> {
                 sigma: est.cov[(i, i)].max(0.0).sqrt(),
             })
             .collect();
-        Ok((
-            CandidateEvidence {
-                term: c.id().to_string(),
-                statistic,
-                dof,
-                p_value,
-                ln_p_value,
-                separable: sep.separable,
-                separation: Some(sep),
-                estimate,
-            },
-            fit,
-        ))
+        Ok((evidence_of(c, test, sep, estimate), fit))
     }
 
     /// The evidence for a gyro bias random walk: the likelihood ratio over the grid of common
