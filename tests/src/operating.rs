@@ -176,16 +176,7 @@ pub struct Outcome {
 /// Simulate `class` with seed `seed` and the hidden values `values` (SI, by name), noise on or
 /// off, and calibrate it as `calibrate` does.
 pub fn run(class: Class, seed: u64, values: &[(String, f64)], noise: bool) -> Outcome {
-    let mut config = class.config(seed);
-    config.truth.noise = noise;
-    let hidden = HiddenEffects {
-        values: values.to_vec(),
-        gyro_drift: None,
-    };
-    let sim =
-        calib::simulate::simulate_run_hidden(&config, "operating", &hidden).expect("simulation");
-    let imu = ImuData::from_samples(&sim.imu);
-    let cal = calibrate(class, &config, &imu, &sim.turntable);
+    let (cal, sim) = simulate_and_calibrate(class, seed, values, noise);
     let named = Candidate::ALL
         .iter()
         .map(|c| c.id().to_string())
@@ -201,6 +192,121 @@ pub fn run(class: Class, seed: u64, values: &[(String, f64)], noise: bool) -> Ou
         notes: cal.verdict.informative.clone(),
         worst_base_sigma: worst,
     }
+}
+
+/// Simulate `class` with seed `seed` and the hidden `values`, noise on or off, and calibrate it
+/// as `calibrate` does.
+fn simulate_and_calibrate(
+    class: Class,
+    seed: u64,
+    values: &[(String, f64)],
+    noise: bool,
+) -> (Calibration, turntable::simulate::Simulation) {
+    let mut config = class.config(seed);
+    config.truth.noise = noise;
+    let hidden = HiddenEffects {
+        values: values.to_vec(),
+        gyro_drift: None,
+    };
+    let sim =
+        calib::simulate::simulate_run_hidden(&config, "operating", &hidden).expect("simulation");
+    let imu = ImuData::from_samples(&sim.imu);
+    (calibrate(class, &config, &imu, &sim.turntable), sim)
+}
+
+/// What the score tests could do against a hidden effect: its non-centrality and the power it
+/// gives, predicted rather than counted.
+///
+/// On the noise-free run the efficient score of the hidden term is its information times the
+/// effect, so its statistic is the non-centrality `lambda` of its test on noisy runs (the
+/// linear-Gaussian model; [`calib::check::score::solo_scores`], the term alone against the
+/// base model). From it:
+/// - the power of the verdict's own test of the term: chi-square with the term's degrees of
+///   freedom at the per-term level (1 % over the number of terms tested), against the
+///   non-central chi-square with `lambda`;
+/// - the power of the best test any method could make at 1 %, one that knows the effect's
+///   direction and sign (Neyman-Pearson: the one-sided normal test of the score along it,
+///   `Phi(sqrt(lambda) - z_0.99)`). Where even that is below a detection target, no test on
+///   these data meets the target: the term is too nearly a combination of the base parameters
+///   on this run.
+#[derive(Clone, Copy, Debug)]
+pub struct Power {
+    /// The non-centrality of the term's score test.
+    pub noncentrality: f64,
+    /// Its degrees of freedom.
+    pub dof: usize,
+    /// The verdict's per-term level (1 % over the terms tested).
+    pub per_term_level: f64,
+    /// The predicted rate at which the verdict's test calls the term for.
+    pub verdict_test: f64,
+    /// The power of the best test at 1 % that knows the effect.
+    pub best_test: f64,
+}
+
+/// The score tests' [`Power`] against `term` hidden with `values` in `class` (noise-free run,
+/// seed 1). `None` where the run gave no extended pass or the term no information.
+pub fn power(class: Class, term: Candidate, values: &[(String, f64)]) -> Option<Power> {
+    use calib::check::score::solo_scores;
+    let (cal, _) = simulate_and_calibrate(class, 1, values, false);
+    let pass = cal.estimate.extended.as_ref()?;
+    let k = pass.terms.iter().position(|(id, _)| id == term.id())?;
+    let solo = solo_scores(pass)?;
+    let tested = solo.iter().filter(|(t, _)| t.dof > 0).count().max(1);
+    let test = &solo[k].0;
+    if test.dof == 0 {
+        return None;
+    }
+    let per_term_level = calib::estimate::verdict::SCORE_LEVEL / tested as f64;
+    Some(Power {
+        noncentrality: test.statistic,
+        dof: test.dof,
+        per_term_level,
+        verdict_test: noncentral_chi_square_sf(
+            chi_square_quantile(1.0 - per_term_level, test.dof),
+            test.dof,
+            test.statistic,
+        ),
+        best_test: best_test_power(test.statistic, 0.01),
+    })
+}
+
+/// `Phi(sqrt(lambda) - z_(1 - level))`: the power of the one-sided normal test at `level` of
+/// an effect whose statistic has non-centrality `lambda` ([`Power::best_test`]).
+pub fn best_test_power(lambda: f64, level: f64) -> f64 {
+    use statrs::distribution::{ContinuousCDF, Normal};
+    let n = Normal::new(0.0, 1.0).expect("standard normal");
+    n.cdf(lambda.max(0.0).sqrt() - n.inverse_cdf(1.0 - level))
+}
+
+/// The `p` quantile of the chi-square distribution with `dof` degrees of freedom.
+pub fn chi_square_quantile(p: f64, dof: usize) -> f64 {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    ChiSquared::new(dof as f64)
+        .expect("positive degrees of freedom")
+        .inverse_cdf(p)
+}
+
+/// Upper tail at `x` of the non-central chi-square distribution with `dof` degrees of freedom
+/// and non-centrality `lambda`: the Poisson(`lambda / 2`) mixture of central chi-squares with
+/// `dof + 2 j` degrees of freedom, summed over `j` within 12 standard deviations of its mean.
+pub fn noncentral_chi_square_sf(x: f64, dof: usize, lambda: f64) -> f64 {
+    use calib::check::score::chi_square_sf;
+    use statrs::function::gamma::ln_gamma;
+    let mean = 0.5 * lambda.max(0.0);
+    if mean == 0.0 {
+        return chi_square_sf(x, dof);
+    }
+    let spread = 12.0 * mean.sqrt() + 12.0;
+    let lo = (mean - spread).max(0.0) as usize;
+    let hi = (mean + spread) as usize;
+    (lo..=hi)
+        .map(|j| {
+            let jf = j as f64;
+            let ln_w = jf * mean.ln() - mean - ln_gamma(jf + 1.0);
+            ln_w.exp() * chi_square_sf(x, dof + 2 * j)
+        })
+        .sum::<f64>()
+        .clamp(0.0, 1.0)
 }
 
 /// The base parameter farthest from its truth, and how far (signed, in its sigmas).
@@ -372,4 +478,54 @@ pub fn binomial_interval(k: usize, n: usize) -> (f64, f64) {
         Beta::new(k + 1.0, nf - k).expect("beta").inverse_cdf(0.975)
     };
     (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use statrs::distribution::{ContinuousCDF, Normal};
+
+    /// With one degree of freedom the non-central chi-square is the square of a normal of mean
+    /// `sqrt(lambda)`: its tail is `Phi(-sqrt(x) - sqrt(lambda)) + Phi(sqrt(lambda) - sqrt(x))`.
+    #[test]
+    fn the_noncentral_tail_matches_the_squared_normal() {
+        let n = Normal::new(0.0, 1.0).unwrap();
+        for &(x, lambda) in &[
+            (3.84, 0.0),
+            (6.63, 4.0),
+            (10.0, 25.0),
+            (20.0, 400.0),
+            (1.0, 0.5),
+        ] {
+            let (rx, rl) = (f64::sqrt(x), f64::sqrt(lambda));
+            let exact = n.cdf(-rx - rl) + n.cdf(rl - rx);
+            let got = noncentral_chi_square_sf(x, 1, lambda);
+            assert!(
+                (got - exact).abs() < 1e-9,
+                "x {x} lambda {lambda}: {got} vs {exact}"
+            );
+        }
+    }
+
+    /// The mixture's mean is `dof + lambda`: the tail integrated over x (its mean) agrees.
+    #[test]
+    fn the_noncentral_tail_has_the_right_mean() {
+        for &(dof, lambda) in &[(3_usize, 10.0), (9, 50.0), (2, 0.7)] {
+            let dx = 0.01;
+            let mean: f64 = (0..200_000)
+                .map(|i| noncentral_chi_square_sf((i as f64 + 0.5) * dx, dof, lambda) * dx)
+                .sum();
+            let want = dof as f64 + lambda;
+            assert!((mean - want).abs() < 1e-3 * want, "{mean} vs {want}");
+        }
+    }
+
+    /// The best test's power is the level at no effect and 95 % at `(z_0.99 + z_0.95)^2`.
+    #[test]
+    fn the_best_test_power_has_its_level_and_its_95_percent_point() {
+        assert!((best_test_power(0.0, 0.01) - 0.01).abs() < 1e-12);
+        let n = Normal::new(0.0, 1.0).unwrap();
+        let lambda = (n.inverse_cdf(0.99) + n.inverse_cdf(0.95)).powi(2);
+        assert!((best_test_power(lambda, 0.01) - 0.95).abs() < 1e-9);
+    }
 }

@@ -4,7 +4,9 @@
 //! every effect row 2001, 2002, ...
 
 use std::process::ExitCode;
-use workspace_tests::operating::{Class, Row, binomial_interval, count, sized_values};
+use workspace_tests::operating::{
+    Class, Power, Row, binomial_interval, count, power, sized_values,
+};
 
 /// The base-parameter shifts (sigmas) the effect rows are sized to.
 const SIZES: [f64; 3] = [1.0, 3.0, 10.0];
@@ -28,16 +30,16 @@ fn rate(k: usize, n: usize) -> String {
 /// those whose name contains `only`); print the table; non-zero exit when a target is missed.
 pub fn operating_characteristic(clean: usize, effect_runs: usize, only: Option<&str>) -> ExitCode {
     println!(
-        "| class | effect | size (base shift) | runs | exit 3 | exit 3 naming the term, or carried | exit 0 at >= 10 sigma: term named nowhere / as a blind spot |"
+        "| class | effect | size (base shift) | runs | exit 3 | exit 3 naming the term, or carried | exit 0 at >= 10 sigma: term named nowhere / as a blind spot | score test: non-centrality (dof); predicted power of the verdict's test / of the best test at 1 % |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|");
     let mut missed = Vec::new();
     for class in Class::ALL
         .into_iter()
         .filter(|c| only.is_none_or(|o| c.name().contains(o)))
     {
         let row = count(class, None, &[], 1001, clean);
-        print_row(class.name(), "none (clean)", "-", &row);
+        print_row(class.name(), "none (clean)", "-", &row, None);
         eprintln!(
             "{}: clean runs exiting 3: seeds {:?}",
             class.name(),
@@ -54,11 +56,13 @@ pub fn operating_characteristic(clean: usize, effect_runs: usize, only: Option<&
             for k in SIZES {
                 let (values, z_ref) = sized_values(class, term, k);
                 let row = count(class, Some(term), &values, 2001, effect_runs);
+                let power = power(class, term, &values);
                 print_row(
                     class.name(),
                     term.id(),
                     &format!("{k} sigma (z_ref {z_ref:.3e})"),
                     &row,
+                    power,
                 );
                 if !row.odd_seeds.is_empty() {
                     eprintln!(
@@ -70,10 +74,11 @@ pub fn operating_characteristic(clean: usize, effect_runs: usize, only: Option<&
                 }
                 if k >= 10.0 && (row.named as f64) < MIN_DETECTION_AT_10 * row.runs as f64 {
                     missed.push(format!(
-                        "{} / {}: detection at 10 sigma {}",
+                        "{} / {}: detection at 10 sigma {}{}",
                         class.name(),
                         term.id(),
-                        rate(row.named, row.runs)
+                        rate(row.named, row.runs),
+                        feasibility(power)
                     ));
                 }
                 if row.silent_10_sigma > 0 {
@@ -97,9 +102,37 @@ pub fn operating_characteristic(clean: usize, effect_runs: usize, only: Option<&
     }
 }
 
-fn print_row(class: &str, effect: &str, size: &str, row: &Row) {
+/// Whether the detection target was within reach of any test at 1 % ([`Power::best_test`]).
+fn feasibility(power: Option<Power>) -> String {
+    match power {
+        Some(p) if p.best_test < MIN_DETECTION_AT_10 => format!(
+            "; beyond any test at 1 %: the best test, knowing the effect, detects it in {:.1} % \
+             (non-centrality {:.3})",
+            100.0 * p.best_test,
+            p.noncentrality
+        ),
+        Some(p) => format!(
+            "; within reach: the best test at 1 % detects it in {:.1} %, the verdict's own test \
+             predicted {:.1} %",
+            100.0 * p.best_test,
+            100.0 * p.verdict_test
+        ),
+        None => String::new(),
+    }
+}
+
+fn print_row(class: &str, effect: &str, size: &str, row: &Row, power: Option<Power>) {
+    let power = power.map_or("-".to_string(), |p| {
+        format!(
+            "{:.3} ({}); {:.1} % / {:.1} %",
+            p.noncentrality,
+            p.dof,
+            100.0 * p.verdict_test,
+            100.0 * p.best_test
+        )
+    });
     println!(
-        "| {class} | {effect} | {size} | {} | {} | {} | {} / {} |",
+        "| {class} | {effect} | {size} | {} | {} | {} | {} / {} | {power} |",
         row.runs,
         rate(row.exit3, row.runs),
         rate(row.named, row.runs),
