@@ -5,8 +5,10 @@
 //! Each reading narrows every channel's value to the values sharing the bits found so far: the
 //! first counts the values by the top sixteen bits of their order key, the next by the next
 //! sixteen, and so on, until the values that share the bits found are few enough
-//! ([`COLLECT_AT_MOST`] over all channels) to be held and selected among. A channel of a few
-//! million windowed deviations takes two readings; of a million equal values, five at most.
+//! ([`COLLECT_AT_MOST`] over all channels) to be held and selected among. Values that are few
+//! enough from the start (a recording of up to a million records) are held in the first
+//! reading and take only that one; a channel of a few million windowed deviations takes two
+//! readings; of a million equal values, five at most.
 //! (`sins_model::timing::StreamedIntervalMedian` is the same idea for a median interval.)
 
 /// Values held at most, over all channels, for the last reading's selection (8 bytes each).
@@ -47,7 +49,18 @@ impl Channel {
 pub fn select_streamed<E>(
     channels: usize,
     rank: impl Fn(usize, usize) -> usize,
+    read: impl FnMut(&mut dyn FnMut(usize, f64)) -> Result<(), E>,
+) -> Result<Vec<f64>, E> {
+    select_holding_at_most(channels, rank, read, COLLECT_AT_MOST)
+}
+
+/// [`select_streamed`] holding at most `collect_at_most` values (the tests' small bound
+/// exercises the readings by histogram).
+fn select_holding_at_most<E>(
+    channels: usize,
+    rank: impl Fn(usize, usize) -> usize,
     mut read: impl FnMut(&mut dyn FnMut(usize, f64)) -> Result<(), E>,
+    collect_at_most: usize,
 ) -> Result<Vec<f64>, E> {
     let mut ch: Vec<Channel> = (0..channels)
         .map(|_| Channel {
@@ -65,7 +78,7 @@ pub fn select_streamed<E>(
             break;
         }
         let held: usize = open.iter().map(|&c| ch[c].count).sum();
-        if !first && held <= COLLECT_AT_MOST {
+        if !first && held <= collect_at_most {
             // Hold the values that share the bits found, and select among them.
             let mut values: Vec<Vec<f64>> = open
                 .iter()
@@ -92,11 +105,16 @@ pub fn select_streamed<E>(
             }
             break;
         }
-        // Count the values sharing the prefix by their next sixteen bits.
+        // Count the values sharing the prefix by their next sixteen bits. The first reading
+        // also holds the values while they are few enough: when all of them are, it selects
+        // among them at once, without a second reading (the detector's levels read the
+        // windowed deviations once instead of twice).
         let mut hist: Vec<Vec<usize>> = open.iter().map(|_| vec![0usize; 1 << BITS]).collect();
         let slot: Vec<Option<usize>> = (0..channels)
             .map(|c| open.iter().position(|&o| o == c))
             .collect();
+        let mut early: Option<Vec<Vec<f64>>> = first.then(|| vec![Vec::new(); open.len()]);
+        let mut early_held = 0usize;
         read(&mut |c, x| {
             if let Some(s) = slot[c] {
                 let k = key(x);
@@ -105,8 +123,28 @@ pub fn select_streamed<E>(
                     let shift = 64 - chan.known - BITS;
                     hist[s][((k >> shift) & 0xffff) as usize] += 1;
                 }
+                if let Some(values) = early.as_mut() {
+                    if early_held < collect_at_most {
+                        values[s].push(x);
+                        early_held += 1;
+                    } else {
+                        early = None;
+                    }
+                }
             }
         })?;
+        if let Some(mut values) = early {
+            for (s, &c) in open.iter().enumerate() {
+                let v = &mut values[s];
+                let r = rank(c, v.len());
+                ch[c].done = Some(if r < v.len() {
+                    *v.select_nth_unstable_by(r, f64::total_cmp).1
+                } else {
+                    f64::NAN
+                });
+            }
+            break;
+        }
         for (s, &c) in open.iter().enumerate() {
             let chan = &mut ch[c];
             if first {
@@ -186,30 +224,34 @@ mod tests {
         near.push(0.0);
         near.push(-0.0);
         let sets = [spread, signed, equal, near];
-        for q in [0.0, 0.1, 0.25, 0.5, 0.9, 1.0] {
-            let mut readings = 0;
-            let got = select_streamed::<()>(
-                sets.len(),
-                |_, n| quantile_rank(n, q),
-                |visit| {
-                    readings += 1;
-                    // Interleaved, as a reading of records gives them.
-                    for i in 0..5000 {
-                        for (c, s) in sets.iter().enumerate() {
-                            if let Some(&x) = s.get(i) {
-                                visit(c, x);
+        // Held at once (one reading), and by histogram when fewer may be held (two).
+        for (limit, want_readings) in [(COLLECT_AT_MOST, 1), (10_000, 2)] {
+            for q in [0.0, 0.1, 0.25, 0.5, 0.9, 1.0] {
+                let mut readings = 0;
+                let got = select_holding_at_most::<()>(
+                    sets.len(),
+                    |_, n| quantile_rank(n, q),
+                    |visit| {
+                        readings += 1;
+                        // Interleaved, as a reading of records gives them.
+                        for i in 0..5000 {
+                            for (c, s) in sets.iter().enumerate() {
+                                if let Some(&x) = s.get(i) {
+                                    visit(c, x);
+                                }
                             }
                         }
-                    }
-                    Ok(())
-                },
-            )
-            .unwrap();
-            for (c, s) in sets.iter().enumerate() {
-                let want = held(s, quantile_rank(s.len(), q));
-                assert_eq!(got[c].to_bits(), want.to_bits(), "q {q} set {c}");
+                        Ok(())
+                    },
+                    limit,
+                )
+                .unwrap();
+                for (c, s) in sets.iter().enumerate() {
+                    let want = held(s, quantile_rank(s.len(), q));
+                    assert_eq!(got[c].to_bits(), want.to_bits(), "q {q} set {c}");
+                }
+                assert_eq!(readings, want_readings);
             }
-            assert_eq!(readings, 2);
         }
         // An empty channel.
         let got = select_streamed::<()>(
