@@ -69,10 +69,18 @@ fn panel(
     let title = if axis.fit.passes() {
         title.to_string()
     } else {
-        format!("{title} (Allan fit fails its check: sum for orientation only)")
+        format!("{title} (Allan fit fails: sum dashed)")
+    };
+    // A walk the rests cannot tell, or the curve denies (`noise::floor::slow_terms`), is not
+    // reported, pasted or drawn: the model is drawn without it, and the title says so.
+    let walk = ::noise::floor::slow_terms(&axis.curve, ml).walk;
+    let title = if walk || ml.walk.value == 0.0 {
+        title
+    } else {
+        format!("{title} (walk not determined)")
     };
     let (t0, t1) = (p[0].tau_s / 1.5, p[p.len() - 1].tau_s * 1.5);
-    let curves = Curves::new(axis, ml, config, factor, log_grid(t0, t1, 120));
+    let curves = Curves::new(axis, (ml, walk), config, factor, log_grid(t0, t1, 120));
     let (lo, hi) = curves.range;
     let mut chart = ChartBuilder::on(area)
         .caption(&title, ("sans-serif", 18))
@@ -124,9 +132,10 @@ struct Curves {
 }
 
 impl Curves {
+    /// `ml`: the likelihood's fit, and whether its walk is determined (drawn only then).
     fn new(
         axis: &::noise::AxisNoise,
-        ml: &::noise::likelihood::MlFit,
+        (ml, walk): (&::noise::likelihood::MlFit, bool),
         config: Option<[(Term, f64); 2]>,
         factor: f64,
         grid: Vec<f64>,
@@ -136,7 +145,10 @@ impl Curves {
             .iter()
             .map(|&t| (t, fit.avar(t).sqrt() * factor))
             .collect();
-        let model = ml.model();
+        let mut model = ml.model();
+        if !walk {
+            model.walk = 0.0;
+        }
         let ml_curve: Vec<(f64, f64)> = grid
             .iter()
             .map(|&t| (t, model.avar(t).sqrt() * factor))
