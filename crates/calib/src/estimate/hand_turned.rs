@@ -662,10 +662,17 @@ pub(crate) fn fit_measuring_noise(
             });
         }
         before = Some(est);
-        let motion = if at_boundary_twice(levels, next, previous_motion) {
+        let motion = if at_boundary_twice(levels, next, previous_motion)
+            || (previous_motion.is_none() && next.motion_rad == 0.0)
+        {
             // The likelihood puts the motion noise at zero, again, with the specific-force
             // level settled: it is zero, not a value to approach by quarters (a consumer-grade
             // simulated recording took seven fits to get there, 0.1 deg quartered each time).
+            // Or the first fit's estimate is zero, where there is no secant to step by yet:
+            // the next fit is made at zero rather than halfway to it (the same recording: two
+            // fits where it took three). Not later: on the Ferraris session a later estimate
+            // of zero taken at its word swung the motion noise between zero and 0.16 deg for
+            // the ten fits allowed, where the secant settles it in seven.
             0.0
         } else {
             next_motion(levels.motion_rad, next.motion_rad, previous_motion)
