@@ -48,22 +48,35 @@ pub fn median_interval_of(t: impl IntoIterator<Item = f64>) -> f64 {
 /// doubles order as their bit patterns), four readings in all. A long record file is read
 /// four times rather than held.
 pub fn median_interval_streamed<E>(
-    mut read: impl FnMut(&mut dyn FnMut(f64)) -> Result<(), E>,
+    read: impl FnMut(&mut dyn FnMut(f64)) -> Result<(), E>,
 ) -> Result<f64, E> {
-    let mut median = StreamedIntervalMedian::new();
+    streamed_holding_at_most(read, StreamedIntervalMedian::HOLD_AT_MOST)
+}
+
+/// [`median_interval_streamed`] holding at most `hold` intervals (the tests' small bound
+/// exercises the readings by histogram).
+fn streamed_holding_at_most<E>(
+    mut read: impl FnMut(&mut dyn FnMut(f64)) -> Result<(), E>,
+    hold: usize,
+) -> Result<f64, E> {
+    let mut median = StreamedIntervalMedian::holding_at_most(hold);
     read(&mut |t| median.push(t))?;
     median.finish(read)
 }
 
 /// [`median_interval_streamed`] with its first reading done by the caller (stamp by stamp,
 /// [`StreamedIntervalMedian::push`]), e.g. while it reads the file for other reasons; three
-/// readings remain ([`StreamedIntervalMedian::finish`]).
+/// readings remain ([`StreamedIntervalMedian::finish`]), none where the first reading's
+/// intervals were few enough to hold ([`StreamedIntervalMedian::HOLD_AT_MOST`]).
 #[derive(Clone, Debug)]
 pub struct StreamedIntervalMedian {
     /// Counts of the intervals by their top sixteen bits.
     first: Vec<usize>,
     n: usize,
     previous: f64,
+    /// The intervals themselves while there are at most `hold` of them (`None` after).
+    held: Option<Vec<f64>>,
+    hold: usize,
 }
 
 impl Default for StreamedIntervalMedian {
@@ -75,12 +88,22 @@ impl Default for StreamedIntervalMedian {
 impl StreamedIntervalMedian {
     const BUCKETS: usize = 1 << 16;
 
+    /// Intervals held at most (8 bytes each): a recording of up to a million records takes one
+    /// reading, a longer one four.
+    pub const HOLD_AT_MOST: usize = 1 << 20;
+
     /// Nothing read yet.
     pub fn new() -> Self {
+        Self::holding_at_most(Self::HOLD_AT_MOST)
+    }
+
+    fn holding_at_most(hold: usize) -> Self {
         Self {
             first: vec![0; Self::BUCKETS],
             n: 0,
             previous: f64::NAN,
+            held: Some(Vec::new()),
+            hold,
         }
     }
 
@@ -91,11 +114,19 @@ impl StreamedIntervalMedian {
         if step.is_finite() && step > 0.0 {
             self.n += 1;
             self.first[(step.to_bits() >> 48) as usize] += 1;
+            if let Some(h) = self.held.as_mut() {
+                if h.len() < self.hold {
+                    h.push(step);
+                } else {
+                    self.held = None;
+                }
+            }
         }
         self.previous = t;
     }
 
-    /// The median interval, reading the stamps three more times with `read`.
+    /// The median interval: of the intervals held, or reading the stamps three more times
+    /// with `read` (the same value either way, bit for bit).
     pub fn finish<E>(
         self,
         mut read: impl FnMut(&mut dyn FnMut(f64)) -> Result<(), E>,
@@ -103,6 +134,9 @@ impl StreamedIntervalMedian {
         let n = self.n;
         if n == 0 {
             return Ok(f64::NAN);
+        }
+        if let Some(mut held) = self.held {
+            return Ok(median_of(&mut held));
         }
         // Ranks sought: the middle one, and the one below it for an even count.
         let mut ranks = if n % 2 == 1 {
@@ -177,16 +211,21 @@ mod tests {
     /// repeats, gaps and reversals, odd and even counts.
     #[test]
     fn the_streamed_median_equals_the_median_in_memory() {
-        let streamed = |t: &[f64]| {
+        // Held (one reading) where the intervals are few, by histogram (four) where not.
+        let streamed_with = |t: &[f64], hold: usize| {
             let mut readings = 0;
-            let m = median_interval_streamed::<()>(|visit| {
-                readings += 1;
-                t.iter().for_each(|&x| visit(x));
-                Ok(())
-            })
+            let m = streamed_holding_at_most::<()>(
+                |visit| {
+                    readings += 1;
+                    t.iter().for_each(|&x| visit(x));
+                    Ok(())
+                },
+                hold,
+            )
             .unwrap();
             (m, readings)
         };
+        let streamed = |t: &[f64]| streamed_with(t, 0);
         let mut state = 12345u64;
         let mut uniform = || {
             state = state
@@ -209,6 +248,9 @@ mod tests {
             let (m, readings) = streamed(&t);
             assert_eq!(m.to_bits(), median_interval(&t).to_bits(), "n {n}");
             assert_eq!(readings, 4);
+            let (m, readings) = streamed_with(&t, StreamedIntervalMedian::HOLD_AT_MOST);
+            assert_eq!(m.to_bits(), median_interval(&t).to_bits(), "n {n}, held");
+            assert_eq!(readings, 1);
         }
         assert!(streamed(&[1.0]).0.is_nan());
         assert!(streamed(&[2.0, 1.0]).0.is_nan());
