@@ -40,6 +40,44 @@ impl Channel {
     fn matches(&self, k: u64) -> bool {
         self.known == 0 || k >> (64 - self.known) == self.prefix >> (64 - self.known)
     }
+
+    /// Take the next sixteen bits from the histogram `hist` of the values sharing the prefix
+    /// (`first_rank`: the rank sought, at the first reading, where the count becomes known).
+    fn narrow(&mut self, hist: &[usize], first_rank: Option<usize>) {
+        if let Some(r) = first_rank {
+            self.rank = r;
+            if r >= hist.iter().sum() {
+                self.done = Some(f64::NAN);
+                return;
+            }
+        }
+        let shift = 64 - self.known - BITS;
+        let mut below = 0usize;
+        for (bucket, &count) in hist.iter().enumerate() {
+            if below + count > self.rank {
+                self.prefix |= (bucket as u64) << shift;
+                self.rank -= below;
+                self.count = count;
+                break;
+            }
+            below += count;
+        }
+        self.known += BITS;
+        if self.known == 64 {
+            let b = self.prefix;
+            let bits = if b >> 63 == 1 { b & !(1 << 63) } else { !b };
+            self.done = Some(f64::from_bits(bits));
+        }
+    }
+}
+
+/// The `r`-th smallest of `v` (`f64::total_cmp` order), NaN beyond its length.
+fn selected(v: &mut [f64], r: usize) -> f64 {
+    if r < v.len() {
+        *v.select_nth_unstable_by(r, f64::total_cmp).1
+    } else {
+        f64::NAN
+    }
 }
 
 /// The `rank(count)`-th smallest value of each of `channels` channels (`f64::total_cmp` order;
@@ -95,13 +133,7 @@ fn select_holding_at_most<E>(
                 }
             })?;
             for (s, &c) in open.iter().enumerate() {
-                let v = &mut values[s];
-                let r = ch[c].rank;
-                ch[c].done = Some(if r < v.len() {
-                    *v.select_nth_unstable_by(r, f64::total_cmp).1
-                } else {
-                    f64::NAN
-                });
+                ch[c].done = Some(selected(&mut values[s], ch[c].rank));
             }
             break;
         }
@@ -135,43 +167,14 @@ fn select_holding_at_most<E>(
         })?;
         if let Some(mut values) = early {
             for (s, &c) in open.iter().enumerate() {
-                let v = &mut values[s];
-                let r = rank(c, v.len());
-                ch[c].done = Some(if r < v.len() {
-                    *v.select_nth_unstable_by(r, f64::total_cmp).1
-                } else {
-                    f64::NAN
-                });
+                let r = rank(c, values[s].len());
+                ch[c].done = Some(selected(&mut values[s], r));
             }
             break;
         }
         for (s, &c) in open.iter().enumerate() {
-            let chan = &mut ch[c];
-            if first {
-                let n: usize = hist[s].iter().sum();
-                chan.rank = rank(c, n);
-                if chan.rank >= n {
-                    chan.done = Some(f64::NAN);
-                    continue;
-                }
-            }
-            let shift = 64 - chan.known - BITS;
-            let mut below = 0usize;
-            for (bucket, &count) in hist[s].iter().enumerate() {
-                if below + count > chan.rank {
-                    chan.prefix |= (bucket as u64) << shift;
-                    chan.rank -= below;
-                    chan.count = count;
-                    break;
-                }
-                below += count;
-            }
-            chan.known += BITS;
-            if chan.known == 64 {
-                let b = chan.prefix;
-                let bits = if b >> 63 == 1 { b & !(1 << 63) } else { !b };
-                chan.done = Some(f64::from_bits(bits));
-            }
+            let first_rank = first.then(|| rank(c, hist[s].iter().sum()));
+            ch[c].narrow(&hist[s], first_rank);
         }
         first = false;
     }
