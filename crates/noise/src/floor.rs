@@ -3,27 +3,30 @@
 //!
 //! ## The floor
 //!
-//! Flicker rate noise (the bias instability `B`) gives a flat Allan deviation, `0.664 B`
-//! (IEEE Std 952-1997, annex C). Where the measured curve is flat around its minimum, that
-//! minimum over 0.664 is the bias instability, as the IEEE standard and common practice read it
-//! off the plot, without a fit of every term: the Allan fit can fail its own check (a curve its
-//! five power laws do not follow, a sensor's oscillation at the short taus) and then gives no
-//! result while the floor is plain to see.
+//! Flicker rate noise (the bias instability `B`) gives a flat Allan variance, `(0.664 B)^2`
+//! (IEEE Std 952-1997, annex C), added to the white noise's `N^2 / tau`. The likelihood's white
+//! level `N` is known to a per cent from the records themselves ([`crate::likelihood`]), so
+//! what the measured curve has beyond it, `avar - N^2 / tau`, is the slow noise alone: flat for
+//! a floor, rising as `K^2 tau / 3` for a walk. [`flicker_floor`] fits both shapes to the
+//! curve's points from `tau_min` on (each point's Allan variance an estimate with its degrees of
+//! freedom, `avar chi2_nu / nu`; one parameter each, by maximum likelihood) and finds a floor
+//! where the flat shape is [`FLOOR_LN_LR`] more likely than the walk's and than none at all,
+//! and where it dominates the white noise over two octaves ([`FLOOR_SPAN`]) within the curve.
+//! The bias instability is the flat shape's level over 0.664.
 //!
-//! Flat: the minimum (over the points with at least [`FLOOR_MIN_EDF`] degrees of freedom: a
-//! point of fewer is as likely a low draw as the floor) is at least [`FLOOR_FALL`] of the
-//! deviation two octaves ([`FLOOR_SPAN`]) before it: the curve has stopped falling like white
-//! noise; and where the curve reaches two octaves beyond it, the deviations two octaves before
-//! and after exceed the minimum by less than [`FLOOR_BOWL`] together (the product of the two
-//! ratios): it is no bowl of white noise and a walk. White noise alone falls by 2 over two
-//! octaves; white noise and a walk have a minimum, and whatever the octave grid's offset from
-//! it, the two ratios' product is 2.03 or more. (A first version took the
-//! minimum's neighbours whose 68 % interval reached within 1.1 times the minimum, over two
-//! octaves: on the Xsens recording the last points, of one or two degrees of freedom, made a
-//! "floor" of the white noise at 2.56 s.) The interval of `B` is the minimum point's own 68 % interval
-//! over 0.664 (its degrees of freedom those of flicker noise). The minimum of noisy estimates is
-//! biased low (the lowest of several); on a flat floor the neighbours' scatter is that of one
-//! estimate, which the interval covers.
+//! A first rule read the floor off the curve's minimum and refused a minimum with a rise two
+//! octaves after it (the bowl of white noise and a walk): on 20 simulated 2.8-h recordings of
+//! a flicker floor (`tests/mems.rs`) it found 13 floors within 30 %, the scatter of the few
+//! long-tau points making flat curves look like bowls. Subtracting the white noise the
+//! likelihood measured takes the white part's curvature out of the comparison: 20 of 20, and
+//! no floor on 20 recordings of white noise and a walk (`docs/noise.md`).
+//!
+//! Its interval: the points of one curve share the same slow realisation (the octaves overlap
+//! and a flicker's low frequencies move them together), so they are not independent
+//! estimates. The 68 % interval is the profile likelihood's with the points' information
+//! divided by their number, as if the curve were one point: on the survey its half-width is
+//! about the estimates' scatter from recording to recording, which treating the points as
+//! independent understated fourfold.
 //!
 //! ## Rests too short to tell
 //!
@@ -38,32 +41,19 @@
 //! a bias instability only where the curve shows a floor (above).
 
 use crate::allan::AllanCurve;
-use crate::edf::{self, NoiseType};
+use crate::edf;
 use crate::likelihood::{BLOCKS_PER_CORRELATION, MlFit};
 use serde::{Deserialize, Serialize};
 
-/// The least ratio of the minimum to the deviation two octaves before it for a floor: the
-/// curve falls there by less than `sqrt(2)`, an average slope shallower than -1/4 on the
-/// log-log plot, halfway between white noise (-1/2, a ratio of 0.5) and a floor (0). White
-/// noise and a walk alone reach their minimum at a ratio of 0.69.
-pub const FLOOR_FALL: f64 = std::f64::consts::FRAC_1_SQRT_2;
+/// The natural logarithm of the likelihood ratio by which a flat excess over the white noise
+/// must beat both a walk's rising one and none at all for a floor: ln 100. Fixed before the
+/// rule was run in Rust; the ratios on the surveys' recordings (worked from their printed
+/// curves first) were e^19 to e^65 for the flicker floors, e^2.6 at most for white noise and a
+/// walk.
+pub const FLOOR_LN_LR: f64 = 4.605_170_185_988_091;
 
-/// Degrees of freedom (under flicker noise) the minimum point must have: its deviation then
-/// has a relative standard deviation of about 22 % at most. The lowest of the curve's points
-/// whatever their degrees of freedom was tried first: on the simulated recording of
-/// `tests/mems.rs` it was the last point (2.7 degrees of freedom), at half the floor.
-pub const FLOOR_MIN_EDF: f64 = 10.0;
-
-/// The most the deviations two octaves before and two after the minimum may exceed it by, as
-/// the product of the two ratios: the geometric middle between a floor (1) and white noise with
-/// a walk (2.03 at the least, whatever the octave grid's offset from their minimum; 2.13 where
-/// the grid hits it). Fixed before it was run on data (a first rule, that the deviation two
-/// octaves after rise less than `sqrt(2)`, let the 4-h simulation of white noise and a walk
-/// make a floor of its minimum on gyro z, its point two octaves after low by chance).
-pub const FLOOR_BOWL: f64 = std::f64::consts::SQRT_2;
-
-/// How far before the minimum (a factor in averaging time) the curve must have stopped falling:
-/// two octaves.
+/// Over how much of the curve (a factor in averaging time) a floor or a walk must dominate the
+/// white noise to be told: two octaves.
 pub const FLOOR_SPAN: f64 = 4.0;
 
 /// The longest averaging time (s) the curve must reach for a walk whose interval reaches 0 to
@@ -83,16 +73,18 @@ pub const FLICKER_ADEV: f64 = 0.664_282_466_029_688_7;
 /// A floor of the measured Allan deviation and the bias instability it gives.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Floor {
-    /// The averaging time of the minimum (s).
-    pub tau_s: f64,
-    /// The minimum deviation (rate unit, SI).
-    pub adev: f64,
-    /// Its degrees of freedom under flicker noise.
-    pub edf: f64,
-    /// The stretch the curve is flat over: the point two octaves before the minimum (s).
+    /// Where the floor's Allan variance equals the white noise's (s): it dominates from here.
     pub from_tau_s: f64,
-    /// The minimum's averaging time (s).
+    /// The curve's longest averaging time (s).
     pub to_tau_s: f64,
+    /// The floor's Allan deviation, `0.664 B` (rate unit, SI).
+    pub adev: f64,
+    /// The natural logarithm of the likelihood ratio of the flat excess over a walk's.
+    pub ln_lr_over_walk: f64,
+    /// The same over no excess at all.
+    pub ln_lr_over_none: f64,
+    /// The curve's points fitted (from `tau_min` on).
+    pub points: usize,
     /// The bias instability `adev / 0.664` (rate unit, SI).
     pub value: f64,
     /// Lower end of its 68 % interval.
@@ -101,60 +93,136 @@ pub struct Floor {
     pub upper: f64,
 }
 
-/// The floor of `curve` at averaging times from `tau_min_s` on, where it has one (module docs).
-/// Below the sensor's correlation time its own filter shapes the curve (the Allan fit's
-/// fitted range, [`crate::fit::NoiseFit::tau_min_s`]): a filter flattens the curve at the
-/// short taus, and that is no floor.
-pub fn flicker_floor(curve: &AllanCurve, tau_min_s: f64) -> Option<Floor> {
-    let flicker_ci = |i: usize| {
-        let p = &curve.points[i];
-        let edf: f64 = curve
-            .interval_records
-            .iter()
-            .map(|&l| edf::edf_overlapping(l + 1, p.m, NoiseType::Flicker))
-            .sum();
-        let (lo, hi) = edf::confidence_interval(p.adev, edf, edf::ONE_SIGMA);
-        (edf, lo, hi)
+/// The shape of the slow noise beyond the white noise: flat (a floor) or rising (a walk).
+#[derive(Clone, Copy)]
+enum Shape {
+    Flat,
+    Walk,
+}
+
+impl Shape {
+    /// Its Allan variance at `tau_s` for the parameter `x` (`F^2`, or `K^2`).
+    fn avar(self, x: f64, tau_s: f64) -> f64 {
+        match self {
+            Shape::Flat => x,
+            Shape::Walk => x * tau_s / 3.0,
+        }
+    }
+}
+
+/// A point of the curve as the floor's likelihood takes it: `(tau, avar, edf)`.
+type Point = (f64, f64, f64);
+
+/// The log-likelihood of the points' Allan variances (each `avar chi2_nu / nu` about the
+/// model's) under white noise `white2 / tau` and `shape` at `x`, up to a constant.
+fn ln_likelihood(points: &[Point], white2: f64, shape: Shape, x: f64) -> f64 {
+    points
+        .iter()
+        .map(|&(tau, avar, edf)| {
+            let m = white2 / tau + shape.avar(x, tau);
+            0.5 * edf * (-avar / m - m.ln())
+        })
+        .sum()
+}
+
+/// The maximum-likelihood `x >= 0` of `shape` and its log-likelihood: a grid of 400 points in
+/// `ln x` over ten decades below the largest variance the points allow and one above, refined
+/// by golden section between the best one's neighbours.
+fn fit_shape(points: &[Point], white2: f64, shape: Shape) -> (f64, f64) {
+    let ll = |x: f64| ln_likelihood(points, white2, shape, x);
+    let top = points
+        .iter()
+        .map(|&(tau, avar, _)| avar / shape.avar(1.0, tau))
+        .fold(0.0, f64::max);
+    let (lo, hi) = ((top * 1e-10).ln(), (top * 10.0).ln());
+    let n = 400;
+    let at = |i: usize| (lo + (hi - lo) * i as f64 / n as f64).exp();
+    let best = (0..=n)
+        .max_by(|&i, &j| ll(at(i)).total_cmp(&ll(at(j))))
+        .unwrap_or(0);
+    let (mut a, mut b) = (at(best.saturating_sub(1)).ln(), at((best + 1).min(n)).ln());
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..60 {
+        let (c, d) = (b - r * (b - a), a + r * (b - a));
+        if ll(c.exp()) > ll(d.exp()) {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let x = (0.5 * (a + b)).exp();
+    (x, ll(x))
+}
+
+/// Where the log-likelihood of the flat shape falls `drop` below its maximum at `x_hat`, on
+/// either side (bisection in `ln x`; 0 below where it never falls that far).
+fn profile_interval(points: &[Point], white2: f64, x_hat: f64, drop: f64) -> (f64, f64) {
+    let target = ln_likelihood(points, white2, Shape::Flat, x_hat) - drop;
+    let inside = |x: f64| ln_likelihood(points, white2, Shape::Flat, x) >= target;
+    let side = |outer: f64| {
+        if inside(outer) {
+            return outer;
+        }
+        let (mut a, mut b) = (x_hat.ln(), outer.ln());
+        for _ in 0..80 {
+            let m = 0.5 * (a + b);
+            if inside(m.exp()) {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        a.exp()
     };
-    let valid = |i: usize| {
-        let p = &curve.points[i];
-        p.terms > 0 && p.adev.is_finite() && p.adev > 0.0 && p.tau_s >= tau_min_s * (1.0 - 1e-9)
-    };
-    let n = curve.points.len();
-    let min = (0..n)
-        .filter(|&i| valid(i) && flicker_ci(i).0 >= FLOOR_MIN_EDF)
-        .min_by(|&a, &b| curve.points[a].adev.total_cmp(&curve.points[b].adev))?;
-    // The point two octaves before the minimum: the curve must have stopped falling at the
-    // white noise's rate by then.
-    let tau = curve.points[min].tau_s;
-    let before = (0..min)
-        .rev()
-        .find(|&i| valid(i) && curve.points[i].tau_s <= tau / FLOOR_SPAN * (1.0 + 1e-9))?;
-    if curve.points[min].adev / curve.points[before].adev < FLOOR_FALL {
+    let lower = side(x_hat * 1e-12);
+    (
+        if lower <= x_hat * 1e-12 { 0.0 } else { lower },
+        side(x_hat * 1e12),
+    )
+}
+
+/// The floor of `curve` at averaging times from `tau_min_s` on, where it has one, with the
+/// white noise `white` (the likelihood's level; module docs). Below the sensor's correlation
+/// time its own filter shapes the curve (the Allan fit's fitted range,
+/// [`crate::fit::NoiseFit::tau_min_s`]): a filter flattens the curve at the short taus, and
+/// that is no floor.
+pub fn flicker_floor(curve: &AllanCurve, tau_min_s: f64, white: f64) -> Option<Floor> {
+    let points: Vec<Point> = curve
+        .points
+        .iter()
+        .filter(|p| {
+            p.terms > 0
+                && p.avar.is_finite()
+                && p.avar > 0.0
+                && p.edf > 0.0
+                && p.tau_s >= tau_min_s * (1.0 - 1e-9)
+        })
+        .map(|p| (p.tau_s, p.avar, p.edf))
+        .collect();
+    let longest = points.iter().map(|p| p.0).fold(0.0, f64::max);
+    if points.len() < 3 || !(white > 0.0) {
         return None;
     }
-    // Two octaves after it (whatever its degrees of freedom), where there is a point: the curve
-    // must not bend up on both sides like the bowl of white noise and a walk.
-    let after = (min + 1..n)
-        .find(|&i| valid(i) && curve.points[i].tau_s >= tau * FLOOR_SPAN * (1.0 - 1e-9));
-    let bowl = |i: usize| {
-        curve.points[before].adev * curve.points[i].adev / curve.points[min].adev.powi(2)
-    };
-    if after.is_some_and(|i| bowl(i) >= FLOOR_BOWL) {
+    let white2 = white * white;
+    let (x, ll_flat) = fit_shape(&points, white2, Shape::Flat);
+    let (_, ll_walk) = fit_shape(&points, white2, Shape::Walk);
+    let ll_none = ln_likelihood(&points, white2, Shape::Flat, 0.0);
+    let (over_walk, over_none) = (ll_flat - ll_walk, ll_flat - ll_none);
+    let from = white2 / x;
+    if over_walk < FLOOR_LN_LR || over_none < FLOOR_LN_LR || longest < FLOOR_SPAN * from {
         return None;
     }
-    let (from, to) = (curve.points[before].tau_s, tau);
-    let p = &curve.points[min];
-    let (edf, lo, hi) = flicker_ci(min);
+    let (lo, hi) = profile_interval(&points, white2, x, 0.5 * points.len() as f64);
     Some(Floor {
-        tau_s: p.tau_s,
-        adev: p.adev,
-        edf,
         from_tau_s: from,
-        to_tau_s: to,
-        value: p.adev / FLICKER_ADEV,
-        lower: lo / FLICKER_ADEV,
-        upper: hi / FLICKER_ADEV,
+        to_tau_s: longest,
+        adev: x.sqrt(),
+        ln_lr_over_walk: over_walk,
+        ln_lr_over_none: over_none,
+        points: points.len(),
+        value: x.sqrt() / FLICKER_ADEV,
+        lower: lo.sqrt() / FLICKER_ADEV,
+        upper: hi.sqrt() / FLICKER_ADEV,
     })
 }
 
@@ -226,8 +294,12 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
             longest_tau_s >= FLOOR_SPAN * walk_crossover_s * (1.0 - 1e-9)
                 && walk_contradicted_at.is_none()
         },
-        bias_instability: flicker_floor(curve, BLOCKS_PER_CORRELATION as f64 * ml.correlation_s)
-            .is_some(),
+        bias_instability: flicker_floor(
+            curve,
+            BLOCKS_PER_CORRELATION as f64 * ml.correlation_s,
+            ml.white.value,
+        )
+        .is_some(),
     }
 }
 
@@ -274,6 +346,7 @@ pub fn walk_contradicted(
 mod tests {
     use super::*;
     use crate::allan::AllanPoint;
+    use crate::edf::NoiseType;
 
     /// A curve of exact values `adev(tau)` at octaves from 0.01 s, with the degrees of freedom of
     /// `records` records in one interval.
@@ -357,21 +430,23 @@ mod tests {
     fn a_flat_floor_gives_its_level_and_white_and_walk_give_none() {
         // White 3.2e-4 at 1 s and a flicker floor of B = 1e-4 over 3 h at 100 Hz.
         let b = 1e-4;
+        let n = 1e-7f64.sqrt();
         let c = curve(1_080_000, |t| {
-            (1e-7 / t + (FLICKER_ADEV * b).powi(2)).sqrt()
+            (n * n / t + (FLICKER_ADEV * b).powi(2)).sqrt()
         });
-        let f = flicker_floor(&c, 0.0).expect("a floor");
-        // The minimum is the longest tau of 10 degrees of freedom or more (655 s), where the
-        // white noise still adds 2 %.
-        let at = c.points.iter().find(|p| p.tau_s == f.tau_s).unwrap();
-        assert!(f.edf >= FLOOR_MIN_EDF && f.tau_s > 600.0, "{f:?}");
-        assert_eq!(f.value, at.adev / FLICKER_ADEV);
-        assert!((f.value / b - 1.0).abs() < 0.03, "{f:?}");
-        assert!(f.lower < f.value && f.value < f.upper);
+        let f = flicker_floor(&c, 0.0, n).expect("a floor");
+        // Exact values: the level itself, within the grid's refinement.
+        assert!((f.value / b - 1.0).abs() < 1e-5, "{f:?}");
+        assert!(f.lower < f.value && f.value < f.upper, "{f:?}");
+        assert!((f.from_tau_s - n * n / (FLICKER_ADEV * b).powi(2)).abs() < 1e-3 * f.from_tau_s);
+        assert!(f.ln_lr_over_walk >= FLOOR_LN_LR && f.ln_lr_over_none >= FLOOR_LN_LR);
         // White noise and a walk crossing at 1 s: a minimum, no floor; white noise alone: none.
         let c = curve(1_080_000, |t| (1e-6 / t + 1e-6 * t).sqrt());
-        assert!(flicker_floor(&c, 0.0).is_none());
+        assert!(flicker_floor(&c, 0.0, 1e-3).is_none());
         let c = curve(1_080_000, |t| (1e-6 / t).sqrt());
-        assert!(flicker_floor(&c, 0.0).is_none());
+        assert!(flicker_floor(&c, 0.0, 1e-3).is_none());
+        // The same floor on a curve that ends before it has dominated for two octaves: none.
+        let c = curve(8_000, |t| (n * n / t + (FLICKER_ADEV * b).powi(2)).sqrt());
+        assert!(flicker_floor(&c, 0.0, n).is_none());
     }
 }

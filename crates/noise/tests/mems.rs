@@ -158,21 +158,22 @@ fn an_oscillation_and_a_flicker_floor() {
         band.axes[0].outside().count(),
         band.points
     );
-    let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s).expect("a floor");
+    let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value).expect("a floor");
     let truth_b = flicker_adev_unit(1000.0) * gm_sigma() / FLICKER_ADEV / DEG_H;
     let ripple: Vec<f64> = [30.0, 100.0, 300.0, 1000.0, 3000.0]
         .iter()
         .map(|&t| flicker_adev_unit(t) * gm_sigma() / FLICKER_ADEV / DEG_H)
         .collect();
     println!(
-        "floor: {:.1} [{:.1}, {:.1}] deg/h at {} s ({} .. {} s), truth {:.1} (the floor's \
-         own B at 30, 100, 300, 1000, 3000 s: {:.1?})",
+        "floor: {:.1} [{:.1}, {:.1}] deg/h, dominating from {:.1} to {} s, ln likelihood ratio \
+         {:.1} over a walk, truth {:.1} (the floor's own B at 30, 100, 300, 1000, 3000 s: \
+         {:.1?})",
         floor.value / DEG_H,
         floor.lower / DEG_H,
         floor.upper / DEG_H,
-        floor.tau_s,
         floor.from_tau_s,
         floor.to_tau_s,
+        floor.ln_lr_over_walk,
         truth_b,
         ripple
     );
@@ -225,17 +226,18 @@ fn short_poses_do_not_determine_the_slow_terms() {
 }
 
 /// What the analysis of one 2.8-h recording gives: the oscillation's period (s), the
-/// likelihood's white level (deg/h), the floor's bias instability (deg/h; `None`: no floor)
-/// and whether the slow terms call the bias instability determined.
+/// likelihood's white level (deg/h), the floor's bias instability and its 68 % interval (deg/h;
+/// `None`: no floor) and whether the slow terms call the bias instability determined.
 #[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
-fn measure(seed: u64) -> (Option<f64>, f64, Option<f64>, bool) {
+fn measure(seed: u64) -> (Option<f64>, f64, Option<(f64, f64, f64)>, bool) {
     let records = 1_008_000;
     let increments: Vec<f64> = simulate(records, seed).iter().map(|w| w * DT).collect();
     let intervals = [0..records];
     let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
     let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
     let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
-    let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s).map(|f| f.value / DEG_H);
+    let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value)
+        .map(|f| (f.value / DEG_H, f.lower / DEG_H, f.upper / DEG_H));
     let slow = slow_terms(&axis.curve, &ml);
     (
         ml.oscillation.map(|o| o.period_s),
@@ -245,16 +247,11 @@ fn measure(seed: u64) -> (Option<f64>, f64, Option<f64>, bool) {
     )
 }
 
-/// The rates of the 2.8-h case over seeds 3101-3120 (a survey, about 2 minutes:
-/// `cargo test --release -p noise --test mems -- --ignored --nocapture`). Thresholds fixed
-/// before the first run: the oscillation's period named in every run, the white level within
-/// 10 % and the floor's bias instability within 30 % of the truth in at least 18 of 20 each.
-#[test]
-#[ignore]
-fn survey_oscillation_and_floor_over_seeds() {
+/// The 2.8-h case over `seeds`: the counts of the period named, the white level within 10 %,
+/// the floor's bias instability within 30 % of the truth, and its 68 % interval covering it.
+fn survey_floor(seeds: std::ops::RangeInclusive<u64>) -> (usize, usize, usize, usize, usize) {
     let truth_b = flicker_adev_unit(1000.0) * gm_sigma() / FLICKER_ADEV / DEG_H;
-    let (mut period_ok, mut white_ok, mut floor_ok) = (0, 0, 0);
-    let seeds = 3101..=3120u64;
+    let (mut period_ok, mut white_ok, mut floor_ok, mut covered) = (0, 0, 0, 0);
     for seed in seeds.clone() {
         let (period, white, floor, determined) = measure(seed);
         println!(
@@ -263,16 +260,42 @@ fn survey_oscillation_and_floor_over_seeds() {
         );
         period_ok += usize::from(period.is_some_and(|p| (p - 0.05).abs() < 1e-9));
         white_ok += usize::from((white / WHITE_DEG_H - 1.0).abs() < 0.10);
-        floor_ok +=
-            usize::from(determined && floor.is_some_and(|b| (b / truth_b - 1.0).abs() < 0.30));
+        floor_ok += usize::from(
+            determined && floor.is_some_and(|(b, _, _)| (b / truth_b - 1.0).abs() < 0.30),
+        );
+        covered += usize::from(floor.is_some_and(|(_, lo, hi)| lo <= truth_b && truth_b <= hi));
     }
     let n = seeds.count();
     println!(
         "period named {period_ok}/{n}, white within 10 % {white_ok}/{n}, floor within 30 % \
-         {floor_ok}/{n}"
+         {floor_ok}/{n}, its 68 % interval covering the truth {covered}/{n}"
     );
+    (n, period_ok, white_ok, floor_ok, covered)
+}
+
+/// The rates of the 2.8-h case over seeds 3101-3120 (a survey, about a minute:
+/// `cargo test --release -p noise --test mems -- --ignored --nocapture`). Thresholds fixed
+/// before the first run: the oscillation's period named in every run, the white level within
+/// 10 % and the floor's bias instability within 30 % of the truth in at least 18 of 20 each.
+/// (The floor's rule of session 25 was worked out on these seeds' curves: the fresh survey
+/// below is its check.) Its 68 % interval covering the truth in at least 9 of 20 (13.6
+/// expected; 8 or fewer has a probability under 1 %), fixed before the interval's first run.
+#[test]
+#[ignore]
+fn survey_oscillation_and_floor_over_seeds() {
+    let (n, period_ok, white_ok, floor_ok, covered) = survey_floor(3101..=3120);
     assert_eq!(period_ok, n);
-    assert!(white_ok >= 18 && floor_ok >= 18);
+    assert!(white_ok >= 18 && floor_ok >= 18 && covered >= 9);
+}
+
+/// The same on seeds the floor's rule was not worked out on (3121-3140; thresholds those of
+/// the survey above, fixed before this survey's first run).
+#[test]
+#[ignore]
+fn survey_oscillation_and_floor_over_fresh_seeds() {
+    let (n, period_ok, white_ok, floor_ok, covered) = survey_floor(3121..=3140);
+    assert_eq!(period_ok, n);
+    assert!(white_ok >= 18 && floor_ok >= 18 && covered >= 9);
 }
 
 /// 20 poses of 5 s over seeds 3201-3250: the bias instability and the walk are never called
@@ -322,12 +345,24 @@ fn simulate_white_and_walk(records: usize, seed: u64) -> Vec<f64> {
 /// fixed before its first run (session 24).
 #[test]
 #[ignore]
-#[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
 fn survey_no_floor_from_white_noise_and_a_walk() {
+    no_floor_from_white_noise_and_a_walk(3301..=3320);
+}
+
+/// The same on seeds 3321-3340, fresh for the floor's rule of session 25 (thresholds those
+/// above, fixed before its first run).
+#[test]
+#[ignore]
+fn survey_no_floor_from_white_noise_and_a_walk_fresh_seeds() {
+    no_floor_from_white_noise_and_a_walk(3321..=3340);
+}
+
+#[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
+fn no_floor_from_white_noise_and_a_walk(seeds: std::ops::RangeInclusive<u64>) {
     let records = 1_440_000;
     let mut floors = Vec::new();
     let mut denied = Vec::new();
-    for seed in 3301..=3320u64 {
+    for seed in seeds {
         let increments: Vec<f64> = simulate_white_and_walk(records, seed)
             .iter()
             .map(|w| w * DT)
@@ -336,11 +371,11 @@ fn survey_no_floor_from_white_noise_and_a_walk() {
         let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
         let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
         let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
-        if let Some(f) = flicker_floor(&axis.curve, axis.fit.tau_min_s) {
+        if let Some(f) = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value) {
             println!(
-                "seed {seed}: a floor {:.1} deg/h at {} s",
+                "seed {seed}: a floor {:.1} deg/h from {:.1} s",
                 f.value / DEG_H,
-                f.tau_s
+                f.from_tau_s
             );
             floors.push(seed);
         }

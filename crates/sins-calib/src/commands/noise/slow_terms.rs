@@ -23,7 +23,8 @@ pub(crate) fn slow_terms(sn: &SensorNoise) -> Vec<SlowTerms> {
 pub(crate) fn floors(sn: &SensorNoise) -> Vec<Option<Floor>> {
     sn.axes
         .iter()
-        .map(|a| floor::flicker_floor(&a.curve, a.fit.tau_min_s))
+        .zip(&sn.ml)
+        .map(|(a, m)| floor::flicker_floor(&a.curve, a.fit.tau_min_s, m.white.value))
         .collect()
 }
 
@@ -80,14 +81,15 @@ pub(crate) fn report(s: &Sensor, sn: &SensorNoise) -> String {
         let b = match &fl {
             Some(fl) => format!(
                 "bias instability {} [{}, {}] {unit} from the floor (the Allan deviation's \
-                 minimum {} {unit} at {} s over 0.664, flat from {} to {} s)",
+                 excess over the likelihood's white noise, flat at {} {unit} over 0.664, \
+                 dominating from {} to {} s; likelihood ratio e^{} over a walk's rising excess)",
                 sig(fl.value * f),
                 sig(fl.lower * f),
                 sig(fl.upper * f),
                 sig(fl.adev * f),
-                sig(fl.tau_s),
                 sig(fl.from_tau_s),
-                sig(fl.to_tau_s)
+                sig(fl.to_tau_s),
+                table::compact(fl.ln_lr_over_walk.round())
             ),
             None => format!(
                 "bias instability not determined: no flat floor (the longest rest {} s, the \
@@ -142,11 +144,12 @@ pub(crate) fn sensor_json(s: &Sensor, sn: &SensorNoise) -> (Value, Value) {
         .iter()
         .map(|fl| match fl {
             Some(fl) => json!({
-                "tau_s": fl.tau_s,
                 format!("adev_{}", s.adev_key): fl.adev * s.adev_factor,
-                "edf": fl.edf,
                 "from_tau_s": fl.from_tau_s,
                 "to_tau_s": fl.to_tau_s,
+                "ln_lr_over_walk": fl.ln_lr_over_walk,
+                "ln_lr_over_none": fl.ln_lr_over_none,
+                "points": fl.points,
                 "value": fl.value * f,
                 "lower": fl.lower * f,
                 "upper": fl.upper * f,
