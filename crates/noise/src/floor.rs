@@ -200,7 +200,7 @@ pub fn flicker_floor(curve: &AllanCurve, tau_min_s: f64, white: f64) -> Option<F
         .map(|p| (p.tau_s, p.avar, p.edf))
         .collect();
     let longest = points.iter().map(|p| p.0).fold(0.0, f64::max);
-    if points.len() < 3 || !(white > 0.0) {
+    if points.len() < 3 || white.is_nan() || white <= 0.0 {
         return None;
     }
     let white2 = white * white;

@@ -20,8 +20,8 @@
 //!   the exact Gaussian likelihood of the data (a Kalman filter on block means), with 68 %
 //!   intervals from the profile likelihood: the levels whose intervals hold up on a seed set,
 //!   where the Allan fit's walk sigmas do not;
-//! - [`floor`]: the bias instability read off a flat floor of the curve, and whether the rests
-//!   are long enough to tell a bias instability or a walk at all;
+//! - [`floor`]: the bias instability from a flat floor of the curve (its excess over the white
+//!   noise), and whether the rests are long enough to tell a bias instability or a walk at all;
 //! - [`consistency`]: the likelihood model against the measured Allan deviation at every
 //!   averaging time (a family-wise level over the points and axes), and where it leaves the
 //!   band, why (the long rests' walk against the others', or a curve the two terms cannot

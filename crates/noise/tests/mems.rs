@@ -225,11 +225,14 @@ fn short_poses_do_not_determine_the_slow_terms() {
     );
 }
 
+/// A value with the ends of its 68 % interval.
+type Interval = (f64, f64, f64);
+
 /// What the analysis of one 2.8-h recording gives: the oscillation's period (s), the
 /// likelihood's white level (deg/h), the floor's bias instability and its 68 % interval (deg/h;
 /// `None`: no floor) and whether the slow terms call the bias instability determined.
 #[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
-fn measure(seed: u64) -> (Option<f64>, f64, Option<(f64, f64, f64)>, bool) {
+fn measure(seed: u64) -> (Option<f64>, f64, Option<Interval>, bool) {
     let records = 1_008_000;
     let increments: Vec<f64> = simulate(records, seed).iter().map(|w| w * DT).collect();
     let intervals = [0..records];
