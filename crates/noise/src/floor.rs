@@ -11,15 +11,18 @@
 //! curve's points from `tau_min` on (each point's Allan variance an estimate with its degrees of
 //! freedom, `avar chi2_nu / nu`; one parameter each, by maximum likelihood) and finds a floor
 //! where the flat shape is [`FLOOR_LN_LR`] more likely than the walk's and than none at all,
-//! and where it dominates the white noise over two octaves ([`FLOOR_SPAN`]) within the curve.
-//! The bias instability is the flat shape's level over 0.664.
+//! not as much less likely than the bump of a Gauss-Markov bias (which rises, peaks near twice
+//! its correlation time and falls; two parameters, its correlation time searched), and where it
+//! dominates the white noise over two octaves ([`FLOOR_SPAN`]) within the curve. The bias
+//! instability is the flat shape's level over 0.664.
 //!
 //! A first rule read the floor off the curve's minimum and refused a minimum with a rise two
 //! octaves after it (the bowl of white noise and a walk): on 20 simulated 2.8-h recordings of
 //! a flicker floor (`tests/mems.rs`) it found 13 floors within 30 %, the scatter of the few
 //! long-tau points making flat curves look like bowls. Subtracting the white noise the
-//! likelihood measured takes the white part's curvature out of the comparison: 20 of 20, and
-//! no floor on 20 recordings of white noise and a walk (`docs/noise.md`).
+//! likelihood measured takes the white part's curvature out of the comparison: 19 of 20, no
+//! floor on 20 recordings of white noise and a walk, and one on 20 of a Gauss-Markov bias
+//! alone (`docs/noise.md`).
 //!
 //! Its interval: the points of one curve share the same slow realisation (the octaves overlap
 //! and a flicker's low frequencies move them together), so they are not independent
@@ -83,6 +86,9 @@ pub struct Floor {
     pub ln_lr_over_walk: f64,
     /// The same over no excess at all.
     pub ln_lr_over_none: f64,
+    /// The same over a Gauss-Markov bias's bump (the best correlation time; negative where the
+    /// bump fits better, down to `-FLOOR_LN_LR`).
+    pub ln_lr_over_gauss_markov: f64,
     /// The curve's points fitted (from `tau_min` on).
     pub points: usize,
     /// The bias instability `adev / 0.664` (rate unit, SI).
@@ -93,21 +99,45 @@ pub struct Floor {
     pub upper: f64,
 }
 
-/// The shape of the slow noise beyond the white noise: flat (a floor) or rising (a walk).
+/// The shape of the slow noise beyond the white noise: flat (a floor), rising (a walk), or the
+/// bump of a Gauss-Markov bias of the given correlation time (s), which rises, peaks near
+/// twice it and falls.
 #[derive(Clone, Copy)]
 enum Shape {
     Flat,
     Walk,
+    GaussMarkov(f64),
 }
 
 impl Shape {
-    /// Its Allan variance at `tau_s` for the parameter `x` (`F^2`, or `K^2`).
+    /// Its Allan variance at `tau_s` for the parameter `x` (`F^2`, `K^2`, or `sigma^2`).
     fn avar(self, x: f64, tau_s: f64) -> f64 {
         match self {
             Shape::Flat => x,
             Shape::Walk => x * tau_s / 3.0,
+            Shape::GaussMarkov(tc) => crate::likelihood::Model {
+                white: 0.0,
+                walk: 0.0,
+                gauss_markov: Some((x.sqrt(), tc)),
+            }
+            .avar(tau_s),
         }
     }
+}
+
+/// The best log-likelihood of a Gauss-Markov bump over correlation times from a tenth of the
+/// shortest averaging time to ten times the longest, twenty a decade.
+fn fit_gauss_markov(points: &[Point], white2: f64) -> f64 {
+    let shortest = points.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    let longest = points.iter().map(|p| p.0).fold(0.0, f64::max);
+    let (lo, hi) = ((shortest / 10.0).ln(), (longest * 10.0).ln());
+    let n = ((hi - lo) / std::f64::consts::LN_10 * 20.0).ceil() as usize;
+    (0..=n)
+        .map(|i| {
+            let tc = (lo + (hi - lo) * i as f64 / n.max(1) as f64).exp();
+            fit_shape(points, white2, Shape::GaussMarkov(tc)).1
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// A point of the curve as the floor's likelihood takes it: `(tau, avar, edf)`.
@@ -212,6 +242,13 @@ pub fn flicker_floor(curve: &AllanCurve, tau_min_s: f64, white: f64) -> Option<F
     if over_walk < FLOOR_LN_LR || over_none < FLOOR_LN_LR || longest < FLOOR_SPAN * from {
         return None;
     }
+    // A Gauss-Markov bias alone (a correlation of seconds to minutes, a unit settling) gives a
+    // bump, which the flat shape fits better than a walk's rise; it is no floor where the bump
+    // is the more likely by the same ratio.
+    let over_gauss_markov = ll_flat - fit_gauss_markov(&points, white2);
+    if over_gauss_markov < -FLOOR_LN_LR {
+        return None;
+    }
     let (lo, hi) = profile_interval(&points, white2, x, 0.5 * points.len() as f64);
     Some(Floor {
         from_tau_s: from,
@@ -219,6 +256,7 @@ pub fn flicker_floor(curve: &AllanCurve, tau_min_s: f64, white: f64) -> Option<F
         adev: x.sqrt(),
         ln_lr_over_walk: over_walk,
         ln_lr_over_none: over_none,
+        ln_lr_over_gauss_markov: over_gauss_markov,
         points: points.len(),
         value: x.sqrt() / FLICKER_ADEV,
         lower: lo.sqrt() / FLICKER_ADEV,

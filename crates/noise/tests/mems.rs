@@ -393,3 +393,46 @@ fn no_floor_from_white_noise_and_a_walk(seeds: std::ops::RangeInclusive<u64>) {
     assert!(floors.len() <= 1, "{floors:?}");
     assert!(denied.len() <= 1, "{denied:?}");
 }
+
+/// White noise (139 deg/h) and a Gauss-Markov bias alone (correlation times 10, 30, 100 and
+/// 300 s, 60 to 25 deg/h), 2.8 h, five seeds each (5101-5105): its bump is no floor. The rule
+/// against the bump was added after four such recordings of each kind (seeds 5001-5005) gave a
+/// "floor" on 16 of 20 with the flat shape against the walk's alone, and 1 of 20 with it; this
+/// survey's seeds and its threshold (at most 2 of 20) were fixed before its first run.
+#[test]
+#[ignore]
+#[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
+fn survey_no_floor_from_a_gauss_markov_bias() {
+    let mut floors = Vec::new();
+    for (tc, sigma_deg_h) in [(10.0, 60.0), (30.0, 40.0), (100.0, 30.0), (300.0, 25.0)] {
+        for seed in 5101..=5105u64 {
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+            let mut normal = || -> f64 { StandardNormal.sample(&mut rng) };
+            let white_sd = WHITE_DEG_H * DEG_H / DT.sqrt();
+            let sigma = sigma_deg_h * DEG_H;
+            let phi: f64 = (-DT / tc).exp();
+            let mut bias = sigma * normal();
+            let records = 1_008_000;
+            let increments: Vec<f64> = (0..records)
+                .map(|_| {
+                    bias = phi * bias + sigma * (1.0 - phi * phi).sqrt() * normal();
+                    (white_sd * normal() + bias) * DT
+                })
+                .collect();
+            let intervals = [0..records];
+            let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
+            let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
+            let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+            if let Some(f) = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value) {
+                println!(
+                    "tc {tc} s, seed {seed}: a floor {:.1} deg/h (ln ratio over the bump {:.1})",
+                    f.value / DEG_H,
+                    f.ln_lr_over_gauss_markov
+                );
+                floors.push((tc, seed));
+            }
+        }
+    }
+    println!("floors on a Gauss-Markov bias alone: {}/20", floors.len());
+    assert!(floors.len() <= 2, "{floors:?}");
+}

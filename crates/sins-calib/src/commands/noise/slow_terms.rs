@@ -149,6 +149,7 @@ pub(crate) fn sensor_json(s: &Sensor, sn: &SensorNoise) -> (Value, Value) {
                 "to_tau_s": fl.to_tau_s,
                 "ln_lr_over_walk": fl.ln_lr_over_walk,
                 "ln_lr_over_none": fl.ln_lr_over_none,
+                "ln_lr_over_gauss_markov": fl.ln_lr_over_gauss_markov,
                 "points": fl.points,
                 "value": fl.value * f,
                 "lower": fl.lower * f,
