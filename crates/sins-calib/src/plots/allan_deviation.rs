@@ -69,7 +69,7 @@ fn panel(
     let title = if axis.fit.passes() {
         title.to_string()
     } else {
-        format!("{title} (Allan fit fails: sum dashed)")
+        format!("{title} (Allan fit fails: sum dotted)")
     };
     // A walk the rests cannot tell, or the curve denies (`noise::floor::slow_terms`), is not
     // reported, pasted or drawn: the model is drawn without it, and the title says so.
