@@ -262,7 +262,7 @@ pub fn power(class: Class, term: Candidate, values: &[(String, f64)]) -> Option<
         dof: test.dof,
         per_term_level,
         verdict_test: noncentral_chi_square_sf(
-            chi_square_quantile(1.0 - per_term_level, test.dof),
+            calib::check::score::critical_value(per_term_level, test.dof),
             test.dof,
             test.statistic,
         ),
@@ -276,14 +276,6 @@ pub fn best_test_power(lambda: f64, level: f64) -> f64 {
     use statrs::distribution::{ContinuousCDF, Normal};
     let n = Normal::new(0.0, 1.0).expect("standard normal");
     n.cdf(lambda.max(0.0).sqrt() - n.inverse_cdf(1.0 - level))
-}
-
-/// The `p` quantile of the chi-square distribution with `dof` degrees of freedom.
-pub fn chi_square_quantile(p: f64, dof: usize) -> f64 {
-    use statrs::distribution::{ChiSquared, ContinuousCDF};
-    ChiSquared::new(dof as f64)
-        .expect("positive degrees of freedom")
-        .inverse_cdf(p)
 }
 
 /// Upper tail at `x` of the non-central chi-square distribution with `dof` degrees of freedom

@@ -546,7 +546,7 @@ struct ScoreRow {
 /// The loop's first round (nothing accepted) on a run hiding `gyro.gsens.xx = size` and
 /// `gyro.gsens.zy = -size`, beside a fit per candidate.
 fn scores_pass_and_fits(size: f64) -> Vec<ScoreRow> {
-    use calib::extend::evidence::{score_test, separability};
+    use calib::extend::evidence::separability;
     use calib::extend::{LoopSettings, run_loop};
     let c = run_config();
     let hidden = HiddenEffects {
@@ -587,11 +587,7 @@ fn scores_pass_and_fits(size: f64) -> Vec<ScoreRow> {
             .iter()
             .map(|n| est.names.iter().position(|m| m == n).unwrap())
             .collect();
-        let theta: Vec<f64> = idx.iter().map(|&i| est.values[i]).collect();
-        let cov =
-            nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| est.cov[(idx[a], idx[b])]);
-        let prior: Vec<f64> = idx.iter().map(|&i| est.prior_sigma[i]).collect();
-        let fitted = score_test(&theta, &cov, &prior);
+        let fitted = est.score_test_of(&names).unwrap();
         let estimate_off_sigma = idx
             .iter()
             .enumerate()

@@ -167,8 +167,9 @@ fn fit_shape(points: &[Point], white2: f64, shape: Shape) -> (f64, f64) {
     let (lo, hi) = ((top * 1e-10).ln(), (top * 10.0).ln());
     let n = 400;
     let at = |i: usize| (lo + (hi - lo) * i as f64 / n as f64).exp();
+    let grid: Vec<f64> = (0..=n).map(|i| ll(at(i))).collect();
     let best = (0..=n)
-        .max_by(|&i, &j| ll(at(i)).total_cmp(&ll(at(j))))
+        .max_by(|&i, &j| grid[i].total_cmp(&grid[j]))
         .unwrap_or(0);
     let (mut a, mut b) = (at(best.saturating_sub(1)).ln(), at((best + 1).min(n)).ln());
     let r = 0.5 * (5f64.sqrt() - 1.0);

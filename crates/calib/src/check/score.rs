@@ -430,7 +430,7 @@ impl Joint {
 }
 
 /// The chi-square critical value with `dof` degrees of freedom at the upper-tail level `level`.
-fn critical_value(level: f64, dof: usize) -> f64 {
+pub fn critical_value(level: f64, dof: usize) -> f64 {
     ChiSquared::new(dof as f64)
         .map(|d| d.inverse_cdf((1.0 - level).clamp(0.0, 1.0 - 1e-16)))
         .unwrap_or(f64::INFINITY)

@@ -455,6 +455,16 @@ impl Estimate {
     pub fn sigma(&self, name: &str) -> Option<f64> {
         self.index(name).map(|i| self.cov[(i, i)].max(0.0).sqrt())
     }
+    /// The score test of the states `names` (a term fitted in this estimate) from their
+    /// posterior means, covariance and prior sigmas ([`crate::check::score::score_test`]);
+    /// `None` where a name is not a state.
+    pub fn score_test_of(&self, names: &[String]) -> Option<crate::check::score::ScoreTest> {
+        let idx: Vec<usize> = names.iter().map(|n| self.index(n)).collect::<Option<_>>()?;
+        let theta: Vec<f64> = idx.iter().map(|&i| self.values[i]).collect();
+        let cov = DMatrix::from_fn(idx.len(), idx.len(), |a, b| self.cov[(idx[a], idx[b])]);
+        let prior: Vec<f64> = idx.iter().map(|&i| self.prior_sigma[i]).collect();
+        Some(crate::check::score::score_test(&theta, &cov, &prior))
+    }
     /// Keep the first `n` states only.
     fn truncate(&mut self, n: usize) {
         self.names.truncate(n);

@@ -11,8 +11,8 @@ use crate::estimate::covariance::{Posterior, covariance_analysis_ext};
 use crate::estimate::noise::{MeasuredLevels, NoiseSource};
 use crate::estimate::{Estimate, ImuSource, RunData, fit_extended};
 use crate::extend::evidence::{
-    InformationGain, ScoreTest, Separability, chi_bar_square_sf, ln_chi_square_sf, score_test,
-    separability, without_parameters,
+    InformationGain, ScoreTest, Separability, chi_bar_square_sf, ln_chi_square_sf, separability,
+    without_parameters,
 };
 
 use super::{LoopError, LoopSettings, drift_grid, held_out_log_density, log_likelihood, with_term};
@@ -299,20 +299,7 @@ impl<'a> Context<'a> {
         let fit = self.fit(&ext)?;
         let names = c.param_names();
         let est = &fit.calibration.estimate;
-        let idx: Vec<usize> = names
-            .iter()
-            .map(|n| {
-                est.names
-                    .iter()
-                    .position(|m| m == n)
-                    .expect("term in layout")
-            })
-            .collect();
-        let theta: Vec<f64> = idx.iter().map(|&i| est.values[i]).collect();
-        let cov =
-            nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| est.cov[(idx[a], idx[b])]);
-        let s0: Vec<f64> = idx.iter().map(|&i| est.prior_sigma[i]).collect();
-        let test = score_test(&theta, &cov, &s0);
+        let test = est.score_test_of(&names).expect("term in layout");
         // Without a program there is no motion to analyse along: the fit's own posterior says
         // what the recording separates (a term it cannot observe keeps its prior).
         let post = match self.rests() {
@@ -339,12 +326,12 @@ impl<'a> Context<'a> {
                     .iter()
                     .all(|p| p.separated() || p.confounded_with.is_empty());
         }
-        let estimate = idx
+        let estimate = names
             .iter()
-            .map(|&i| ParameterValue {
-                name: est.names[i].clone(),
-                value: est.values[i],
-                sigma: est.cov[(i, i)].max(0.0).sqrt(),
+            .map(|n| ParameterValue {
+                name: n.clone(),
+                value: est.value(n).expect("term in layout"),
+                sigma: est.sigma(n).expect("term in layout"),
             })
             .collect();
         Ok((evidence_of(c, test, sep, estimate), fit))
