@@ -51,6 +51,9 @@ pub(super) struct RestsStart<'a> {
     /// point's fit before): its converged estimates are the first linearisation point, its
     /// first pass one like the later ones, which may be the last.
     pub(super) warm: Option<&'a Estimate>,
+    /// The largest shift (posterior sigmas) of a pass that ends the fit, if not the default
+    /// (`passes::CONVERGED_SIGMA_RESTS`): a looser one for a fit that only measures the noise.
+    pub(super) tolerance_sigma: Option<f64>,
 }
 
 /// The rests and known turns of a recording without a program.
@@ -79,7 +82,16 @@ pub(super) fn rests_estimate(
             source: RestError::WithTurntable,
         });
     }
-    let mut scan = scan_imu(imu, config.filter.imu_rate_hz, Spacing::Jittered, progress)?;
+    // A warm start is a fit of the same records: their first reading is its.
+    let rate = config.filter.imu_rate_hz;
+    let held = start
+        .warm
+        .and_then(|w| w.replay.as_ref())
+        .and_then(|r| r.scan_at(rate));
+    let mut scan = match held {
+        Some(scan) => scan,
+        None => scan_imu(imu, rate, Spacing::Jittered, progress)?,
+    };
     check_recording_of_rests(config, plan, &scan, rests, imu.file())?;
     scan.program_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
     scan.program_start_found = false;
@@ -102,7 +114,15 @@ pub(super) fn rests_estimate(
     };
     let is_warm = warm.is_some();
     let first = warm.or(first_point);
-    iterate_passes(&inp, imu, first, feedback, is_warm, progress)
+    iterate_passes(
+        &inp,
+        imu,
+        first,
+        feedback,
+        is_warm,
+        start.tolerance_sigma,
+        progress,
+    )
 }
 
 /// The extended pass of the score tests ([`score_pass`]) for a fit `est` of a recording of
@@ -121,9 +141,15 @@ pub(super) fn score_rests(
     };
     let plan = SitePriors::of(config);
     let rate = config.filter.imu_rate_hz;
-    let mut scan = scan_imu(imu, rate, Spacing::Jittered, &mut |_, _| {})?;
-    scan.program_start = scan.span.0 - 1.0 / rate;
-    scan.program_start_found = false;
+    let scan = match replay.scan_at(rate) {
+        Some(scan) => scan,
+        None => {
+            let mut scan = scan_imu(imu, rate, Spacing::Jittered, &mut |_, _| {})?;
+            scan.program_start = scan.span.0 - 1.0 / rate;
+            scan.program_start_found = false;
+            scan
+        }
+    };
     let mut scored = config.clone();
     scored.filter.score_terms = true;
     let inp = PassInputs {

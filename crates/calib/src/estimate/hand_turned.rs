@@ -433,9 +433,17 @@ impl MlWindows {
 
     /// The log-likelihood of the windows at the factor `k` and the motion variance `q`.
     fn log_likelihood(&self, k: f64, q: f64) -> f64 {
+        self.part(k, q, None)
+    }
+
+    /// [`Self::log_likelihood`] of the windows after a motion (`Some(true)`), of the others
+    /// (`Some(false)`), or of all (`None`): at a fixed factor the others' part does not depend
+    /// on the motion variance, and the search over it sums it once.
+    fn part(&self, k: f64, q: f64, after_motion: Option<bool>) -> f64 {
         let r = Matrix3::identity() * (k * k * self.base_window_var);
         self.windows
             .iter()
+            .filter(|w| after_motion.is_none_or(|a| a == w.2))
             .map(|(nu, s0, first)| {
                 let s = if *first { s0 + r + self.d * q } else { s0 + r };
                 match s.cholesky() {
@@ -462,11 +470,17 @@ impl MlWindows {
                 min_factor.max(1e-3).ln(),
                 1e4f64.ln(),
             );
+            let k_before = k;
             k = lk.exp();
             if !motions {
                 break;
             }
+            let sigma_before = sigma;
             sigma = self.best_motion_sigma(k);
+            // A round that changed neither would be repeated exactly by the next.
+            if (k, sigma) == (k_before, sigma_before) {
+                break;
+            }
         }
         (k, sigma)
     }
@@ -475,10 +489,12 @@ impl MlWindows {
     /// of 0.1 from 1e-8 to [`MAX_MOTION_NOISE_RAD`], or none, then golden section about the
     /// best grid point.
     fn best_motion_sigma(&self, k: f64) -> f64 {
-        let (mut best_x, mut best) = (f64::NEG_INFINITY, self.log_likelihood(k, 0.0));
+        let rest = self.part(k, 0.0, Some(false));
+        let at = |q: f64| rest + self.part(k, q, Some(true));
+        let (mut best_x, mut best) = (f64::NEG_INFINITY, at(0.0));
         let mut x = -8.0;
         while x <= MAX_MOTION_NOISE_RAD.log10() + 1e-9 {
-            let l = self.log_likelihood(k, 10f64.powf(2.0 * x));
+            let l = at(10f64.powf(2.0 * x));
             if l > best {
                 (best_x, best) = (x, l);
             }
@@ -488,22 +504,34 @@ impl MlWindows {
             return 0.0;
         }
         10f64.powf(golden_max(
-            &|x: f64| self.log_likelihood(k, 10f64.powf(2.0 * x)),
+            &|x: f64| at(10f64.powf(2.0 * x)),
             best_x - 0.1,
             best_x + 0.1,
         ))
     }
 }
 
-/// The maximum of `f` on `[a, b]` by 40 steps of golden section.
+/// The maximum of `f` on `[a, b]` by 40 steps of golden section, each evaluating `f` once
+/// (the inner point kept is the next step's other one).
 fn golden_max(f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    const STEPS: usize = 40;
     let r = (5f64.sqrt() - 1.0) / 2.0;
-    for _ in 0..40 {
-        let (c, e) = (b - r * (b - a), a + r * (b - a));
-        if f(c) > f(e) {
-            b = e;
+    let (mut c, mut e) = (b - r * (b - a), a + r * (b - a));
+    let (mut fc, mut fe) = (f(c), f(e));
+    for step in 1..=STEPS {
+        let last = step == STEPS;
+        if fc > fe {
+            (b, e, fe) = (e, c, fc);
+            c = b - r * (b - a);
+            if !last {
+                fc = f(c);
+            }
         } else {
-            a = c;
+            (a, c, fc) = (c, e, fe);
+            e = a + r * (b - a);
+            if !last {
+                fe = f(e);
+            }
         }
     }
     0.5 * (a + b)
@@ -592,6 +620,36 @@ pub(crate) struct MeasuredFit {
 /// `start`: the levels the first fit is made with (`None`: the configuration's,
 /// [`MeasuredLevels::configured`]); a fit of a model close to one already measured starts from
 /// its levels ([`NoiseSource::measured_levels`]).
+/// A fit of the noise fixed point that stopped at [`PROVISIONAL_SIGMA_RESTS`] taken on from
+/// its estimates, with the same levels, until a pass moves less than the full tolerance
+/// (`passes::CONVERGED_SIGMA_RESTS`): the passes a fit made at the full tolerance from the
+/// start would have made after those. A fit that already got there, or that ran all its passes
+/// (as a fit at the full tolerance would have), is returned as it is.
+fn converge_provisional(
+    config: &RunConfig,
+    layout: &crate::model::layout::StateLayout,
+    input: RestsInput,
+    coarse: Option<&[f64]>,
+    est: crate::estimate::Estimate,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<crate::estimate::Estimate, crate::estimate::EstimateError> {
+    use crate::estimate::passes::{CONVERGED_SIGMA_RESTS, MAX_PASSES_RESTS};
+    let shift = est.stats.first_pass_shift_sigma;
+    if shift < CONVERGED_SIGMA_RESTS || est.stats.passes >= MAX_PASSES_RESTS {
+        return Ok(est);
+    }
+    let start = super::at_rests::RestsStart {
+        coarse,
+        warm: Some(&est),
+        tolerance_sigma: None,
+    };
+    let (imu, rests, turns) = (input.imu, input.rests, input.turns);
+    let mut refined =
+        super::at_rests::fit_at_rests(config, layout, imu, rests, turns, start, progress)?;
+    refined.stats.passes += est.stats.passes;
+    Ok(refined)
+}
+
 pub(crate) fn fit_measuring_noise(
     config: &RunConfig,
     layout: &crate::model::layout::StateLayout,
@@ -617,9 +675,12 @@ pub(crate) fn fit_measuring_noise(
     loop {
         let mut config = config.clone();
         levels.apply(&mut config, base_accel);
+        // While the noise is being measured, a fit only measures it: it stops at the looser
+        // tolerance, and the one whose levels settle is taken on to the full one below.
         let start = super::at_rests::RestsStart {
             coarse: coarse.as_deref(),
             warm: before.as_ref(),
+            tolerance_sigma: measured.map(|_| crate::estimate::passes::PROVISIONAL_SIGMA_RESTS),
         };
         let est =
             super::at_rests::fit_at_rests(&config, layout, imu, rests, turns, start, progress)?;
@@ -653,6 +714,9 @@ pub(crate) fn fit_measuring_noise(
             motion_rad: m.motion_sigma_rad,
         });
         if settled(levels, next) || fits == MAX_NOISE_FITS {
+            let input = RestsInput { imu, rests, turns };
+            let est =
+                converge_provisional(&config, layout, input, coarse.as_deref(), est, progress)?;
             let motion_windows = ml.map_or(0, |m| m.motion_windows);
             let noise = measured_source(&est, at_rest, levels, motion_windows, fits);
             return Ok(MeasuredFit {
@@ -935,6 +999,26 @@ fn refused(
 mod tests {
     use super::*;
     use crate::io::ImuData;
+
+    /// Golden section with one evaluation a step finds the maximum of a smooth function, at
+    /// either end of its interval too, in 42 evaluations.
+    #[test]
+    fn golden_section_finds_the_maximum_once_a_step() {
+        for (peak, a, b) in [(1.3, -5.0, 5.0), (-4.9, -5.0, 5.0), (7.0, -5.0, 5.0)] {
+            let calls = std::cell::Cell::new(0);
+            let x = golden_max(
+                &|x: f64| {
+                    calls.set(calls.get() + 1);
+                    -(x - peak) * (x - peak)
+                },
+                a,
+                b,
+            );
+            let want = f64::clamp(peak, a, b);
+            assert!((x - want).abs() < 1e-6, "{x} against {want}");
+            assert_eq!(calls.get(), 41);
+        }
+    }
 
     /// White noise of known 1-s sigma in two rests, a turn between them: the pooled scatter of
     /// the 1-s means comes back within its sampling error.

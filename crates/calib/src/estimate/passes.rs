@@ -13,7 +13,7 @@ use super::{
 
 use crate::check::diagnostics;
 use crate::config::RunConfig;
-use crate::io::ImuKind;
+use crate::io::{ImuKind, ImuRecord};
 use crate::model::LinearModel;
 use crate::model::engine::{Engine, MeasurementNoise, Schedule};
 use crate::model::layout::StateLayout;
@@ -33,6 +33,7 @@ pub(super) fn iterate_passes(
     first: Option<Nominal>,
     first_feedback: Feedback,
     warm: bool,
+    tolerance_sigma: Option<f64>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate, EstimateError> {
     let PassInputs {
@@ -64,6 +65,7 @@ pub(super) fn iterate_passes(
         Motion::Program(_) => (MAX_PASSES, CONVERGED_SIGMA),
         Motion::Rests { .. } => (MAX_PASSES_RESTS, CONVERGED_SIGMA_RESTS),
     };
+    let converged = tolerance_sigma.unwrap_or(converged);
     let total = (1 + max_passes) * n;
     let tilt_walks =
         gyro_noise_walks_the_tilt(config, inp.plan, n as f64 / config.filter.imu_rate_hz);
@@ -122,7 +124,8 @@ pub(super) fn iterate_passes(
     progress(total, total);
     estimate.truncate(layout.dim());
     score_pass::attach(&own, imu, nominal.as_ref(), tilt_walks, &mut estimate);
-    estimate.replay = nominal.map(|n| Replay::boxed(motion, n));
+    estimate.replay =
+        nominal.map(|n| Replay::boxed(motion, n, own.scan, config.filter.imu_rate_hz));
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
@@ -186,7 +189,7 @@ impl pulp::WithSimd for Steps<'_, '_, '_> {
 pub(super) const MAX_PASSES: usize = 4;
 
 /// Most passes over a recording of rests (`at_rests::fit_at_rests`).
-pub(super) const MAX_PASSES_RESTS: usize = 8;
+pub(crate) const MAX_PASSES_RESTS: usize = 8;
 
 /// A pass whose estimates moved less than this (posterior sigmas, largest over the parameters)
 /// from the pass before ends the iteration.
@@ -197,7 +200,15 @@ pub(super) const CONVERGED_SIGMA: f64 = 0.02;
 /// docs/performance.md; 0.50, 0.027, 0.004 on the shipped Xsens recording), so a pass that
 /// moved less than this leaves the next one to move less than a hundredth of a sigma; at 0.02
 /// both recordings ran a fourth pass for that, a seventh of the whole job's CPU time.
-pub(super) const CONVERGED_SIGMA_RESTS: f64 = 0.05;
+pub(crate) const CONVERGED_SIGMA_RESTS: f64 = 0.05;
+
+/// The tolerance of a fit whose estimates only measure the noise for the next fit (the noise
+/// fixed point's fits before its last, `hand_turned::fit_measuring_noise`): a pass that moved
+/// less than this leaves the next to move less than [`CONVERGED_SIGMA_RESTS`] (the tenfold
+/// contraction above), and the fit's innovations, from which the noise is measured, are those
+/// of the fixed point to a few hundredths of a sigma of the parameters. The fit whose levels
+/// settle is then taken on to [`CONVERGED_SIGMA_RESTS`].
+pub(crate) const PROVISIONAL_SIGMA_RESTS: f64 = 0.5;
 
 /// The IMU-time intervals whose measurements a fit with `filter.hold_out_every = every` holds
 /// out: every `every`-th segment with measurements, counted from 1 (the program's segments;
@@ -379,26 +390,34 @@ pub(super) fn run_records(
     imu.rewind()?;
     let mut j = 0;
     let mut final_time = first_time;
-    let mut chunk = Vec::with_capacity(PROGRESS_EVERY);
-    loop {
-        imu.next_chunk(&mut chunk, PROGRESS_EVERY)?;
-        if chunk.is_empty() {
-            break;
-        }
-        let arch = if BASELINE_ONLY.load(std::sync::atomic::Ordering::Relaxed) {
-            pulp::Arch::Scalar
-        } else {
-            pulp::Arch::new()
-        };
-        arch.dispatch(Steps {
-            pass,
-            chunk: &chunk,
-        })?;
+    let arch = if BASELINE_ONLY.load(std::sync::atomic::Ordering::Relaxed) {
+        pulp::Arch::Scalar
+    } else {
+        pulp::Arch::new()
+    };
+    let mut step_chunk = |pass: &mut Pass, chunk: &[(ImuRecord, usize)]| {
+        arch.dispatch(Steps { pass, chunk })?;
         if let Some((rec, _)) = chunk.last() {
             final_time = rec.t;
         }
         j += chunk.len();
         progress(j);
+        Ok::<(), EstimateError>(())
+    };
+    if let Some(all) = imu.held() {
+        // Held in memory: stepped in place, not copied out chunk by chunk.
+        for chunk in all.chunks(PROGRESS_EVERY) {
+            step_chunk(pass, chunk)?;
+        }
+    } else {
+        let mut chunk = Vec::with_capacity(PROGRESS_EVERY);
+        loop {
+            imu.next_chunk(&mut chunk, PROGRESS_EVERY)?;
+            if chunk.is_empty() {
+                break;
+            }
+            step_chunk(pass, &chunk)?;
+        }
     }
     // A streamed angle file that could not be read to the end (changed since it was opened).
     if let Some(e) = pass.angles.as_mut().and_then(|a| a.interp.take_error()) {

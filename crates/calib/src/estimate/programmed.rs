@@ -159,7 +159,7 @@ pub(super) fn fit_program(
         motion: &motion,
     };
     let feedback = first_pass_feedback(config);
-    let mut estimate = iterate_passes(&inp, imu, first, feedback, is_warm, progress)?;
+    let mut estimate = iterate_passes(&inp, imu, first, feedback, is_warm, None, progress)?;
     estimate.carried_terms = carried;
     Ok(estimate)
 }

@@ -23,6 +23,12 @@ pub trait ImuSource {
     fn next_chunk(&mut self, out: &mut Vec<(ImuRecord, usize)>, max: usize) -> Result<(), IoError> {
         fill_chunk(self, out, max)
     }
+    /// Every record with its line, when the source holds them all in memory already (a file
+    /// read once and kept): a reading then visits them in place rather than copying them out
+    /// chunk by chunk. `None` (the default) where they must be read.
+    fn held(&self) -> Option<&[(ImuRecord, usize)]> {
+        None
+    }
 }
 
 /// [`ImuSource::next_chunk`] record by record.
@@ -54,6 +60,14 @@ pub fn read_records(
     /// Records per chunk.
     const CHUNK: usize = 4096;
     source.rewind()?;
+    if let Some(all) = source.held() {
+        for (r, line) in all {
+            if !visit(r, *line) {
+                return Ok(());
+            }
+        }
+        return Ok(());
+    }
     loop {
         source.next_chunk(chunk, CHUNK)?;
         if chunk.is_empty() {
@@ -220,6 +234,9 @@ impl ImuSource for FileImu {
             }
         }
         Ok(Some(item))
+    }
+    fn held(&self) -> Option<&[(ImuRecord, usize)]> {
+        self.cached.then_some(self.cache.as_slice())
     }
     fn len_hint(&self) -> Option<usize> {
         if self.cached {

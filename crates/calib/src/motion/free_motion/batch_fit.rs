@@ -115,6 +115,7 @@ pub fn coarse_fit(
         stats: &stats,
         turns: &turns,
         g: settings.gravity_m_s2,
+        rotations: Default::default(),
     };
     let specs = ErrorModel::paper(&settings.priors).params();
     let prior: Vec<f64> = specs.iter().map(|s| s.prior_sigma).collect();
@@ -161,6 +162,20 @@ pub(super) struct FitContext<'a> {
     pub(super) stats: &'a [PoseStat],
     pub(super) turns: &'a [TurnRecords<'a>],
     pub(super) g: f64,
+    /// The integrated rotations of the last gyro correction evaluated: a Jacobian's columns
+    /// of the accelerometer parameters leave the gyro correction as it was, and its
+    /// integrations over every motion (most of the fit's cost) are taken from here.
+    pub(super) rotations: std::cell::RefCell<Option<GyroIntegrals>>,
+}
+
+/// What [`FitContext::gyro_residuals`] integrates, for one gyro correction.
+pub(super) struct GyroIntegrals {
+    /// The gyro correction's matrix and offset.
+    key: (nalgebra::Matrix3<f64>, Vector3<f64>),
+    /// `c_end_to_start` of the records from each rest to the next.
+    carries: Vec<nalgebra::Matrix3<f64>>,
+    /// The angle of each known turn.
+    turns: Vec<f64>,
 }
 
 impl FitContext<'_> {
@@ -193,22 +208,53 @@ impl FitContext<'_> {
             .iter()
             .map(|s| cal.linear_accel(&s.f).normalize())
             .collect();
+        let key = (cal.gyro_matrix, cal.gyro_offset);
+        let mut memo = self.rotations.borrow_mut();
+        if memo.as_ref().is_none_or(|m| m.key != key) {
+            *memo = Some(self.integrate(cal, key));
+        }
+        let integrals = memo.as_ref().expect("set above");
         for j in 1..self.stats.len() {
             let i = j - 1;
-            let records = carry_records(&self.poses[i], &self.poses[j]);
-            let c = self.inc.rotation(records, Some(cal));
+            let c = integrals.carries[i];
             let predicted = c.transpose() * up[i];
             let mismatch = up[j].cross(&predicted);
             let su = |k: usize| self.stats[k].sigma_f / self.g;
             let sigma = (su(i).powi(2) + su(j).powi(2) + DIRECTION_FLOOR_RAD.powi(2)).sqrt();
             out.extend(mismatch.iter().map(|m| m / sigma));
         }
-        for t in self.turns {
-            let a = t.turn.axis.normalize();
-            let angle = self.inc.turn(t.records.clone(), &a, Some(cal));
+        for (t, angle) in self.turns.iter().zip(&integrals.turns) {
             out.push((angle - t.turn.angle_rad) / TURN_SIGMA_RAD);
         }
         out
+    }
+
+    /// The gyro increments corrected by `cal` integrated over every motion between rests and
+    /// about every known turn's axis.
+    fn integrate(
+        &self,
+        cal: &Correction,
+        key: (nalgebra::Matrix3<f64>, Vector3<f64>),
+    ) -> GyroIntegrals {
+        let carries = (1..self.stats.len())
+            .map(|j| {
+                let records = carry_records(&self.poses[j - 1], &self.poses[j]);
+                self.inc.rotation(records, Some(cal))
+            })
+            .collect();
+        let turns = self
+            .turns
+            .iter()
+            .map(|t| {
+                let a = t.turn.axis.normalize();
+                self.inc.turn(t.records.clone(), &a, Some(cal))
+            })
+            .collect();
+        GyroIntegrals {
+            key,
+            carries,
+            turns,
+        }
     }
 }
 
