@@ -88,13 +88,11 @@ pub(super) fn rests_estimate(
         .warm
         .and_then(|w| w.replay.as_ref())
         .and_then(|r| r.scan_at(rate));
-    let mut scan = match held {
+    let scan = match held {
         Some(scan) => scan,
-        None => scan_imu(imu, rate, Spacing::Jittered, progress)?,
+        None => std::sync::Arc::new(scan_of_rests(imu, rate, progress)?),
     };
     check_recording_of_rests(config, plan, &scan, rests, imu.file())?;
-    scan.program_start = scan.span.0 - 1.0 / config.filter.imu_rate_hz;
-    scan.program_start_found = false;
     let (motion, first_point) =
         motion_at_rests(config, plan, layout, &scan, recording, start.coarse).map_err(
             |source| EstimateError::Rests {
@@ -114,7 +112,7 @@ pub(super) fn rests_estimate(
     };
     let is_warm = warm.is_some();
     let first = warm.or(first_point);
-    iterate_passes(
+    let mut est = iterate_passes(
         &inp,
         imu,
         first,
@@ -122,7 +120,24 @@ pub(super) fn rests_estimate(
         is_warm,
         start.tolerance_sigma,
         progress,
-    )
+    )?;
+    if let Some(replay) = est.replay.as_mut() {
+        replay.scan = Some((scan.clone(), rate));
+    }
+    Ok(est)
+}
+
+/// The first reading of a recording of rests: its program (the filter's time origin) starts
+/// one step before the first record.
+fn scan_of_rests(
+    imu: &mut dyn ImuSource,
+    rate: f64,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Scan, EstimateError> {
+    let mut scan = scan_imu(imu, rate, Spacing::Jittered, progress)?;
+    scan.program_start = scan.span.0 - 1.0 / rate;
+    scan.program_start_found = false;
+    Ok(scan)
 }
 
 /// The extended pass of the score tests ([`score_pass`]) for a fit `est` of a recording of
@@ -143,12 +158,7 @@ pub(super) fn score_rests(
     let rate = config.filter.imu_rate_hz;
     let scan = match replay.scan_at(rate) {
         Some(scan) => scan,
-        None => {
-            let mut scan = scan_imu(imu, rate, Spacing::Jittered, &mut |_, _| {})?;
-            scan.program_start = scan.span.0 - 1.0 / rate;
-            scan.program_start_found = false;
-            scan
-        }
+        None => std::sync::Arc::new(scan_of_rests(imu, rate, &mut |_, _| {})?),
     };
     let mut scored = config.clone();
     scored.filter.score_terms = true;

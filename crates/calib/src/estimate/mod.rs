@@ -386,31 +386,31 @@ pub struct Estimate {
     replay: Option<Box<Replay>>,
 }
 
-/// The motion of a fit and its last estimates ([`Estimate`]'s `replay`), with the first
-/// reading of its records: a later fit of the same records (the noise fixed point's next, the
-/// score tests' extended pass) takes it rather than reading them again.
+/// The motion of a fit and its last estimates ([`Estimate`]'s `replay`); for a recording of
+/// rests also the first reading of its records, shared: a later fit of the same records (the
+/// noise fixed point's next, the score tests' extended pass) takes it rather than reading them
+/// again.
 #[derive(Clone)]
 struct Replay {
     motion: Motion,
     nominal: Nominal,
-    scan: Scan,
-    /// The record rate the scan was made at (Hz).
-    rate_hz: f64,
+    /// The scan and the record rate it was made at (Hz).
+    scan: Option<(std::sync::Arc<Scan>, f64)>,
 }
 
 impl Replay {
-    fn boxed(motion: &Motion, nominal: Nominal, scan: &Scan, rate_hz: f64) -> Box<Self> {
+    fn boxed(motion: &Motion, nominal: Nominal) -> Box<Self> {
         Box::new(Self {
             motion: motion.clone(),
             nominal,
-            scan: scan.clone(),
-            rate_hz,
+            scan: None,
         })
     }
 
-    /// The scan of the records, if made at `rate_hz`.
-    fn scan_at(&self, rate_hz: f64) -> Option<Scan> {
-        (self.rate_hz == rate_hz).then(|| self.scan.clone())
+    /// The scan of the records, if kept and made at `rate_hz`.
+    fn scan_at(&self, rate_hz: f64) -> Option<std::sync::Arc<Scan>> {
+        let (scan, rate) = self.scan.as_ref()?;
+        (*rate == rate_hz).then(|| scan.clone())
     }
 }
 

@@ -124,8 +124,7 @@ pub(super) fn iterate_passes(
     progress(total, total);
     estimate.truncate(layout.dim());
     score_pass::attach(&own, imu, nominal.as_ref(), tilt_walks, &mut estimate);
-    estimate.replay =
-        nominal.map(|n| Replay::boxed(motion, n, own.scan, config.filter.imu_rate_hz));
+    estimate.replay = nominal.map(|n| Replay::boxed(motion, n));
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
