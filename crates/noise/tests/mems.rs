@@ -435,3 +435,76 @@ fn survey_no_floor_from_a_gauss_markov_bias() {
     println!("floors on a Gauss-Markov bias alone: {}/20", floors.len());
     assert!(floors.len() <= 2, "{floors:?}");
 }
+
+/// The walk (rad/s/sqrt(s)) whose Allan deviation `K sqrt(tau / 3)` meets the floor's
+/// `0.664 B` at `tau_s`.
+fn walk_meeting_the_floor_at(tau_s: f64) -> f64 {
+    FLICKER_ADEV * INSTABILITY_DEG_H * DEG_H / (tau_s / 3.0).sqrt()
+}
+
+/// The 2.8-h gyro of [`simulate`] with a bias random walk that meets its floor at 2000 s (a
+/// MEMS bowl: white noise to about 60 s, the floor, the walk rising from a few thousand s),
+/// the walk drawn from its own stream of the seed.
+fn simulate_floor_and_walk(records: usize, seed: u64) -> Vec<f64> {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x5eed_0000_0000);
+    let mut normal = || -> f64 { StandardNormal.sample(&mut rng) };
+    let k = walk_meeting_the_floor_at(2000.0);
+    let mut bias = 0.0;
+    simulate(records, seed)
+        .into_iter()
+        .map(|w| {
+            bias += k * DT.sqrt() * normal();
+            w + bias
+        })
+        .collect()
+}
+
+/// A floor with a walk after it, seeds 3401-3420 (a survey, about a minute): the floor's bias
+/// instability within 30 % of the truth in at least 18 of 20, the threshold of the floor's
+/// other surveys, fixed with these seeds before the first run. The walk the likelihood gives
+/// (a white-and-walk model, which has no floor) is printed against the truth, not tested.
+#[test]
+#[ignore]
+#[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
+fn survey_floor_followed_by_a_walk() {
+    let truth_b = flicker_adev_unit(1000.0) * gm_sigma() / FLICKER_ADEV / DEG_H;
+    let truth_k = walk_meeting_the_floor_at(2000.0) / DEG_H * 60.0;
+    let (mut floor_ok, mut walks) = (0, Vec::new());
+    for seed in 3401..=3420u64 {
+        let records = 1_008_000;
+        let increments: Vec<f64> = simulate_floor_and_walk(records, seed)
+            .iter()
+            .map(|w| w * DT)
+            .collect();
+        let intervals = [0..records];
+        let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
+        let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
+        let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+        let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value);
+        let slow = slow_terms(&axis.curve, &ml);
+        let walk = ml.walk.value / DEG_H * 60.0;
+        println!(
+            "seed {seed}: floor {:.1?} deg/h (truth {truth_b:.1}), determined {}; likelihood \
+             walk {walk:.2} [{:.2}, {:.2}] deg/h/sqrt(h) (truth {truth_k:.2}), determined {}",
+            floor
+                .as_ref()
+                .map(|f| (f.value / DEG_H, f.from_tau_s, f.to_tau_s)),
+            slow.bias_instability,
+            ml.walk.lower / DEG_H * 60.0,
+            ml.walk.upper / DEG_H * 60.0,
+            slow.walk
+        );
+        floor_ok += usize::from(
+            slow.bias_instability
+                && floor.is_some_and(|f| (f.value / DEG_H / truth_b - 1.0).abs() < 0.30),
+        );
+        walks.push(walk / truth_k);
+    }
+    walks.sort_by(f64::total_cmp);
+    println!(
+        "floor within 30 % {floor_ok}/20; likelihood walk over the truth: median {:.2}, range \
+         {:.2} .. {:.2}",
+        walks[10], walks[0], walks[19]
+    );
+    assert!(floor_ok >= 18, "floor within 30 % in {floor_ok} of 20");
+}

@@ -59,13 +59,7 @@ pub(super) fn iterate_passes(
         layout: &smoother,
         ..*inp
     };
-    // Recordings of rests may carry per-cent errors, about which the linearised model converges
-    // more slowly (a consumer-grade simulated run: NEES 79 after four passes, 40 after eight).
-    let (max_passes, converged) = match motion {
-        Motion::Program(_) => (MAX_PASSES, CONVERGED_SIGMA),
-        Motion::Rests { .. } => (MAX_PASSES_RESTS, CONVERGED_SIGMA_RESTS),
-    };
-    let converged = tolerance_sigma.unwrap_or(converged);
+    let (max_passes, converged) = pass_limits(motion, tolerance_sigma);
     let total = (1 + max_passes) * n;
     let tilt_walks =
         gyro_noise_walks_the_tilt(config, inp.plan, n as f64 / config.filter.imu_rate_hz);
@@ -128,6 +122,18 @@ pub(super) fn iterate_passes(
     estimate.stats.passes = pass;
     estimate.stats.first_pass_shift_sigma = shift;
     Ok(estimate)
+}
+
+/// The most passes of a fit of `motion`, and the largest shift (posterior sigmas) of a pass
+/// that ends it: `tolerance_sigma` where given. Recordings of rests may carry per-cent errors,
+/// about which the linearised model converges more slowly (a consumer-grade simulated run: NEES
+/// 79 after four passes, 40 after eight).
+fn pass_limits(motion: &Motion, tolerance_sigma: Option<f64>) -> (usize, f64) {
+    let (max_passes, converged) = match motion {
+        Motion::Program(_) => (MAX_PASSES, CONVERGED_SIGMA),
+        Motion::Rests { .. } => (MAX_PASSES_RESTS, CONVERGED_SIGMA_RESTS),
+    };
+    (max_passes, tolerance_sigma.unwrap_or(converged))
 }
 
 /// The start heading's posterior sigma above which a pass does not move the next pass's start
