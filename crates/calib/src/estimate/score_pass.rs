@@ -144,12 +144,14 @@ pub(super) fn extended_pass(
         layout: &smoother,
         ..*inp
     };
+    // Its sensitivity to a specific-force offset is not asked for: that of the fit's own
+    // last pass is the one carried into its covariance.
     let (est, _, _) = run_pass(
         &ext_inp,
         imu,
         Some(&ext_nominal),
         feedback,
-        true,
+        false,
         &mut |_| {},
     )?;
     let range = StateLayout::INSTRUMENT..ext.dim();
