@@ -461,15 +461,19 @@ fn simulate_floor_and_walk(records: usize, seed: u64) -> Vec<f64> {
 
 /// A floor with a walk after it, seeds 3401-3420 (a survey, about a minute): the floor's bias
 /// instability within 30 % of the truth in at least 18 of 20, the threshold of the floor's
-/// other surveys, fixed with these seeds before the first run. The walk the likelihood gives
-/// (a white-and-walk model, which has no floor) is printed against the truth, not tested.
+/// other surveys, fixed with these seeds before the first run (19 of 20). That run found the
+/// likelihood's walk (a white-and-walk model, which has no floor) 0.74 to 3.83 times the truth,
+/// median 1.85, called determined with intervals that mostly excluded it; the walk is now
+/// fitted with the floor (`floor::walk_beyond_floor`). Threshold fixed before its first run: a
+/// walk called determined as a value whose 68 % interval misses the truth by more than a
+/// factor 1.5 in at most 1 of 20.
 #[test]
 #[ignore]
 #[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
 fn survey_floor_followed_by_a_walk() {
     let truth_b = flicker_adev_unit(1000.0) * gm_sigma() / FLICKER_ADEV / DEG_H;
     let truth_k = walk_meeting_the_floor_at(2000.0) / DEG_H * 60.0;
-    let (mut floor_ok, mut walks) = (0, Vec::new());
+    let (mut floor_ok, mut walks, mut wrong_walks) = (0, Vec::new(), Vec::new());
     for seed in 3401..=3420u64 {
         let records = 1_008_000;
         let increments: Vec<f64> = simulate_floor_and_walk(records, seed)
@@ -499,6 +503,22 @@ fn survey_floor_followed_by_a_walk() {
                 && floor.is_some_and(|f| (f.value / DEG_H / truth_b - 1.0).abs() < 0.30),
         );
         walks.push(walk / truth_k);
+        if let Some(w) = &slow.walk_beyond_floor {
+            let (v, lo, hi) = (w.value, w.lower, w.upper);
+            let k = |x: f64| x / DEG_H * 60.0;
+            println!(
+                "  with the floor: walk {:.2} [{:.2}, {:.2}] deg/h/sqrt(h), crossover {:.0} s,                  determined {}, bound {}",
+                k(v),
+                k(lo),
+                k(hi),
+                w.crossover_s,
+                slow.walk,
+                slow.walk_bound
+            );
+            if slow.walk && !slow.walk_bound && (k(lo) > 1.5 * truth_k || k(hi) < truth_k / 1.5) {
+                wrong_walks.push(seed);
+            }
+        }
     }
     walks.sort_by(f64::total_cmp);
     println!(
@@ -506,5 +526,7 @@ fn survey_floor_followed_by_a_walk() {
          {:.2} .. {:.2}",
         walks[10], walks[0], walks[19]
     );
+    println!("walks determined with the truth far outside: {wrong_walks:?}");
     assert!(floor_ok >= 18, "floor within 30 % in {floor_ok} of 20");
+    assert!(wrong_walks.len() <= 1, "{wrong_walks:?}");
 }

@@ -73,8 +73,13 @@ fn panel(
     };
     // A walk the rests cannot tell, or the curve denies (`noise::floor::slow_terms`), is not
     // reported, pasted or drawn: the model is drawn without it, and the title says so.
-    let walk = ::noise::floor::slow_terms(&axis.curve, ml).walk;
-    let title = if walk || ml.walk.value == 0.0 {
+    // Beside a floor the likelihood's walk, whose model has no floor, is not the walk: the
+    // report gives the one fitted with the floor.
+    let slow = ::noise::floor::slow_terms(&axis.curve, ml);
+    let walk = slow.walk && slow.walk_beyond_floor.is_none();
+    let title = if slow.walk_beyond_floor.is_some() {
+        format!("{title} (walk fitted with the floor: see the report)")
+    } else if walk || ml.walk.value == 0.0 {
         title
     } else {
         format!("{title} (walk not determined)")

@@ -98,7 +98,7 @@ fn walk_text(s: &Sensor, l: &Level) -> String {
 }
 
 /// The unit of a sensor's walk, from its column label.
-fn walk_unit(s: &Sensor) -> &str {
+pub(crate) fn walk_unit(s: &Sensor) -> &str {
     s.labels[3]
         .split_once('[')
         .map_or("", |x| x.1.trim_end_matches(']'))

@@ -425,6 +425,8 @@ enum Basis {
     Likelihood,
     /// The Allan fit, its chi-square and band check passed (the likelihood's failed).
     Allan,
+    /// A walk fitted with the floor the curve shows (`noise::floor::walk_beyond_floor`).
+    BesideFloor,
 }
 
 /// What one axis gives the `[noise]` block: its white level and its walk (SI), each with the
@@ -482,7 +484,13 @@ fn axis_levels(axis: &AxisNoise, m: &MlFit, band: &AxisCheck, slow: &SlowTerms) 
             "not determined: the longest rest, {} s, is too short to tell a walk",
             table::significant(slow.longest_rest_s, 3)
         )),
-        Ok((_, k, b)) => Ok((*k, *b)),
+        // Beside a floor, the walk fitted with it: the likelihood's model has no floor, and
+        // its walk takes the floor's slow power in (`noise::floor::WalkBeyondFloor`).
+        Ok((_, k, b)) => match &slow.walk_beyond_floor {
+            Some(w) if w.lower > 0.0 => Ok((w.value, Basis::BesideFloor)),
+            Some(_) => Ok((0.0, *b)),
+            None => Ok((*k, *b)),
+        },
         Err(e) => Err(e.clone()),
     };
     AxisLevels {
@@ -543,6 +551,7 @@ fn block_field(key: &str, per: &[Result<(f64, Basis), String>], guess: f64, fact
     for (b, name) in [
         (Basis::Likelihood, "maximum likelihood"),
         (Basis::Allan, "Allan fit"),
+        (Basis::BesideFloor, "the curve's floor and walk"),
     ] {
         let n = names(b);
         if !n.is_empty() {

@@ -3,6 +3,7 @@
 //! ([`::noise::floor`]); an oscillation the likelihood's blocks were chosen above
 //! (docs/noise.md, "Oscillations, floors and short rests").
 
+use crate::commands::noise::consistency::walk_unit;
 use crate::commands::noise::model::{AXES, Sensor, SensorNoise};
 use crate::render::table;
 use ::noise::floor::{self, FLOOR_SPAN, Floor, MIN_WALK_BOUND_TAU_S, SlowTerms};
@@ -36,6 +37,16 @@ fn sig(x: f64) -> String {
     }
 }
 
+/// What a walk must dominate to be told: the floor where the curve shows one (the walk is then
+/// fitted with it, [`floor::walk_beyond_floor`]), else the white noise.
+fn dominated(st: &SlowTerms) -> &'static str {
+    if st.walk_beyond_floor.is_some() {
+        "floor"
+    } else {
+        "white noise"
+    }
+}
+
 /// Why the rests do not tell a walk: the longest rest and how far the curve reaches.
 pub(crate) fn walk_not_determined(st: &SlowTerms) -> String {
     let reach = format!(
@@ -46,8 +57,9 @@ pub(crate) fn walk_not_determined(st: &SlowTerms) -> String {
     if st.walk_bound && st.walk_crossover_s.is_finite() {
         format!(
             "{reach} is too short: its interval reaches 0, but a bound needs the curve to reach \
-             {} s (this one allows a walk that would dominate the white noise from {} s)",
+             {} s (this one allows a walk that would dominate the {} from {} s)",
             sig(MIN_WALK_BOUND_TAU_S),
+            dominated(st),
             sig(st.walk_crossover_s)
         )
     } else if let Some((tau_s, ratio)) = st.walk_contradicted_at {
@@ -62,8 +74,9 @@ pub(crate) fn walk_not_determined(st: &SlowTerms) -> String {
         )
     } else if st.walk_crossover_s.is_finite() {
         format!(
-            "{reach} is too short: the walk would dominate the white noise from {} s, and two \
-             octaves beyond that are needed",
+            "{reach} is too short: the walk would dominate the {} from {} s, and two octaves \
+             beyond that are needed",
+            dominated(st),
             sig(st.walk_crossover_s)
         )
     } else {
@@ -98,17 +111,31 @@ pub(crate) fn report(s: &Sensor, sn: &SensorNoise) -> String {
                 sig(st.longest_tau_s)
             ),
         };
+        // Beside a floor the walk is the one fitted with it, which the report gives here (the
+        // likelihood's, whose model has no floor, takes the floor's slow power in).
+        let wf = s.factors[3];
+        let beside = st.walk_beyond_floor.as_ref().map_or(String::new(), |w| {
+            format!(
+                " {} [{}, {}] {}, fitted with the floor",
+                sig(w.value * wf),
+                sig(w.lower * wf),
+                sig(w.upper * wf),
+                walk_unit(s)
+            )
+        });
         let w = match (st.walk, st.walk_bound) {
             (true, false) => format!(
-                "walk determined (the curve reaches {} s, {} times the {} s from which the walk \
-                 dominates the white noise, and follows it)",
+                "walk{beside} determined (the curve reaches {} s, {} times the {} s from which \
+                 the walk dominates the {}, and follows it)",
                 sig(st.longest_tau_s),
                 table::compact(FLOOR_SPAN),
-                sig(st.walk_crossover_s)
+                sig(st.walk_crossover_s),
+                dominated(st)
             ),
             (true, true) => format!(
-                "walk bounded: its interval reaches 0 (a walk at its upper end would equal the \
-                 white noise at {} s; the curve reaches {} s)",
+                "walk{beside} bounded: its interval reaches 0 (a walk at its upper end would \
+                 equal the {} at {} s; the curve reaches {} s)",
+                dominated(st),
                 sig(st.walk_crossover_s),
                 sig(st.longest_tau_s)
             ),
@@ -169,6 +196,12 @@ pub(crate) fn sensor_json(s: &Sensor, sn: &SensorNoise) -> (Value, Value) {
                 "walk_bound": st.walk_bound,
                 "walk_contradicted_at_tau_s": st.walk_contradicted_at.map(|(tau_s, _)| tau_s),
                 "bias_instability_determined": st.bias_instability,
+                "walk_beside_floor": st.walk_beyond_floor.as_ref().map(|w| json!({
+                    "value": w.value * s.factors[3],
+                    "lower": w.lower * s.factors[3],
+                    "upper": w.upper * s.factors[3],
+                    format!("floor_adev_{}", s.adev_key): w.floor_avar.sqrt() * s.adev_factor,
+                })),
             })
         })
         .collect();
