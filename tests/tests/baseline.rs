@@ -107,6 +107,8 @@ pub struct Comparison {
     pub rest_error_m_s2: f64,
     /// Whether it was weighed unasked (`RestExcess::weighed_unasked`).
     pub weighed_unasked: bool,
+    /// The candidate terms tested by a likelihood ratio (`calib::estimate::motion_terms`).
+    pub likelihood_ratios: usize,
 }
 
 /// The paper's accelerometer parameters in the baseline's order.
@@ -216,6 +218,7 @@ pub fn compare_on(
         reported_baseline: c.evaluation.as_ref().and_then(|e| e.baseline),
         rest_error_m_s2: excess.unwrap_or(0.0),
         weighed_unasked: unasked.is_some(),
+        likelihood_ratios: c.estimate.likelihood_ratios.len(),
         verdict: c.verdict,
     }
 }
@@ -388,6 +391,7 @@ fn many_seeds_in(seeds: std::ops::Range<u64>, rest_error_m_s2: f64, weigh: bool)
         let mut base = 0.0;
         let mut z2 = (0.0, 0.0);
         let (mut trend_fails, mut trend_decides) = (0, 0);
+        let (mut exits_3, mut ratio_runs, mut ratio_calls) = (0, 0, 0);
         let mut unasked = 0;
         let mut rest_error = 0.0;
         for seed in seeds.clone() {
@@ -399,6 +403,15 @@ fn many_seeds_in(seeds: std::ops::Range<u64>, rest_error_m_s2: f64, weigh: bool)
             let trend = c.verdict.tests.iter().find(|t| t.name == "trend").unwrap();
             trend_fails += trend.fails as usize;
             trend_decides += trend.decides as usize;
+            exits_3 += usize::from(!c.verdict.fits());
+            ratio_runs += usize::from(c.likelihood_ratios > 0);
+            ratio_calls += usize::from(
+                c.verdict
+                    .decisive
+                    .iter()
+                    .chain(&c.verdict.informative)
+                    .any(|l| l.starts_with("the data call") && l.contains("likelihood ratio")),
+            );
             z2.0 += c.z2.0 / 60.0;
             z2.1 += c.z2.1 / 60.0;
             filt += c.filter.static_rms_after_m_s2.powi(2);
@@ -415,6 +428,10 @@ fn many_seeds_in(seeds: std::ops::Range<u64>, rest_error_m_s2: f64, weigh: bool)
             "SUMMARY {grade:?}: trend significant {trend_fails}/60, decisive {trend_decides}/60"
         );
         println!("SUMMARY {grade:?}: excess weighed unasked on {unasked}/60");
+        println!(
+            "SUMMARY {grade:?}: exit 3 on {exits_3}/60; a gyro term tested by the likelihood \
+             ratio on {ratio_runs}/60, called for on {ratio_calls}/60"
+        );
         println!(
             "SUMMARY {grade:?}: mean z^2 filter {:.2} baseline {:.2}",
             z2.0, z2.1

@@ -758,5 +758,32 @@ impl Diagnostics {
     }
 }
 
+/// Log-likelihood of innovations `nu ~ N(0, S)`, and the number of scalar innovations (the
+/// held-out ones left out: [`held_out_log_density`]).
+pub fn log_likelihood(innovations: &[Innovation]) -> (f64, usize) {
+    log_density(innovations.iter().filter(|i| !i.held_out))
+}
+
+/// Summed log predictive density of the held-out innovations, and their number of scalar
+/// innovations.
+pub fn held_out_log_density(innovations: &[Innovation]) -> (f64, usize) {
+    log_density(innovations.iter().filter(|i| i.held_out))
+}
+
+fn log_density<'a>(innovations: impl Iterator<Item = &'a Innovation>) -> (f64, usize) {
+    let mut ll = 0.0;
+    let mut m = 0;
+    for inn in innovations {
+        let Some(chol) = inn.s.cholesky() else {
+            continue;
+        };
+        let y = chol.solve(&inn.nu);
+        let log_det: f64 = 2.0 * chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+        ll -= 0.5 * (inn.nu.dot(&y) + log_det + 3.0 * (2.0 * std::f64::consts::PI).ln());
+        m += 3;
+    }
+    (ll, m)
+}
+
 #[cfg(test)]
 mod tests;

@@ -140,6 +140,35 @@ fn scan_of_rests(
     Ok(scan)
 }
 
+/// A fit of the noise fixed point that stopped at [`super::passes::PROVISIONAL_SIGMA_RESTS`] taken on from
+/// its estimates, with the same levels, until a pass moves less than the full tolerance
+/// (`passes::CONVERGED_SIGMA_RESTS`): the passes a fit made at the full tolerance from the
+/// start would have made after those. A fit that already got there, or that ran all its passes
+/// (as a fit at the full tolerance would have), is returned as it is.
+pub(super) fn converge_provisional(
+    config: &RunConfig,
+    layout: &StateLayout,
+    (imu, recording): (&mut dyn ImuSource, Recording),
+    coarse: Option<&[f64]>,
+    est: Estimate,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Estimate, EstimateError> {
+    use super::passes::{CONVERGED_SIGMA_RESTS, MAX_PASSES_RESTS};
+    let shift = est.stats.first_pass_shift_sigma;
+    if shift < CONVERGED_SIGMA_RESTS || est.stats.passes >= MAX_PASSES_RESTS {
+        return Ok(est);
+    }
+    let start = RestsStart {
+        coarse,
+        warm: Some(&est),
+        tolerance_sigma: None,
+    };
+    let (rests, turns) = (recording.rests, recording.turns);
+    let mut refined = fit_at_rests(config, layout, imu, rests, turns, start, progress)?;
+    refined.stats.passes += est.stats.passes;
+    Ok(refined)
+}
+
 /// The extended pass of the score tests ([`score_pass`]) for a fit `est` of a recording of
 /// rests in `data` made with `config` and `layout`: linearised about the fit's last estimates,
 /// with its motion, priors and held-out rests. `calibrate` makes it once, after the noise fixed

@@ -620,36 +620,6 @@ pub(crate) struct MeasuredFit {
 /// `start`: the levels the first fit is made with (`None`: the configuration's,
 /// [`MeasuredLevels::configured`]); a fit of a model close to one already measured starts from
 /// its levels ([`NoiseSource::measured_levels`]).
-/// A fit of the noise fixed point that stopped at [`PROVISIONAL_SIGMA_RESTS`] taken on from
-/// its estimates, with the same levels, until a pass moves less than the full tolerance
-/// (`passes::CONVERGED_SIGMA_RESTS`): the passes a fit made at the full tolerance from the
-/// start would have made after those. A fit that already got there, or that ran all its passes
-/// (as a fit at the full tolerance would have), is returned as it is.
-fn converge_provisional(
-    config: &RunConfig,
-    layout: &crate::model::layout::StateLayout,
-    input: RestsInput,
-    coarse: Option<&[f64]>,
-    est: crate::estimate::Estimate,
-    progress: &mut dyn FnMut(usize, usize),
-) -> Result<crate::estimate::Estimate, crate::estimate::EstimateError> {
-    use crate::estimate::passes::{CONVERGED_SIGMA_RESTS, MAX_PASSES_RESTS};
-    let shift = est.stats.first_pass_shift_sigma;
-    if shift < CONVERGED_SIGMA_RESTS || est.stats.passes >= MAX_PASSES_RESTS {
-        return Ok(est);
-    }
-    let start = super::at_rests::RestsStart {
-        coarse,
-        warm: Some(&est),
-        tolerance_sigma: None,
-    };
-    let (imu, rests, turns) = (input.imu, input.rests, input.turns);
-    let mut refined =
-        super::at_rests::fit_at_rests(config, layout, imu, rests, turns, start, progress)?;
-    refined.stats.passes += est.stats.passes;
-    Ok(refined)
-}
-
 pub(crate) fn fit_measuring_noise(
     config: &RunConfig,
     layout: &crate::model::layout::StateLayout,
@@ -714,9 +684,15 @@ pub(crate) fn fit_measuring_noise(
             motion_rad: m.motion_sigma_rad,
         });
         if settled(levels, next) || fits == MAX_NOISE_FITS {
-            let input = RestsInput { imu, rests, turns };
-            let est =
-                converge_provisional(&config, layout, input, coarse.as_deref(), est, progress)?;
+            let recording = super::at_rests::Recording { rests, turns };
+            let est = super::at_rests::converge_provisional(
+                &config,
+                layout,
+                (imu, recording),
+                coarse.as_deref(),
+                est,
+                progress,
+            )?;
             let motion_windows = ml.map_or(0, |m| m.motion_windows);
             let noise = measured_source(&est, at_rest, levels, motion_windows, fits);
             return Ok(MeasuredFit {
@@ -875,17 +851,30 @@ pub(super) fn calibrate(
     let stamps = rest_stamps(imu, rests, turns)?;
     let fitted_means = crate::motion::free_motion::check_poses(imu, &stamps, rests, holdout)
         .map_err(|e| refused(e, crate::motion::rests::RestError::Poses, &refuse))?;
-    let mut config = config.clone();
-    config.filter.hold_out_every = holdout;
+    let mut base = config.clone();
+    base.filter.hold_out_every = holdout;
     let input = RestsInput { imu, rests, turns };
     let MeasuredFit {
         estimate,
         config,
         noise,
-    } = fit_measuring_noise(&config, layout, input, measured, None, progress)?;
+    } = fit_measuring_noise(&base, layout, input, measured, None, progress)?;
     // The score tests' extended pass, once, on the fit the noise settled on.
     let mut estimate = estimate;
     super::at_rests::score_rests(&config, layout, imu, &mut estimate)?;
+    // The gyro terms a measured motion noise can take in: each fitted, its noise measured
+    // again, and tested by the ratio of the likelihoods (`super::motion_terms`).
+    for (c, dof) in super::motion_terms::terms_to_refit(&estimate, &noise) {
+        let extra = [(c, c.prior_sigma(base.unit_grade()))];
+        let Some(ext) = super::score_pass::extended_layout(&base, layout, &extra) else {
+            continue;
+        };
+        // Its noise measured from the same start as the fit without it.
+        let input = RestsInput { imu, rests, turns };
+        let with = fit_measuring_noise(&base, &ext, input, measured, None, progress)?;
+        let ratio = super::motion_terms::ratio(c, dof, &estimate, &with.estimate);
+        estimate.likelihood_ratios.push(ratio);
+    }
     let g = estimate.gravity_m_s2;
     let bias_sigma = ["x", "y", "z"]
         .iter()

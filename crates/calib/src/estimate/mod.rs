@@ -47,6 +47,7 @@ mod consider;
 pub mod covariance;
 pub mod data_checks;
 pub mod hand_turned;
+mod motion_terms;
 pub mod noise;
 mod pass;
 mod passes;
@@ -380,6 +381,10 @@ pub struct Estimate {
     /// terms of a `calibrate` whose records' temperature moved
     /// ([`score_pass::CARRY_THERMAL_SPAN_K`]).
     pub carried_terms: Vec<String>,
+    /// Candidate terms tested by the likelihood ratio of a fit with them, in place of their
+    /// score test (a recording of rests whose motion noise was measured above zero:
+    /// [`crate::check::score::TermRatio`]).
+    pub likelihood_ratios: Vec<crate::check::score::TermRatio>,
     /// What the fit's last pass was made with (its motion and the point its extended pass is
     /// linearised about): for the extended pass of a recording of rests, made once after the
     /// noise fixed point settles rather than in each of its fits (`at_rests::score_rests`).

@@ -484,6 +484,7 @@ pub(super) fn pass_estimate(
         extended: None,
         extended_error: None,
         carried_terms: Vec::new(),
+        likelihood_ratios: Vec::new(),
         replay: None,
     };
     (estimate, offset_sensitivity)

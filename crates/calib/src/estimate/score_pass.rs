@@ -81,7 +81,7 @@ pub(super) fn with_thermal_biases(
 
 /// `layout` with the terms `extra` appended to its instrument model (its own terms kept, with
 /// their priors).
-fn extended_layout(
+pub(super) fn extended_layout(
     config: &RunConfig,
     layout: &StateLayout,
     extra: &[(Candidate, f64)],

@@ -234,6 +234,22 @@ pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
             informative.push(line);
         }
     }
+    // A term tested by the likelihood ratio and not called for: said, with its figure (the
+    // score test it replaced is not the one the smallest p-value below names).
+    for t in tested
+        .iter()
+        .filter(|t| t.likelihood_ratio && t.test.p_value >= threshold)
+    {
+        informative.push(format!(
+            "{} tested by the likelihood ratio of a fit with it, its noise measured again (the \
+             motion noise measured above zero takes in what it would explain, and its score test \
+             loses its power): {:.1} for {} parameters, p = {}, not called for",
+            t.term,
+            t.test.statistic,
+            t.test.dof,
+            p_value_text(t.test.p_value)
+        ));
+    }
     informative.extend(blind_spot_line(scores, threshold));
     if !tested.is_empty()
         && decisive.is_empty()
@@ -266,8 +282,13 @@ fn called_line(t: &TermScore, threshold: f64, tested: usize) -> (bool, String) {
     } else {
         format!(" given {}", t.given.join(" and "))
     };
+    let statistic = if t.likelihood_ratio {
+        "likelihood ratio (a fit with it, its noise measured again)"
+    } else {
+        "score statistic"
+    };
     let call = format!(
-        "the data call for {}{given}: score statistic {:.1} for {} parameters, p = {} \
+        "the data call for {}{given}: {statistic} {:.1} for {} parameters, p = {} \
          (below {} = {} % over {tested} terms)",
         t.term,
         t.test.statistic,
@@ -402,11 +423,12 @@ pub fn thermal_finding(est: &crate::estimate::Estimate) -> Option<String> {
 fn score_verdict(
     est: &crate::estimate::Estimate,
 ) -> (Vec<TermScore>, Vec<String>, Vec<String>, &'static str) {
-    let scores = est
+    let mut scores = est
         .extended
         .as_ref()
         .map(|p| term_scores(p, SCORE_LEVEL))
         .unwrap_or_default();
+    crate::check::score::with_ratios(&mut scores, &est.likelihood_ratios);
     let (called, mut notes) = score_lines(&scores);
     if let Some(e) = &est.extended_error {
         notes.push(format!(

@@ -42,7 +42,7 @@ pub use outcome::{
 };
 pub use rounds::{drift_reach, run_loop, run_loop_at_rests};
 
-use crate::check::diagnostics::{DiagnosticSettings, Innovation};
+use crate::check::diagnostics::DiagnosticSettings;
 use crate::estimate::EstimateError;
 use crate::estimate::covariance::AnalysisError;
 use crate::model::extension::ModelExtension;
@@ -140,32 +140,7 @@ pub use crate::estimate::score_pass::MIN_THERMAL_SPAN_K;
 
 pub use crate::estimate::noise::NoiseRescale;
 
-/// Log-likelihood of innovations `nu ~ N(0, S)`, and the number of scalar innovations (the
-/// held-out ones left out: [`held_out_log_density`]).
-pub fn log_likelihood(innovations: &[Innovation]) -> (f64, usize) {
-    log_density(innovations.iter().filter(|i| !i.held_out))
-}
-
-/// Summed log predictive density of the held-out innovations, and their number of scalar
-/// innovations.
-pub fn held_out_log_density(innovations: &[Innovation]) -> (f64, usize) {
-    log_density(innovations.iter().filter(|i| i.held_out))
-}
-
-fn log_density<'a>(innovations: impl Iterator<Item = &'a Innovation>) -> (f64, usize) {
-    let mut ll = 0.0;
-    let mut m = 0;
-    for inn in innovations {
-        let Some(chol) = inn.s.cholesky() else {
-            continue;
-        };
-        let y = chol.solve(&inn.nu);
-        let log_det: f64 = 2.0 * chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
-        ll -= 0.5 * (inn.nu.dot(&y) + log_det + 3.0 * (2.0 * std::f64::consts::PI).ln());
-        m += 3;
-    }
-    (ll, m)
-}
+pub use crate::check::diagnostics::{held_out_log_density, log_likelihood};
 
 /// `ext` with candidate `c` added at its prior for a unit of `grade`
 /// ([`Candidate::prior_sigma`]).
