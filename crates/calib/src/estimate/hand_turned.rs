@@ -670,19 +670,7 @@ pub(crate) fn fit_measuring_noise(
             NOISE_FLOOR_ACCEL_M_S2 / base_accel,
             est.gravity_m_s2,
         );
-        // With a rest's shared error weighed, each window's variance is the white level plus
-        // `m` times the shared one, more than a window's own scatter: the likelihood would take
-        // the white level down for it (to its floor on the Ferraris session). It stays at
-        // least the rests' measured level there.
-        let least_factor = if config.filter.rest_error_m_s2 > 0.0 {
-            1.0
-        } else {
-            0.0
-        };
-        let next = ml.map_or(levels, |m| MeasuredLevels {
-            accel_factor: m.accel_factor.max(least_factor),
-            motion_rad: m.motion_sigma_rad,
-        });
+        let next = next_levels(&config, levels, ml);
         if settled(levels, next) || fits == MAX_NOISE_FITS {
             let recording = super::at_rests::Recording { rests, turns };
             let est = super::at_rests::converge_provisional(
@@ -723,6 +711,23 @@ pub(crate) fn fit_measuring_noise(
             motion_rad: motion,
         };
     }
+}
+
+/// The levels the likelihood `ml` of a fit made with `config` at `levels` gives (those levels
+/// where it gives none). With a rest's shared error weighed, each window's variance is the
+/// white level plus `m` times the shared one, more than a window's own scatter: the likelihood
+/// would take the white level down for it (to its floor on the Ferraris session). It stays at
+/// least the rests' measured level there.
+fn next_levels(config: &RunConfig, levels: MeasuredLevels, ml: Option<NoiseMl>) -> MeasuredLevels {
+    let least_factor = if config.filter.rest_error_m_s2 > 0.0 {
+        1.0
+    } else {
+        0.0
+    };
+    ml.map_or(levels, |m| MeasuredLevels {
+        accel_factor: m.accel_factor.max(least_factor),
+        motion_rad: m.motion_sigma_rad,
+    })
 }
 
 /// Whether the motion noise the likelihood estimated is zero for the second fit running
