@@ -343,9 +343,35 @@ pub fn walk_beyond_floor(
     floor: &Floor,
 ) -> WalkBeyondFloor {
     let points = floor_points(curve, tau_min_s);
-    let white2 = white * white;
     let f0 = floor.adev * floor.adev;
-    let (f_lo, f_hi) = (f0 * 1e-4, f0 * 1e2);
+    fit_walk_and_floor(&points, white * white, (f0 * 1e-4, f0 * 1e2))
+}
+
+/// Where the curve has no floor that dominates two octaves ([`flicker_floor`]) but a floor
+/// under its walk all the same: the joint fit of [`walk_beyond_floor`] (the floor searched over
+/// eight decades below the largest Allan variance of the points) whose floor is above zero at
+/// the floor's interval convention (its profile likelihood at zero, the walk refitted, more than
+/// half a unit a point below the maximum). The likelihood's walk has no floor in its model and
+/// takes its power in: on 20 simulated 2.8-h recordings of the floor below a walk meeting it at
+/// 250 s (`tests/mems.rs`), where the floor was not found it came out 1.25 to 1.67 times the
+/// truth with intervals excluding it. `None` where the curve shows no floor under the walk.
+pub fn floor_under_walk(curve: &AllanCurve, tau_min_s: f64, white: f64) -> Option<WalkBeyondFloor> {
+    let points = floor_points(curve, tau_min_s);
+    if points.len() < 3 || white.is_nan() || white <= 0.0 {
+        return None;
+    }
+    let white2 = white * white;
+    let top = points.iter().map(|p| p.1).fold(0.0, f64::max);
+    let joint = fit_walk_and_floor(&points, white2, (top * 1e-8, top * 10.0));
+    let ll_joint =
+        ln_likelihood_floor_walk(&points, white2, joint.floor_avar, joint.value * joint.value);
+    let (_, ll_walk) = fit_shape(&points, white2, Shape::Walk);
+    (ll_joint - ll_walk > 0.5 * points.len() as f64).then_some(joint)
+}
+
+/// The joint fit of [`walk_beyond_floor`] on `points`, the floor searched over `f_range`.
+fn fit_walk_and_floor(points: &[Point], white2: f64, (f_lo, f_hi): (f64, f64)) -> WalkBeyondFloor {
+    let points = points.to_vec();
     // The walk's variance over ten decades below the largest the points allow, and zero.
     let top = points
         .iter()
@@ -480,6 +506,19 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
             walk_bound: bound,
             walk: walk_told(bound, longest_tau_s, wb.crossover_s),
             bias_instability: true,
+            walk_beyond_floor: Some(wb),
+        };
+    }
+    if let Some(wb) = floor_under_walk(curve, tau_min_s, ml.white.value) {
+        let bound = wb.lower <= 0.0;
+        return SlowTerms {
+            longest_rest_s: rest_s,
+            longest_tau_s,
+            walk_contradicted_at: None,
+            walk_crossover_s: wb.crossover_s,
+            walk_bound: bound,
+            walk: walk_told(bound, longest_tau_s, wb.crossover_s),
+            bias_instability: false,
             walk_beyond_floor: Some(wb),
         };
     }
@@ -643,8 +682,15 @@ mod tests {
             let gm = k * (1.0f64).min(1.0 / t).sqrt();
             (n * n / t + gm * gm).sqrt()
         };
+        // The likelihood's walk is not taken: the curve denies it, or the fit of the curve
+        // with a flat excess under the walk bounds the walk far below it.
         let st = slow_terms(&curve(100_000, bump), &ml(n, k));
-        assert!(!st.walk && st.walk_contradicted_at.is_some(), "{st:?}");
+        let bounded_below = st
+            .walk_beyond_floor
+            .as_ref()
+            .is_some_and(|w| w.lower == 0.0 && w.upper < 0.1 * k);
+        assert!(st.walk_contradicted_at.is_some() || bounded_below, "{st:?}");
+        assert!(!st.walk || st.walk_bound, "{st:?}");
     }
 
     /// On exact curves of white noise, a floor and a walk the walk fitted beside the floor is

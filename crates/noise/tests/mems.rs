@@ -442,13 +442,13 @@ fn walk_meeting_the_floor_at(tau_s: f64) -> f64 {
     FLICKER_ADEV * INSTABILITY_DEG_H * DEG_H / (tau_s / 3.0).sqrt()
 }
 
-/// The 2.8-h gyro of [`simulate`] with a bias random walk that meets its floor at 2000 s (a
-/// MEMS bowl: white noise to about 60 s, the floor, the walk rising from a few thousand s),
-/// the walk drawn from its own stream of the seed.
-fn simulate_floor_and_walk(records: usize, seed: u64) -> Vec<f64> {
+/// The 2.8-h gyro of [`simulate`] with a bias random walk that meets its floor at `meet_s` (a
+/// MEMS bowl: white noise to about 60 s, the floor, the walk rising from there), the walk drawn
+/// from its own stream of the seed.
+fn simulate_floor_and_walk(records: usize, seed: u64, meet_s: f64) -> Vec<f64> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x5eed_0000_0000);
     let mut normal = || -> f64 { StandardNormal.sample(&mut rng) };
-    let k = walk_meeting_the_floor_at(2000.0);
+    let k = walk_meeting_the_floor_at(meet_s);
     let mut bias = 0.0;
     simulate(records, seed)
         .into_iter()
@@ -459,24 +459,32 @@ fn simulate_floor_and_walk(records: usize, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-/// A floor with a walk after it, seeds 3401-3420 (a survey, about a minute): the floor's bias
-/// instability within 30 % of the truth in at least 18 of 20, the threshold of the floor's
-/// other surveys, fixed with these seeds before the first run (19 of 20). That run found the
-/// likelihood's walk (a white-and-walk model, which has no floor) 0.74 to 3.83 times the truth,
-/// median 1.85, called determined with intervals that mostly excluded it; the walk is now
-/// fitted with the floor (`floor::walk_beyond_floor`). Threshold fixed before its first run: a
-/// walk called determined as a value whose 68 % interval misses the truth by more than a
-/// factor 1.5 in at most 1 of 20.
-#[test]
-#[ignore]
+/// What [`floor_and_walk_survey`] counts over its seeds.
+#[derive(Debug, Default)]
+struct FloorWalkCounts {
+    /// The floor's bias instability determined and within 30 % of the truth.
+    floor_ok: usize,
+    /// The likelihood's walk over the truth, sorted.
+    likelihood_walks: Vec<f64>,
+    /// The walk reported (the one fitted with the floor where there is a floor, else the
+    /// likelihood's) determined as a value (not a bound).
+    determined: usize,
+    /// Of those, its 68 % interval covering the truth.
+    covered: usize,
+    /// Seeds where it is determined with the truth outside its interval by more than 1.5.
+    wrong: Vec<u64>,
+}
+
+/// The 2.8-h gyro with a walk meeting its floor at `meet_s` over `seeds`, counted.
 #[allow(clippy::single_range_in_vec_init)] // one interval: the whole recording
-fn survey_floor_followed_by_a_walk() {
+fn floor_and_walk_survey(seeds: std::ops::RangeInclusive<u64>, meet_s: f64) -> FloorWalkCounts {
     let truth_b = flicker_adev_unit(1000.0) * gm_sigma() / FLICKER_ADEV / DEG_H;
-    let truth_k = walk_meeting_the_floor_at(2000.0) / DEG_H * 60.0;
-    let (mut floor_ok, mut walks, mut wrong_walks) = (0, Vec::new(), Vec::new());
-    for seed in 3401..=3420u64 {
+    let truth_k = walk_meeting_the_floor_at(meet_s) / DEG_H * 60.0;
+    let k = |x: f64| x / DEG_H * 60.0;
+    let mut c = FloorWalkCounts::default();
+    for seed in seeds {
         let records = 1_008_000;
-        let increments: Vec<f64> = simulate_floor_and_walk(records, seed)
+        let increments: Vec<f64> = simulate_floor_and_walk(records, seed, meet_s)
             .iter()
             .map(|w| w * DT)
             .collect();
@@ -486,47 +494,102 @@ fn survey_floor_followed_by_a_walk() {
         let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
         let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value);
         let slow = slow_terms(&axis.curve, &ml);
-        let walk = ml.walk.value / DEG_H * 60.0;
         println!(
             "seed {seed}: floor {:.1?} deg/h (truth {truth_b:.1}), determined {}; likelihood \
-             walk {walk:.2} [{:.2}, {:.2}] deg/h/sqrt(h) (truth {truth_k:.2}), determined {}",
+             walk {:.2} [{:.2}, {:.2}] deg/h/sqrt(h) (truth {truth_k:.2})",
             floor
                 .as_ref()
                 .map(|f| (f.value / DEG_H, f.from_tau_s, f.to_tau_s)),
             slow.bias_instability,
-            ml.walk.lower / DEG_H * 60.0,
-            ml.walk.upper / DEG_H * 60.0,
-            slow.walk
+            k(ml.walk.value),
+            k(ml.walk.lower),
+            k(ml.walk.upper),
         );
-        floor_ok += usize::from(
+        c.floor_ok += usize::from(
             slow.bias_instability
                 && floor.is_some_and(|f| (f.value / DEG_H / truth_b - 1.0).abs() < 0.30),
         );
-        walks.push(walk / truth_k);
-        if let Some(w) = &slow.walk_beyond_floor {
-            let (v, lo, hi) = (w.value, w.lower, w.upper);
-            let k = |x: f64| x / DEG_H * 60.0;
-            println!(
-                "  with the floor: walk {:.2} [{:.2}, {:.2}] deg/h/sqrt(h), crossover {:.0} s,                  determined {}, bound {}",
-                k(v),
-                k(lo),
-                k(hi),
-                w.crossover_s,
-                slow.walk,
-                slow.walk_bound
-            );
-            if slow.walk && !slow.walk_bound && (k(lo) > 1.5 * truth_k || k(hi) < truth_k / 1.5) {
-                wrong_walks.push(seed);
+        c.likelihood_walks.push(k(ml.walk.value) / truth_k);
+        let (v, lo, hi) = match &slow.walk_beyond_floor {
+            Some(w) => (w.value, w.lower, w.upper),
+            None => (ml.walk.value, ml.walk.lower, ml.walk.upper),
+        };
+        println!(
+            "  reported walk ({}): {:.2} [{:.2}, {:.2}] deg/h/sqrt(h), crossover {:.0} s, \
+             determined {}, bound {}",
+            if slow.walk_beyond_floor.is_some() {
+                "with the floor"
+            } else {
+                "the likelihood's"
+            },
+            k(v),
+            k(lo),
+            k(hi),
+            slow.walk_crossover_s,
+            slow.walk,
+            slow.walk_bound
+        );
+        if slow.walk && !slow.walk_bound {
+            c.determined += 1;
+            c.covered += usize::from(k(lo) <= truth_k && truth_k <= k(hi));
+            if k(lo) > 1.5 * truth_k || k(hi) < truth_k / 1.5 {
+                c.wrong.push(seed);
             }
         }
     }
-    walks.sort_by(f64::total_cmp);
-    println!(
-        "floor within 30 % {floor_ok}/20; likelihood walk over the truth: median {:.2}, range \
-         {:.2} .. {:.2}",
-        walks[10], walks[0], walks[19]
+    c.likelihood_walks.sort_by(f64::total_cmp);
+    println!("{c:?}");
+    c
+}
+
+/// A floor with a walk after it, seeds 3401-3420 (a survey, about a minute): the floor's bias
+/// instability within 30 % of the truth in at least 18 of 20, the threshold of the floor's
+/// other surveys, fixed with these seeds before the first run (19 of 20). That run found the
+/// likelihood's walk (a white-and-walk model, which has no floor) 0.74 to 3.83 times the truth,
+/// median 1.85, called determined with intervals that mostly excluded it; the walk is now
+/// fitted with the floor (`floor::walk_beyond_floor`). Threshold fixed before its first run: a
+/// walk called determined as a value whose 68 % interval misses the truth by more than a
+/// factor 1.5 in at most 1 of 20 (none: 18 of 19 are bounds covering it).
+#[test]
+#[ignore]
+fn survey_floor_followed_by_a_walk() {
+    let c = floor_and_walk_survey(3401..=3420, 2000.0);
+    assert!(
+        c.floor_ok >= 18,
+        "floor within 30 % in {} of 20",
+        c.floor_ok
     );
-    println!("walks determined with the truth far outside: {wrong_walks:?}");
-    assert!(floor_ok >= 18, "floor within 30 % in {floor_ok} of 20");
-    assert!(wrong_walks.len() <= 1, "{wrong_walks:?}");
+    assert!(c.wrong.len() <= 1, "{:?}", c.wrong);
+}
+
+/// The same gyro with a walk meeting the floor at 250 s, which the 2.8-h curve (to 2600 s)
+/// shows over more than two octaves: the walk is to be told as a value. Seeds 3421-3440 and
+/// thresholds fixed before the first run: the reported walk determined as a value in at least
+/// 15 of 20, its 68 % interval covering the truth in at least 14 of those 20 runs (13.6 of 20
+/// expected of an exact interval; the floor's convention is conservative), and determined with
+/// the truth outside by more than a factor 1.5 in at most 1. The floor is printed, not tested
+/// (it dominates two octaves at most here). The first run failed: covering in 13 of 20, the
+/// misses the 5 runs where the floor was not found and the likelihood's walk (no floor in its
+/// model) came out 1.25 to 1.67 times the truth with intervals excluding it. The walk is now
+/// fitted with a flat excess under it wherever the curve shows one (`floor::floor_under_walk`):
+/// 17 of 20 on these seeds, checked on fresh ones below.
+#[test]
+#[ignore]
+fn survey_floor_and_an_early_walk() {
+    early_walk(3421..=3440);
+}
+
+/// The survey above on seeds 3441-3460, fresh for `floor::floor_under_walk` (its thresholds,
+/// fixed before this survey's first run).
+#[test]
+#[ignore]
+fn survey_floor_and_an_early_walk_fresh_seeds() {
+    early_walk(3441..=3460);
+}
+
+fn early_walk(seeds: std::ops::RangeInclusive<u64>) {
+    let c = floor_and_walk_survey(seeds, 250.0);
+    assert!(c.determined >= 15, "determined in {} of 20", c.determined);
+    assert!(c.covered >= 14, "covering the truth in {} of 20", c.covered);
+    assert!(c.wrong.len() <= 1, "{:?}", c.wrong);
 }

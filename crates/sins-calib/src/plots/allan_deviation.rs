@@ -78,7 +78,7 @@ fn panel(
     let slow = ::noise::floor::slow_terms(&axis.curve, ml);
     let walk = slow.walk && slow.walk_beyond_floor.is_none();
     let title = if slow.walk_beyond_floor.is_some() {
-        format!("{title} (walk fitted with the floor: see the report)")
+        format!("{title} (walk: see the report)")
     } else if walk || ml.walk.value == 0.0 {
         title
     } else {

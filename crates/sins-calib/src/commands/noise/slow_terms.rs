@@ -40,10 +40,12 @@ fn sig(x: f64) -> String {
 /// What a walk must dominate to be told: the floor where the curve shows one (the walk is then
 /// fitted with it, [`floor::walk_beyond_floor`]), else the white noise.
 fn dominated(st: &SlowTerms) -> &'static str {
-    if st.walk_beyond_floor.is_some() {
-        "floor"
-    } else {
-        "white noise"
+    match (&st.walk_beyond_floor, st.bias_instability) {
+        (Some(_), true) => "floor",
+        // A flat excess under the walk that does not dominate two octaves: no bias
+        // instability, but the walk is fitted with it (`floor::floor_under_walk`).
+        (Some(_), false) => "flat excess under it",
+        (None, _) => "white noise",
     }
 }
 
@@ -116,11 +118,12 @@ pub(crate) fn report(s: &Sensor, sn: &SensorNoise) -> String {
         let wf = s.factors[3];
         let beside = st.walk_beyond_floor.as_ref().map_or(String::new(), |w| {
             format!(
-                " {} [{}, {}] {}, fitted with the floor",
+                " {} [{}, {}] {}, fitted with the {}",
                 sig(w.value * wf),
                 sig(w.lower * wf),
                 sig(w.upper * wf),
-                walk_unit(s)
+                walk_unit(s),
+                dominated(st)
             )
         });
         let w = match (st.walk, st.walk_bound) {
