@@ -171,18 +171,24 @@ fn fit_shape(points: &[Point], white2: f64, shape: Shape) -> (f64, f64) {
     let best = (0..=n)
         .max_by(|&i, &j| grid[i].total_cmp(&grid[j]))
         .unwrap_or(0);
-    let (mut a, mut b) = (at(best.saturating_sub(1)).ln(), at((best + 1).min(n)).ln());
+    let (a, b) = (at(best.saturating_sub(1)).ln(), at((best + 1).min(n)).ln());
+    let x = golden_section(&|u: f64| ll(u.exp()), a, b, 60).exp();
+    (x, ll(x))
+}
+
+/// The maximum of `f` on `[a, b]` by `steps` steps of golden section (the midpoint of the last
+/// interval).
+fn golden_section(f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64, steps: usize) -> f64 {
     let r = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..60 {
+    for _ in 0..steps {
         let (c, d) = (b - r * (b - a), a + r * (b - a));
-        if ll(c.exp()) > ll(d.exp()) {
+        if f(c) > f(d) {
             b = d;
         } else {
             a = c;
         }
     }
-    let x = (0.5 * (a + b)).exp();
-    (x, ll(x))
+    0.5 * (a + b)
 }
 
 /// Where the log-likelihood of the flat shape falls `drop` below its maximum at `x_hat`, on
@@ -190,26 +196,30 @@ fn fit_shape(points: &[Point], white2: f64, shape: Shape) -> (f64, f64) {
 fn profile_interval(points: &[Point], white2: f64, x_hat: f64, drop: f64) -> (f64, f64) {
     let target = ln_likelihood(points, white2, Shape::Flat, x_hat) - drop;
     let inside = |x: f64| ln_likelihood(points, white2, Shape::Flat, x) >= target;
-    let side = |outer: f64| {
-        if inside(outer) {
-            return outer;
-        }
-        let (mut a, mut b) = (x_hat.ln(), outer.ln());
-        for _ in 0..80 {
-            let m = 0.5 * (a + b);
-            if inside(m.exp()) {
-                a = m;
-            } else {
-                b = m;
-            }
-        }
-        a.exp()
-    };
+    let side = |outer: f64| boundary(&inside, x_hat, outer, 80);
     let lower = side(x_hat * 1e-12);
     (
         if lower <= x_hat * 1e-12 { 0.0 } else { lower },
         side(x_hat * 1e12),
     )
+}
+
+/// Where `inside` (true at `from`) turns false between `from` and `outer`: `steps` bisections
+/// in the logarithm; `outer` itself where it is still inside.
+fn boundary(inside: &dyn Fn(f64) -> bool, from: f64, outer: f64, steps: usize) -> f64 {
+    if inside(outer) {
+        return outer;
+    }
+    let (mut a, mut b) = (from.ln(), outer.ln());
+    for _ in 0..steps {
+        let m = 0.5 * (a + b);
+        if inside(m.exp()) {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    a.exp()
 }
 
 /// The points of `curve` a floor is fitted to: those from `tau_min_s` on with a variance.
@@ -318,17 +328,7 @@ fn best_floor_with_walk(
     let best = (0..=n)
         .max_by(|&i, &j| ll(at(i)).total_cmp(&ll(at(j))))
         .unwrap_or(0);
-    let (mut a, mut b) = (at(best.saturating_sub(1)), at((best + 1).min(n)));
-    let r = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..40 {
-        let (c, d) = (b - r * (b - a), a + r * (b - a));
-        if ll(c) > ll(d) {
-            b = d;
-        } else {
-            a = c;
-        }
-    }
-    let lf = 0.5 * (a + b);
+    let lf = golden_section(&ll, at(best.saturating_sub(1)), at((best + 1).min(n)), 40);
     (lf.exp(), ll(lf))
 }
 
@@ -390,17 +390,8 @@ fn fit_walk_and_floor(points: &[Point], white2: f64, (f_lo, f_hi): (f64, f64)) -
     // Refined in ln k2 between the best grid point's neighbours (golden section).
     if best.0 > 0.0 {
         let step = (1e11f64).ln() / n as f64;
-        let (mut a, mut b) = (best.0.ln() - step, best.0.ln() + step);
-        let r = 0.5 * (5f64.sqrt() - 1.0);
-        for _ in 0..40 {
-            let (c, d) = (b - r * (b - a), a + r * (b - a));
-            if profile(c.exp()) > profile(d.exp()) {
-                b = d;
-            } else {
-                a = c;
-            }
-        }
-        let k2 = (0.5 * (a + b)).exp();
+        let (a, b) = (best.0.ln() - step, best.0.ln() + step);
+        let k2 = golden_section(&|u: f64| profile(u.exp()), a, b, 40).exp();
         let l = profile(k2);
         if l > best.1 {
             best = (k2, l);
@@ -411,22 +402,8 @@ fn fit_walk_and_floor(points: &[Point], white2: f64, (f_lo, f_hi): (f64, f64)) -
     let inside = |k2: f64| profile(k2) >= target;
     // Bisection in ln k2 from the estimate to an outer end, which is returned where the
     // profile never falls that far.
-    let side = |outer: f64| {
-        if inside(outer) {
-            return outer;
-        }
-        let start = if k2_hat > 0.0 { k2_hat } else { top * 1e-10 };
-        let (mut a, mut b) = (start.ln(), outer.ln());
-        for _ in 0..60 {
-            let m = 0.5 * (a + b);
-            if inside(m.exp()) {
-                a = m;
-            } else {
-                b = m;
-            }
-        }
-        a.exp()
-    };
+    let start = if k2_hat > 0.0 { k2_hat } else { top * 1e-10 };
+    let side = |outer: f64| boundary(&inside, start, outer, 60);
     let lower = if k2_hat <= 0.0 || inside(0.0) {
         0.0
     } else {
@@ -494,9 +471,13 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
     let tau_min_s = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
     let floor = flicker_floor(curve, tau_min_s, ml.white.value);
     let rest_s = longest as f64 * curve.tau0_s;
-    if let Some(floor) = &floor {
-        // The walk beside the floor, which must dominate the floor, not the white noise.
-        let wb = walk_beyond_floor(curve, tau_min_s, ml.white.value, floor);
+    // The walk beside a floor, or a flat excess under it, which it must dominate rather than
+    // the white noise.
+    let beside = match &floor {
+        Some(floor) => Some(walk_beyond_floor(curve, tau_min_s, ml.white.value, floor)),
+        None => floor_under_walk(curve, tau_min_s, ml.white.value),
+    };
+    if let Some(wb) = beside {
         let bound = wb.lower <= 0.0;
         return SlowTerms {
             longest_rest_s: rest_s,
@@ -505,20 +486,7 @@ pub fn slow_terms(curve: &AllanCurve, ml: &MlFit) -> SlowTerms {
             walk_crossover_s: wb.crossover_s,
             walk_bound: bound,
             walk: walk_told(bound, longest_tau_s, wb.crossover_s),
-            bias_instability: true,
-            walk_beyond_floor: Some(wb),
-        };
-    }
-    if let Some(wb) = floor_under_walk(curve, tau_min_s, ml.white.value) {
-        let bound = wb.lower <= 0.0;
-        return SlowTerms {
-            longest_rest_s: rest_s,
-            longest_tau_s,
-            walk_contradicted_at: None,
-            walk_crossover_s: wb.crossover_s,
-            walk_bound: bound,
-            walk: walk_told(bound, longest_tau_s, wb.crossover_s),
-            bias_instability: false,
+            bias_instability: floor.is_some(),
             walk_beyond_floor: Some(wb),
         };
     }

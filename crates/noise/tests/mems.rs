@@ -81,6 +81,18 @@ fn simulate(records: usize, seed: u64) -> Vec<f64> {
         .collect()
 }
 
+/// The likelihood fit and the Allan analysis of `increments` over `intervals` (the Allan fit
+/// from ten times the likelihood's correlation time, as `noise` makes it).
+fn analyse(
+    increments: &[f64],
+    intervals: &[Range<usize>],
+) -> (noise::likelihood::MlFit, noise::AxisNoise) {
+    let ml = fit_ml(increments, DT, intervals).expect("ml fit");
+    let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
+    let axis = analyse_axis_from(increments, DT, intervals, tau_min).expect("allan");
+    (ml, axis)
+}
+
 fn autocorrelation(y: &[f64], lag: usize) -> f64 {
     let mean = y.iter().sum::<f64>() / y.len() as f64;
     let c0: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
@@ -107,9 +119,7 @@ fn an_oscillation_and_a_flicker_floor() {
     );
     let increments: Vec<f64> = rate.iter().map(|w| w * DT).collect();
     let intervals = [0..records];
-    let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
-    let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
-    let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+    let (ml, axis) = analyse(&increments, &intervals);
     let at_1s = axis
         .curve
         .points
@@ -204,9 +214,7 @@ fn short_poses_do_not_determine_the_slow_terms() {
     let rate = simulate(20 * 1500, 32);
     let increments: Vec<f64> = rate.iter().map(|w| w * DT).collect();
     let intervals: Vec<Range<usize>> = (0..20).map(|i| i * 1500..i * 1500 + pose).collect();
-    let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
-    let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
-    let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+    let (ml, axis) = analyse(&increments, &intervals);
     let slow = slow_terms(&axis.curve, &ml);
     println!(
         "white {:.1} [{:.1}, {:.1}] deg/h, walk {:.0} [{:.0}, {:.0}] deg/h/sqrt(h); {slow:?}",
@@ -236,9 +244,7 @@ fn measure(seed: u64) -> (Option<f64>, f64, Option<Interval>, bool) {
     let records = 1_008_000;
     let increments: Vec<f64> = simulate(records, seed).iter().map(|w| w * DT).collect();
     let intervals = [0..records];
-    let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
-    let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
-    let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+    let (ml, axis) = analyse(&increments, &intervals);
     let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value)
         .map(|f| (f.value / DEG_H, f.lower / DEG_H, f.upper / DEG_H));
     let slow = slow_terms(&axis.curve, &ml);
@@ -310,9 +316,7 @@ fn short_poses_never_determine_the_slow_terms() {
         let rate = simulate(20 * 1500, seed);
         let increments: Vec<f64> = rate.iter().map(|w| w * DT).collect();
         let intervals: Vec<Range<usize>> = (0..20).map(|i| i * 1500..i * 1500 + pose).collect();
-        let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
-        let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
-        let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+        let (ml, axis) = analyse(&increments, &intervals);
         let slow = slow_terms(&axis.curve, &ml);
         if slow.walk || slow.bias_instability {
             determined.push((seed, slow.walk, slow.bias_instability));
@@ -370,9 +374,7 @@ fn no_floor_from_white_noise_and_a_walk(seeds: std::ops::RangeInclusive<u64>) {
             .map(|w| w * DT)
             .collect();
         let intervals = [0..records];
-        let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
-        let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
-        let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+        let (ml, axis) = analyse(&increments, &intervals);
         if let Some(f) = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value) {
             println!(
                 "seed {seed}: a floor {:.1} deg/h from {:.1} s",
@@ -419,9 +421,7 @@ fn survey_no_floor_from_a_gauss_markov_bias() {
                 })
                 .collect();
             let intervals = [0..records];
-            let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
-            let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
-            let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+            let (ml, axis) = analyse(&increments, &intervals);
             if let Some(f) = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value) {
                 println!(
                     "tc {tc} s, seed {seed}: a floor {:.1} deg/h (ln ratio over the bump {:.1})",
@@ -489,9 +489,7 @@ fn floor_and_walk_survey(seeds: std::ops::RangeInclusive<u64>, meet_s: f64) -> F
             .map(|w| w * DT)
             .collect();
         let intervals = [0..records];
-        let ml = fit_ml(&increments, DT, &intervals).expect("ml fit");
-        let tau_min = BLOCKS_PER_CORRELATION as f64 * ml.correlation_s;
-        let axis = analyse_axis_from(&increments, DT, &intervals, tau_min).expect("allan");
+        let (ml, axis) = analyse(&increments, &intervals);
         let floor = flicker_floor(&axis.curve, axis.fit.tau_min_s, ml.white.value);
         let slow = slow_terms(&axis.curve, &ml);
         println!(
