@@ -140,11 +140,11 @@ fn scan_of_rests(
     Ok(scan)
 }
 
-/// A fit of the noise fixed point that stopped at [`super::passes::PROVISIONAL_SIGMA_RESTS`] taken on from
-/// its estimates, with the same levels, until a pass moves less than the full tolerance
-/// (`passes::CONVERGED_SIGMA_RESTS`): the passes a fit made at the full tolerance from the
-/// start would have made after those. A fit that already got there, or that ran all its passes
-/// (as a fit at the full tolerance would have), is returned as it is.
+/// A fit of the noise fixed point that stopped at [`super::passes::PROVISIONAL_SIGMA_RESTS`]
+/// taken on from its estimates, with the same levels, until a pass moves less than the full
+/// tolerance (`passes::CONVERGED_SIGMA_RESTS`): the passes a fit made at the full tolerance
+/// from the start would have made after those. A fit that already got there, or that ran all
+/// its passes (as a fit at the full tolerance would have), is returned as it is.
 pub(super) fn converge_provisional(
     config: &RunConfig,
     layout: &StateLayout,

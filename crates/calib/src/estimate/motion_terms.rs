@@ -6,13 +6,13 @@
 
 use super::Estimate;
 use super::noise::NoiseSource;
-use super::verdict::SCORE_LEVEL;
+use super::verdict::{SCORE_LEVEL, per_term_level};
 use crate::check::score::{BaseShift, TermRatio, term_scores};
 use crate::model::layout::StateLayout;
 use sins_model::candidates::Candidate;
 
 /// The terms a motion's attitude noise can take in: those the gyros integrate through a motion.
-pub const MOTION_TERMS: [Candidate; 2] =
+pub(super) const MOTION_TERMS: [Candidate; 2] =
     [Candidate::GyroGSensitivity, Candidate::GyroScaleAsymmetry];
 
 /// The motion terms `est` tests (its score pass) and does not call for at the per-term level,
@@ -31,8 +31,7 @@ pub(super) fn terms_to_refit(est: &Estimate, noise: &NoiseSource) -> Vec<(Candid
         return Vec::new();
     };
     let scores = term_scores(p, SCORE_LEVEL);
-    let tested = scores.iter().filter(|t| t.test.dof > 0).count();
-    let threshold = SCORE_LEVEL / tested.max(1) as f64;
+    let threshold = per_term_level(&scores);
     MOTION_TERMS
         .into_iter()
         .filter_map(|c| {

@@ -214,6 +214,13 @@ pub const UNSEEN_SHIFT_SIGMA: f64 = 10.0;
 /// finding ([`crate::check::score::TermScore::blind_shift`]).
 pub const BLIND_SHIFT_SIGMA: f64 = 3.0;
 
+/// The p-value below which a term of `scores` is called for: [`SCORE_LEVEL`] over the number of
+/// terms the data hold information on (Bonferroni).
+pub fn per_term_level(scores: &[TermScore]) -> f64 {
+    let tested = scores.iter().filter(|t| t.test.dof > 0).count();
+    SCORE_LEVEL / tested.max(1) as f64
+}
+
 /// The score tests' verdict lines: the decisive ones (a term called for at [`SCORE_LEVEL`]
 /// that moves a parameter by at least [`MATERIAL_SHIFT_SIGMA`] at the size the data give it,
 /// or could at its grade's plausible size in the part the run cannot see), and the
@@ -222,7 +229,7 @@ pub const BLIND_SHIFT_SIGMA: f64 = 3.0;
 pub fn score_lines(scores: &[TermScore]) -> (Vec<String>, Vec<String>) {
     let tested: Vec<&TermScore> = scores.iter().filter(|t| t.test.dof > 0).collect();
     let (mut decisive, mut informative) = (Vec::new(), Vec::new());
-    let threshold = SCORE_LEVEL / tested.len().max(1) as f64;
+    let threshold = per_term_level(scores);
     // In forward order ([`term_scores`]): the strongest term first, each later one tested
     // given those called before it, so that a term correlated with a stronger one is not
     // called for by that one's effect.

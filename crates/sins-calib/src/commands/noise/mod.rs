@@ -425,7 +425,8 @@ enum Basis {
     Likelihood,
     /// The Allan fit, its chi-square and band check passed (the likelihood's failed).
     Allan,
-    /// A walk fitted with the floor the curve shows (`noise::floor::walk_beyond_floor`).
+    /// A walk fitted with the floor or the flat excess the curve shows under it
+    /// (`noise::floor::walk_beyond_floor`, `noise::floor::floor_under_walk`).
     BesideFloor,
 }
 

@@ -38,7 +38,8 @@ fn sig(x: f64) -> String {
 }
 
 /// What a walk must dominate to be told: the floor where the curve shows one (the walk is then
-/// fitted with it, [`floor::walk_beyond_floor`]), else the white noise.
+/// fitted with it, [`floor::walk_beyond_floor`]), a flat excess under the walk that is no floor
+/// ([`floor::floor_under_walk`]), else the white noise.
 fn dominated(st: &SlowTerms) -> &'static str {
     match (&st.walk_beyond_floor, st.bias_instability) {
         (Some(_), true) => "floor",
