@@ -114,7 +114,11 @@ fn ferraris_bag_and_mcap_import_and_calibrate_as_the_csv_route() {
 fn refusals_name_the_file_topic_and_message() {
     for (name, ty) in [("bag", "sensor_msgs/Imu"), ("mcap", "sensor_msgs/msg/Imu")] {
         let bag = repo(&format!("tests/fixtures/bags/refusals.{name}"));
-        let out = scratch(name).join("out");
+        // Its own folder: the CSV-route test above writes into `scratch("bag")` and
+        // `scratch("mcap")` at the same time, and a scratch folder is emptied when taken (a
+        // CI run lost that test's result file to this one).
+        let own = scratch(&format!("refused-{name}"));
+        let out = own.join("out");
         let e = refused(&bag, "/imu/data", &out);
         assert!(
             e.contains("topic /imu/data, message 4: header stamp t = 0.02 s is not after message 3's t = 0.02 s"),
@@ -137,7 +141,7 @@ fn refusals_name_the_file_topic_and_message() {
         // Truncated: the first 300 kB of the Ferraris file.
         let whole = std::fs::read(repo(&format!("tests/fixtures/bags/ferraris_imu.{name}")))
             .expect("fixture");
-        let cut = scratch(name).join(format!("cut.{name}"));
+        let cut = own.join(format!("cut.{name}"));
         std::fs::write(&cut, &whole[..300_000]).expect("write");
         let e = refused(&cut, "/imu/data", &out);
         assert!(e.contains(s(&cut)) && e.contains("truncated?"), "{e}");
